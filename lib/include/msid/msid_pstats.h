@@ -1,0 +1,139 @@
+/**
+ * @file msid_pstats.h
+ * @brief Period statistics of one experiment: per line, the running mean and
+ *        sample covariance (complex Hermitian, Welford) of the stacked
+ *        spectrum vector z = [U_1..U_nu, Y_1..Y_ny] across periods.
+ *
+ * Periods are offered with their flags from ::msid_linedft. The first
+ * `skip_periods` are ignored (plant transient); gap or non-finite periods are
+ * discarded and counted, never used. With a period history, a leave-one-out
+ * test flags periods whose spectra depart from the others by more than the
+ * sample variance explains (see ::msid_pstats_detect), and can drop them.
+ *
+ * Mean and covariance follow Pintelon 2002 eq. (25) and (32), vector form:
+ *   zbar = (1/K) sum_p z_p,   C_Z = 1/(K-1) sum_p (z_p - zbar)(z_p - zbar)^H.
+ */
+#ifndef MSID_PSTATS_H
+#define MSID_PSTATS_H
+
+#include "msid_types.h"
+#include "msid_status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Transient-period handling. */
+typedef enum msid_transient_mode {
+    MSID_TRANSIENT_OFF = 0,  /**< no test */
+    MSID_TRANSIENT_FLAG = 1, /**< test and report; keep the periods */
+    MSID_TRANSIENT_DROP = 2  /**< test, drop flagged periods, recompute */
+} msid_transient_mode;
+
+/** Configuration. */
+typedef struct msid_pstats_cfg {
+    uint32_t n_lines;       /**< L >= 1 */
+    uint32_t n_channels;    /**< q in [1, MSID_MAX_CHANNELS] */
+    uint32_t skip_periods;  /**< leading valid periods ignored */
+    uint32_t max_periods;   /**< history capacity in periods (>= 3 when transient != OFF); 0 = none */
+    msid_transient_mode transient; /**< transient test mode */
+    double alpha;           /**< family-wise false-alarm probability of the test per experiment, (0,1); 0 selects 0.01 */
+} msid_pstats_cfg;
+
+/** Period counters of one experiment. */
+typedef struct msid_pstats_counts {
+    uint32_t offered;        /**< completed periods offered */
+    uint32_t skipped;        /**< leading periods ignored (skip_periods) */
+    uint32_t gap;            /**< discarded: caller marked missing samples */
+    uint32_t nonfinite;      /**< discarded: NaN/Inf in the spectra */
+    uint32_t transient_flagged; /**< flagged by the transient test */
+    uint32_t transient_dropped; /**< of those, dropped (DROP mode) */
+    uint32_t used;           /**< periods in the statistics (K) */
+    int tested;              /**< 1 if the transient test ran (needs >= 3 periods) */
+} msid_pstats_counts;
+
+/** Instance (caller-owned). */
+typedef struct msid_pstats {
+    uint32_t n_lines, n_channels, skip_periods, max_periods;
+    msid_transient_mode transient;
+    double alpha;
+    uint32_t K;             /**< periods in mean/m2 */
+    msid_cplx *mean;        /**< [L*q] */
+    msid_cplx *m2;          /**< [L*q*q] scatter sum_p (z-mean)(z-mean)^H, row-major per line */
+    msid_cplx *hist;        /**< [max_periods*L*q] accepted periods, in order */
+    uint8_t *hflag;         /**< [max_periods] 1 = flagged by the test */
+    uint8_t *hdrop;         /**< [max_periods] 1 = dropped */
+    double *hpval;          /**< [max_periods] test p-value per accepted period (NaN if untested) */
+    uint32_t nhist;         /**< accepted periods stored */
+    uint32_t seg_skipped;   /**< periods skipped in the current segment */
+    msid_pstats_counts cnt;
+} msid_pstats;
+
+/** @brief Bytes of working memory; 0 if cfg is invalid. */
+size_t msid_pstats_mem_size(const msid_pstats_cfg *cfg);
+
+/**
+ * @brief Initialise empty statistics.
+ * @return MSID_OK, MSID_E_NULL, MSID_E_DIMS, MSID_E_NO_LINES, MSID_E_ARG (transient test
+ *         without history of at least 3 periods, or alpha outside (0,1)), MSID_E_MEM_ALIGN, MSID_E_MEM_SIZE.
+ */
+msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *cfg, void *mem, size_t len);
+
+/** @brief Forget all periods and counters. */
+void msid_pstats_reset(msid_pstats *ps);
+
+/**
+ * @brief Start a new segment of the same experiment (for example after a
+ *        device restart): the next `skip_periods` valid periods are skipped
+ *        again; statistics and counters are kept.
+ */
+void msid_pstats_new_segment(msid_pstats *ps);
+
+/**
+ * @brief Offer one completed period.
+ * @param z spectra [L*q], index l*q + c (the layout of ::msid_linedft_spectra)
+ * @param flags ::MSID_PERIOD_GAP / ::MSID_PERIOD_NONFINITE; a flagged period is counted and discarded
+ * @return MSID_OK, or MSID_E_CAPACITY if the history is full (the period is not used).
+ */
+msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags);
+
+/**
+ * @brief Run the transient test on the stored periods (no-op when mode is OFF).
+ *
+ * For period p among K kept, line l and channel c, with leave-one-out mean and
+ * variance s2 (K-2 complex dof): t = |z_p - mean_{-p}|^2 / (s2 (1 + 1/(K-1))),
+ * which is F(2, 2(K-2)) under stationary circular Gaussian noise; its p-value
+ * is (1 + t/(K-2))^{-(K-2)}. Channels combine by Bonferroni within a line;
+ * lines by a Fisher sum (conservative Gamma(L,1) tail) and a Bonferroni minimum,
+ * each at half the level. A period is flagged when its p-value < alpha/K.
+ * DROP mode removes the most significant period and repeats while K >= 3.
+ * @return MSID_OK.
+ */
+msid_status msid_pstats_detect(msid_pstats *ps);
+
+/** @brief Number of periods in the statistics (K). */
+uint32_t msid_pstats_count(const msid_pstats *ps);
+
+/** @brief Mean spectrum vector of line l: q values. */
+const msid_cplx *msid_pstats_mean(const msid_pstats *ps, uint32_t l);
+
+/** @brief Scatter matrix of line l (q x q, row-major): sum (z-mean)(z-mean)^H. Covariance = scatter/(K-1). */
+const msid_cplx *msid_pstats_scatter(const msid_pstats *ps, uint32_t l);
+
+/** @brief Counters. */
+msid_pstats_counts msid_pstats_get_counts(const msid_pstats *ps);
+
+/** @brief Stored accepted periods (history length). */
+uint32_t msid_pstats_history(const msid_pstats *ps);
+
+/**
+ * @brief Test result of stored period k (in acceptance order, k < history length).
+ * @param pval p-value of the transient test (NaN if untested); may be NULL
+ * @return 0 kept, 1 flagged and kept, 2 flagged and dropped; -1 if k is out of range.
+ */
+int msid_pstats_period_state(const msid_pstats *ps, uint32_t k, double *pval);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

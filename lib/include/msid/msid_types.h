@@ -1,0 +1,48 @@
+/**
+ * @file msid_types.h
+ * @brief Basic types, limits and memory alignment shared by every msid object.
+ *
+ * msid objects follow one pattern (CMSIS-DSP / kissfft style):
+ *  - the caller owns the instance struct (`msid_<obj>`), usually on the stack
+ *    or in static storage;
+ *  - `msid_<obj>_mem_size(&cfg)` returns the bytes of working memory needed;
+ *  - `msid_<obj>_init(&obj, &cfg, mem, len)` places all state in `mem`, which
+ *    must be aligned to ::MSID_MEM_ALIGN bytes and at least that long.
+ * Nothing in the core library allocates, prints or touches errno.
+ */
+#ifndef MSID_TYPES_H
+#define MSID_TYPES_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Complex double, stored as (re, im). Arrays of it are interleaved doubles. */
+typedef struct msid_cplx {
+    double re; /**< real part */
+    double im; /**< imaginary part */
+} msid_cplx;
+
+/** Required alignment of every `mem` block passed to an `_init`, in bytes. */
+#define MSID_MEM_ALIGN 64u
+
+/** Largest number of inputs (nu). */
+#define MSID_MAX_INPUTS 16u
+/** Largest number of outputs (ny). */
+#define MSID_MAX_OUTPUTS 16u
+/** Largest number of channels in one sample row (nu + ny). */
+#define MSID_MAX_CHANNELS (MSID_MAX_INPUTS + MSID_MAX_OUTPUTS)
+/** Largest number of experiments (m). */
+#define MSID_MAX_EXPERIMENTS 64u
+/** Largest period, in samples. */
+#define MSID_MAX_PERIOD (1u << 24)
+/** Smallest period, in samples. */
+#define MSID_MIN_PERIOD 2u
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,294 @@
+/* Multisine design: validation, aliasing map (González et al. 2025,
+ * Assumptions 1-2, eqs. 2-5), phases, MIMO pattern, crest factors. */
+#include "msid/msid_design.h"
+#include "msid/msid_dmath.h"
+#include "msid/msid_rng.h"
+#include "msid_internal.h"
+#include "msid_cmat.h"
+#include <math.h>
+
+#define TWO_PI 6.28318530717958647692528676655900577
+
+static size_t cond_work_doubles(uint32_t nu) { return 4u * nu * nu + 2u * nu; }
+
+size_t msid_design_mem_size(const msid_design_cfg *c)
+{
+    if (!c) return 0;
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return 0;
+    if (c->n_lines == 0 || c->n_lines > c->period) return 0;
+    if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS) return 0;
+    if (c->n_experiments == 0 || c->n_experiments > MSID_MAX_EXPERIMENTS) return 0;
+    const size_t L = c->n_lines, nu = c->n_inputs, m = c->n_experiments;
+    size_t s = 0;
+    s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));           /* bins */
+    s = msid__add(s, msid__chunk(L, 1));                          /* folded */
+    s = msid__add(s, msid__chunk(L, sizeof(double)));             /* omega */
+    s = msid__add(s, msid__chunk(nu * L, sizeof(double)));        /* amp */
+    s = msid__add(s, msid__chunk(nu * L, sizeof(double)));        /* phase */
+    s = msid__add(s, msid__chunk(m * nu * L, sizeof(msid_cplx))); /* coef */
+    s = msid__add(s, msid__chunk(L, sizeof(double)));             /* cond */
+    s = msid__add(s, msid__chunk(m * nu, sizeof(double)));        /* crest */
+    s = msid__add(s, msid__chunk(c->period / 16u + 8u, 1));       /* bin bitmap */
+    s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));           /* running index */
+    s = msid__add(s, msid__chunk(m * nu, sizeof(msid_cplx)));     /* line matrix */
+    s = msid__add(s, msid__chunk(cond_work_doubles(c->n_inputs), sizeof(double)));
+    return s;
+}
+
+static msid_status fail(msid_design *d, msid_status st, int32_t a, int32_t b, int64_t bin)
+{
+    d->diag.line_a = a;
+    d->diag.line_b = b;
+    d->diag.bin = bin;
+    return st;
+}
+
+static int bit_get(const uint8_t *bm, uint32_t b) { return (bm[b >> 3] >> (b & 7u)) & 1u; }
+static void bit_set(uint8_t *bm, uint32_t b) { bm[b >> 3] |= (uint8_t)(1u << (b & 7u)); }
+
+/* Sign/phase of the pattern entry T[i][e], in turns. */
+static double pattern_turns(msid_pattern p, uint32_t i, uint32_t e, uint32_t m)
+{
+    if (p == MSID_PATTERN_HADAMARD) {
+        /* Sylvester: H[i][e] = (-1)^popcount(i & e) */
+        uint32_t x = i & e, par = 0;
+        while (x) { par ^= 1u; x &= x - 1u; }
+        return par ? 0.5 : 0.0;
+    }
+    /* DFT: exp(-j 2 pi i e / m) */
+    return -(double)((uint64_t)i * e % m) / (double)m;
+}
+
+msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem, size_t len)
+{
+    if (!d) return MSID_E_NULL;
+    d->diag.line_a = d->diag.line_b = -1;
+    d->diag.bin = -1;
+    if (!c) return MSID_E_NULL;
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
+    if (c->n_lines == 0) return MSID_E_NO_LINES;
+    if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS ||
+        c->n_experiments == 0 || c->n_experiments > MSID_MAX_EXPERIMENTS) return MSID_E_DIMS;
+    if (c->n_experiments < c->n_inputs) return MSID_E_EXPERIMENTS;
+    if (c->pattern != MSID_PATTERN_DFT && c->pattern != MSID_PATTERN_HADAMARD) return MSID_E_PATTERN;
+    if (c->pattern == MSID_PATTERN_HADAMARD && !msid__is_pow2(c->n_experiments)) return MSID_E_PATTERN;
+    if (c->phase_mode != MSID_PHASE_RANDOM && c->phase_mode != MSID_PHASE_SCHROEDER &&
+        c->phase_mode != MSID_PHASE_USER) return MSID_E_ARG;
+    if (c->phase_mode == MSID_PHASE_USER && !c->phases) return MSID_E_NULL;
+    if (!c->bins && !c->omega) return MSID_E_NULL;
+    if (!c->twiddle) return MSID_E_NULL;
+    if (c->twiddle->period != c->period) return MSID_E_PERIOD;
+    if (c->n_lines > c->period / 2u + 1u) return fail(d, MSID_E_LINE_DUP, -1, -1, -1);
+
+    const size_t need = msid_design_mem_size(c);
+    if (need == 0) return MSID_E_DIMS;
+    msid__arena a;
+    msid_status st = msid__arena_open(&a, mem, len, need);
+    if (st != MSID_OK) return st;
+
+    const uint32_t P = c->period, L = c->n_lines, nu = c->n_inputs, m = c->n_experiments;
+    d->period = P; d->n_lines = L; d->n_inputs = nu; d->n_experiments = m;
+    d->phase_mode = c->phase_mode; d->pattern = c->pattern; d->seed = c->seed;
+    d->bins = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
+    d->folded = (uint8_t *)msid__take(&a, L);
+    d->omega = (double *)msid__take(&a, L * sizeof(double));
+    d->amp = (double *)msid__take(&a, (size_t)nu * L * sizeof(double));
+    d->phase = (double *)msid__take(&a, (size_t)nu * L * sizeof(double));
+    d->coef = (msid_cplx *)msid__take(&a, (size_t)m * nu * L * sizeof(msid_cplx));
+    d->cond = (double *)msid__take(&a, L * sizeof(double));
+    d->crest = (double *)msid__take(&a, (size_t)m * nu * sizeof(double));
+    uint8_t *bitmap = (uint8_t *)msid__take(&a, P / 16u + 8u);
+    uint32_t *idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
+    msid_cplx *lm = (msid_cplx *)msid__take(&a, (size_t)m * nu * sizeof(msid_cplx));
+    double *work = (double *)msid__take(&a, cond_work_doubles(nu) * sizeof(double));
+    for (uint32_t k = 0; k < P / 16u + 8u; ++k) bitmap[k] = 0;
+
+    /* ---- line frequencies and the aliasing map ---- */
+    if (c->bins) {
+        d->is_ct = 0;
+        d->sample_time = 0.0;
+        for (uint32_t l = 0; l < L; ++l) {
+            const uint32_t b = c->bins[l];
+            if ((uint64_t)b * 2u >= P) return fail(d, MSID_E_LINE_RANGE, (int32_t)l, -1, b);
+            if (bit_get(bitmap, b)) {
+                int32_t first = -1;
+                for (uint32_t j = 0; j < l; ++j) if (c->bins[j] == b) { first = (int32_t)j; break; }
+                return fail(d, MSID_E_LINE_DUP, first, (int32_t)l, b);
+            }
+            bit_set(bitmap, b);
+            d->bins[l] = b;
+            d->folded[l] = 0;
+            d->omega[l] = TWO_PI * (double)b / (double)P;
+        }
+    } else {
+        const double h = c->sample_time;
+        if (!msid__finite(h) || !(h > 0.0)) return MSID_E_SAMPLE_TIME;
+        d->is_ct = 1;
+        d->sample_time = h;
+        const double tol = c->ct_tol > 0.0 ? c->ct_tol : 1e-6;
+        const double span = (double)P * h;           /* P*h seconds */
+        for (uint32_t l = 0; l < L; ++l) {
+            const double w = c->omega[l];
+            if (!msid__finite(w) || w < 0.0) return fail(d, MSID_E_ARG, (int32_t)l, -1, -1);
+            const double cyc = w * span / TWO_PI;     /* cycles of line l in P*h */
+            const double r = floor(cyc + 0.5);
+            if (fabs(cyc - r) > tol || r > 9.0e15) return fail(d, MSID_E_CT_NOT_PERIODIC, (int32_t)l, -1, -1);
+            uint32_t b = (uint32_t)((uint64_t)r % P);
+            uint8_t fold = 0;
+            if (w != 0.0 && b == 0u) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, 0);
+            if ((uint64_t)b * 2u == P) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, b);
+            if ((uint64_t)b * 2u > P) { b = P - b; fold = 1; }
+            if (bit_get(bitmap, b)) {
+                int32_t first = -1;
+                for (uint32_t j = 0; j < l; ++j) if (d->bins[j] == b) { first = (int32_t)j; break; }
+                return fail(d, MSID_E_ALIAS_COLLISION, first, (int32_t)l, b);
+            }
+            bit_set(bitmap, b);
+            d->bins[l] = b;
+            d->folded[l] = fold;
+            d->omega[l] = w;
+        }
+    }
+
+    /* ---- amplitudes ---- */
+    for (uint32_t i = 0; i < nu; ++i) {
+        for (uint32_t l = 0; l < L; ++l) {
+            double A = 1.0;
+            if (c->amplitudes) A = c->amp_per_input ? c->amplitudes[(size_t)i * L + l] : c->amplitudes[l];
+            if (!msid__finite(A) || !(A > 0.0)) return fail(d, MSID_E_AMPLITUDE, (int32_t)l, -1, d->bins[l]);
+            d->amp[(size_t)i * L + l] = A;
+        }
+    }
+
+    /* ---- base phases, in turns ---- */
+    msid_rng rng;
+    msid_rng_seed(&rng, c->seed);
+    for (uint32_t i = 0; i < nu; ++i) {
+        double *ph = d->phase + (size_t)i * L;
+        const double *A = d->amp + (size_t)i * L;
+        if (c->phase_mode == MSID_PHASE_RANDOM) {
+            for (uint32_t l = 0; l < L; ++l) ph[l] = msid_rng_uniform(&rng);
+        } else if (c->phase_mode == MSID_PHASE_SCHROEDER) {
+            /* Schroeder (1970): phi_l = -2 pi sum_{j<l} (l - j) p_j, p_j = A_j^2 / sum A^2.
+             * Incrementally: phi_l = phi_{l-1} - S_l, S_l = sum_{j<l} p_j (turns). */
+            double tot = 0.0;
+            for (uint32_t l = 0; l < L; ++l) tot += A[l] * A[l];
+            double S = 0.0, phi = 0.0;
+            for (uint32_t l = 0; l < L; ++l) {
+                if (l > 0) { S += A[l - 1] * A[l - 1] / tot; phi -= S; phi -= floor(phi); }
+                ph[l] = phi;
+            }
+        } else {
+            for (uint32_t l = 0; l < L; ++l) {
+                const double p = c->phases[(size_t)i * L + l];
+                if (!msid__finite(p)) return fail(d, MSID_E_PHASE, (int32_t)l, -1, d->bins[l]);
+                ph[l] = p - floor(p);
+            }
+        }
+        for (uint32_t l = 0; l < L; ++l) if (d->bins[l] == 0u) ph[l] = 0.0;   /* DC has no phase */
+    }
+
+    /* ---- coefficients c_{e,i,l} = A e^{j2pi(phi + tau_ie)} (conjugated if folded) ---- */
+    for (uint32_t e = 0; e < m; ++e) {
+        for (uint32_t i = 0; i < nu; ++i) {
+            const double tau = pattern_turns(c->pattern, i, e, m);
+            for (uint32_t l = 0; l < L; ++l) {
+                const double A = d->amp[(size_t)i * L + l];
+                double cr, ci;
+                if (d->bins[l] == 0u) {
+                    msid_cis_turns(tau, &cr, 0);     /* DC: real part of the pattern */
+                    ci = 0.0;
+                } else {
+                    msid_cis_turns(d->phase[(size_t)i * L + l] + tau, &cr, &ci);
+                    if (d->folded[l]) ci = -ci;
+                }
+                d->coef[((size_t)e * nu + i) * L + l] = msid__c(A * cr, A * ci);
+            }
+        }
+    }
+
+    /* ---- condition number of each line's input matrix (Assumption 1) ---- */
+    d->cond_max = 0.0;
+    for (uint32_t l = 0; l < L; ++l) {
+        /* U^H is m x nu: row e, column i holds conj(c_{e,i,l}). */
+        for (uint32_t e = 0; e < m; ++e)
+            for (uint32_t i = 0; i < nu; ++i)
+                lm[e * nu + i] = msid__cconj(d->coef[((size_t)e * nu + i) * L + l]);
+        double smin, smax;
+        msid__csv_minmax((int)m, (int)nu, lm, work, &smin, &smax);
+        const double cond = smin > 0.0 ? smax / smin : HUGE_VAL;
+        d->cond[l] = cond;
+        if (cond > d->cond_max) d->cond_max = cond;
+        if (!(smin > 1e-12 * smax)) return fail(d, MSID_E_SINGULAR, (int32_t)l, -1, d->bins[l]);
+    }
+
+    /* ---- crest factors from the exact generated samples ---- */
+    const msid_cplx *w = c->twiddle->w;
+    for (uint32_t e = 0; e < m; ++e) {
+        for (uint32_t i = 0; i < nu; ++i) {
+            const msid_cplx *cf = d->coef + ((size_t)e * nu + i) * L;
+            for (uint32_t l = 0; l < L; ++l) idx[l] = 0;
+            double peak = 0.0, ss = 0.0;
+            for (uint32_t n = 0; n < P; ++n) {
+                double u = 0.0;
+                for (uint32_t l = 0; l < L; ++l) {
+                    const msid_cplx t = w[idx[l]];
+                    u += cf[l].re * t.re + cf[l].im * t.im;
+                    idx[l] += d->bins[l];
+                    if (idx[l] >= P) idx[l] -= P;
+                }
+                if (fabs(u) > peak) peak = fabs(u);
+                ss += u * u;
+            }
+            const double rms = sqrt(ss / (double)P);
+            d->crest[(size_t)e * nu + i] = rms > 0.0 ? peak / rms : HUGE_VAL;
+        }
+    }
+    return MSID_OK;
+}
+
+msid_design_diag_t msid_design_diag(const msid_design *d)
+{
+    msid_design_diag_t z = {-1, -1, -1};
+    return d ? d->diag : z;
+}
+
+msid_cplx msid_design_coef(const msid_design *d, uint32_t e, uint32_t i, uint32_t l)
+{
+    if (!d || e >= d->n_experiments || i >= d->n_inputs || l >= d->n_lines) return msid__c(NAN, NAN);
+    return d->coef[((size_t)e * d->n_inputs + i) * d->n_lines + l];
+}
+
+msid_cplx msid_design_input_dft(const msid_design *d, uint32_t e, uint32_t i, uint32_t l)
+{
+    const msid_cplx c = msid_design_coef(d, e, i, l);
+    if (!d || l >= d->n_lines) return c;
+    if (d->bins[l] == 0u) return msid__c((double)d->period * c.re, 0.0);
+    return msid__cscale(c, 0.5 * (double)d->period);
+}
+
+double msid_design_crest_factor(const msid_design *d, uint32_t e, uint32_t i)
+{
+    if (!d || e >= d->n_experiments || i >= d->n_inputs) return NAN;
+    return d->crest[(size_t)e * d->n_inputs + i];
+}
+
+double msid_design_cond(const msid_design *d, uint32_t l)
+{
+    if (!d || l >= d->n_lines) return NAN;
+    return d->cond[l];
+}
+
+double msid_design_sample(const msid_design *d, const msid_twiddle *tw, uint32_t e, uint32_t i, uint32_t n)
+{
+    if (!d || !tw || tw->period != d->period || e >= d->n_experiments || i >= d->n_inputs) return NAN;
+    const uint32_t P = d->period;
+    const msid_cplx *cf = d->coef + ((size_t)e * d->n_inputs + i) * d->n_lines;
+    double u = 0.0;
+    n %= P;
+    for (uint32_t l = 0; l < d->n_lines; ++l) {
+        const msid_cplx t = tw->w[(uint64_t)d->bins[l] * n % P];
+        u += cf[l].re * t.re + cf[l].im * t.im;
+    }
+    return u;
+}

@@ -1,0 +1,305 @@
+/* MIMO LS FRF per line and its covariance (González et al. 2025 Thm 1-2,
+ * eqs. 23, 29, 37; Pintelon 2002 eqs. 25, 31-32). */
+#include "msid/msid_frf.h"
+#include "msid_internal.h"
+#include "msid_cmat.h"
+#include <math.h>
+
+static size_t work_cplx(uint32_t nu, uint32_t ny, uint32_t m)
+{
+    const size_t q = (size_t)nu + ny;
+    return (size_t)m * nu * 2u + (size_t)nu * nu * 2u + (size_t)ny * m + ny * q + 2u * ny * ny +
+           (4u * nu * nu + 2u * nu) / 2u + 2u;
+}
+
+size_t msid_frf_mem_size(const msid_frf_cfg *c)
+{
+    if (!c || c->n_lines == 0) return 0;
+    if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS || c->n_outputs == 0 ||
+        c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
+        c->n_experiments > MSID_MAX_EXPERIMENTS) return 0;
+    const size_t L = c->n_lines, nu = c->n_inputs, ny = c->n_outputs, m = c->n_experiments;
+    const size_t g = ny * nu, D = c->n_detect;
+    size_t s = msid__chunk(L, 1);
+    s = msid__add(s, msid__chunk(L * g, sizeof(msid_cplx)));
+    s = msid__add(s, msid__chunk(msid__mul(L, g * g), sizeof(msid_cplx)));
+    s = msid__add(s, msid__chunk(msid__mul(L, g * g), sizeof(msid_cplx)));
+    s = msid__add(s, msid__chunk(L, sizeof(double)));
+    s = msid__add(s, msid__chunk(L, sizeof(double)));
+    s = msid__add(s, msid__chunk(L * ny * ny, sizeof(msid_cplx)));
+    s = msid__add(s, msid__chunk(L * ny, sizeof(double)));
+    s = msid__add(s, msid__chunk(L, sizeof(double)));
+    s = msid__add(s, msid__chunk(L, 1));
+    s = msid__add(s, msid__chunk(ny * ny, sizeof(msid_cplx)));
+    if (D) {
+        s = msid__add(s, msid__chunk(D * m * ny, sizeof(msid_cplx)));
+        s = msid__add(s, msid__chunk(D * ny, sizeof(double)));
+        s = msid__add(s, msid__chunk(D * ny, sizeof(double)));
+    }
+    s = msid__add(s, msid__chunk(work_cplx(c->n_inputs, c->n_outputs, c->n_experiments), sizeof(msid_cplx)));
+    return s;
+}
+
+msid_status msid_frf_init(msid_frf *f, const msid_frf_cfg *c, void *mem, size_t len)
+{
+    if (!f || !c) return MSID_E_NULL;
+    if (c->n_lines == 0) return MSID_E_NO_LINES;
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
+    if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS || c->n_outputs == 0 ||
+        c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
+        c->n_experiments > MSID_MAX_EXPERIMENTS) return MSID_E_DIMS;
+    if (c->n_experiments < c->n_inputs) return MSID_E_EXPERIMENTS;
+    msid__arena a;
+    msid_status st = msid__arena_open(&a, mem, len, msid_frf_mem_size(c));
+    if (st != MSID_OK) return st;
+    const size_t L = c->n_lines, nu = c->n_inputs, ny = c->n_outputs, m = c->n_experiments;
+    const size_t g = ny * nu, D = c->n_detect;
+    f->period = c->period; f->n_inputs = c->n_inputs; f->n_outputs = c->n_outputs;
+    f->n_experiments = c->n_experiments; f->n_lines = c->n_lines; f->n_detect = c->n_detect;
+    f->folded = (uint8_t *)msid__take(&a, L);
+    f->G = (msid_cplx *)msid__take(&a, L * g * sizeof(msid_cplx));
+    f->cov = (msid_cplx *)msid__take(&a, L * g * g * sizeof(msid_cplx));
+    f->cov_ki = (msid_cplx *)msid__take(&a, L * g * g * sizeof(msid_cplx));
+    f->dof = (double *)msid__take(&a, L * sizeof(double));
+    f->dof_ki = (double *)msid__take(&a, L * sizeof(double));
+    f->noise = (msid_cplx *)msid__take(&a, L * ny * ny * sizeof(msid_cplx));
+    f->snr = (double *)msid__take(&a, L * ny * sizeof(double));
+    f->cond = (double *)msid__take(&a, L * sizeof(double));
+    f->line_status = (uint8_t *)msid__take(&a, L);
+    f->noise_time = (msid_cplx *)msid__take(&a, ny * ny * sizeof(msid_cplx));
+    f->dmean = 0; f->dvar = 0; f->dpval = 0;
+    if (D) {
+        f->dmean = (msid_cplx *)msid__take(&a, D * m * ny * sizeof(msid_cplx));
+        f->dvar = (double *)msid__take(&a, D * ny * sizeof(double));
+        f->dpval = (double *)msid__take(&a, D * ny * sizeof(double));
+    }
+    f->work = (msid_cplx *)msid__take(&a, work_cplx(c->n_inputs, c->n_outputs, c->n_experiments) * sizeof(msid_cplx));
+    for (size_t l = 0; l < L; ++l) f->folded[l] = c->folded ? (c->folded[l] ? 1u : 0u) : 0u;
+    f->bad_line = -1;
+    f->bad_experiment = -1;
+    f->K_total = 0;
+    return MSID_OK;
+}
+
+/* P(F(2m, 2n) > fstat) = I_x(n, m), x = n / (n + m fstat), for integers n, m >= 1:
+ * I_x(a, b) = sum_{j=a}^{a+b-1} C(a+b-1, j) x^j (1-x)^{a+b-1-j}, in the log domain. */
+static double f_tail_2m_2n(uint32_t m, uint32_t n, double fstat)
+{
+    if (!(fstat > 0.0)) return 1.0;
+    if (fstat == HUGE_VAL) return 0.0;
+    const double x = (double)n / ((double)n + (double)m * fstat);
+    if (!(x > 0.0)) return 0.0;
+    if (!(x < 1.0)) return 1.0;
+    const uint32_t a = n, b = m, N = a + b - 1u;
+    double lc = 0.0;                               /* log C(N, a) = sum_{i=1}^{b-1} log((a+i)/i) */
+    for (uint32_t i = 1; i < b; ++i) lc += log((double)(a + i) / (double)i);
+    const double lx = log(x), l1x = log1p(-x);
+    double lt[MSID_MAX_EXPERIMENTS];
+    double mx = -HUGE_VAL;
+    double cur = lc + (double)a * lx + (double)(N - a) * l1x;
+    for (uint32_t k = 0; k < b; ++k) {
+        const uint32_t j = a + k;
+        if (k > 0) cur += log((double)(N - j + 1u) / (double)j) + lx - l1x;
+        lt[k] = cur;
+        if (cur > mx) mx = cur;
+    }
+    double s = 0.0;
+    for (uint32_t k = 0; k < b; ++k) s += exp(lt[k] - mx);
+    const double p = exp(mx + log(s));
+    return p > 1.0 ? 1.0 : p;
+}
+
+msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
+{
+    if (!f || !stats) return MSID_E_NULL;
+    const uint32_t nu = f->n_inputs, ny = f->n_outputs, m = f->n_experiments, L = f->n_lines;
+    const uint32_t q = nu + ny, g = nu * ny;
+    f->bad_line = -1;
+    f->bad_experiment = -1;
+    f->K_total = 0;
+    uint32_t dofk = 0;
+    for (uint32_t e = 0; e < m; ++e) {
+        if (!stats[e]) return MSID_E_NULL;
+        if (stats[e]->n_channels != q || stats[e]->n_lines != L + f->n_detect) return MSID_E_DIMS;
+        const uint32_t K = msid_pstats_count(stats[e]);
+        if (K < 2) { f->bad_experiment = (int32_t)e; return MSID_E_FEW_PERIODS; }
+        f->K_total += K;
+        dofk += K - 1u;
+    }
+    /* scratch layout */
+    msid_cplx *A = f->work;                       /* m x nu : Ubar^H, then Q */
+    msid_cplx *R = A + (size_t)m * nu;            /* nu x nu */
+    msid_cplx *W = R + (size_t)nu * nu;           /* m x nu : Ubar^+ */
+    msid_cplx *Rc = W + (size_t)m * nu;           /* nu x nu copy for cond */
+    msid_cplx *Y = Rc + (size_t)nu * nu;          /* ny x m */
+    msid_cplx *T = Y + (size_t)ny * m;            /* ny x q */
+    msid_cplx *S = T + (size_t)ny * q;            /* ny x ny */
+    msid_cplx *Sp = S + (size_t)ny * ny;          /* ny x ny */
+    double *dw = (double *)(Sp + (size_t)ny * ny);
+    msid_status ret = MSID_OK;
+    for (uint32_t i = 0; i < ny * ny; ++i) f->noise_time[i] = msid__c(0.0, 0.0);
+
+    for (uint32_t l = 0; l < L; ++l) {
+        msid_cplx *G = f->G + (size_t)l * g;
+        msid_cplx *Ca = f->cov + (size_t)l * g * g;
+        msid_cplx *Cb = f->cov_ki + (size_t)l * g * g;
+        msid_cplx *N = f->noise + (size_t)l * ny * ny;
+        for (uint32_t k = 0; k < g * g; ++k) Ca[k] = Cb[k] = msid__c(0.0, 0.0);
+        /* Ubar^H (m x nu) and Ybar (ny x m) from the experiment means */
+        for (uint32_t e = 0; e < m; ++e) {
+            const msid_cplx *z = msid_pstats_mean(stats[e], l);
+            for (uint32_t j = 0; j < nu; ++j) A[e * nu + j] = msid__cconj(z[j]);
+            for (uint32_t i = 0; i < ny; ++i) Y[i * m + e] = z[nu + i];
+        }
+        /* Pooled output noise Sigma_p (known input), per-period DFT units */
+        for (uint32_t i = 0; i < ny * ny; ++i) Sp[i] = msid__c(0.0, 0.0);
+        for (uint32_t e = 0; e < m; ++e) {
+            const msid_cplx *M2 = msid_pstats_scatter(stats[e], l);
+            for (uint32_t r = 0; r < ny; ++r)
+                for (uint32_t c = 0; c < ny; ++c)
+                    Sp[r * ny + c] = msid__cadd(Sp[r * ny + c], M2[(nu + r) * q + nu + c]);
+        }
+        for (uint32_t i = 0; i < ny * ny; ++i) { Sp[i] = msid__cscale(Sp[i], 1.0 / (double)dofk); N[i] = Sp[i]; }
+        for (uint32_t i = 0; i < ny * ny; ++i) f->noise_time[i] = msid__cadd(f->noise_time[i], Sp[i]);
+        /* SNR of the averaged output spectrum */
+        for (uint32_t i = 0; i < ny; ++i) {
+            double sig = 0.0, noi = 0.0;
+            for (uint32_t e = 0; e < m; ++e) {
+                sig += msid__cabs2(Y[i * m + e]);
+                noi += Sp[i * ny + i].re / (double)msid_pstats_count(stats[e]);
+            }
+            f->snr[(size_t)l * ny + i] = noi > 0.0 ? 10.0 * log10(sig / noi) : HUGE_VAL;
+        }
+        /* Thin QR of Ubar^H = Q R; Ubar^+ = Q R^{-H} (avoids forming Ubar Ubar^H). */
+        const int ok = msid__cqr((int)m, (int)nu, A, R, 1e-13);
+        for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];
+        double smin, smax;
+        msid__csv_minmax((int)nu, (int)nu, Rc, dw, &smin, &smax);
+        const double cond = smin > 0.0 ? smax / smin : HUGE_VAL;
+        f->cond[l] = cond;
+        if (!ok || !(cond < 1e12)) {
+            f->line_status[l] = MSID_LINE_SINGULAR;
+            if (f->bad_line < 0) f->bad_line = (int32_t)l;
+            ret = MSID_E_SINGULAR;
+            for (uint32_t k = 0; k < g; ++k) G[k] = msid__c(NAN, NAN);
+            f->dof[l] = f->dof_ki[l] = NAN;
+            continue;
+        }
+        f->line_status[l] = MSID_LINE_OK;
+        /* W^H = R^{-1} Q^H (nu x m) by back substitution, stored transposed-conjugated into W. */
+        for (uint32_t e = 0; e < m; ++e) {
+            for (int j = (int)nu - 1; j >= 0; --j) {
+                msid_cplx s = msid__cconj(A[e * nu + (uint32_t)j]);   /* (Q^H)[j][e] */
+                for (uint32_t k = (uint32_t)j + 1u; k < nu; ++k)
+                    s = msid__csub(s, msid__cmul(R[(uint32_t)j * nu + k], msid__cconj(W[e * nu + k])));
+                const msid_cplx wh = msid__cdiv(s, R[(uint32_t)j * nu + (uint32_t)j]);  /* (W^H)[j][e] */
+                W[e * nu + (uint32_t)j] = msid__cconj(wh);
+            }
+        }
+        /* Ghat = Ybar W */
+        for (uint32_t i = 0; i < ny; ++i)
+            for (uint32_t j = 0; j < nu; ++j) {
+                msid_cplx s = msid__c(0.0, 0.0);
+                for (uint32_t e = 0; e < m; ++e) s = msid__cadd(s, msid__cmul(Y[i * m + e], W[e * nu + j]));
+                G[i * nu + j] = s;
+            }
+        /* Covariances: sum_e (w_e^T conj w_e) (x) S_e, index (i + ny j, i' + ny j'). */
+        double csum = 0.0, c2 = 0.0;
+        for (uint32_t e = 0; e < m; ++e) {
+            const uint32_t Ke = msid_pstats_count(stats[e]);
+            const msid_cplx *M2 = msid_pstats_scatter(stats[e], l);
+            /* S_e = B M2 B^H / ((K-1) K), B = [-G I] over z = [u; y] */
+            for (uint32_t i = 0; i < ny; ++i)
+                for (uint32_t c = 0; c < q; ++c) {
+                    msid_cplx s = M2[(nu + i) * q + c];
+                    for (uint32_t j = 0; j < nu; ++j) s = msid__csub(s, msid__cmul(G[i * nu + j], M2[j * q + c]));
+                    T[i * q + c] = s;
+                }
+            const double sc = 1.0 / ((double)(Ke - 1u) * (double)Ke);
+            for (uint32_t i = 0; i < ny; ++i)
+                for (uint32_t k = 0; k < ny; ++k) {
+                    /* (T B^H)[i][k] = T[i][nu+k] - sum_j T[i][j] conj(G[k][j]) */
+                    msid_cplx s = T[i * q + nu + k];
+                    for (uint32_t j = 0; j < nu; ++j) s = msid__csub(s, msid__cmulc(T[i * q + j], G[k * nu + j]));
+                    S[i * ny + k] = msid__cscale(s, sc);
+                }
+            double wn = 0.0;
+            for (uint32_t j = 0; j < nu; ++j) wn += msid__cabs2(W[e * nu + j]);
+            const double ce = wn / (double)Ke;
+            csum += ce;
+            c2 += ce * ce / (double)(Ke - 1u);
+            for (uint32_t j = 0; j < nu; ++j)
+                for (uint32_t jp = 0; jp < nu; ++jp) {
+                    const msid_cplx ww = msid__cmulc(W[e * nu + j], W[e * nu + jp]);
+                    const msid_cplx wk = msid__cscale(ww, 1.0 / (double)Ke);
+                    for (uint32_t i = 0; i < ny; ++i)
+                        for (uint32_t ip = 0; ip < ny; ++ip) {
+                            const size_t r = i + (size_t)ny * j, c = ip + (size_t)ny * jp;
+                            Ca[r * g + c] = msid__cadd(Ca[r * g + c], msid__cmul(ww, S[i * ny + ip]));
+                            Cb[r * g + c] = msid__cadd(Cb[r * g + c], msid__cmul(wk, Sp[i * ny + ip]));
+                        }
+                }
+        }
+        /* exact Hermitian symmetry and real diagonal */
+        for (uint32_t r = 0; r < g; ++r) {
+            Ca[r * g + r].im = 0.0;
+            Cb[r * g + r].im = 0.0;
+            for (uint32_t c = r + 1u; c < g; ++c) {
+                Ca[c * g + r] = msid__cconj(Ca[r * g + c]);
+                Cb[c * g + r] = msid__cconj(Cb[r * g + c]);
+            }
+        }
+        f->dof[l] = csum * csum / c2;
+        f->dof_ki[l] = (double)dofk;
+        if (f->folded[l]) {
+            /* The DT bin carries G(-j w) = conj(G(j w)): report the CT value. */
+            for (uint32_t k = 0; k < g; ++k) G[k] = msid__cconj(G[k]);
+            for (uint32_t k = 0; k < g * g; ++k) { Ca[k] = msid__cconj(Ca[k]); Cb[k] = msid__cconj(Cb[k]); }
+            for (uint32_t k = 0; k < ny * ny; ++k) N[k] = msid__cconj(N[k]);
+        }
+    }
+    const double inv = 1.0 / ((double)L * (double)f->period);
+    for (uint32_t i = 0; i < ny * ny; ++i) f->noise_time[i] = msid__cscale(f->noise_time[i], inv);
+
+    /* Detection lines: mean output spectrum, pooled variance, F(2m, 2n) test. */
+    for (uint32_t d = 0; d < f->n_detect; ++d) {
+        const uint32_t l = L + d;
+        for (uint32_t i = 0; i < ny; ++i) {
+            double var = 0.0, num = 0.0;
+            for (uint32_t e = 0; e < m; ++e) {
+                const msid_cplx *z = msid_pstats_mean(stats[e], l);
+                const msid_cplx *M2 = msid_pstats_scatter(stats[e], l);
+                f->dmean[((size_t)d * m + e) * ny + i] = z[nu + i];
+                var += M2[(nu + i) * q + nu + i].re;
+                num += (double)msid_pstats_count(stats[e]) * msid__cabs2(z[nu + i]);
+            }
+            var /= (double)dofk;
+            f->dvar[(size_t)d * ny + i] = var;
+            const double fs = var > 0.0 ? (num / (double)m) / var : (num > 0.0 ? HUGE_VAL : 0.0);
+            f->dpval[(size_t)d * ny + i] = f_tail_2m_2n(m, dofk, fs);
+        }
+    }
+    return ret;
+}
+
+const msid_cplx *msid_frf_G(const msid_frf *f, uint32_t l) { return f->G + (size_t)l * f->n_inputs * f->n_outputs; }
+const msid_cplx *msid_frf_cov(const msid_frf *f, uint32_t l)
+{
+    const size_t g = (size_t)f->n_inputs * f->n_outputs;
+    return f->cov + (size_t)l * g * g;
+}
+const msid_cplx *msid_frf_cov_known_input(const msid_frf *f, uint32_t l)
+{
+    const size_t g = (size_t)f->n_inputs * f->n_outputs;
+    return f->cov_ki + (size_t)l * g * g;
+}
+double msid_frf_dof(const msid_frf *f, uint32_t l) { return f->dof[l]; }
+double msid_frf_dof_known_input(const msid_frf *f, uint32_t l) { return f->dof_ki[l]; }
+const msid_cplx *msid_frf_noise_cov(const msid_frf *f, uint32_t l) { return f->noise + (size_t)l * f->n_outputs * f->n_outputs; }
+const double *msid_frf_snr_db(const msid_frf *f, uint32_t l) { return f->snr + (size_t)l * f->n_outputs; }
+double msid_frf_cond(const msid_frf *f, uint32_t l) { return f->cond[l]; }
+int msid_frf_line_status(const msid_frf *f, uint32_t l) { return f->line_status[l]; }
+const msid_cplx *msid_frf_noise_cov_time(const msid_frf *f) { return f->noise_time; }
+const msid_cplx *msid_frf_detect_mean(const msid_frf *f, uint32_t d) { return f->dmean + (size_t)d * f->n_experiments * f->n_outputs; }
+const double *msid_frf_detect_var(const msid_frf *f, uint32_t d) { return f->dvar + (size_t)d * f->n_outputs; }
+const double *msid_frf_detect_pvalue(const msid_frf *f, uint32_t d) { return f->dpval + (size_t)d * f->n_outputs; }

@@ -1,0 +1,67 @@
+/* Private helpers shared by the core objects. Not installed. */
+#ifndef MSID_INTERNAL_H
+#define MSID_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "msid/msid_types.h"
+#include "msid/msid_status.h"
+
+/* Round a byte count up to the memory alignment. */
+static inline size_t msid__round(size_t n)
+{
+    return (n + (MSID_MEM_ALIGN - 1u)) & ~(size_t)(MSID_MEM_ALIGN - 1u);
+}
+
+/* Bump placement of chunks inside caller memory: never allocates. */
+typedef struct msid__arena {
+    unsigned char *p;
+    size_t left;
+} msid__arena;
+
+static inline msid_status msid__arena_open(msid__arena *a, void *mem, size_t len, size_t need)
+{
+    if (!mem) return MSID_E_NULL;
+    if (((uintptr_t)mem & (MSID_MEM_ALIGN - 1u)) != 0u) return MSID_E_MEM_ALIGN;
+    if (len < need) return MSID_E_MEM_SIZE;
+    a->p = (unsigned char *)mem;
+    a->left = len;
+    return MSID_OK;
+}
+
+/* Carve n bytes (rounded); the caller has checked the total with _mem_size. */
+static inline void *msid__take(msid__arena *a, size_t n)
+{
+    size_t r = msid__round(n);
+    void *q = a->p;
+    a->p += r;
+    a->left -= r;
+    return q;
+}
+
+static inline int msid__finite(double x)
+{
+    /* x - x is 0 for finite x and NaN otherwise; no libm needed. */
+    return (x - x) == 0.0;
+}
+
+static inline int msid__is_pow2(uint32_t x) { return x && !(x & (x - 1u)); }
+
+/* Saturating size arithmetic for _mem_size: returns SIZE_MAX on overflow. */
+static inline size_t msid__mul(size_t a, size_t b)
+{
+    if (a && b > SIZE_MAX / a) return SIZE_MAX;
+    return a * b;
+}
+static inline size_t msid__add(size_t a, size_t b)
+{
+    return (a > SIZE_MAX - b) ? SIZE_MAX : a + b;
+}
+/* Rounded chunk of n elements of size sz. */
+static inline size_t msid__chunk(size_t n, size_t sz)
+{
+    size_t b = msid__mul(n, sz);
+    return b == SIZE_MAX ? SIZE_MAX : msid__round(b);
+}
+
+#endif

@@ -1,0 +1,276 @@
+/* Streaming line DFT with exact integer twiddle indices, and the dense-line
+ * FFT path through a backend table. X[b] = sum_n x(n) exp(-j 2 pi b n / P)
+ * per period (Pintelon 2002 eq. 4 without the 1/sqrt(N) factor). */
+#include "msid/msid_linedft.h"
+#include "msid_internal.h"
+#if defined(__SSE2__) && !defined(MSID_NO_SIMD)
+#include <emmintrin.h>
+#define MSID_SSE2 1
+#endif
+
+/* Per-period cost model in nanoseconds, from `msid bench frf` on the
+ * reference machine (see docs/benchmarks.md). Only ratios matter. */
+#define COST_STREAM_NS 0.30   /* per line*channel*sample */
+#define COST_FFT_NS 0.06      /* per channel * P*log2(P) */
+#define COST_COPY_NS 1.0      /* per channel*sample (deinterleave + pick lines) */
+
+msid_dft_path msid_linedft_choose(uint32_t P, uint32_t L, uint32_t C, int have_fft)
+{
+    if (!have_fft) return MSID_DFT_STREAM;
+    double lg = 0.0;
+    for (uint32_t p = P; p > 1u; p >>= 1) lg += 1.0;
+    const double stream = COST_STREAM_NS * (double)L * (double)C * (double)P;
+    const double fft = (double)C * (COST_FFT_NS * (double)P * lg + COST_COPY_NS * (double)P);
+    return fft < stream ? MSID_DFT_FFT : MSID_DFT_STREAM;
+}
+
+static msid_dft_path resolve_path(const msid_linedft_cfg *c)
+{
+    if (c->path == MSID_DFT_STREAM || c->path == MSID_DFT_FFT) return c->path;
+    return msid_linedft_choose(c->period, c->n_lines, c->n_channels, c->fft != 0);
+}
+
+size_t msid_linedft_mem_size(const msid_linedft_cfg *c)
+{
+    if (!c) return 0;
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return 0;
+    if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS || c->n_lines == 0) return 0;
+    if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT) return 0;
+    const size_t L = c->n_lines, C = c->n_channels, P = c->period;
+    size_t s = msid__chunk(L, sizeof(uint32_t));                 /* bins */
+    s = msid__add(s, msid__chunk(L * C, sizeof(msid_cplx)));      /* out */
+    if (resolve_path(c) == MSID_DFT_FFT) {
+        s = msid__add(s, msid__chunk(msid__mul(C, P), sizeof(double)));
+        s = msid__add(s, msid__chunk(P / 2u + 1u, sizeof(msid_cplx)));
+    } else {
+        s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));
+        s = msid__add(s, msid__chunk(L * C, sizeof(msid_cplx)));
+    }
+    return s;
+}
+
+static void clear_period(msid_linedft *d)
+{
+    d->pos = 0;
+    d->flags = 0;
+    if (d->path == MSID_DFT_STREAM) {
+        for (size_t k = 0; k < (size_t)d->n_lines * d->n_channels; ++k) d->acc[k].re = d->acc[k].im = 0.0;
+        for (uint32_t l = 0; l < d->n_lines; ++l) d->idx[l] = 0;
+    }
+}
+
+msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *mem, size_t len)
+{
+    if (!d || !c || !c->bins) return MSID_E_NULL;
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
+    if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS) return MSID_E_DIMS;
+    if (c->n_lines == 0) return MSID_E_NO_LINES;
+    if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT) return MSID_E_ARG;
+    for (uint32_t l = 0; l < c->n_lines; ++l)
+        if ((uint64_t)c->bins[l] * 2u > c->period) return MSID_E_LINE_RANGE;
+    const msid_dft_path path = resolve_path(c);
+    if (path == MSID_DFT_FFT) {
+        if (!c->fft || !c->fft->r2c || c->fft->period != c->period) return MSID_E_BACKEND;
+    } else {
+        if (!c->twiddle) return MSID_E_NULL;
+        if (c->twiddle->period != c->period) return MSID_E_PERIOD;
+    }
+    msid__arena a;
+    msid_status st = msid__arena_open(&a, mem, len, msid_linedft_mem_size(c));
+    if (st != MSID_OK) return st;
+    const size_t L = c->n_lines, C = c->n_channels, P = c->period;
+    d->period = c->period;
+    d->n_channels = c->n_channels;
+    d->n_lines = c->n_lines;
+    d->path = path;
+    d->twiddle = c->twiddle;
+    d->fft = c->fft;
+    d->bins = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
+    d->out = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
+    d->idx = 0; d->acc = 0; d->buf = 0; d->fout = 0;
+    if (path == MSID_DFT_FFT) {
+        d->buf = (double *)msid__take(&a, C * P * sizeof(double));
+        d->fout = (msid_cplx *)msid__take(&a, (P / 2u + 1u) * sizeof(msid_cplx));
+        for (size_t k = 0; k < C * P; ++k) d->buf[k] = 0.0;
+    } else {
+        d->idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
+        d->acc = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
+    }
+    for (size_t l = 0; l < L; ++l) d->bins[l] = c->bins[l];
+    for (size_t k = 0; k < L * C; ++k) d->out[k].re = d->out[k].im = 0.0;
+    d->ready = 0;
+    d->out_flags = 0;
+    d->periods = 0;
+    d->err = MSID_OK;
+    clear_period(d);
+    return MSID_OK;
+}
+
+/* ---- streaming kernels: per line the terms are added in sample order, so
+ *      the sums do not depend on how the samples were split into blocks ---- */
+
+#define CHUNK 256u
+
+static inline uint32_t step(uint32_t i, uint32_t k, uint32_t P)
+{
+    i += k;
+    return i >= P ? i - P : i;
+}
+
+/* Four lines, all channels, ns samples. acc is [4][C] (line stride C). */
+static void kernel4(const msid_cplx *w, uint32_t P, const uint32_t *k, const uint32_t *idx,
+                    msid_cplx *acc, uint32_t C, const double *x, uint32_t ns)
+{
+    const uint32_t k0 = k[0], k1 = k[1], k2 = k[2], k3 = k[3];
+    uint32_t c = 0;
+#ifdef MSID_SSE2
+    for (; c + 2u <= C; c += 2u) {
+        uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+        double *A = &acc[0].re;
+        __m128d a00 = _mm_load_pd(A + 2 * (0 * C + c)), a01 = _mm_load_pd(A + 2 * (0 * C + c + 1));
+        __m128d a10 = _mm_load_pd(A + 2 * (1 * C + c)), a11 = _mm_load_pd(A + 2 * (1 * C + c + 1));
+        __m128d a20 = _mm_load_pd(A + 2 * (2 * C + c)), a21 = _mm_load_pd(A + 2 * (2 * C + c + 1));
+        __m128d a30 = _mm_load_pd(A + 2 * (3 * C + c)), a31 = _mm_load_pd(A + 2 * (3 * C + c + 1));
+        const double *row = x + c;
+        for (uint32_t s = 0; s < ns; ++s, row += C) {
+            const __m128d x0 = _mm_set1_pd(row[0]), x1 = _mm_set1_pd(row[1]);
+            const __m128d t0 = _mm_load_pd(&w[i0].re), t1 = _mm_load_pd(&w[i1].re);
+            const __m128d t2 = _mm_load_pd(&w[i2].re), t3 = _mm_load_pd(&w[i3].re);
+            a00 = _mm_add_pd(a00, _mm_mul_pd(x0, t0)); a01 = _mm_add_pd(a01, _mm_mul_pd(x1, t0));
+            a10 = _mm_add_pd(a10, _mm_mul_pd(x0, t1)); a11 = _mm_add_pd(a11, _mm_mul_pd(x1, t1));
+            a20 = _mm_add_pd(a20, _mm_mul_pd(x0, t2)); a21 = _mm_add_pd(a21, _mm_mul_pd(x1, t2));
+            a30 = _mm_add_pd(a30, _mm_mul_pd(x0, t3)); a31 = _mm_add_pd(a31, _mm_mul_pd(x1, t3));
+            i0 = step(i0, k0, P); i1 = step(i1, k1, P); i2 = step(i2, k2, P); i3 = step(i3, k3, P);
+        }
+        _mm_store_pd(A + 2 * (0 * C + c), a00); _mm_store_pd(A + 2 * (0 * C + c + 1), a01);
+        _mm_store_pd(A + 2 * (1 * C + c), a10); _mm_store_pd(A + 2 * (1 * C + c + 1), a11);
+        _mm_store_pd(A + 2 * (2 * C + c), a20); _mm_store_pd(A + 2 * (2 * C + c + 1), a21);
+        _mm_store_pd(A + 2 * (3 * C + c), a30); _mm_store_pd(A + 2 * (3 * C + c + 1), a31);
+    }
+#endif
+    for (; c < C; ++c) {
+        uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+        double r0 = acc[0 * C + c].re, q0 = acc[0 * C + c].im;
+        double r1 = acc[1 * C + c].re, q1 = acc[1 * C + c].im;
+        double r2 = acc[2 * C + c].re, q2 = acc[2 * C + c].im;
+        double r3 = acc[3 * C + c].re, q3 = acc[3 * C + c].im;
+        const double *row = x + c;
+        for (uint32_t s = 0; s < ns; ++s, row += C) {
+            const double v = row[0];
+            r0 += v * w[i0].re; q0 += v * w[i0].im;
+            r1 += v * w[i1].re; q1 += v * w[i1].im;
+            r2 += v * w[i2].re; q2 += v * w[i2].im;
+            r3 += v * w[i3].re; q3 += v * w[i3].im;
+            i0 = step(i0, k0, P); i1 = step(i1, k1, P); i2 = step(i2, k2, P); i3 = step(i3, k3, P);
+        }
+        acc[0 * C + c].re = r0; acc[0 * C + c].im = q0;
+        acc[1 * C + c].re = r1; acc[1 * C + c].im = q1;
+        acc[2 * C + c].re = r2; acc[2 * C + c].im = q2;
+        acc[3 * C + c].re = r3; acc[3 * C + c].im = q3;
+    }
+}
+
+static void kernel1(const msid_cplx *w, uint32_t P, uint32_t k, uint32_t idx,
+                    msid_cplx *acc, uint32_t C, const double *x, uint32_t ns)
+{
+    for (uint32_t c = 0; c < C; ++c) {
+        uint32_t i = idx;
+        double r = acc[c].re, q = acc[c].im;
+        const double *row = x + c;
+        for (uint32_t s = 0; s < ns; ++s, row += C) {
+            const double v = row[0];
+            r += v * w[i].re;
+            q += v * w[i].im;
+            i = step(i, k, P);
+        }
+        acc[c].re = r;
+        acc[c].im = q;
+    }
+}
+
+static void stream_block(msid_linedft *d, const double *x, uint32_t n)
+{
+    const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
+    const msid_cplx *w = d->twiddle->w;
+    for (uint32_t s0 = 0; s0 < n; s0 += CHUNK) {
+        const uint32_t ns = (n - s0) < CHUNK ? (n - s0) : CHUNK;
+        const double *xs = x + (size_t)s0 * C;
+        uint32_t l = 0;
+        for (; l + 4u <= L; l += 4u) kernel4(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
+        for (; l < L; ++l) kernel1(w, P, d->bins[l], d->idx[l], d->acc + (size_t)l * C, C, xs, ns);
+        for (l = 0; l < L; ++l) d->idx[l] = (uint32_t)(((uint64_t)d->idx[l] + (uint64_t)d->bins[l] * ns) % P);
+    }
+}
+
+static void finish_period(msid_linedft *d)
+{
+    const size_t L = d->n_lines, C = d->n_channels, P = d->period;
+    if (d->path == MSID_DFT_FFT) {
+        for (size_t c = 0; c < C; ++c) {
+            msid_status st = d->fft->r2c(d->fft->ctx, d->buf + c * P, d->fout);
+            if (st != MSID_OK) { d->err = MSID_E_BACKEND; d->flags |= MSID_PERIOD_NONFINITE; }
+            for (size_t l = 0; l < L; ++l) d->out[l * C + c] = d->fout[d->bins[l]];
+        }
+    } else {
+        for (size_t k = 0; k < L * C; ++k) d->out[k] = d->acc[k];
+    }
+    uint32_t fl = d->flags;
+    for (size_t k = 0; k < L * C; ++k)
+        if (!msid__finite(d->out[k].re) || !msid__finite(d->out[k].im)) { fl |= MSID_PERIOD_NONFINITE; break; }
+    d->out_flags = fl;
+    d->ready = 1;
+    d->periods++;
+    clear_period(d);
+}
+
+size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
+{
+    if (d->ready || n == 0) return 0;
+    const uint32_t room = d->period - d->pos;
+    const uint32_t take = n < room ? (uint32_t)n : room;
+    const uint32_t C = d->n_channels;
+    if (d->path == MSID_DFT_FFT) {
+        const size_t P = d->period;
+        for (uint32_t s = 0; s < take; ++s)
+            for (uint32_t c = 0; c < C; ++c) d->buf[c * P + d->pos + s] = x[(size_t)s * C + c];
+    } else {
+        stream_block(d, x, take);
+    }
+    d->pos += take;
+    if (d->pos == d->period) finish_period(d);
+    return take;
+}
+
+size_t msid_linedft_push_gap(msid_linedft *d, size_t n)
+{
+    if (d->ready || n == 0) return 0;
+    const uint32_t room = d->period - d->pos;
+    const uint32_t take = n < room ? (uint32_t)n : room;
+    d->flags |= MSID_PERIOD_GAP;
+    if (d->path == MSID_DFT_FFT) {
+        const size_t P = d->period;
+        for (uint32_t c = 0; c < d->n_channels; ++c)
+            for (uint32_t s = 0; s < take; ++s) d->buf[c * P + d->pos + s] = 0.0;
+    } else {
+        for (uint32_t l = 0; l < d->n_lines; ++l)
+            d->idx[l] = (uint32_t)(((uint64_t)d->idx[l] + (uint64_t)d->bins[l] * take) % d->period);
+    }
+    d->pos += take;
+    if (d->pos == d->period) finish_period(d);
+    return take;
+}
+
+void msid_linedft_mark_gap(msid_linedft *d) { d->flags |= MSID_PERIOD_GAP; }
+int msid_linedft_ready(const msid_linedft *d) { return d->ready; }
+const msid_cplx *msid_linedft_spectra(const msid_linedft *d) { return d->ready ? d->out : 0; }
+uint32_t msid_linedft_flags(const msid_linedft *d) { return d->out_flags; }
+void msid_linedft_release(msid_linedft *d) { d->ready = 0; }
+msid_status msid_linedft_error(const msid_linedft *d) { return d->err; }
+
+void msid_linedft_reset(msid_linedft *d)
+{
+    d->ready = 0;
+    d->out_flags = 0;
+    d->periods = 0;
+    clear_period(d);
+}

@@ -1,0 +1,177 @@
+/* Measurement pipeline: rows -> line DFT -> period statistics per experiment. */
+#include "msid/msid_meas.h"
+#include "msid_internal.h"
+
+/* Bins of the DFT: excited lines first, then detection lines. */
+static size_t nbins(const msid_meas_cfg *c) { return (size_t)c->n_lines + c->n_detect; }
+
+static void sub_cfgs(const msid_meas_cfg *c, const uint32_t *bins, msid_linedft_cfg *dc, msid_pstats_cfg *pc)
+{
+    dc->period = c->period;
+    dc->n_channels = c->n_inputs + c->n_outputs;
+    dc->n_lines = (uint32_t)nbins(c);
+    dc->bins = bins;
+    dc->twiddle = c->twiddle;
+    dc->path = c->path;
+    dc->fft = c->fft;
+    pc->n_lines = (uint32_t)nbins(c);
+    pc->n_channels = c->n_inputs + c->n_outputs;
+    pc->skip_periods = c->skip_periods;
+    pc->max_periods = c->max_periods;
+    pc->transient = c->transient;
+    pc->alpha = c->alpha;
+}
+
+size_t msid_meas_mem_size(const msid_meas_cfg *c)
+{
+    if (!c || c->n_lines == 0) return 0;
+    if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS || c->n_outputs == 0 ||
+        c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
+        c->n_experiments > MSID_MAX_EXPERIMENTS) return 0;
+    uint32_t dummy = 0;
+    msid_linedft_cfg dc;
+    msid_pstats_cfg pc;
+    sub_cfgs(c, &dummy, &dc, &pc);
+    const size_t sd = msid_linedft_mem_size(&dc), sp = msid_pstats_mem_size(&pc);
+    if (sd == 0 || sp == 0) return 0;
+    size_t s = msid__chunk(nbins(c), sizeof(uint32_t));
+    s = msid__add(s, sd);
+    s = msid__add(s, msid__chunk(c->n_experiments, sizeof(msid_pstats)));
+    s = msid__add(s, msid__mul(sp, c->n_experiments));
+    s = msid__add(s, msid__chunk(c->n_experiments, sizeof(uint64_t)));
+    s = msid__add(s, msid__chunk(c->n_experiments, sizeof(uint64_t)));
+    return s;
+}
+
+msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *c, void *mem, size_t len)
+{
+    if (!ms || !c || !c->bins || (c->n_detect && !c->detect_bins)) return MSID_E_NULL;
+    if (c->n_lines == 0) return MSID_E_NO_LINES;
+    if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS || c->n_outputs == 0 ||
+        c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
+        c->n_experiments > MSID_MAX_EXPERIMENTS) return MSID_E_DIMS;
+    if (c->n_experiments < c->n_inputs) return MSID_E_EXPERIMENTS;
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
+    for (uint32_t l = 0; l < c->n_lines; ++l) {
+        if ((uint64_t)c->bins[l] * 2u >= c->period) return MSID_E_LINE_RANGE;
+        for (uint32_t j = 0; j < l; ++j) if (c->bins[j] == c->bins[l]) return MSID_E_LINE_DUP;
+    }
+    for (uint32_t l = 0; l < c->n_detect; ++l) {
+        if ((uint64_t)c->detect_bins[l] * 2u > c->period) return MSID_E_LINE_RANGE;
+        for (uint32_t j = 0; j < c->n_lines; ++j) if (c->bins[j] == c->detect_bins[l]) return MSID_E_LINE_DUP;
+        for (uint32_t j = 0; j < l; ++j) if (c->detect_bins[j] == c->detect_bins[l]) return MSID_E_LINE_DUP;
+    }
+    const size_t need = msid_meas_mem_size(c);
+    if (need == 0) return MSID_E_DIMS;
+    msid__arena a;
+    msid_status st = msid__arena_open(&a, mem, len, need);
+    if (st != MSID_OK) return st;
+    const size_t nb = nbins(c), m = c->n_experiments;
+    uint32_t *bins = (uint32_t *)msid__take(&a, nb * sizeof(uint32_t));
+    for (size_t l = 0; l < c->n_lines; ++l) bins[l] = c->bins[l];
+    for (size_t l = 0; l < c->n_detect; ++l) bins[c->n_lines + l] = c->detect_bins[l];
+    msid_linedft_cfg dc;
+    msid_pstats_cfg pc;
+    sub_cfgs(c, bins, &dc, &pc);
+    const size_t sd = msid_linedft_mem_size(&dc), sp = msid_pstats_mem_size(&pc);
+    st = msid_linedft_init(&ms->dft, &dc, msid__take(&a, sd), sd);
+    if (st != MSID_OK) return st;
+    ms->ps = (msid_pstats *)msid__take(&a, m * sizeof(msid_pstats));
+    for (size_t e = 0; e < m; ++e) {
+        st = msid_pstats_init(&ms->ps[e], &pc, msid__take(&a, sp), sp);
+        if (st != MSID_OK) return st;
+    }
+    ms->leftover = (uint64_t *)msid__take(&a, m * sizeof(uint64_t));
+    ms->samples = (uint64_t *)msid__take(&a, m * sizeof(uint64_t));
+    for (size_t e = 0; e < m; ++e) ms->leftover[e] = ms->samples[e] = 0;
+    ms->period = c->period;
+    ms->n_inputs = c->n_inputs;
+    ms->n_outputs = c->n_outputs;
+    ms->n_experiments = c->n_experiments;
+    ms->n_lines = c->n_lines;
+    ms->n_detect = c->n_detect;
+    ms->current = -1;
+    ms->err = MSID_OK;
+    return MSID_OK;
+}
+
+msid_status msid_meas_begin(msid_meas *ms, uint32_t e)
+{
+    if (e >= ms->n_experiments) return MSID_E_ARG;
+    if (ms->current >= 0) return MSID_E_STATE;
+    ms->current = (int)e;
+    msid_linedft_reset(&ms->dft);
+    msid_pstats_new_segment(&ms->ps[e]);
+    return MSID_OK;
+}
+
+/* Hand a completed period to the statistics. */
+static msid_status drain(msid_meas *ms)
+{
+    if (!msid_linedft_ready(&ms->dft)) return MSID_OK;
+    msid_status st = msid_pstats_add(&ms->ps[ms->current], msid_linedft_spectra(&ms->dft),
+                                     msid_linedft_flags(&ms->dft));
+    msid_linedft_release(&ms->dft);
+    if (st == MSID_OK && msid_linedft_error(&ms->dft) != MSID_OK) st = msid_linedft_error(&ms->dft);
+    return st;
+}
+
+msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n)
+{
+    if (ms->current < 0) return MSID_E_STATE;
+    if (ms->err != MSID_OK) return ms->err;
+    if (n && !rows) return MSID_E_NULL;
+    const size_t C = (size_t)ms->n_inputs + ms->n_outputs;
+    while (n) {
+        const size_t k = msid_linedft_push(&ms->dft, rows, n);
+        rows += k * C;
+        n -= k;
+        ms->samples[ms->current] += k;
+        msid_status st = drain(ms);
+        if (st != MSID_OK) { ms->err = st; return st; }
+    }
+    return MSID_OK;
+}
+
+msid_status msid_meas_push_gap(msid_meas *ms, size_t n)
+{
+    if (ms->current < 0) return MSID_E_STATE;
+    if (ms->err != MSID_OK) return ms->err;
+    while (n) {
+        const size_t k = msid_linedft_push_gap(&ms->dft, n);
+        n -= k;
+        ms->samples[ms->current] += k;
+        msid_status st = drain(ms);
+        if (st != MSID_OK) { ms->err = st; return st; }
+    }
+    return MSID_OK;
+}
+
+msid_status msid_meas_mark_gap(msid_meas *ms)
+{
+    if (ms->current < 0) return MSID_E_STATE;
+    msid_linedft_mark_gap(&ms->dft);
+    return MSID_OK;
+}
+
+msid_status msid_meas_end(msid_meas *ms, uint64_t *leftover)
+{
+    if (ms->current < 0) return MSID_E_STATE;
+    const uint32_t e = (uint32_t)ms->current;
+    const uint64_t left = ms->dft.pos;
+    ms->leftover[e] += left;
+    if (leftover) *leftover = left;
+    msid_linedft_reset(&ms->dft);
+    ms->current = -1;
+    return msid_pstats_detect(&ms->ps[e]);
+}
+
+const msid_pstats *msid_meas_stats(const msid_meas *ms, uint32_t e)
+{
+    return e < ms->n_experiments ? &ms->ps[e] : 0;
+}
+
+uint64_t msid_meas_leftover(const msid_meas *ms, uint32_t e)
+{
+    return e < ms->n_experiments ? ms->leftover[e] : 0;
+}

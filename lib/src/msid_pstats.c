@@ -1,0 +1,274 @@
+/* Period statistics (Welford, complex Hermitian) and the leave-one-out
+ * transient test. Mean/covariance: Pintelon 2002 eqs. (25), (32). */
+#include "msid/msid_pstats.h"
+#include "msid/msid_linedft.h"
+#include "msid_internal.h"
+#include "msid_cmat.h"
+#include <math.h>
+
+size_t msid_pstats_mem_size(const msid_pstats_cfg *c)
+{
+    if (!c || c->n_lines == 0 || c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS) return 0;
+    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
+    size_t s = msid__chunk(L * q, sizeof(msid_cplx));
+    s = msid__add(s, msid__chunk(msid__mul(L * q, q), sizeof(msid_cplx)));
+    if (H) {
+        s = msid__add(s, msid__chunk(msid__mul(H, L * q), sizeof(msid_cplx)));
+        s = msid__add(s, msid__chunk(H, 1));
+        s = msid__add(s, msid__chunk(H, 1));
+        s = msid__add(s, msid__chunk(H, sizeof(double)));
+    }
+    return s;
+}
+
+static void clear_stats(msid_pstats *ps)
+{
+    const size_t L = ps->n_lines, q = ps->n_channels;
+    ps->K = 0;
+    for (size_t k = 0; k < L * q; ++k) ps->mean[k] = msid__c(0.0, 0.0);
+    for (size_t k = 0; k < L * q * q; ++k) ps->m2[k] = msid__c(0.0, 0.0);
+}
+
+void msid_pstats_reset(msid_pstats *ps)
+{
+    clear_stats(ps);
+    ps->nhist = 0;
+    ps->seg_skipped = 0;
+    msid_pstats_counts z = {0, 0, 0, 0, 0, 0, 0, 0};
+    ps->cnt = z;
+}
+
+msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *mem, size_t len)
+{
+    if (!ps || !c) return MSID_E_NULL;
+    if (c->n_lines == 0) return MSID_E_NO_LINES;
+    if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS) return MSID_E_DIMS;
+    if (c->transient != MSID_TRANSIENT_OFF && c->transient != MSID_TRANSIENT_FLAG &&
+        c->transient != MSID_TRANSIENT_DROP) return MSID_E_ARG;
+    if (c->transient != MSID_TRANSIENT_OFF && c->max_periods < 3) return MSID_E_ARG;
+    if (c->alpha != 0.0 && !(c->alpha > 0.0 && c->alpha < 1.0)) return MSID_E_ARG;
+    msid__arena a;
+    msid_status st = msid__arena_open(&a, mem, len, msid_pstats_mem_size(c));
+    if (st != MSID_OK) return st;
+    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
+    ps->n_lines = c->n_lines;
+    ps->n_channels = c->n_channels;
+    ps->skip_periods = c->skip_periods;
+    ps->max_periods = c->max_periods;
+    ps->transient = c->transient;
+    ps->alpha = c->alpha != 0.0 ? c->alpha : 0.01;
+    ps->mean = (msid_cplx *)msid__take(&a, L * q * sizeof(msid_cplx));
+    ps->m2 = (msid_cplx *)msid__take(&a, L * q * q * sizeof(msid_cplx));
+    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0;
+    if (H) {
+        ps->hist = (msid_cplx *)msid__take(&a, H * L * q * sizeof(msid_cplx));
+        ps->hflag = (uint8_t *)msid__take(&a, H);
+        ps->hdrop = (uint8_t *)msid__take(&a, H);
+        ps->hpval = (double *)msid__take(&a, H * sizeof(double));
+    }
+    msid_pstats_reset(ps);
+    return MSID_OK;
+}
+
+/* Welford update of mean and the Hermitian scatter; the upper triangle is
+ * computed and mirrored, so m2 is exactly Hermitian. */
+static void welford(msid_pstats *ps, const msid_cplx *z)
+{
+    const size_t L = ps->n_lines, q = ps->n_channels;
+    ps->K++;
+    const double K = (double)ps->K, invK = 1.0 / K, f = (K - 1.0) / K;
+    msid_cplx dl[MSID_MAX_CHANNELS];
+    for (size_t l = 0; l < L; ++l) {
+        msid_cplx *mu = ps->mean + l * q;
+        msid_cplx *M = ps->m2 + l * q * q;
+        const msid_cplx *zl = z + l * q;
+        for (size_t c = 0; c < q; ++c) {
+            dl[c] = msid__csub(zl[c], mu[c]);
+            mu[c] = msid__cadd(mu[c], msid__cscale(dl[c], invK));
+        }
+        for (size_t r = 0; r < q; ++r) {
+            for (size_t c = r; c < q; ++c) {
+                const msid_cplx v = msid__cscale(msid__cmulc(dl[r], dl[c]), f);
+                M[r * q + c] = msid__cadd(M[r * q + c], v);
+                if (c != r) M[c * q + r] = msid__cconj(M[r * q + c]);
+                else M[r * q + r].im = 0.0;
+            }
+        }
+    }
+}
+
+msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
+{
+    ps->cnt.offered++;
+    if (flags & MSID_PERIOD_GAP) { ps->cnt.gap++; return MSID_OK; }
+    if (flags & MSID_PERIOD_NONFINITE) { ps->cnt.nonfinite++; return MSID_OK; }
+    if (ps->seg_skipped < ps->skip_periods) { ps->seg_skipped++; ps->cnt.skipped++; return MSID_OK; }
+    if (ps->max_periods) {
+        if (ps->nhist >= ps->max_periods) { ps->cnt.offered--; return MSID_E_CAPACITY; }
+        const size_t n = (size_t)ps->n_lines * ps->n_channels;
+        msid_cplx *dst = ps->hist + (size_t)ps->nhist * n;
+        for (size_t k = 0; k < n; ++k) dst[k] = z[k];
+        ps->hflag[ps->nhist] = 0;
+        ps->hdrop[ps->nhist] = 0;
+        ps->hpval[ps->nhist] = NAN;
+        ps->nhist++;
+    }
+    welford(ps, z);
+    ps->cnt.used = ps->K;
+    return MSID_OK;
+}
+
+/* Upper tail of Gamma(n, 1) at S for integer n >= 1:
+ * Q = exp(-S) sum_{j<n} S^j / j!, summed in the log domain. */
+static double gamma_upper_int(uint32_t n, double S)
+{
+    if (!(S > 0.0)) return 1.0;
+    const double lS = log(S);
+    double lt = -S, mx = -S;
+    for (uint32_t j = 1; j < n; ++j) {
+        lt += lS - log((double)j);
+        if (lt > mx) mx = lt;
+    }
+    double sum = 0.0;
+    lt = -S;
+    sum += exp(lt - mx);
+    for (uint32_t j = 1; j < n; ++j) {
+        lt += lS - log((double)j);
+        sum += exp(lt - mx);
+    }
+    const double q = exp(mx + log(sum));
+    return q > 1.0 ? 1.0 : q;
+}
+
+/* p-value of one kept period p against the other kept periods. */
+static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K)
+{
+    const size_t L = ps->n_lines, q = ps->n_channels;
+    const msid_cplx *zp = ps->hist + (size_t)p * L * q;
+    const double Kd = (double)K, n = (double)(K - 2u);
+    double fisher = 0.0, pmin = 1.0;
+    uint32_t ntested = 0;
+    for (size_t l = 0; l < L; ++l) {
+        double cmin = 1.0;
+        uint32_t qt = 0;
+        for (size_t c = 0; c < q; ++c) {
+            const msid_cplx mu = mean[l * q + c];
+            const double dev2 = msid__cabs2(msid__csub(zp[l * q + c], mu));
+            const double m2c = m2d[l * q + c];
+            /* leave-one-out scatter and difference */
+            double s2 = (m2c - Kd / (Kd - 1.0) * dev2) / n;
+            const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
+            const double floor_ = 1e-24 * (msid__cabs2(mu) + m2c / (Kd - 1.0)) + 1e-300;
+            double pv;
+            if (s2 <= floor_) {
+                if (d2 <= floor_) continue;          /* deterministic channel, unchanged */
+                pv = 0.0;                            /* deterministic channel that changed */
+            } else {
+                const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
+                pv = exp(-n * log1p(t / n));         /* P(F(2, 2n) > t) */
+            }
+            qt++;
+            if (pv < cmin) cmin = pv;
+        }
+        if (qt == 0) continue;
+        double pl = cmin * (double)qt;               /* Bonferroni over channels */
+        if (pl > 1.0) pl = 1.0;
+        ntested++;
+        fisher += pl > 0.0 ? -log(pl) : 745.0;
+        if (pl < pmin) pmin = pl;
+    }
+    if (ntested == 0) return 1.0;
+    const double pf = gamma_upper_int(ntested, fisher);
+    double pb = pmin * (double)ntested;
+    if (pb > 1.0) pb = 1.0;
+    double pv = 2.0 * (pf < pb ? pf : pb);
+    return pv > 1.0 ? 1.0 : pv;
+}
+
+/* Two-pass mean and diagonal scatter over the kept history periods. */
+static void kept_moments(const msid_pstats *ps, msid_cplx *mean, double *m2d, uint32_t *K)
+{
+    const size_t L = ps->n_lines, q = ps->n_channels, n = L * q;
+    uint32_t k = 0;
+    for (size_t i = 0; i < n; ++i) { mean[i] = msid__c(0.0, 0.0); m2d[i] = 0.0; }
+    for (uint32_t p = 0; p < ps->nhist; ++p) {
+        if (ps->hdrop[p]) continue;
+        k++;
+        const msid_cplx *z = ps->hist + (size_t)p * n;
+        for (size_t i = 0; i < n; ++i) mean[i] = msid__cadd(mean[i], z[i]);
+    }
+    for (size_t i = 0; i < n; ++i) mean[i] = msid__cscale(mean[i], 1.0 / (double)k);
+    for (uint32_t p = 0; p < ps->nhist; ++p) {
+        if (ps->hdrop[p]) continue;
+        const msid_cplx *z = ps->hist + (size_t)p * n;
+        for (size_t i = 0; i < n; ++i) m2d[i] += msid__cabs2(msid__csub(z[i], mean[i]));
+    }
+    *K = k;
+}
+
+msid_status msid_pstats_detect(msid_pstats *ps)
+{
+    if (ps->transient == MSID_TRANSIENT_OFF) return MSID_OK;
+    if (ps->nhist < 3) { ps->cnt.tested = 0; return MSID_OK; }
+    /* Scratch: reuse the statistics arrays (recomputed afterwards). */
+    msid_cplx *mean = ps->mean;
+    double *m2d = (double *)ps->m2;      /* L*q doubles fit in L*q*q complex */
+    const uint32_t K0 = ps->nhist;
+    const double level = ps->alpha / (double)K0;
+    ps->cnt.tested = 1;
+    for (;;) {
+        uint32_t K;
+        kept_moments(ps, mean, m2d, &K);
+        if (K < 3) break;
+        double worst = 2.0;
+        uint32_t wp = 0;
+        for (uint32_t p = 0; p < ps->nhist; ++p) {
+            if (ps->hdrop[p]) continue;
+            const double pv = period_pvalue(ps, p, mean, m2d, K);
+            ps->hpval[p] = pv;
+            if (pv < worst) { worst = pv; wp = p; }
+        }
+        if (ps->transient == MSID_TRANSIENT_FLAG) {
+            for (uint32_t p = 0; p < ps->nhist; ++p)
+                if (ps->hpval[p] < level && !ps->hflag[p]) { ps->hflag[p] = 1; ps->cnt.transient_flagged++; }
+            break;
+        }
+        if (!(worst < level)) break;
+        ps->hflag[wp] = 1;
+        ps->hdrop[wp] = 1;
+        ps->cnt.transient_flagged++;
+        ps->cnt.transient_dropped++;
+    }
+    /* Rebuild the Welford statistics from the kept periods, in order. */
+    clear_stats(ps);
+    const size_t n = (size_t)ps->n_lines * ps->n_channels;
+    for (uint32_t p = 0; p < ps->nhist; ++p)
+        if (!ps->hdrop[p]) welford(ps, ps->hist + (size_t)p * n);
+    ps->cnt.used = ps->K;
+    return MSID_OK;
+}
+
+void msid_pstats_new_segment(msid_pstats *ps) { ps->seg_skipped = 0; }
+
+uint32_t msid_pstats_count(const msid_pstats *ps) { return ps->K; }
+
+const msid_cplx *msid_pstats_mean(const msid_pstats *ps, uint32_t l)
+{
+    return l < ps->n_lines ? ps->mean + (size_t)l * ps->n_channels : 0;
+}
+
+const msid_cplx *msid_pstats_scatter(const msid_pstats *ps, uint32_t l)
+{
+    return l < ps->n_lines ? ps->m2 + (size_t)l * ps->n_channels * ps->n_channels : 0;
+}
+
+msid_pstats_counts msid_pstats_get_counts(const msid_pstats *ps) { return ps->cnt; }
+uint32_t msid_pstats_history(const msid_pstats *ps) { return ps->nhist; }
+
+int msid_pstats_period_state(const msid_pstats *ps, uint32_t k, double *pval)
+{
+    if (k >= ps->nhist) return -1;
+    if (pval) *pval = ps->hpval[k];
+    if (ps->hdrop[k]) return 2;
+    return ps->hflag[k] ? 1 : 0;
+}

@@ -1,0 +1,32 @@
+/* Twiddle table from the deterministic whole-turn sin/cos. */
+#include "msid/msid_twiddle.h"
+#include "msid/msid_dmath.h"
+#include "msid_internal.h"
+
+size_t msid_twiddle_mem_size(uint32_t period)
+{
+    if (period < MSID_MIN_PERIOD || period > MSID_MAX_PERIOD) return 0;
+    return msid__chunk(period, sizeof(msid_cplx));
+}
+
+msid_status msid_twiddle_init(msid_twiddle *tw, uint32_t period, void *mem, size_t len)
+{
+    if (!tw) return MSID_E_NULL;
+    const size_t need = msid_twiddle_mem_size(period);
+    if (need == 0) return MSID_E_PERIOD;
+    msid__arena a;
+    msid_status st = msid__arena_open(&a, mem, len, need);
+    if (st != MSID_OK) return st;
+    msid_cplx *w = (msid_cplx *)msid__take(&a, (size_t)period * sizeof(msid_cplx));
+    for (uint32_t n = 0; n < period; ++n) {
+        double c, s;
+        /* n/P rounded once (IEEE division); n/P = k/8 is exact, so the
+         * symmetric points get exact 0, +-1, +-sqrt(1/2) values. */
+        msid_cis_turns((double)n / (double)period, &c, &s);
+        w[n].re = c;
+        w[n].im = -s;
+    }
+    tw->period = period;
+    tw->w = w;
+    return MSID_OK;
+}
