@@ -1,0 +1,211 @@
+#include "cli_util.hpp"
+
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fcntl.h>
+#include <unistd.h>
+
+namespace msidcli {
+
+Args::Args(int argc, char **argv, int first, const std::vector<std::string> &valued,
+           const std::vector<std::string> &flags, const std::vector<std::string> &repeatable)
+{
+    auto in = [](const std::vector<std::string> &v, const std::string &k) {
+        for (auto &x : v) if (x == k) return true;
+        return false;
+    };
+    for (int i = first; i < argc; ++i) {
+        std::string a = argv[i];
+        if (a.size() > 2 && a[0] == '-' && a[1] == '-') {
+            std::string key = a.substr(2), val;
+            bool inl = false;
+            auto eq = key.find('=');
+            if (eq != std::string::npos) { val = key.substr(eq + 1); key = key.substr(0, eq); inl = true; }
+            if (in(flags, key)) {
+                if (inl) throw UsageError("option --" + key + " takes no value");
+                kv_[key].push_back("1");
+            } else if (in(valued, key) || in(repeatable, key)) {
+                if (!inl) {
+                    if (i + 1 >= argc) throw UsageError("option --" + key + " needs a value");
+                    val = argv[++i];
+                }
+                if (kv_.count(key) && !in(repeatable, key))
+                    throw UsageError("option --" + key + " is given twice");
+                kv_[key].push_back(val);
+            } else {
+                throw UsageError("unknown option --" + key);
+            }
+        } else if (a == "-o") {
+            if (i + 1 >= argc) throw UsageError("option -o needs a value");
+            if (kv_.count("output")) throw UsageError("option -o is given twice");
+            kv_["output"].push_back(argv[++i]);
+        } else if (a.size() > 1 && a[0] == '-' && !(a[1] >= '0' && a[1] <= '9')) {
+            throw UsageError("unknown option " + a);
+        } else {
+            pos_.push_back(a);
+        }
+    }
+}
+
+bool Args::has(const std::string &k) const { return kv_.count(k) != 0; }
+std::string Args::get(const std::string &k, const std::string &def) const
+{
+    auto it = kv_.find(k);
+    return it == kv_.end() ? def : it->second.back();
+}
+const std::vector<std::string> &Args::all(const std::string &k) const
+{
+    static const std::vector<std::string> none;
+    auto it = kv_.find(k);
+    return it == kv_.end() ? none : it->second;
+}
+std::string Args::require(const std::string &k) const
+{
+    if (!has(k)) throw UsageError(k == "output" ? "missing -o <file>" : "missing --" + k);
+    return get(k);
+}
+
+static std::string trim(const std::string &s)
+{
+    size_t a = 0, b = s.size();
+    while (a < b && (s[a] == ' ' || s[a] == '\t')) ++a;
+    while (b > a && (s[b - 1] == ' ' || s[b - 1] == '\t')) --b;
+    return s.substr(a, b - a);
+}
+
+double parse_double(const std::string &s0, const std::string &what)
+{
+    std::string s = trim(s0);
+    double v = 0;
+    auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (s.empty() || r.ec != std::errc() || r.ptr != s.data() + s.size())
+        throw UsageError(what + ": '" + s0 + "' is not a number");
+    if (!std::isfinite(v)) throw UsageError(what + ": '" + s0 + "' is not finite");
+    return v;
+}
+
+uint64_t parse_u64(const std::string &s0, const std::string &what)
+{
+    std::string s = trim(s0);
+    uint64_t v = 0;
+    auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (s.empty() || r.ec != std::errc() || r.ptr != s.data() + s.size())
+        throw UsageError(what + ": '" + s0 + "' is not a non-negative integer");
+    return v;
+}
+
+uint32_t parse_u32(const std::string &s, const std::string &what)
+{
+    uint64_t v = parse_u64(s, what);
+    if (v > 0xFFFFFFFFull) throw UsageError(what + ": '" + s + "' is too large");
+    return (uint32_t)v;
+}
+
+static std::vector<std::string> split(const std::string &s, char sep)
+{
+    std::vector<std::string> out;
+    size_t a = 0;
+    for (;;) {
+        size_t b = s.find(sep, a);
+        out.push_back(s.substr(a, b == std::string::npos ? std::string::npos : b - a));
+        if (b == std::string::npos) break;
+        a = b + 1;
+    }
+    return out;
+}
+
+std::vector<uint32_t> parse_uint_list(const std::string &s, const std::string &what)
+{
+    std::vector<uint32_t> out;
+    if (trim(s).empty()) throw UsageError(what + ": empty list");
+    for (auto &item : split(s, ',')) {
+        auto parts = split(item, ':');
+        if (parts.size() == 1) {
+            out.push_back(parse_u32(parts[0], what));
+        } else if (parts.size() == 2 || parts.size() == 3) {
+            uint32_t a = parse_u32(parts[0], what), b = parse_u32(parts.back(), what);
+            uint32_t st = parts.size() == 3 ? parse_u32(parts[1], what) : 1;
+            if (st == 0 || b < a) throw UsageError(what + ": bad range '" + item + "'");
+            if ((uint64_t)(b - a) / st > 50000000ull) throw UsageError(what + ": range '" + item + "' is too long");
+            for (uint64_t k = a; k <= b; k += st) out.push_back((uint32_t)k);
+        } else {
+            throw UsageError(what + ": bad item '" + item + "'");
+        }
+    }
+    return out;
+}
+
+std::vector<double> parse_double_list(const std::string &s, const std::string &what)
+{
+    std::vector<double> out;
+    if (trim(s).empty()) throw UsageError(what + ": empty list");
+    for (auto &item : split(s, ',')) out.push_back(parse_double(item, what));
+    return out;
+}
+
+void check(msid_status st, const std::string &context)
+{
+    if (st != MSID_OK) throw Error(context + ": " + msid_strerror(st));
+}
+
+void write_file_atomic(const std::string &path, const std::string &data)
+{
+    std::string tmp = path + ".tmp." + std::to_string(getpid());
+    int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd < 0) throw Error("cannot write '" + path + "': " + std::strerror(errno));
+    size_t off = 0;
+    while (off < data.size()) {
+        ssize_t k = ::write(fd, data.data() + off, data.size() - off);
+        if (k < 0) {
+            if (errno == EINTR) continue;
+            int e = errno;
+            ::close(fd);
+            ::unlink(tmp.c_str());
+            throw Error("cannot write '" + path + "': " + std::strerror(e));
+        }
+        off += (size_t)k;
+    }
+    if (::fsync(fd) != 0 || ::close(fd) != 0) {
+        int e = errno;
+        ::unlink(tmp.c_str());
+        throw Error("cannot write '" + path + "': " + std::strerror(e));
+    }
+    if (::rename(tmp.c_str(), path.c_str()) != 0) {
+        int e = errno;
+        ::unlink(tmp.c_str());
+        throw Error("cannot write '" + path + "': " + std::strerror(e));
+    }
+}
+
+Mem::Mem(size_t bytes)
+{
+    if (bytes == 0) bytes = MSID_MEM_ALIGN;
+    size_t r = (bytes + MSID_MEM_ALIGN - 1) / MSID_MEM_ALIGN * MSID_MEM_ALIGN;
+    p = std::aligned_alloc(MSID_MEM_ALIGN, r);
+    if (!p) throw Error("out of memory (" + std::to_string(bytes) + " bytes)");
+    std::memset(p, 0, r);
+    n = r;
+}
+Mem &Mem::operator=(Mem &&o) noexcept
+{
+    if (this != &o) { std::free(p); p = o.p; n = o.n; o.p = nullptr; o.n = 0; }
+    return *this;
+}
+Mem::~Mem() { std::free(p); }
+
+std::string fmt(const char *f, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, f);
+    vsnprintf(buf, sizeof buf, f, ap);
+    va_end(ap);
+    return buf;
+}
+
+}  // namespace msidcli

@@ -1,0 +1,8 @@
+// Subcommands of the msid command line.
+#pragma once
+namespace msidcli {
+int cmd_excite(int argc, char **argv);
+int cmd_frf(int argc, char **argv);
+int cmd_demo(int argc, char **argv);
+int cmd_bench(int argc, char **argv);
+}  // namespace msidcli

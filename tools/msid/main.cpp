@@ -1,0 +1,46 @@
+// msid: multisine system identification on the bench.
+#include "cli_util.hpp"
+#include "commands.hpp"
+
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+static const char *USAGE =
+    "usage: msid <command> [options]\n"
+    "\n"
+    "commands:\n"
+    "  excite   design a multisine (msid-design/1) and optionally write its input samples as CSV\n"
+    "  frf      estimate the MIMO FRF and its covariance from experiment CSVs (msid-frf/1)\n"
+    "  demo     design, simulate a built-in 2x2 plant, estimate, and compare with the truth\n"
+    "  bench    benchmarks: `msid bench frf`\n"
+    "  version  print the version\n"
+    "\n"
+    "`msid <command> --help` shows the options of a command. See README.md and docs/.\n";
+
+int main(int argc, char **argv)
+{
+    if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
+        std::fputs(USAGE, argc < 2 ? stderr : stdout);
+        return argc < 2 ? 2 : 0;
+    }
+    const std::string cmd = argv[1];
+    try {
+        if (cmd == "excite") return msidcli::cmd_excite(argc, argv);
+        if (cmd == "frf") return msidcli::cmd_frf(argc, argv);
+        if (cmd == "demo") return msidcli::cmd_demo(argc, argv);
+        if (cmd == "bench") return msidcli::cmd_bench(argc, argv);
+        if (cmd == "version" || cmd == "--version") {
+            std::printf("msid %s\n", MSID_VERSION);
+            return 0;
+        }
+        std::fprintf(stderr, "msid: error: unknown command '%s' (try msid --help)\n", cmd.c_str());
+        return 2;
+    } catch (const msidcli::Error &e) {
+        std::fprintf(stderr, "msid %s: error: %s\n", cmd.c_str(), e.what());
+        return e.code;
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "msid %s: error: %s\n", cmd.c_str(), e.what());
+        return 1;
+    }
+}

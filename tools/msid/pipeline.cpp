@@ -1,0 +1,287 @@
+#include "pipeline.hpp"
+
+extern "C" {
+#include "msid/msid_fft_fftw.h"
+}
+#include <cmath>
+
+namespace msidcli {
+
+
+Json cmat_json(const msid_cplx *a, size_t rows, size_t cols)
+{
+    Json re = Json::array(), im = Json::array();
+    for (size_t r = 0; r < rows; ++r) {
+        Json rr = Json::array(), ri = Json::array();
+        for (size_t c = 0; c < cols; ++c) {
+            rr.push_back(a[r * cols + c].re);
+            ri.push_back(a[r * cols + c].im);
+        }
+        re.push_back(rr);
+        im.push_back(ri);
+    }
+    return Json{{"re", re}, {"im", im}};
+}
+
+void request_from_design(FrfRequest &rq, const Design &D)
+{
+    const msid_design &d = D.d;
+    rq.period = d.period;
+    rq.bins.assign(d.bins, d.bins + d.n_lines);
+    if (d.is_ct) {
+        rq.folded.assign(d.folded, d.folded + d.n_lines);
+        rq.omega.assign(d.omega, d.omega + d.n_lines);
+        rq.sample_time = d.sample_time;
+    }
+    rq.design = &D;
+}
+
+// RAII for the FFTW backend.
+struct Fftw {
+    msid_fft_fftw f{};
+    bool on = false;
+    ~Fftw() { if (on) msid_fft_fftw_destroy(&f); }
+};
+
+static void validate_lines(const FrfRequest &rq)
+{
+    if (rq.period < MSID_MIN_PERIOD || rq.period > MSID_MAX_PERIOD)
+        throw Error(fmt("period %u is outside [%u, %u] samples", rq.period, MSID_MIN_PERIOD, MSID_MAX_PERIOD));
+    if (rq.bins.empty()) throw Error("no lines given");
+    std::vector<int32_t> seen(rq.period / 2 + 1, -1);
+    for (size_t l = 0; l < rq.bins.size(); ++l) {
+        const uint32_t b = rq.bins[l];
+        if ((uint64_t)b * 2 >= rq.period)
+            throw Error(fmt("line %u is at or beyond Nyquist: lines must be below P/2 = %g", b, rq.period / 2.0));
+        if (seen[b] >= 0) throw Error(fmt("line %u is given twice", b));
+        seen[b] = (int32_t)l;
+    }
+    for (uint32_t b : rq.detect) {
+        if ((uint64_t)b * 2 > rq.period)
+            throw Error(fmt("detection line %u is beyond Nyquist (P/2 = %g)", b, rq.period / 2.0));
+        if (seen[b] >= 0) throw Error(fmt("detection line %u is an excited line or given twice", b));
+        seen[b] = 1 << 30;
+    }
+}
+
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+{
+    FrfOutcome out;
+    validate_lines(rq);
+    if (recs.empty()) throw Error("no experiment files given (--experiment)");
+    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
+    for (const auto &r : recs)
+        if (r.nu != nu || r.ny != ny)
+            throw Error(fmt("'%s' has %u inputs and %u outputs but '%s' has %u and %u", r.path.c_str(), r.nu, r.ny,
+                            recs[0].path.c_str(), nu, ny));
+    if (m > MSID_MAX_EXPERIMENTS) throw Error(fmt("%u experiments: at most %u are supported", m, MSID_MAX_EXPERIMENTS));
+    if (m < nu)
+        throw Error(fmt("%u inputs need at least %u experiments (one file each); got %u", nu, nu, m));
+    if (rq.design) {
+        if (rq.design->d.n_inputs != nu)
+            throw Error(fmt("the design has %u inputs but the files have %u input columns", rq.design->d.n_inputs, nu));
+        if (rq.design->d.n_experiments != m)
+            throw Error(fmt("the design has %u experiments but %u experiment files are given",
+                            rq.design->d.n_experiments, m));
+    }
+    uint32_t maxK = 0;
+    for (const auto &r : recs) {
+        const uint64_t K = r.n_rows / P, left = r.n_rows % P;
+        if (K < 2 + (uint64_t)rq.skip)
+            throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least 2 usable periods "
+                            "are needed to estimate a covariance",
+                            r.path.c_str(), (unsigned long long)K, P, r.n_rows,
+                            rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
+        if (left)
+            out.notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", r.path.c_str(),
+                                    (unsigned long long)left));
+        if (K > 0xFFFFFFu) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
+        if (K > maxK) maxK = (uint32_t)K;
+    }
+
+    // Twiddle table (stream path) and FFTW backend (dense path).
+    const size_t L = rq.bins.size(), Ld = rq.detect.size();
+    Mem mtw(msid_twiddle_mem_size(P));
+    msid_twiddle tw;
+    check(msid_twiddle_init(&tw, P, mtw.p, mtw.n), "twiddle table");
+    msid_dft_path path = rq.path;
+    if (path == MSID_DFT_AUTO) path = msid_linedft_choose(P, (uint32_t)(L + Ld), nu + ny, 1);
+    Fftw fftw;
+    if (path == MSID_DFT_FFT) {
+        check(msid_fft_fftw_create(&fftw.f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
+        fftw.on = true;
+    }
+    out.dft_path = path == MSID_DFT_FFT ? "fft" : "stream";
+
+    msid_meas_cfg mc{};
+    mc.period = P;
+    mc.n_inputs = nu;
+    mc.n_outputs = ny;
+    mc.n_experiments = m;
+    mc.n_lines = (uint32_t)L;
+    mc.bins = rq.bins.data();
+    mc.n_detect = (uint32_t)Ld;
+    mc.detect_bins = Ld ? rq.detect.data() : nullptr;
+    mc.twiddle = &tw;
+    mc.path = path;
+    mc.fft = fftw.on ? &fftw.f.be : nullptr;
+    mc.skip_periods = rq.skip;
+    mc.transient = maxK - rq.skip >= 3 ? rq.transient : MSID_TRANSIENT_OFF;
+    mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? maxK : 0;
+    mc.alpha = rq.alpha;
+    const size_t nm = msid_meas_mem_size(&mc);
+    if (nm == 0) throw Error("measurement dimensions out of range");
+    Mem mm(nm);
+    msid_meas ms;
+    check(msid_meas_init(&ms, &mc, mm.p, mm.n), "measurement setup");
+
+    const size_t C = nu + ny;
+    for (uint32_t e = 0; e < m; ++e) {
+        const Record &r = recs[e];
+        check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
+        const size_t nwhole = r.n_rows / P * P;
+        const size_t blk = rq.block ? rq.block : nwhole;
+        for (size_t k = 0; k < nwhole; k += blk) {
+            const size_t n = std::min(blk, nwhole - k);
+            check(msid_meas_push(&ms, r.rows.data() + k * C, n), "'" + r.path + "'");
+        }
+        check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
+    }
+
+    // Per-experiment accounting, and enough periods left?
+    Json exps = Json::array();
+    uint64_t used = 0, rejected = 0;
+    std::vector<const msid_pstats *> ps(m);
+    for (uint32_t e = 0; e < m; ++e) {
+        const Record &r = recs[e];
+        ps[e] = msid_meas_stats(&ms, e);
+        const msid_pstats_counts c = msid_pstats_get_counts(ps[e]);
+        Json flagged = Json::array(), dropped = Json::array(), pvals = Json::array();
+        for (uint32_t k = 0; k < msid_pstats_history(ps[e]); ++k) {
+            double pv;
+            const int s = msid_pstats_period_state(ps[e], k, &pv);
+            const uint32_t period_index = k + c.skipped;   // 0-based index in the file
+            if (s >= 1) flagged.push_back(period_index);
+            if (s == 2) dropped.push_back(period_index);
+            if (s >= 1)
+                out.notes.push_back(fmt("'%s': period %u departs from the others more than the noise explains "
+                                        "(p = %.2g): likely a transient%s",
+                                        r.path.c_str(), period_index + 1, pv,
+                                        s == 2 ? "; dropped" : "; kept (use --skip-periods or --transient drop)"));
+        }
+        Json je;
+        je["source"] = r.path;
+        je["samples"] = r.n_rows;
+        je["periods_total"] = r.n_rows / P;
+        je["periods_skipped"] = c.skipped;
+        je["periods_used"] = c.used;
+        je["periods_gap"] = c.gap;
+        je["periods_nonfinite"] = c.nonfinite;
+        je["transient_tested"] = c.tested != 0;
+        je["transient_flagged"] = flagged;
+        je["transient_dropped"] = dropped;
+        je["leftover_samples"] = r.n_rows % P;
+        exps.push_back(je);
+        used += c.used;
+        rejected += c.gap + c.nonfinite + c.transient_dropped;
+        if (c.used < 2)
+            throw Error(fmt("'%s': only %u usable period(s) after skipping %u and rejecting %u: at least 2 are needed",
+                            r.path.c_str(), c.used, c.skipped, c.gap + c.nonfinite + c.transient_dropped));
+    }
+
+    msid_frf_cfg fc{};
+    fc.period = P;
+    fc.n_inputs = nu;
+    fc.n_outputs = ny;
+    fc.n_experiments = m;
+    fc.n_lines = (uint32_t)L;
+    fc.n_detect = (uint32_t)Ld;
+    fc.folded = rq.folded.empty() ? nullptr : rq.folded.data();
+    const size_t nf = msid_frf_mem_size(&fc);
+    if (nf == 0) throw Error("FRF dimensions out of range");
+    Mem mf(nf);
+    msid_frf f;
+    check(msid_frf_init(&f, &fc, mf.p, mf.n), "FRF setup");
+    msid_status st = msid_frf_compute(&f, ps.data());
+    if (st == MSID_E_SINGULAR) {
+        const uint32_t l = (uint32_t)f.bad_line;
+        throw Error(fmt("the input matrix is singular at line %u (bin %u, condition number %.3g): the experiments do not "
+                        "excite the %u inputs independently there",
+                        l + 1, rq.bins[l], msid_frf_cond(&f, l), nu));
+    }
+    if (st == MSID_E_FEW_PERIODS)
+        throw Error(fmt("'%s': fewer than 2 usable periods", recs[(size_t)f.bad_experiment].path.c_str()));
+    check(st, "FRF");
+
+    const size_t g = (size_t)nu * ny;
+    Json doc;
+    doc["format"] = "msid-frf/1";
+    doc["generator"] = std::string("msid ") + MSID_VERSION;
+    doc["period_samples"] = P;
+    doc["n_inputs"] = nu;
+    doc["n_outputs"] = ny;
+    doc["n_experiments"] = m;
+    const bool ct = !rq.omega.empty();
+    doc["domain"] = ct ? "ct" : "dt";
+    if (ct || rq.fs > 0) doc["sample_time"] = ct ? rq.sample_time : 1.0 / rq.fs;
+    if (rq.fs > 0) doc["fs_hz"] = rq.fs;
+    doc["periods_used"] = used;
+    doc["periods_rejected"] = rejected;
+    doc["dft_path"] = out.dft_path;
+    doc["vec_convention"] = "vec stacks columns: G[i][j] has index i + n_outputs*j";
+    doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
+    doc["experiments"] = exps;
+    Json lines = Json::array();
+    for (uint32_t l = 0; l < L; ++l) {
+        Json e;
+        const uint32_t b = rq.bins[l];
+        e["bin"] = b;
+        e["freq"] = (double)b / P;
+        if (ct) {
+            e["omega"] = rq.omega[l];
+            e["folded"] = rq.folded[l] != 0;
+            e["freq_hz"] = rq.omega[l] / (2 * M_PI);
+        } else if (rq.fs > 0) {
+            e["freq_hz"] = (double)b / P * rq.fs;
+        }
+        if (b == 0) e["real"] = true;
+        e["G"] = cmat_json(msid_frf_G(&f, l), ny, nu);
+        e["cov"] = cmat_json(msid_frf_cov(&f, l), g, g);
+        e["dof"] = msid_frf_dof(&f, l);
+        e["cov_known_input"] = cmat_json(msid_frf_cov_known_input(&f, l), g, g);
+        e["dof_known_input"] = msid_frf_dof_known_input(&f, l);
+        e["noise_cov"] = cmat_json(msid_frf_noise_cov(&f, l), ny, ny);
+        Json snr = Json::array();
+        for (uint32_t i = 0; i < ny; ++i) {
+            const double s = msid_frf_snr_db(&f, l)[i];
+            if (std::isfinite(s)) snr.push_back(s); else snr.push_back(nullptr);
+        }
+        e["snr"] = snr;
+        e["cond"] = msid_frf_cond(&f, l);
+        lines.push_back(e);
+    }
+    doc["lines"] = lines;
+    if (Ld) {
+        Json dl = Json::array();
+        for (uint32_t d = 0; d < Ld; ++d) {
+            Json e;
+            e["bin"] = rq.detect[d];
+            e["freq"] = (double)rq.detect[d] / P;
+            if (rq.fs > 0) e["freq_hz"] = (double)rq.detect[d] / P * rq.fs;
+            e["Y_mean"] = cmat_json(msid_frf_detect_mean(&f, d), m, ny);
+            Json v = Json::array(), p = Json::array();
+            for (uint32_t i = 0; i < ny; ++i) {
+                v.push_back(msid_frf_detect_var(&f, d)[i]);
+                p.push_back(msid_frf_detect_pvalue(&f, d)[i]);
+            }
+            e["noise_var"] = v;
+            e["p_value"] = p;
+            dl.push_back(e);
+        }
+        doc["detection_lines"] = dl;
+    }
+    out.doc = std::move(doc);
+    return out;
+}
+
+}  // namespace msidcli
