@@ -45,6 +45,10 @@ void msid_cis_turns(double t, double *c, double *s)
     double s0, c0;
     if ((o & 1) == 0) {
         sincos_q(r * MSID_PI_4, &s0, &c0);
+    } else if (r == 0.0) {
+        /* odd multiple of 1/8 turn: cos = sin = sqrt(1/2) exactly rounded
+         * (the series at the rounded pi/4 gives sin one ulp low) */
+        s0 = c0 = 0.70710678118654752440;
     } else {
         /* angle = q*pi/2 + pi/2 - (1-r)*pi/4 */
         double sa, ca;
@@ -72,8 +76,12 @@ double msid_log(double x)
     int e;
     double m = frexp(x, &e);             /* exact: x = m * 2^e, m in [0.5,1) */
     if (m < 0.70710678118654752440) { m *= 2.0; e -= 1; }   /* m in [sqrt(1/2), sqrt(2)) */
-    /* ln m = 2 atanh(s), s = (m-1)/(m+1), |s| <= 0.1716; series to s^27. */
-    const double s = (m - 1.0) / (m + 1.0);
+    /* ln m = 2 atanh(s), s = f/(2+f), f = m-1 (exact), |s| <= 0.1716; series to s^27.
+     * Written as f - (hfsq - s*(hfsq + R)) (the fdlibm form): 2s = f - s*f and
+     * s*f = hfsq - s*hfsq, so the large term f is exact and the error stays < 1 ulp. */
+    const double f = m - 1.0;
+    const double hfsq = 0.5 * f * f;
+    const double s = f / (2.0 + f);
     const double s2 = s * s;
     double p = 1.0 / 27.0;
     p = 1.0 / 25.0 + s2 * p;
@@ -88,9 +96,9 @@ double msid_log(double x)
     p = 1.0 / 7.0 + s2 * p;
     p = 1.0 / 5.0 + s2 * p;
     p = 1.0 / 3.0 + s2 * p;
-    const double lnm = 2.0 * s + 2.0 * s * s2 * p;
+    const double R = 2.0 * s2 * p;       /* ln m = 2s + s*R */
     /* ln2 split in two parts so e*LN2_HI is exact for |e| < 2^11. */
     const double LN2_HI = 6.93147180369123816490e-01;
     const double LN2_LO = 1.90821492927058770002e-10;
-    return ((double)e * LN2_HI + lnm) + (double)e * LN2_LO;
+    return (double)e * LN2_HI - ((hfsq - (s * (hfsq + R) + (double)e * LN2_LO)) - f);
 }

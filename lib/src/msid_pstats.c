@@ -206,6 +206,13 @@ static void kept_moments(const msid_pstats *ps, msid_cplx *mean, double *m2d, ui
     *K = k;
 }
 
+/* Level of period k of K: alpha * (2^-(k+2) + 1/(2K)); sum over k < 1. */
+static double period_level(double alpha, uint32_t k, uint32_t K)
+{
+    const double early = k < 60u ? ldexp(1.0, -(int)(k + 2u)) : 0.0;
+    return alpha * (early + 0.5 / (double)K);
+}
+
 msid_status msid_pstats_detect(msid_pstats *ps)
 {
     if (ps->transient == MSID_TRANSIENT_OFF) return MSID_OK;
@@ -214,26 +221,31 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     msid_cplx *mean = ps->mean;
     double *m2d = (double *)ps->m2;      /* L*q doubles fit in L*q*q complex */
     const uint32_t K0 = ps->nhist;
-    const double level = ps->alpha / (double)K0;
     ps->cnt.tested = 1;
     for (;;) {
         uint32_t K;
         kept_moments(ps, mean, m2d, &K);
         if (K < 3) break;
-        double worst = 2.0;
+        /* Weighted Bonferroni over periods: transients sit at the start of a
+         * record, so early periods get more of alpha; the weights sum to < 1. */
+        double worst = HUGE_VAL;
         uint32_t wp = 0;
         for (uint32_t p = 0; p < ps->nhist; ++p) {
             if (ps->hdrop[p]) continue;
             const double pv = period_pvalue(ps, p, mean, m2d, K);
             ps->hpval[p] = pv;
-            if (pv < worst) { worst = pv; wp = p; }
+            const double r = pv / period_level(ps->alpha, p, K0);
+            if (r < worst) { worst = r; wp = p; }
         }
         if (ps->transient == MSID_TRANSIENT_FLAG) {
             for (uint32_t p = 0; p < ps->nhist; ++p)
-                if (ps->hpval[p] < level && !ps->hflag[p]) { ps->hflag[p] = 1; ps->cnt.transient_flagged++; }
+                if (ps->hpval[p] < period_level(ps->alpha, p, K0) && !ps->hflag[p]) {
+                    ps->hflag[p] = 1;
+                    ps->cnt.transient_flagged++;
+                }
             break;
         }
-        if (!(worst < level)) break;
+        if (!(worst < 1.0)) break;
         ps->hflag[wp] = 1;
         ps->hdrop[wp] = 1;
         ps->cnt.transient_flagged++;

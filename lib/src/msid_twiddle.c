@@ -18,13 +18,19 @@ msid_status msid_twiddle_init(msid_twiddle *tw, uint32_t period, void *mem, size
     msid_status st = msid__arena_open(&a, mem, len, need);
     if (st != MSID_OK) return st;
     msid_cplx *w = (msid_cplx *)msid__take(&a, (size_t)period * sizeof(msid_cplx));
-    for (uint32_t n = 0; n < period; ++n) {
+    for (uint32_t n = 0; 2u * (uint64_t)n <= period; ++n) {
         double c, s;
         /* n/P rounded once (IEEE division); n/P = k/8 is exact, so the
-         * symmetric points get exact 0, +-1, +-sqrt(1/2) values. */
+         * symmetric points get exact 0, +-1, +-sqrt(1/2) values. Only
+         * n <= P/2 is computed (the rounding error of n/P is half as large
+         * there); the rest is w[P-n] = conj(w[n]), exactly. */
         msid_cis_turns((double)n / (double)period, &c, &s);
         w[n].re = c;
         w[n].im = -s;
+        if (n != 0u && 2u * (uint64_t)n != period) {
+            w[period - n].re = c;
+            w[period - n].im = s;
+        }
     }
     tw->period = period;
     tw->w = w;

@@ -1,3 +1,4 @@
+#define _POSIX_C_SOURCE 200112L
 #include "msid_test_sim.h"
 #include <math.h>
 #include <string.h>

@@ -6,6 +6,10 @@
 #include "msid/msid.h"
 #include <stdlib.h>
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846264338327950288
+#endif
+
 /* Aligned heap block for tests (the core itself never allocates). */
 void *tsim_alloc(size_t n);
 void tsim_free(void *p);

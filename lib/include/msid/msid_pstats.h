@@ -105,8 +105,12 @@ msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
  * which is F(2, 2(K-2)) under stationary circular Gaussian noise; its p-value
  * is (1 + t/(K-2))^{-(K-2)}. Channels combine by Bonferroni within a line;
  * lines by a Fisher sum (conservative Gamma(L,1) tail) and a Bonferroni minimum,
- * each at half the level. A period is flagged when its p-value < alpha/K.
- * DROP mode removes the most significant period and repeats while K >= 3.
+ * each at half the level. Period k (0-based, in acceptance order) of K is
+ * flagged when its p-value < alpha * (2^-(k+2) + 1/(2K)): a weighted
+ * Bonferroni split that gives early periods (where transients sit) more of
+ * alpha; the family-wise false-alarm probability stays below alpha.
+ * DROP mode removes the most significant period (relative to its level) and
+ * repeats while K >= 3.
  * @return MSID_OK.
  */
 msid_status msid_pstats_detect(msid_pstats *ps);
