@@ -64,4 +64,26 @@ static inline size_t msid__chunk(size_t n, size_t sz)
     return b == SIZE_MAX ? SIZE_MAX : msid__round(b);
 }
 
+/* In-place heapsort of n uint32 values (no recursion, no allocation). */
+static inline void msid__sift(uint32_t *a, size_t i, size_t n)
+{
+    for (;;) {
+        size_t c = 2u * i + 1u;
+        if (c >= n) return;
+        if (c + 1u < n && a[c + 1u] > a[c]) ++c;
+        if (a[i] >= a[c]) return;
+        uint32_t t = a[i]; a[i] = a[c]; a[c] = t;
+        i = c;
+    }
+}
+static inline void msid__sort_u32(uint32_t *a, size_t n)
+{
+    if (n < 2u) return;
+    for (size_t i = n / 2u; i-- > 0u;) msid__sift(a, i, n);
+    for (size_t e = n - 1u; e > 0u; --e) {
+        uint32_t t = a[0]; a[0] = a[e]; a[e] = t;
+        msid__sift(a, 0, e);
+    }
+}
+
 #endif

@@ -89,9 +89,9 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
     d->out = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
     d->idx = 0; d->acc = 0; d->buf = 0; d->fout = 0;
     if (path == MSID_DFT_FFT) {
+        /* every period is fully written (data or gap zeros) before a transform */
         d->buf = (double *)msid__take(&a, C * P * sizeof(double));
         d->fout = (msid_cplx *)msid__take(&a, (P / 2u + 1u) * sizeof(msid_cplx));
-        for (size_t k = 0; k < C * P; ++k) d->buf[k] = 0.0;
     } else {
         d->idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
         d->acc = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
@@ -231,8 +231,25 @@ size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
     const uint32_t C = d->n_channels;
     if (d->path == MSID_DFT_FFT) {
         const size_t P = d->period;
-        for (uint32_t s = 0; s < take; ++s)
-            for (uint32_t c = 0; c < C; ++c) d->buf[c * P + d->pos + s] = x[(size_t)s * C + c];
+        uint32_t c = 0;
+        /* de-interleave four channels per pass: one read stream, four write streams */
+        for (; c + 4u <= C; c += 4u) {
+            double *d0 = d->buf + c * P + d->pos, *d1 = d0 + P, *d2 = d1 + P, *d3 = d2 + P;
+            const double *src = x + c;
+            for (uint32_t s = 0; s < take; ++s, src += C) {
+                d0[s] = src[0]; d1[s] = src[1]; d2[s] = src[2]; d3[s] = src[3];
+            }
+        }
+        for (; c + 2u <= C; c += 2u) {
+            double *d0 = d->buf + c * P + d->pos, *d1 = d0 + P;
+            const double *src = x + c;
+            for (uint32_t s = 0; s < take; ++s, src += C) { d0[s] = src[0]; d1[s] = src[1]; }
+        }
+        for (; c < C; ++c) {
+            double *d0 = d->buf + c * P + d->pos;
+            const double *src = x + c;
+            for (uint32_t s = 0; s < take; ++s, src += C) d0[s] = src[0];
+        }
     } else {
         stream_block(d, x, take);
     }

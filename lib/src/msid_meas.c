@@ -35,6 +35,7 @@ size_t msid_meas_mem_size(const msid_meas_cfg *c)
     const size_t sd = msid_linedft_mem_size(&dc), sp = msid_pstats_mem_size(&pc);
     if (sd == 0 || sp == 0) return 0;
     size_t s = msid__chunk(nbins(c), sizeof(uint32_t));
+    s = msid__add(s, msid__chunk(nbins(c), sizeof(uint32_t)));   /* sorted scratch */
     s = msid__add(s, sd);
     s = msid__add(s, msid__chunk(c->n_experiments, sizeof(msid_pstats)));
     s = msid__add(s, msid__mul(sp, c->n_experiments));
@@ -52,15 +53,10 @@ msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *c, void *mem, siz
         c->n_experiments > MSID_MAX_EXPERIMENTS) return MSID_E_DIMS;
     if (c->n_experiments < c->n_inputs) return MSID_E_EXPERIMENTS;
     if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
-    for (uint32_t l = 0; l < c->n_lines; ++l) {
+    for (uint32_t l = 0; l < c->n_lines; ++l)
         if ((uint64_t)c->bins[l] * 2u >= c->period) return MSID_E_LINE_RANGE;
-        for (uint32_t j = 0; j < l; ++j) if (c->bins[j] == c->bins[l]) return MSID_E_LINE_DUP;
-    }
-    for (uint32_t l = 0; l < c->n_detect; ++l) {
+    for (uint32_t l = 0; l < c->n_detect; ++l)
         if ((uint64_t)c->detect_bins[l] * 2u > c->period) return MSID_E_LINE_RANGE;
-        for (uint32_t j = 0; j < c->n_lines; ++j) if (c->bins[j] == c->detect_bins[l]) return MSID_E_LINE_DUP;
-        for (uint32_t j = 0; j < l; ++j) if (c->detect_bins[j] == c->detect_bins[l]) return MSID_E_LINE_DUP;
-    }
     const size_t need = msid_meas_mem_size(c);
     if (need == 0) return MSID_E_DIMS;
     msid__arena a;
@@ -70,6 +66,11 @@ msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *c, void *mem, siz
     uint32_t *bins = (uint32_t *)msid__take(&a, nb * sizeof(uint32_t));
     for (size_t l = 0; l < c->n_lines; ++l) bins[l] = c->bins[l];
     for (size_t l = 0; l < c->n_detect; ++l) bins[c->n_lines + l] = c->detect_bins[l];
+    /* no bin twice (excited or detection): sort a copy, O(L log L) */
+    uint32_t *srt = (uint32_t *)msid__take(&a, nb * sizeof(uint32_t));
+    for (size_t l = 0; l < nb; ++l) srt[l] = bins[l];
+    msid__sort_u32(srt, nb);
+    for (size_t l = 1; l < nb; ++l) if (srt[l] == srt[l - 1]) return MSID_E_LINE_DUP;
     msid_linedft_cfg dc;
     msid_pstats_cfg pc;
     sub_cfgs(c, bins, &dc, &pc);
