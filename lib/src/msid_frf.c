@@ -172,10 +172,13 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
         }
         /* Thin QR of Ubar^H = Q R; Ubar^+ = Q R^{-H} (avoids forming Ubar Ubar^H). */
         const int ok = msid__cqr((int)m, (int)nu, A, R, 1e-13);
-        for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];
-        double smin, smax;
-        msid__csv_minmax((int)nu, (int)nu, Rc, dw, &smin, &smax);
-        const double cond = smin > 0.0 ? smax / smin : HUGE_VAL;
+        double cond = 1.0;                       /* one input: a single column */
+        if (nu > 1u) {
+            for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];
+            double smin, smax;
+            msid__csv_minmax((int)nu, (int)nu, Rc, dw, &smin, &smax);
+            cond = smin > 0.0 ? smax / smin : HUGE_VAL;
+        }
         f->cond[l] = cond;
         if (!ok || !(cond < 1e12)) {
             f->line_status[l] = MSID_LINE_SINGULAR;

@@ -1,0 +1,22 @@
+"""pytest configuration of the integration tests.
+
+Run through ctest (label `integration`), or by hand:
+  PYTHONDONTWRITEBYTECODE=1 MSID_BIN=<build>/tools/msid \
+    python3 -m pytest -q -p no:cacheprovider tests/integration
+"""
+import sys
+from pathlib import Path
+
+import pytest
+
+_here = Path(__file__).resolve().parent
+for p in (_here, _here.parent.parent / "tools" / "python"):
+    if str(p) not in sys.path:
+        sys.path.insert(0, str(p))
+
+import helpers  # noqa: E402
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _msid_available():
+    helpers.msid_bin()   # fails clearly when MSID_BIN is not set

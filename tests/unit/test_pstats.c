@@ -1,0 +1,419 @@
+/* Period statistics: Welford mean/scatter vs a two-pass long-double
+ * computation, exact Hermitian scatter, skip / gap / non-finite accounting,
+ * capacity, and the leave-one-out transient test (closed-form p-value,
+ * DROP / FLAG behaviour, false-alarm rate on clean data). */
+#include "unit_util.h"
+
+typedef struct {
+    msid_pstats ps;
+    void *mem;
+} pst;
+
+static msid_status ps_make(pst *o, uint32_t L, uint32_t q, uint32_t skip, uint32_t maxp, msid_transient_mode mode, double alpha)
+{
+    msid_pstats_cfg c = {L, q, skip, maxp, mode, alpha};
+    const size_t n = msid_pstats_mem_size(&c);
+    o->mem = tsim_alloc(n);
+    return msid_pstats_init(&o->ps, &c, o->mem, n);
+}
+
+/* Random complex periods z[p][l*q + c]: offset mean + circular Gaussian noise. */
+static msid_cplx *make_periods(uint32_t K, uint32_t L, uint32_t q, double offset, double sigma, msid_rng *r)
+{
+    msid_cplx *z = (msid_cplx *)malloc(sizeof(msid_cplx) * K * L * q);
+    msid_cplx *mu = (msid_cplx *)malloc(sizeof(msid_cplx) * L * q);
+    for (uint32_t k = 0; k < L * q; ++k) mu[k] = ut_c(offset * msid_rng_normal(r), offset * msid_rng_normal(r));
+    for (uint32_t p = 0; p < K; ++p)
+        for (uint32_t k = 0; k < L * q; ++k)
+            z[(size_t)p * L * q + k] = ut_c(mu[k].re + sigma * msid_rng_normal(r), mu[k].im + sigma * msid_rng_normal(r));
+    free(mu);
+    return z;
+}
+
+/* Two-pass long-double mean and scatter over the periods listed in use[]. */
+static void check_against_two_pass(const msid_pstats *ps, const msid_cplx *z, const uint32_t *use, uint32_t nuse, double tol)
+{
+    const uint32_t L = ps->n_lines, q = ps->n_channels;
+    UT_CHECK(msid_pstats_count(ps) == nuse, "K=%u want %u", msid_pstats_count(ps), nuse);
+    for (uint32_t l = 0; l < L; ++l) {
+        long double mr[MSID_MAX_CHANNELS] = {0}, mi[MSID_MAX_CHANNELS] = {0};
+        for (uint32_t k = 0; k < nuse; ++k)
+            for (uint32_t c = 0; c < q; ++c) {
+                mr[c] += z[((size_t)use[k] * L + l) * q + c].re;
+                mi[c] += z[((size_t)use[k] * L + l) * q + c].im;
+            }
+        const msid_cplx *mean = msid_pstats_mean(ps, l);
+        long double mmax = 0.0L;
+        for (uint32_t c = 0; c < q; ++c) { mr[c] /= nuse; mi[c] /= nuse; mmax = fmaxl(mmax, sqrtl(mr[c] * mr[c] + mi[c] * mi[c])); }
+        for (uint32_t c = 0; c < q; ++c)
+            UT_CHECK(fabsl(mean[c].re - mr[c]) <= tol * mmax && fabsl(mean[c].im - mi[c]) <= tol * mmax,
+                     "line %u ch %u mean (%.17g, %.17g) vs (%.17Lg, %.17Lg)", l, c, mean[c].re, mean[c].im, mr[c], mi[c]);
+        const msid_cplx *S = msid_pstats_scatter(ps, l);
+        long double sr[MSID_MAX_CHANNELS * MSID_MAX_CHANNELS] = {0}, si[MSID_MAX_CHANNELS * MSID_MAX_CHANNELS] = {0};
+        long double smax = 0.0L;
+        for (uint32_t k = 0; k < nuse; ++k)
+            for (uint32_t a = 0; a < q; ++a)
+                for (uint32_t b = 0; b < q; ++b) {
+                    const msid_cplx za = z[((size_t)use[k] * L + l) * q + a], zb = z[((size_t)use[k] * L + l) * q + b];
+                    const long double ar = za.re - mr[a], ai = za.im - mi[a], br = zb.re - mr[b], bi = zb.im - mi[b];
+                    sr[a * q + b] += ar * br + ai * bi;    /* (z_a - m_a) conj(z_b - m_b) */
+                    si[a * q + b] += ai * br - ar * bi;
+                }
+        for (uint32_t k = 0; k < q * q; ++k) smax = fmaxl(smax, sqrtl(sr[k] * sr[k] + si[k] * si[k]));
+        for (uint32_t k = 0; k < q * q; ++k)
+            UT_CHECK(fabsl(S[k].re - sr[k]) <= tol * smax && fabsl(S[k].im - si[k]) <= tol * smax,
+                     "line %u entry %u scatter (%.17g, %.17g) vs (%.17Lg, %.17Lg)", l, k, S[k].re, S[k].im, sr[k], si[k]);
+    }
+}
+
+static void check_hermitian(const msid_pstats *ps)
+{
+    const uint32_t q = ps->n_channels;
+    for (uint32_t l = 0; l < ps->n_lines; ++l) {
+        const msid_cplx *S = msid_pstats_scatter(ps, l);
+        for (uint32_t a = 0; a < q; ++a) {
+            UT_CHECK(S[a * q + a].im == 0.0 && S[a * q + a].re >= 0.0, "line %u diag %u (%g, %g)", l, a, S[a * q + a].re, S[a * q + a].im);
+            for (uint32_t b = 0; b < a; ++b)
+                UT_CHECK(S[a * q + b].re == S[b * q + a].re && S[a * q + b].im == -S[b * q + a].im, "line %u (%u,%u)", l, a, b);
+        }
+    }
+}
+
+static void test_welford_vs_two_pass(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 123u);
+    const uint32_t K = 20, L = 4, q = 3;
+    const double offsets[] = {0.0, 1.0, 1e3};
+    for (int k = 0; k < 3; ++k) {
+        msid_cplx *z = make_periods(K, L, q, offsets[k], 1.0, &r);
+        pst o;
+        UT_STATUS(ps_make(&o, L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
+        uint32_t use[20];
+        for (uint32_t p = 0; p < K; ++p) {
+            UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
+            use[p] = p;
+            if (p >= 1) check_against_two_pass(&o.ps, z, use, p + 1, 1e-12);
+            check_hermitian(&o.ps);
+        }
+        const msid_pstats_counts n = msid_pstats_get_counts(&o.ps);
+        UT_CHECK(n.offered == K && n.used == K && n.skipped == 0 && n.gap == 0 && n.nonfinite == 0 && n.tested == 0, "used %u", n.used);
+        UT_CHECK(msid_pstats_mean(&o.ps, L) == NULL && msid_pstats_scatter(&o.ps, L) == NULL, "%d", 0);
+        /* reset forgets everything */
+        msid_pstats_reset(&o.ps);
+        const msid_pstats_counts z0 = msid_pstats_get_counts(&o.ps);
+        UT_CHECK(msid_pstats_count(&o.ps) == 0 && z0.offered == 0 && z0.used == 0 && msid_pstats_mean(&o.ps, 0)[0].re == 0.0, "%d", 0);
+        tsim_free(o.mem);
+        free(z);
+    }
+}
+
+static void test_skip_gap_nonfinite(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 321u);
+    const uint32_t K = 12, L = 3, q = 2;
+    msid_cplx *z = make_periods(K, L, q, 2.0, 1.0, &r);
+    /* flags: gaps/non-finite before, between and after the skipped periods */
+    const uint32_t fl[12] = {MSID_PERIOD_GAP, 0, MSID_PERIOD_NONFINITE, 0, MSID_PERIOD_GAP | MSID_PERIOD_NONFINITE, 0, 0,
+                             MSID_PERIOD_GAP, 0, 0, MSID_PERIOD_NONFINITE, 0};
+    for (int hist = 0; hist < 2; ++hist) {
+        pst o;
+        UT_STATUS(ps_make(&o, L, q, 3, hist ? 16 : 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
+        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, fl[p]), MSID_OK);
+        /* valid periods: 1, 3, 5 (skipped), 6, 8, 9, 11 (used) */
+        const uint32_t use[] = {6, 8, 9, 11};
+        check_against_two_pass(&o.ps, z, use, 4, 1e-12);
+        const msid_pstats_counts n = msid_pstats_get_counts(&o.ps);
+        UT_CHECK(n.offered == 12 && n.skipped == 3 && n.gap == 3 && n.nonfinite == 2 && n.used == 4,
+                 "offered %u skipped %u gap %u nonfinite %u used %u", n.offered, n.skipped, n.gap, n.nonfinite, n.used);
+        UT_CHECK(msid_pstats_history(&o.ps) == (hist ? 4u : 0u), "history %u", msid_pstats_history(&o.ps));
+        /* a new segment skips 3 valid periods again; statistics and counters are kept */
+        msid_pstats_new_segment(&o.ps);
+        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, fl[p]), MSID_OK);
+        const uint32_t use2[] = {6, 8, 9, 11, 6, 8, 9, 11};
+        check_against_two_pass(&o.ps, z, use2, 8, 1e-12);
+        const msid_pstats_counts n2 = msid_pstats_get_counts(&o.ps);
+        UT_CHECK(n2.offered == 24 && n2.skipped == 6 && n2.gap == 6 && n2.nonfinite == 4 && n2.used == 8, "skipped %u used %u", n2.skipped, n2.used);
+        tsim_free(o.mem);
+    }
+    free(z);
+}
+
+static void test_capacity(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 99u);
+    const uint32_t L = 2, q = 2;
+    msid_cplx *z = make_periods(8, L, q, 1.0, 1.0, &r);
+    pst o;
+    UT_STATUS(ps_make(&o, L, q, 1, 5, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
+    UT_STATUS(msid_pstats_add(&o.ps, z, 0), MSID_OK);                 /* skipped: not stored */
+    UT_STATUS(msid_pstats_add(&o.ps, z + 1 * L * q, MSID_PERIOD_GAP), MSID_OK);  /* gap: not stored */
+    for (uint32_t p = 2; p < 7; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
+    UT_STATUS(msid_pstats_add(&o.ps, z + 7 * L * q, 0), MSID_E_CAPACITY);
+    const uint32_t use[] = {2, 3, 4, 5, 6};
+    check_against_two_pass(&o.ps, z, use, 5, 1e-12);
+    const msid_pstats_counts n = msid_pstats_get_counts(&o.ps);
+    UT_CHECK(n.used == 5 && msid_pstats_history(&o.ps) == 5 && n.offered == 7, "used %u offered %u", n.used, n.offered);
+    /* no history: no capacity limit */
+    pst u;
+    UT_STATUS(ps_make(&u, L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
+    for (int k = 0; k < 200; ++k) UT_STATUS(msid_pstats_add(&u.ps, z + (size_t)(k % 8) * L * q, 0), MSID_OK);
+    UT_CHECK(msid_pstats_count(&u.ps) == 200 && msid_pstats_history(&u.ps) == 0, "%u", msid_pstats_count(&u.ps));
+    UT_CHECK(msid_pstats_period_state(&u.ps, 0, NULL) == -1 && msid_pstats_period_state(&o.ps, 5, NULL) == -1, "%d", 0);
+    tsim_free(o.mem);
+    tsim_free(u.mem);
+    free(z);
+}
+
+static void test_init_errors(void **state)
+{
+    (void)state;
+    msid_pstats ps;
+    msid_pstats_cfg c = {4, 3, 0, 10, MSID_TRANSIENT_DROP, 0.01};
+    const size_t need = msid_pstats_mem_size(&c);
+    msid_pstats_cfg c0 = c;
+    c0.max_periods = 0;
+    c0.transient = MSID_TRANSIENT_OFF;
+    /* the history holds max_periods * L * q complex values */
+    UT_CHECK(msid_pstats_mem_size(&c0) > 0 && need >= msid_pstats_mem_size(&c0) + (size_t)10 * 12 * 16, "mem %zu vs %zu", need,
+             msid_pstats_mem_size(&c0));
+    unsigned char *mem = (unsigned char *)tsim_alloc(need + 64);
+    UT_STATUS(msid_pstats_init(NULL, &c, mem, need), MSID_E_NULL);
+    UT_STATUS(msid_pstats_init(&ps, NULL, mem, need), MSID_E_NULL);
+    UT_STATUS(msid_pstats_init(&ps, &c, NULL, need), MSID_E_NULL);
+    UT_STATUS(msid_pstats_init(&ps, &c, ut_misalign(mem), need), MSID_E_MEM_ALIGN);
+    UT_STATUS(msid_pstats_init(&ps, &c, mem, need - 1), MSID_E_MEM_SIZE);
+    UT_STATUS(msid_pstats_init(&ps, &c, mem + 64, need), MSID_OK);
+    UT_CHECK(ps.alpha == 0.01, "%g", ps.alpha);
+    msid_pstats_cfg e = c;
+    e.n_lines = 0;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_NO_LINES);
+    e = c; e.n_channels = 0;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_DIMS);
+    e = c; e.n_channels = MSID_MAX_CHANNELS + 1u;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_DIMS);
+    UT_CHECK(msid_pstats_mem_size(&e) == 0 && msid_pstats_mem_size(NULL) == 0, "%d", 0);
+    e = c; e.max_periods = 2;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_ARG);
+    e.transient = MSID_TRANSIENT_FLAG;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_ARG);
+    e.transient = MSID_TRANSIENT_OFF;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_OK);
+    e = c; e.transient = (msid_transient_mode)3;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_ARG);
+    const double bad_alpha[] = {1.0, 1.5, -0.1, NAN};
+    for (int k = 0; k < 4; ++k) {
+        e = c;
+        e.alpha = bad_alpha[k];
+        UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_E_ARG);
+    }
+    e = c; e.alpha = 0.0;
+    UT_STATUS(msid_pstats_init(&ps, &e, mem, need), MSID_OK);
+    UT_CHECK(ps.alpha == 0.01, "default alpha %g", ps.alpha);
+    tsim_free(mem);
+}
+
+/* ---------- transient test ---------- */
+
+/* Documented level of period k (acceptance order) of K: alpha (2^-(k+2) + 1/(2K)). */
+static double level(double alpha, uint32_t k, uint32_t K)
+{
+    return alpha * (ldexp(1.0, -(int)(k + 2)) + 0.5 / K);
+}
+
+/* Closed form for L = 1, q = 1: leave-one-out t ~ F(2, 2(K-2)), p = (1 + t/n)^-n,
+ * and the Fisher/Bonferroni combination of a single value gives min(1, 2p). */
+static void test_transient_pvalue_closed_form(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 555u);
+    for (uint32_t K = 3; K <= 12; ++K) {
+        msid_cplx *z = make_periods(K, 1, 1, 3.0, 1.0, &r);
+        pst o;
+        UT_STATUS(ps_make(&o, 1, 1, 0, K, MSID_TRANSIENT_FLAG, 1e-9), MSID_OK);
+        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + p, 0), MSID_OK);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        UT_CHECK(msid_pstats_get_counts(&o.ps).tested == 1, "K=%u", K);
+        for (uint32_t p = 0; p < K; ++p) {
+            long double mr = 0.0L, mi = 0.0L;
+            for (uint32_t j = 0; j < K; ++j) if (j != p) { mr += z[j].re; mi += z[j].im; }
+            mr /= (K - 1); mi /= (K - 1);
+            long double s2 = 0.0L;
+            for (uint32_t j = 0; j < K; ++j) if (j != p) s2 += (z[j].re - mr) * (z[j].re - mr) + (z[j].im - mi) * (z[j].im - mi);
+            const long double n = K - 2;
+            s2 /= n;
+            const long double d2 = (z[p].re - mr) * (z[p].re - mr) + (z[p].im - mi) * (z[p].im - mi);
+            const long double t = d2 / (s2 * (1.0L + 1.0L / (K - 1)));
+            const long double pl = powl(1.0L + t / n, -n);
+            const double want = (double)fminl(1.0L, 2.0L * pl);
+            double got;
+            const int st = msid_pstats_period_state(&o.ps, p, &got);
+            UT_CHECK(st == 0 && fabs(got - want) <= 1e-9 * want + 1e-300, "K=%u period %u: p %.17g want %.17g (state %d)", K, p, got, want, st);
+        }
+        tsim_free(o.mem);
+        free(z);
+    }
+    /* fewer than 3 periods: not tested, p-values NaN */
+    pst o;
+    msid_cplx z2[2] = {{1, 0}, {2, 0}};
+    UT_STATUS(ps_make(&o, 1, 1, 0, 4, MSID_TRANSIENT_DROP, 0.01), MSID_OK);
+    msid_pstats_add(&o.ps, z2, 0);
+    msid_pstats_add(&o.ps, z2 + 1, 0);
+    UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+    double pv = 0.0;
+    UT_CHECK(msid_pstats_get_counts(&o.ps).tested == 0 && msid_pstats_period_state(&o.ps, 0, &pv) == 0 && isnan(pv) &&
+             msid_pstats_count(&o.ps) == 2, "%d", 0);
+    tsim_free(o.mem);
+}
+
+static void test_transient_drop(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 1234u);
+    const uint32_t K = 10, L = 20, q = 2;
+    for (int trial = 0; trial < 5; ++trial) {
+        msid_cplx *z = make_periods(K, L, q, 5.0, 1.0, &r);
+        for (uint32_t k = 0; k < L * q; ++k) { z[k].re += 6.0; z[k].im -= 4.0; }  /* a plant transient in period 0 */
+        pst o, ref;
+        UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_DROP, 0.01), MSID_OK);
+        UT_STATUS(ps_make(&ref, L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
+        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
+        for (uint32_t p = 1; p < K; ++p) UT_STATUS(msid_pstats_add(&ref.ps, z + (size_t)p * L * q, 0), MSID_OK);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        double pv;
+        UT_CHECK(msid_pstats_period_state(&o.ps, 0, &pv) == 2 && pv < level(0.01, 0, K), "trial %d: period 0 state %d p %.3g", trial,
+                 msid_pstats_period_state(&o.ps, 0, NULL), pv);
+        for (uint32_t p = 1; p < K; ++p)
+            UT_CHECK(msid_pstats_period_state(&o.ps, p, &pv) == 0 && pv >= level(0.01, p, K), "trial %d period %u p %.3g", trial, p, pv);
+        const msid_pstats_counts n = msid_pstats_get_counts(&o.ps);
+        UT_CHECK(n.tested == 1 && n.transient_flagged == 1 && n.transient_dropped == 1 && n.used == K - 1 && msid_pstats_count(&o.ps) == K - 1,
+                 "flagged %u dropped %u used %u", n.transient_flagged, n.transient_dropped, n.used);
+        const uint32_t use[] = {1, 2, 3, 4, 5, 6, 7, 8, 9};
+        check_against_two_pass(&o.ps, z, use, K - 1, 1e-12);
+        check_hermitian(&o.ps);
+        for (uint32_t l = 0; l < L; ++l) {
+            UT_CHECK(memcmp(msid_pstats_mean(&o.ps, l), msid_pstats_mean(&ref.ps, l), q * sizeof(msid_cplx)) == 0, "mean line %u", l);
+            UT_CHECK(memcmp(msid_pstats_scatter(&o.ps, l), msid_pstats_scatter(&ref.ps, l), q * q * sizeof(msid_cplx)) == 0, "scatter line %u", l);
+        }
+        tsim_free(o.mem);
+        tsim_free(ref.mem);
+        free(z);
+    }
+}
+
+static void test_transient_flag_keeps_stats(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 4321u);
+    const uint32_t K = 10, L = 20, q = 2;
+    msid_cplx *z = make_periods(K, L, q, 5.0, 1.0, &r);
+    for (uint32_t k = 0; k < L * q; ++k) z[k].re += 8.0;
+    pst o;
+    UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
+    for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
+    msid_cplx *mean0 = (msid_cplx *)malloc(sizeof(msid_cplx) * L * q), *m20 = (msid_cplx *)malloc(sizeof(msid_cplx) * L * q * q);
+    memcpy(mean0, o.ps.mean, sizeof(msid_cplx) * L * q);
+    memcpy(m20, o.ps.m2, sizeof(msid_cplx) * L * q * q);
+    UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+    UT_CHECK(msid_pstats_period_state(&o.ps, 0, NULL) == 1, "state %d", msid_pstats_period_state(&o.ps, 0, NULL));
+    const msid_pstats_counts n = msid_pstats_get_counts(&o.ps);
+    UT_CHECK(n.transient_flagged >= 1 && n.transient_dropped == 0 && n.used == K && msid_pstats_count(&o.ps) == K, "used %u", n.used);
+    UT_CHECK(memcmp(mean0, o.ps.mean, sizeof(msid_cplx) * L * q) == 0 && memcmp(m20, o.ps.m2, sizeof(msid_cplx) * L * q * q) == 0,
+             "%s", "FLAG mode changed the statistics");
+    /* detecting again does not count the same period twice */
+    UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+    UT_CHECK(msid_pstats_get_counts(&o.ps).transient_flagged == n.transient_flagged, "%u", msid_pstats_get_counts(&o.ps).transient_flagged);
+    /* OFF mode: detect is a no-op */
+    pst off;
+    UT_STATUS(ps_make(&off, L, q, 0, K, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
+    for (uint32_t p = 0; p < K; ++p) msid_pstats_add(&off.ps, z + (size_t)p * L * q, 0);
+    UT_STATUS(msid_pstats_detect(&off.ps), MSID_OK);
+    UT_CHECK(msid_pstats_get_counts(&off.ps).tested == 0 && msid_pstats_period_state(&off.ps, 0, NULL) == 0, "%d", 0);
+    UT_CHECK(memcmp(mean0, off.ps.mean, sizeof(msid_cplx) * L * q) == 0, "%d", 0);
+    tsim_free(o.mem);
+    tsim_free(off.mem);
+    free(mean0);
+    free(m20);
+    free(z);
+}
+
+/* FLAG mode: a period is flagged exactly when its p-value is below its level. */
+static void test_transient_flag_levels(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 6060u);
+    const uint32_t K = 8, L = 3, q = 1;
+    const double alpha = 0.6;
+    pst o;
+    UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_FLAG, alpha), MSID_OK);
+    uint32_t nflag = 0, nkeep = 0;
+    for (int t = 0; t < 300; ++t) {
+        msid_pstats_reset(&o.ps);
+        msid_cplx *z = make_periods(K, L, q, 1.0, 1.0, &r);
+        for (uint32_t p = 0; p < K; ++p) msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0);
+        msid_pstats_detect(&o.ps);
+        uint32_t flagged = 0;
+        for (uint32_t p = 0; p < K; ++p) {
+            double pv;
+            const int st = msid_pstats_period_state(&o.ps, p, &pv);
+            const int want = pv < level(alpha, p, K);
+            UT_CHECK(st == want && pv >= 0.0 && pv <= 1.0, "trial %d period %u: state %d, p %.4g, level %.4g", t, p, st, pv, level(alpha, p, K));
+            flagged += (uint32_t)want;
+            nflag += (uint32_t)want;
+            nkeep += (uint32_t)!want;
+        }
+        UT_CHECK(msid_pstats_get_counts(&o.ps).transient_flagged == flagged && msid_pstats_count(&o.ps) == K, "trial %d", t);
+        free(z);
+    }
+    UT_CHECK(nflag > 20 && nkeep > 20, "both outcomes exercised: %u flagged, %u kept", nflag, nkeep);
+    tsim_free(o.mem);
+}
+
+static void test_transient_false_alarm_rate(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 2025u);
+    const uint32_t N = 500, K = 10, L = 20, q = 2;
+    const double alpha = 0.05;
+    pst o;
+    UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_DROP, alpha), MSID_OK);
+    uint32_t any = 0;
+    for (uint32_t t = 0; t < N; ++t) {
+        msid_pstats_reset(&o.ps);
+        msid_cplx *z = make_periods(K, L, q, 3.0, 1.0, &r);
+        for (uint32_t p = 0; p < K; ++p) msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0);
+        msid_pstats_detect(&o.ps);
+        any += msid_pstats_get_counts(&o.ps).transient_flagged > 0;
+        free(z);
+    }
+    const double frac = (double)any / N, bound = alpha + 4.0 * sqrt(alpha * (1 - alpha) / N);
+    print_message("transient false alarms: %u of %u experiments (bound %.3f)\n", any, N, bound);
+    UT_CHECK(frac <= bound, "false alarms in %.3f of experiments (bound %.3f)", frac, bound);
+    tsim_free(o.mem);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_welford_vs_two_pass),
+        cmocka_unit_test(test_skip_gap_nonfinite),
+        cmocka_unit_test(test_capacity),
+        cmocka_unit_test(test_init_errors),
+        cmocka_unit_test(test_transient_pvalue_closed_form),
+        cmocka_unit_test(test_transient_drop),
+        cmocka_unit_test(test_transient_flag_keeps_stats),
+        cmocka_unit_test(test_transient_flag_levels),
+        cmocka_unit_test(test_transient_false_alarm_rate),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
