@@ -59,6 +59,19 @@ static double pattern_turns(msid_pattern p, uint32_t i, uint32_t e, uint32_t m)
     return -(double)((uint64_t)i * e % m) / (double)m;
 }
 
+/* Real pattern for a DC line (its value must be real): Hadamard signs, or the
+ * real DFT basis 1, cos(2 pi k e/m), sin(2 pi k e/m), k = 1, 2, ... Rows are
+ * orthogonal, so the nu x m DC input matrix has condition number <= sqrt(2). */
+static double dc_pattern(msid_pattern p, uint32_t i, uint32_t e, uint32_t m)
+{
+    if (p == MSID_PATTERN_HADAMARD) return pattern_turns(p, i, e, m) != 0.0 ? -1.0 : 1.0;
+    if (i == 0u) return 1.0;
+    const uint32_t k = (i + 1u) / 2u;
+    double cs, sn;
+    msid_cis_turns((double)((uint64_t)k * e % m) / (double)m, &cs, &sn);
+    return (i & 1u) ? cs : sn;
+}
+
 msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem, size_t len)
 {
     if (!d) return MSID_E_NULL;
@@ -196,7 +209,7 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
                 const double A = d->amp[(size_t)i * L + l];
                 double cr, ci;
                 if (d->bins[l] == 0u) {
-                    msid_cis_turns(tau, &cr, 0);     /* DC: real part of the pattern */
+                    cr = dc_pattern(c->pattern, i, e, m);   /* DC: a real orthogonal pattern */
                     ci = 0.0;
                 } else {
                     msid_cis_turns(d->phase[(size_t)i * L + l] + tau, &cr, &ci);

@@ -29,6 +29,8 @@ size_t msid_frf_mem_size(const msid_frf_cfg *c)
     s = msid__add(s, msid__chunk(L * ny * ny, sizeof(msid_cplx)));
     s = msid__add(s, msid__chunk(L * ny, sizeof(double)));
     s = msid__add(s, msid__chunk(L, sizeof(double)));
+    s = msid__add(s, msid__chunk(L, sizeof(double)));
+    s = msid__add(s, msid__chunk(L, sizeof(double)));
     s = msid__add(s, msid__chunk(L, 1));
     s = msid__add(s, msid__chunk(ny * ny, sizeof(msid_cplx)));
     if (D) {
@@ -65,6 +67,8 @@ msid_status msid_frf_init(msid_frf *f, const msid_frf_cfg *c, void *mem, size_t 
     f->noise = (msid_cplx *)msid__take(&a, L * ny * ny * sizeof(msid_cplx));
     f->snr = (double *)msid__take(&a, L * ny * sizeof(double));
     f->cond = (double *)msid__take(&a, L * sizeof(double));
+    f->urel = (double *)msid__take(&a, L * sizeof(double));
+    f->usnr = (double *)msid__take(&a, L * sizeof(double));
     f->line_status = (uint8_t *)msid__take(&a, L);
     f->noise_time = (msid_cplx *)msid__take(&a, ny * ny * sizeof(msid_cplx));
     f->dmean = 0; f->dvar = 0; f->dpval = 0;
@@ -138,6 +142,16 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
     double *dw = (double *)(Sp + (size_t)ny * ny);
     msid_status ret = MSID_OK;
     for (uint32_t i = 0; i < ny * ny; ++i) f->noise_time[i] = msid__c(0.0, 0.0);
+    /* Scale of the excitation: the largest |Ubar|_F^2 over the lines. */
+    double uscale = 0.0;
+    for (uint32_t l = 0; l < L; ++l) {
+        double s2 = 0.0;
+        for (uint32_t e = 0; e < m; ++e) {
+            const msid_cplx *z = msid_pstats_mean(stats[e], l);
+            for (uint32_t j = 0; j < nu; ++j) s2 += msid__cabs2(z[j]);
+        }
+        if (s2 > uscale) uscale = s2;
+    }
 
     for (uint32_t l = 0; l < L; ++l) {
         msid_cplx *G = f->G + (size_t)l * g;
@@ -160,7 +174,9 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                     Sp[r * ny + c] = msid__cadd(Sp[r * ny + c], M2[(nu + r) * q + nu + c]);
         }
         for (uint32_t i = 0; i < ny * ny; ++i) { Sp[i] = msid__cscale(Sp[i], 1.0 / (double)dofk); N[i] = Sp[i]; }
-        for (uint32_t i = 0; i < ny * ny; ++i) f->noise_time[i] = msid__cadd(f->noise_time[i], Sp[i]);
+        /* reported at +omega: conjugated for a folded CT line */
+        for (uint32_t i = 0; i < ny * ny; ++i)
+            f->noise_time[i] = msid__cadd(f->noise_time[i], f->folded[l] ? msid__cconj(Sp[i]) : Sp[i]);
         /* SNR of the averaged output spectrum */
         for (uint32_t i = 0; i < ny; ++i) {
             double sig = 0.0, noi = 0.0;
@@ -172,16 +188,28 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
         }
         /* Thin QR of Ubar^H = Q R; Ubar^+ = Q R^{-H} (avoids forming Ubar Ubar^H). */
         const int ok = msid__cqr((int)m, (int)nu, A, R, 1e-13);
-        double cond = 1.0;                       /* one input: a single column */
+        double cond = 1.0, smin = R[0].re;       /* one input: a single column, |Ubar| */
         if (nu > 1u) {
             for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];
-            double smin, smax;
+            double smax;
             msid__csv_minmax((int)nu, (int)nu, Rc, dw, &smin, &smax);
             cond = smin > 0.0 ? smax / smin : HUGE_VAL;
         }
         f->cond[l] = cond;
-        if (!ok || !(cond < 1e12)) {
-            f->line_status[l] = MSID_LINE_SINGULAR;
+        /* Is the line excited at all? Compare the weakest input direction with the
+         * strongest line and with the noise power of the input means. */
+        double unoise = 0.0;
+        for (uint32_t e = 0; e < m; ++e) {
+            const uint32_t Ke = msid_pstats_count(stats[e]);
+            const msid_cplx *M2 = msid_pstats_scatter(stats[e], l);
+            for (uint32_t j = 0; j < nu; ++j) unoise += M2[j * q + j].re / ((double)(Ke - 1u) * (double)Ke);
+        }
+        const double s2min = smin * smin;
+        f->urel[l] = uscale > 0.0 ? s2min / uscale : 0.0;
+        f->usnr[l] = unoise > 0.0 ? s2min / unoise : HUGE_VAL;
+        const int unexcited = !(s2min > 1e-20 * uscale) || !(f->usnr[l] > 10.0);
+        if (!ok || !(cond < 1e12) || unexcited) {
+            f->line_status[l] = unexcited && ok ? MSID_LINE_UNEXCITED : MSID_LINE_SINGULAR;
             if (f->bad_line < 0) f->bad_line = (int32_t)l;
             ret = MSID_E_SINGULAR;
             for (uint32_t k = 0; k < g; ++k) G[k] = msid__c(NAN, NAN);
@@ -302,6 +330,8 @@ const msid_cplx *msid_frf_noise_cov(const msid_frf *f, uint32_t l) { return f->n
 const double *msid_frf_snr_db(const msid_frf *f, uint32_t l) { return f->snr + (size_t)l * f->n_outputs; }
 double msid_frf_cond(const msid_frf *f, uint32_t l) { return f->cond[l]; }
 int msid_frf_line_status(const msid_frf *f, uint32_t l) { return f->line_status[l]; }
+double msid_frf_input_snr_db(const msid_frf *f, uint32_t l) { return 10.0 * log10(f->usnr[l]); }
+double msid_frf_input_rel_db(const msid_frf *f, uint32_t l) { return 10.0 * log10(f->urel[l]); }
 const msid_cplx *msid_frf_noise_cov_time(const msid_frf *f) { return f->noise_time; }
 const msid_cplx *msid_frf_detect_mean(const msid_frf *f, uint32_t d) { return f->dmean + (size_t)d * f->n_experiments * f->n_outputs; }
 const double *msid_frf_detect_var(const msid_frf *f, uint32_t d) { return f->dvar + (size_t)d * f->n_outputs; }

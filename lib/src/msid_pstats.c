@@ -140,6 +140,33 @@ static double gamma_upper_int(uint32_t n, double S)
     return q > 1.0 ? 1.0 : q;
 }
 
+/* P(F(1, n) > f) for integer n >= 1: the two-sided Student-t tail at sqrt(f),
+ * by the finite sums of Abramowitz & Stegun 26.7.3-26.7.4. */
+static double f1_tail(double f, uint32_t n)
+{
+    if (!(f > 0.0)) return 1.0;
+    const double th = atan(sqrt(f / (double)n));
+    const double c2 = cos(th) * cos(th), sn = sin(th);
+    double A;
+    if (n & 1u) {
+        double term = 1.0, sum = (n > 1u) ? 1.0 : 0.0;
+        for (uint32_t k = 1; 2u * k + 1u <= n - 2u && n > 1u; ++k) {
+            term *= c2 * (2.0 * k) / (2.0 * k + 1.0);
+            sum += term;
+        }
+        A = 0.63661977236758134308 * (th + (n > 1u ? sn * cos(th) * sum : 0.0));
+    } else {
+        double term = 1.0, sum = 1.0;
+        for (uint32_t k = 1; 2u * k <= n - 2u; ++k) {
+            term *= c2 * (2.0 * k - 1.0) / (2.0 * k);
+            sum += term;
+        }
+        A = sn * sum;
+    }
+    const double p = 1.0 - A;
+    return p < 0.0 ? 0.0 : (p > 1.0 ? 1.0 : p);
+}
+
 /* p-value of one kept period p against the other kept periods. */
 static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K)
 {
@@ -165,7 +192,10 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
                 pv = 0.0;                            /* deterministic channel that changed */
             } else {
                 const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
-                pv = exp(-n * log1p(t / n));         /* P(F(2, 2n) > t) */
+                if (mu.im == 0.0 && zp[l * q + c].im == 0.0)
+                    pv = f1_tail(t, K - 2u);         /* real line (DC, Nyquist): F(1, n) */
+                else
+                    pv = exp(-n * log1p(t / n));     /* P(F(2, 2n) > t) */
             }
             qt++;
             if (pv < cmin) cmin = pv;

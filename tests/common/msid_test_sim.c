@@ -119,3 +119,32 @@ double tsim_fquant(uint32_t a, uint32_t b, double alpha)
     }
     return 0.5 * (lo + hi);
 }
+
+/* Student t density integrated with Simpson's rule on [0, sqrt(f)]: independent of
+ * the closed forms used in the library. */
+double tsim_f1tail(uint32_t n, double f)
+{
+    if (!(f > 0)) return 1.0;
+    const double t = sqrt(f), nn = (double)n;
+    const double c = exp(lgamma((nn + 1) / 2) - lgamma(nn / 2)) / sqrt(nn * M_PI);
+    const int N = 20000;
+    const double hs = t / N;
+    double sum = 0.0;
+    for (int k = 0; k <= N; ++k) {
+        const double x = k * hs, w = (k == 0 || k == N) ? 1.0 : (k % 2 ? 4.0 : 2.0);
+        sum += w * c * pow(1.0 + x * x / nn, -(nn + 1) / 2);
+    }
+    const double p = 1.0 - 2.0 * sum * hs / 3.0;
+    return p < 0 ? 0 : p;
+}
+
+double tsim_f1quant(uint32_t n, double alpha)
+{
+    double lo = 0.0, hi = 1.0;
+    while (tsim_f1tail(n, hi) > alpha) hi *= 2.0;
+    for (int it = 0; it < 60; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        if (tsim_f1tail(n, mid) > alpha) lo = mid; else hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}

@@ -46,5 +46,8 @@ void tsim_run(tsim_bench *b, const tsim_design *t, uint32_t e, uint32_t K, msid_
 double tsim_ftail(uint32_t a, uint32_t b, double f);
 /* Quantile: f such that P(F(2a,2b) > f) = alpha. */
 double tsim_fquant(uint32_t a, uint32_t b, double alpha);
+/* Real case: P(F(1, n) > f) (two-sided Student t, by numerical integration) and its quantile. */
+double tsim_f1tail(uint32_t n, double f);
+double tsim_f1quant(uint32_t n, double alpha);
 
 #endif

@@ -44,7 +44,7 @@ def test_stream_vs_fft(bench):
     s["dft_path"] = f["dft_path"] = None
     for doc in (s, f):
         for line in doc["lines"]:
-            for k in ("G", "cov", "cov_known_input", "noise_cov", "dof", "snr", "cond"):
+            for k in ("G", "cov", "cov_known_input", "noise_cov", "dof", "snr", "cond", "input_snr"):
                 line.pop(k)
         doc.pop("noise_cov")
     assert s == f

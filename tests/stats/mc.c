@@ -67,6 +67,8 @@ int mc_run(const mc_case *c, mc_result *res)
     double *acc_sq = tsim_alloc(sizeof(double) * 2 * L * g * g);        /* sum of Ghat Ghat^H */
     uint64_t in_a = 0, in_b = 0, in_row = 0, in_naive = 0, n_elem = 0, n_row = 0;
     uint64_t dropped = 0;
+    uint32_t fq1_n = 0;
+    double fq1 = 0.0;
     for (uint32_t r = 0; r < c->R; ++r) {
         msid_meas_init(&ms, &mc, mm, nm);
         for (uint32_t e = 0; e < m; ++e) {
@@ -119,7 +121,11 @@ int mc_run(const mc_case *c, mc_result *res)
                 }
             }
             /* coverage: scalar elements */
-            const double fa = na * (pow(0.05, -1.0 / na) - 1.0), fb = nb * (pow(0.05, -1.0 / nb) - 1.0);
+            double fa = na * (pow(0.05, -1.0 / na) - 1.0), fb = nb * (pow(0.05, -1.0 / nb) - 1.0);
+            if (t.d.bins[l] == 0u) {   /* DC line: real, (Ghat - G)^2 / v ~ F(1, n) */
+                if (!fq1_n || fq1_n != (uint32_t)(na + 0.5)) { fq1_n = (uint32_t)(na + 0.5); fq1 = tsim_f1quant(fq1_n, 0.05); }
+                fa = fb = fq1;
+            }
             const double chi = -log(0.05);   /* |e|^2/v ~ Exp(1) asymptotically */
             for (uint32_t a = 0; a < g; ++a) {
                 const uint32_t i = a % ny, j = a / ny;

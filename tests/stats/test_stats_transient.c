@@ -91,6 +91,26 @@ static void stationary_rarely_flagged(void **s)
     assert_true(fabs(r.cov_elem_a - 0.95) <= 0.025);
 }
 
+/* With a DC line (real-valued spectra: the leave-one-out statistic is F(1, K-2)
+ * there, not F(2, 2(K-2))) the false-alarm rate must stay below alpha too, and
+ * the DC line's F(1, n) region covers 95%. */
+static void stationary_with_dc_rarely_flagged(void **s)
+{
+    (void)s;
+    static mc_result r;
+    static const uint32_t BDC[3] = {0, 3, 5};
+    mc_case c = tcase("steady-drop-dc", MSID_TRANSIENT_DROP, 0);
+    c.design.n_lines = 3;
+    c.design.bins = BDC;
+    c.R = 4000;
+    assert_int_equal(mc_run(&c, &r), 0);
+    mc_print(c.name, &r);
+    assert_true(r.mean_dropped <= 0.01 + 4.5 * sqrt(0.01 * 0.99 / c.R));
+    assert_int_equal(mc_check_bias(&r, 4.5), 0);
+    assert_int_equal(mc_check_cov(&r, 0, 4.5), 0);
+    assert_true(fabs(r.cov_elem_a - 0.95) <= 0.025);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -98,6 +118,7 @@ int main(void)
         cmocka_unit_test(transient_dropped),
         cmocka_unit_test(weak_transient_power),
         cmocka_unit_test(stationary_rarely_flagged),
+        cmocka_unit_test(stationary_with_dc_rarely_flagged),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

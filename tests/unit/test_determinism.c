@@ -24,7 +24,7 @@ typedef struct {
 static void measure(const tsim_design *t, double *const rows[M_], msid_dft_path path, const msid_fft_backend *be,
                     const size_t *blocks, size_t nb, frf_out *out)
 {
-    const uint32_t det[D_] = {7, 64};
+    const uint32_t det[D_] = {7, 62};
     msid_meas_cfg mc;
     memset(&mc, 0, sizeof mc);
     mc.period = P_; mc.n_inputs = 2; mc.n_outputs = 2; mc.n_experiments = M_;

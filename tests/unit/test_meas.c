@@ -39,7 +39,7 @@ static void done(meas *o)
 static void test_config_errors(void **state)
 {
     (void)state;
-    const uint32_t P = 32, bins[] = {1, 5, 9}, det[] = {16, 3};
+    const uint32_t P = 32, bins[] = {1, 5, 9}, det[] = {15, 3};
     meas o;
     msid_meas_cfg c = cfg(&o, P, bins, 3, det, 2);
     UT_STATUS(init(&o, &c), MSID_OK);
@@ -72,6 +72,11 @@ static void test_config_errors(void **state)
     e = c; e.bins = b_dup;
     UT_STATUS(msid_meas_init(&ms, &e, mem, need), MSID_E_LINE_DUP);
     e = c; e.detect_bins = d_bad; e.n_detect = 1;
+    UT_STATUS(msid_meas_init(&ms, &e, mem, need), MSID_E_LINE_RANGE);
+    const uint32_t d_nyq[] = {16}, d_dc[] = {0};   /* real-valued bins are not detection lines */
+    e = c; e.detect_bins = d_nyq; e.n_detect = 1;
+    UT_STATUS(msid_meas_init(&ms, &e, mem, need), MSID_E_LINE_RANGE);
+    e = c; e.detect_bins = d_dc; e.n_detect = 1;
     UT_STATUS(msid_meas_init(&ms, &e, mem, need), MSID_E_LINE_RANGE);
     e = c; e.detect_bins = d_exc; e.n_detect = 1;
     UT_STATUS(msid_meas_init(&ms, &e, mem, need), MSID_E_LINE_DUP);
@@ -113,7 +118,7 @@ static void test_state_machine(void **state)
 static void test_accounting(void **state)
 {
     (void)state;
-    const uint32_t P = 20, bins[] = {0, 3, 7}, det[] = {10};
+    const uint32_t P = 20, bins[] = {0, 3, 7}, det[] = {9};
     meas o;
     msid_meas_cfg c = cfg(&o, P, bins, 3, det, 1);
     c.skip_periods = 1;
@@ -140,7 +145,7 @@ static void test_accounting(void **state)
     /* the mean equals the average naive DFT of periods 1 and 4 */
     long double *tw = ut_tw_table(P);
     const msid_pstats *st = msid_meas_stats(&o.ms, 0);
-    const uint32_t allb[] = {0, 3, 7, 10};
+    const uint32_t allb[] = {0, 3, 7, 9};
     for (uint32_t l = 0; l < 4; ++l)
         for (uint32_t ch = 0; ch < C; ++ch) {
             long double r1, i1, r4, i4;

@@ -75,10 +75,9 @@ int cmd_excite(int argc, char **argv)
 
     // Input CSVs: one per experiment, written to temporaries and renamed at the end.
     std::vector<std::pair<std::string, std::string>> files;
+    std::string dir;
     if (a.has("csv")) {
-        const std::string dir = a.get("csv");
-        if (::mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST)
-            throw Error("cannot create directory '" + dir + "': " + std::strerror(errno));
+        dir = a.get("csv");
         const size_t n = (size_t)p.periods * d.period, nu = d.n_inputs;
         if (n * nu > (size_t)1 << 31) throw Error("--periods * --period is too large for CSV output");
         std::vector<std::string> header;
@@ -93,13 +92,19 @@ int cmd_excite(int argc, char **argv)
             files.emplace_back(dir + "/e" + std::to_string(e + 1) + ".csv", format_csv(header, u.data(), n, nu));
         }
     }
-    // Write everything or nothing.
+    // Write everything or nothing (the CSV directory too, if we created it).
     std::vector<std::string> done;
+    bool made_dir = false;
     try {
+        if (!dir.empty()) {
+            if (::mkdir(dir.c_str(), 0755) == 0) made_dir = true;
+            else if (errno != EEXIST) throw Error("cannot create directory '" + dir + "': " + std::strerror(errno));
+        }
         for (auto &f : files) { write_file_atomic(f.first, f.second); done.push_back(f.first); }
         write_json_file(out, design_to_json(*D));
     } catch (...) {
         for (auto &f : done) ::unlink(f.c_str());
+        if (made_dir) ::rmdir(dir.c_str());
         throw;
     }
     std::printf("wrote %s: P=%u, %u lines, %u input(s) x %u experiment(s), max condition number %.4g\n", out.c_str(),

@@ -47,6 +47,9 @@ Record read_record_csv(const std::string &path)
         ++lineno;
         return true;
     };
+    if (text.size() >= 3 && (unsigned char)text[0] == 0xEF && (unsigned char)text[1] == 0xBB &&
+        (unsigned char)text[2] == 0xBF)
+        pos = 3;   /* UTF-8 byte order mark, as some spreadsheet exports write */
     std::string_view line;
     if (!next_line(line) || trim(line).empty())
         throw Error("'" + path + "' is empty: expected a header row with columns u1.. and y1..");

@@ -95,6 +95,11 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
                             "change h or the line",
                             line_name(p, g.line_a).c_str(), g.bin == 0 ? "DC" : "Nyquist", (long long)g.bin,
                             p.sample_time));
+        case MSID_E_ARG:
+            if (g.line_a >= 0)
+                throw Error(fmt("line %s: frequencies must be finite and >= 0", line_name(p, g.line_a).c_str()));
+            check(st, "design");
+            break;
         case MSID_E_SINGULAR:
             throw Error(fmt("the %u x %u input matrix is singular at line %s", p.n_inputs, p.n_experiments,
                             line_name(p, g.line_a).c_str()));
@@ -191,6 +196,13 @@ uint64_t juint(const Json &o, const std::string &key, const std::string &file)
     return v.get<uint64_t>();
 }
 
+uint32_t juint32(const Json &o, const std::string &key, const std::string &file)
+{
+    const uint64_t v = juint(o, key, file);
+    if (v > 0xFFFFFFFFull) throw Error("'" + file + "': '" + key + "' = " + std::to_string(v) + " is out of range");
+    return (uint32_t)v;
+}
+
 double jnum(const Json &v, const std::string &what, const std::string &file)
 {
     if (!v.is_number()) throw Error("'" + file + "': " + what + " must be a number");
@@ -206,9 +218,9 @@ std::unique_ptr<Design> read_design_file(const std::string &path)
     if (!fmtv.is_string() || fmtv.get<std::string>() != "msid-design/1")
         throw Error("'" + path + "': format is " + fmtv.dump() + ", expected \"msid-design/1\"");
     DesignParams p;
-    p.period = (uint32_t)juint(j, "period_samples", path);
-    p.n_inputs = (uint32_t)juint(j, "n_inputs", path);
-    p.n_experiments = (uint32_t)juint(j, "n_experiments", path);
+    p.period = juint32(j, "period_samples", path);
+    p.n_inputs = juint32(j, "n_inputs", path);
+    p.n_experiments = juint32(j, "n_experiments", path);
     const Json &dom = jget(j, "domain", path);
     if (dom != "dt" && dom != "ct") throw Error("'" + path + "': 'domain' must be \"dt\" or \"ct\"");
     const bool ct = dom == "ct";
@@ -218,7 +230,7 @@ std::unique_ptr<Design> read_design_file(const std::string &path)
     else if (pat == "hadamard") p.pattern = MSID_PATTERN_HADAMARD;
     else throw Error("'" + path + "': 'pattern' must be \"dft\" or \"hadamard\"");
     p.seed = juint(j, "seed", path);
-    if (j.contains("periods")) p.periods = (uint32_t)juint(j, "periods", path);
+    if (j.contains("periods")) p.periods = juint32(j, "periods", path);
     const Json &lines = jget(j, "lines", path);
     if (!lines.is_array() || lines.empty()) throw Error("'" + path + "': 'lines' must be a non-empty array");
     const size_t L = lines.size(), nu = p.n_inputs;
@@ -231,7 +243,7 @@ std::unique_ptr<Design> read_design_file(const std::string &path)
         const Json &e = lines[l];
         const std::string where = fmt("lines[%zu]", l);
         if (ct) p.omega.push_back(jnum(jget(e, "omega", path), where + ".omega", path));
-        else p.bins.push_back((uint32_t)juint(e, "bin", path));
+        else p.bins.push_back(juint32(e, "bin", path));
         const Json &a = jget(e, "amplitude", path), &ph = jget(e, "phase_turns", path);
         if (!a.is_array() || a.size() != nu || !ph.is_array() || ph.size() != nu)
             throw Error("'" + path + "': " + where + ".amplitude and .phase_turns need " + std::to_string(nu) + " values");

@@ -43,6 +43,7 @@ Json read_json_file(const std::string &path);
 // Small JSON accessors with clear messages ("<file>: 'key' must be ...").
 const Json &jget(const Json &o, const std::string &key, const std::string &file);
 uint64_t juint(const Json &o, const std::string &key, const std::string &file);
+uint32_t juint32(const Json &o, const std::string &key, const std::string &file);
 double jnum(const Json &v, const std::string &what, const std::string &file);
 
 }  // namespace msidcli

@@ -57,8 +57,9 @@ static void validate_lines(const FrfRequest &rq)
         seen[b] = (int32_t)l;
     }
     for (uint32_t b : rq.detect) {
-        if ((uint64_t)b * 2 > rq.period)
-            throw Error(fmt("detection line %u is beyond Nyquist (P/2 = %g)", b, rq.period / 2.0));
+        if (b == 0 || (uint64_t)b * 2 >= rq.period)
+            throw Error(fmt("detection line %u must lie strictly between DC and Nyquist (0 < bin < %g)", b,
+                            rq.period / 2.0));
         if (seen[b] >= 0) throw Error(fmt("detection line %u is an excited line or given twice", b));
         seen[b] = 1 << 30;
     }
@@ -205,6 +206,10 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
     msid_status st = msid_frf_compute(&f, ps.data());
     if (st == MSID_E_SINGULAR) {
         const uint32_t l = (uint32_t)f.bad_line;
+        if (msid_frf_line_status(&f, l) == MSID_LINE_UNEXCITED)
+            throw Error(fmt("the inputs do not excite line %u (bin %u): its weakest input direction is %.1f dB below "
+                            "the strongest line and %.1f dB above the input noise; drop the line or excite it",
+                            l + 1, rq.bins[l], -msid_frf_input_rel_db(&f, l), msid_frf_input_snr_db(&f, l)));
         throw Error(fmt("the input matrix is singular at line %u (bin %u, condition number %.3g): the experiments do not "
                         "excite the %u inputs independently there",
                         l + 1, rq.bins[l], msid_frf_cond(&f, l), nu));
@@ -258,6 +263,8 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         }
         e["snr"] = snr;
         e["cond"] = msid_frf_cond(&f, l);
+        const double us = msid_frf_input_snr_db(&f, l);
+        if (std::isfinite(us)) e["input_snr"] = us; else e["input_snr"] = nullptr;
         lines.push_back(e);
     }
     doc["lines"] = lines;

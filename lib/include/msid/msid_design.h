@@ -10,6 +10,9 @@
  * Hadamard matrix). T has orthogonal rows, so every line's nu x m input matrix
  * U_l = diag(A e^{j phi}) T has condition number max_i A_{i,l} / min_i A_{i,l}
  * (1 for equal amplitudes). This is Assumption 1 of González et al. 2025 (eq. 3).
+ * A DC line (bin 0) must stay real: it uses Hadamard signs, or with the DFT
+ * pattern the real basis 1, cos(2 pi k e/m), sin(2 pi k e/m), ..., whose rows
+ * are orthogonal with norms sqrt(m) or sqrt(m/2): condition number <= sqrt(2).
  *
  * Continuous-time designs give line frequencies in rad/s and a sample time h.
  * Each line must complete a whole number of cycles in P*h; it maps to the

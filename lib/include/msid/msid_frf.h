@@ -47,7 +47,9 @@ typedef struct msid_frf_cfg {
 
 /** Per-line solve status. */
 #define MSID_LINE_OK 0
-#define MSID_LINE_SINGULAR 1
+#define MSID_LINE_SINGULAR 1   /**< Ubar is numerically singular (cond > 1e12) */
+#define MSID_LINE_UNEXCITED 2  /**< the inputs barely reach the line: weakest input direction
+                                    below 1e-10 of the strongest line, or below 10 dB over the input noise */
 
 /** Instance (caller-owned). */
 typedef struct msid_frf {
@@ -61,6 +63,8 @@ typedef struct msid_frf {
     msid_cplx *noise;         /**< [L * ny*ny] pooled per-period output noise covariance */
     double *snr;              /**< [L * ny] SNR of the averaged output spectrum, dB */
     double *cond;             /**< [L] condition number of Ubar */
+    double *urel;             /**< [L] smallest singular value of Ubar squared, over the largest |Ubar|_F^2 of all lines */
+    double *usnr;             /**< [L] smallest singular value of Ubar squared over the input noise power of the means (inf: exact input) */
     uint8_t *line_status;     /**< [L] MSID_LINE_* */
     msid_cplx *noise_time;    /**< [ny*ny] time-domain noise covariance estimate */
     msid_cplx *dmean;         /**< [n_detect * m * ny] mean output spectrum at detection lines */
@@ -82,7 +86,8 @@ msid_status msid_frf_init(msid_frf *f, const msid_frf_cfg *cfg, void *mem, size_
  * @brief Solve every line from the statistics of the m experiments.
  * @param stats [m] statistics with n_lines + n_detect lines and nu + ny channels ([u; y])
  * @return MSID_OK; MSID_E_FEW_PERIODS (see bad_experiment) if an experiment has < 2 periods;
- *         MSID_E_SINGULAR (see bad_line) if Ubar is singular at a line (cond > 1e12) - the
+ *         MSID_E_SINGULAR (see bad_line and ::msid_frf_line_status) if Ubar is singular
+ *         (cond > 1e12) or the inputs do not excite a line (MSID_LINE_UNEXCITED) - the
  *         other lines are still solved; MSID_E_DIMS if the statistics do not match.
  */
 msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats);
@@ -103,8 +108,13 @@ const msid_cplx *msid_frf_noise_cov(const msid_frf *f, uint32_t l);
 const double *msid_frf_snr_db(const msid_frf *f, uint32_t l);
 /** @brief Condition number of Ubar at line l. */
 double msid_frf_cond(const msid_frf *f, uint32_t l);
-/** @brief MSID_LINE_OK or MSID_LINE_SINGULAR. */
+/** @brief MSID_LINE_OK, MSID_LINE_SINGULAR or MSID_LINE_UNEXCITED. */
 int msid_frf_line_status(const msid_frf *f, uint32_t l);
+/** @brief Input SNR at line l in dB: weakest input direction (smallest singular value of
+ *  Ubar, squared) over the noise power of the input means; +inf for exact inputs. */
+double msid_frf_input_snr_db(const msid_frf *f, uint32_t l);
+/** @brief Input level at line l in dB relative to the strongest line (weakest input direction). */
+double msid_frf_input_rel_db(const msid_frf *f, uint32_t l);
 /** @brief Time-domain output noise covariance estimate (ny x ny): mean over lines of noise_cov / P. */
 const msid_cplx *msid_frf_noise_cov_time(const msid_frf *f);
 /** @brief Mean output spectrum at detection line d: [m * ny], index e*ny + i. */

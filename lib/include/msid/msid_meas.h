@@ -28,7 +28,7 @@ typedef struct msid_meas_cfg {
     uint32_t n_lines;              /**< excited lines L >= 1 */
     const uint32_t *bins;          /**< [L] excited bins in [0, P/2) */
     uint32_t n_detect;             /**< extra non-excited lines for noise/distortion (may be 0) */
-    const uint32_t *detect_bins;   /**< [n_detect] bins in [0, P/2], not excited */
+    const uint32_t *detect_bins;   /**< [n_detect] bins in [1, P/2), not excited */
     const msid_twiddle *twiddle;   /**< table of period P (stream path) */
     msid_dft_path path;            /**< DFT path request */
     const msid_fft_backend *fft;   /**< FFT backend or NULL */

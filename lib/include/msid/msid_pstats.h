@@ -103,7 +103,8 @@ msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
  * For period p among K kept, line l and channel c, with leave-one-out mean and
  * variance s2 (K-2 complex dof): t = |z_p - mean_{-p}|^2 / (s2 (1 + 1/(K-1))),
  * which is F(2, 2(K-2)) under stationary circular Gaussian noise; its p-value
- * is (1 + t/(K-2))^{-(K-2)}. Channels combine by Bonferroni within a line;
+ * is (1 + t/(K-2))^{-(K-2)}. On a real line (DC or Nyquist: imaginary parts
+ * exactly zero) it is F(1, K-2), the two-sided Student-t tail. Channels combine by Bonferroni within a line;
  * lines by a Fisher sum (conservative Gamma(L,1) tail) and a Bonferroni minimum,
  * each at half the level. Period k (0-based, in acceptance order) of K is
  * flagged when its p-value < alpha * (2^-(k+2) + 1/(2K)): a weighted

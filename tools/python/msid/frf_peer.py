@@ -25,7 +25,7 @@ Per excited line, with Ubar (nu x m) and Ybar (ny x m) the experiment means:
     cond = condition number of Ubar;
   * continuous-time lines that fold above Nyquist (bin P - b) carry
     G(-j w) = conj(G(j w)): G, both covariances and noise_cov are conjugated.
-Top level noise_cov = mean over lines of Sp / P (Sp at the DT bin, before the
+Top level noise_cov = mean over lines of the reported noise_cov / P (after the
 conjugation of folded lines).
 Detection lines: Y_mean (m x ny), noise_var = pooled y variance, p-value of
 F = (sum_e K_e |Ybar_e|^2 / m) / noise_var against F(2m, 2 sum(K_e - 1)).
@@ -202,10 +202,10 @@ def estimate(experiments, period, bins, skip=0, detect=(), folded=None, omega=No
             sig = np.sum(np.abs(Y[i]) ** 2)
             noi = np.sum(Sp[i, i].real / Ks)
             snr.append(10 * math.log10(sig / noi) if noi > 0 else None)
-        noise_time += Sp
         noise = Sp
         if folded[l]:
             G, cov, cov_ki, noise = G.conj(), cov.conj(), cov_ki.conj(), noise.conj()
+        noise_time += noise
         line = {"bin": b, "freq": b / P}
         if omega is not None:
             line["omega"] = float(omega[l])
