@@ -259,12 +259,13 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
             const double ce = wn / (double)Ke;
             csum += ce;
             c2 += ce * ce / (double)(Ke - 1u);
+            /* upper triangle only (c >= r); mirrored below */
             for (uint32_t j = 0; j < nu; ++j)
-                for (uint32_t jp = 0; jp < nu; ++jp) {
+                for (uint32_t jp = j; jp < nu; ++jp) {
                     const msid_cplx ww = msid__cmulc(W[e * nu + j], W[e * nu + jp]);
                     const msid_cplx wk = msid__cscale(ww, 1.0 / (double)Ke);
                     for (uint32_t i = 0; i < ny; ++i)
-                        for (uint32_t ip = 0; ip < ny; ++ip) {
+                        for (uint32_t ip = (jp == j ? i : 0u); ip < ny; ++ip) {
                             const size_t r = i + (size_t)ny * j, c = ip + (size_t)ny * jp;
                             Ca[r * g + c] = msid__cadd(Ca[r * g + c], msid__cmul(ww, S[i * ny + ip]));
                             Cb[r * g + c] = msid__cadd(Cb[r * g + c], msid__cmul(wk, Sp[i * ny + ip]));

@@ -58,7 +58,11 @@ def main():
     K_GLOBAL = K
     rng = np.random.default_rng(1)
     bins = np.sort(rng.choice(np.arange(1, P // 2), size=L, replace=False))
-    data = [rng.standard_normal((K * P, nu + ny)) for _ in range(m)]
+    data = []
+    for _ in range(m):          # periodic inputs (one random period repeated), noisy outputs
+        x = rng.standard_normal((K * P, nu + ny))
+        x[:, :nu] = np.tile(x[:P, :nu], (K, 1))
+        data.append(x)
     frf_job(data, bins, nu, ny)                                             # warm-up
     best = float("inf")
     t_end = time.perf_counter() + min_s

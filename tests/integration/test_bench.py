@@ -1,0 +1,18 @@
+"""`msid bench frf` runs and reports both paths and the NumPy peer (smoke test:
+speed is measured by the command, never asserted by tests)."""
+import helpers as h
+
+
+def test_bench_frf_smallest_config_runs():
+    r = h.run("bench", "frf", "--quick", "--only", "1", "--min-seconds", "0.05")
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    assert "P=1024 L=20 1x1" in out
+    assert "stream" in out and "fft" in out
+    assert "numpy" in out and "peer unavailable" not in out
+
+
+def test_bench_bad_option():
+    r = h.run("bench", "frf", "--only", "7")
+    assert r.returncode == 2
+    assert "--only" in r.stderr
