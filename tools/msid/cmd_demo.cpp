@@ -167,9 +167,9 @@ int cmd_demo(int argc, char **argv)
                 expct, sd);
     for (const auto &nt : o.notes) std::printf("note: %s\n", nt.c_str());
     std::printf("files: %s/{design.json,e1.csv,e2.csv,frf.json,truth.json}\n"
-                "reproduce the estimate: msid frf --design %s/design.json --experiment %s/e1.csv --experiment %s/e2.csv "
+                "reproduce the estimate: %s frf --design %s/design.json --experiment %s/e1.csv --experiment %s/e2.csv "
                 "--skip-periods 1 --fs %.0f -o frf.json\n",
-                dir.c_str(), dir.c_str(), dir.c_str(), dir.c_str(), fs);
+                dir.c_str(), argv[0], dir.c_str(), dir.c_str(), dir.c_str(), fs);
     // A demo that misses badly is a failure, not a success.
     if (inside + 4 * sd < expct) {
         std::fprintf(stderr, "msid demo: error: coverage far below 95%%\n");
