@@ -82,16 +82,20 @@ static void welford(msid_pstats *ps, const msid_cplx *z)
         msid_cplx *mu = ps->mean + l * q;
         msid_cplx *M = ps->m2 + l * q * q;
         const msid_cplx *zl = z + l * q;
+        msid_cplx al[MSID_MAX_CHANNELS];
         for (size_t c = 0; c < q; ++c) {
             dl[c] = msid__csub(zl[c], mu[c]);
+            al[c] = msid__cscale(dl[c], f);
             mu[c] = msid__cadd(mu[c], msid__cscale(dl[c], invK));
         }
+        /* M += f d d^H: upper triangle, diagonal real, lower = conj(upper) */
         for (size_t r = 0; r < q; ++r) {
-            for (size_t c = r; c < q; ++c) {
-                const msid_cplx v = msid__cscale(msid__cmulc(dl[r], dl[c]), f);
-                M[r * q + c] = msid__cadd(M[r * q + c], v);
-                if (c != r) M[c * q + r] = msid__cconj(M[r * q + c]);
-                else M[r * q + r].im = 0.0;
+            M[r * q + r].re += al[r].re * dl[r].re + al[r].im * dl[r].im;
+            for (size_t c = r + 1; c < q; ++c) {
+                const double vr = M[r * q + c].re + (al[r].re * dl[c].re + al[r].im * dl[c].im);
+                const double vi = M[r * q + c].im + (al[r].im * dl[c].re - al[r].re * dl[c].im);
+                M[r * q + c].re = vr; M[r * q + c].im = vi;
+                M[c * q + r].re = vr; M[c * q + r].im = -vi;
             }
         }
     }
