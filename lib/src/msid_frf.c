@@ -189,7 +189,16 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
         /* Thin QR of Ubar^H = Q R; Ubar^+ = Q R^{-H} (avoids forming Ubar Ubar^H). */
         const int ok = msid__cqr((int)m, (int)nu, A, R, 1e-13);
         double cond = 1.0, smin = R[0].re;       /* one input: a single column, |Ubar| */
-        if (nu > 1u) {
+        if (nu == 2u) {
+            /* R = [a b; 0 d]: singular values^2 are the roots of s^2 - t s + |a|^2 |d|^2 */
+            const double aa = msid__cabs2(R[0]), bb = msid__cabs2(R[1]), dd = msid__cabs2(R[3]);
+            const double t = aa + bb + dd, det = aa * dd;
+            /* t^2 - 4 det written without cancellation */
+            const double disc = sqrt((aa - dd) * (aa - dd) + bb * (bb + 2.0 * (aa + dd)));
+            const double s2max = 0.5 * (t + disc), s2min = s2max > 0.0 ? det / s2max : 0.0;
+            smin = sqrt(s2min);
+            cond = s2min > 0.0 ? sqrt(s2max / s2min) : HUGE_VAL;
+        } else if (nu > 2u) {
             for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];
             double smax;
             msid__csv_minmax((int)nu, (int)nu, Rc, dw, &smin, &smax);
