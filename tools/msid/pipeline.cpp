@@ -23,6 +23,39 @@ Json cmat_json(const msid_cplx *a, size_t rows, size_t cols)
     return Json{{"re", re}, {"im", im}};
 }
 
+Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
+{
+    Json doc;
+    doc["format"] = "msid-frf/1";
+    doc["generator"] = std::string("msid ") + MSID_VERSION;
+    doc["period_samples"] = rq.period;
+    doc["n_inputs"] = nu;
+    doc["n_outputs"] = ny;
+    doc["n_experiments"] = m;
+    const bool ct = !rq.omega.empty();
+    doc["domain"] = ct ? "ct" : "dt";
+    if (ct || rq.fs > 0) doc["sample_time"] = ct ? rq.sample_time : 1.0 / rq.fs;
+    if (rq.fs > 0) doc["fs_hz"] = rq.fs;
+    return doc;
+}
+
+Json line_position(const FrfRequest &rq, size_t l)
+{
+    Json e;
+    const uint32_t b = rq.bins[l];
+    e["bin"] = b;
+    e["freq"] = (double)b / rq.period;
+    if (!rq.omega.empty()) {
+        e["omega"] = rq.omega[l];
+        e["folded"] = rq.folded[l] != 0;
+        e["freq_hz"] = rq.omega[l] / (2 * M_PI);
+    } else if (rq.fs > 0) {
+        e["freq_hz"] = (double)b / rq.period * rq.fs;
+    }
+    if (b == 0) e["real"] = true;
+    return e;
+}
+
 void request_from_design(FrfRequest &rq, const Design &D)
 {
     const msid_design &d = D.d;
@@ -67,7 +100,7 @@ static void validate_lines(const FrfRequest &rq)
 
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
 {
-    FrfOutcome out;
+    std::vector<std::string> notes;
     validate_lines(rq);
     if (recs.empty()) throw Error("no experiment files given (--experiment)");
     const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
@@ -94,49 +127,15 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
                             r.path.c_str(), (unsigned long long)K, P, r.n_rows,
                             rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
         if (left)
-            out.notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", r.path.c_str(),
-                                    (unsigned long long)left));
+            notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", r.path.c_str(),
+                                (unsigned long long)left));
         if (K > 0xFFFFFFu) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
         if (K > maxK) maxK = (uint32_t)K;
     }
-
-    // Twiddle table (stream path) and FFTW backend (dense path).
-    const size_t L = rq.bins.size(), Ld = rq.detect.size();
-    Mem mtw(msid_twiddle_mem_size(P));
-    msid_twiddle tw;
-    check(msid_twiddle_init(&tw, P, mtw.p, mtw.n), "twiddle table");
-    msid_dft_path path = rq.path;
-    if (path == MSID_DFT_AUTO) path = msid_linedft_choose(P, (uint32_t)(L + Ld), nu + ny, 1);
-    Fftw fftw;
-    if (path == MSID_DFT_FFT) {
-        check(msid_fft_fftw_create(&fftw.f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
-        fftw.on = true;
-    }
-    out.dft_path = path == MSID_DFT_FFT ? "fft" : "stream";
-
-    msid_meas_cfg mc{};
-    mc.period = P;
-    mc.n_inputs = nu;
-    mc.n_outputs = ny;
-    mc.n_experiments = m;
-    mc.n_lines = (uint32_t)L;
-    mc.bins = rq.bins.data();
-    mc.n_detect = (uint32_t)Ld;
-    mc.detect_bins = Ld ? rq.detect.data() : nullptr;
-    mc.twiddle = &tw;
-    mc.path = path;
-    mc.fft = fftw.on ? &fftw.f.be : nullptr;
-    mc.skip_periods = rq.skip;
-    mc.transient = maxK - rq.skip >= 3 ? rq.transient : MSID_TRANSIENT_OFF;
-    mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? maxK : 0;
-    mc.alpha = rq.alpha;
-    const size_t nm = msid_meas_mem_size(&mc);
-    if (nm == 0) throw Error("measurement dimensions out of range");
-    Mem mm(nm);
-    msid_meas ms;
-    check(msid_meas_init(&ms, &mc, mm.p, mm.n), "measurement setup");
-
+    FrfJob job(rq, nu, ny, m, maxK, maxK);
+    msid_meas &ms = *job.meas();
     const size_t C = nu + ny;
+    std::vector<ExpSource> src;
     for (uint32_t e = 0; e < m; ++e) {
         const Record &r = recs[e];
         check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
@@ -147,14 +146,84 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
             check(msid_meas_push(&ms, r.rows.data() + k * C, n), "'" + r.path + "'");
         }
         check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
+        src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
     }
+    return job.finish(src, notes);
+}
 
+struct FrfJob::Impl {
+    FrfRequest rq;
+    uint32_t nu, ny, m;
+    Mem mtw, mm;
+    msid_twiddle tw{};
+    Fftw fftw;
+    std::string dft_path;
+    msid_meas ms{};
+};
+
+FrfJob::~FrfJob() = default;
+msid_meas *FrfJob::meas() { return &p_->ms; }
+
+FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t maxK, uint32_t history)
+    : p_(std::make_unique<Impl>())
+{
+    validate_lines(rq);
+    Impl &I = *p_;
+    I.rq = rq;
+    I.nu = nu;
+    I.ny = ny;
+    I.m = m;
+    const uint32_t P = rq.period;
+    // Twiddle table (stream path) and FFTW backend (dense path).
+    const size_t L = rq.bins.size(), Ld = rq.detect.size();
+    I.mtw = Mem(msid_twiddle_mem_size(P));
+    check(msid_twiddle_init(&I.tw, P, I.mtw.p, I.mtw.n), "twiddle table");
+    msid_dft_path path = rq.path;
+    if (path == MSID_DFT_AUTO) path = msid_linedft_choose(P, (uint32_t)(L + Ld), nu + ny, 1);
+    if (path == MSID_DFT_FFT) {
+        check(msid_fft_fftw_create(&I.fftw.f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
+        I.fftw.on = true;
+    }
+    I.dft_path = path == MSID_DFT_FFT ? "fft" : "stream";
+
+    msid_meas_cfg mc{};
+    mc.period = P;
+    mc.n_inputs = nu;
+    mc.n_outputs = ny;
+    mc.n_experiments = m;
+    mc.n_lines = (uint32_t)L;
+    mc.bins = rq.bins.data();
+    mc.n_detect = (uint32_t)Ld;
+    mc.detect_bins = Ld ? rq.detect.data() : nullptr;
+    mc.twiddle = &I.tw;
+    mc.path = path;
+    mc.fft = I.fftw.on ? &I.fftw.f.be : nullptr;
+    mc.skip_periods = rq.skip;
+    mc.transient = maxK >= rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
+    mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? history : 0;
+    mc.alpha = rq.alpha;
+    const size_t nm = msid_meas_mem_size(&mc);
+    if (nm == 0) throw Error("measurement dimensions out of range");
+    I.mm = Mem(nm);
+    check(msid_meas_init(&I.ms, &mc, I.mm.p, I.mm.n), "measurement setup");
+}
+
+FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::string> notes)
+{
+    Impl &I = *p_;
+    const FrfRequest &rq = I.rq;
+    msid_meas &ms = I.ms;
+    const uint32_t nu = I.nu, ny = I.ny, m = I.m, P = rq.period;
+    const size_t L = rq.bins.size(), Ld = rq.detect.size();
+    FrfOutcome out;
+    out.notes = std::move(notes);
+    out.dft_path = I.dft_path;
     // Per-experiment accounting, and enough periods left?
     Json exps = Json::array();
     uint64_t used = 0, rejected = 0;
     std::vector<const msid_pstats *> ps(m);
     for (uint32_t e = 0; e < m; ++e) {
-        const Record &r = recs[e];
+        const ExpSource &r = src[e];
         ps[e] = msid_meas_stats(&ms, e);
         const msid_pstats_counts c = msid_pstats_get_counts(ps[e]);
         Json flagged = Json::array(), dropped = Json::array(), pvals = Json::array();
@@ -167,13 +236,13 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
             if (s >= 1)
                 out.notes.push_back(fmt("'%s': period %u departs from the others more than the noise explains "
                                         "(p = %.2g): likely a transient%s",
-                                        r.path.c_str(), period_index + 1, pv,
+                                        r.source.c_str(), period_index + 1, pv,
                                         s == 2 ? "; dropped" : "; kept (use --skip-periods or --transient drop)"));
         }
         Json je;
-        je["source"] = r.path;
-        je["samples"] = r.n_rows;
-        je["periods_total"] = r.n_rows / P;
+        je["source"] = r.source;
+        je["samples"] = r.samples;
+        je["periods_total"] = r.periods_total;
         je["periods_skipped"] = c.skipped;
         je["periods_used"] = c.used;
         je["periods_gap"] = c.gap;
@@ -181,13 +250,13 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         je["transient_tested"] = c.tested != 0;
         je["transient_flagged"] = flagged;
         je["transient_dropped"] = dropped;
-        je["leftover_samples"] = r.n_rows % P;
+        je["leftover_samples"] = r.leftover;
         exps.push_back(je);
         used += c.used;
         rejected += c.gap + c.nonfinite + c.transient_dropped;
         if (c.used < 2)
             throw Error(fmt("'%s': only %u usable period(s) after skipping %u and rejecting %u: at least 2 are needed",
-                            r.path.c_str(), c.used, c.skipped, c.gap + c.nonfinite + c.transient_dropped));
+                            r.source.c_str(), c.used, c.skipped, c.gap + c.nonfinite + c.transient_dropped));
     }
 
     msid_frf_cfg fc{};
@@ -215,21 +284,11 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
                         l + 1, rq.bins[l], msid_frf_cond(&f, l), nu));
     }
     if (st == MSID_E_FEW_PERIODS)
-        throw Error(fmt("'%s': fewer than 2 usable periods", recs[(size_t)f.bad_experiment].path.c_str()));
+        throw Error(fmt("'%s': fewer than 2 usable periods", src[(size_t)f.bad_experiment].source.c_str()));
     check(st, "FRF");
 
     const size_t g = (size_t)nu * ny;
-    Json doc;
-    doc["format"] = "msid-frf/1";
-    doc["generator"] = std::string("msid ") + MSID_VERSION;
-    doc["period_samples"] = P;
-    doc["n_inputs"] = nu;
-    doc["n_outputs"] = ny;
-    doc["n_experiments"] = m;
-    const bool ct = !rq.omega.empty();
-    doc["domain"] = ct ? "ct" : "dt";
-    if (ct || rq.fs > 0) doc["sample_time"] = ct ? rq.sample_time : 1.0 / rq.fs;
-    if (rq.fs > 0) doc["fs_hz"] = rq.fs;
+    Json doc = frf_header(rq, nu, ny, m);
     doc["periods_used"] = used;
     doc["periods_rejected"] = rejected;
     doc["dft_path"] = out.dft_path;
@@ -238,18 +297,7 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
     doc["experiments"] = exps;
     Json lines = Json::array();
     for (uint32_t l = 0; l < L; ++l) {
-        Json e;
-        const uint32_t b = rq.bins[l];
-        e["bin"] = b;
-        e["freq"] = (double)b / P;
-        if (ct) {
-            e["omega"] = rq.omega[l];
-            e["folded"] = rq.folded[l] != 0;
-            e["freq_hz"] = rq.omega[l] / (2 * M_PI);
-        } else if (rq.fs > 0) {
-            e["freq_hz"] = (double)b / P * rq.fs;
-        }
-        if (b == 0) e["real"] = true;
+        Json e = line_position(rq, l);
         e["G"] = cmat_json(msid_frf_G(&f, l), ny, nu);
         e["cov"] = cmat_json(msid_frf_cov(&f, l), g, g);
         e["dof"] = msid_frf_dof(&f, l);

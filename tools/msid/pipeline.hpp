@@ -34,6 +34,42 @@ void request_from_design(FrfRequest &rq, const Design &d);
 // Validate everything, run the core, build the document. Throws Error.
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs);
 
+// What the document reports about where each experiment came from.
+struct ExpSource {
+    std::string source;        // file name, or e.g. "can:vcan0 experiment 1"
+    uint64_t samples = 0;      // samples received or declared missing
+    uint64_t periods_total = 0;
+    uint64_t leftover = 0;     // samples after the last whole period (not used)
+};
+
+// The FRF job in two halves, for sources that feed msid_meas themselves (the
+// CAN decoder): the constructor sets the core up (validated request, line DFT
+// path, measurement), the caller pushes samples into meas(), and finish()
+// checks the period counts, solves the FRF and builds the one msid-frf/1
+// document. `history` is the per-experiment period capacity of the transient
+// test; `periods` the expected periods per experiment (it enables the test).
+class FrfJob {
+public:
+    FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t history);
+    ~FrfJob();
+    FrfJob(const FrfJob &) = delete;
+    FrfJob &operator=(const FrfJob &) = delete;
+    msid_meas *meas();
+    FrfOutcome finish(const std::vector<ExpSource> &src, std::vector<std::string> notes = {});
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> p_;
+};
+
+// The direct time-domain LS FRF (needs a design; records need not be whole periods).
+FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vector<Record> &recs);
+
+// The msid-frf/1 header fields (format .. fs_hz) and a line's position fields
+// (bin, freq, omega, folded, freq_hz, real): shared by every FRF writer.
+Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m);
+Json line_position(const FrfRequest &rq, size_t l);
+
 // {"re": [[...]], "im": [[...]]} of a rows x cols complex matrix (row-major).
 Json cmat_json(const msid_cplx *a, size_t rows, size_t cols);
 

@@ -1,0 +1,139 @@
+/**
+ * @file msid_can_decoder.h
+ * @brief msid-can/1 frames -> sample rows -> ::msid_meas.
+ *
+ * The decoder follows the device: a STATUS RUNNING(e) frame opens experiment
+ * e in the measurement, sample frames are assembled into rows [u; y] (a row
+ * may span several frames), and STATUS DONE(e, n) closes it after checking
+ * that samples 0..n-1 all arrived. A small reorder window (W samples) puts
+ * reordered frames back in place and drops duplicates. A sample still
+ * incomplete when it leaves the window is missing: it is declared to the
+ * core with ::msid_meas_push_gap, so every period it touches is discarded and
+ * counted, never averaged in. Sequence gaps are counted here; kernel drops
+ * (SO_RXQ_OVFL) are the transport's, kept apart. A device restart (a
+ * segment-start sample after the window) closes the segment and opens a new
+ * one (::msid_meas_begin again: the skip periods apply again). Error frames
+ * are decoded into the bus state; bus-off and controller overflow also
+ * discard the current period (::msid_meas_mark_gap). Malformed frames (wrong
+ * length, FD flag, chunk, or period marker) are counted and ignored.
+ * Same frames in, same rows and gaps out: live and replayed runs give
+ * bit-identical statistics. No allocation: memory comes from the caller.
+ */
+#ifndef MSID_CAN_DECODER_H
+#define MSID_CAN_DECODER_H
+
+#include "msid/msid_meas.h"
+#include "msid_can_proto.h"
+#include "msid_can_transport.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Largest reorder window, in samples. */
+#define MSID_CAN_MAX_WINDOW 256u
+
+/** Bus state from error frames. */
+typedef enum msid_can_bus_state {
+    MSID_CAN_BUS_ACTIVE = 0, MSID_CAN_BUS_WARNING = 1, MSID_CAN_BUS_PASSIVE = 2,
+    MSID_CAN_BUS_OFF = 3, MSID_CAN_BUS_RESTARTED = 4
+} msid_can_bus_state;
+
+/** Configuration. */
+typedef struct msid_can_decoder_cfg {
+    uint32_t base;          /**< base identifier (multiple of 0x80) */
+    uint32_t n_inputs;      /**< nu */
+    uint32_t n_outputs;     /**< ny; nu + ny <= MSID_MAX_CHANNELS */
+    uint32_t encoding;      /**< MSID_CAN_ENC_S16 or MSID_CAN_ENC_F32 */
+    uint32_t fd;            /**< 1: CAN FD sample frames */
+    double scale;           /**< int16 step */
+    uint32_t period;        /**< P: checks the period-start markers */
+    uint32_t window;        /**< reorder window in samples, 1..MSID_CAN_MAX_WINDOW (0: 16) */
+    uint32_t block;         /**< rows per ::msid_meas_push (0: 256) */
+    msid_meas *meas;        /**< the measurement to feed */
+} msid_can_decoder_cfg;
+
+/** Counters (cumulative over the run). */
+typedef struct msid_can_counters {
+    uint64_t frames;          /**< frames offered */
+    uint64_t sample_frames;   /**< sample frames used */
+    uint64_t samples;         /**< complete rows pushed */
+    uint64_t samples_lost;    /**< samples declared missing (pushed as gaps) */
+    uint64_t frames_missing;  /**< frames those samples lacked */
+    uint64_t gap_events;      /**< runs of missing samples */
+    uint64_t duplicates;      /**< frames received twice (ignored) */
+    uint64_t reordered;       /**< frames that came after a later frame and were put back in place */
+    uint64_t late;            /**< frames for samples already pushed or declared missing */
+    uint64_t malformed;       /**< wrong length, FD flag, chunk, marker, or beyond the announced end */
+    uint64_t foreign;         /**< sample frames of no open experiment, or identifiers outside the device's */
+    uint64_t status_frames;   /**< STATUS frames */
+    uint64_t error_frames;    /**< error frames */
+    uint64_t err_warning, err_passive, err_bus_off, err_restarted, err_protocol, err_ack, err_ctrl_overflow,
+             err_other;      /**< error frames by class */
+    uint64_t restarts;        /**< device restarts seen in the sample stream (new segments) */
+    uint64_t periods_marked;  /**< periods discarded for bus-off or controller overflow */
+    uint64_t experiments_done;/**< experiments closed by DONE */
+} msid_can_counters;
+
+/** Last device status seen. */
+typedef struct msid_can_device {
+    int have_info;            /**< an INFO frame was seen */
+    uint32_t version, nu, ny, cfg_crc;
+    int have_state;
+    uint32_t state, experiment, error, value;
+    int have_counters;
+    uint32_t tec, rec, restarts, tx_dropped;
+} msid_can_device;
+
+/** Ring slot (internal). */
+typedef struct msid_can_slot {
+    int64_t n;                /**< sample index, -1 empty */
+    uint64_t mask;            /**< chunks received */
+    int emitted;
+} msid_can_slot;
+
+/** Decoder (caller-owned). */
+typedef struct msid_can_decoder {
+    msid_can_decoder_cfg cfg;
+    uint32_t C, chunks, per;
+    uint64_t full;
+    msid_can_slot *slot;      /**< [W] */
+    double *row;              /**< [W * C] */
+    double *rows;             /**< [block * C] pending rows */
+    uint32_t nrows;
+    uint64_t gap_run;
+    int open;                 /**< experiment open */
+    uint32_t exp;
+    int64_t next;             /**< next sample to emit */
+    int64_t last_s;           /**< last (sample, chunk) received, for reorder counting */
+    uint32_t last_k;
+    int seen;                 /**< a sample frame of this segment was seen */
+    int done_exp;             /**< last experiment closed by DONE (-1 none) */
+    msid_can_bus_state bus;
+    msid_can_counters cnt;
+    msid_can_device dev;
+    msid_status err;          /**< first core error (sticky) */
+} msid_can_decoder;
+
+/** @brief Bytes of working memory; 0 if cfg is invalid. */
+size_t msid_can_decoder_mem_size(const msid_can_decoder_cfg *cfg);
+
+/** @brief Initialise. @return MSID_OK, MSID_E_NULL, MSID_E_DIMS, MSID_E_ARG, MSID_E_MEM_SIZE, MSID_E_MEM_ALIGN. */
+msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cfg *cfg, void *mem, size_t len);
+
+/**
+ * @brief Process one frame (any identifier; error frames included).
+ * @return MSID_OK or the first error of the core (sticky), e.g. MSID_E_CAPACITY.
+ */
+msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f);
+
+/** @brief Close an open experiment without a DONE frame (e.g. the device went silent): pending samples are flushed, missing ones declared. */
+msid_status msid_can_decoder_abort(msid_can_decoder *d);
+
+/** @brief Name of a bus state ("active", "warning", "passive", "bus-off", "restarted"). */
+const char *msid_can_bus_state_name(msid_can_bus_state s);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,52 @@
+/**
+ * @file msid_candump.h
+ * @brief candump .log files: a writer, and a replay transport.
+ *
+ * One frame per line, as `candump -l` writes and can-utils' canplayer and
+ * python-can's CanutilsLogReader read:
+ *   (1700000000.123456) vcan0 212#0102030405060708       classic
+ *   (1700000000.123456) vcan0 248##1<128 hex digits>     CAN FD (flags digit)
+ *   (1700000000.123456) vcan0 20000040#0000000000000000  error frame (8 hex digits)
+ *   (1700000000.123456) vcan0 1ABCDEF0#...               29-bit identifier
+ * The replay backend returns the frames in file order with their timestamps;
+ * a malformed line stops the replay with -MSID_DAQ_E_FORMAT and its line number.
+ */
+#ifndef MSID_CANDUMP_H
+#define MSID_CANDUMP_H
+
+#include <stdio.h>
+#include "msid_can_transport.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** @brief Format one frame as a candump log line (with '\n'); returns its length. buf: >= 200 bytes. */
+int msid_candump_format(char *buf, size_t cap, const msid_can_frame *f, const char *iface);
+
+/**
+ * @brief Parse one candump log line.
+ * @return 0, 1 for a blank line, or -MSID_DAQ_E_FORMAT.
+ */
+int msid_candump_parse(const char *line, msid_can_frame *f, char *iface, size_t iface_cap);
+
+/** Replay state (caller-owned). */
+typedef struct msid_candump_reader {
+    msid_can_transport tr;
+    FILE *fp;
+    uint64_t line;         /**< lines read */
+    msid_can_link_stats st;
+    char err[256];
+    char iface[32];        /**< interface of the last frame */
+} msid_candump_reader;
+
+/** @brief Open a log for replay. @return 0 or -MSID_DAQ_E_IO (detail in r->err). */
+int msid_candump_open(msid_candump_reader *r, const char *path);
+
+/** @brief Rewind to the first line (for a second pass). */
+void msid_candump_rewind(msid_candump_reader *r);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

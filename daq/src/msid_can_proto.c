@@ -1,0 +1,345 @@
+/* msid-can/1 frame layout: encode and decode (no OS, no heap). */
+#include "msid_daq/msid_can_proto.h"
+
+#include <math.h>
+#include <string.h>
+
+void msid_can_put_u32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); p[2] = (uint8_t)(v >> 16); p[3] = (uint8_t)(v >> 24);
+}
+
+uint32_t msid_can_get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+uint32_t msid_can_chunk_channels(uint32_t encoding, uint32_t fd)
+{
+    if (fd) return encoding == MSID_CAN_ENC_F32 ? 15u : 30u;
+    return encoding == MSID_CAN_ENC_F32 ? 1u : 2u;
+}
+
+uint32_t msid_can_sample_len(uint32_t fd) { return fd ? 64u : 8u; }
+
+uint32_t msid_can_chunks(uint32_t n_channels, uint32_t encoding, uint32_t fd)
+{
+    const uint32_t k = msid_can_chunk_channels(encoding, fd);
+    return (n_channels + k - 1) / k;
+}
+
+uint32_t msid_can_chunk_id(uint32_t encoding, uint32_t fd, uint32_t k)
+{
+    if (fd) return (encoding == MSID_CAN_ENC_F32 ? MSID_CAN_ID_FD_F32 : MSID_CAN_ID_FD_S16) + k;
+    return (encoding == MSID_CAN_ENC_F32 ? MSID_CAN_ID_F32 : MSID_CAN_ID_S16) + k;
+}
+
+int msid_can_classify_sample(uint32_t off, uint32_t *encoding, uint32_t *fd, uint32_t *chunk)
+{
+    uint32_t e, f, k;
+    if (off >= MSID_CAN_ID_S16 && off < MSID_CAN_ID_S16 + 16) { e = MSID_CAN_ENC_S16; f = 0; k = off - MSID_CAN_ID_S16; }
+    else if (off >= MSID_CAN_ID_F32 && off < MSID_CAN_ID_F32 + 32) { e = MSID_CAN_ENC_F32; f = 0; k = off - MSID_CAN_ID_F32; }
+    else if (off >= MSID_CAN_ID_FD_S16 && off < MSID_CAN_ID_FD_S16 + 2) { e = MSID_CAN_ENC_S16; f = 1; k = off - MSID_CAN_ID_FD_S16; }
+    else if (off >= MSID_CAN_ID_FD_F32 && off < MSID_CAN_ID_FD_F32 + 3) { e = MSID_CAN_ENC_F32; f = 1; k = off - MSID_CAN_ID_FD_F32; }
+    else return 0;
+    *encoding = e; *fd = f; *chunk = k;
+    return 1;
+}
+
+uint32_t msid_can_crc32(uint32_t crc, const uint8_t *p, size_t n)
+{
+    crc = ~crc;
+    for (size_t i = 0; i < n; ++i) {
+        crc ^= p[i];
+        for (int b = 0; b < 8; ++b) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+static int16_t quantize(double x, double scale)
+{
+    if (!(x == x) || !(scale > 0)) return MSID_CAN_S16_INVALID;
+    const double q = x / scale;
+    if (!(q > -32767.5 && q < 32767.5)) return MSID_CAN_S16_INVALID;   /* out of range or NaN */
+    return (int16_t)lrint(q);
+}
+
+void msid_can_encode_sample(uint8_t *data, uint32_t encoding, uint32_t fd, uint32_t k, uint32_t seq,
+                            uint32_t experiment, uint32_t flags, const double *row, uint32_t n_channels,
+                            double scale)
+{
+    const uint32_t len = msid_can_sample_len(fd), per = msid_can_chunk_channels(encoding, fd);
+    memset(data, 0, len);
+    data[0] = (uint8_t)seq; data[1] = (uint8_t)(seq >> 8); data[2] = (uint8_t)(seq >> 16);
+    data[3] = (uint8_t)((experiment & MSID_CAN_EXP_MASK) | (flags & (MSID_CAN_PSTART | MSID_CAN_SEGSTART)));
+    for (uint32_t j = 0; j < per; ++j) {
+        const uint32_t c = k * per + j;
+        if (c >= n_channels) break;
+        if (encoding == MSID_CAN_ENC_F32) {
+            const float v = (float)row[c];
+            uint32_t w;
+            memcpy(&w, &v, 4);
+            msid_can_put_u32(data + 4 + 4 * j, w);
+        } else {
+            const uint16_t w = (uint16_t)quantize(row[c], scale);
+            data[4 + 2 * j] = (uint8_t)w;
+            data[5 + 2 * j] = (uint8_t)(w >> 8);
+        }
+    }
+}
+
+void msid_can_decode_values(const uint8_t *data, uint32_t encoding, uint32_t fd, uint32_t k, double *row,
+                            uint32_t n_channels, double scale)
+{
+    const uint32_t per = msid_can_chunk_channels(encoding, fd);
+    for (uint32_t j = 0; j < per; ++j) {
+        const uint32_t c = k * per + j;
+        if (c >= n_channels) break;
+        if (encoding == MSID_CAN_ENC_F32) {
+            const uint32_t w = msid_can_get_u32(data + 4 + 4 * j);
+            float v;
+            memcpy(&v, &w, 4);
+            row[c] = (double)v;
+        } else {
+            const int16_t v = (int16_t)(uint16_t)(data[4 + 2 * j] | data[5 + 2 * j] << 8);
+            row[c] = v == MSID_CAN_S16_INVALID ? NAN : (double)v * scale;
+        }
+    }
+}
+
+void msid_can_encode_ctrl(uint8_t *d, uint32_t cmd, uint32_t experiment, uint32_t periods)
+{
+    d[0] = (uint8_t)cmd; d[1] = (uint8_t)experiment; d[2] = (uint8_t)MSID_CAN_PROTO_VERSION; d[3] = 0;
+    msid_can_put_u32(d + 4, periods);
+}
+
+void msid_can_encode_state(uint8_t *d, uint32_t state, uint32_t experiment, uint32_t error, uint32_t value)
+{
+    d[0] = MSID_CAN_ST_STATE; d[1] = (uint8_t)state; d[2] = (uint8_t)experiment; d[3] = (uint8_t)error;
+    msid_can_put_u32(d + 4, value);
+}
+
+void msid_can_encode_info(uint8_t *d, uint32_t version, uint32_t nu, uint32_t ny, uint32_t cfg_crc)
+{
+    d[0] = MSID_CAN_ST_INFO; d[1] = (uint8_t)version; d[2] = (uint8_t)nu; d[3] = (uint8_t)ny;
+    msid_can_put_u32(d + 4, cfg_crc);
+}
+
+void msid_can_encode_counters(uint8_t *d, uint32_t tec, uint32_t rec, uint32_t restarts, uint32_t tx_dropped)
+{
+    d[0] = MSID_CAN_ST_COUNTERS;
+    d[1] = (uint8_t)(tec > 255 ? 255 : tec);
+    d[2] = (uint8_t)(rec > 255 ? 255 : rec);
+    d[3] = (uint8_t)(restarts > 255 ? 255 : restarts);
+    msid_can_put_u32(d + 4, tx_dropped);
+}
+
+void msid_can_config_reset(msid_can_config *c)
+{
+    c->open = 0;
+    c->n_frames = 0;
+    c->run_crc = 0;
+    c->crc = 0;
+    memset(c->got, 0, sizeof c->got);
+}
+
+/* Parameter class of a CFG id for the `got` counters. */
+static int pclass(uint32_t p)
+{
+    switch (p) {
+    case MSID_CAN_P_PERIOD: return 0;
+    case MSID_CAN_P_LINES: return 1;
+    case MSID_CAN_P_INPUTS: return 2;
+    case MSID_CAN_P_EXPERIMENTS: return 3;
+    case MSID_CAN_P_PATTERN: return 4;
+    case MSID_CAN_P_PHASE_MODE: return 5;
+    case MSID_CAN_P_SEED: return 6;
+    case MSID_CAN_P_BIN: return 7;
+    case MSID_CAN_P_AMP: return 8;
+    case MSID_CAN_P_PHASE: return 9;
+    case MSID_CAN_P_OMEGA: return 10;
+    case MSID_CAN_P_SAMPLE_TIME: return 11;
+    case MSID_CAN_P_ENCODING: return 12;
+    case MSID_CAN_P_SCALE: return 13;
+    case MSID_CAN_P_FD: return 14;
+    case MSID_CAN_P_RATE: case MSID_CAN_P_PERIODS: return 15;
+    default: return -1;
+    }
+}
+
+static void put_frame(uint8_t (*out)[8], size_t cap, size_t *n, uint32_t p, uint32_t idx, uint32_t v)
+{
+    if (out && *n < cap) {
+        uint8_t *d = out[*n];
+        d[0] = (uint8_t)p; d[1] = (uint8_t)idx; d[2] = (uint8_t)(idx >> 8); d[3] = (uint8_t)(idx >> 16);
+        msid_can_put_u32(d + 4, v);
+    }
+    ++*n;
+}
+
+static void put_double(uint8_t (*out)[8], size_t cap, size_t *n, uint32_t p, uint32_t idx, double x)
+{
+    uint64_t w;
+    memcpy(&w, &x, 8);
+    put_frame(out, cap, n, p, 2 * idx, (uint32_t)w);
+    put_frame(out, cap, n, p, 2 * idx + 1, (uint32_t)(w >> 32));
+}
+
+size_t msid_can_config_frames(const msid_can_config *c, uint8_t (*out)[8], size_t cap)
+{
+    if (c->n_lines == 0 || c->n_lines > MSID_CAN_MAX_LINES || c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS)
+        return 0;
+    size_t n = 0;
+    const uint32_t L = c->n_lines, nu = c->n_inputs;
+    put_frame(out, cap, &n, MSID_CAN_P_BEGIN, MSID_CAN_PROTO_VERSION, 0);
+    put_frame(out, cap, &n, MSID_CAN_P_PERIOD, 0, c->period);
+    put_frame(out, cap, &n, MSID_CAN_P_LINES, 0, L);
+    put_frame(out, cap, &n, MSID_CAN_P_INPUTS, 0, nu);
+    put_frame(out, cap, &n, MSID_CAN_P_EXPERIMENTS, 0, c->n_experiments);
+    put_frame(out, cap, &n, MSID_CAN_P_PATTERN, 0, c->pattern);
+    put_frame(out, cap, &n, MSID_CAN_P_PHASE_MODE, 0, c->phase_mode);
+    put_frame(out, cap, &n, MSID_CAN_P_SEED, 0, (uint32_t)c->seed);
+    put_frame(out, cap, &n, MSID_CAN_P_SEED, 1, (uint32_t)(c->seed >> 32));
+    if (c->is_ct) {
+        for (uint32_t l = 0; l < L; ++l) put_double(out, cap, &n, MSID_CAN_P_OMEGA, l, c->omega[l]);
+        put_double(out, cap, &n, MSID_CAN_P_SAMPLE_TIME, 0, c->sample_time);
+    } else {
+        for (uint32_t l = 0; l < L; ++l) put_frame(out, cap, &n, MSID_CAN_P_BIN, l, c->bins[l]);
+    }
+    if (c->have_amp)
+        for (uint32_t k = 0; k < nu * L; ++k) put_double(out, cap, &n, MSID_CAN_P_AMP, k, c->amp[k]);
+    if (c->have_phase)
+        for (uint32_t k = 0; k < nu * L; ++k) put_double(out, cap, &n, MSID_CAN_P_PHASE, k, c->phase[k]);
+    uint32_t sc;
+    memcpy(&sc, &c->scale, 4);
+    put_frame(out, cap, &n, MSID_CAN_P_ENCODING, 0, c->encoding);
+    put_frame(out, cap, &n, MSID_CAN_P_SCALE, 0, sc);
+    put_frame(out, cap, &n, MSID_CAN_P_FD, 0, c->fd);
+    put_frame(out, cap, &n, MSID_CAN_P_RATE, 0, c->rate_hz);
+    put_frame(out, cap, &n, MSID_CAN_P_PERIODS, 0, c->periods);
+    if (out && n <= cap) {
+        uint32_t crc = 0;
+        for (size_t i = 0; i < n; ++i) crc = msid_can_crc32(crc, out[i], 8);
+        put_frame(out, cap, &n, MSID_CAN_P_COMMIT, 0, crc);
+    } else {
+        ++n;
+    }
+    return n;
+}
+
+static void set_double_word(double *x, uint32_t w, uint32_t v)
+{
+    uint64_t b;
+    memcpy(&b, x, 8);
+    if (w) b = (b & 0xFFFFFFFFull) | (uint64_t)v << 32;
+    else b = (b & 0xFFFFFFFF00000000ull) | v;
+    memcpy(x, &b, 8);
+}
+
+/* Consistency of a complete configuration. */
+static int config_complete(const msid_can_config *c)
+{
+    const uint32_t L = c->n_lines, nu = c->n_inputs;
+    for (int k = 0; k <= 6; ++k)
+        if (c->got[k] != (k == 6 ? 2u : 1u)) return 0;
+    if (L == 0 || L > MSID_CAN_MAX_LINES || nu == 0 || nu > MSID_MAX_INPUTS) return 0;
+    if (c->is_ct) { if (c->got[10] != 2 * L || c->got[11] != 2 || c->got[7] != 0) return 0; }
+    else if (c->got[7] != L || c->got[10] != 0 || c->got[11] != 0) return 0;
+    if (c->got[8] != 0 && c->got[8] != 2 * nu * L) return 0;
+    if (c->got[9] != 0 && c->got[9] != 2 * nu * L) return 0;
+    if (c->phase_mode == MSID_PHASE_USER && c->got[9] == 0) return 0;
+    if (c->got[12] != 1 || c->got[13] != 1 || c->got[14] != 1 || c->got[15] != 2) return 0;
+    if (c->encoding > 1 || c->fd > 1) return 0;
+    if (c->encoding == MSID_CAN_ENC_S16 && !(c->scale > 0.0f && c->scale < 1e30f)) return 0;
+    return 1;
+}
+
+int msid_can_config_feed(msid_can_config *c, const uint8_t *d, uint32_t len, uint32_t host_version)
+{
+    if (len != 8) return -MSID_CAN_ERR_CFG;
+    const uint32_t p = d[0], idx = (uint32_t)d[1] | (uint32_t)d[2] << 8 | (uint32_t)d[3] << 16;
+    const uint32_t v = msid_can_get_u32(d + 4);
+    if (p == MSID_CAN_P_BEGIN) {
+        msid_can_config_reset(c);
+        if (idx != host_version) return -MSID_CAN_ERR_VERSION;
+        c->open = 1;
+        c->have_amp = c->have_phase = c->is_ct = 0;
+        c->n_frames = 1;
+        c->run_crc = msid_can_crc32(0, d, 8);
+        return 0;
+    }
+    if (!c->open) return -MSID_CAN_ERR_CFG;
+    if (p == MSID_CAN_P_COMMIT) {
+        c->open = 0;
+        if (v != c->run_crc) return -MSID_CAN_ERR_CRC;
+        if (!config_complete(c)) return -MSID_CAN_ERR_CFG;
+        c->crc = v;
+        return 1;
+    }
+    const int k = pclass(p);
+    if (k < 0) { c->open = 0; return -MSID_CAN_ERR_CFG; }
+    c->run_crc = msid_can_crc32(c->run_crc, d, 8);
+    c->n_frames++;
+    c->got[k]++;
+    const uint32_t L = c->n_lines, nu = c->n_inputs;
+    switch (p) {
+    case MSID_CAN_P_PERIOD: c->period = v; break;
+    case MSID_CAN_P_LINES: c->n_lines = v; break;
+    case MSID_CAN_P_INPUTS: c->n_inputs = v; break;
+    case MSID_CAN_P_EXPERIMENTS: c->n_experiments = v; break;
+    case MSID_CAN_P_PATTERN: c->pattern = v; break;
+    case MSID_CAN_P_PHASE_MODE: c->phase_mode = v; break;
+    case MSID_CAN_P_SEED:
+        if (idx > 1) goto bad;
+        c->seed = idx ? (c->seed & 0xFFFFFFFFull) | (uint64_t)v << 32 : (c->seed & ~0xFFFFFFFFull) | v;
+        break;
+    case MSID_CAN_P_BIN:
+        if (idx >= L || L > MSID_CAN_MAX_LINES) goto bad;
+        c->bins[idx] = v;
+        break;
+    case MSID_CAN_P_AMP:
+    case MSID_CAN_P_PHASE:
+        if (L > MSID_CAN_MAX_LINES || nu > MSID_MAX_INPUTS || idx >= 2 * nu * L) goto bad;
+        set_double_word(p == MSID_CAN_P_AMP ? &c->amp[idx / 2] : &c->phase[idx / 2], idx & 1u, v);
+        if (p == MSID_CAN_P_AMP) c->have_amp = 1; else c->have_phase = 1;
+        break;
+    case MSID_CAN_P_OMEGA:
+        if (L > MSID_CAN_MAX_LINES || idx >= 2 * L) goto bad;
+        set_double_word(&c->omega[idx / 2], idx & 1u, v);
+        c->is_ct = 1;
+        break;
+    case MSID_CAN_P_SAMPLE_TIME:
+        if (idx > 1) goto bad;
+        set_double_word(&c->sample_time, idx, v);
+        break;
+    case MSID_CAN_P_ENCODING: c->encoding = v; break;
+    case MSID_CAN_P_SCALE: memcpy(&c->scale, &v, 4); break;
+    case MSID_CAN_P_FD: c->fd = v; break;
+    case MSID_CAN_P_RATE: c->rate_hz = v; break;
+    case MSID_CAN_P_PERIODS: c->periods = v; break;
+    default: goto bad;
+    }
+    return 0;
+bad:
+    c->open = 0;
+    return -MSID_CAN_ERR_CFG;
+}
+
+void msid_can_config_design_cfg(const msid_can_config *c, msid_design_cfg *dc, const msid_twiddle *tw)
+{
+    memset(dc, 0, sizeof *dc);
+    dc->period = c->period;
+    dc->n_lines = c->n_lines;
+    dc->bins = c->is_ct ? NULL : c->bins;
+    dc->omega = c->is_ct ? c->omega : NULL;
+    dc->sample_time = c->is_ct ? c->sample_time : 0.0;
+    dc->amplitudes = c->have_amp ? c->amp : NULL;
+    dc->amp_per_input = c->have_amp && c->n_inputs > 1;
+    dc->phase_mode = (msid_phase_mode)c->phase_mode;
+    dc->phases = c->have_phase ? c->phase : NULL;
+    dc->seed = c->seed;
+    dc->n_inputs = c->n_inputs;
+    dc->n_experiments = c->n_experiments;
+    dc->pattern = (msid_pattern)c->pattern;
+    dc->twiddle = tw;
+}
