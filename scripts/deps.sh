@@ -4,7 +4,7 @@
 set -euo pipefail
 
 APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev
-          nlohmann-json3-dev python3 python3-pip)
+          nlohmann-json3-dev libeigen3-dev python3 python3-pip)
 PY_MODS=(numpy jsonschema pytest)
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else

@@ -22,7 +22,10 @@ static const char *HELP =
     "  --detect-lines    non-excited bins to report (noise level, nonlinear distortion test)\n"
     "  --transient       test every period against the others: flag (report, default), drop, off\n"
     "  --alpha A         false-alarm probability of that test per experiment (default 0.01)\n"
-    "  --dft             line DFT path: auto (default), stream, fft\n";
+    "  --dft             line DFT path: auto (default), stream, fft\n"
+    "  --direct          direct time-domain LS FRF (Gonzalez et al. 2025 eq. 19-23): records need not be\n"
+    "                    whole periods; needs --design; exact covariance Sigma kron Z^-1 with Sigma from the\n"
+    "                    residuals, plus the pseudo-covariance pcov of each line\n";
 
 int cmd_frf(int argc, char **argv)
 {
@@ -31,7 +34,7 @@ int cmd_frf(int argc, char **argv)
     Args a(argc, argv, 2,
            {"design", "period", "lines", "skip-periods", "fs", "detect-lines", "transient", "alpha", "dft", "block",
             "output"},
-           {}, {"experiment"});
+           {"direct"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
     FrfRequest rq;
@@ -74,11 +77,16 @@ int cmd_frf(int argc, char **argv)
 
     std::vector<Record> recs;
     for (const auto &p : a.all("experiment")) recs.push_back(read_record_csv(p));
-    FrfOutcome o = run_frf(rq, recs);
+    if (a.has("direct")) {
+        if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
+        for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
+            if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
+    }
+    FrfOutcome o = a.has("direct") ? run_frf_direct(rq, *D, recs) : run_frf(rq, recs);
     write_json_file(out, o.doc);
     for (const auto &n : o.notes) std::fprintf(stderr, "msid frf: note: %s\n", n.c_str());
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %zu experiment(s), %llu periods used, %llu rejected "
-                "(%s path)\n",
+                "(%s)\n",
                 out.c_str(), rq.bins.size(), recs[0].ny, recs[0].nu, recs.size(),
                 (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
                 (unsigned long long)o.doc["periods_rejected"].get<uint64_t>(), o.dft_path.c_str());

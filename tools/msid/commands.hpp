@@ -5,4 +5,7 @@ int cmd_excite(int argc, char **argv);
 int cmd_frf(int argc, char **argv);
 int cmd_demo(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+int cmd_fit(int argc, char **argv);
+int cmd_validate(int argc, char **argv);
+int cmd_compare(int argc, char **argv);
 }  // namespace msidcli

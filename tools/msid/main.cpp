@@ -13,7 +13,10 @@ static const char *USAGE =
     "  excite   design a multisine (msid-design/1) and optionally write its input samples as CSV\n"
     "  frf      estimate the MIMO FRF and its covariance from experiment CSVs (msid-frf/1)\n"
     "  demo     design, simulate a built-in 2x2 plant, estimate, and compare with the truth\n"
-    "  bench    benchmarks: `msid bench frf`\n"
+    "  fit      parametric models from an FRF file: --method subspace | lmfd | ml (msid-model/1)\n"
+    "  validate a model against an FRF file: weighted residual cost, p-value, verdict\n"
+    "  compare  relative H2 and Hinf distance between two models\n"
+    "  bench    benchmarks: `msid bench frf`, `msid bench fit`\n"
     "  version  print the version\n"
     "\n"
     "`msid <command> --help` shows the options of a command. See README.md and docs/.\n";
@@ -30,6 +33,9 @@ int main(int argc, char **argv)
         if (cmd == "frf") return msidcli::cmd_frf(argc, argv);
         if (cmd == "demo") return msidcli::cmd_demo(argc, argv);
         if (cmd == "bench") return msidcli::cmd_bench(argc, argv);
+        if (cmd == "fit") return msidcli::cmd_fit(argc, argv);
+        if (cmd == "validate") return msidcli::cmd_validate(argc, argv);
+        if (cmd == "compare") return msidcli::cmd_compare(argc, argv);
         if (cmd == "version" || cmd == "--version") {
             std::printf("msid %s\n", MSID_VERSION);
             return 0;

@@ -1,0 +1,50 @@
+// Test helpers for the fitting library: run the real core (design -> simulated
+// plant -> msid_meas -> msid_frf) and hand the result to the fitting code as an
+// FrfData, without going through files.
+#pragma once
+#include "frf_data.hpp"
+#include "models.hpp"
+
+extern "C" {
+#include "msid_test_sim.h"
+}
+
+#include <functional>
+#include <vector>
+
+namespace fitsim {
+
+using namespace msidfit;
+
+struct Bench {
+    msid_design_cfg design{};          // twiddle filled in
+    uint32_t ny = 1, K = 8;
+    double sigma_y = 0.1, sigma_u = 0.0;
+    // noiseless rows [u; y] of experiment e for n samples from period phase 0
+    std::function<void(const tsim_design &, uint32_t e, size_t n, double *rows)> clean;
+    bool ct = false;                   // CT design: lines carry omega, FRF at +omega
+};
+
+// A DT state-space plant as a `clean` function (steady state by warm-up).
+std::function<void(const tsim_design &, uint32_t, size_t, double *)> dt_plant(const SSModel &m);
+// A CT state-space plant sampled exactly (steady-state multisine response at t = n h).
+std::function<void(const tsim_design &, uint32_t, size_t, double *)> ct_plant(const SSModel &m);
+
+class Runner {
+public:
+    explicit Runner(const Bench &b);
+    ~Runner();
+    // One Monte Carlo run: fresh noise from rng, returns the FRF data (lines in design order).
+    FrfData run(msid_rng &rng);
+    const tsim_design &design() const { return t_; }
+
+private:
+    Bench b_;
+    tsim_design t_{};
+    std::vector<std::vector<double>> clean_;
+    std::vector<double> rows_;
+    void *mm_ = nullptr, *fm_ = nullptr;
+    size_t nm_ = 0, nf_ = 0;
+};
+
+}  // namespace fitsim

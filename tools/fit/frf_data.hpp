@@ -1,0 +1,29 @@
+// Reading msid-frf/1 files for the fitting tools.
+#pragma once
+#include "fit_types.hpp"
+
+namespace msidfit {
+
+// Read and validate (format, shapes, finiteness). Throws FitError naming the
+// file and the offending entry.
+FrfData read_frf(const std::string &path);
+
+// Which covariance weights a fit.
+enum class Weight { Cov, KnownInput, None };
+
+struct WeightedLine {
+    cd x;                     // frequency variable
+    bool real;
+    MatC G;                   // ny x nu
+    MatC Linv;                // inverse Cholesky factor of the covariance (g x g), or identity
+    MatC cov;                 // the covariance used (g x g)
+    double dof;
+};
+
+// Prepare weights: Cholesky of each line's covariance; throws FitError naming
+// the line if a covariance is missing, not finite or not positive definite.
+// noise_var > 0 replaces the estimated noise by a known time-domain variance
+// (per output, white), keeping the design structure of cov_known_input.
+std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noise_var = 0.0);
+
+}  // namespace msidfit

@@ -1,0 +1,101 @@
+#include "model_io.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace msidfit {
+
+Json rmat_json(const MatR &M)
+{
+    Json a = Json::array();
+    for (Eigen::Index r = 0; r < M.rows(); ++r) {
+        Json row = Json::array();
+        for (Eigen::Index c = 0; c < M.cols(); ++c) row.push_back(M(r, c));
+        a.push_back(row);
+    }
+    return a;
+}
+
+Json cmat_json(const MatC &M) { return Json{{"re", rmat_json(M.real())}, {"im", rmat_json(M.imag())}}; }
+
+static MatR rmat(const Json &v, Eigen::Index rows, Eigen::Index cols, const std::string &file, const std::string &what)
+{
+    if (!v.is_array() || (Eigen::Index)v.size() != rows)
+        throw FitError("'" + file + "': " + what + " must have " + std::to_string(rows) + " rows");
+    MatR M(rows, cols);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+        if (!v[(size_t)r].is_array() || (Eigen::Index)v[(size_t)r].size() != cols)
+            throw FitError("'" + file + "': " + what + " must have " + std::to_string(cols) + " columns");
+        for (Eigen::Index c = 0; c < cols; ++c) {
+            const Json &x = v[(size_t)r][(size_t)c];
+            if (!x.is_number() || !std::isfinite(x.get<double>()))
+                throw FitError("'" + file + "': " + what + " holds a non-finite or non-numeric entry");
+            M(r, c) = x.get<double>();
+        }
+    }
+    return M;
+}
+
+static int64_t ival(const Json &o, const char *k, const std::string &file)
+{
+    if (!o.contains(k) || !o[k].is_number_integer() || o[k].get<int64_t>() < 0)
+        throw FitError("'" + file + "': '" + k + "' must be a non-negative integer");
+    return o[k].get<int64_t>();
+}
+
+ModelFile read_model(const std::string &path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw FitError("cannot open '" + path + "': " + std::strerror(errno));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    Json j;
+    try {
+        j = Json::parse(ss.str());
+    } catch (const Json::parse_error &e) {
+        throw FitError("'" + path + "' is not valid JSON: " + e.what());
+    }
+    if (!j.is_object() || !j.contains("format") || j["format"] != "msid-model/1")
+        throw FitError("'" + path + "': format is " + (j.is_object() && j.contains("format") ? j["format"].dump() : "missing") +
+                       ", expected \"msid-model/1\"");
+    ModelFile m;
+    m.path = path;
+    if (!j.contains("domain") || (j["domain"] != "dt" && j["domain"] != "ct"))
+        throw FitError("'" + path + "': 'domain' must be \"dt\" or \"ct\"");
+    m.domain = j["domain"] == "ct" ? Domain::CT : Domain::DT;
+    if (j.contains("sample_time") && j["sample_time"].is_number()) m.h = j["sample_time"].get<double>();
+    const int64_t n = ival(j, "order", path), nu = ival(j, "n_inputs", path), ny = ival(j, "n_outputs", path);
+    if (nu < 1 || ny < 1 || nu > 16 || ny > 16 || n > 400) throw FitError("'" + path + "': dimensions out of range");
+    m.ss.domain = m.domain;
+    m.ss.h = m.h;
+    for (const char *k : {"A", "B", "C", "D"})
+        if (!j.contains(k)) throw FitError("'" + path + "': missing '" + k + "'");
+    m.ss.A = rmat(j["A"], n, n, path, "A");
+    m.ss.B = rmat(j["B"], n, nu, path, "B");
+    m.ss.C = rmat(j["C"], ny, n, path, "C");
+    m.ss.D = rmat(j["D"], ny, nu, path, "D");
+    m.method = j.contains("method") && j["method"].is_string() ? j["method"].get<std::string>() : "";
+    if (j.contains("settings") && j["settings"].contains("weight") && j["settings"]["weight"].is_string())
+        m.weight = j["settings"]["weight"].get<std::string>();
+    if (j.contains("n_params") && j["n_params"].is_number_integer()) m.n_params = j["n_params"].get<int>();
+    if (j.contains("lmfd") && j["lmfd"].is_object()) {
+        const Json &l = j["lmfd"];
+        LmfdModel L;
+        L.domain = m.domain;
+        L.h = m.h;
+        L.nD = (int)ival(l, "nD", path);
+        L.nN = (int)ival(l, "nN", path);
+        if (!l.contains("D") || !l["D"].is_array() || (int)l["D"].size() != L.nD || !l.contains("N") ||
+            !l["N"].is_array() || (int)l["N"].size() != L.nN + 1)
+            throw FitError("'" + path + "': lmfd.D needs nD and lmfd.N nN+1 matrices");
+        for (int i = 0; i < L.nD; ++i) L.Dm.push_back(rmat(l["D"][(size_t)i], ny, ny, path, "lmfd.D"));
+        for (int i = 0; i <= L.nN; ++i) L.Nm.push_back(rmat(l["N"][(size_t)i], ny, nu, path, "lmfd.N"));
+        m.lmfd = L;
+    }
+    return m;
+}
+
+}  // namespace msidfit

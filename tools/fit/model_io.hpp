@@ -1,0 +1,34 @@
+// msid-model/1: reading and writing model files.
+#pragma once
+#include "lmfd_fit.hpp"
+#include "subspace.hpp"
+
+#include <nlohmann/json.hpp>
+#include <optional>
+
+namespace msidfit {
+
+using Json = nlohmann::ordered_json;
+
+Json rmat_json(const MatR &M);
+Json cmat_json(const MatC &M);
+
+struct ModelFile {
+    std::string path;
+    Domain domain = Domain::DT;
+    double h = 0.0;
+    SSModel ss;
+    std::optional<LmfdModel> lmfd;
+    std::string method;
+    std::string weight;       // "cov", "known-input", "none"
+    int n_params = 0;         // free parameters behind the fit (for validation dof)
+};
+
+ModelFile read_model(const std::string &path);
+
+}  // namespace msidfit
+
+namespace msidfit {
+// The same {"re", "im"} object for a complex matrix, as msid-frf/1 uses.
+inline Json cmat_json_c(const MatC &M) { return cmat_json(M); }
+}  // namespace msidfit

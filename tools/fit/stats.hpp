@@ -1,0 +1,20 @@
+// Small distribution helpers for the fitting tools.
+#pragma once
+
+namespace msidfit {
+
+// Regularized upper incomplete gamma Q(a, x) = Gamma(a, x) / Gamma(a), a > 0, x >= 0.
+double gamma_q(double a, double x);
+// P(chi2_k > x).
+double chi2_sf(double k, double x);
+
+// A weighted cost V of (real) dof nu built from whitened residuals with weights
+// estimated from n complex dof (p outputs per line; n = inf for known weights):
+// V ~ c chi2_k approximately (two-moment match). Returns the p-value P(V' >= V).
+struct CostLaw {
+    double mean = 0, var = 0, c = 0, k = 0;
+};
+CostLaw cost_law(double nu, double n, double p);
+double cost_pvalue(const CostLaw &law, double V);
+
+}  // namespace msidfit

@@ -1,0 +1,43 @@
+// Frequency-domain subspace identification from FRF data with covariance
+// weighting (McKelvey-Akcay-Ljung 1996; Pintelon 2002 Algorithm 1, and
+// Algorithm 2.1 for continuous time through the bilinear map).
+#pragma once
+#include "frf_data.hpp"
+#include "models.hpp"
+
+namespace msidfit {
+
+struct SubspaceOptions {
+    int order = 0;             // n; 0: choose from the singular values
+    int r = 0;                 // block rows; 0: scan [1.5n, 6n] for the smallest cost (35)
+    bool stable = false;       // reflect unstable poles, then re-estimate B, D
+    bool estimate_D = true;    // false: D = 0 (strictly proper)
+    double wscale = 0.0;       // CT bilinear frequency scaling (0: geometric mean of the line frequencies)
+};
+
+struct SubspaceResult {
+    SSModel model;
+    int r = 0;
+    std::vector<double> sv;                       // singular values at the chosen r
+    std::vector<std::pair<int, double>> scan;     // (r, cost) tried
+    double cost = 0.0;                            // weighted cost (35)
+    double wscale = 0.0;
+    int reflected = 0;
+};
+
+// Lines of a weighted data set that carry information (complex lines count 2, real 1).
+double real_equations(const std::vector<WeightedLine> &w);
+
+// Fit. Throws FitError for orders too high for the lines (naming the limit) or
+// too few periods behind the weights (Pintelon 2002 Thm 2: M >= 2 for A, C and M >= 4 for B, D).
+SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted,
+                            const SubspaceOptions &o);
+
+// Weighted LS for B and D given A and C (Pintelon 2002 eq. 17, MIMO form), in place.
+void fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D);
+
+// Weighted cost sum_l |Linv vec(G_l - G(x_l))|^2 (complex lines) + 1/2 |.|^2 (real lines):
+// the negative log-likelihood of eq. (40) up to a constant.
+double weighted_cost_ss(const SSModel &m, const std::vector<WeightedLine> &w);
+
+}  // namespace msidfit

@@ -1,0 +1,403 @@
+// msid fit | validate | compare: parametric models from msid-frf/1 files.
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "frf_io.hpp"
+
+#include "lmfd_fit.hpp"
+#include "model_io.hpp"
+#include "stats.hpp"
+#include "subspace.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+namespace msidcli {
+
+using namespace msidfit;
+
+static const char *FIT_HELP =
+    "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
+    "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
+    "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
+    "                [--max-iter N] [--delta D] [--beta B]\n"
+    "\n"
+    "  subspace  frequency-domain subspace (McKelvey; Pintelon 2002 Alg. 1, CT by the bilinear map,\n"
+    "            Alg. 2.1) weighted by the FRF covariance; block rows scanned over [1.5n, 6n] for the\n"
+    "            smallest weighted cost (35); order from the singular values when --order is omitted\n"
+    "  lmfd      closed-form ML of a left matrix fraction D(p)^-1 N(p), fully or under-constrained\n"
+    "            (Gonzalez et al. 2025 Thm 6): minimum-norm solution, kernel basis, --pin to fix entries\n"
+    "  ml        weighted maximum likelihood (eq. 40) of an over-constrained LMFD by Levenberg-Marquardt,\n"
+    "            started from subspace (default) or Sanathanan-Koerner; parameter covariance (inverse\n"
+    "            Fisher information) and the finite-sample bounds (45)-(46)\n"
+    "  --order n     state order; LMFD degrees nD = n/ny, nN = nD (dt) or nD-1 (ct)\n"
+    "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
+    "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
+    "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n";
+
+static Domain parse_domain(const Args &a, const FrfData &f)
+{
+    if (!a.has("domain")) return f.domain;
+    const std::string d = a.get("domain");
+    if (d == "dt") return Domain::DT;
+    if (d == "ct") {
+        if (f.h <= 0) throw Error("a continuous-time model needs the sample time of the FRF file (give --fs to msid frf)");
+        return Domain::CT;
+    }
+    throw UsageError("--domain must be dt or ct (got '" + d + "')");
+}
+
+static Weight parse_weight(const std::string &w)
+{
+    if (w == "cov") return Weight::Cov;
+    if (w == "known-input") return Weight::KnownInput;
+    if (w == "none") return Weight::None;
+    throw UsageError("--weight must be cov, known-input or none (got '" + w + "')");
+}
+
+static double min_dof(const std::vector<WeightedLine> &w)
+{
+    double n = 1e300;
+    for (const auto &l : w) n = std::min(n, l.dof);
+    return n;
+}
+
+static Json frf_at_lines(const FrfData &f, const std::vector<MatC> &G, const std::vector<MatC> *cov)
+{
+    Json a = Json::array();
+    for (size_t l = 0; l < f.lines.size(); ++l) {
+        Json e;
+        e["bin"] = f.lines[l].bin;
+        e["freq"] = f.lines[l].freq;
+        e["omega"] = f.lines[l].omega;
+        e["G"] = cmat_json(G[l]);
+        if (cov) e["cov"] = cmat_json((*cov)[l]); else e["cov"] = nullptr;
+        a.push_back(e);
+    }
+    return a;
+}
+
+static Json lmfd_json(const LmfdModel &m)
+{
+    Json l;
+    l["nD"] = m.nD;
+    l["nN"] = m.nN;
+    l["variable"] = m.domain == Domain::CT ? "s" : "z^-1";
+    Json D = Json::array(), N = Json::array();
+    for (const auto &x : m.Dm) D.push_back(rmat_json(x));
+    for (const auto &x : m.Nm) N.push_back(rmat_json(x));
+    l["D"] = D;
+    l["N"] = N;
+    return l;
+}
+
+static Json cost_json(double V, double dof, double nmin, double p)
+{
+    const CostLaw law = cost_law(dof, nmin, p);
+    Json c;
+    c["value"] = V;
+    c["expected"] = law.mean;
+    c["dof"] = dof;
+    const double pv = cost_pvalue(law, V);
+    if (std::isfinite(pv)) c["p_value"] = pv; else c["p_value"] = nullptr;
+    return c;
+}
+
+int cmd_fit(int argc, char **argv)
+{
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) { std::fputs(FIT_HELP, stdout); return 0; }
+    Args a(argc, argv, 2,
+           {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
+            "output"},
+           {"stable", "no-d"}, {"pin"});
+    if (a.positional().size() != 1) throw UsageError("give exactly one msid-frf/1 file");
+    const std::string out = a.require("output");
+    const std::string method = a.require("method");
+    if (method != "subspace" && method != "lmfd" && method != "ml")
+        throw UsageError("--method must be subspace, lmfd or ml (got '" + method + "')");
+    try {
+        const FrfData f = read_frf(a.positional()[0]);
+        const Domain d = parse_domain(a, f);
+        const Weight wt = parse_weight(a.get("weight", "cov"));
+        const double noise_var = a.has("noise-var") ? parse_double(a.get("noise-var"), "--noise-var") : 0.0;
+        if (a.has("noise-var") && !(noise_var > 0)) throw UsageError("--noise-var must be positive");
+        const auto w = weigh(f, d, wt, noise_var);
+        const bool known = noise_var > 0;
+        Json doc;
+        doc["format"] = "msid-model/1";
+        doc["generator"] = std::string("msid ") + MSID_VERSION;
+        doc["source"] = f.path;
+        doc["domain"] = d == Domain::CT ? "ct" : "dt";
+        if (f.h > 0) doc["sample_time"] = f.h;
+        doc["method"] = method;
+        Json settings;
+        settings["weight"] = a.get("weight", "cov");
+        if (known) settings["noise_var"] = noise_var;
+        const size_t ny = f.ny, nu = f.nu;
+        double neq = 0;
+        for (const auto &l : w) neq += (l.real ? 1.0 : 2.0) * (double)f.g();
+        SSModel ss;
+        int nparams = 0;
+        Json extra;
+        std::vector<MatC> Gm;
+        std::vector<MatC> Gc;
+        bool have_cov = false;
+        double V = 0;
+        if (method == "subspace") {
+            SubspaceOptions o;
+            o.order = a.has("order") ? (int)parse_u32(a.get("order"), "--order") : 0;
+            if (a.has("order") && o.order == 0) throw UsageError("--order must be positive");
+            o.r = a.has("r") ? (int)parse_u32(a.get("r"), "--r") : 0;
+            o.stable = a.has("stable");
+            o.estimate_D = !a.has("no-d");
+            const SubspaceResult r = fit_subspace(f, d, w, wt != Weight::None, o);
+            ss = r.model;
+            V = r.cost;
+            const int n = (int)ss.n();
+            nparams = n * (int)(nu + ny) + (o.estimate_D ? (int)(nu * ny) : 0);
+            settings["r"] = r.r;
+            settings["stable"] = o.stable;
+            settings["estimate_D"] = o.estimate_D;
+            if (d == Domain::CT) settings["wscale"] = r.wscale;
+            Json sub;
+            sub["singular_values"] = r.sv;
+            Json sc = Json::array();
+            for (auto &x : r.scan) sc.push_back(Json::array({x.first, x.second}));
+            sub["r_scan"] = sc;
+            sub["reflected_poles"] = r.reflected;
+            extra["subspace"] = sub;
+            for (const auto &l : w) Gm.push_back(ss_eval(ss, l.x));
+        } else {
+            LmfdSpec s;
+            if (a.has("nd") || a.has("nn")) {
+                if (a.has("order")) throw UsageError("give --order or --nd/--nn, not both");
+                s.nD = a.has("nd") ? (int)parse_u32(a.get("nd"), "--nd") : 1;
+                s.nN = a.has("nn") ? (int)parse_u32(a.get("nn"), "--nn") : (d == Domain::CT ? s.nD - 1 : s.nD);
+            } else if (a.has("order")) {
+                const uint32_t n = parse_u32(a.get("order"), "--order");
+                if (n == 0 || n % ny) throw UsageError("--order must be a positive multiple of the number of outputs for an LMFD");
+                s.nD = (int)(n / ny);
+                s.nN = d == Domain::CT ? s.nD - 1 : s.nD;
+            } else {
+                throw UsageError("give --order or --nd/--nn");
+            }
+            if (s.nN < 0) s.nN = 0;
+            for (const auto &p : a.all("pin")) s.pins.push_back(parse_pin(p));
+            settings["nD"] = s.nD;
+            settings["nN"] = s.nN;
+            Json pins = Json::array();
+            for (const auto &p : a.all("pin")) pins.push_back(p);
+            settings["pins"] = pins;
+            MlOptions mo;
+            if (a.has("max-iter")) mo.max_iter = (int)parse_u32(a.get("max-iter"), "--max-iter");
+            if (a.has("delta")) mo.delta = parse_double(a.get("delta"), "--delta");
+            if (a.has("beta")) mo.beta = parse_double(a.get("beta"), "--beta");
+            if (!(mo.delta > 0 && mo.delta <= 1) || !(mo.beta > 0 && mo.beta < 1))
+                throw UsageError("--delta must be in (0, 1] and --beta in (0, 1)");
+            LmfdModel lm;
+            if (method == "lmfd") {
+                const ClosedForm cf = lmfd_closed_form(w, d, f.h, s);
+                lm = cf.model;
+                extra["kernel"] = rmat_json(cf.kernel);
+                Json names = Json::array();
+                const auto nm = lmfd_param_names(s, ny, nu);
+                for (size_t i = 0; i < (size_t)cf.unknowns; ++i) names.push_back(nm[i].substr(0, nm[i].find('[')) + "[k," + nm[i].substr(nm[i].find(',') + 1));
+                extra["kernel_rows"] = names;
+                extra["equations_per_row"] = cf.equations;
+                extra["unknowns_per_row"] = cf.unknowns;
+                extra["unique"] = cf.unique;
+                if (cf.unique) {
+                    const MlResult ev = lmfd_evaluate(w, d, f.h, s, lm, mo, known);
+                    Json pr;
+                    pr["names"] = ev.names;
+                    pr["values"] = std::vector<double>(ev.theta.data(), ev.theta.data() + ev.theta.size());
+                    pr["cov"] = rmat_json(ev.cov);
+                    pr["cov_factor"] = ev.cov_factor;
+                    extra["parameters"] = pr;
+                    nparams = (int)ev.theta.size();
+                } else {
+                    nparams = (int)(cf.equations * ny);
+                }
+                // an interpolating model reproduces the FRF: its covariance at the lines is the data's (Cor. 3)
+                for (const auto &l : w) { Gm.push_back(lmfd_eval(lm, l.x)); Gc.push_back(l.cov); }
+                have_cov = true;
+                settings["wscale"] = s.wscale;
+            } else {
+                const std::string start = a.get("start", "subspace");
+                LmfdModel st;
+                if (start == "subspace") {
+                    SubspaceOptions so;
+                    so.order = s.nD * (int)ny;
+                    so.estimate_D = !(d == Domain::CT && s.nN < s.nD);
+                    const SubspaceResult sr = fit_subspace(f, d, w, wt != Weight::None && min_dof(w) >= 3, so);
+                    std::vector<MatC> target;
+                    for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
+                    st = lmfd_sk(w, d, f.h, s, 30, &target);
+                } else if (start == "sk") {
+                    st = lmfd_sk(w, d, f.h, s, 30);
+                } else {
+                    throw UsageError("--start must be subspace or sk (got '" + start + "')");
+                }
+                settings["start"] = start;
+                const MlResult r = lmfd_ml(w, d, f.h, s, st, mo, known);
+                lm = r.model;
+                Json pr;
+                pr["names"] = r.names;
+                pr["values"] = std::vector<double>(r.theta.data(), r.theta.data() + r.theta.size());
+                pr["cov"] = rmat_json(r.cov);
+                pr["cov_factor"] = r.cov_factor;
+                extra["parameters"] = pr;
+                extra["iterations"] = r.iterations;
+                Json b;
+                b["delta"] = mo.delta;
+                b["beta"] = mo.beta;
+                b["frf"] = r.frf_bound;
+                b["theta"] = r.theta_bound;
+                b["lambda_max_cov"] = r.lambda_max_cov;
+                b["sigma_min_jacobian"] = r.sigma_min_J;
+                b["valid_if"] = "Gonzalez et al. 2025 Theorem 5: Gaussian white noise of known covariance, whole "
+                                "periods, no undermodelling; theta bound also needs the estimate inside the ball "
+                                "where the Jacobian stays within (1-beta) sigma_min of its value";
+                extra["bounds"] = b;
+                nparams = (int)r.theta.size();
+                Gm = r.G;
+                Gc = r.Gcov;
+                have_cov = true;
+            }
+            try {
+                ss = lmfd_to_ss(lm);
+            } catch (const FitError &) {
+                ss = SSModel();   // no proper realisation (e.g. improper LMFD): LMFD only
+                ss.domain = d;
+                ss.A = MatR(0, 0); ss.B = MatR(0, nu); ss.C = MatR(ny, 0); ss.D = MatR::Zero(ny, nu);
+                extra["realisation"] = "none: the LMFD is improper";
+            }
+            extra["lmfd"] = lmfd_json(lm);
+            V = weighted_cost_lmfd(lm, w);
+        }
+        doc["order"] = (int)ss.n();
+        doc["n_inputs"] = nu;
+        doc["n_outputs"] = ny;
+        doc["settings"] = settings;
+        doc["A"] = rmat_json(ss.A);
+        doc["B"] = rmat_json(ss.B);
+        doc["C"] = rmat_json(ss.C);
+        doc["D"] = rmat_json(ss.D);
+        doc["stable"] = ss_stable(ss);
+        doc["n_params"] = nparams;
+        for (auto it = extra.begin(); it != extra.end(); ++it) doc[it.key()] = it.value();
+        const double dof = neq - nparams;
+        doc["cost"] = cost_json(V, dof, known || wt == Weight::None ? 1e300 : min_dof(w), (double)ny);
+        doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
+        write_json_file(out, doc);
+        std::printf("wrote %s: %s fit, order %d, weighted cost %.6g (expected %.6g, %s)\n", out.c_str(), method.c_str(),
+                    (int)ss.n(), V, doc["cost"]["expected"].get<double>(),
+                    doc["cost"]["p_value"].is_null() ? "no p-value"
+                                                     : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str());
+        return 0;
+    } catch (const FitError &e) {
+        throw Error(e.what());
+    }
+}
+
+static const char *VAL_HELP =
+    "usage: msid validate model.json frf.json [--weight cov|known-input|none] [-o report.json]\n"
+    "The weighted residual cost of the model on the FRF data against its expectation, with a p-value,\n"
+    "per-line normalised residuals, and a verdict at 5%.\n";
+
+int cmd_validate(int argc, char **argv)
+{
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) { std::fputs(VAL_HELP, stdout); return 0; }
+    Args a(argc, argv, 2, {"weight", "output"}, {});
+    if (a.positional().size() != 2) throw UsageError("give a model file and an FRF file");
+    try {
+        const ModelFile mf = read_model(a.positional()[0]);
+        const FrfData f = read_frf(a.positional()[1]);
+        if (mf.ss.B.cols() != (Eigen::Index)f.nu || mf.ss.C.rows() != (Eigen::Index)f.ny)
+            throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +
+                           std::to_string(mf.ss.C.rows()) + " outputs, the FRF " + std::to_string(f.nu) + " and " +
+                           std::to_string(f.ny));
+        const std::string wname = a.has("weight") ? a.get("weight") : (mf.weight.empty() ? "cov" : mf.weight);
+        const Weight wt = parse_weight(wname);
+        const auto w = weigh(f, mf.domain, wt);
+        double V = 0, neq = 0;
+        Json per = Json::array();
+        const double g = (double)f.g();
+        int worst = -1;
+        double worst_q = -1;
+        for (size_t l = 0; l < w.size(); ++l) {
+            const MatC Gm = mf.lmfd ? lmfd_eval(*mf.lmfd, w[l].x) : ss_eval(mf.ss, w[l].x);
+            const MatC e = w[l].Linv * Eigen::Map<const MatC>(MatC(w[l].G - Gm).data(), (Eigen::Index)g, 1);
+            const double q = (w[l].real ? 0.5 : 1.0) * e.squaredNorm();
+            V += q;
+            neq += (w[l].real ? 1.0 : 2.0) * g;
+            // per line: q / (expected under the model) ~ 1
+            const double ex = (w[l].real ? 0.5 : 1.0) * g * (w[l].dof < 1e8 && w[l].dof > f.ny ? w[l].dof / (w[l].dof - f.ny) : 1.0);
+            Json pl;
+            pl["bin"] = f.lines[l].bin;
+            pl["freq"] = f.lines[l].freq;
+            pl["normalised_residual"] = q / ex;
+            per.push_back(pl);
+            if (q / ex > worst_q) { worst_q = q / ex; worst = (int)l; }
+        }
+        const double dof = neq - mf.n_params;
+        if (dof <= 0) throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(dof) + ")");
+        double nmin = 1e300;
+        for (const auto &l : w) nmin = std::min(nmin, l.dof);
+        const CostLaw law = cost_law(dof, wt == Weight::None ? 1e300 : nmin, (double)f.ny);
+        const double pv = cost_pvalue(law, V);
+        const bool ok = pv >= 0.05;
+        std::printf("model %s on %s: weighted cost %.6g, expected %.6g (dof %.0f), p-value %.4g\n", mf.path.c_str(),
+                    f.path.c_str(), V, law.mean, dof, pv);
+        if (worst >= 0)
+            std::printf("largest normalised residual %.3g at bin %u (1 expected on average)\n", worst_q, f.lines[(size_t)worst].bin);
+        std::printf("verdict: %s\n", ok ? "consistent with the data at 5%" : "NOT consistent with the data at 5%");
+        if (wt == Weight::None) std::printf("note: unweighted residuals: the p-value assumes unit noise\n");
+        if (a.has("output")) {
+            Json r;
+            r["format"] = "msid-validation/1";
+            r["model"] = mf.path;
+            r["frf"] = f.path;
+            r["weight"] = wname;
+            r["cost"] = V;
+            r["expected"] = law.mean;
+            r["dof"] = dof;
+            r["p_value"] = pv;
+            r["consistent_at_5pct"] = ok;
+            r["lines"] = per;
+            write_json_file(a.get("output"), r);
+        }
+        return 0;
+    } catch (const FitError &e) {
+        throw Error(e.what());
+    }
+}
+
+int cmd_compare(int argc, char **argv)
+{
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) {
+            std::fputs("usage: msid compare model.json reference.json [-o out.json]\n"
+                       "Relative H2 and Hinf distance ||model - reference|| / ||reference||.\n", stdout);
+            return 0;
+        }
+    Args a(argc, argv, 2, {"output"}, {});
+    if (a.positional().size() != 2) throw UsageError("give two model files (the second is the reference)");
+    try {
+        const ModelFile m1 = read_model(a.positional()[0]), m2 = read_model(a.positional()[1]);
+        const Distance dd = ss_distance(m1.ss, m2.ss);
+        std::printf("relative H2 distance %.6g, relative Hinf distance %.6g (reference H2 %.6g, Hinf %.6g)\n", dd.h2,
+                    dd.hinf, dd.h2_ref, dd.hinf_ref);
+        if (a.has("output"))
+            write_json_file(a.get("output"), Json{{"format", "msid-compare/1"}, {"model", m1.path}, {"reference", m2.path},
+                                                   {"h2_rel", dd.h2}, {"hinf_rel", dd.hinf}, {"h2_ref", dd.h2_ref},
+                                                   {"hinf_ref", dd.hinf_ref}});
+        return 0;
+    } catch (const FitError &e) {
+        throw Error(e.what());
+    }
+}
+
+}  // namespace msidcli
