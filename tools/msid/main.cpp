@@ -16,6 +16,7 @@ static const char *USAGE =
     "  fit      parametric models from an FRF file: --method subspace | lmfd | ml (msid-model/1)\n"
     "  validate a model against an FRF file: weighted residual cost, p-value, verdict\n"
     "  compare  relative H2 and Hinf distance between two models\n"
+    "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
     "  bench    benchmarks: `msid bench frf`, `msid bench fit`\n"
     "  version  print the version\n"
     "\n"
@@ -36,6 +37,7 @@ int main(int argc, char **argv)
         if (cmd == "fit") return msidcli::cmd_fit(argc, argv);
         if (cmd == "validate") return msidcli::cmd_validate(argc, argv);
         if (cmd == "compare") return msidcli::cmd_compare(argc, argv);
+        if (cmd == "can") return msidcli::cmd_can(argc, argv);
         if (cmd == "version" || cmd == "--version") {
             std::printf("msid %s\n", MSID_VERSION);
             return 0;

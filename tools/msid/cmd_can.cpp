@@ -1,0 +1,671 @@
+// msid can: measure an FRF over SocketCAN from an msid-can/1 device, and
+// replay a candump log through the same decoder (bit-identical FRF).
+#include "commands.hpp"
+#include "frf_io.hpp"
+#include "pipeline.hpp"
+
+extern "C" {
+#include "msid_daq/msid_can_decoder.h"
+#include "msid_daq/msid_candump.h"
+#include "msid_daq/msid_socketcan.h"
+}
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <unistd.h>
+
+namespace msidcli {
+
+static const char *HELP =
+    "usage: msid can measure --iface IF --design design.json -o frf.json [options]\n"
+    "       msid can replay --log run.log [--design design.json] -o frf.json [options]\n"
+    "\n"
+    "measure: upload the design to an msid-can/1 device (as parameters), run every experiment,\n"
+    "decode the sample stream and estimate the FRF with its covariance (msid-frf/1, with an\n"
+    "`acquisition` block of counters). replay: the same from a candump .log file (candump -l,\n"
+    "or --log of measure); same frames give a bit-identical FRF.\n"
+    "\n"
+    "  --iface IF          SocketCAN interface (vcan0, can0)\n"
+    "  --base ID           device base identifier, a multiple of 0x80 (default 0x200)\n"
+    "  --design FILE       msid-design/1 (replay: checked against the design in the log)\n"
+    "  --periods K         periods per experiment (default: the design's, else 8)\n"
+    "  --rate HZ           device sample rate (default 0: as fast as possible); sets fs_hz\n"
+    "  --fd                CAN FD 64-byte sample frames (interface MTU 72)\n"
+    "  --encoding E        int16 (scaled, default) or float32 channel values\n"
+    "  --scale S           value of one int16 step (default 0.001)\n"
+    "  --bitrate BPS       nominal bit rate: refuse a --rate the bus cannot carry (0: virtual bus)\n"
+    "  --data-bitrate BPS  CAN FD data-phase bit rate (default: --bitrate)\n"
+    "  --window N          reorder window in samples (default 16)\n"
+    "  --rcvbuf BYTES      socket receive buffer (above net.core.rmem_max needs CAP_NET_ADMIN)\n"
+    "  --timeout S         give up when the device is silent this long (default 10)\n"
+    "  --log FILE          also record every frame as a candump .log\n"
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+
+static std::string hex(uint32_t v) { return fmt("0x%X", v); }
+
+static double can_frame_seconds(bool fd, double bitrate, double data_bitrate)
+{
+    // Worst case with bit stuffing. Classic 8-byte data frame, 11-bit id:
+    // 111 bits incl. 3 bits interframe space, +24 stuff bits.
+    if (!fd) return 135.0 / bitrate;
+    // FD, 64 bytes: arbitration and end at the nominal rate (30 bits + 5 stuff),
+    // data phase ESI..CRC (548 bits incl. fixed stuff bits) + 129 dynamic stuff bits.
+    return 35.0 / bitrate + 677.0 / data_bitrate;
+}
+
+// ---- design <-> configuration ---------------------------------------------
+
+static bool same_coef(const msid_design &a, const msid_design &b)
+{
+    if (a.period != b.period || a.n_lines != b.n_lines || a.n_inputs != b.n_inputs || a.n_experiments != b.n_experiments)
+        return false;
+    const size_t n = (size_t)a.n_experiments * a.n_inputs * a.n_lines;
+    return std::memcmp(a.coef, b.coef, n * sizeof(msid_cplx)) == 0 &&
+           std::memcmp(a.bins, b.bins, a.n_lines * sizeof(uint32_t)) == 0;
+}
+
+// The design the device builds from `c` (exactly as firmware_sim does).
+struct DevDesign {
+    Mem mtw, md;
+    msid_twiddle tw{};
+    msid_design d{};
+    msid_status st = MSID_OK;
+};
+static std::unique_ptr<DevDesign> device_design(const msid_can_config &c)
+{
+    auto D = std::make_unique<DevDesign>();
+    if (c.period < MSID_MIN_PERIOD || c.period > MSID_MAX_PERIOD) { D->st = MSID_E_PERIOD; return D; }
+    D->mtw = Mem(msid_twiddle_mem_size(c.period));
+    if ((D->st = msid_twiddle_init(&D->tw, c.period, D->mtw.p, D->mtw.n)) != MSID_OK) return D;
+    msid_design_cfg dc;
+    msid_can_config_design_cfg(&c, &dc, &D->tw);
+    const size_t n = msid_design_mem_size(&dc);
+    if (!n) { D->st = MSID_E_DIMS; return D; }
+    D->md = Mem(n);
+    D->st = msid_design_init(&D->d, &dc, D->md.p, D->md.n);
+    return D;
+}
+
+struct StreamFmt {
+    uint32_t encoding = MSID_CAN_ENC_S16, fd = 0, rate = 0, periods = 8;
+    float scale = 0.001f;
+};
+
+static std::unique_ptr<msid_can_config> config_from_design(const Design &D, const StreamFmt &s)
+{
+    const msid_design &d = D.d;
+    auto c = std::make_unique<msid_can_config>();
+    std::memset(c.get(), 0, sizeof *c);
+    const uint32_t L = d.n_lines, nu = d.n_inputs;
+    if (L > MSID_CAN_MAX_LINES)
+        throw Error(fmt("the design has %u lines: an msid-can/1 device takes at most %u", L, MSID_CAN_MAX_LINES));
+    c->period = d.period;
+    c->n_lines = L;
+    c->n_inputs = nu;
+    c->n_experiments = d.n_experiments;
+    c->pattern = (uint32_t)d.pattern;
+    if (d.is_ct) {
+        c->is_ct = 1;
+        std::memcpy(c->omega, d.omega, L * sizeof(double));
+        c->sample_time = d.sample_time;
+    } else {
+        std::memcpy(c->bins, d.bins, L * sizeof(uint32_t));
+    }
+    bool ones = true;
+    for (size_t k = 0; k < (size_t)nu * L; ++k) ones = ones && d.amp[k] == 1.0;
+    c->have_amp = !ones;
+    if (!ones) std::memcpy(c->amp, d.amp, (size_t)nu * L * sizeof(double));
+    c->encoding = s.encoding;
+    c->scale = s.scale;
+    c->fd = s.fd;
+    c->rate_hz = s.rate;
+    c->periods = s.periods;
+    // Compact form first (seed + phase mode); explicit phases when that does not rebuild the same design.
+    c->phase_mode = (uint32_t)D.params.phase_mode;
+    c->seed = D.params.seed;
+    c->have_phase = 0;
+    if (c->phase_mode != MSID_PHASE_USER) {
+        auto dd = device_design(*c);
+        if (dd->st == MSID_OK && same_coef(dd->d, d)) return c;
+    }
+    c->phase_mode = MSID_PHASE_USER;
+    c->have_phase = 1;
+    std::memcpy(c->phase, d.phase, (size_t)nu * L * sizeof(double));
+    auto dd = device_design(*c);
+    if (dd->st != MSID_OK || !same_coef(dd->d, d))
+        throw Error("the design cannot be uploaded exactly (the device would rebuild a different excitation)");
+    return c;
+}
+
+// ---- acquisition: decoder + FRF job -----------------------------------------
+
+struct Acq {
+    std::unique_ptr<FrfJob> job;
+    Mem mdec;
+    msid_can_decoder dec{};
+    FILE *log = nullptr;
+    std::string log_path, log_tmp, iface;
+    std::string error;     // first device or protocol error
+    ~Acq()
+    {
+        if (log) { std::fclose(log); ::unlink(log_tmp.c_str()); }
+    }
+    void open_log(const std::string &path)
+    {
+        log_path = path;
+        log_tmp = path + ".tmp." + std::to_string(getpid());
+        log = std::fopen(log_tmp.c_str(), "w");
+        if (!log) throw Error("cannot write '" + path + "': " + std::strerror(errno));
+    }
+    void log_frame(const msid_can_frame &f)
+    {
+        if (!log) return;
+        char buf[256];
+        msid_can_frame g = f;
+        if (!g.t_ns) {
+            timespec ts;
+            clock_gettime(CLOCK_REALTIME, &ts);
+            g.t_ns = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        }
+        const int n = msid_candump_format(buf, sizeof buf, &g, iface.c_str());
+        if (n < 0 || std::fwrite(buf, 1, (size_t)n, log) != (size_t)n) throw Error("cannot write '" + log_path + "'");
+    }
+    void close_log()
+    {
+        if (!log) return;
+        const bool ok = std::fflush(log) == 0 && fsync(fileno(log)) == 0;
+        std::fclose(log);
+        log = nullptr;
+        if (!ok || std::rename(log_tmp.c_str(), log_path.c_str()) != 0) {
+            ::unlink(log_tmp.c_str());
+            throw Error("cannot write '" + log_path + "'");
+        }
+    }
+    void init(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t base,
+              const msid_can_config &c, uint32_t window)
+    {
+        // history: room for a device restart or two per experiment
+        job = std::make_unique<FrfJob>(rq, nu, ny, m, periods, 4 * periods + 8);
+        msid_can_decoder_cfg dc{};
+        dc.base = base;
+        dc.n_inputs = nu;
+        dc.n_outputs = ny;
+        dc.encoding = c.encoding;
+        dc.fd = c.fd;
+        dc.scale = (double)c.scale;
+        dc.period = c.period;
+        dc.window = window;
+        dc.meas = job->meas();
+        const size_t n = msid_can_decoder_mem_size(&dc);
+        if (!n) throw Error(fmt("%u inputs + %u outputs do not fit the %s %s sample frames", nu, ny,
+                                c.fd ? "CAN FD" : "classic", c.encoding ? "float32" : "int16"));
+        mdec = Mem(n);
+        check(msid_can_decoder_init(&dec, &dc, mdec.p, mdec.n), "decoder setup");
+    }
+    void feed(const msid_can_frame &f)
+    {
+        const msid_status st = msid_can_decoder_feed(&dec, &f);
+        if (st == MSID_E_CAPACITY)
+            throw Error("more periods arrived than the measurement holds (device restarted too often?)");
+        check(st, "decoder");
+    }
+};
+
+static Json counters_json(const msid_can_decoder &d, const msid_can_link_stats &ls, const std::string &transport)
+{
+    const msid_can_counters &c = d.cnt;
+    Json j;
+    j["transport"] = transport;
+    j["frames"] = c.frames;
+    j["sample_frames"] = c.sample_frames;
+    j["samples"] = c.samples;
+    j["samples_lost"] = c.samples_lost;
+    j["frames_missing"] = c.frames_missing;
+    j["gap_events"] = c.gap_events;
+    j["duplicates"] = c.duplicates;
+    j["reordered"] = c.reordered;
+    j["late"] = c.late;
+    j["malformed"] = c.malformed;
+    j["foreign"] = c.foreign;
+    j["status_frames"] = c.status_frames;
+    j["error_frames"] = c.error_frames;
+    j["errors_by_class"] = {{"warning", c.err_warning}, {"passive", c.err_passive}, {"bus_off", c.err_bus_off},
+                            {"restarted", c.err_restarted}, {"protocol", c.err_protocol}, {"ack", c.err_ack},
+                            {"controller_overflow", c.err_ctrl_overflow}, {"other", c.err_other}};
+    j["bus_state"] = msid_can_bus_state_name(d.bus);
+    j["device_restarts"] = c.restarts;
+    j["periods_marked"] = c.periods_marked;
+    j["kernel_drops"] = ls.kernel_drops;
+    j["bad_length_reads"] = ls.bad_length;
+    j["send_retries"] = ls.send_retries;
+    j["timestamped_frames"] = ls.timestamps;
+    if (d.dev.have_counters) j["device_tx_dropped"] = d.dev.tx_dropped;
+    return j;
+}
+
+static std::vector<ExpSource> sources(const Acq &a, uint32_t m, uint32_t P)
+{
+    std::vector<ExpSource> src;
+    const msid_meas *ms = a.dec.cfg.meas;
+    for (uint32_t e = 0; e < m; ++e) {
+        const msid_pstats_counts c = msid_pstats_get_counts(msid_meas_stats(ms, e));
+        (void)P;
+        src.push_back({fmt("can:%s experiment %u", a.iface.c_str(), e + 1), ms->samples[e], c.offered,
+                       msid_meas_leftover(ms, e)});
+    }
+    return src;
+}
+
+static std::vector<std::string> loss_notes(const msid_can_decoder &d, const msid_can_link_stats &ls)
+{
+    std::vector<std::string> n;
+    const msid_can_counters &c = d.cnt;
+    if (c.samples_lost)
+        n.push_back(fmt("%llu sample(s) missing in %llu gap(s) (%llu frames): the periods they touch were rejected",
+                        (unsigned long long)c.samples_lost, (unsigned long long)c.gap_events,
+                        (unsigned long long)c.frames_missing));
+    if (ls.kernel_drops)
+        n.push_back(fmt("the kernel dropped %llu frame(s) for a full socket queue (raise --rcvbuf)",
+                        (unsigned long long)ls.kernel_drops));
+    if (c.malformed) n.push_back(fmt("%llu malformed frame(s) ignored", (unsigned long long)c.malformed));
+    if (c.duplicates) n.push_back(fmt("%llu duplicate frame(s) ignored", (unsigned long long)c.duplicates));
+    if (c.restarts) n.push_back(fmt("the device restarted %llu time(s)", (unsigned long long)c.restarts));
+    if (c.error_frames)
+        n.push_back(fmt("%llu error frame(s); bus state now %s", (unsigned long long)c.error_frames,
+                        msid_can_bus_state_name(d.bus)));
+    return n;
+}
+
+static const char *device_error(uint32_t code)
+{
+    switch (code) {
+    case MSID_CAN_ERR_VERSION: return "protocol version mismatch";
+    case MSID_CAN_ERR_CRC: return "configuration CRC mismatch (a CFG frame was lost)";
+    case MSID_CAN_ERR_DESIGN: return "the device refused the design";
+    case MSID_CAN_ERR_NOT_CONFIGURED: return "the device is not configured";
+    case MSID_CAN_ERR_EXPERIMENT: return "experiment index out of range";
+    case MSID_CAN_ERR_DIMS: return "the design's inputs do not match the device";
+    case MSID_CAN_ERR_CFG: return "malformed or unsupported configuration";
+    default: return "unknown device error";
+    }
+}
+
+static void parse_common(const Args &a, FrfRequest &rq)
+{
+    if (a.has("skip-periods")) rq.skip = parse_u32(a.get("skip-periods"), "--skip-periods");
+    if (a.has("detect-lines")) rq.detect = parse_uint_list(a.get("detect-lines"), "--detect-lines");
+    const std::string tr = a.get("transient", "flag");
+    if (tr == "flag") rq.transient = MSID_TRANSIENT_FLAG;
+    else if (tr == "drop") rq.transient = MSID_TRANSIENT_DROP;
+    else if (tr == "off") rq.transient = MSID_TRANSIENT_OFF;
+    else throw UsageError("--transient must be flag, drop or off (got '" + tr + "')");
+    if (a.has("alpha")) {
+        rq.alpha = parse_double(a.get("alpha"), "--alpha");
+        if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
+    }
+}
+
+static uint32_t parse_base(const Args &a)
+{
+    const uint64_t b = a.has("base") ? parse_u64(a.get("base"), "--base") : MSID_CAN_DEFAULT_BASE;
+    if (b % 0x80 || b > 0x780) throw UsageError("--base must be a multiple of 0x80 up to 0x780 (got " + hex((uint32_t)b) + ")");
+    return (uint32_t)b;
+}
+
+static uint32_t parse_window(const Args &a)
+{
+    const uint32_t w = a.has("window") ? parse_u32(a.get("window"), "--window") : 16;
+    if (w < 1 || w > MSID_CAN_MAX_WINDOW) throw UsageError(fmt("--window must be 1..%u", MSID_CAN_MAX_WINDOW));
+    return w;
+}
+
+static std::string fmt_name(const msid_can_config &c)
+{
+    return std::string(c.fd ? "fd" : "classic") + "/" + (c.encoding ? "float32" : "int16");
+}
+
+// ---- measure -----------------------------------------------------------------
+
+static void send_or_throw(msid_can_transport &t, Acq &acq, const msid_can_frame &f)
+{
+    const int r = t.be->send(t.ctx, &f, 2000);
+    if (r < 0) throw Error(std::string("cannot send on the CAN bus: ") + t.be->error(t.ctx));
+    msid_can_frame g = f;
+    g.flags |= MSID_CANF_TX;
+    acq.log_frame(g);
+}
+
+static msid_can_frame frame8(uint32_t id, const uint8_t *d)
+{
+    msid_can_frame f{};
+    f.id = id;
+    f.len = 8;
+    std::memcpy(f.data, d, 8);
+    return f;
+}
+
+static int cmd_measure(int argc, char **argv)
+{
+    Args a(argc, argv, 3,
+           {"iface", "base", "design", "periods", "rate", "encoding", "scale", "bitrate", "data-bitrate", "window",
+            "rcvbuf", "timeout", "log", "skip-periods", "transient", "alpha", "detect-lines", "output"},
+           {"fd"});
+    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
+    const std::string out = a.require("output"), iface = a.require("iface");
+    const uint32_t base = parse_base(a), window = parse_window(a);
+    auto D = read_design_file(a.require("design"));
+    StreamFmt sf;
+    sf.fd = a.has("fd") ? 1 : 0;
+    const std::string enc = a.get("encoding", "int16");
+    if (enc == "int16") sf.encoding = MSID_CAN_ENC_S16;
+    else if (enc == "float32") sf.encoding = MSID_CAN_ENC_F32;
+    else throw UsageError("--encoding must be int16 or float32 (got '" + enc + "')");
+    if (a.has("scale")) {
+        const double s = parse_double(a.get("scale"), "--scale");
+        if (!(s > 0 && s < 1e30)) throw UsageError("--scale must be positive");
+        sf.scale = (float)s;
+    }
+    sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D->params.periods ? D->params.periods : 8);
+    if (sf.periods < 2 || sf.periods > 100000) throw UsageError("--periods must be 2..100000");
+    double rate = 0;
+    if (a.has("rate")) {
+        rate = parse_double(a.get("rate"), "--rate");
+        if (!(rate >= 0 && rate <= 4e9) || rate != std::floor(rate))
+            throw UsageError("--rate must be a whole number of Hz (0: as fast as possible)");
+        sf.rate = (uint32_t)rate;
+    }
+    const double bitrate = a.has("bitrate") ? parse_double(a.get("bitrate"), "--bitrate") : 0;
+    const double dbitrate = a.has("data-bitrate") ? parse_double(a.get("data-bitrate"), "--data-bitrate") : bitrate;
+    if (bitrate < 0 || dbitrate < 0) throw UsageError("--bitrate must be >= 0");
+    const int rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
+    const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
+    if (!(timeout > 0)) throw UsageError("--timeout must be positive");
+    const msid_design &d = D->d;
+    FrfRequest rq;
+    request_from_design(rq, *D);
+    parse_common(a, rq);
+    if (rate > 0 && !d.is_ct) rq.fs = rate;
+    if (rq.skip + 2 > sf.periods)
+        throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
+
+    auto cfg = config_from_design(*D, sf);
+
+    msid_socketcan sc;
+    msid_socketcan_cfg scc{};
+    scc.iface = iface.c_str();
+    scc.fd_frames = sf.fd;
+    scc.n_filters = 1;
+    scc.filter_id[0] = base;   // the device's 128 identifiers
+    scc.filter_mask[0] = 0x780u | MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG;
+    scc.err_frames = 1;
+    scc.rcvbuf = rcvbuf;
+    const int r = msid_socketcan_open(&sc, &scc);
+    if (r < 0) throw Error(sc.err);
+    struct Closer { msid_socketcan &s; ~Closer() { s.tr.be->close(s.tr.ctx); } } closer{sc};
+    msid_can_transport &t = sc.tr;
+
+    Acq acq;
+    acq.iface = iface;
+    if (a.has("log")) acq.open_log(a.get("log"));
+
+    // 1. who is there?
+    uint8_t buf[8];
+    msid_can_encode_ctrl(buf, MSID_CAN_CMD_QUERY, 0, 0);
+    send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CTRL, buf));
+    msid_can_device dev{};
+    std::vector<msid_can_frame> early;   // status frames before the decoder exists
+    auto wait_status = [&](double secs, auto done) {
+        timespec t0;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        msid_can_frame fr[64];
+        for (;;) {
+            timespec t1;
+            clock_gettime(CLOCK_MONOTONIC, &t1);
+            const double el = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+            if (el > secs) return false;
+            const int k = t.be->recv(t.ctx, fr, 64, 50);
+            if (k == -MSID_DAQ_E_TIMEOUT) continue;
+            if (k < 0) throw Error(std::string("CAN receive: ") + t.be->error(t.ctx));
+            for (int i = 0; i < k; ++i) {
+                acq.log_frame(fr[i]);
+                early.push_back(fr[i]);
+                if (fr[i].id != base + MSID_CAN_ID_STATUS || fr[i].len != 8) continue;
+                const uint8_t *b = fr[i].data;
+                if (b[0] == MSID_CAN_ST_INFO) {
+                    dev.have_info = 1; dev.version = b[1]; dev.nu = b[2]; dev.ny = b[3]; dev.cfg_crc = msid_can_get_u32(b + 4);
+                } else if (b[0] == MSID_CAN_ST_STATE) {
+                    dev.have_state = 1; dev.state = b[1]; dev.experiment = b[2]; dev.error = b[3]; dev.value = msid_can_get_u32(b + 4);
+                }
+                if (done()) return true;
+            }
+        }
+    };
+    if (!wait_status(2.0, [&] { return dev.have_info != 0; }))
+        throw Error(fmt("no msid-can device answered at base %s on %s within 2 s", hex(base).c_str(), iface.c_str()));
+    if (dev.version != MSID_CAN_PROTO_VERSION)
+        throw Error(fmt("protocol version mismatch: the device on %s speaks msid-can/%u, this host msid-can/%u",
+                        iface.c_str(), dev.version, MSID_CAN_PROTO_VERSION));
+    if (dev.nu != d.n_inputs)
+        throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs));
+    const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
+    if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("the device reports %u outputs", ny));
+    const uint32_t chunks = msid_can_chunks(C, sf.encoding, sf.fd);
+    if (bitrate > 0 && rate > 0) {
+        const double tf = can_frame_seconds(sf.fd, bitrate, dbitrate > 0 ? dbitrate : bitrate);
+        const double load = rate * chunks * tf;
+        if (load > 1.0)
+            throw Error(fmt("the bus cannot carry %u channels at %g Hz: %u %s frame(s) per sample, %.0f frames/s, "
+                            "need %.2f times the bus capacity at %g bit/s (worst-case bit stuffing); lower --rate%s",
+                            C, rate, chunks, sf.fd ? "CAN FD" : "classic", rate * chunks, load, bitrate,
+                            sf.fd ? "" : ", or use --fd"));
+    }
+
+    // 2. upload the design as parameters
+    const size_t nf = msid_can_config_frames(cfg.get(), nullptr, 0);
+    std::vector<uint8_t> cf(nf * 8);
+    msid_can_config_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
+    const uint32_t crc = msid_can_get_u32(&cf[(nf - 1) * 8 + 4]);
+    dev.have_state = 0;
+    for (size_t i = 0; i < nf; ++i) send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CFG, &cf[i * 8]));
+    if (!wait_status(5.0, [&] {
+            return dev.have_state && (dev.state == MSID_CAN_STATE_CONFIGURED || dev.state == MSID_CAN_STATE_ERROR);
+        }))
+        throw Error("the device did not confirm the configuration within 5 s");
+    if (dev.state == MSID_CAN_STATE_ERROR) {
+        if (dev.error == MSID_CAN_ERR_VERSION)
+            throw Error(fmt("protocol version mismatch: the device on %s refused msid-can/%u (it speaks msid-can/%u)",
+                            iface.c_str(), MSID_CAN_PROTO_VERSION, dev.version));
+        throw Error(fmt("the device refused the configuration: %s%s", device_error(dev.error),
+                        dev.error == MSID_CAN_ERR_DESIGN ? (std::string(" (") + msid_strerror((msid_status)dev.value) + ")").c_str() : ""));
+    }
+    if (dev.cfg_crc != crc)
+        throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", dev.cfg_crc, crc));
+
+    // 3. run the experiments
+    acq.init(rq, nu, ny, m, sf.periods, base, *cfg, window);
+    for (const auto &f : early) acq.feed(f);
+    msid_can_frame fr[64];
+    for (uint32_t e = 0; e < m; ++e) {
+        const uint64_t done_before = acq.dec.cnt.experiments_done;
+        msid_can_encode_ctrl(buf, MSID_CAN_CMD_START, e, sf.periods);
+        send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CTRL, buf));
+        timespec last;
+        clock_gettime(CLOCK_MONOTONIC, &last);
+        while (acq.dec.cnt.experiments_done == done_before) {
+            const int k = t.be->recv(t.ctx, fr, 64, 100);
+            timespec now;
+            clock_gettime(CLOCK_MONOTONIC, &now);
+            if (k == -MSID_DAQ_E_TIMEOUT) {
+                if ((double)(now.tv_sec - last.tv_sec) + 1e-9 * (double)(now.tv_nsec - last.tv_nsec) > timeout)
+                    throw Error(fmt("the device went silent for %g s during experiment %u", timeout, e + 1));
+                continue;
+            }
+            if (k < 0) throw Error(std::string("CAN receive: ") + t.be->error(t.ctx));
+            last = now;
+            for (int i = 0; i < k; ++i) {
+                acq.log_frame(fr[i]);
+                acq.feed(fr[i]);
+                const msid_can_device &v = acq.dec.dev;
+                if (fr[i].id == base + MSID_CAN_ID_STATUS && v.have_state && v.state == MSID_CAN_STATE_ERROR)
+                    throw Error(fmt("the device reported an error during experiment %u: %s", e + 1, device_error(v.error)));
+            }
+        }
+    }
+    msid_can_link_stats ls;
+    t.be->stats(t.ctx, &ls);
+    FrfOutcome o = acq.job->finish(sources(acq, m, d.period), loss_notes(acq.dec, ls));
+    Json acqj = counters_json(acq.dec, ls, "socketcan");
+    acqj["interface"] = iface;
+    acqj["protocol"] = fmt("msid-can/%u", MSID_CAN_PROTO_VERSION);
+    acqj["base_id"] = base;
+    acqj["frame_format"] = fmt_name(*cfg);
+    acqj["scale"] = (double)cfg->scale;
+    acqj["rate_hz"] = sf.rate;
+    acqj["config_crc"] = crc;
+    o.doc["acquisition"] = acqj;
+    write_json_file(out, o.doc);
+    acq.close_log();
+    for (const auto &n : o.notes) std::fprintf(stderr, "msid can: note: %s\n", n.c_str());
+    std::printf("wrote %s: %zu lines, %u x %u, %u experiment(s) over %s (%s), %llu samples, %llu missing, "
+                "%llu periods used, %llu rejected\n",
+                out.c_str(), rq.bins.size(), ny, nu, m, iface.c_str(), fmt_name(*cfg).c_str(),
+                (unsigned long long)acq.dec.cnt.samples, (unsigned long long)acq.dec.cnt.samples_lost,
+                (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
+                (unsigned long long)o.doc["periods_rejected"].get<uint64_t>());
+    return 0;
+}
+
+// ---- replay ------------------------------------------------------------------
+
+static int cmd_replay(int argc, char **argv)
+{
+    Args a(argc, argv, 3,
+           {"log", "design", "base", "window", "skip-periods", "transient", "alpha", "detect-lines", "output"}, {});
+    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
+    const std::string out = a.require("output"), path = a.require("log");
+    const uint32_t base = parse_base(a), window = parse_window(a);
+    msid_candump_reader rd;
+    if (msid_candump_open(&rd, path.c_str()) < 0) throw Error(rd.err);
+    struct Closer { msid_candump_reader &r; ~Closer() { r.tr.be->close(r.tr.ctx); } } closer{rd};
+    msid_can_transport &t = rd.tr;
+
+    // Pass 1: the last committed configuration and the device's INFO.
+    auto cfg = std::make_unique<msid_can_config>();
+    auto got = std::make_unique<msid_can_config>();
+    std::memset(cfg.get(), 0, sizeof *cfg);
+    std::memset(got.get(), 0, sizeof *got);
+    msid_can_config_reset(cfg.get());
+    bool have_cfg = false, have_info = false;
+    uint32_t ny = 0, version = 0;
+    std::string iface;
+    msid_can_frame fr[64];
+    for (;;) {
+        const int k = t.be->recv(t.ctx, fr, 64, 0);
+        if (k == -MSID_DAQ_E_EOF) break;
+        if (k < 0) throw Error("'" + path + "': " + t.be->error(t.ctx));
+        for (int i = 0; i < k; ++i) {
+            const msid_can_frame &f = fr[i];
+            if (iface.empty()) iface = rd.iface;
+            if (f.id == base + MSID_CAN_ID_CFG) {
+                if (msid_can_config_feed(cfg.get(), f.data, f.len, MSID_CAN_PROTO_VERSION) == 1) {
+                    std::memcpy(got.get(), cfg.get(), sizeof *cfg);
+                    have_cfg = true;
+                }
+            } else if (f.id == base + MSID_CAN_ID_STATUS && f.len == 8 && f.data[0] == MSID_CAN_ST_INFO) {
+                have_info = true;
+                version = f.data[1];
+                ny = f.data[3];
+            }
+        }
+    }
+    if (!have_info) throw Error("'" + path + "': no device INFO frame at base " + hex(base) + " (wrong --base, or not an msid-can log?)");
+    if (version != MSID_CAN_PROTO_VERSION)
+        throw Error(fmt("'%s': protocol version mismatch: the log's device speaks msid-can/%u, this host msid-can/%u",
+                        path.c_str(), version, MSID_CAN_PROTO_VERSION));
+    if (!have_cfg) throw Error("'" + path + "': no complete design upload (CFG BEGIN..COMMIT with a valid CRC)");
+    auto dd = device_design(*got);
+    if (dd->st != MSID_OK) throw Error("'" + path + "': the logged design is invalid: " + msid_strerror(dd->st));
+    FrfRequest rq;
+    std::unique_ptr<Design> D;
+    if (a.has("design")) {
+        D = read_design_file(a.get("design"));
+        if (!same_coef(D->d, dd->d))
+            throw Error("'" + path + "': the design in the log differs from '" + a.get("design") + "'");
+        request_from_design(rq, *D);
+    } else {
+        const msid_design &g = dd->d;
+        rq.period = g.period;
+        rq.bins.assign(g.bins, g.bins + g.n_lines);
+        if (g.is_ct) {
+            rq.folded.assign(g.folded, g.folded + g.n_lines);
+            rq.omega.assign(g.omega, g.omega + g.n_lines);
+            rq.sample_time = g.sample_time;
+        }
+    }
+    parse_common(a, rq);
+    if (got->rate_hz && !dd->d.is_ct) rq.fs = got->rate_hz;
+    const uint32_t nu = got->n_inputs, m = got->n_experiments;
+    if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("'%s': the device reports %u outputs", path.c_str(), ny));
+    if (rq.skip + 2 > got->periods)
+        throw Error(fmt("--skip-periods %u leaves fewer than 2 of the %u periods", rq.skip, got->periods));
+
+    // Pass 2: every frame through the decoder, as live.
+    Acq acq;
+    acq.iface = iface;
+    acq.init(rq, nu, ny, m, got->periods, base, *got, window);
+    msid_candump_rewind(&rd);
+    for (;;) {
+        const int k = t.be->recv(t.ctx, fr, 64, 0);
+        if (k == -MSID_DAQ_E_EOF) break;
+        if (k < 0) throw Error("'" + path + "': " + t.be->error(t.ctx));
+        for (int i = 0; i < k; ++i) acq.feed(fr[i]);
+    }
+    std::vector<std::string> notes;
+    if (acq.dec.open) {
+        notes.push_back(fmt("the log ends during experiment %u: its pending samples were flushed", acq.dec.exp + 1));
+        check(msid_can_decoder_abort(&acq.dec), "decoder");
+    }
+    for (uint32_t e = 0; e < m; ++e)
+        if (msid_meas_stats(acq.dec.cfg.meas, e) && acq.dec.cfg.meas->samples[e] == 0)
+            throw Error(fmt("'%s' holds no samples of experiment %u of %u", path.c_str(), e + 1, m));
+    msid_can_link_stats ls;
+    t.be->stats(t.ctx, &ls);
+    auto ln = loss_notes(acq.dec, ls);
+    notes.insert(notes.end(), ln.begin(), ln.end());
+    FrfOutcome o = acq.job->finish(sources(acq, m, rq.period), notes);
+    Json acqj = counters_json(acq.dec, ls, "candump");
+    acqj["interface"] = iface;
+    acqj["protocol"] = fmt("msid-can/%u", MSID_CAN_PROTO_VERSION);
+    acqj["base_id"] = base;
+    acqj["frame_format"] = fmt_name(*got);
+    acqj["scale"] = (double)got->scale;
+    acqj["rate_hz"] = got->rate_hz;
+    acqj["config_crc"] = got->crc;
+    acqj["log"] = path;
+    o.doc["acquisition"] = acqj;
+    write_json_file(out, o.doc);
+    for (const auto &n : o.notes) std::fprintf(stderr, "msid can: note: %s\n", n.c_str());
+    std::printf("wrote %s: %zu lines, %u x %u, %u experiment(s) replayed from %s, %llu samples, %llu missing\n",
+                out.c_str(), rq.bins.size(), ny, nu, m, path.c_str(), (unsigned long long)acq.dec.cnt.samples,
+                (unsigned long long)acq.dec.cnt.samples_lost);
+    return 0;
+}
+
+int cmd_can(int argc, char **argv)
+{
+    const std::string sub = argc > 2 ? argv[2] : "";
+    if (sub.empty() || sub == "--help" || sub == "-h") {
+        std::fputs(HELP, sub.empty() ? stderr : stdout);
+        return sub.empty() ? 2 : 0;
+    }
+    for (int i = 3; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
+    if (sub == "measure") return cmd_measure(argc, argv);
+    if (sub == "replay") return cmd_replay(argc, argv);
+    throw UsageError("unknown subcommand 'can " + sub + "' (measure, replay)");
+}
+
+}  // namespace msidcli
