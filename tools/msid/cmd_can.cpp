@@ -214,11 +214,26 @@ struct Acq {
     }
 };
 
-static Json counters_json(const msid_can_decoder &d, const msid_can_link_stats &ls, const std::string &transport)
+static std::string fmt_name(const msid_can_config &c)
 {
+    return std::string(c.fd ? "fd" : "classic") + "/" + (c.encoding ? "float32" : "int16");
+}
+
+// The `acquisition` block of the FRF document.
+static Json acquisition_json(const Acq &a, const msid_can_link_stats &ls, const std::string &transport, uint32_t base,
+                             const msid_can_config &cfg, uint32_t crc)
+{
+    const msid_can_decoder &d = a.dec;
     const msid_can_counters &c = d.cnt;
     Json j;
     j["transport"] = transport;
+    j["interface"] = a.iface;
+    j["protocol"] = fmt("msid-can/%u", MSID_CAN_PROTO_VERSION);
+    j["base_id"] = base;
+    j["frame_format"] = fmt_name(cfg);
+    j["scale"] = (double)cfg.scale;
+    j["rate_hz"] = cfg.rate_hz;
+    j["config_crc"] = crc;
     j["frames"] = c.frames;
     j["sample_frames"] = c.sample_frames;
     j["samples"] = c.samples;
@@ -293,21 +308,6 @@ static const char *device_error(uint32_t code)
     }
 }
 
-static void parse_common(const Args &a, FrfRequest &rq)
-{
-    if (a.has("skip-periods")) rq.skip = parse_u32(a.get("skip-periods"), "--skip-periods");
-    if (a.has("detect-lines")) rq.detect = parse_uint_list(a.get("detect-lines"), "--detect-lines");
-    const std::string tr = a.get("transient", "flag");
-    if (tr == "flag") rq.transient = MSID_TRANSIENT_FLAG;
-    else if (tr == "drop") rq.transient = MSID_TRANSIENT_DROP;
-    else if (tr == "off") rq.transient = MSID_TRANSIENT_OFF;
-    else throw UsageError("--transient must be flag, drop or off (got '" + tr + "')");
-    if (a.has("alpha")) {
-        rq.alpha = parse_double(a.get("alpha"), "--alpha");
-        if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
-    }
-}
-
 static uint32_t parse_base(const Args &a)
 {
     const uint64_t b = a.has("base") ? parse_u64(a.get("base"), "--base") : MSID_CAN_DEFAULT_BASE;
@@ -322,10 +322,6 @@ static uint32_t parse_window(const Args &a)
     return w;
 }
 
-static std::string fmt_name(const msid_can_config &c)
-{
-    return std::string(c.fd ? "fd" : "classic") + "/" + (c.encoding ? "float32" : "int16");
-}
 
 // ---- measure -----------------------------------------------------------------
 
@@ -386,7 +382,7 @@ static int cmd_measure(int argc, char **argv)
     const msid_design &d = D->d;
     FrfRequest rq;
     request_from_design(rq, *D);
-    parse_common(a, rq);
+    parse_estimate_options(a, rq);
     if (rate > 0 && !d.is_ct) rq.fs = rate;
     if (rq.skip + 2 > sf.periods)
         throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
@@ -517,15 +513,7 @@ static int cmd_measure(int argc, char **argv)
     msid_can_link_stats ls;
     t.be->stats(t.ctx, &ls);
     FrfOutcome o = acq.job->finish(sources(acq, m, d.period), loss_notes(acq.dec, ls));
-    Json acqj = counters_json(acq.dec, ls, "socketcan");
-    acqj["interface"] = iface;
-    acqj["protocol"] = fmt("msid-can/%u", MSID_CAN_PROTO_VERSION);
-    acqj["base_id"] = base;
-    acqj["frame_format"] = fmt_name(*cfg);
-    acqj["scale"] = (double)cfg->scale;
-    acqj["rate_hz"] = sf.rate;
-    acqj["config_crc"] = crc;
-    o.doc["acquisition"] = acqj;
+    o.doc["acquisition"] = acquisition_json(acq, ls, "socketcan", base, *cfg, crc);
     write_json_file(out, o.doc);
     acq.close_log();
     for (const auto &n : o.notes) std::fprintf(stderr, "msid can: note: %s\n", n.c_str());
@@ -596,16 +584,9 @@ static int cmd_replay(int argc, char **argv)
             throw Error("'" + path + "': the design in the log differs from '" + a.get("design") + "'");
         request_from_design(rq, *D);
     } else {
-        const msid_design &g = dd->d;
-        rq.period = g.period;
-        rq.bins.assign(g.bins, g.bins + g.n_lines);
-        if (g.is_ct) {
-            rq.folded.assign(g.folded, g.folded + g.n_lines);
-            rq.omega.assign(g.omega, g.omega + g.n_lines);
-            rq.sample_time = g.sample_time;
-        }
+        request_from_core_design(rq, dd->d);
     }
-    parse_common(a, rq);
+    parse_estimate_options(a, rq);
     if (got->rate_hz && !dd->d.is_ct) rq.fs = got->rate_hz;
     const uint32_t nu = got->n_inputs, m = got->n_experiments;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("'%s': the device reports %u outputs", path.c_str(), ny));
@@ -636,14 +617,7 @@ static int cmd_replay(int argc, char **argv)
     auto ln = loss_notes(acq.dec, ls);
     notes.insert(notes.end(), ln.begin(), ln.end());
     FrfOutcome o = acq.job->finish(sources(acq, m, rq.period), notes);
-    Json acqj = counters_json(acq.dec, ls, "candump");
-    acqj["interface"] = iface;
-    acqj["protocol"] = fmt("msid-can/%u", MSID_CAN_PROTO_VERSION);
-    acqj["base_id"] = base;
-    acqj["frame_format"] = fmt_name(*got);
-    acqj["scale"] = (double)got->scale;
-    acqj["rate_hz"] = got->rate_hz;
-    acqj["config_crc"] = got->crc;
+    Json acqj = acquisition_json(acq, ls, "candump", base, *got, got->crc);
     acqj["log"] = path;
     o.doc["acquisition"] = acqj;
     write_json_file(out, o.doc);

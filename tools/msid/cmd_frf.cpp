@@ -53,17 +53,7 @@ int cmd_frf(int argc, char **argv)
         if (!(rq.fs > 0)) throw UsageError("--fs must be positive");
         if (D && D->is_ct()) throw UsageError("--fs does not apply to a continuous-time design (it has a sample time)");
     }
-    if (a.has("skip-periods")) rq.skip = parse_u32(a.get("skip-periods"), "--skip-periods");
-    if (a.has("detect-lines")) rq.detect = parse_uint_list(a.get("detect-lines"), "--detect-lines");
-    const std::string tr = a.get("transient", "flag");
-    if (tr == "flag") rq.transient = MSID_TRANSIENT_FLAG;
-    else if (tr == "drop") rq.transient = MSID_TRANSIENT_DROP;
-    else if (tr == "off") rq.transient = MSID_TRANSIENT_OFF;
-    else throw UsageError("--transient must be flag, drop or off (got '" + tr + "')");
-    if (a.has("alpha")) {
-        rq.alpha = parse_double(a.get("alpha"), "--alpha");
-        if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
-    }
+    parse_estimate_options(a, rq);
     const std::string dp = a.get("dft", "auto");
     if (dp == "auto") rq.path = MSID_DFT_AUTO;
     else if (dp == "stream") rq.path = MSID_DFT_STREAM;

@@ -58,7 +58,27 @@ Json line_position(const FrfRequest &rq, size_t l)
 
 void request_from_design(FrfRequest &rq, const Design &D)
 {
-    const msid_design &d = D.d;
+    request_from_core_design(rq, D.d);
+    rq.design = &D;
+}
+
+void parse_estimate_options(const Args &a, FrfRequest &rq)
+{
+    if (a.has("skip-periods")) rq.skip = parse_u32(a.get("skip-periods"), "--skip-periods");
+    if (a.has("detect-lines")) rq.detect = parse_uint_list(a.get("detect-lines"), "--detect-lines");
+    const std::string tr = a.get("transient", "flag");
+    if (tr == "flag") rq.transient = MSID_TRANSIENT_FLAG;
+    else if (tr == "drop") rq.transient = MSID_TRANSIENT_DROP;
+    else if (tr == "off") rq.transient = MSID_TRANSIENT_OFF;
+    else throw UsageError("--transient must be flag, drop or off (got '" + tr + "')");
+    if (a.has("alpha")) {
+        rq.alpha = parse_double(a.get("alpha"), "--alpha");
+        if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
+    }
+}
+
+void request_from_core_design(FrfRequest &rq, const msid_design &d)
+{
     rq.period = d.period;
     rq.bins.assign(d.bins, d.bins + d.n_lines);
     if (d.is_ct) {
@@ -66,7 +86,6 @@ void request_from_design(FrfRequest &rq, const Design &D)
         rq.omega.assign(d.omega, d.omega + d.n_lines);
         rq.sample_time = d.sample_time;
     }
-    rq.design = &D;
 }
 
 // RAII for the FFTW backend.

@@ -30,6 +30,11 @@ struct FrfOutcome {
 
 // Fill period/bins/folded/omega/sample_time from a design.
 void request_from_design(FrfRequest &rq, const Design &d);
+// The same from a core design (no file behind it).
+void request_from_core_design(FrfRequest &rq, const msid_design &d);
+
+// --skip-periods, --detect-lines, --transient, --alpha (shared by the estimating commands).
+void parse_estimate_options(const Args &a, FrfRequest &rq);
 
 // Validate everything, run the core, build the document. Throws Error.
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs);
