@@ -573,6 +573,9 @@ int main(int argc, char **argv)
     if (r < 0) die(CAN.err);
     signal(SIGTERM, on_signal);
     signal(SIGINT, on_signal);
+    printf("msid-devsim: ready on %s (base 0x%X, %s, %u input(s), %u output(s), %s plant)\n", O.iface, O.base,
+           CAN.fd_frames ? "CAN FD" : "classic CAN", PD.nu, PD.ny, PD.ct ? "continuous-time" : "discrete-time");
+    fflush(stdout);
     last_host_frame = now_s();
     send_info();
     state = MSID_CAN_STATE_IDLE;

@@ -6,6 +6,8 @@ set -euo pipefail
 APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev
           nlohmann-json3-dev libeigen3-dev python3 python3-pip)
 PY_MODS=(numpy jsonschema pytest)
+# CAN tests in the vcan VM (tests/vcan): qemu, busybox for its initramfs, can-utils as the reference.
+APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else
   echo "deps: need root (or sudo) to run: $*" >&2; return 1; fi; }
@@ -40,3 +42,33 @@ if [ -n "$need" ]; then
 fi
 need=$(py_missing)
 [ -z "$need" ] || { echo "deps: python modules still missing: $need" >&2; exit 1; }
+
+# python-can and cantools (PyPI names) for the interpreter that runs the tests (tests/vcan).
+can_missing() { local out=(); python3 -c "import can" 2>/dev/null || out+=(python-can)
+  python3 -c "import cantools" 2>/dev/null || out+=(cantools); echo "${out[*]:-}"; }
+need=$(can_missing)
+if [ -n "$need" ]; then
+  echo "deps: pip installing $need"
+  { python3 -m pip install -q $need || python3 -m pip install -q --break-system-packages $need; } >> deps.log 2>&1 || {
+    tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
+  [ -z "$(can_missing)" ] || { echo "deps: python modules still missing: $(can_missing)" >&2; exit 1; }
+fi
+
+# The vcan VM boots Debian's own kernel: the package linux-image-amd64 depends on, fetched
+# with apt-get download and unpacked with dpkg -x, once (tests/vcan/vm.py reads it there).
+VCAN_DIR=${MSID_VCAN_DIR:-/var/cache/msid-vcan/k}
+kernel_pkg() { apt-cache depends linux-image-amd64 2>/dev/null |
+  sed -n 's/^ *Depends: \(linux-image-[0-9][^ ]*-amd64\)$/\1/p' | head -1; }
+if ! ls "$VCAN_DIR"/boot/vmlinuz-* >/dev/null 2>&1; then
+  kpkg=$(kernel_pkg)
+  if [ -z "$kpkg" ]; then as_root apt-get update -qq >> deps.log 2>&1 || true; kpkg=$(kernel_pkg); fi
+  [ -n "$kpkg" ] || { echo "deps: cannot resolve the kernel package of linux-image-amd64" >&2; exit 1; }
+  echo "deps: fetching $kpkg for the vcan VM (log: deps.log)"
+  kdir=$(dirname "$VCAN_DIR")
+  as_root mkdir -p "$kdir"
+  ( cd "$kdir" && as_root apt-get download "$kpkg" ) >> deps.log 2>&1 || {
+    tail -20 deps.log; echo "deps: apt-get download $kpkg failed (see deps.log)" >&2; exit 1; }
+  as_root rm -rf "$VCAN_DIR.tmp"
+  as_root dpkg -x "$(ls -t "$kdir/$kpkg"_*.deb | head -1)" "$VCAN_DIR.tmp" && as_root mv "$VCAN_DIR.tmp" "$VCAN_DIR" || {
+    echo "deps: unpacking $kpkg failed" >&2; exit 1; }
+fi

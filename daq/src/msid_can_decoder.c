@@ -262,14 +262,18 @@ static void on_error(msid_can_decoder *d, const msid_can_frame *f)
 
 msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f)
 {
+    const uint32_t off = f->id & 0x7Fu;
+    if (!(f->id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG | MSID_CAN_ERR_FLAG)) && (f->id & 0x780u) == d->cfg.base &&
+        (off == MSID_CAN_ID_CTRL || off == MSID_CAN_ID_CFG)) {
+        d->cnt.host_frames++;   /* the host's own frames (in logs) */
+        return d->err;
+    }
     d->cnt.frames++;
     if (f->id & MSID_CAN_ERR_FLAG) { on_error(d, f); return d->err; }
     if ((f->id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG)) || (f->id & 0x780u) != d->cfg.base) {
         d->cnt.foreign++;
         return d->err;
     }
-    const uint32_t off = f->id & 0x7Fu;
-    if (off == MSID_CAN_ID_CTRL || off == MSID_CAN_ID_CFG) return d->err;   /* host frames (in logs) */
     if (off == MSID_CAN_ID_STATUS) { on_status(d, f); return d->err; }
     uint32_t enc, fd, k;
     if (!msid_can_classify_sample(off, &enc, &fd, &k)) { d->cnt.foreign++; return d->err; }

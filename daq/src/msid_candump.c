@@ -138,6 +138,11 @@ static int replay_recv(void *ctx, msid_can_frame *out, int n, int timeout_ms)
     msid_candump_reader *r = ctx;
     char line[1024];
     int got = 0;
+    if (r->pending) {   /* the error met after the frames returned last time */
+        const int e = r->pending;
+        r->pending = 0;
+        return e;
+    }
     while (got < n) {
         if (!fgets(line, sizeof line, r->fp)) {
             if (ferror(r->fp)) {
@@ -149,7 +154,8 @@ static int replay_recv(void *ctx, msid_can_frame *out, int n, int timeout_ms)
         r->line++;
         if (!strchr(line, '\n') && !feof(r->fp)) {
             snprintf(r->err, sizeof r->err, "line %llu is too long", (unsigned long long)r->line);
-            return -MSID_DAQ_E_FORMAT;
+            r->pending = got ? -MSID_DAQ_E_FORMAT : 0;
+            return got ? got : -MSID_DAQ_E_FORMAT;
         }
         const int st = msid_candump_parse(line, &out[got], r->iface, sizeof r->iface);
         if (st == 1) continue;
@@ -157,7 +163,8 @@ static int replay_recv(void *ctx, msid_can_frame *out, int n, int timeout_ms)
             size_t l = strcspn(line, "\r\n");
             snprintf(r->err, sizeof r->err, "line %llu is not a candump log line: '%.*s'", (unsigned long long)r->line,
                      (int)(l > 120 ? 120 : l), line);
-            return -MSID_DAQ_E_FORMAT;
+            r->pending = got ? -MSID_DAQ_E_FORMAT : 0;
+            return got ? got : -MSID_DAQ_E_FORMAT;
         }
         r->st.frames++;
         r->st.timestamps++;
@@ -203,5 +210,6 @@ void msid_candump_rewind(msid_candump_reader *r)
 {
     if (r->fp) rewind(r->fp);
     r->line = 0;
+    r->pending = 0;
     memset(&r->st, 0, sizeof r->st);
 }

@@ -118,11 +118,17 @@ def run_in_vm(command, results, timeout=900, mem=2048, smp=2, quiet=False):
         if os.path.exists(os.path.join(results, f)):
             os.unlink(os.path.join(results, f))
     with open(os.path.join(results, "job.sh"), "w") as f:
-        f.write("set -u\n" + command + "\n")
+        f.write("set -u\n")
+        # the guest runs the host's interpreter and sees the test environment
+        f.write(f"export PATH={shlex.quote(os.path.dirname(sys.executable) + ':' + os.environ.get('PATH', '/usr/bin:/bin'))}\n")
+        for k, v in sorted(os.environ.items()):
+            if k.startswith("MSID_") or k in ("PYTHONPATH", "PYTHONDONTWRITEBYTECODE"):
+                f.write(f"export {k}={shlex.quote(v)}\n")
+        f.write(command + "\n")
     vmlinuz, mods = kernel_files()
     with tempfile.TemporaryDirectory(prefix="msid-vm-") as work:
         initrd = build_initramfs(work, mods, results)
-        cmd = [QEMU, "-accel", "tcg", "-m", str(mem), "-smp", str(smp), "-nographic", "-no-reboot",
+        cmd = [QEMU, "-accel", "tcg", "-cpu", "max", "-m", str(mem), "-smp", str(smp), "-nographic", "-no-reboot",
                "-kernel", vmlinuz, "-initrd", initrd,
                "-append", "console=ttyS0 panic=-1 quiet loglevel=3",
                "-virtfs", "local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap",

@@ -310,7 +310,14 @@ static const char *device_error(uint32_t code)
 
 static uint32_t parse_base(const Args &a)
 {
-    const uint64_t b = a.has("base") ? parse_u64(a.get("base"), "--base") : MSID_CAN_DEFAULT_BASE;
+    uint64_t b = MSID_CAN_DEFAULT_BASE;
+    if (a.has("base")) {
+        const std::string v = a.get("base");
+        char *end = nullptr;
+        errno = 0;
+        b = std::strtoull(v.c_str(), &end, 0);   // decimal or 0x hex
+        if (v.empty() || *end || errno || v[0] == '-') throw UsageError("--base: '" + v + "' is not an identifier");
+    }
     if (b % 0x80 || b > 0x780) throw UsageError("--base must be a multiple of 0x80 up to 0x780 (got " + hex((uint32_t)b) + ")");
     return (uint32_t)b;
 }
@@ -425,7 +432,8 @@ static int cmd_measure(int argc, char **argv)
             const int k = t.be->recv(t.ctx, fr, 64, 50);
             if (k == -MSID_DAQ_E_TIMEOUT) continue;
             if (k < 0) throw Error(std::string("CAN receive: ") + t.be->error(t.ctx));
-            for (int i = 0; i < k; ++i) {
+            bool hit = false;
+            for (int i = 0; i < k; ++i) {   // the whole batch is kept, even after the awaited frame
                 acq.log_frame(fr[i]);
                 early.push_back(fr[i]);
                 if (fr[i].id != base + MSID_CAN_ID_STATUS || fr[i].len != 8) continue;
@@ -435,8 +443,9 @@ static int cmd_measure(int argc, char **argv)
                 } else if (b[0] == MSID_CAN_ST_STATE) {
                     dev.have_state = 1; dev.state = b[1]; dev.experiment = b[2]; dev.error = b[3]; dev.value = msid_can_get_u32(b + 4);
                 }
-                if (done()) return true;
+                hit = hit || done();
             }
+            if (hit) return true;
         }
     };
     if (!wait_status(2.0, [&] { return dev.have_info != 0; }))
@@ -464,8 +473,22 @@ static int cmd_measure(int argc, char **argv)
     std::vector<uint8_t> cf(nf * 8);
     msid_can_config_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
     const uint32_t crc = msid_can_get_u32(&cf[(nf - 1) * 8 + 4]);
-    dev.have_state = 0;
-    for (size_t i = 0; i < nf; ++i) send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CFG, &cf[i * 8]));
+    // Flow control: after every block of CFG frames, QUERY and wait for the device's answer,
+    // so a device with a small receive FIFO has consumed the block before the next one.
+    const size_t block = 16;
+    for (size_t i = 0; i < nf; ++i) {
+        if (i == nf - 1 || (i > 0 && i % block == 0)) {
+            dev.have_state = 0;
+            msid_can_encode_ctrl(buf, MSID_CAN_CMD_QUERY, 0, 0);
+            send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CTRL, buf));
+            if (!wait_status(5.0, [&] { return dev.have_state != 0; }))
+                throw Error(fmt("the device stopped answering during the design upload (after %zu of %zu frames)", i, nf));
+            if (dev.state == MSID_CAN_STATE_ERROR)
+                throw Error(fmt("the device refused the configuration: %s", device_error(dev.error)));
+        }
+        if (i == nf - 1) dev.have_state = 0;
+        send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CFG, &cf[i * 8]));
+    }
     if (!wait_status(5.0, [&] {
             return dev.have_state && (dev.state == MSID_CAN_STATE_CONFIGURED || dev.state == MSID_CAN_STATE_ERROR);
         }))

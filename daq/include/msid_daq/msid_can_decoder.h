@@ -55,7 +55,8 @@ typedef struct msid_can_decoder_cfg {
 
 /** Counters (cumulative over the run). */
 typedef struct msid_can_counters {
-    uint64_t frames;          /**< frames offered */
+    uint64_t frames;          /**< device and bus frames offered (host CTRL/CFG frames not included) */
+    uint64_t host_frames;     /**< the host's own CTRL/CFG frames (seen in logs) */
     uint64_t sample_frames;   /**< sample frames used */
     uint64_t samples;         /**< complete rows pushed */
     uint64_t samples_lost;    /**< samples declared missing (pushed as gaps) */

@@ -9,7 +9,8 @@
  *   (1700000000.123456) vcan0 20000040#0000000000000000  error frame (8 hex digits)
  *   (1700000000.123456) vcan0 1ABCDEF0#...               29-bit identifier
  * The replay backend returns the frames in file order with their timestamps;
- * a malformed line stops the replay with -MSID_DAQ_E_FORMAT and its line number.
+ * a malformed line stops the replay with -MSID_DAQ_E_FORMAT and its line number
+ * (after the frames before it have been returned).
  */
 #ifndef MSID_CANDUMP_H
 #define MSID_CANDUMP_H
@@ -35,6 +36,7 @@ typedef struct msid_candump_reader {
     msid_can_transport tr;
     FILE *fp;
     uint64_t line;         /**< lines read */
+    int pending;           /**< error to return on the next call (after the frames before it) */
     msid_can_link_stats st;
     char err[256];
     char iface[32];        /**< interface of the last frame */
