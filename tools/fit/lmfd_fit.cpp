@@ -449,8 +449,8 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     Jg.resize(rows, (Eigen::Index)free.size());
     rows = 0;
     for (auto &b : blocks) { Jg.block(rows, 0, b.rows(), b.cols()) = b; rows += b.rows(); }
-    Eigen::JacobiSVD<MatR> sj(Jg);
-    res.sigma_min_J = sj.singularValues()(sj.singularValues().size() - 1);
+    Eigen::SelfAdjointEigenSolver<MatR> sj(Jg.transpose() * Jg, Eigen::EigenvaluesOnly);
+    res.sigma_min_J = std::sqrt(std::max(0.0, sj.eigenvalues()(0)));
     // (45): 2 sqrt(lambda_max(Cov)) (sqrt(2 log(2/delta)) + sqrt(nu ny (2M+1)))
     const double B = std::sqrt((double)g * (double)(2 * nc + nr));
     res.frf_bound = 2.0 * std::sqrt(res.lambda_max_cov) * (std::sqrt(2.0 * std::log(2.0 / o.delta)) + B);

@@ -1,5 +1,7 @@
 #include "subspace.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <thread>
 #include <algorithm>
 #include <cmath>
 
@@ -14,17 +16,95 @@ double real_equations(const std::vector<WeightedLine> &w)
 
 static MatC vec(const MatC &M) { return Eigen::Map<const MatC>(M.data(), M.size(), 1); }
 
+// C = A B for small dynamic matrices (plain loops: Eigen's general product has a
+// large fixed cost at these sizes, and these run once per line per block-row count).
+static inline void small_mul(const MatC &A, const MatC &B, MatC &C)
+{
+    const Eigen::Index r = A.rows(), k = A.cols(), c = B.cols();
+    for (Eigen::Index j = 0; j < c; ++j)
+        for (Eigen::Index i = 0; i < r; ++i) {
+            cd s = 0.0;
+            for (Eigen::Index t = 0; t < k; ++t) s += A(i, t) * B(t, j);
+            C(i, j) = s;
+        }
+}
+static inline void small_mulv(const MatC &A, const cd *x, cd *y)
+{
+    const Eigen::Index r = A.rows(), k = A.cols();
+    for (Eigen::Index i = 0; i < r; ++i) {
+        cd s = 0.0;
+        for (Eigen::Index t = 0; t < k; ++t) s += A(i, t) * x[t];
+        y[i] = s;
+    }
+}
+
+// Fast evaluation of C (x I - A)^{-1} at many points: A = V diag(lambda) V^{-1}
+// once, then C V diag(1/(x - lambda)) V^{-1} per point; falls back to an LU per
+// point when A is (nearly) defective.
+struct Resolvent {
+    bool diag = false;
+    MatC CV, Vi, A;
+    VecC lam;
+    MatC C;
+    Resolvent(const MatR &Am, const MatR &Cm)
+    {
+        const Eigen::Index n = Am.rows();
+        C = Cm.cast<cd>();
+        A = Am.cast<cd>();
+        if (n == 0) return;
+        Eigen::ComplexEigenSolver<MatC> es(A);
+        if (es.info() != Eigen::Success) return;
+        const MatC V = es.eigenvectors();
+        Eigen::JacobiSVD<MatC> sv(V);
+        const double c = sv.singularValues()(0) / sv.singularValues()(n - 1);
+        if (!(c < 1e8)) return;
+        lam = es.eigenvalues();
+        Vi = V.inverse();
+        CV = C * V;
+        diag = true;
+    }
+    // K = C (x I - A)^{-1} into preallocated K (ny x n), T scratch (ny x n)
+    void at(cd x, MatC &K, MatC &T) const
+    {
+        const Eigen::Index n = A.rows();
+        if (n == 0) return;
+        if (diag) {
+            for (Eigen::Index k = 0; k < n; ++k) {
+                const cd d = 1.0 / (x - lam(k));
+                for (Eigen::Index i = 0; i < CV.rows(); ++i) T(i, k) = CV(i, k) * d;
+            }
+            small_mul(T, Vi, K);
+            return;
+        }
+        MatC M = -A;
+        M.diagonal().array() += x;
+        K.noalias() = C * M.partialPivLu().inverse();
+    }
+};
+
 double weighted_cost_ss(const SSModel &m, const std::vector<WeightedLine> &w)
 {
+    const Resolvent res(m.A, m.C);
+    const MatC B = m.B.cast<cd>(), D = m.D.cast<cd>();
+    const Eigen::Index n = m.A.rows(), ny = m.C.rows(), nu = B.cols(), g = ny * nu;
+    MatC K(ny, n), T(ny, n), E(ny, nu);
+    VecC e(g);
     double V = 0.0;
     for (const auto &l : w) {
-        const MatC e = l.Linv * vec(l.G - ss_eval(m, l.x));
+        if (n) {
+            res.at(l.x, K, T);
+            small_mul(K, B, E);
+            E = l.G - D - E;
+        } else {
+            E = l.G - D;
+        }
+        small_mulv(l.Linv, E.data(), e.data());
         V += (l.real ? 0.5 : 1.0) * e.squaredNorm();
     }
     return V;
 }
 
-void fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
+double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
 {
     const Eigen::Index n = m.A.rows(), ny = m.C.rows(), nu = m.B.cols() ? m.B.cols() : (Eigen::Index)(w[0].G.cols());
     const Eigen::Index g = ny * nu, nb = n * nu, nd = estimate_D ? g : 0, np = nb + nd;
@@ -34,18 +114,16 @@ void fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
     MatR X(rows, np);
     VecR y(rows);
     Eigen::Index r0 = 0;
-    const MatC Cc = m.C.cast<cd>(), Ac = m.A.cast<cd>();
+    const Resolvent res(m.A, m.C);
+    MatC Phi = MatC::Zero(g, np), K(ny, n), T(ny, n), Wp(g, np);
+    VecC Wy(g);
+    if (estimate_D) Phi.rightCols(g) = MatC::Identity(g, g);
     for (const auto &l : w) {
-        MatC Mx = -Ac;
-        Mx.diagonal().array() += l.x;
-        const MatC K = n ? MatC(Cc * Mx.partialPivLu().inverse()) : MatC(ny, 0);   // ny x n
-        MatC Phi(g, np);
+        res.at(l.x, K, T);   // ny x n
         // vec(K B) = (I_nu kron K) vec(B); vec(D) = I_g vec(D)
-        Phi.setZero();
         for (Eigen::Index j = 0; j < nu; ++j) Phi.block(j * ny, j * n, ny, n) = K;
-        if (estimate_D) Phi.rightCols(g) = MatC::Identity(g, g);
-        const MatC Wp = l.Linv * Phi;
-        const MatC Wy = l.Linv * vec(l.G);
+        small_mul(l.Linv, Phi, Wp);
+        small_mulv(l.Linv, l.G.data(), Wy.data());
         const double s = l.real ? std::sqrt(0.5) : 1.0;
         X.block(r0, 0, g, np) = s * Wp.real();
         y.segment(r0, g) = s * Wy.real();
@@ -59,6 +137,8 @@ void fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
     const VecR th = X.colPivHouseholderQr().solve(y);
     m.B = Eigen::Map<const MatR>(th.data(), n, nu);
     m.D = estimate_D ? MatR(Eigen::Map<const MatR>(th.data() + nb, ny, nu)) : MatR::Zero(ny, nu);
+    // weighted cost: the whitened residual is y - X th (real lines already carry their 1/2)
+    return (y - X * th).squaredNorm();
 }
 
 // W_r(x) = [1, x, ..., x^{r-1}]
@@ -76,39 +156,99 @@ struct Shared {
 };
 
 // A and C from block-row count r (steps 1-2 of Algorithm 1). Returns the singular values.
-static void estimate_AC(const std::vector<WeightedLine> &w, const Shared &sh, int r, int n, bool weighted,
-                        MatR &A, MatR &C, std::vector<double> &sv)
+// Everything of the subspace step that does not depend on r, computed once for
+// the largest r of the scan: the R factor of Z^T (columns ordered U_0..U_{R-1},
+// Y_0..Y_{R-1}) and C_Y. For a smaller r the R factor of the column subset
+// [U_0..U_{r-1}, Y_0..Y_{r-1}] is the R factor of the same columns of R_max
+// (Z^T = Q R_max), and C_Y(r) is the leading principal block.
+struct Precomp {
+    int R = 0;
+    Eigen::Index nu = 0, ny = 0;
+    MatR Rmax;   // R (nu + ny) square, upper triangular
+    MatR CY;     // R ny square
+};
+
+static Precomp precompute(const std::vector<WeightedLine> &w, const Shared &sh, int R, bool weighted)
 {
-    const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows();
-    const Eigen::Index F = (Eigen::Index)w.size();
-    const Eigen::Index rows = r * (nu + ny), cols = 2 * F * nu;
-    MatR ZT(cols, rows);   // Z^T: one row per real column of Z
-    MatR CY = MatR::Zero(r * ny, r * ny);
+    Precomp pc;
+    pc.R = R;
+    const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows(), F = (Eigen::Index)w.size();
+    pc.nu = nu;
+    pc.ny = ny;
+    const Eigen::Index cols = R * (nu + ny), rows = 2 * F * nu;
+    MatR ZT = MatR::Zero(rows, cols);
+    // C_Y = Re sum_l (W W^H) kron S_l. On the unit circle (|xi| = 1: DT z, CT bilinear w)
+    // (W W^H)(a, b) = xi^(a-b): accumulate the 2R-1 moments sum_l xi^k S_l once.
+    std::vector<MatC> mom((size_t)(2 * R - 1), MatC::Zero(ny, ny));
+    bool unit = true;
     for (Eigen::Index l = 0; l < F; ++l) {
-        const VecC W = powers(sh.xi[(size_t)l], r);
-        for (Eigen::Index j = 0; j < nu; ++j) {
-            VecC z(rows);
-            for (int k = 0; k < r; ++k) {
-                z.segment(k * nu, nu).setZero();
-                z(k * nu + j) = W(k);
-                z.segment(r * nu + k * ny, ny) = W(k) * w[(size_t)l].G.col(j);
+        const cd x = sh.xi[(size_t)l];
+        if (std::abs(std::abs(x) - 1.0) > 1e-12) unit = false;
+        const MatC &G = w[(size_t)l].G;
+        cd p = 1.0;
+        for (int k = 0; k < R; ++k, p *= x) {
+            for (Eigen::Index j = 0; j < nu; ++j) {
+                const Eigen::Index r0 = 2 * (l * nu + j);
+                ZT(r0, k * nu + j) = p.real();
+                ZT(r0 + 1, k * nu + j) = p.imag();
+                for (Eigen::Index i = 0; i < ny; ++i) {
+                    const cd v = p * G(i, j);
+                    ZT(r0, R * nu + k * ny + i) = v.real();
+                    ZT(r0 + 1, R * nu + k * ny + i) = v.imag();
+                }
             }
-            ZT.row(2 * (l * nu + j)) = z.real().transpose();
-            ZT.row(2 * (l * nu + j) + 1) = z.imag().transpose();
         }
-        // C_Y = Re sum_l (W W^H) kron S_l, S_l = sum_j cov of column j of the noise
         MatC S = MatC::Zero(ny, ny);
         if (weighted)
             for (Eigen::Index j = 0; j < nu; ++j) S += w[(size_t)l].cov.block(j * ny, j * ny, ny, ny);
         else
             S = MatC::Identity(ny, ny);
-        const MatC WW = W * W.adjoint();
-        for (int a = 0; a < r; ++a)
-            for (int b = 0; b < r; ++b) CY.block(a * ny, b * ny, ny, ny) += (WW(a, b) * S).real();
+        if (unit) {
+            // moments k = -(R-1)..(R-1) at index k + R - 1
+            cd pk = 1.0;
+            const cd xc = std::conj(x);
+            for (int k = 0; k < R; ++k, pk *= x) mom[(size_t)(R - 1 + k)] += pk * S;
+            pk = xc;
+            for (int k = 1; k < R; ++k, pk *= xc) mom[(size_t)(R - 1 - k)] += pk * S;
+        }
+    }
+    pc.CY = MatR::Zero(R * ny, R * ny);
+    if (unit) {
+        for (int a = 0; a < R; ++a)
+            for (int b = 0; b < R; ++b) pc.CY.block(a * ny, b * ny, ny, ny) = mom[(size_t)(R - 1 + a - b)].real();
+    } else {
+        for (Eigen::Index l = 0; l < F; ++l) {
+            const VecC W = powers(sh.xi[(size_t)l], R);
+            MatC S = MatC::Zero(ny, ny);
+            if (weighted)
+                for (Eigen::Index j = 0; j < nu; ++j) S += w[(size_t)l].cov.block(j * ny, j * ny, ny, ny);
+            else
+                S = MatC::Identity(ny, ny);
+            for (int a = 0; a < R; ++a)
+                for (int b = 0; b < R; ++b)
+                    for (Eigen::Index i = 0; i < ny; ++i)
+                        for (Eigen::Index k = 0; k < ny; ++k) pc.CY(a * ny + i, b * ny + k) += (W(a) * std::conj(W(b)) * S(i, k)).real();
+        }
     }
     Eigen::HouseholderQR<MatR> qr(ZT);
-    const MatR R = qr.matrixQR().topRows(rows).triangularView<Eigen::Upper>();
-    const MatR R22 = R.bottomRightCorner(r * ny, r * ny);
+    const Eigen::Index keep = std::min(rows, cols);
+    pc.Rmax = MatR::Zero(cols, cols);
+    pc.Rmax.topRows(keep) = qr.matrixQR().topRows(keep).triangularView<Eigen::Upper>();
+    return pc;
+}
+
+// A and C from block-row count r (steps 1-2 of Algorithm 1). Returns the singular values.
+static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::vector<double> &sv)
+{
+    const Eigen::Index nu = pc.nu, ny = pc.ny, R = pc.R;
+    const Eigen::Index cols = r * (nu + ny);
+    MatR M(pc.Rmax.rows(), cols);
+    M.leftCols(r * nu) = pc.Rmax.leftCols(r * nu);
+    M.rightCols(r * ny) = pc.Rmax.middleCols(R * nu, r * ny);
+    Eigen::HouseholderQR<MatR> qr(M);
+    const MatR Rr = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
+    const MatR R22 = Rr.bottomRightCorner(r * ny, r * ny);
+    const MatR CY = pc.CY.topLeftCorner(r * ny, r * ny);
     // C_Y^{1/2} and its (pseudo-)inverse by a symmetric eigendecomposition: with many block
     // rows over a narrow band C_Y is numerically rank deficient (near-collinear powers).
     Eigen::SelfAdjointEigenSolver<MatR> es(0.5 * (CY + CY.transpose()));
@@ -124,9 +264,14 @@ static void estimate_AC(const std::vector<WeightedLine> &w, const Shared &sh, in
     const MatR Ch = es.eigenvectors() * sq.asDiagonal() * es.eigenvectors().transpose();
     const MatR Cih = es.eigenvectors() * isq.asDiagonal() * es.eigenvectors().transpose();
     const MatR Mw = Cih * R22.transpose();
-    Eigen::JacobiSVD<MatR> svd(Mw, Eigen::ComputeFullU);
-    sv.assign(svd.singularValues().data(), svd.singularValues().data() + svd.singularValues().size());
-    const MatR O = Ch * svd.matrixU().leftCols(n);
+    // left singular vectors of Mw = eigenvectors of Mw Mw^T (descending), singular values = sqrt(eig)
+    Eigen::SelfAdjointEigenSolver<MatR> eg(Mw * Mw.transpose());
+    const Eigen::Index q = Mw.rows();
+    sv.resize((size_t)q);
+    MatR Us(q, n);
+    for (Eigen::Index k = 0; k < q; ++k) sv[(size_t)k] = std::sqrt(std::max(0.0, eg.eigenvalues()(q - 1 - k)));
+    for (Eigen::Index k = 0; k < n; ++k) Us.col(k) = eg.eigenvectors().col(q - 1 - k);
+    const MatR O = Ch * Us;
     // shift property (12): O_[1:r-1] A = O_[2:r]
     A = O.topRows((r - 1) * ny).completeOrthogonalDecomposition().solve(O.bottomRows((r - 1) * ny));
     C = O.topRows(ny);
@@ -194,7 +339,8 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
         const int r0 = o.r ? o.r : std::min(rmax, 12);
         MatR A, C;
         std::vector<double> sv;
-        estimate_AC(w, sh, r0, 1, weighted, A, C, sv);
+        const Precomp pc0 = precompute(w, sh, r0, weighted);
+        estimate_AC(pc0, r0, 1, A, C, sv);
         n = auto_order(sv, std::min(r0 - 1, max_order));
     }
     int rlo = std::max(n + 1, (int)std::ceil(1.5 * n)), rhi = std::min(6 * n, rmax);
@@ -206,37 +352,62 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
     }
     if (rhi < rlo) rhi = rlo = std::min(std::max(n + 1, rlo), rmax);
     double best = 1e300;
-    for (int r = rlo; r <= rhi; ++r) {
+    const Precomp pc = precompute(w, sh, rhi, weighted);
+    // Each block-row count is an independent fit: run them on the available cores.
+    struct Trial {
         SSModel m;
-        m.domain = d;
-        m.h = f.h;
         std::vector<double> sv;
-        MatR Aw, Cw;
-        estimate_AC(w, sh, r, n, weighted, Aw, Cw, sv);
-        if (d == Domain::CT) {
-            // w-domain (A_w, C_w) to s: A = ws (I - A_w)^{-1}(I + A_w), C = 2 C_w (I - A_w)^{-1}
-            const MatR I = MatR::Identity(n, n);
-            Eigen::PartialPivLU<MatR> lu(I - Aw), luT((I - Aw).transpose());
-            m.A = sh.wscale * lu.solve(I + Aw);
-            m.C = 2.0 * luT.solve(Cw.transpose()).transpose();   // 2 C_w (I - A_w)^{-1}
-        } else {
-            m.A = Aw;
-            m.C = Cw;
-        }
-        m.B = MatR::Zero(n, nu);
-        m.D = MatR::Zero(ny, nu);
+        double V = 1e300;
         int refl = 0;
-        if (o.stable) refl = ss_reflect_unstable(m);
-        fit_BD(m, w, o.estimate_D);
-        const double V = weighted_cost_ss(m, w);
-        res.scan.emplace_back(r, V);
-        if (std::isfinite(V) && V < best) {
-            best = V;
-            res.model = m;
+        std::string err;
+    };
+    const int nr = rhi - rlo + 1;
+    std::vector<Trial> trials((size_t)nr);
+    auto work = [&](int r) {
+        Trial &t = trials[(size_t)(r - rlo)];
+        try {
+            SSModel &m = t.m;
+            m.domain = d;
+            m.h = f.h;
+            MatR Aw, Cw;
+            estimate_AC(pc, r, n, Aw, Cw, t.sv);
+            if (d == Domain::CT) {
+                // w-domain (A_w, C_w) to s: A = ws (I - A_w)^{-1}(I + A_w), C = 2 C_w (I - A_w)^{-1}
+                const MatR I = MatR::Identity(n, n);
+                Eigen::PartialPivLU<MatR> lu(I - Aw), luT((I - Aw).transpose());
+                m.A = sh.wscale * lu.solve(I + Aw);
+                m.C = 2.0 * luT.solve(Cw.transpose()).transpose();   // 2 C_w (I - A_w)^{-1}
+            } else {
+                m.A = Aw;
+                m.C = Cw;
+            }
+            m.B = MatR::Zero(n, nu);
+            m.D = MatR::Zero(ny, nu);
+            if (o.stable) t.refl = ss_reflect_unstable(m);
+            t.V = fit_BD(m, w, o.estimate_D);
+        } catch (const std::exception &e) {
+            t.err = e.what();
+        }
+    };
+    const unsigned hw = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
+    if (hw > 1 && nr > 1) {
+        std::vector<std::thread> pool;
+        for (unsigned t = 0; t < hw; ++t)
+            pool.emplace_back([&, t] { for (int r = rlo + (int)t; r <= rhi; r += (int)hw) work(r); });
+        for (auto &th : pool) th.join();
+    } else {
+        for (int r = rlo; r <= rhi; ++r) work(r);
+    }
+    for (int r = rlo; r <= rhi; ++r) {   // in order: ties go to the smaller r, deterministically
+        Trial &t = trials[(size_t)(r - rlo)];
+        res.scan.emplace_back(r, t.V);
+        if (std::isfinite(t.V) && t.V < best) {
+            best = t.V;
+            res.model = t.m;
             res.r = r;
-            res.sv = sv;
-            res.cost = V;
-            res.reflected = refl;
+            res.sv = t.sv;
+            res.cost = t.V;
+            res.reflected = t.refl;
         }
     }
     if (!(best < 1e300)) throw FitError("subspace identification failed at every block-row count");

@@ -34,7 +34,8 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
                             const SubspaceOptions &o);
 
 // Weighted LS for B and D given A and C (Pintelon 2002 eq. 17, MIMO form), in place.
-void fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D);
+// Returns the weighted cost (35) of the result.
+double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D);
 
 // Weighted cost sum_l |Linv vec(G_l - G(x_l))|^2 (complex lines) + 1/2 |.|^2 (real lines):
 // the negative log-likelihood of eq. (40) up to a constant.

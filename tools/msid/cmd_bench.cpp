@@ -9,6 +9,11 @@ extern "C" {
 }
 #include <fftw3.h>
 
+#include "frf_io.hpp"
+#include "lmfd_fit.hpp"
+#include "model_io.hpp"
+#include "subspace.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -163,11 +168,14 @@ static const char *HELP =
     "length P) as the floor of the FFT path, and a NumPy peer of the same job.\n"
     "--measure plans FFTW with FFTW_MEASURE (default FFTW_ESTIMATE, as `msid frf`).\n";
 
+static int bench_fit(int argc, char **argv);
+
 int cmd_bench(int argc, char **argv)
 {
+    if (argc >= 3 && !std::strcmp(argv[2], "fit")) return bench_fit(argc, argv);
     if (argc < 3 || std::strcmp(argv[2], "frf") != 0) {
         if (argc >= 3 && !std::strcmp(argv[2], "--help")) { std::fputs(HELP, stdout); return 0; }
-        throw UsageError("usage: msid bench frf [--quick] [--min-seconds S] [--no-peer] [--measure] [--only 1|2|3]");
+        throw UsageError("usage: msid bench frf|fit [options] (see msid bench frf --help, msid bench fit --help)");
     }
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
@@ -241,6 +249,218 @@ int cmd_bench(int argc, char **argv)
                 "ns/line.ch.s = job / (samples x lines x channels); FFTW/per = FFTW's own r2c transforms of one\n"
                 "period of the record as stored (plan_many, stride C, averaged over all periods); x FFTW = FFT-path\n"
                 "job time per period / that; x numpy = NumPy peer time / msid time (same job, same sizes).\n");
+    return 0;
+}
+
+}  // namespace msidcli
+
+namespace msidcli {
+
+// ---------------- msid bench fit ----------------
+
+namespace {
+
+using namespace msidfit;
+
+// A random stable DT system: n/2 lightly damped modes, random B, C, D.
+SSModel random_system(msid_rng &r, int n, int nu, int ny)
+{
+    SSModel m;
+    m.domain = Domain::DT;
+    m.A = MatR::Zero(n, n);
+    for (int k = 0; k < n / 2; ++k) {
+        const double rad = 0.5 + 0.45 * msid_rng_uniform(&r), th = 0.1 + 2.7 * msid_rng_uniform(&r);
+        m.A(2 * k, 2 * k) = m.A(2 * k + 1, 2 * k + 1) = rad * std::cos(th);
+        m.A(2 * k, 2 * k + 1) = -rad * std::sin(th);
+        m.A(2 * k + 1, 2 * k) = rad * std::sin(th);
+    }
+    m.B = MatR(n, nu);
+    m.C = MatR(ny, n);
+    m.D = MatR(ny, nu);
+    for (int i = 0; i < m.B.size(); ++i) m.B.data()[i] = msid_rng_normal(&r);
+    for (int i = 0; i < m.C.size(); ++i) m.C.data()[i] = msid_rng_normal(&r);
+    for (int i = 0; i < m.D.size(); ++i) m.D.data()[i] = 0.5 * msid_rng_normal(&r);
+    return m;
+}
+
+// FRF at L lines (bins 1..L of P = 2L+2) with M noisy repetitions per line:
+// G + mean of M complex Gaussian noises (covariance s^2 I), sample covariance / M.
+Json frf_doc(msid_rng &r, const SSModel &m, int L, double snr_db, int M)
+{
+    const int ny = (int)m.C.rows(), nu = (int)m.B.cols(), g = ny * nu, P = 2 * L + 2;
+    std::vector<MatC> G(L);
+    double pw = 0;
+    for (int l = 0; l < L; ++l) {
+        G[l] = ss_eval(m, std::polar(1.0, 2 * M_PI * (l + 1) / P));
+        pw += G[l].squaredNorm() / (g * L);
+    }
+    const double s2 = pw * std::pow(10.0, -snr_db / 10.0);
+    Json doc;
+    doc["format"] = "msid-frf/1";
+    doc["period_samples"] = P;
+    doc["n_inputs"] = nu;
+    doc["n_outputs"] = ny;
+    doc["n_experiments"] = nu;
+    doc["domain"] = "dt";
+    doc["periods_used"] = M;
+    doc["periods_rejected"] = 0;
+    doc["noise_cov"] = cmat_json(MatC::Identity(ny, ny) * (s2 / P));
+    doc["experiments"] = Json::array();
+    Json lines = Json::array();
+    for (int l = 0; l < L; ++l) {
+        std::vector<VecC> x(M, VecC(g));
+        VecC mean = VecC::Zero(g);
+        for (int k = 0; k < M; ++k) {
+            for (int a = 0; a < g; ++a)
+                x[k](a) = Eigen::Map<const VecC>(G[l].data(), g)(a) +
+                          std::sqrt(s2 / 2) * cd(msid_rng_normal(&r), msid_rng_normal(&r));
+            mean += x[k] / (double)M;
+        }
+        MatC S = MatC::Zero(g, g);
+        for (int k = 0; k < M; ++k) S += (x[k] - mean) * (x[k] - mean).adjoint();
+        S /= (double)(M - 1) * M;
+        Json e;
+        e["bin"] = l + 1;
+        e["freq"] = (double)(l + 1) / P;
+        e["G"] = cmat_json(Eigen::Map<const MatC>(mean.data(), ny, nu));
+        e["cov"] = cmat_json(S);
+        e["dof"] = M - 1;
+        e["cov_known_input"] = cmat_json(S);
+        e["dof_known_input"] = M - 1;
+        e["snr"] = Json::array();
+        lines.push_back(e);
+    }
+    doc["lines"] = lines;
+    return doc;
+}
+
+struct FitCfg {
+    const char *name;
+    int n, nu, ny, L;
+};
+
+}  // namespace
+
+static int bench_fit(int argc, char **argv)
+{
+    for (int i = 3; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) {
+            std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer]\n"
+                       "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"
+                       "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
+                       "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
+                       "error against the true system) over N random systems (default 50).\n", stdout);
+            return 0;
+        }
+    Args a(argc, argv, 3, {"systems", "min-seconds"}, {"no-peer"});
+    const int NS = a.has("systems") ? (int)parse_u32(a.get("systems"), "--systems") : 50;
+    const double min_s = a.has("min-seconds") ? parse_double(a.get("min-seconds"), "--min-seconds") : 0.5;
+    if (NS < 1) throw UsageError("--systems must be at least 1");
+    char tmpl[] = "/tmp/msid-bench-fit-XXXXXX";
+    if (!mkdtemp(tmpl)) throw Error("cannot create a temporary directory");
+    const std::string dir = tmpl;
+    const FitCfg cfgs[] = {{"SISO n=4, 1000 lines", 4, 1, 1, 1000}, {"2x2 n=8, 500 lines", 8, 2, 2, 500}};
+    std::printf("msid bench fit  (msid %s, Eigen %d.%d.%d)\nmachine: %s\n", MSID_VERSION, EIGEN_WORLD_VERSION,
+                EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION, machine().c_str());
+    std::printf("data: random stable DT systems, 40 dB SNR, line covariance from 10 repetitions; times: best of runs >= %.2g s\n\n", min_s);
+    for (const FitCfg &c : cfgs) {
+        msid_rng r;
+        msid_rng_seed(&r, 1000 + c.n);
+        std::vector<SSModel> truth;
+        std::vector<std::string> files;
+        for (int k = 0; k < NS; ++k) {
+            truth.push_back(random_system(r, c.n, c.nu, c.ny));
+            files.push_back(dir + "/" + std::to_string(c.n) + "-" + std::to_string(k) + ".json");
+            write_json_file(files.back(), frf_doc(r, truth.back(), c.L, 40.0, 10));
+        }
+        const FrfData f0 = read_frf(files[0]);
+        const auto w0 = weigh(f0, Domain::DT, Weight::Cov);
+        SubspaceOptions so;
+        so.order = c.n;
+        LmfdSpec ls;
+        ls.nD = c.n / c.ny;
+        ls.nN = ls.nD;
+        volatile double sink = 0;
+        const double t_sub = best_time([&] { sink = sink + fit_subspace(f0, Domain::DT, w0, true, so).cost; }, min_s);
+        // lmfd closed form: the fully/under-constrained case, on as many lines as the LMFD has unknowns / 2
+        const int qrow = ls.nD * c.ny + (ls.nN + 1) * c.nu, Lfc = qrow / (2 * c.nu);
+        std::vector<WeightedLine> wfc(w0.begin(), w0.begin() + Lfc);
+        const double t_lmfd = best_time([&] { sink = sink + lmfd_closed_form(wfc, Domain::DT, 0, ls).model.Nm[0](0, 0); }, min_s);
+        MlOptions mo;
+        auto ml_fit = [&](const std::vector<WeightedLine> &w, const FrfData &f) {
+            const SubspaceResult sr = fit_subspace(f, Domain::DT, w, true, so);
+            std::vector<MatC> target;
+            for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
+            return lmfd_ml(w, Domain::DT, 0, ls, lmfd_sk(w, Domain::DT, 0, ls, 30, &target), mo, false);
+        };
+        const double t_ml = best_time([&] { sink = sink + ml_fit(w0, f0).cost; }, min_s);
+        // accuracy over the systems
+        std::vector<double> e_sub, e_ml;
+        for (int k = 0; k < NS; ++k) {
+            const FrfData f = read_frf(files[k]);
+            const auto w = weigh(f, Domain::DT, Weight::Cov);
+            e_sub.push_back(ss_distance(fit_subspace(f, Domain::DT, w, true, so).model, truth[k]).h2);
+            try {
+                e_ml.push_back(ss_distance(lmfd_to_ss(ml_fit(w, f).model), truth[k]).h2);
+            } catch (const FitError &) {
+                e_ml.push_back(NAN);
+            }
+        }
+        auto mean = [](const std::vector<double> &v) { double s = 0; int n = 0; for (double x : v) if (std::isfinite(x)) { s += x; ++n; } return n ? s / n : NAN; };
+        auto median = [](std::vector<double> v) { std::sort(v.begin(), v.end()); return v[v.size() / 2]; };
+        double t_peer = -1, ep_mean = NAN, ep_med = NAN;
+        std::string note;
+        if (!a.has("no-peer")) {
+            std::string cmd = "python3 '" + std::string(std::getenv("MSID_PYTHON_DIR") ? std::getenv("MSID_PYTHON_DIR") : MSID_SOURCE_DIR "/tools/python") +
+                              "/msid/bench_fit_peer.py' " + std::to_string(c.n) + " '" + dir + "/peer.json'";
+            for (auto &fl : files) cmd += " '" + fl + "'";
+            cmd += " 2>&1";
+            FILE *p = popen(cmd.c_str(), "r");
+            std::string outp;
+            char buf[512];
+            while (p && std::fgets(buf, sizeof buf, p)) outp += buf;
+            const int rc = p ? pclose(p) : -1;
+            if (rc == 0) {
+                const Json pj = read_json_file(dir + "/peer.json");
+                std::vector<double> ep, tp;
+                for (size_t k = 0; k < pj["models"].size(); ++k) {
+                    const Json &mj = pj["models"][k];
+                    SSModel pm;
+                    pm.domain = Domain::DT;
+                    auto rm = [](const Json &v) {
+                        MatR M((Eigen::Index)v.size(), v.empty() ? 0 : (Eigen::Index)v[0].size());
+                        for (size_t i = 0; i < v.size(); ++i)
+                            for (size_t j = 0; j < v[i].size(); ++j) M((Eigen::Index)i, (Eigen::Index)j) = v[i][j].get<double>();
+                        return M;
+                    };
+                    pm.A = rm(mj["A"]); pm.B = rm(mj["B"]); pm.C = rm(mj["C"]); pm.D = rm(mj["D"]);
+                    try { ep.push_back(ss_distance(pm, truth[k]).h2); } catch (const FitError &) { ep.push_back(NAN); }
+                    tp.push_back(pj["sec_per_fit"][k].get<double>());
+                }
+                t_peer = median(tp);
+                ep_mean = mean(ep);
+                ep_med = median(ep);
+                note = "numpy " + pj["numpy"].get<std::string>();
+            } else {
+                note = "peer failed: " + outp.substr(0, 200);
+            }
+        }
+        std::printf("%s\n", c.name);
+        std::printf("  %-10s %10.3f ms   rel. H2 error vs truth: mean %.3g, median %.3g (%d systems)%s\n", "subspace",
+                    t_sub * 1e3, mean(e_sub), median(e_sub), NS,
+                    t_peer > 0 ? fmt("   %.1fx faster than the peer", t_peer / t_sub).c_str() : "");
+        std::printf("  %-10s %10.3f ms   (closed form, %d lines: fully/under-constrained)\n", "lmfd", t_lmfd * 1e3, Lfc);
+        std::printf("  %-10s %10.3f ms   rel. H2 error vs truth: mean %.3g, median %.3g (subspace start + SK + LM)\n", "ml",
+                    t_ml * 1e3, mean(e_ml), median(e_ml));
+        if (t_peer > 0)
+            std::printf("  %-10s %10.3f ms   rel. H2 error vs truth: mean %.3g, median %.3g  (%s, median time per fit)\n",
+                        "peer", t_peer * 1e3, ep_mean, ep_med, note.c_str());
+        else if (!a.has("no-peer"))
+            std::printf("  peer unavailable: %s\n", note.c_str());
+        std::printf("\n");
+    }
+    std::string rm = "rm -rf '" + dir + "'";
+    if (std::system(rm.c_str()) != 0) std::fprintf(stderr, "msid bench: note: could not remove %s\n", dir.c_str());
     return 0;
 }
 
