@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Generate docs/api/: one page per public C function of lib/ (libmodbus style),
-from the Doxygen comment in front of each declaration in lib/include/msid/*.h.
+"""Generate docs/api/: one page per public C function of lib/ and daq/ (libmodbus
+style), from the Doxygen comment in front of each declaration in
+lib/include/msid/*.h and daq/include/msid_daq/*.h.
 
   scripts/gen_api_docs.py            write the pages
   scripts/gen_api_docs.py --check    exit 1 if any page is missing or stale
@@ -11,6 +12,9 @@ import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 INC = ROOT / "lib" / "include" / "msid"
+# (include directory, #include prefix, path from the repository root)
+INCS = [(INC, "msid", "lib/include/msid"),
+        (ROOT / "daq" / "include" / "msid_daq", "msid_daq", "daq/include/msid_daq")]
 OUT = ROOT / "docs" / "api"
 
 DECL = re.compile(r"^([A-Za-z_][\w \*]*?\b(msid_\w+))\s*\(([^;{]*)\)\s*;", re.S | re.M)
@@ -29,7 +33,7 @@ def clean_comment(c):
 
 def functions():
     out = []
-    for h in sorted(INC.glob("*.h")):
+    for h in [h for inc, _, _ in INCS for h in sorted(inc.glob("*.h"))]:
         src = h.read_text()
         for m in DECL.finditer(src):
             name = m.group(2)
@@ -43,20 +47,24 @@ def functions():
                 if k >= 0:
                     doc = before[k:]
             sig = " ".join(m.group(0).split())
-            out.append((name, h.name, sig, clean_comment(doc) if doc else ""))
+            prefix = next(p for inc, p, _ in INCS if h.parent == inc)
+            out.append((name, h.name if prefix == "msid" else f"{prefix}/{h.name}", sig,
+                        clean_comment(doc) if doc else ""))
     return out
 
 
 def render(name, header, sig, doc):
-    return (f"# {name}\n\n```c\n#include \"msid/{header}\"\n\n{sig}\n```\n\n"
-            f"{doc or '(undocumented)'}\n\nHeader: [`lib/include/msid/{header}`](../../lib/include/msid/{header})\n")
+    inc, path = (header, f"daq/include/{header}") if "/" in header else (f"msid/{header}", f"lib/include/msid/{header}")
+    return (f"# {name}\n\n```c\n#include \"{inc}\"\n\n{sig}\n```\n\n"
+            f"{doc or '(undocumented)'}\n\nHeader: [`{path}`](../../{path})\n")
 
 
 def main():
     check = "--check" in sys.argv
     fns = functions()
     pages = {f"{n}.md": render(n, h, s, d) for n, h, s, d in fns}
-    index = "# msid C API\n\nOne page per public function of `libmsid` (and the host-only `libmsid_fftw`).\n\n"
+    index = ("# msid C API\n\nOne page per public function of `libmsid` (and the host-only `libmsid_fftw`), "
+             "and of the host acquisition `libmsid_daq` (headers `msid_daq/...`).\n\n")
     by_header = {}
     for n, h, s, d in fns:
         by_header.setdefault(h, []).append(n)

@@ -134,8 +134,9 @@ int msid_can_classify_sample(uint32_t offset, uint32_t *encoding, uint32_t *fd, 
 /** CRC-32 (IEEE 802.3, reflected, as zlib) continued from `crc` (start with 0). */
 uint32_t msid_can_crc32(uint32_t crc, const uint8_t *p, size_t n);
 
-/** Little-endian helpers. */
+/** @brief Store v little-endian in p[0..3]. */
 void msid_can_put_u32(uint8_t *p, uint32_t v);
+/** @brief Read a little-endian 32-bit value from p[0..3]. */
 uint32_t msid_can_get_u32(const uint8_t *p);
 
 /**
