@@ -212,6 +212,58 @@ static void ml_crb_mimo(void **)
     run_crb(c, "ml-2x2");
 }
 
+// Continuous-time 2x2 (4th order) and SISO through the core (CT multisine sampled
+// exactly): the ml estimate lies within its reported uncertainty of the truth.
+static void ml_ct_within_uncertainty(void **)
+{
+    MatR A(4, 4), B(4, 2), C(2, 4);
+    A << -0.5, 10, 0, 0, -10, -0.5, 0, 0, 0, 0, -3, 40, 0, 0, -40, -3;
+    B << 1, 0, 2, 1, 0, 3, 1, 1;
+    C << 1, 0, 1, 0, 0, 2, 0, 1;
+    for (int siso = 0; siso < 2; ++siso) {
+        SSModel pl;
+        pl.domain = Domain::CT;
+        pl.A = A;
+        pl.B = siso ? MatR(B.col(0)) : B;
+        pl.C = siso ? MatR(C.row(0)) : C;
+        pl.D = MatR::Zero(pl.C.rows(), pl.B.cols());
+        const uint32_t nu = (uint32_t)pl.B.cols(), ny = (uint32_t)pl.C.rows(), P = 512;
+        const double h = 0.005;                      // Nyquist 628 rad/s
+        static const int ks[21] = {1, 2, 3, 4, 5, 7, 9, 12, 15, 19, 24, 30, 38, 48, 60, 75, 95, 120, 150, 190, 240};
+        static double om[21];
+        for (int l = 0; l < 21; ++l) om[l] = ks[l] * 2 * M_PI / (P * h);   // whole cycles in P h, below Nyquist
+        fitsim::Bench b;
+        b.design.period = P; b.design.n_lines = 21; b.design.omega = om; b.design.sample_time = h;
+        b.design.n_inputs = nu; b.design.n_experiments = nu; b.design.seed = 8;
+        b.ny = ny; b.K = 16; b.sigma_y = 0.05; b.clean = fitsim::ct_plant(pl);
+        fitsim::Runner run(b);
+        msid_rng rng;
+        msid_rng_seed(&rng, 99 + siso);
+        const FrfData f = run.run(rng);
+        const auto w = weigh(f, Domain::CT, Weight::KnownInput);
+        LmfdSpec s;
+        s.nD = 4 / (int)ny;
+        s.nN = s.nD - 1;
+        // true LMFD coefficients: the closed-form interpolation of the exact FRF at as many lines as unknowns
+        std::vector<MatC> exact;
+        for (const auto &l : w) exact.push_back(ss_eval(pl, l.x));
+        const LmfdModel truth = lmfd_sk(w, Domain::CT, h, s, 50, &exact);
+        const MlResult res = lmfd_ml(w, Domain::CT, h, s, lmfd_sk(w, Domain::CT, h, s, 30), MlOptions(), false);
+        const VecR t0 = lmfd_pack(truth);
+        double worst = 0;
+        for (Eigen::Index k = 0; k < res.theta.size(); ++k) worst = std::max(worst, std::abs(res.theta(k) - t0(k)) / std::sqrt(res.cov(k, k)));
+        double wg = 0;
+        for (size_t l = 0; l < w.size(); ++l) {
+            const VecC dv = Eigen::Map<const VecC>(MatC(res.G[l] - exact[l]).data(), (Eigen::Index)f.g());
+            wg = std::max(wg, std::sqrt(std::real((dv.adjoint() * res.Gcov[l].inverse() * dv)(0, 0))));
+        }
+        std::printf("[ml-ct-%s] %zu params: worst |theta - theta0| / sd = %.2f; worst FRF Mahalanobis distance %.2f (%zu complex dims)\n",
+                    siso ? "siso" : "2x2", (size_t)res.theta.size(), worst, wg, (size_t)f.g());
+        assert_true(worst < 4.5);
+        assert_true(wg < 5.0);
+    }
+}
+
 // An under-modelled fit (first order for a second-order plant) is rejected.
 static void ml_undermodelled_rejected(void **)
 {
@@ -549,6 +601,7 @@ int main()
         cmocka_unit_test(ml_crb_siso),
         cmocka_unit_test(ml_crb_mimo),
         cmocka_unit_test(ml_undermodelled_rejected),
+        cmocka_unit_test(ml_ct_within_uncertainty),
         cmocka_unit_test(pintelon_p1),
         cmocka_unit_test(gonzalez_g3),
         cmocka_unit_test(direct_g4),

@@ -225,6 +225,25 @@ static void lmfd_realisation(void **)
     }
 }
 
+// --stable: data of an unstable plant give a stable model (poles reflected, B and D refitted).
+static void stability_enforced(void **)
+{
+    SSModel u = siso_dt();
+    u.A << 2.1, -1.1025, 1.0, 0.0;              // poles 1.05 e^{+-j...}: unstable
+    const auto om = dt_grid(40);
+    FrfData f = exact_data(Domain::DT, 0, om, eval_all(u, om), 1e-6);
+    auto w = weigh(f, Domain::DT, Weight::Cov);
+    SubspaceOptions so;
+    so.order = 2;
+    const SubspaceResult plain = fit_subspace(f, Domain::DT, w, true, so);
+    assert_false(ss_stable(plain.model));
+    so.stable = true;
+    const SubspaceResult st = fit_subspace(f, Domain::DT, w, true, so);
+    std::printf("stability: %d poles reflected, stable %d\n", st.reflected, (int)ss_stable(st.model));
+    assert_true(ss_stable(st.model));
+    assert_int_equal(st.reflected, 2);
+}
+
 static void distances(void **)
 {
     const SSModel a = mimo_dt();
@@ -297,6 +316,7 @@ int main()
         cmocka_unit_test(recover_ct_siso),
         cmocka_unit_test(recover_ct_mimo),
         cmocka_unit_test(lmfd_realisation),
+        cmocka_unit_test(stability_enforced),
         cmocka_unit_test(distances),
         cmocka_unit_test(errors),
     };
