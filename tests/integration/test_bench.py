@@ -16,3 +16,12 @@ def test_bench_bad_option():
     r = h.run("bench", "frf", "--only", "7")
     assert r.returncode == 2
     assert "--only" in r.stderr
+
+
+def test_bench_fit_siso_runs():
+    r = h.run("bench", "fit", "--only", "1", "--systems", "1", "--min-seconds", "0.01", timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "SISO n=4, 1000 lines" in r.stdout
+    for m in ("subspace", "lmfd", "ml", "peer"):
+        assert m in r.stdout
+    assert "peer unavailable" not in r.stdout

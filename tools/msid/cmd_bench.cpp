@@ -173,6 +173,7 @@ static int bench_fit(int argc, char **argv);
 int cmd_bench(int argc, char **argv)
 {
     if (argc >= 3 && !std::strcmp(argv[2], "fit")) return bench_fit(argc, argv);
+    if (argc >= 3 && !std::strcmp(argv[2], "can")) return cmd_bench_can(argc, argv);
     if (argc < 3 || std::strcmp(argv[2], "frf") != 0) {
         if (argc >= 3 && !std::strcmp(argv[2], "--help")) { std::fputs(HELP, stdout); return 0; }
         throw UsageError("usage: msid bench frf|fit [options] (see msid bench frf --help, msid bench fit --help)");
@@ -345,14 +346,16 @@ static int bench_fit(int argc, char **argv)
 {
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer]\n"
+            std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2]\n"
                        "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"
                        "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
                        "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
                        "error against the true system) over N random systems (default 50).\n", stdout);
             return 0;
         }
-    Args a(argc, argv, 3, {"systems", "min-seconds"}, {"no-peer"});
+    Args a(argc, argv, 3, {"systems", "min-seconds", "only"}, {"no-peer"});
+    const uint32_t only = a.has("only") ? parse_u32(a.get("only"), "--only") : 0;
+    if (only > 2) throw UsageError("--only takes 1 (SISO) or 2 (2x2)");
     const int NS = a.has("systems") ? (int)parse_u32(a.get("systems"), "--systems") : 50;
     const double min_s = a.has("min-seconds") ? parse_double(a.get("min-seconds"), "--min-seconds") : 0.5;
     if (NS < 1) throw UsageError("--systems must be at least 1");
@@ -364,6 +367,7 @@ static int bench_fit(int argc, char **argv)
                 EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION, machine().c_str());
     std::printf("data: random stable DT systems, 40 dB SNR, line covariance from 10 repetitions; times: best of runs >= %.2g s\n\n", min_s);
     for (const FitCfg &c : cfgs) {
+        if (only && &c != &cfgs[only - 1]) continue;
         msid_rng r;
         msid_rng_seed(&r, 1000 + c.n);
         std::vector<SSModel> truth;
