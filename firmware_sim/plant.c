@@ -40,8 +40,9 @@ int sim_parse_plant(const char *path, sim_plant_def *p, char *err, size_t errlen
     int have[8] = {0};
     char *save = NULL;
     for (char *tok = strtok_r(text, " \t\r\n", &save); tok; tok = strtok_r(NULL, " \t\r\n", &save)) {
-        char *v = strtok_r(NULL, " \t\r\n", &save);
-        if (!v) { snprintf(err, errlen, "%s: '%s' has no value", path, tok); return -1; }
+        const int matrix = !strcmp(tok, "A") || !strcmp(tok, "B") || !strcmp(tok, "C") || !strcmp(tok, "D");
+        char *v = matrix ? NULL : strtok_r(NULL, " \t\r\n", &save);
+        if (!matrix && !v) { snprintf(err, errlen, "%s: '%s' has no value", path, tok); return -1; }
         if (!strcmp(tok, "type")) {
             if (!strcmp(v, "dt")) p->ct = 0; else if (!strcmp(v, "ct")) p->ct = 1;
             else { snprintf(err, errlen, "%s: type must be dt or ct", path); return -1; }
@@ -78,7 +79,7 @@ int sim_parse_plant(const char *path, sim_plant_def *p, char *err, size_t errlen
         else if (!strcmp(tok, "D")) { M = p->D; cnt = (size_t)p->ny * p->nu; which = 7; }
         else { snprintf(err, errlen, "%s: unknown key '%s'", path, tok); return -1; }
         for (size_t i = 0; i < cnt; ++i) {
-            if (i) v = strtok_r(NULL, " \t\r\n", &save);
+            v = strtok_r(NULL, " \t\r\n", &save);
             char *e;
             if (!v) { snprintf(err, errlen, "%s: %s needs %zu numbers", path, tok, cnt); return -1; }
             M[i] = strtod(v, &e);

@@ -185,6 +185,8 @@ static void close_exp(msid_can_decoder *d, int64_t total)
     flush_gap(d);
     core(d, msid_meas_end(d->cfg.meas, NULL));
     d->open = 0;
+    if (d->t_first && d->t_last > d->t_first) d->cnt.stream_ns += d->t_last - d->t_first;
+    d->t_first = d->t_last = 0;
 }
 
 static void open_exp(msid_can_decoder *d, uint32_t e)
@@ -318,6 +320,10 @@ msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f)
     if (d->seen && (s < d->last_s || (s == d->last_s && k < d->last_k))) d->cnt.reordered++;
     else { d->last_s = s; d->last_k = k; }
     d->seen = 1;
+    if (f->t_ns) {
+        if (!d->t_first) d->t_first = f->t_ns;
+        d->t_last = f->t_ns;
+    }
     msid_can_decode_values(b, enc, fd, k, d->row + (size_t)((uint64_t)s % W) * d->C, d->C, d->cfg.scale);
     sl->mask |= 1ull << k;
     d->cnt.sample_frames++;

@@ -9,4 +9,5 @@ int cmd_fit(int argc, char **argv);
 int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_can(int argc, char **argv);
+int cmd_bench_can(int argc, char **argv);
 }  // namespace msidcli

@@ -74,6 +74,8 @@ typedef struct msid_can_counters {
     uint64_t restarts;        /**< device restarts seen in the sample stream (new segments) */
     uint64_t periods_marked;  /**< periods discarded for bus-off or controller overflow */
     uint64_t experiments_done;/**< experiments closed by DONE */
+    uint64_t stream_ns;       /**< sum over experiments of the time from their first to their last sample frame
+                                   (receive timestamps; 0 without timestamps) */
 } msid_can_counters;
 
 /** Last device status seen. */
@@ -110,6 +112,7 @@ typedef struct msid_can_decoder {
     uint32_t last_k;
     int seen;                 /**< a sample frame of this segment was seen */
     int done_exp;             /**< last experiment closed by DONE (-1 none) */
+    uint64_t t_first, t_last; /**< receive times of the experiment's first and last sample frames */
     msid_can_bus_state bus;
     msid_can_counters cnt;
     msid_can_device dev;
