@@ -31,6 +31,9 @@ def live(request, design, tmp_path_factory):
 
 
 def test_no_loss_and_counters(live):
+    import jsonschema
+    schema = json.loads((c.SRC / "docs" / "schemas" / "msid-frf-1.schema.json").read_text())
+    jsonschema.Draft202012Validator(schema).validate(live["doc"])
     a = live["doc"]["acquisition"]
     P, K = 256, 8
     chunks = {"classic-int16": 2, "fd-float32": 1, "fd-int16": 1}[live["fmt"]]
