@@ -40,6 +40,9 @@ def test_rate_the_bus_cannot_carry(design, tmp_path):
         # 2 kHz: 4000 frames/s * 135 bits = 0.54 Mbit/s fits 1 Mbit/s
         ok = c.measure(tmp_path, design, "--rate", 2000, "--bitrate", 1000000, "--periods", 3)
     assert ok.doc["fs_hz"] == 2000
+    # the device paces itself: 2 experiments of 3 x 256 samples at 2 kHz
+    a = ok.doc["acquisition"]
+    assert abs(a["stream_seconds"] - 2 * (3 * 256 - 1) / 2000) < 0.1 * 2 * 3 * 256 / 2000, a["stream_seconds"]
 
 
 def test_no_permission(design):

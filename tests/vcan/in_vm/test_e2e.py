@@ -141,3 +141,11 @@ def test_continuous_time_plant_sampled_below_nyquist(tmp_path):
     doc = r.doc
     assert doc["domain"] == "ct" and any(l["folded"] for l in doc["lines"])
     c.check_coverage(doc, sim.truth(), min_fraction=0.0)   # 40 rows: the binomial interval only
+
+
+def test_coloured_noise_and_noisy_input(design, tmp_path):
+    """AR(1) output noise (pole 0.7) and input measurement noise: the regions still hold."""
+    with c.Sim(tmp_path, "--noise-color", 0.7, "--noise-u", 0.01, "--seed", 17) as sim:
+        r = c.measure(tmp_path, design, "--encoding", "float32")
+    inside, n = c.check_coverage(r.doc, sim.truth())
+    print(f"coloured noise: {inside}/{n} rows inside their 95% region")
