@@ -264,6 +264,43 @@ static void ml_ct_within_uncertainty(void **)
     }
 }
 
+// 2x2 with the nonparametric weights and few periods (K = 8): the cost p-value stays
+// calibrated (conservative), using the per-experiment dof for the inverse moments.
+static void ml_cost_calibrated_mimo_cov(void **)
+{
+    MatR D1(2, 2), D2(2, 2), N0(2, 2), N1(2, 2), N2(2, 2);
+    D1 << -1.2, 0.1, 0.05, -0.9; D2 << 0.5, 0.0, 0.0, 0.3;
+    N0 << 0.2, 0, 0, 0.1; N1 << 0.5, 0.2, 0.1, 0.4; N2 << 0.3, -0.1, 0.2, 0.2;
+    LmfdModel lm;
+    lm.domain = Domain::DT; lm.nD = 2; lm.nN = 2; lm.Dm = {D1, D2}; lm.Nm = {N0, N1, N2};
+    static const uint32_t bins[] = {1, 2, 3, 4, 5, 6, 8, 10, 12, 14, 17, 20, 24, 28, 33, 40, 48, 56, 64, 80};
+    fitsim::Bench b;
+    b.design.period = 256; b.design.n_lines = 20; b.design.bins = bins; b.design.n_inputs = 2; b.design.n_experiments = 2;
+    b.design.seed = 5; b.ny = 2; b.K = 8; b.sigma_y = 0.3; b.clean = fitsim::dt_plant(lmfd_to_ss(lm));
+    fitsim::Runner run(b);
+    msid_rng rng;
+    msid_rng_seed(&rng, 17);
+    const int R = 300;
+    double Vs = 0, Es = 0;
+    int rej = 0;
+    LmfdSpec s;
+    s.nD = 2;
+    s.nN = 2;
+    for (int r = 0; r < R; ++r) {
+        const FrfData f = run.run(rng);
+        const auto w = weigh(f, Domain::DT, Weight::Cov);
+        const MlResult res = lmfd_ml(w, Domain::DT, 0, s, lmfd_sk(w, Domain::DT, 0, s, 30), MlOptions(), false);
+        double nmin = 1e300;
+        for (const auto &l : w) nmin = std::min(nmin, l.dof);
+        Vs += res.cost;
+        Es += res.cost_expected;
+        rej += cost_pvalue(cost_law(res.dof, nmin, 2.0), res.cost) < 0.05;
+    }
+    std::printf("[ml-2x2-cov-K8] mean cost %.2f vs expected %.2f, rejected at 5%% in %.3f of %d runs\n", Vs / R, Es / R, (double)rej / R, R);
+    assert_true(Vs / Es > 0.85 && Vs / Es < 1.05);
+    assert_true(rej >= 2 && (double)rej / R < 0.08);
+}
+
 // An under-modelled fit (first order for a second-order plant) is rejected.
 static void ml_undermodelled_rejected(void **)
 {
@@ -600,6 +637,7 @@ int main()
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(ml_crb_siso),
         cmocka_unit_test(ml_crb_mimo),
+        cmocka_unit_test(ml_cost_calibrated_mimo_cov),
         cmocka_unit_test(ml_undermodelled_rejected),
         cmocka_unit_test(ml_ct_within_uncertainty),
         cmocka_unit_test(pintelon_p1),

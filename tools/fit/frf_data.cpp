@@ -154,6 +154,11 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
                                " at line bin " + std::to_string(l.bin) + ": this method needs the FRF covariance");
             C = src;
             wl.dof = w == Weight::KnownInput ? l.dof_ki : l.dof;
+            // The nonparametric covariance with several inputs is sum_e (w_e^T conj w_e) (x) S_e with
+            // rank-one design factors: its inverse splits over the experiments, so its inverse moments
+            // are those of one experiment's Wishart (K_e - 1 = dof/m dof for balanced designs), not of
+            // the pooled dof. With one input the factors are scalars and the pooled dof applies.
+            if (w == Weight::Cov && f.nu > 1 && f.m > 1) wl.dof = l.dof / f.m;
         }
         // Hermitian part; real lines: real covariance
         MatC H = 0.5 * (C + C.adjoint());

@@ -17,7 +17,7 @@ struct WeightedLine {
     MatC G;                   // ny x nu
     MatC Linv;                // inverse Cholesky factor of the covariance (g x g), or identity
     MatC cov;                 // the covariance used (g x g)
-    double dof;
+    double dof;               // complex dof governing the inverse moments of the weights (1e9: known)
 };
 
 // Prepare weights: Cholesky of each line's covariance; throws FitError naming
