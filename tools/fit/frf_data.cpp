@@ -4,12 +4,23 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <nlohmann/json.hpp>
+#include "json_util.hpp"
 #include <sstream>
 
 namespace msidfit {
 
-using Json = nlohmann::ordered_json;
+Json read_json(const std::string &path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw FitError("cannot open '" + path + "': " + std::strerror(errno));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    try {
+        return Json::parse(ss.str());
+    } catch (const Json::parse_error &e) {
+        throw FitError("'" + path + "' is not valid JSON: " + e.what());
+    }
+}
 
 cd line_point(const Line &l, Domain d)
 {
@@ -61,16 +72,7 @@ static MatC cmat(const Json &v, size_t rows, size_t cols, const std::string &fil
 
 FrfData read_frf(const std::string &path)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw FitError("cannot open '" + path + "': " + std::strerror(errno));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    Json j;
-    try {
-        j = Json::parse(ss.str());
-    } catch (const Json::parse_error &e) {
-        throw FitError(where(path, std::string("not valid JSON: ") + e.what()));
-    }
+    const Json j = read_json(path);
     const Json &fm = need(j, "format", path);
     if (!fm.is_string() || fm.get<std::string>() != "msid-frf/1")
         throw FitError(where(path, "format is " + fm.dump() + ", expected \"msid-frf/1\""));

@@ -376,6 +376,29 @@ LmfdModel lmfd_sk(const std::vector<WeightedLine> &w, Domain d, double h, const 
     return lmfd_unpack(Sf.cwiseProduct(th), s, P.ny, P.nu, d, h);
 }
 
+// Free (not pinned) parameter indices; pinned entries of th (scaled) set to their values.
+static std::vector<Eigen::Index> free_params(const Prob &P, VecR *th)
+{
+    const Eigen::Index nth = (Eigen::Index)(P.ny * P.q);
+    const VecR Sf = full_scale(P);
+    std::vector<char> isfree((size_t)nth, 1);
+    for (const auto &p : pinned(P)) {
+        isfree[p.first] = 0;
+        if (th) (*th)((Eigen::Index)p.first) = p.second / Sf((Eigen::Index)p.first);
+    }
+    std::vector<Eigen::Index> free;
+    for (Eigen::Index t = 0; t < nth; ++t) if (isfree[(size_t)t]) free.push_back(t);
+    return free;
+}
+
+static Eigen::Index n_residuals(const Prob &P, const std::vector<WeightedLine> &w)
+{
+    const Eigen::Index g = (Eigen::Index)(P.ny * P.nu);
+    Eigen::Index n = 0;
+    for (const auto &l : w) n += l.real ? g : 2 * g;
+    return n;
+}
+
 // Covariance, model FRF with covariance, and Theorem 5 quantities at scaled parameters th.
 static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, const VecR &th,
                             const std::vector<Eigen::Index> &free, const MlOptions &o, bool known_noise, Eigen::Index nres)
@@ -462,16 +485,9 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
                  const MlOptions &o, bool known_noise)
 {
     const Prob P = make_prob(w, d, h, s);
-    const Eigen::Index nth = (Eigen::Index)(P.ny * P.q), g = (Eigen::Index)(P.ny * P.nu);
-    const VecR Sf = full_scale(P);
-    const auto pins = pinned(P);
-    std::vector<char> isfree((size_t)nth, 1);
-    VecR th = lmfd_pack(start).cwiseQuotient(Sf);
-    for (const auto &p : pins) { isfree[p.first] = 0; th((Eigen::Index)p.first) = p.second / Sf((Eigen::Index)p.first); }
-    std::vector<Eigen::Index> free;
-    for (Eigen::Index t = 0; t < nth; ++t) if (isfree[(size_t)t]) free.push_back(t);
-    Eigen::Index nres = 0;
-    for (const auto &l : w) nres += l.real ? g : 2 * g;
+    VecR th = lmfd_pack(start).cwiseQuotient(full_scale(P));
+    const std::vector<Eigen::Index> free = free_params(P, &th);
+    const Eigen::Index nres = n_residuals(P, w);
     if ((Eigen::Index)free.size() >= nres)
         throw FitError("the model has " + std::to_string(free.size()) + " free parameters for " + std::to_string(nres) +
                        " real data: not over-constrained; use --method lmfd");
@@ -517,12 +533,12 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
             const double gn = grad.norm() / (1.0 + V);
             if (gn < 1e-6) { conv = true; break; }
             throw FitError("ml did not converge: no descent step after " + std::to_string(it) + " iterations (cost " +
-                           std::to_string(0.5 * V) + ", gradient " + std::to_string(gn) + ")");
+                           std::to_string(V) + ", gradient " + std::to_string(gn) + ")");
         }
     }
     if (!conv)
         throw FitError("ml did not converge in " + std::to_string(o.max_iter) + " iterations (cost " +
-                       std::to_string(0.5 * V) + "); try another start or order");
+                       std::to_string(V) + "); try another start or order");
     MlResult res = evaluate_at(P, w, th, free, o, known_noise, nres);
     res.iterations = it + 1;
     return res;
@@ -532,15 +548,9 @@ MlResult lmfd_evaluate(const std::vector<WeightedLine> &w, Domain d, double h, c
                         const MlOptions &o, bool known_noise)
 {
     const Prob P = make_prob(w, d, h, s);
-    const Eigen::Index nth = (Eigen::Index)(P.ny * P.q), g = (Eigen::Index)(P.ny * P.nu);
+    const std::vector<Eigen::Index> free = free_params(P, nullptr);
+    const Eigen::Index nres = n_residuals(P, w);
     const VecR Sf = full_scale(P);
-    const auto pins = pinned(P);
-    std::vector<char> isfree((size_t)nth, 1);
-    for (const auto &p : pins) isfree[p.first] = 0;
-    std::vector<Eigen::Index> free;
-    for (Eigen::Index t = 0; t < nth; ++t) if (isfree[(size_t)t]) free.push_back(t);
-    Eigen::Index nres = 0;
-    for (const auto &l : w) nres += l.real ? g : 2 * g;
     return evaluate_at(P, w, lmfd_pack(m).cwiseQuotient(Sf), free, o, known_noise, nres);
 }
 

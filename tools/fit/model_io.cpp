@@ -1,4 +1,5 @@
 #include "model_io.hpp"
+#include "json_util.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -48,16 +49,7 @@ static int64_t ival(const Json &o, const char *k, const std::string &file)
 
 ModelFile read_model(const std::string &path)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw FitError("cannot open '" + path + "': " + std::strerror(errno));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    Json j;
-    try {
-        j = Json::parse(ss.str());
-    } catch (const Json::parse_error &e) {
-        throw FitError("'" + path + "' is not valid JSON: " + e.what());
-    }
+    const Json j = read_json(path);
     if (!j.is_object() || !j.contains("format") || j["format"] != "msid-model/1")
         throw FitError("'" + path + "': format is " + (j.is_object() && j.contains("format") ? j["format"].dump() : "missing") +
                        ", expected \"msid-model/1\"");

@@ -3,12 +3,10 @@
 #include "lmfd_fit.hpp"
 #include "subspace.hpp"
 
-#include <nlohmann/json.hpp>
+#include "json_util.hpp"
 #include <optional>
 
 namespace msidfit {
-
-using Json = nlohmann::ordered_json;
 
 Json rmat_json(const MatR &M);
 Json cmat_json(const MatC &M);
