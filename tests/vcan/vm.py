@@ -8,8 +8,9 @@ The host kernel here has no AF_CAN, so the CAN tests run inside a small VM:
   - initramfs: busybox-static plus the CAN, virtio and 9p modules, built here
     in a temporary directory on every run (a few MB, well under a second);
   - the host root is shared read-only over 9p (`-virtfs ... readonly=on`) and
-    chrooted into, so the guest runs the host's own build and python; a second
-    9p share (read-write) is the results directory; /tmp is a tmpfs;
+    chrooted into, so the guest runs the host's own build and python (also from
+    a checkout under /tmp); a second 9p share (read-write) is the results
+    directory; TMPDIR and HOME are a tmpfs at /dev/shm;
   - vcan0 (CAN FD capable, MTU 72) and vcan1 (classic only, MTU 16) are
     created with `ip link add dev vcanN type vcan`.
 The job is a shell command run in the chroot with the results directory as
@@ -45,11 +46,11 @@ ip link add dev vcan1 type vcan && ip link set vcan1 mtu 16 && ip link set vcan1
 mkdir -p /host
 mount -t 9p -o trans=virtio,version=9p2000.L,ro host /host || echo "VM-ERROR: mount host"
 mount -t proc proc /host/proc; mount -t sysfs sys /host/sys; mount -t devtmpfs dev /host/dev
-mount -t tmpfs -o size=512m tmpfs /host/tmp
+mkdir -p /host/dev/shm && mount -t tmpfs -o size=1g,mode=1777 tmpfs /host/dev/shm
 mkdir -p /host{results} 2>/dev/null
 mount -t 9p -o trans=virtio,version=9p2000.L,rw,cache=none results /host{results} || echo "VM-ERROR: mount results"
 echo VM-READY
-chroot /host /bin/sh -c 'cd {results} && HOME=/tmp PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin sh ./job.sh > job.log 2>&1; echo $? > job.rc'
+chroot /host /bin/sh -c 'cd {results} && HOME=/dev/shm TMPDIR=/dev/shm PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin sh ./job.sh > job.log 2>&1; echo $? > job.rc'
 sync
 poweroff -f
 """

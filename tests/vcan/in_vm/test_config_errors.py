@@ -47,7 +47,7 @@ def test_rate_the_bus_cannot_carry(design, tmp_path):
 
 def test_no_permission(design):
     """As an unprivileged user, a receive buffer above net.core.rmem_max needs CAP_NET_ADMIN."""
-    d = Path(tempfile.mkdtemp(dir="/tmp"))
+    d = Path(tempfile.mkdtemp())   # TMPDIR: world-writable tmpfs in the VM
     d.chmod(0o777)
     shutil.copy(design, d / "design.json")
     (d / "design.json").chmod(0o644)
