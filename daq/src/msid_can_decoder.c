@@ -46,7 +46,8 @@ size_t msid_can_decoder_mem_size(const msid_can_decoder_cfg *c)
         return 0;
     if (msid_can_chunks(C, c->encoding, c->fd) > (c->fd ? (c->encoding ? 3u : 2u) : (c->encoding ? 32u : 16u)))
         return 0;
-    return up(sizeof(msid_can_slot) * win(c)) + up(sizeof(double) * win(c) * C) + up(sizeof(double) * blk(c) * C);
+    const msid_stream_cfg sc = {C, blk(c), c->meas};
+    return up(sizeof(msid_can_slot) * win(c)) + up(sizeof(double) * win(c) * C) + msid_stream_mem_size(&sc);
 }
 
 msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cfg *c, void *mem, size_t len)
@@ -70,48 +71,32 @@ msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cf
     char *p = mem;
     d->slot = (msid_can_slot *)p; p += up(sizeof(msid_can_slot) * d->cfg.window);
     d->row = (double *)p; p += up(sizeof(double) * d->cfg.window * d->C);
-    d->rows = (double *)p;
+    const msid_stream_cfg sc = {d->C, d->cfg.block, c->meas};
+    const msid_status st = msid_stream_init(&d->st, &sc, p, need - (size_t)(p - (char *)mem));
+    if (st != MSID_OK) return st;
     for (uint32_t i = 0; i < d->cfg.window; ++i) d->slot[i].n = -1;
     d->done_exp = -1;
-    d->err = MSID_OK;
     return MSID_OK;
-}
-
-static void core(msid_can_decoder *d, msid_status st)
-{
-    if (st != MSID_OK && d->err == MSID_OK) d->err = st;
-}
-
-static void flush_rows(msid_can_decoder *d)
-{
-    if (d->nrows) core(d, msid_meas_push(d->cfg.meas, d->rows, d->nrows));
-    d->nrows = 0;
-}
-
-static void flush_gap(msid_can_decoder *d)
-{
-    if (d->gap_run) {
-        core(d, msid_meas_push_gap(d->cfg.meas, (size_t)d->gap_run));
-        d->cnt.gap_events++;
-    }
-    d->gap_run = 0;
 }
 
 static void emit_row(msid_can_decoder *d, const double *row)
 {
-    flush_gap(d);
-    memcpy(d->rows + (size_t)d->nrows * d->C, row, sizeof(double) * d->C);
-    if (++d->nrows == d->cfg.block) flush_rows(d);
-    d->cnt.samples++;
+    msid_stream_row(&d->st, row);
 }
 
 static void emit_lost(msid_can_decoder *d, uint64_t n, uint64_t frames_missing)
 {
-    if (!n) return;
-    flush_rows(d);
-    d->gap_run += n;
-    d->cnt.samples_lost += n;
+    msid_stream_lost(&d->st, n);
     d->cnt.frames_missing += frames_missing;
+}
+
+/* The stream's counters are the decoder's. */
+static void sync(msid_can_decoder *d)
+{
+    d->cnt.samples = d->st.cnt.samples;
+    d->cnt.samples_lost = d->st.cnt.samples_lost;
+    d->cnt.gap_events = d->st.cnt.gap_events;
+    d->cnt.periods_marked = d->st.cnt.periods_marked;
 }
 
 static int popc(uint64_t x)
@@ -125,26 +110,25 @@ static int popc(uint64_t x)
 static void advance(msid_can_decoder *d, int64_t upto)
 {
     const uint32_t W = d->cfg.window;
-    while (d->next < upto) {
+    while (d->st.next < upto) {
         int any = 0;
-        for (uint32_t i = 0; i < W && !any; ++i) any = d->slot[i].n >= d->next;
+        for (uint32_t i = 0; i < W && !any; ++i) any = d->slot[i].n >= d->st.next;
         if (!any) {
             /* nothing stored from here on: the rest is one run of missing samples */
-            const uint64_t k = (uint64_t)(upto - d->next);
+            const uint64_t k = (uint64_t)(upto - d->st.next);
             emit_lost(d, k, k * d->chunks);
-            d->next = upto;
             return;
         }
-        msid_can_slot *s = &d->slot[d->next % W];
-        if (s->n == d->next && s->mask == d->full) {
-            emit_row(d, d->row + (size_t)(d->next % W) * d->C);
+        const int64_t n = d->st.next;
+        msid_can_slot *s = &d->slot[n % W];
+        if (s->n == n && s->mask == d->full) {
+            emit_row(d, d->row + (size_t)(n % W) * d->C);
         } else {
-            const int have = s->n == d->next ? popc(s->mask) : 0;
+            const int have = s->n == n ? popc(s->mask) : 0;
             emit_lost(d, 1, (uint64_t)(d->chunks - (uint32_t)have));
-            if (s->n != d->next) { s->n = d->next; s->mask = 0; }
+            if (s->n != n) { s->n = n; s->mask = 0; }
         }
         s->emitted = 1;
-        d->next++;
     }
 }
 
@@ -153,18 +137,17 @@ static void drain(msid_can_decoder *d)
 {
     const uint32_t W = d->cfg.window;
     for (;;) {
-        msid_can_slot *s = &d->slot[d->next % W];
-        if (s->n != d->next || s->mask != d->full) return;
-        emit_row(d, d->row + (size_t)(d->next % W) * d->C);
+        const int64_t n = d->st.next;
+        msid_can_slot *s = &d->slot[n % W];
+        if (s->n != n || s->mask != d->full) return;
+        emit_row(d, d->row + (size_t)(n % W) * d->C);
         s->emitted = 1;
-        d->next++;
     }
 }
 
 static void reset_window(msid_can_decoder *d)
 {
     for (uint32_t i = 0; i < d->cfg.window; ++i) { d->slot[i].n = -1; d->slot[i].mask = 0; d->slot[i].emitted = 0; }
-    d->next = 0;
     d->last_s = -1;
     d->last_k = 0;
     d->seen = 0;
@@ -176,14 +159,12 @@ static void close_exp(msid_can_decoder *d, int64_t total)
     if (total >= 0) advance(d, total);
     else {
         /* unknown end: flush what the window holds */
-        int64_t hi = d->next;
+        int64_t hi = d->st.next;
         for (uint32_t i = 0; i < d->cfg.window; ++i)
             if (d->slot[i].n >= hi && d->slot[i].mask) hi = d->slot[i].n + 1;
         advance(d, hi);
     }
-    flush_rows(d);
-    flush_gap(d);
-    core(d, msid_meas_end(d->cfg.meas, NULL));
+    msid_stream_end(&d->st);
     d->open = 0;
     if (d->t_first && d->t_last > d->t_first) d->cnt.stream_ns += d->t_last - d->t_first;
     d->t_first = d->t_last = 0;
@@ -193,8 +174,7 @@ static void open_exp(msid_can_decoder *d, uint32_t e)
 {
     if (d->open) close_exp(d, -1);
     reset_window(d);
-    core(d, msid_meas_begin(d->cfg.meas, e));
-    d->open = d->err == MSID_OK;
+    d->open = msid_stream_begin(&d->st, e) == MSID_OK;
     d->exp = e;
 }
 
@@ -255,68 +235,65 @@ static void on_error(msid_can_decoder *d, const msid_can_frame *f)
     (void)E_TX_TIMEOUT; (void)E_LOSTARB; (void)E_TRX; (void)E_BUSERROR;
     if (lost && d->open) {
         /* frames were lost on the bus: the period being assembled cannot be trusted */
-        flush_rows(d);
-        flush_gap(d);
-        core(d, msid_meas_mark_gap(d->cfg.meas));
-        d->cnt.periods_marked++;
+        msid_stream_mark(&d->st);
     }
 }
 
-msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f)
+static msid_status feed(msid_can_decoder *d, const msid_can_frame *f)
 {
     const uint32_t off = f->id & 0x7Fu;
     if (!(f->id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG | MSID_CAN_ERR_FLAG)) && (f->id & 0x780u) == d->cfg.base &&
         (off == MSID_CAN_ID_CTRL || off == MSID_CAN_ID_CFG)) {
         d->cnt.host_frames++;   /* the host's own frames (in logs) */
-        return d->err;
+        return d->st.err;
     }
     d->cnt.frames++;
-    if (f->id & MSID_CAN_ERR_FLAG) { on_error(d, f); return d->err; }
+    if (f->id & MSID_CAN_ERR_FLAG) { on_error(d, f); return d->st.err; }
     if ((f->id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG)) || (f->id & 0x780u) != d->cfg.base) {
         d->cnt.foreign++;
-        return d->err;
+        return d->st.err;
     }
-    if (off == MSID_CAN_ID_STATUS) { on_status(d, f); return d->err; }
+    if (off == MSID_CAN_ID_STATUS) { on_status(d, f); return d->st.err; }
     uint32_t enc, fd, k;
-    if (!msid_can_classify_sample(off, &enc, &fd, &k)) { d->cnt.foreign++; return d->err; }
+    if (!msid_can_classify_sample(off, &enc, &fd, &k)) { d->cnt.foreign++; return d->st.err; }
     const uint32_t want_len = msid_can_sample_len(d->cfg.fd);
     if (enc != d->cfg.encoding || fd != d->cfg.fd || k >= d->chunks || f->len != want_len ||
         ((f->flags & MSID_CANF_FD) != 0) != (d->cfg.fd != 0)) {
         d->cnt.malformed++;
-        return d->err;
+        return d->st.err;
     }
     const uint8_t *b = f->data;
     const uint32_t exp = b[3] & MSID_CAN_EXP_MASK, flags = b[3] & (MSID_CAN_PSTART | MSID_CAN_SEGSTART);
     const uint32_t seq = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16;
-    if (!d->open || exp != d->exp) { d->cnt.foreign++; return d->err; }
+    if (!d->open || exp != d->exp) { d->cnt.foreign++; return d->st.err; }
     const uint32_t W = d->cfg.window;
-    if ((flags & MSID_CAN_SEGSTART) && seq == 0 && d->seen && d->next >= (int64_t)W) {
+    if ((flags & MSID_CAN_SEGSTART) && seq == 0 && d->seen && d->st.next >= (int64_t)W) {
         /* the device restarted: close this segment, open a new one of the same experiment */
         const uint32_t e = d->exp;
         close_exp(d, -1);
         open_exp(d, e);
         d->cnt.restarts++;
-        if (d->err) return d->err;
+        if (d->st.err) return d->st.err;
     }
     /* absolute sample index from the 24-bit counter, nearest to the emit position */
-    uint32_t delta = (seq - (uint32_t)(d->next & (MSID_CAN_SEQ_MOD - 1))) & (MSID_CAN_SEQ_MOD - 1);
-    const int64_t s = d->next + (delta >= MSID_CAN_SEQ_MOD / 2 ? (int64_t)delta - MSID_CAN_SEQ_MOD : (int64_t)delta);
+    uint32_t delta = (seq - (uint32_t)(d->st.next & (MSID_CAN_SEQ_MOD - 1))) & (MSID_CAN_SEQ_MOD - 1);
+    const int64_t s = d->st.next + (delta >= MSID_CAN_SEQ_MOD / 2 ? (int64_t)delta - MSID_CAN_SEQ_MOD : (int64_t)delta);
     if (((flags & MSID_CAN_PSTART) != 0) != (s >= 0 && s % d->cfg.period == 0) ||
         ((flags & MSID_CAN_SEGSTART) != 0) != (s == 0)) {
         d->cnt.malformed++;
-        return d->err;
+        return d->st.err;
     }
     msid_can_slot *sl = &d->slot[(uint64_t)s % W];
-    if (s < d->next) {
+    if (s < d->st.next) {
         if (sl->n == s && (sl->mask >> k & 1u)) d->cnt.duplicates++;
         else d->cnt.late++;
-        return d->err;
+        return d->st.err;
     }
-    if (s >= d->next + (int64_t)W) {
+    if (s >= d->st.next + (int64_t)W) {
         advance(d, s - (int64_t)W + 1);
     }
     if (sl->n != s) { sl->n = s; sl->mask = 0; sl->emitted = 0; }
-    if (sl->mask >> k & 1u) { d->cnt.duplicates++; return d->err; }
+    if (sl->mask >> k & 1u) { d->cnt.duplicates++; return d->st.err; }
     if (d->seen && (s < d->last_s || (s == d->last_s && k < d->last_k))) d->cnt.reordered++;
     else { d->last_s = s; d->last_k = k; }
     d->seen = 1;
@@ -328,11 +305,19 @@ msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f)
     sl->mask |= 1ull << k;
     d->cnt.sample_frames++;
     drain(d);
-    return d->err;
+    return d->st.err;
+}
+
+msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f)
+{
+    const msid_status st = feed(d, f);
+    sync(d);
+    return st;
 }
 
 msid_status msid_can_decoder_abort(msid_can_decoder *d)
 {
     close_exp(d, -1);
-    return d->err;
+    sync(d);
+    return d->st.err;
 }

@@ -14,7 +14,8 @@
  * segment-start sample after the window) closes the segment and opens a new
  * one (::msid_meas_begin again: the skip periods apply again). Error frames
  * are decoded into the bus state; bus-off and controller overflow also
- * discard the current period (::msid_meas_mark_gap). Malformed frames (wrong
+ * discard the current period (::msid_meas_mark_gap). Rows, gaps and segments
+ * reach the core through the shared ::msid_stream. Malformed frames (wrong
  * length, FD flag, chunk, or period marker) are counted and ignored.
  * Same frames in, same rows and gaps out: live and replayed runs give
  * bit-identical statistics. No allocation: memory comes from the caller.
@@ -25,6 +26,7 @@
 #include "msid/msid_meas.h"
 #include "msid_can_proto.h"
 #include "msid_can_transport.h"
+#include "msid_stream.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -102,12 +104,9 @@ typedef struct msid_can_decoder {
     uint64_t full;
     msid_can_slot *slot;      /**< [W] */
     double *row;              /**< [W * C] */
-    double *rows;             /**< [block * C] pending rows */
-    uint32_t nrows;
-    uint64_t gap_run;
+    msid_stream st;           /**< rows and gaps -> msid_meas; st.next is the next sample to emit */
     int open;                 /**< experiment open */
     uint32_t exp;
-    int64_t next;             /**< next sample to emit */
     int64_t last_s;           /**< last (sample, chunk) received, for reorder counting */
     uint32_t last_k;
     int seen;                 /**< a sample frame of this segment was seen */
@@ -116,7 +115,6 @@ typedef struct msid_can_decoder {
     msid_can_bus_state bus;
     msid_can_counters cnt;
     msid_can_device dev;
-    msid_status err;          /**< first core error (sticky) */
 } msid_can_decoder;
 
 /** @brief Bytes of working memory; 0 if cfg is invalid. */

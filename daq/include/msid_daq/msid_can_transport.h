@@ -13,6 +13,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "msid_daq.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -38,22 +39,6 @@ typedef struct msid_can_frame {
     uint64_t t_ns;      /**< receive time, ns since the epoch (0: unknown) */
 } msid_can_frame;
 
-/** Transport status codes (negative returns of the backend functions). */
-typedef enum msid_daq_status {
-    MSID_DAQ_OK = 0,
-    MSID_DAQ_E_TIMEOUT,     /**< nothing arrived in time */
-    MSID_DAQ_E_EOF,         /**< end of a replayed log */
-    MSID_DAQ_E_NOSUPPORT,   /**< the kernel has no SocketCAN (AF_CAN) */
-    MSID_DAQ_E_NODEV,       /**< no such interface */
-    MSID_DAQ_E_PERM,        /**< operation not permitted */
-    MSID_DAQ_E_DOWN,        /**< interface is down */
-    MSID_DAQ_E_NOFD,        /**< CAN FD requested on a classic-only interface */
-    MSID_DAQ_E_IO,          /**< other system error (see the backend's message) */
-    MSID_DAQ_E_FORMAT,      /**< malformed log line */
-    MSID_DAQ_E_ARG,         /**< bad argument */
-    MSID_DAQ_E_BUSY,        /**< send queue stayed full */
-    MSID_DAQ_E_COUNT_
-} msid_daq_status;
 
 /** Link-level counters a transport keeps (all cumulative). */
 typedef struct msid_can_link_stats {
@@ -84,9 +69,6 @@ typedef struct msid_can_transport {
     const msid_can_backend *be;
     void *ctx;
 } msid_can_transport;
-
-/** @brief Message of a transport status. */
-const char *msid_daq_strerror(msid_daq_status s);
 
 #ifdef __cplusplus
 }
