@@ -14,8 +14,6 @@ double real_equations(const std::vector<WeightedLine> &w)
     return n;
 }
 
-static MatC vec(const MatC &M) { return Eigen::Map<const MatC>(M.data(), M.size(), 1); }
-
 // C = A B for small dynamic matrices (plain loops: Eigen's general product has a
 // large fixed cost at these sizes, and these run once per line per block-row count).
 static inline void small_mul(const MatC &A, const MatC &B, MatC &C)
@@ -115,24 +113,31 @@ double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
     VecR y(rows);
     Eigen::Index r0 = 0;
     const Resolvent res(m.A, m.C);
-    MatC Phi = MatC::Zero(g, np), K(ny, n), T(ny, n), Wp(g, np);
-    VecC Wy(g);
-    if (estimate_D) Phi.rightCols(g) = MatC::Identity(g, g);
+    MatC K(ny, n), T(ny, n);
     for (const auto &l : w) {
         res.at(l.x, K, T);   // ny x n
-        // vec(K B) = (I_nu kron K) vec(B); vec(D) = I_g vec(D)
-        for (Eigen::Index j = 0; j < nu; ++j) Phi.block(j * ny, j * n, ny, n) = K;
-        small_mul(l.Linv, Phi, Wp);
-        small_mulv(l.Linv, l.G.data(), Wy.data());
+        // whitened rows of [ (I_nu kron K) , I_g ] and of vec(G): row a of Linv times them
         const double s = l.real ? std::sqrt(0.5) : 1.0;
-        X.block(r0, 0, g, np) = s * Wp.real();
-        y.segment(r0, g) = s * Wy.real();
-        r0 += g;
-        if (!l.real) {
-            X.block(r0, 0, g, np) = Wp.imag();
-            y.segment(r0, g) = Wy.imag();
-            r0 += g;
+        for (Eigen::Index a = 0; a < g; ++a) {
+            for (Eigen::Index j = 0; j < nu; ++j)
+                for (Eigen::Index k = 0; k < n; ++k) {
+                    cd acc = 0.0;
+                    for (Eigen::Index i = 0; i < ny; ++i) acc += l.Linv(a, i + ny * j) * K(i, k);
+                    X(r0 + a, j * n + k) = s * acc.real();
+                    if (!l.real) X(r0 + g + a, j * n + k) = acc.imag();
+                }
+            cd gy = 0.0;
+            for (Eigen::Index b = 0; b < g; ++b) {
+                if (estimate_D) {
+                    X(r0 + a, nb + b) = s * l.Linv(a, b).real();
+                    if (!l.real) X(r0 + g + a, nb + b) = l.Linv(a, b).imag();
+                }
+                gy += l.Linv(a, b) * l.G.data()[b];
+            }
+            y(r0 + a) = s * gy.real();
+            if (!l.real) y(r0 + g + a) = gy.imag();
         }
+        r0 += l.real ? g : 2 * g;
     }
     const VecR th = X.colPivHouseholderQr().solve(y);
     m.B = Eigen::Map<const MatR>(th.data(), n, nu);
