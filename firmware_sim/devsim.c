@@ -25,17 +25,17 @@ static void *take(size_t n)
     return p;
 }
 
-static sim_opts O;
-static sim_plant_def PD;
-static msid_can_config CFG;
+sim_opts O;
+sim_plant_def PD;
+msid_can_config CFG;
 static sim_counts CNT;
 static msid_socketcan CAN;
-static volatile sig_atomic_t stop_flag;
+volatile sig_atomic_t stop_flag;
 
 /* design state (rebuilt at every commit) */
-static int configured;
+int configured;
 static msid_twiddle TW;
-static msid_design DES;
+msid_design DES;
 static msid_gen GEN;
 static msid_plant PL;
 static msid_cplx *GL;         /* [L * ny*nu] true response at each line (what the FRF file holds) */
@@ -45,15 +45,16 @@ static msid_rng RNG;
 
 /* run state */
 static int state = MSID_CAN_STATE_BOOT, running_exp = -1;
-static uint64_t n_sample, n_total, fc;     /* sample index in the segment, samples to send, frame counter */
+uint64_t n_sample, n_total;                /* sample index in the segment, samples per segment */
+static uint64_t fc;                        /* frame counter */
 static uint64_t busoff_left;
 static int busoff_done, restart_done;
 static msid_can_frame held;                /* reorder: frame held back */
 static int have_held;
-static struct timespec t_start;
+struct timespec t_start;
 static double last_host_frame;
 
-static double now_s(void)
+double now_s(void)
 {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
@@ -124,7 +125,7 @@ static void send_error_frame(uint32_t cls, uint8_t ctrl, uint8_t prot)
 }
 
 /* ---- reports ------------------------------------------------------------ */
-static void write_atomic(const char *path, void (*body)(FILE *))
+void sim_write_atomic(const char *path, void (*body)(FILE *))
 {
     if (!path) return;
     char tmp[4096];
@@ -180,13 +181,12 @@ static void report_body(FILE *f)
 }
 
 /* ---- configuration ------------------------------------------------------ */
-static uint32_t configure(uint32_t *mstatus)
+uint32_t sim_configure(uint32_t *mstatus)
 {
     configured = 0;
     arena_used = 0;
     *mstatus = 0;
     if (CFG.n_inputs != PD.nu) return MSID_CAN_ERR_DIMS;
-    if (CFG.fd && !CAN.fd_frames) return MSID_CAN_ERR_CFG;
     const uint32_t P = CFG.period;
     if (P < MSID_MIN_PERIOD || P > MSID_MAX_PERIOD) { *mstatus = MSID_E_PERIOD; return MSID_CAN_ERR_DESIGN; }
     size_t n = msid_twiddle_mem_size(P);
@@ -220,11 +220,11 @@ static uint32_t configure(uint32_t *mstatus)
         if (!m || msid_plant_init(&PL, &pc, m, n) != MSID_OK) { *mstatus = MSID_E_DIMS; return MSID_CAN_ERR_DESIGN; }
     }
     configured = 1;
-    write_atomic(O.truth, truth_body);
+    sim_write_atomic(O.truth, truth_body);
     return MSID_CAN_ERR_NONE;
 }
 
-static int start(uint32_t e, uint32_t periods)
+int sim_start(uint32_t e, uint32_t periods)
 {
     if (!configured) return MSID_CAN_ERR_NOT_CONFIGURED;
     if (e >= DES.n_experiments) return MSID_CAN_ERR_EXPERIMENT;
@@ -253,12 +253,27 @@ static int start(uint32_t e, uint32_t periods)
     }
     msid_rng_seed(&RNG, O.seed * 0x9E3779B97F4A7C15ull + e + 1);
     memset(ar_state, 0, sizeof ar_state);
-    running_exp = (int)e;
     n_sample = 0;
     n_total = (uint64_t)(periods ? periods : CFG.periods) * DES.period;
+    clock_gettime(CLOCK_MONOTONIC, &t_start);
+    return 0;
+}
+
+/* The device restarts (watchdog): it keeps its configuration (retained RAM) and the
+   experiment starts again from sample 0; the plant keeps its state. */
+void sim_restart_segment(void)
+{
+    msid_gen_seek(&GEN, 0);
+    n_sample = 0;
+}
+
+static int start(uint32_t e, uint32_t periods)
+{
+    const int err = sim_start(e, periods);
+    if (err) return err;
+    running_exp = (int)e;
     busoff_done = restart_done = 0;
     busoff_left = 0;
-    clock_gettime(CLOCK_MONOTONIC, &t_start);
     state = MSID_CAN_STATE_RUNNING;
     send_state(MSID_CAN_STATE_RUNNING, e, 0, (uint32_t)n_total);
     return 0;
@@ -281,8 +296,9 @@ static void handle_host_frame(const msid_can_frame *f)
             send_state(MSID_CAN_STATE_ERROR, 0, (uint32_t)-r, 0);
             if (r == -MSID_CAN_ERR_VERSION) send_info();
         } else if (r == 1) {
-            uint32_t ms;
-            const uint32_t err = configure(&ms);
+            uint32_t ms = 0, err;
+            if (CFG.fd && !CAN.fd_frames) { configured = 0; err = MSID_CAN_ERR_CFG; }   /* FD on a classic-only bus */
+            else err = sim_configure(&ms);
             state = err ? MSID_CAN_STATE_ERROR : MSID_CAN_STATE_CONFIGURED;
             send_info();
             send_state((uint32_t)state, 0, err, ms);
@@ -379,10 +395,11 @@ static void send_sample_frame(msid_can_frame *f)
     }
 }
 
-static void produce_sample(void)
+/* The row [u; y] of sample n_sample: excitation from lib/, plant, noise. */
+void sim_row(double *row)
 {
-    const uint32_t nu = PD.nu, ny = PD.ny, C = nu + ny, P = DES.period;
-    double u[MSID_MAX_INPUTS], row[MSID_MAX_CHANNELS];
+    const uint32_t nu = PD.nu, ny = PD.ny, P = DES.period;
+    double u[MSID_MAX_INPUTS];
     msid_gen_next(&GEN, u);
     if (PD.ct) {
         const uint32_t L = DES.n_lines;
@@ -402,7 +419,13 @@ static void produce_sample(void)
         row[nu + i] += ar_state[i];
     }
     for (uint32_t j = 0; j < nu; ++j) row[j] = u[j] + (O.sigma_u > 0 ? O.sigma_u * msid_rng_normal(&RNG) : 0.0);
+}
 
+static void produce_sample(void)
+{
+    const uint32_t C = PD.nu + PD.ny, P = DES.period;
+    double row[MSID_MAX_CHANNELS];
+    sim_row(row);
     const uint32_t flags = (n_sample % P == 0 ? MSID_CAN_PSTART : 0u) | (n_sample == 0 ? MSID_CAN_SEGSTART : 0u);
     const uint32_t chunks = msid_can_chunks(C, CFG.encoding, CFG.fd);
     for (uint32_t k = 0; k < chunks; ++k) {
@@ -431,8 +454,7 @@ static void run_step(void)
         CNT.restarts++;
         send_state(MSID_CAN_STATE_BOOT, (uint32_t)e, 0, 0);
         send_state(MSID_CAN_STATE_RUNNING, (uint32_t)e, 0, (uint32_t)n_total);
-        msid_gen_seek(&GEN, 0);
-        n_sample = 0;
+        sim_restart_segment();
         clock_gettime(CLOCK_MONOTONIC, &t_start);
     }
     if (O.busoff_exp == e && !busoff_done && n_sample == O.busoff_at) {
@@ -450,7 +472,7 @@ static void run_step(void)
         CNT.experiments_done++;
         send_counters();
         send_state(MSID_CAN_STATE_DONE, (uint32_t)e, 0, (uint32_t)n_sample);
-        write_atomic(O.report, report_body);
+        sim_write_atomic(O.report, report_body);
         state = MSID_CAN_STATE_CONFIGURED;
     }
 }
@@ -475,7 +497,19 @@ static const char *USAGE =
     "  --restart-at E:N      restart the device at sample N of experiment E\n"
     "  --protocol-version V  pretend to speak protocol version V (tests)\n"
     "  --idle-exit S         exit after S seconds without host frames (default 0: never)\n"
-    "  --rcvbuf BYTES        socket receive buffer\n";
+    "  --rcvbuf BYTES        socket receive buffer\n"
+    "Modbus device (msid-modbus/1, docs/modbus-registers.md) instead of CAN:\n"
+    "  --modbus-tcp HOST:PORT | --modbus-rtu DEVICE   serve over Modbus TCP, or RTU on a serial port/pty\n"
+    "  --baud N              RTU baud rate (default 115200)   --unit N  unit id (default 1)\n"
+    "  --no-baud-emulation   RTU: reply at once (default: after the frames' wire time at --baud)\n"
+    "  --ring N              ring capacity in samples (default: as many as the register map holds)\n"
+    "  --delay-every K:MS    answer every K-th request MS ms late\n"
+    "  --exception-every K[:CODE]  answer every K-th request with exception CODE (default 6, busy)\n"
+    "  --corrupt-every K     RTU: send every K-th reply with a bad CRC\n"
+    "  --drop-at E:N         drop the connection (RTU: 1 s of silence) at sample N of experiment E\n"
+    "  --stall-at E:N:D[:MS] at sample N of experiment E stop answering for MS ms (default 300) and write\n"
+    "                        D samples regardless of the host, so the ring overruns\n"
+    "  --restart-at E:N, --seed, --noise-*, --plant, --truth, --report, --idle-exit: as for CAN\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -514,7 +548,30 @@ static void pair(const char *opt, const char *v, int *e, uint64_t *n, uint64_t *
     if (d) *d = c ? num_u(opt, c) : 1;
 }
 
+/* K:V or K (V = def) */
+static void kv(const char *opt, const char *v, uint64_t *k, uint64_t *val, uint64_t def)
+{
+    char buf[64];
+    snprintf(buf, sizeof buf, "%s", v);
+    char *a = strtok(buf, ":"), *b = strtok(NULL, ":"), *c = strtok(NULL, ":");
+    if (!a || c || (!b && def == UINT64_MAX)) {
+        fprintf(stderr, "msid-devsim: error: %s wants K:%s (got '%s')\n", opt, def == UINT64_MAX ? "V" : "[V]", v);
+        exit(2);
+    }
+    *k = num_u(opt, a);
+    *val = b ? num_u(opt, b) : def;
+}
+
 static void on_signal(int s) { (void)s; stop_flag = 1; }
+
+static void load_plant(const char *plant)
+{
+    if (!strcmp(plant, "builtin")) sim_builtin_plant(&PD);
+    else {
+        char err[512];
+        if (sim_parse_plant(plant, &PD, err, sizeof err) != 0) die(err);
+    }
+}
 
 int main(int argc, char **argv)
 {
@@ -523,11 +580,15 @@ int main(int argc, char **argv)
     O.seed = 1;
     O.sigma_y = 0.05;
     O.sigma_u = 0.002;
-    O.busoff_exp = O.restart_exp = -1;
+    O.busoff_exp = O.restart_exp = O.drop_exp = O.stall_exp = -1;
+    O.baud = 115200;
+    O.unit = 1;
+    O.emulate_baud = 1;
     const char *plant = "builtin";
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); return 0; }
+        if (!strcmp(a, "--no-baud-emulation")) { O.emulate_baud = 0; continue; }
         if (i + 1 >= argc) { fprintf(stderr, "msid-devsim: error: unknown option or missing value: %s\n%s", a, USAGE); return 2; }
         const char *v = argv[++i];
         if (!strcmp(a, "--iface")) O.iface = v;
@@ -550,16 +611,37 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--protocol-version")) O.version = (uint32_t)num_u(a, v);
         else if (!strcmp(a, "--idle-exit")) O.idle_exit = num_d(a, v, 0, 1e9);
         else if (!strcmp(a, "--rcvbuf")) O.rcvbuf = (int)num_u(a, v);
+        else if (!strcmp(a, "--modbus-tcp")) O.mb_tcp = v;
+        else if (!strcmp(a, "--modbus-rtu")) O.mb_rtu = v;
+        else if (!strcmp(a, "--baud")) O.baud = (uint32_t)num_u(a, v);
+        else if (!strcmp(a, "--unit")) O.unit = (uint32_t)num_u(a, v);
+        else if (!strcmp(a, "--ring")) O.ring = (uint32_t)num_u(a, v);
+        else if (!strcmp(a, "--delay-every")) kv(a, v, &O.delay_every, &O.delay_ms, UINT64_MAX);
+        else if (!strcmp(a, "--exception-every")) kv(a, v, &O.exc_every, &O.exc_code, 6);
+        else if (!strcmp(a, "--corrupt-every")) O.corrupt_every = num_u(a, v);
+        else if (!strcmp(a, "--drop-at")) pair(a, v, &O.drop_exp, &O.drop_at, NULL);
+        else if (!strcmp(a, "--stall-at")) {
+            uint64_t d4[4] = {0, 0, 0, 300};
+            char buf[64];
+            snprintf(buf, sizeof buf, "%s", v);
+            int k = 0;
+            for (char *t = strtok(buf, ":"); t && k < 5; t = strtok(NULL, ":")) d4[k < 4 ? k : 3] = num_u(a, t), ++k;
+            if (k < 3 || k > 4) { fprintf(stderr, "msid-devsim: error: --stall-at wants E:N:D[:MS] (got '%s')\n", v); return 2; }
+            O.stall_exp = (int)d4[0]; O.stall_at = d4[1]; O.stall_samples = d4[2]; O.stall_ms = d4[3];
+        }
         else { fprintf(stderr, "msid-devsim: error: unknown option %s\n%s", a, USAGE); return 2; }
+    }
+    if (O.mb_tcp || O.mb_rtu) {
+        if (O.iface || (O.mb_tcp && O.mb_rtu)) die("give one of --iface, --modbus-tcp, --modbus-rtu");
+        load_plant(plant);
+        signal(SIGTERM, on_signal);
+        signal(SIGINT, on_signal);
+        return sim_modbus_main();
     }
     if (!O.iface) { fprintf(stderr, "msid-devsim: error: missing --iface\n%s", USAGE); return 2; }
     if ((O.base & 0x7F) || O.base > 0x780) die("--base must be a multiple of 0x80 up to 0x780");
     if (O.version > 255) die("--protocol-version must be 0..255");
-    if (!strcmp(plant, "builtin")) sim_builtin_plant(&PD);
-    else {
-        char err[512];
-        if (sim_parse_plant(plant, &PD, err, sizeof err) != 0) die(err);
-    }
+    load_plant(plant);
     msid_socketcan_cfg sc;
     memset(&sc, 0, sizeof sc);
     sc.iface = O.iface;
@@ -597,7 +679,7 @@ int main(int argc, char **argv)
             if (O.idle_exit > 0 && now_s() - last_host_frame > O.idle_exit) break;
         }
     }
-    write_atomic(O.report, report_body);
+    sim_write_atomic(O.report, report_body);
     CAN.tr.be->close(CAN.tr.ctx);
     return 0;
 }

@@ -5,7 +5,10 @@
 #ifndef MSID_DEVSIM_H
 #define MSID_DEVSIM_H
 
+#include <signal.h>
 #include <stdint.h>
+#include <stdio.h>
+#include <time.h>
 #include "msid/msid.h"
 #include "msid_daq/msid_can_proto.h"
 #include "msid_daq/msid_socketcan.h"
@@ -37,6 +40,15 @@ typedef struct sim_opts {
     const char *truth, *report;
     double idle_exit;                /* seconds without host frames before exiting (0: never) */
     int rcvbuf;
+    /* Modbus front end (devsim_mb.c) */
+    const char *mb_tcp, *mb_rtu;     /* "HOST:PORT", or a serial device */
+    uint32_t baud, unit, ring;       /* RTU baud, unit id, ring capacity cap in samples (0: the whole map) */
+    int emulate_baud;                /* RTU: reply after the frames' wire time at `baud` */
+    uint64_t delay_every, delay_ms;  /* every K-th request answered MS ms late */
+    uint64_t exc_every, exc_code;    /* every K-th request answered with an exception */
+    uint64_t corrupt_every;          /* RTU: every K-th reply with a bad CRC */
+    int drop_exp; uint64_t drop_at;  /* drop the connection at sample N of experiment E (-1: none) */
+    int stall_exp; uint64_t stall_at, stall_samples, stall_ms;   /* stall: no replies, D samples regardless */
 } sim_opts;
 
 /* Counters of what the simulator did (written to the report). */
@@ -46,6 +58,28 @@ typedef struct sim_counts {
     uint64_t busoff_samples;         /* samples not sent while bus-off */
     uint32_t experiments_done;
 } sim_counts;
+
+/* Shared by the CAN (devsim.c) and Modbus (devsim_mb.c) front ends. */
+extern sim_opts O;
+extern sim_plant_def PD;
+extern msid_can_config CFG;           /* the uploaded configuration (msid-can/1 parameter records) */
+extern msid_design DES;
+extern int configured;
+extern uint64_t n_sample, n_total;    /* sample index in the segment, samples per segment */
+extern struct timespec t_start;
+extern volatile sig_atomic_t stop_flag;
+double now_s(void);
+void sim_write_atomic(const char *path, void (*body)(FILE *));
+/* Rebuild the design from CFG (writes --truth); 0 or an MSID_CAN_ERR_* code, *mstatus the msid_status. */
+uint32_t sim_configure(uint32_t *mstatus);
+/* Start experiment e (K periods, 0: configured) at sample 0; 0 or an MSID_CAN_ERR_* code. */
+int sim_start(uint32_t e, uint32_t periods);
+/* The row [u; y] of sample n_sample (the caller advances n_sample). */
+void sim_row(double *row);
+/* Device restart: the segment starts again at sample 0. */
+void sim_restart_segment(void);
+/* The Modbus front end: serve msid-modbus/1 over TCP or RTU until SIGTERM. */
+int sim_modbus_main(void);
 
 int sim_parse_plant(const char *path, sim_plant_def *p, char *err, size_t errlen);
 void sim_builtin_plant(sim_plant_def *p);

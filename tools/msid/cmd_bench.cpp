@@ -174,6 +174,7 @@ int cmd_bench(int argc, char **argv)
 {
     if (argc >= 3 && !std::strcmp(argv[2], "fit")) return bench_fit(argc, argv);
     if (argc >= 3 && !std::strcmp(argv[2], "can")) return cmd_bench_can(argc, argv);
+    if (argc >= 3 && !std::strcmp(argv[2], "modbus")) return cmd_bench_modbus(argc, argv);
     if (argc < 3 || std::strcmp(argv[2], "frf") != 0) {
         if (argc >= 3 && !std::strcmp(argv[2], "--help")) { std::fputs(HELP, stdout); return 0; }
         throw UsageError("usage: msid bench frf|fit [options] (see msid bench frf --help, msid bench fit --help)");

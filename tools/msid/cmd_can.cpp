@@ -2,6 +2,7 @@
 // replay a candump log through the same decoder (bit-identical FRF).
 #include "commands.hpp"
 #include "frf_io.hpp"
+#include "param_upload.hpp"
 #include "pipeline.hpp"
 
 extern "C" {
@@ -54,90 +55,6 @@ static double can_frame_seconds(bool fd, double bitrate, double data_bitrate)
     // FD, 64 bytes: arbitration and end at the nominal rate (30 bits + 5 stuff),
     // data phase ESI..CRC (548 bits incl. fixed stuff bits) + 129 dynamic stuff bits.
     return 35.0 / bitrate + 677.0 / data_bitrate;
-}
-
-// ---- design <-> configuration ---------------------------------------------
-
-static bool same_coef(const msid_design &a, const msid_design &b)
-{
-    if (a.period != b.period || a.n_lines != b.n_lines || a.n_inputs != b.n_inputs || a.n_experiments != b.n_experiments)
-        return false;
-    const size_t n = (size_t)a.n_experiments * a.n_inputs * a.n_lines;
-    return std::memcmp(a.coef, b.coef, n * sizeof(msid_cplx)) == 0 &&
-           std::memcmp(a.bins, b.bins, a.n_lines * sizeof(uint32_t)) == 0;
-}
-
-// The design the device builds from `c` (exactly as firmware_sim does).
-struct DevDesign {
-    Mem mtw, md;
-    msid_twiddle tw{};
-    msid_design d{};
-    msid_status st = MSID_OK;
-};
-static std::unique_ptr<DevDesign> device_design(const msid_can_config &c)
-{
-    auto D = std::make_unique<DevDesign>();
-    if (c.period < MSID_MIN_PERIOD || c.period > MSID_MAX_PERIOD) { D->st = MSID_E_PERIOD; return D; }
-    D->mtw = Mem(msid_twiddle_mem_size(c.period));
-    if ((D->st = msid_twiddle_init(&D->tw, c.period, D->mtw.p, D->mtw.n)) != MSID_OK) return D;
-    msid_design_cfg dc;
-    msid_can_config_design_cfg(&c, &dc, &D->tw);
-    const size_t n = msid_design_mem_size(&dc);
-    if (!n) { D->st = MSID_E_DIMS; return D; }
-    D->md = Mem(n);
-    D->st = msid_design_init(&D->d, &dc, D->md.p, D->md.n);
-    return D;
-}
-
-struct StreamFmt {
-    uint32_t encoding = MSID_CAN_ENC_S16, fd = 0, rate = 0, periods = 8;
-    float scale = 0.001f;
-};
-
-static std::unique_ptr<msid_can_config> config_from_design(const Design &D, const StreamFmt &s)
-{
-    const msid_design &d = D.d;
-    auto c = std::make_unique<msid_can_config>();
-    std::memset(c.get(), 0, sizeof *c);
-    const uint32_t L = d.n_lines, nu = d.n_inputs;
-    if (L > MSID_CAN_MAX_LINES)
-        throw Error(fmt("the design has %u lines: an msid-can/1 device takes at most %u", L, MSID_CAN_MAX_LINES));
-    c->period = d.period;
-    c->n_lines = L;
-    c->n_inputs = nu;
-    c->n_experiments = d.n_experiments;
-    c->pattern = (uint32_t)d.pattern;
-    if (d.is_ct) {
-        c->is_ct = 1;
-        std::memcpy(c->omega, d.omega, L * sizeof(double));
-        c->sample_time = d.sample_time;
-    } else {
-        std::memcpy(c->bins, d.bins, L * sizeof(uint32_t));
-    }
-    bool ones = true;
-    for (size_t k = 0; k < (size_t)nu * L; ++k) ones = ones && d.amp[k] == 1.0;
-    c->have_amp = !ones;
-    if (!ones) std::memcpy(c->amp, d.amp, (size_t)nu * L * sizeof(double));
-    c->encoding = s.encoding;
-    c->scale = s.scale;
-    c->fd = s.fd;
-    c->rate_hz = s.rate;
-    c->periods = s.periods;
-    // Compact form first (seed + phase mode); explicit phases when that does not rebuild the same design.
-    c->phase_mode = (uint32_t)D.params.phase_mode;
-    c->seed = D.params.seed;
-    c->have_phase = 0;
-    if (c->phase_mode != MSID_PHASE_USER) {
-        auto dd = device_design(*c);
-        if (dd->st == MSID_OK && same_coef(dd->d, d)) return c;
-    }
-    c->phase_mode = MSID_PHASE_USER;
-    c->have_phase = 1;
-    std::memcpy(c->phase, d.phase, (size_t)nu * L * sizeof(double));
-    auto dd = device_design(*c);
-    if (dd->st != MSID_OK || !same_coef(dd->d, d))
-        throw Error("the design cannot be uploaded exactly (the device would rebuild a different excitation)");
-    return c;
 }
 
 // ---- acquisition: decoder + FRF job -----------------------------------------
@@ -293,20 +210,6 @@ static std::vector<std::string> loss_notes(const msid_can_decoder &d, const msid
         n.push_back(fmt("%llu error frame(s); bus state now %s", (unsigned long long)c.error_frames,
                         msid_can_bus_state_name(d.bus)));
     return n;
-}
-
-static const char *device_error(uint32_t code)
-{
-    switch (code) {
-    case MSID_CAN_ERR_VERSION: return "protocol version mismatch";
-    case MSID_CAN_ERR_CRC: return "configuration CRC mismatch (a CFG frame was lost)";
-    case MSID_CAN_ERR_DESIGN: return "the device refused the design";
-    case MSID_CAN_ERR_NOT_CONFIGURED: return "the device is not configured";
-    case MSID_CAN_ERR_EXPERIMENT: return "experiment index out of range";
-    case MSID_CAN_ERR_DIMS: return "the design's inputs do not match the device";
-    case MSID_CAN_ERR_CFG: return "malformed or unsupported configuration";
-    default: return "unknown device error";
-    }
 }
 
 static uint32_t parse_base(const Args &a)
@@ -670,27 +573,12 @@ int cmd_bench_can(int argc, char **argv)
         else if (!std::strcmp(argv[i], "--results") && i + 1 < argc) results = argv[++i];
         else throw UsageError(std::string("msid bench can: unknown option ") + argv[i]);
     }
-    char self[4096];
-    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n <= 0) throw Error("cannot find the msid executable (/proc/self/exe)");
-    self[n] = 0;
-    std::string dir(self);
-    dir = dir.substr(0, dir.rfind('/'));
-    const std::string devsim = dir + "/../firmware_sim/msid-devsim";
-    if (access(devsim.c_str(), X_OK) != 0) throw Error("msid-devsim not found next to the build (" + devsim + ")");
     const std::string src = MSID_SOURCE_DIR;
-    setenv("MSID_BIN", self, 1);
-    setenv("MSID_DEVSIM", devsim.c_str(), 1);
     std::vector<std::string> args = {"python3", src + "/tests/vcan/vm.py"};
     if (!results.empty()) { args.push_back("--results"); args.push_back(results); }
     args.insert(args.end(), {"--", "python3", src + "/tests/vcan/bench_can.py"});
     if (quick) args.push_back("--quick");
-    std::vector<char *> av;
-    for (auto &s : args) av.push_back(s.data());
-    av.push_back(nullptr);
-    std::fflush(stdout);
-    execvp(av[0], av.data());
-    throw Error(std::string("cannot run python3: ") + std::strerror(errno));
+    return exec_with_build(args);
 }
 
 int cmd_can(int argc, char **argv)

@@ -10,4 +10,12 @@ int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
+int cmd_modbus(int argc, char **argv);
+int cmd_bench_modbus(int argc, char **argv);
+}  // namespace msidcli
+#include <string>
+#include <vector>
+namespace msidcli {
+// Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
+int exec_with_build(std::vector<std::string> args);
 }  // namespace msidcli

@@ -17,6 +17,7 @@ static const char *USAGE =
     "  validate a model against an FRF file: weighted residual cost, p-value, verdict\n"
     "  compare  relative H2 and Hinf distance between two models\n"
     "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
+    "  modbus   measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device\n"
     "  bench    benchmarks: `msid bench frf`, `msid bench fit`\n"
     "  version  print the version\n"
     "\n"
@@ -38,6 +39,7 @@ int main(int argc, char **argv)
         if (cmd == "validate") return msidcli::cmd_validate(argc, argv);
         if (cmd == "compare") return msidcli::cmd_compare(argc, argv);
         if (cmd == "can") return msidcli::cmd_can(argc, argv);
+        if (cmd == "modbus") return msidcli::cmd_modbus(argc, argv);
         if (cmd == "version" || cmd == "--version") {
             std::printf("msid %s\n", MSID_VERSION);
             return 0;

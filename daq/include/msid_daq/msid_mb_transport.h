@@ -1,0 +1,55 @@
+/**
+ * @file msid_mb_transport.h
+ * @brief Modbus transport backend table of the host acquisition (daq/).
+ *
+ * Like the CAN transports (msid_can_transport.h), a Modbus transport is a
+ * table of function pointers and a caller-owned state: ::msid_modbus opens
+ * the libmodbus TCP and RTU backends. A transport performs one request and
+ * reports what went wrong (timeout, bad CRC, exception response, a reply
+ * that does not match, a lost connection); retries, backoff and reconnects
+ * are the adapter's (::msid_mb_call), so they behave the same on every link.
+ */
+#ifndef MSID_MB_TRANSPORT_H
+#define MSID_MB_TRANSPORT_H
+
+#include <stdint.h>
+#include "msid_daq.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** The backend table. Requests return 0 or -msid_daq_status. */
+typedef struct msid_mb_backend {
+    const char *name;   /**< "tcp", "rtu" */
+    /** Read n <= 125 input registers (FC 04). */
+    int (*read_input)(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst);
+    /** Read n <= 125 holding registers (FC 03). */
+    int (*read_holding)(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst);
+    /** Write n <= 123 holding registers (FC 16). */
+    int (*write_holding)(void *ctx, uint32_t addr, uint32_t n, const uint16_t *src);
+    /** Drop what the link holds (stale or partial replies). */
+    void (*flush)(void *ctx);
+    /** Close, flush and connect again (TCP: a new connection; RTU: the port reopened). */
+    int (*reconnect)(void *ctx);
+    /** Code of the last exception response (1..255). */
+    uint32_t (*exception)(void *ctx);
+    /** Detail of the last error ("" if none). */
+    const char *(*error)(void *ctx);
+    /** Release the transport. */
+    void (*close)(void *ctx);
+} msid_mb_backend;
+
+/** A transport: a backend and its state. */
+typedef struct msid_mb_transport {
+    const msid_mb_backend *be;
+    void *ctx;
+} msid_mb_transport;
+
+/** @brief Name of a Modbus exception code ("illegal data address", ...). */
+const char *msid_mb_exception_name(uint32_t code);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

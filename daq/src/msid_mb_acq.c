@@ -1,0 +1,315 @@
+/* The Modbus acquisition adapter: retried requests, design upload, commands, ring polling. */
+#define _POSIX_C_SOURCE 200809L
+#include "msid_daq/msid_mb_acq.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+static size_t up(size_t n) { return (n + MSID_MEM_ALIGN - 1) / MSID_MEM_ALIGN * MSID_MEM_ALIGN; }
+static uint32_t mregs(const msid_mb_acq_cfg *c) { return c->max_regs ? c->max_regs : MSID_MB_MAX_READ; }
+
+size_t msid_mb_acq_mem_size(const msid_mb_acq_cfg *c)
+{
+    if (!c) return 0;
+    const uint32_t C = c->n_inputs + c->n_outputs;
+    if (c->n_inputs == 0 || c->n_outputs == 0 || C > MSID_MAX_CHANNELS || !msid_mb_value_regs(c->encoding) ||
+        c->word_order > MSID_MB_DCBA || mregs(c) > MSID_MB_MAX_READ || msid_mb_sample_regs(c->encoding, C) > mregs(c))
+        return 0;
+    const msid_stream_cfg sc = {C, 0, c->meas};
+    return up(sizeof(uint16_t) * MSID_MB_MAX_READ) + up(sizeof(double) * C) + msid_stream_mem_size(&sc);
+}
+
+msid_status msid_mb_acq_init(msid_mb_acq *a, const msid_mb_acq_cfg *c, void *mem, size_t len)
+{
+    if (!a || !c || !mem || !c->meas || !c->client) return MSID_E_NULL;
+    const size_t need = msid_mb_acq_mem_size(c);
+    if (need == 0) return MSID_E_DIMS;
+    if (c->encoding != MSID_MB_ENC_F32 && !(c->scale > 0)) return MSID_E_ARG;
+    if (((uintptr_t)mem) % MSID_MEM_ALIGN) return MSID_E_MEM_ALIGN;
+    if (len < need) return MSID_E_MEM_SIZE;
+    memset(a, 0, sizeof *a);
+    a->cfg = *c;
+    a->cl = c->client;
+    a->cfg.max_regs = mregs(c);
+    a->cfg.batch = c->batch ? c->batch : 8;
+    a->C = c->n_inputs + c->n_outputs;
+    a->W = msid_mb_sample_regs(c->encoding, a->C);
+    char *p = mem;
+    a->buf = (uint16_t *)p; p += up(sizeof(uint16_t) * MSID_MB_MAX_READ);
+    a->row = (double *)p; p += up(sizeof(double) * a->C);
+    const msid_stream_cfg sc = {a->C, 0, c->meas};
+    return msid_stream_init(&a->st, &sc, p, need - (size_t)(p - (char *)mem));
+}
+
+static void sleep_ms(uint32_t ms)
+{
+    struct timespec t = {(time_t)(ms / 1000), (long)(ms % 1000) * 1000000L};
+    while (nanosleep(&t, &t) != 0) {}
+}
+
+static const char *kind_name(int k)
+{
+    return k == MSID_MB_READ_INPUT ? "read input registers" : k == MSID_MB_READ_HOLDING ? "read holding registers"
+                                                                                         : "write holding registers";
+}
+
+void msid_mb_client_init(msid_mb_client *c, msid_mb_transport *tr, uint32_t retries, uint32_t backoff_ms)
+{
+    memset(c, 0, sizeof *c);
+    c->tr = tr;
+    c->retries = retries ? retries : 5;
+    c->backoff_ms = backoff_ms ? backoff_ms : 20;
+}
+
+int msid_mb_call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t *regs)
+{
+    const msid_mb_backend *be = a->tr->be;
+    void *ctx = a->tr->ctx;
+    int rc = 0;
+    for (uint32_t attempt = 0;; ++attempt) {
+        a->cnt.requests++;
+        rc = kind == MSID_MB_READ_INPUT     ? be->read_input(ctx, addr, n, regs)
+             : kind == MSID_MB_READ_HOLDING ? be->read_holding(ctx, addr, n, regs)
+                                            : be->write_holding(ctx, addr, n, regs);
+        if (rc == 0) {
+            if (kind == MSID_MB_WRITE_HOLDING) a->cnt.registers_written += n;
+            else a->cnt.registers_read += n;
+            return 0;
+        }
+        int reconnect = 0;
+        switch (-rc) {
+        case MSID_DAQ_E_EXCEPTION: {
+            a->cnt.exceptions++;
+            const uint32_t x = be->exception(ctx);
+            if (x != 5 && x != 6) {
+                snprintf(a->err, sizeof a->err, "the device answered exception %u (%s) to %s %u..%u", x,
+                         msid_mb_exception_name(x), kind_name(kind), addr, addr + n - 1);
+                return rc;
+            }
+            break;
+        }
+        case MSID_DAQ_E_TIMEOUT: a->cnt.timeouts++; reconnect = 1; break;
+        case MSID_DAQ_E_CRC: a->cnt.crc_errors++; break;
+        case MSID_DAQ_E_BADDATA: a->cnt.bad_replies++; break;
+        case MSID_DAQ_E_ARG:
+            snprintf(a->err, sizeof a->err, "%s %u..%u: bad request", kind_name(kind), addr, addr + n - 1);
+            return rc;
+        default: a->cnt.io_errors++; reconnect = 1; break;
+        }
+        if (attempt >= a->retries) {
+            snprintf(a->err, sizeof a->err, "no valid reply to %s %u..%u after %u attempts: %s", kind_name(kind), addr,
+                     addr + n - 1, attempt + 1, be->error(ctx));
+            return rc;
+        }
+        a->cnt.retries++;
+        uint32_t b = a->backoff_ms << (attempt < 6 ? attempt : 6);
+        sleep_ms(b < 1000 ? b : 1000);
+        if (reconnect) {
+            a->cnt.reconnects++;
+            be->reconnect(ctx);   /* a failed connect is the next attempt's I/O error */
+        } else {
+            be->flush(ctx);
+        }
+    }
+}
+
+int msid_mb_read_header(msid_mb_client *a)
+{
+    uint16_t r[MSID_MB_IR_HEADER];
+    const int rc = msid_mb_call(a, MSID_MB_READ_INPUT, 0, MSID_MB_IR_HEADER, r);
+    if (rc < 0) return rc;
+    msid_mb_header_decode(&a->h, r);
+    if (a->h.magic != MSID_MB_MAGIC) {
+        snprintf(a->err, sizeof a->err, "not an msid-modbus device: input register 0 holds 0x%04X, not 0x%04X",
+                 a->h.magic, MSID_MB_MAGIC);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    return 0;
+}
+
+int msid_mb_upload(msid_mb_client *a, uint32_t encoding, uint32_t word_order, const uint8_t (*rec)[8], size_t n)
+{
+    uint16_t r[2 + 4 * MSID_MB_CFG_RECORDS];
+    int rc = msid_mb_read_header(a);
+    if (rc < 0) return rc;
+    a->cfg_seq = a->h.cfg_done;
+    r[0] = (uint16_t)encoding;
+    r[1] = (uint16_t)word_order;
+    if ((rc = msid_mb_call(a, MSID_MB_WRITE_HOLDING, MSID_MB_HR_ENCODING, 2, r)) < 0) return rc;
+    for (size_t i = 0; i < n; i += MSID_MB_CFG_RECORDS) {
+        const size_t k = n - i < MSID_MB_CFG_RECORDS ? n - i : MSID_MB_CFG_RECORDS;
+        a->cfg_seq = (a->cfg_seq + 1) & 0xFFFFu;
+        r[0] = (uint16_t)a->cfg_seq;
+        r[1] = (uint16_t)k;
+        msid_mb_pack_records(r + 2, rec + i, k);
+        if ((rc = msid_mb_call(a, MSID_MB_WRITE_HOLDING, MSID_MB_HR_CFG_SEQ, (uint32_t)(2 + 4 * k), r)) < 0) return rc;
+        /* like the CAN upload's flow control: stop at the first refusal */
+        if ((rc = msid_mb_read_header(a)) < 0) return rc;
+        if (a->h.state == MSID_MB_STATE_ERROR) return 0;
+    }
+    return 0;
+}
+
+int msid_mb_command(msid_mb_client *a, uint32_t cmd, uint32_t e, uint32_t periods)
+{
+    int rc = msid_mb_read_header(a);
+    if (rc < 0) return rc;
+    a->cmd_seq = (a->h.cmd_done + 1) & 0xFFFFu;
+    uint16_t r[5] = {(uint16_t)a->cmd_seq, (uint16_t)cmd, (uint16_t)e, 0, 0};
+    msid_mb_put_u32(r + 3, periods);
+    if ((rc = msid_mb_call(a, MSID_MB_WRITE_HOLDING, MSID_MB_HR_CMD_SEQ, 5, r)) < 0) return rc;
+    for (int i = 0; i < 200; ++i) {
+        if ((rc = msid_mb_read_header(a)) < 0) return rc;
+        if (a->h.cmd_done == a->cmd_seq) return 0;
+        sleep_ms(10);
+    }
+    snprintf(a->err, sizeof a->err, "the device did not execute command %u within 2 s", cmd);
+    return -MSID_DAQ_E_TIMEOUT;
+}
+
+int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods)
+{
+    const int rc = msid_mb_command(a->cl, MSID_MB_CMD_START, e, periods);
+    if (rc < 0) return rc;
+    if (a->cl->h.state == MSID_MB_STATE_ERROR) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device refused to start experiment %u (error %u)", e + 1, a->cl->h.error);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    if (a->cl->h.ring_samples == 0 || a->cl->h.sample_regs != a->W || a->cl->h.ring_addr < MSID_MB_IR_HEADER ||
+        a->cl->h.ring_addr + (uint64_t)a->cl->h.ring_samples * a->W > 65536u) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device's ring (%u samples of %u registers at %u) does not match %u "
+                 "channels of %s", a->cl->h.ring_samples, a->cl->h.sample_regs, a->cl->h.ring_addr, a->C,
+                 msid_mb_encoding_name(a->cfg.encoding));
+        return -MSID_DAQ_E_BADDATA;
+    }
+    a->exp = e;
+    a->r = 0;
+    a->seg = a->cl->h.segment;
+    a->seg_start = 0;
+    a->open = msid_stream_begin(&a->st, e) == MSID_OK;
+    return a->open ? 0 : -MSID_DAQ_E_ARG;
+}
+
+/* Samples [a->r, to) are gone: declare them missing (an overrun). */
+static void overrun(msid_mb_acq *a, uint64_t to)
+{
+    if (to <= a->r) return;
+    msid_stream_lost(&a->st, to - a->r);
+    a->cnt.overrun_samples += to - a->r;
+    a->cnt.overrun_events++;
+    a->r = to;
+}
+
+/* A new segment begins at the header's segment start: finish the old one there. */
+static void new_segment(msid_mb_acq *a)
+{
+    /* The old segment was read up to s0 unless segments in between were never seen (two restarts
+       within one poll): their samples cannot be aligned, so they are declared missing. */
+    overrun(a, a->cl->h.seg_start);
+    const uint64_t s0 = a->cl->h.seg_start;
+    msid_stream_begin(&a->st, a->exp);
+    a->seg = a->cl->h.segment;
+    a->seg_start = s0;
+    a->cnt.restarts++;
+}
+
+static int check_state(msid_mb_acq *a)
+{
+    const msid_mb_header *h = &a->cl->h;
+    if (h->state == MSID_MB_STATE_ERROR) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device reported error %u (detail %u) during experiment %u", h->error,
+                 h->detail, a->exp + 1);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    if ((h->state != MSID_MB_STATE_RUNNING && h->state != MSID_MB_STATE_DONE) || h->experiment != a->exp) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device left experiment %u (state %u, experiment %u)", a->exp + 1, h->state,
+                 h->experiment + 1);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    return 0;
+}
+
+/* The first sample of the ring that has not been overwritten. */
+static uint64_t ring_low(const msid_mb_acq *a)
+{
+    return a->cl->h.write_index > a->cl->h.ring_samples ? (uint64_t)a->cl->h.write_index - a->cl->h.ring_samples : 0;
+}
+
+/* Samples [a->r, to) from the ring, at most *left requests. */
+static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
+{
+    const uint32_t R = a->cl->h.ring_samples, W = a->W, per = a->cfg.max_regs / W;
+    const uint32_t vr = msid_mb_value_regs(a->cfg.encoding);
+    uint32_t stale = 0;
+    while (a->r < to && *left) {
+        const uint64_t n = a->r;
+        const uint32_t slot = (uint32_t)(n % R);
+        uint64_t k = to - n;
+        if (k > per) k = per;
+        if (k > R - slot) k = R - slot;
+        int rc = msid_mb_call(a->cl, MSID_MB_READ_INPUT, a->cl->h.ring_addr + slot * W, (uint32_t)k * W, a->buf);
+        if (rc < 0) return rc;
+        (*left)--;
+        uint32_t i = 0;
+        for (; i < k; ++i) {
+            const uint16_t *s = a->buf + (size_t)i * W;
+            if (s[0] != (uint16_t)(n + i)) break;
+            for (uint32_t c = 0; c < a->C; ++c)
+                a->row[c] = msid_mb_decode_value(s + 1 + c * vr, a->cfg.encoding, a->cfg.word_order, a->cfg.scale);
+            msid_stream_row(&a->st, a->row);
+            a->r++;
+            *prog = 1;
+        }
+        if (i == k) continue;
+        /* a tag did not match: overwritten while we read (the header now says so), or a stale reply */
+        if ((rc = msid_mb_read_header(a->cl)) < 0) return rc;
+        if (a->r < ring_low(a)) {
+            overrun(a, ring_low(a) < to ? ring_low(a) : to);
+            *prog = 1;
+        } else if (++stale > a->cl->retries) {
+            snprintf(a->cl->err, sizeof a->cl->err, "the ring at sample %llu keeps answering tag %u: the device does not "
+                     "follow msid-modbus/%u", (unsigned long long)a->r, a->buf[(size_t)i * W], MSID_MB_PROTO_VERSION);
+            return -MSID_DAQ_E_BADDATA;
+        } else {
+            a->cnt.stale_replies++;
+            a->cl->tr->be->flush(a->cl->tr->ctx);
+        }
+    }
+    return 0;
+}
+
+int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
+{
+    *prog = 0;
+    if (!a->open) return 1;
+    a->cnt.polls++;
+    int rc = msid_mb_read_header(a->cl);
+    if (rc < 0) return rc;
+    if ((rc = check_state(a)) < 0) return rc;
+    uint32_t left = a->cfg.batch;
+    for (;;) {
+        const int newseg = a->cl->h.segment != a->seg;
+        const uint64_t end = newseg ? a->cl->h.seg_start : a->cl->h.write_index;
+        /* overwritten before we read them (the part in this segment) */
+        const uint64_t lo = ring_low(a);
+        if (a->r < lo) {
+            overrun(a, lo < end ? lo : end);
+            *prog = 1;
+        }
+        if ((rc = read_ring(a, end, &left, prog)) < 0) return rc;
+        if (a->st.err != MSID_OK) return -MSID_DAQ_E_ARG;
+        if (a->r < end) return 0;              /* out of requests for this poll */
+        if (!newseg) break;
+        new_segment(a);
+        *prog = 1;
+    }
+    if (a->cl->h.state == MSID_MB_STATE_DONE && a->r >= a->cl->h.write_index) {
+        msid_stream_end(&a->st);
+        a->open = 0;
+        a->cnt.experiments_done++;
+        a->cnt.device_overruns += a->cl->h.overruns;
+        return a->st.err != MSID_OK ? -MSID_DAQ_E_ARG : 1;
+    }
+    return 0;
+}

@@ -1,0 +1,145 @@
+/* Modbus TCP and RTU transports on libmodbus; errors mapped to msid_daq_status. */
+#define _DEFAULT_SOURCE
+#include "msid_daq/msid_modbus.h"
+
+#include <errno.h>
+#include <modbus/modbus.h>
+#include <stdio.h>
+#include <string.h>
+
+const char *msid_mb_exception_name(uint32_t code)
+{
+    switch (code) {
+    case 1: return "illegal function";
+    case 2: return "illegal data address";
+    case 3: return "illegal data value";
+    case 4: return "server device failure";
+    case 5: return "acknowledge (busy with a long operation)";
+    case 6: return "server device busy";
+    case 8: return "memory parity error";
+    case 10: return "gateway path unavailable";
+    case 11: return "gateway target device failed to respond";
+    default: return "unknown exception";
+    }
+}
+
+static int fail(msid_modbus *m, const char *what)
+{
+    const int e = errno;
+    m->exc = 0;
+    if (e >= EMBXILFUN && e <= EMBXGTAR) {
+        m->exc = (uint32_t)(e - MODBUS_ENOBASE);
+        snprintf(m->err, sizeof m->err, "%s: exception %u (%s)", what, m->exc, msid_mb_exception_name(m->exc));
+        return -MSID_DAQ_E_EXCEPTION;
+    }
+    snprintf(m->err, sizeof m->err, "%s: %s", what, modbus_strerror(e));
+    if (e == ETIMEDOUT) return -MSID_DAQ_E_TIMEOUT;
+    if (e == EMBBADCRC) return -MSID_DAQ_E_CRC;
+    if (e == EMBBADDATA || e == EMBMDATA || e == EMBBADEXC || e == EMBUNKEXC || e == EMBBADSLAVE)
+        return -MSID_DAQ_E_BADDATA;
+    return -MSID_DAQ_E_IO;
+}
+
+static int rd_input(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
+{
+    msid_modbus *m = ctx;
+    if (n == 0 || n > MODBUS_MAX_READ_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
+    const int r = modbus_read_input_registers(m->mb, (int)addr, (int)n, dst);
+    return r == (int)n ? 0 : r < 0 ? fail(m, "read input registers") : -MSID_DAQ_E_BADDATA;
+}
+
+static int rd_holding(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
+{
+    msid_modbus *m = ctx;
+    if (n == 0 || n > MODBUS_MAX_READ_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
+    const int r = modbus_read_registers(m->mb, (int)addr, (int)n, dst);
+    return r == (int)n ? 0 : r < 0 ? fail(m, "read holding registers") : -MSID_DAQ_E_BADDATA;
+}
+
+static int wr_holding(void *ctx, uint32_t addr, uint32_t n, const uint16_t *src)
+{
+    msid_modbus *m = ctx;
+    if (n == 0 || n > MODBUS_MAX_WRITE_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
+    const int r = modbus_write_registers(m->mb, (int)addr, (int)n, src);
+    return r == (int)n ? 0 : r < 0 ? fail(m, "write holding registers") : -MSID_DAQ_E_BADDATA;
+}
+
+static void flush_(void *ctx) { modbus_flush(((msid_modbus *)ctx)->mb); }
+
+static int connect_(msid_modbus *m)
+{
+    if (modbus_connect(m->mb) == 0) {
+        modbus_flush(m->mb);
+        return 0;
+    }
+    if (m->cfg.rtu)
+        snprintf(m->err, sizeof m->err, "cannot open the serial port %s: %s", m->device, modbus_strerror(errno));
+    else
+        snprintf(m->err, sizeof m->err, "cannot connect to %s:%d: %s", m->host, m->cfg.port, modbus_strerror(errno));
+    return -MSID_DAQ_E_CONNECT;
+}
+
+static int reconnect_(void *ctx)
+{
+    msid_modbus *m = ctx;
+    modbus_close(m->mb);
+    return connect_(m);
+}
+
+static uint32_t exc_(void *ctx) { return ((msid_modbus *)ctx)->exc; }
+static const char *err_(void *ctx) { return ((msid_modbus *)ctx)->err; }
+
+static void close_(void *ctx)
+{
+    msid_modbus *m = ctx;
+    if (m->mb) {
+        modbus_close(m->mb);
+        modbus_free(m->mb);
+        m->mb = NULL;
+    }
+}
+
+static const msid_mb_backend TCP = {"tcp", rd_input, rd_holding, wr_holding, flush_, reconnect_, exc_, err_, close_};
+static const msid_mb_backend RTU = {"rtu", rd_input, rd_holding, wr_holding, flush_, reconnect_, exc_, err_, close_};
+
+int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *c)
+{
+    memset(m, 0, sizeof *m);
+    m->cfg = *c;
+    if (c->rtu) {
+        if (!c->device || strlen(c->device) >= sizeof m->device || c->baud <= 0 ||
+            (c->parity != 'N' && c->parity != 'E' && c->parity != 'O') || c->data_bits < 5 || c->data_bits > 8 ||
+            c->stop_bits < 1 || c->stop_bits > 2 || c->unit < 1 || c->unit > 247) {
+            snprintf(m->err, sizeof m->err, "bad RTU settings");
+            return -MSID_DAQ_E_ARG;
+        }
+        snprintf(m->device, sizeof m->device, "%s", c->device);
+        m->mb = modbus_new_rtu(m->device, c->baud, c->parity, c->data_bits, c->stop_bits);
+    } else {
+        if (!c->host || strlen(c->host) >= sizeof m->host || c->port <= 0 || c->port > 65535 || c->unit < 0 ||
+            c->unit > 255) {
+            snprintf(m->err, sizeof m->err, "bad TCP settings");
+            return -MSID_DAQ_E_ARG;
+        }
+        snprintf(m->host, sizeof m->host, "%s", c->host);
+        m->mb = modbus_new_tcp(m->host, c->port);
+    }
+    m->cfg.host = m->host;
+    m->cfg.device = m->device;
+    if (!m->mb) {
+        snprintf(m->err, sizeof m->err, "libmodbus: %s", modbus_strerror(errno));
+        return -MSID_DAQ_E_ARG;
+    }
+    modbus_set_error_recovery(m->mb, MODBUS_ERROR_RECOVERY_NONE);
+    modbus_set_slave(m->mb, c->unit);
+    modbus_set_response_timeout(m->mb, c->response_timeout_ms / 1000, (c->response_timeout_ms % 1000) * 1000);
+    modbus_set_byte_timeout(m->mb, c->byte_timeout_ms / 1000, (c->byte_timeout_ms % 1000) * 1000);
+    m->tr.be = c->rtu ? &RTU : &TCP;
+    m->tr.ctx = m;
+    const int r = connect_(m);
+    if (r < 0) {
+        modbus_free(m->mb);
+        m->mb = NULL;
+    }
+    return r;
+}

@@ -1,0 +1,388 @@
+// msid modbus: measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device
+// (docs/modbus-registers.md) through the shared FRF job; msid bench modbus.
+#include "commands.hpp"
+#include "frf_io.hpp"
+#include "param_upload.hpp"
+#include "pipeline.hpp"
+
+extern "C" {
+#include "msid_daq/msid_mb_acq.h"
+#include "msid_daq/msid_modbus.h"
+}
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <unistd.h>
+
+namespace msidcli {
+
+static const char *HELP =
+    "usage: msid modbus measure (--tcp HOST:PORT | --rtu DEVICE [--baud N]) --design design.json -o frf.json [options]\n"
+    "\n"
+    "Upload the design to an msid-modbus/1 device as parameters (holding registers), run every\n"
+    "experiment, poll the device's ring buffer (input registers) and estimate the FRF with its\n"
+    "covariance (msid-frf/1 with an `acquisition` block of counters). docs/modbus-registers.md.\n"
+    "\n"
+    "  --tcp HOST:PORT         Modbus TCP\n"
+    "  --rtu DEVICE            Modbus RTU on a serial port (or pty); --baud N (115200), --parity N|E|O (N),\n"
+    "                          --data-bits 8, --stop-bits 1\n"
+    "  --unit N                unit (slave) id (default 1)\n"
+    "  --design FILE           msid-design/1\n"
+    "  --periods K             periods per experiment (default: the design's, else 8)\n"
+    "  --rate HZ               device sample rate (default 0: the device writes as fast as the host reads);\n"
+    "                          refused when the link cannot carry it; sets fs_hz\n"
+    "  --encoding E            int16 (scaled, default), int32 (scaled) or float32\n"
+    "  --word-order W          ABCD (default), CDAB, BADC or DCBA\n"
+    "  --scale S               value of one int16/int32 step (default 0.001)\n"
+    "  --response-timeout MS   wait for a reply (default 200)   --byte-timeout MS  between bytes (default 50)\n"
+    "  --retries N             attempts after the first (default 5; backoff 20 ms doubling, reconnect on timeout)\n"
+    "  --max-regs N            registers per read, 1..125 (default 125)\n"
+    "  --timeout S             give up when no new sample arrives this long (default 10)\n"
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+
+static double secs_since(const timespec &t0)
+{
+    timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)(t.tv_sec - t0.tv_sec) + 1e-9 * (double)(t.tv_nsec - t0.tv_nsec);
+}
+
+struct Link {
+    msid_modbus m{};
+    bool open = false;
+    std::string name;       // "tcp:127.0.0.1:1502" / "rtu:/dev/pts/3"
+    ~Link() { if (open) m.tr.be->close(m.tr.ctx); }
+};
+
+static uint32_t parse_enum(const Args &a, const char *key, const char *def, const std::vector<std::string> &names)
+{
+    const std::string v = a.get(key, def);
+    for (size_t i = 0; i < names.size(); ++i)
+        if (v == names[i]) return (uint32_t)i;
+    std::string all;
+    for (size_t i = 0; i < names.size(); ++i) all += (i ? (i + 1 == names.size() ? " or " : ", ") : "") + names[i];
+    throw UsageError(fmt("--%s must be %s (got '%s')", key, all.c_str(), v.c_str()));
+}
+
+static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms)
+{
+    msid_modbus_cfg c{};
+    c.response_timeout_ms = resp_ms;
+    c.byte_timeout_ms = byte_ms;
+    c.unit = a.has("unit") ? (int)parse_u32(a.get("unit"), "--unit") : 1;
+    std::string host;
+    if (a.has("tcp") == a.has("rtu")) throw UsageError("give one of --tcp HOST:PORT and --rtu DEVICE");
+    if (a.has("tcp")) {
+        const std::string v = a.get("tcp");
+        const size_t colon = v.rfind(':');
+        if (colon == std::string::npos || colon == 0) throw UsageError("--tcp wants HOST:PORT (got '" + v + "')");
+        host = v.substr(0, colon);
+        const uint32_t port = parse_u32(v.substr(colon + 1), "--tcp port");
+        if (port == 0 || port > 65535) throw UsageError("--tcp port must be 1..65535");
+        if (c.unit > 255) throw UsageError("--unit must be 0..255 on TCP");
+        c.host = host.c_str();
+        c.port = (int)port;
+        L.name = "tcp:" + v;
+    } else {
+        c.rtu = 1;
+        c.device = a.get("rtu").c_str();
+        const uint32_t baud = a.has("baud") ? parse_u32(a.get("baud"), "--baud") : 115200;
+        if (baud < 300 || baud > 4000000) throw UsageError("--baud must be 300..4000000");
+        c.baud = (int)baud;
+        c.parity = "NEO"[parse_enum(a, "parity", "N", {"N", "E", "O"})];
+        c.data_bits = 8 - (int)parse_enum(a, "data-bits", "8", {"8", "7"});
+        c.stop_bits = 1 + (int)parse_enum(a, "stop-bits", "1", {"1", "2"});
+        if (c.unit < 1 || c.unit > 247) throw UsageError("--unit must be 1..247 on RTU");
+        L.name = "rtu:" + a.get("rtu");
+    }
+    if (msid_modbus_open(&L.m, &c) < 0) throw Error(L.m.err);
+    L.open = true;
+}
+
+// Register rate of the link: RTU from baud and framing, TCP measured with full reads.
+static double link_reg_rate(const Args &a, msid_mb_client &cl, uint32_t max_regs, bool &measured)
+{
+    measured = !a.has("rtu");
+    if (!measured) {
+        const msid_modbus &m = *static_cast<msid_modbus *>(cl.tr->ctx);
+        const uint32_t bits = 1u + (uint32_t)m.cfg.data_bits + (m.cfg.parity != 'N') + (uint32_t)m.cfg.stop_bits;
+        return msid_mb_rtu_reg_rate(m.cfg.baud, bits, max_regs);
+    }
+    std::vector<uint16_t> buf(max_regs);
+    timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    uint64_t regs = 0;
+    double el = 0;
+    while ((el = secs_since(t0)) < 0.25) {
+        if (msid_mb_call(&cl, MSID_MB_READ_INPUT, MSID_MB_RING_ADDR, max_regs, buf.data()) < 0)
+            throw Error(std::string("measuring the link: ") + cl.err);
+        regs += max_regs;
+    }
+    return (double)regs / el;
+}
+
+static Json acquisition_json(const Link &L, const msid_mb_client &cl, const msid_mb_acq &q, uint32_t unit,
+                             uint32_t enc, uint32_t wo, double scale, uint32_t rate, uint32_t crc, double lrate,
+                             bool measured, double stream_s)
+{
+    const msid_mb_link_counters &k = cl.cnt;
+    const msid_mb_counters &c = q.cnt;
+    const msid_stream_counters &s = q.st.cnt;
+    Json j;
+    j["transport"] = std::string("modbus-") + cl.tr->be->name;
+    j["endpoint"] = L.name.substr(4);
+    j["unit"] = unit;
+    j["protocol"] = fmt("msid-modbus/%u", MSID_MB_PROTO_VERSION);
+    j["encoding"] = msid_mb_encoding_name(enc);
+    j["word_order"] = msid_mb_word_order_name(wo);
+    j["scale"] = scale;
+    j["rate_hz"] = rate;
+    j["config_crc"] = crc;
+    j["ring_samples"] = cl.h.ring_samples;
+    j["sample_regs"] = q.W;
+    j["link_reg_rate"] = lrate;
+    j["link_reg_rate_from"] = measured ? "measured" : "baud and framing";
+    j["samples"] = s.samples;
+    j["samples_lost"] = s.samples_lost;
+    j["gap_events"] = s.gap_events;
+    j["overrun_samples"] = c.overrun_samples;
+    j["overrun_events"] = c.overrun_events;
+    j["device_overruns"] = c.device_overruns;
+    j["stale_replies"] = c.stale_replies;
+    j["device_restarts"] = c.restarts;
+    j["polls"] = c.polls;
+    j["requests"] = k.requests;
+    j["registers_read"] = k.registers_read;
+    j["registers_written"] = k.registers_written;
+    j["retries"] = k.retries;
+    j["timeouts"] = k.timeouts;
+    j["crc_errors"] = k.crc_errors;
+    j["exceptions"] = k.exceptions;
+    j["bad_replies"] = k.bad_replies;
+    j["io_errors"] = k.io_errors;
+    j["reconnects"] = k.reconnects;
+    j["stream_seconds"] = stream_s;
+    return j;
+}
+
+static int cmd_measure(int argc, char **argv)
+{
+    Args a(argc, argv, 3,
+           {"tcp", "rtu", "baud", "parity", "data-bits", "stop-bits", "unit", "design", "periods", "rate", "encoding",
+            "word-order", "scale", "response-timeout", "byte-timeout", "retries", "max-regs", "timeout",
+            "skip-periods", "transient", "alpha", "detect-lines", "output"},
+           {});
+    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
+    const std::string out = a.require("output");
+    auto D = read_design_file(a.require("design"));
+    const uint32_t enc = parse_enum(a, "encoding", "int16", {"int16", "int32", "float32"});
+    const uint32_t wo = parse_enum(a, "word-order", "ABCD", {"ABCD", "CDAB", "BADC", "DCBA"});
+    StreamFmt sf;
+    if (a.has("scale")) {
+        const double s = parse_double(a.get("scale"), "--scale");
+        if (!(s > 0 && s < 1e30)) throw UsageError("--scale must be positive");
+        sf.scale = (float)s;
+    }
+    sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D->params.periods ? D->params.periods : 8);
+    if (sf.periods < 2 || sf.periods > 100000) throw UsageError("--periods must be 2..100000");
+    if (a.has("rate")) {
+        const double r = parse_double(a.get("rate"), "--rate");
+        if (!(r >= 0 && r <= 4e9) || r != std::floor(r))
+            throw UsageError("--rate must be a whole number of Hz (0: as fast as the host reads)");
+        sf.rate = (uint32_t)r;
+    }
+    const uint32_t resp_ms = a.has("response-timeout") ? parse_u32(a.get("response-timeout"), "--response-timeout") : 200;
+    const uint32_t byte_ms = a.has("byte-timeout") ? parse_u32(a.get("byte-timeout"), "--byte-timeout") : 50;
+    if (resp_ms < 1 || resp_ms > 60000 || byte_ms < 1 || byte_ms > 60000)
+        throw UsageError("--response-timeout and --byte-timeout must be 1..60000 ms");
+    const uint32_t retries = a.has("retries") ? parse_u32(a.get("retries"), "--retries") : 5;
+    if (retries < 1 || retries > 100) throw UsageError("--retries must be 1..100");
+    const uint32_t max_regs = a.has("max-regs") ? parse_u32(a.get("max-regs"), "--max-regs") : MSID_MB_MAX_READ;
+    if (max_regs < 1 || max_regs > MSID_MB_MAX_READ) throw UsageError(fmt("--max-regs must be 1..%u", MSID_MB_MAX_READ));
+    const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
+    if (!(timeout > 0)) throw UsageError("--timeout must be positive");
+    const msid_design &d = D->d;
+    FrfRequest rq;
+    request_from_design(rq, *D);
+    parse_estimate_options(a, rq);
+    if (sf.rate > 0 && !d.is_ct) rq.fs = sf.rate;
+    if (rq.skip + 2 > sf.periods)
+        throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
+    auto cfg = config_from_design(*D, sf);
+
+    // 1. who is there?
+    Link L;
+    open_link(a, L, resp_ms, byte_ms);
+    msid_mb_client cl;
+    msid_mb_client_init(&cl, &L.m.tr, retries, 20);
+    if (msid_mb_read_header(&cl) < 0)
+        throw Error(fmt("no msid-modbus device answered on %s: %s", L.name.c_str(), cl.err));
+    const msid_mb_header &h = cl.h;
+    if (h.version != MSID_MB_PROTO_VERSION)
+        throw Error(fmt("register map version mismatch: the device on %s serves msid-modbus/%u, this host msid-modbus/%u",
+                        L.name.c_str(), h.version, MSID_MB_PROTO_VERSION));
+    if (h.nu != d.n_inputs) throw Error(fmt("the device has %u input(s) but the design has %u", h.nu, d.n_inputs));
+    const uint32_t nu = h.nu, ny = h.ny, m = d.n_experiments, C = nu + ny;
+    if (ny == 0 || ny > MSID_MAX_OUTPUTS || C > MSID_MAX_CHANNELS) throw Error(fmt("the device reports %u outputs", ny));
+    const uint32_t W = msid_mb_sample_regs(enc, C);
+    if (W > max_regs)
+        throw Error(fmt("one sample of %u %s channels takes %u registers, more than --max-regs %u", C,
+                        msid_mb_encoding_name(enc), W, max_regs));
+
+    // 2. can the link carry it?
+    bool measured = false;
+    const double lrate = link_reg_rate(a, cl, max_regs, measured);
+    if (sf.rate > 0 && (double)sf.rate * W > 0.8 * lrate)
+        throw Error(fmt("the link cannot carry %u channels at %u Hz: %.0f registers/s (%u per sample: a tag and %u %s "
+                        "value(s)) but %s carries about %.0f registers/s %s (80%% of it is usable beside header "
+                        "polls and retries); lower --rate%s",
+                        C, sf.rate, (double)sf.rate * W, W, C, msid_mb_encoding_name(enc), L.name.c_str(), lrate,
+                        measured ? "(measured with 125-register reads)"
+                                 : fmt("(%u-register reads at %d baud, from the framing)", max_regs, L.m.cfg.baud).c_str(),
+                        enc != MSID_MB_ENC_S16 ? " or use int16" : ""));
+
+    // 3. upload the design as parameters
+    const size_t nf = msid_can_config_frames(cfg.get(), nullptr, 0);
+    std::vector<uint8_t> rec(nf * 8);
+    msid_can_config_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
+    const uint32_t crc = msid_can_get_u32(&rec[(nf - 1) * 8 + 4]);
+    if (msid_mb_upload(&cl, enc, wo, reinterpret_cast<const uint8_t(*)[8]>(rec.data()), nf) < 0)
+        throw Error(fmt("design upload to %s failed: %s", L.name.c_str(), cl.err));
+    if (h.state == MSID_MB_STATE_ERROR)
+        throw Error(fmt("the device refused the configuration: %s%s", device_error(h.error),
+                        h.error == MSID_CAN_ERR_DESIGN ? (std::string(" (") + msid_strerror((msid_status)h.detail) + ")").c_str() : ""));
+    if (h.state != MSID_MB_STATE_CONFIGURED) throw Error(fmt("the device did not confirm the configuration (state %u)", h.state));
+    if (h.crc != crc) throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", h.crc, crc));
+
+    // 4. run the experiments into the one FRF job
+    FrfJob job(rq, nu, ny, m, sf.periods, 4 * sf.periods + 8);
+    msid_mb_acq_cfg qc{};
+    qc.client = &cl;
+    qc.max_regs = max_regs;
+    // batches sized to the link: about 20 ms of link time per poll
+    const double per_poll = lrate * 0.02 / max_regs;
+    qc.batch = per_poll < 1 ? 1u : per_poll > 64 ? 64u : (uint32_t)per_poll;
+    qc.n_inputs = nu;
+    qc.n_outputs = ny;
+    qc.encoding = enc;
+    qc.word_order = wo;
+    qc.scale = (double)sf.scale;
+    qc.meas = job.meas();
+    Mem mq(msid_mb_acq_mem_size(&qc));
+    msid_mb_acq q;
+    check(msid_mb_acq_init(&q, &qc, mq.p, mq.n), "Modbus adapter setup");
+    double stream_s = 0;
+    for (uint32_t e = 0; e < m; ++e) {
+        if (msid_mb_acq_start(&q, e, sf.periods) < 0)
+            throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
+        timespec t0, last;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        last = t0;
+        for (;;) {
+            int prog = 0;
+            const int r = msid_mb_acq_poll(&q, &prog);
+            if (r == 1) break;
+            if (r == -MSID_DAQ_E_ARG && q.st.err == MSID_E_CAPACITY)
+                throw Error("more periods arrived than the measurement holds (device restarted too often?)");
+            if (r == -MSID_DAQ_E_ARG) check(q.st.err, "measurement");
+            if (r < 0) throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
+            if (prog) clock_gettime(CLOCK_MONOTONIC, &last);
+            else if (secs_since(last) > timeout)
+                throw Error(fmt("the device on %s produced no new sample for %g s during experiment %u", L.name.c_str(),
+                                timeout, e + 1));
+            else usleep(sf.rate ? 2000 : 200);
+        }
+        stream_s += secs_since(t0);
+    }
+
+    std::vector<ExpSource> src;
+    const msid_meas *ms = job.meas();
+    for (uint32_t e = 0; e < m; ++e) {
+        const msid_pstats_counts c = msid_pstats_get_counts(msid_meas_stats(ms, e));
+        src.push_back({fmt("modbus:%s experiment %u", L.name.c_str(), e + 1), ms->samples[e], c.offered,
+                       msid_meas_leftover(ms, e)});
+    }
+    std::vector<std::string> notes;
+    if (q.cnt.overrun_samples)
+        notes.push_back(fmt("%llu sample(s) overwritten in the device's ring before they were read (%llu overrun(s)): "
+                            "the periods they touch were rejected",
+                            (unsigned long long)q.cnt.overrun_samples, (unsigned long long)q.cnt.overrun_events));
+    if (q.cnt.restarts) notes.push_back(fmt("the device restarted %llu time(s)", (unsigned long long)q.cnt.restarts));
+    if (cl.cnt.retries)
+        notes.push_back(fmt("%llu request(s) retried (%llu timeout(s), %llu bad CRC, %llu exception(s), %llu reconnect(s))",
+                            (unsigned long long)cl.cnt.retries, (unsigned long long)cl.cnt.timeouts,
+                            (unsigned long long)cl.cnt.crc_errors, (unsigned long long)cl.cnt.exceptions,
+                            (unsigned long long)cl.cnt.reconnects));
+    FrfOutcome o = job.finish(src, notes);
+    o.doc["acquisition"] = acquisition_json(L, cl, q, (uint32_t)L.m.cfg.unit, enc, wo, (double)sf.scale, sf.rate, crc,
+                                            lrate, measured, stream_s);
+    write_json_file(out, o.doc);
+    for (const auto &n : o.notes) std::fprintf(stderr, "msid modbus: note: %s\n", n.c_str());
+    std::printf("wrote %s: %zu lines, %u x %u, %u experiment(s) over %s (%s %s), %llu samples, %llu missing, "
+                "%llu periods used, %llu rejected\n",
+                out.c_str(), rq.bins.size(), ny, nu, m, L.name.c_str(), msid_mb_encoding_name(enc),
+                msid_mb_word_order_name(wo), (unsigned long long)q.st.cnt.samples,
+                (unsigned long long)q.st.cnt.samples_lost, (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
+                (unsigned long long)o.doc["periods_rejected"].get<uint64_t>());
+    return 0;
+}
+
+// msid bench modbus: tests/modbus/bench_modbus.py with this build's binaries.
+int cmd_bench_modbus(int argc, char **argv)
+{
+    std::vector<std::string> pass;
+    for (int i = 3; i < argc; ++i) {
+        if (!std::strcmp(argv[i], "--help")) {
+            std::fputs("usage: msid bench modbus [--quick]\n"
+                       "The highest sustained sample rate x channels with zero loss from msid-devsim to\n"
+                       "`msid modbus measure` over Modbus TCP on 127.0.0.1 and over RTU at 115200 baud on a\n"
+                       "socat pty pair (the simulator emulates the line's wire time), beside each link's\n"
+                       "theoretical register rate. See docs/benchmarks.md.\n",
+                       stdout);
+            return 0;
+        }
+        if (std::strcmp(argv[i], "--quick")) throw UsageError(std::string("msid bench modbus: unknown option ") + argv[i]);
+        pass.push_back(argv[i]);
+    }
+    std::vector<std::string> args = {"python3", std::string(MSID_SOURCE_DIR) + "/tests/modbus/bench_modbus.py"};
+    args.insert(args.end(), pass.begin(), pass.end());
+    return exec_with_build(args);
+}
+
+int exec_with_build(std::vector<std::string> args)
+{
+    char self[4096];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0) throw Error("cannot find the msid executable (/proc/self/exe)");
+    self[n] = 0;
+    std::string dir(self);
+    dir = dir.substr(0, dir.rfind('/'));
+    const std::string devsim = dir + "/../firmware_sim/msid-devsim";
+    if (access(devsim.c_str(), X_OK) != 0) throw Error("msid-devsim not found next to the build (" + devsim + ")");
+    setenv("MSID_BIN", self, 1);
+    setenv("MSID_DEVSIM", devsim.c_str(), 1);
+    std::vector<char *> av;
+    for (auto &s : args) av.push_back(s.data());
+    av.push_back(nullptr);
+    std::fflush(stdout);
+    execvp(av[0], av.data());
+    throw Error(std::string("cannot run ") + args[0] + ": " + std::strerror(errno));
+}
+
+int cmd_modbus(int argc, char **argv)
+{
+    const std::string sub = argc > 2 ? argv[2] : "";
+    if (sub.empty() || sub == "--help" || sub == "-h") {
+        std::fputs(HELP, sub.empty() ? stderr : stdout);
+        return sub.empty() ? 2 : 0;
+    }
+    for (int i = 3; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
+    if (sub == "measure") return cmd_measure(argc, argv);
+    throw UsageError("unknown subcommand 'modbus " + sub + "' (measure)");
+}
+
+}  // namespace msidcli

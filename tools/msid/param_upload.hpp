@@ -1,0 +1,38 @@
+// The design as the msid-can/1 parameter set (CFG records, CRC-32), shared by the
+// CAN upload (CFG frames) and the Modbus upload (parameter mailbox): the device
+// rebuilds the design from these parameters with lib/, never from samples.
+#pragma once
+#include "design_io.hpp"
+
+extern "C" {
+#include "msid_daq/msid_can_proto.h"
+}
+
+namespace msidcli {
+
+// The design the device builds from `c` (exactly as firmware_sim does).
+struct DevDesign {
+    Mem mtw, md;
+    msid_twiddle tw{};
+    msid_design d{};
+    msid_status st = MSID_OK;
+};
+std::unique_ptr<DevDesign> device_design(const msid_can_config &c);
+
+// Stream options that travel with the design.
+struct StreamFmt {
+    uint32_t encoding = MSID_CAN_ENC_S16, fd = 0, rate = 0, periods = 8;
+    float scale = 0.001f;
+};
+
+// Same lines and coefficients (what the device would generate).
+bool same_coef(const msid_design &a, const msid_design &b);
+
+// The parameter set of a design: the compact form (phase mode + seed) when the device
+// rebuilds exactly the same coefficients from it, else explicit phases. Throws Error.
+std::unique_ptr<msid_can_config> config_from_design(const Design &D, const StreamFmt &s);
+
+// Message of a device error code (MSID_CAN_ERR_*; the Modbus device reports the same codes).
+const char *device_error(uint32_t code);
+
+}  // namespace msidcli
