@@ -62,8 +62,12 @@ void msid_mb_client_init(msid_mb_client *c, msid_mb_transport *tr, uint32_t retr
     c->backoff_ms = backoff_ms ? backoff_ms : 20;
 }
 
-int msid_mb_call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t *regs)
+/* One request with up to `retries` retries; *transient set when the last failure may pass (a
+   timeout, bad CRC or reply, lost connection, busy): the link has been flushed or reconnected. */
+static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t *regs, uint32_t retries,
+                int *transient)
 {
+    *transient = 0;
     const msid_mb_backend *be = a->tr->be;
     void *ctx = a->tr->ctx;
     int rc = 0;
@@ -97,12 +101,6 @@ int msid_mb_call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_
             return rc;
         default: a->cnt.io_errors++; reconnect = 1; break;
         }
-        if (attempt >= a->retries) {
-            snprintf(a->err, sizeof a->err, "no valid reply to %s %u..%u after %u attempts: %s", kind_name(kind), addr,
-                     addr + n - 1, attempt + 1, be->error(ctx));
-            return rc;
-        }
-        a->cnt.retries++;
         uint32_t b = a->backoff_ms << (attempt < 6 ? attempt : 6);
         sleep_ms(b < 1000 ? b : 1000);
         if (reconnect) {
@@ -111,7 +109,20 @@ int msid_mb_call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_
         } else {
             be->flush(ctx);
         }
+        if (attempt >= retries) {
+            snprintf(a->err, sizeof a->err, "no valid reply to %s %u..%u after %u attempts: %s", kind_name(kind), addr,
+                     addr + n - 1, attempt + 1, be->error(ctx));
+            *transient = 1;
+            return rc;
+        }
+        a->cnt.retries++;
     }
+}
+
+int msid_mb_call(msid_mb_client *c, int kind, uint32_t addr, uint32_t n, uint16_t *regs)
+{
+    int transient;
+    return call(c, kind, addr, n, regs, c->retries, &transient);
 }
 
 int msid_mb_read_header(msid_mb_client *a)
@@ -185,7 +196,7 @@ int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods)
     }
     a->exp = e;
     a->r = 0;
-    a->seg = a->cl->h.segment;
+    a->seg = 0;          /* START opens segment 0 at sample 0 (the device may be further already) */
     a->seg_start = 0;
     a->open = msid_stream_begin(&a->st, e) == MSID_OK;
     return a->open ? 0 : -MSID_DAQ_E_ARG;
@@ -236,11 +247,26 @@ static uint64_t ring_low(const msid_mb_acq *a)
     return a->cl->h.write_index > a->cl->h.ring_samples ? (uint64_t)a->cl->h.write_index - a->cl->h.ring_samples : 0;
 }
 
+/* Use the samples of a->buf (sample n at 0) from position i on while their tags follow a->r; returns where it stopped. */
+static uint32_t take(msid_mb_acq *a, uint64_t n, uint32_t i, uint32_t k, uint64_t to, int *prog)
+{
+    const uint32_t W = a->W, vr = msid_mb_value_regs(a->cfg.encoding);
+    for (; i < k && a->r < to; ++i) {
+        const uint16_t *s = a->buf + (size_t)i * W;
+        if (n + i != a->r || s[0] != (uint16_t)(n + i)) break;
+        for (uint32_t c = 0; c < a->C; ++c)
+            a->row[c] = msid_mb_decode_value(s + 1 + c * vr, a->cfg.encoding, a->cfg.word_order, a->cfg.scale);
+        msid_stream_row(&a->st, a->row);
+        a->r++;
+        *prog = 1;
+    }
+    return i;
+}
+
 /* Samples [a->r, to) from the ring, at most *left requests. */
 static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
 {
     const uint32_t R = a->cl->h.ring_samples, W = a->W, per = a->cfg.max_regs / W;
-    const uint32_t vr = msid_mb_value_regs(a->cfg.encoding);
     uint32_t stale = 0;
     while (a->r < to && *left) {
         const uint64_t n = a->r;
@@ -248,25 +274,24 @@ static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
         uint64_t k = to - n;
         if (k > per) k = per;
         if (k > R - slot) k = R - slot;
-        int rc = msid_mb_call(a->cl, MSID_MB_READ_INPUT, a->cl->h.ring_addr + slot * W, (uint32_t)k * W, a->buf);
-        if (rc < 0) return rc;
+        /* one attempt: after a failure the next poll reads the header first, so a retry never
+           asks for slots the device has overwritten meanwhile (and the counts stay the device's) */
+        int transient;
+        int rc = call(a->cl, MSID_MB_READ_INPUT, a->cl->h.ring_addr + slot * W, (uint32_t)k * W, a->buf, 0, &transient);
+        if (rc < 0) return transient ? 0 : rc;
         (*left)--;
-        uint32_t i = 0;
-        for (; i < k; ++i) {
-            const uint16_t *s = a->buf + (size_t)i * W;
-            if (s[0] != (uint16_t)(n + i)) break;
-            for (uint32_t c = 0; c < a->C; ++c)
-                a->row[c] = msid_mb_decode_value(s + 1 + c * vr, a->cfg.encoding, a->cfg.word_order, a->cfg.scale);
-            msid_stream_row(&a->st, a->row);
-            a->r++;
-            *prog = 1;
-        }
+        uint32_t i = take(a, n, 0, (uint32_t)k, to, prog);
         if (i == k) continue;
         /* a tag did not match: overwritten while we read (the header now says so), or a stale reply */
         if ((rc = msid_mb_read_header(a->cl)) < 0) return rc;
         if (a->r < ring_low(a)) {
-            overrun(a, ring_low(a) < to ? ring_low(a) : to);
+            /* within this segment the read position may move past `to`, up to the write index */
+            const uint64_t lim = a->cl->h.segment == a->seg ? a->cl->h.write_index : to;
+            overrun(a, ring_low(a) < lim ? ring_low(a) : lim);
             *prog = 1;
+            /* the reply may hold the newer samples from the new read position on: the device
+               counts them as read, so they are used (their tags prove them) */
+            if (a->r < n + k) take(a, n, (uint32_t)(a->r - n), (uint32_t)k, lim, prog);
         } else if (++stale > a->cl->retries) {
             snprintf(a->cl->err, sizeof a->cl->err, "the ring at sample %llu keeps answering tag %u: the device does not "
                      "follow msid-modbus/%u", (unsigned long long)a->r, a->buf[(size_t)i * W], MSID_MB_PROTO_VERSION);

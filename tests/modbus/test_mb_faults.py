@@ -1,0 +1,134 @@
+"""Every fault mode of the Modbus simulator: the run completes (or stops with one clear error),
+the adapter's counters match what the device injected, no overwritten or corrupted sample is
+used, and the FRF from the good periods is right (bit-identical to a clean run when nothing
+was lost; inside its 95% regions when periods were rejected)."""
+import signal
+import threading
+import time
+
+import pytest
+
+import mblib as c
+
+P, K = 256, 8
+
+
+@pytest.fixture(scope="module")
+def design(tmp_path_factory):
+    return c.excite(tmp_path_factory.mktemp("design"), periods=K)
+
+
+@pytest.fixture(scope="module")
+def clean(design, tmp_path_factory):
+    out = {}
+    for rtu in (False, True):
+        tmp = tmp_path_factory.mktemp("clean")
+        with c.Sim(tmp, "--seed", 4, rtu=rtu) as sim:
+            out[rtu] = c.measure(tmp, sim, design).doc
+    return out
+
+
+def run_fault(design, tmp, *sim_args, rtu=False, extra=()):
+    with c.Sim(tmp, "--seed", 4, *sim_args, rtu=rtu) as sim:
+        r = c.measure(tmp, sim, design, *extra)
+    return r.doc, sim.report(), sim.truth(), r.stderr
+
+
+def test_delayed_replies_time_out_and_are_retried(design, tmp_path, clean):
+    doc, rep, _, err = run_fault(design, tmp_path, "--delay-every", "150:500")
+    a = doc["acquisition"]
+    assert rep["injected"]["delayed"] >= 1
+    # a late reply (500 ms > the 200 ms response timeout) costs the timeouts until the device is back
+    # (the simulator is single-threaded: it answers nothing while it delays); each is answered by a reconnect
+    d = rep["injected"]["delayed"]
+    assert d <= a["timeouts"] <= 3 * d and a["reconnects"] == a["timeouts"] + a["io_errors"]
+    assert a["samples_lost"] == 0 and a["stale_replies"] == 0
+    assert c.frf_equal(doc, clean[False]) and "retried" in err
+
+
+def test_dropped_connection_reconnects(design, tmp_path, clean):
+    doc, rep, _, _ = run_fault(design, tmp_path, "--drop-at", "0:1000")
+    a = doc["acquisition"]
+    assert rep["injected"]["dropped"] == 1
+    assert a["io_errors"] >= 1 and a["reconnects"] >= 1 and a["samples_lost"] == 0
+    assert c.frf_equal(doc, clean[False])
+
+
+def test_dropped_rtu_line_goes_silent_and_recovers(design, tmp_path, clean):
+    doc, rep, _, _ = run_fault(design, tmp_path, "--drop-at", "1:700", rtu=True)
+    a = doc["acquisition"]
+    assert rep["injected"]["dropped"] == 1 and rep["unanswered"] >= 1
+    assert a["timeouts"] == rep["unanswered"] and a["samples_lost"] == 0
+    assert c.frf_equal(doc, clean[True])
+
+
+def test_busy_exceptions_are_retried(design, tmp_path, clean):
+    doc, rep, _, _ = run_fault(design, tmp_path, "--exception-every", "97")
+    a = doc["acquisition"]
+    assert rep["injected"]["exceptions"] >= 10 and a["exceptions"] == rep["injected"]["exceptions"]
+    assert a["retries"] <= a["exceptions"] and a["samples_lost"] == 0
+    assert c.frf_equal(doc, clean[False])
+
+
+def test_other_exceptions_stop_with_a_clear_error(design, tmp_path):
+    with c.Sim(tmp_path, "--exception-every", "40:4") as sim:
+        r = c.measure(tmp_path, sim, design, ok=False)
+    c.fails(tmp_path, r, 1, "exception 4 (server device failure)", "input registers")
+
+
+def test_corrupted_rtu_frames(design, tmp_path, clean):
+    doc, rep, _, _ = run_fault(design, tmp_path, "--corrupt-every", "23", rtu=True)
+    a = doc["acquisition"]
+    assert rep["injected"]["corrupted"] >= 5 and a["crc_errors"] == rep["injected"]["corrupted"]
+    assert a["samples_lost"] == 0 and a["stale_replies"] == 0
+    assert c.frf_equal(doc, clean[True])
+
+
+def periods_hit(ranges):
+    """{experiment: sorted periods} touched by the device's overwritten ranges [e, a, b)."""
+    out = {0: set(), 1: set()}
+    for e, a, b in ranges:
+        out[e] |= {s // P for s in range(a, b)}
+    return {e: sorted(v) for e, v in out.items()}
+
+
+@pytest.mark.parametrize("rtu", [False, True], ids=["tcp", "rtu"])
+def test_stall_overruns_the_ring(design, tmp_path, rtu):
+    """The device stops answering for 300 ms and writes 900 samples into a 512-sample ring: what it
+    overwrote unread is declared missing, those periods are rejected, the rest is used."""
+    doc, rep, truth, err = run_fault(design, tmp_path, "--ring", 512, "--stall-at", "0:900:900", rtu=rtu)
+    a = doc["acquisition"]
+    lost = rep["overrun_samples"]
+    assert rep["injected"]["stalls"] == 1 and lost >= 900 - 512
+    assert a["overrun_samples"] == a["samples_lost"] == a["device_overruns"] == lost
+    assert a["overrun_events"] == len(rep["overrun_ranges"]) and a["timeouts"] >= 1
+    hit = periods_hit(rep["overrun_ranges"])
+    for e, exp in enumerate(doc["experiments"]):
+        assert exp["periods_gap"] == len(hit[e]), (e, exp, hit)
+        assert exp["periods_used"] == K - 1 - len(hit[e])
+    assert doc["periods_rejected"] == sum(len(v) for v in hit.values()) >= 2
+    c.check_coverage(doc, truth, min_fraction=0.0 if rtu else 0.9)
+    assert "overwritten" in err
+
+
+def test_device_restart_mid_run(design, tmp_path):
+    at = 1000
+    doc, rep, truth, _ = run_fault(design, tmp_path, "--restart-at", f"1:{at}")
+    a = doc["acquisition"]
+    assert rep["injected"]["restarts"] == 1 and a["device_restarts"] == 1 and a["samples_lost"] == 0
+    e0, e1 = doc["experiments"]
+    assert e0["periods_used"] == K - 1 and e0["leftover_samples"] == 0
+    assert e1["periods_total"] == at // P + K and e1["periods_skipped"] == 2
+    assert e1["periods_used"] == at // P - 1 + K - 1 and e1["leftover_samples"] == at % P
+    c.check_coverage(doc, truth)
+
+
+def test_device_that_hangs_never_blocks_the_host(design, tmp_path):
+    """SIGSTOP the device mid-run: the host gives up after its retries with one clear error."""
+    with c.Sim(tmp_path) as sim:
+        threading.Timer(0.8, lambda: sim.p.send_signal(signal.SIGSTOP)).start()
+        t0 = time.monotonic()
+        r = c.measure(tmp_path, sim, design, "--rate", 2000, "--response-timeout", 100, "--retries", 3, ok=False)
+        took = time.monotonic() - t0
+    c.fails(tmp_path, r, 1, "no valid reply", "after 4 attempts")
+    assert took < 10, took
