@@ -8,6 +8,8 @@ APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev
 PY_MODS=(numpy jsonschema pytest)
 # CAN tests in the vcan VM (tests/vcan): qemu, busybox for its initramfs, can-utils as the reference.
 APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
+# Modbus (daq/, firmware_sim/, tests/modbus): libmodbus on both ends, socat for RTU pty pairs.
+APT_PKGS+=(libmodbus-dev socat)
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else
   echo "deps: need root (or sudo) to run: $*" >&2; return 1; fi; }
@@ -52,6 +54,18 @@ if [ -n "$need" ]; then
   { python3 -m pip install -q $need || python3 -m pip install -q --break-system-packages $need; } >> deps.log 2>&1 || {
     tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
   [ -z "$(can_missing)" ] || { echo "deps: python modules still missing: $(can_missing)" >&2; exit 1; }
+fi
+
+# pymodbus (PyPI, pinned; needs Python >= 3.10) with pyserial: the independent Modbus peer (tests/modbus).
+PYMODBUS=3.16.1
+mb_missing() { python3 -c "import pymodbus, serial, sys; sys.exit(pymodbus.__version__ != '$PYMODBUS')" 2>/dev/null ||
+  echo "pymodbus[serial]==$PYMODBUS"; }
+need=$(mb_missing)
+if [ -n "$need" ]; then
+  echo "deps: pip installing $need"
+  { python3 -m pip install -q "$need" || python3 -m pip install -q --break-system-packages "$need"; } >> deps.log 2>&1 || {
+    tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
+  [ -z "$(mb_missing)" ] || { echo "deps: pymodbus $PYMODBUS still missing" >&2; exit 1; }
 fi
 
 # The vcan VM boots Debian's own kernel: the package linux-image-amd64 depends on, fetched
