@@ -73,7 +73,7 @@ static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms
     c.response_timeout_ms = resp_ms;
     c.byte_timeout_ms = byte_ms;
     c.unit = a.has("unit") ? (int)parse_u32(a.get("unit"), "--unit") : 1;
-    std::string host;
+    std::string host, device = a.get("rtu");
     if (a.has("tcp") == a.has("rtu")) throw UsageError("give one of --tcp HOST:PORT and --rtu DEVICE");
     if (a.has("tcp")) {
         const std::string v = a.get("tcp");
@@ -88,7 +88,7 @@ static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms
         L.name = "tcp:" + v;
     } else {
         c.rtu = 1;
-        c.device = a.get("rtu").c_str();
+        c.device = device.c_str();
         const uint32_t baud = a.has("baud") ? parse_u32(a.get("baud"), "--baud") : 115200;
         if (baud < 300 || baud > 4000000) throw UsageError("--baud must be 300..4000000");
         c.baud = (int)baud;
