@@ -4,7 +4,6 @@ import json
 import os
 import re
 import select
-import signal
 import subprocess
 import sys
 import time
@@ -46,7 +45,7 @@ class PtyPair:
         return False
 
 
-class Sim:
+class Sim(canlib.Sim):
     """msid-devsim --modbus-tcp 127.0.0.1:0 (a free port) or --modbus-rtu <pty>; `link` gives the
     matching msid options. Stops it with SIGTERM."""
 
@@ -63,14 +62,8 @@ class Sim:
             where = ["--modbus-rtu", self.pty.device, "--baud", "115200"]
         else:
             where = ["--modbus-tcp", "127.0.0.1:0"]
-        self.p = subprocess.Popen([DEVSIM, *where, "--truth", str(self.truth_path), "--report",
-                                   str(self.report_path), "--idle-exit", "60", *self.args],
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        r, _, _ = select.select([self.p.stdout], [], [], 20)
-        line = self.p.stdout.readline() if r else ""
-        if "ready" not in line:
-            self.p.kill()
-            raise RuntimeError(f"msid-devsim did not start: {line!r} {self.p.stderr.read()}")
+        line = self.start([DEVSIM, *where, "--truth", str(self.truth_path), "--report",
+                           str(self.report_path), "--idle-exit", "60", *self.args])
         if self.rtu:
             self.link = ["--rtu", self.pty.host, "--baud", "115200"]
         else:
@@ -79,31 +72,15 @@ class Sim:
         return self
 
     def __exit__(self, *exc):
-        if self.p.poll() is None:
-            self.p.send_signal(signal.SIGCONT)
-            self.p.send_signal(signal.SIGTERM)
         try:
-            rc = self.p.wait(20)
+            self.stop(exc[0] is None)
         finally:
             if self.rtu:
                 self.pty.__exit__(None, None, None)
-        self.stderr = self.p.stderr.read()
-        if exc[0] is None:
-            assert rc == 0, f"msid-devsim exit {rc}: {self.stderr}"
         return False
 
-    def report(self):
-        return json.loads(self.report_path.read_text())
 
-    def truth(self):
-        return json.loads(self.truth_path.read_text())
-
-
-def excite(tmp, period=256, lines="1:120", amp=0.1, periods=8, seed=11, inputs=2, experiments=2, name="design.json"):
-    p = Path(tmp) / name
-    run_ok("excite", "--period", period, "--lines", lines, "--inputs", inputs, "--experiments", experiments,
-           "--periods", periods, "--seed", seed, "--amplitudes", amp, "-o", p)
-    return p
+excite = canlib.excite
 
 
 def measure(tmp, sim, design, *extra, out="frf.json", skip=1, ok=True, timeout=300):

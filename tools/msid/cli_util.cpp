@@ -208,4 +208,22 @@ std::string fmt(const char *f, ...)
     return buf;
 }
 
+int dispatch_subcommand(int argc, char **argv, const char *group, const char *help,
+                        const std::vector<Subcommand> &subs)
+{
+    const std::string sub = argc > 2 ? argv[2] : "";
+    if (sub.empty() || sub == "--help" || sub == "-h") {
+        std::fputs(help, sub.empty() ? stderr : stdout);
+        return sub.empty() ? 2 : 0;
+    }
+    for (int i = 3; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) { std::fputs(help, stdout); return 0; }
+    std::string names;
+    for (const Subcommand &s : subs) {
+        if (sub == s.name) return s.run(argc, argv);
+        names += (names.empty() ? "" : ", ") + std::string(s.name);
+    }
+    throw UsageError("unknown subcommand '" + std::string(group) + " " + sub + "' (" + names + ")");
+}
+
 }  // namespace msidcli

@@ -67,4 +67,14 @@ struct Mem {
 
 std::string fmt(const char *f, ...) __attribute__((format(printf, 1, 2)));
 
+// `msid <group> <sub> ...`: prints `help` (stdout for --help anywhere, stderr and exit 2 when
+// no subcommand is given) or runs the handler named by argv[2]; an unknown name is a usage
+// error listing the known ones.
+struct Subcommand {
+    const char *name;
+    int (*run)(int argc, char **argv);
+};
+int dispatch_subcommand(int argc, char **argv, const char *group, const char *help,
+                        const std::vector<Subcommand> &subs);
+
 }  // namespace msidcli

@@ -583,16 +583,7 @@ int cmd_bench_can(int argc, char **argv)
 
 int cmd_can(int argc, char **argv)
 {
-    const std::string sub = argc > 2 ? argv[2] : "";
-    if (sub.empty() || sub == "--help" || sub == "-h") {
-        std::fputs(HELP, sub.empty() ? stderr : stdout);
-        return sub.empty() ? 2 : 0;
-    }
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
-    if (sub == "measure") return cmd_measure(argc, argv);
-    if (sub == "replay") return cmd_replay(argc, argv);
-    throw UsageError("unknown subcommand 'can " + sub + "' (measure, replay)");
+    return dispatch_subcommand(argc, argv, "can", HELP, {{"measure", cmd_measure}, {"replay", cmd_replay}});
 }
 
 }  // namespace msidcli

@@ -374,15 +374,7 @@ int exec_with_build(std::vector<std::string> args)
 
 int cmd_modbus(int argc, char **argv)
 {
-    const std::string sub = argc > 2 ? argv[2] : "";
-    if (sub.empty() || sub == "--help" || sub == "-h") {
-        std::fputs(HELP, sub.empty() ? stderr : stdout);
-        return sub.empty() ? 2 : 0;
-    }
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
-    if (sub == "measure") return cmd_measure(argc, argv);
-    throw UsageError("unknown subcommand 'modbus " + sub + "' (measure)");
+    return dispatch_subcommand(argc, argv, "modbus", HELP, {{"measure", cmd_measure}});
 }
 
 }  // namespace msidcli

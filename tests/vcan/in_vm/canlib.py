@@ -40,16 +40,27 @@ class Sim:
                      "--idle-exit", "120"] + [str(a) for a in args]
 
     def __enter__(self):
-        self.p = subprocess.Popen(self.args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.start(self.args)
+        return self
+
+    def start(self, argv):
+        """Runs argv and waits (20 s at most) for its ready line, which is returned."""
+        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         r, _, _ = select.select([self.p.stdout], [], [], 20)
         line = self.p.stdout.readline() if r else ""
         if "ready" not in line:
             self.p.kill()
             raise RuntimeError(f"msid-devsim did not start: {line!r} {self.p.stderr.read()}")
-        return self
+        return line
 
     def __exit__(self, *exc):
+        self.stop(exc[0] is None)
+        return False
+
+    def stop(self, check):
+        """SIGCONT (a test may have stopped it) and SIGTERM; with check, the exit status must be 0."""
         if self.p.poll() is None:
+            self.p.send_signal(signal.SIGCONT)
             self.p.send_signal(signal.SIGTERM)
         try:
             rc = self.p.wait(20)
@@ -57,9 +68,8 @@ class Sim:
             self.p.kill()
             raise
         self.stderr = self.p.stderr.read()
-        if exc[0] is None:
+        if check:
             assert rc == 0, f"msid-devsim exit {rc}: {self.stderr}"
-        return False
 
     def report(self):
         return json.loads(self.report_path.read_text())
