@@ -5,13 +5,7 @@
 
 static msid_design_cfg base_cfg(uint32_t P, uint32_t L, const uint32_t *bins, uint32_t nu, uint32_t m)
 {
-    msid_design_cfg c;
-    memset(&c, 0, sizeof c);
-    c.period = P;
-    c.n_lines = L;
-    c.bins = bins;
-    c.n_inputs = nu;
-    c.n_experiments = m;
+    msid_design_cfg c = ut_design_cfg(P, L, bins, nu, m);
     c.phase_mode = MSID_PHASE_RANDOM;
     c.seed = 1;
     c.pattern = MSID_PATTERN_DFT;

@@ -90,9 +90,7 @@ static void compare(const frf_out *a, const frf_out *b, const char *what)
 static void make_data(tsim_design *t, double *rows[M_])
 {
     const uint32_t bins[L_] = {1, 2, 3, 5, 8, 13, 21, 34, 55, 63};
-    msid_design_cfg c;
-    memset(&c, 0, sizeof c);
-    c.period = P_; c.n_lines = L_; c.bins = bins; c.n_inputs = 2; c.n_experiments = M_;
+    msid_design_cfg c = ut_design_cfg(P_, L_, bins, 2, M_);
     c.phase_mode = MSID_PHASE_RANDOM; c.seed = 2024; c.pattern = MSID_PATTERN_DFT;
     UT_STATUS(tsim_design_make(t, &c), MSID_OK);
     const msid_plant_cfg pc = up_mimo();

@@ -16,13 +16,7 @@ static void make_fixture(fixture *f, uint32_t P, uint32_t L, uint32_t nu, uint32
     msid_rng_seed(&r, seed);
     uint32_t bins[64];
     ut_distinct(&r, L, 0, (P - 1) / 2, bins);
-    msid_design_cfg c;
-    memset(&c, 0, sizeof c);
-    c.period = P;
-    c.n_lines = L;
-    c.bins = bins;
-    c.n_inputs = nu;
-    c.n_experiments = m;
+    msid_design_cfg c = ut_design_cfg(P, L, bins, nu, m);
     c.phase_mode = MSID_PHASE_RANDOM;
     c.seed = seed;
     UT_STATUS(tsim_design_make(&f->t, &c), MSID_OK);
@@ -204,9 +198,7 @@ static void test_golden_samples(void **state)
 {
     (void)state;
     const uint32_t bins[5] = {1, 3, 7, 20, 50};
-    msid_design_cfg c;
-    memset(&c, 0, sizeof c);
-    c.period = 128; c.n_lines = 5; c.bins = bins; c.n_inputs = 2; c.n_experiments = 2;
+    msid_design_cfg c = ut_design_cfg(128, 5, bins, 2, 2);
     c.phase_mode = MSID_PHASE_RANDOM; c.seed = 20261122u;
     tsim_design t;
     UT_STATUS(tsim_design_make(&t, &c), MSID_OK);

@@ -79,6 +79,21 @@ static inline void ut_dft_ld(const double *x, size_t stride, uint32_t P, uint32_
     *im = q;
 }
 
+/* Design config with P, L lines at bins, nu inputs, m experiments; every other
+ * field zero: MSID_PHASE_RANDOM with seed 0, MSID_PATTERN_DFT, twiddle set by
+ * tsim_design_make. */
+static inline msid_design_cfg ut_design_cfg(uint32_t P, uint32_t L, const uint32_t *bins, uint32_t nu, uint32_t m)
+{
+    msid_design_cfg c;
+    memset(&c, 0, sizeof c);
+    c.period = P;
+    c.n_lines = L;
+    c.bins = bins;
+    c.n_inputs = nu;
+    c.n_experiments = m;
+    return c;
+}
+
 static inline double ut_cabs(msid_cplx z) { return hypot(z.re, z.im); }
 static inline double ut_cdist(msid_cplx a, msid_cplx b) { return hypot(a.re - b.re, a.im - b.im); }
 static inline msid_cplx ut_c(double re, double im) { msid_cplx z; z.re = re; z.im = im; return z; }
