@@ -74,12 +74,36 @@ static msid_status pipe_run(pipeline *pp, const tsim_design *t, tsim_bench *b, c
 
 static msid_design_cfg dt_cfg(uint32_t P, uint32_t L, const uint32_t *bins, uint32_t nu, uint32_t m)
 {
-    msid_design_cfg c;
-    memset(&c, 0, sizeof c);
-    c.period = P; c.n_lines = L; c.bins = bins; c.n_inputs = nu; c.n_experiments = m;
+    msid_design_cfg c = ut_design_cfg(P, L, bins, nu, m);
     c.phase_mode = MSID_PHASE_SCHROEDER;
     c.pattern = MSID_PATTERN_DFT;
     return c;
+}
+
+/* The setup most tests share: a design, a bench (plant + warm-up) and a seeded rng. */
+typedef struct {
+    tsim_design t;
+    tsim_bench b;
+    msid_rng r;
+} scene;
+
+static void scene_make(scene *s, msid_design_cfg c, msid_plant_cfg pc, uint32_t warmup, uint64_t seed)
+{
+    UT_STATUS(tsim_design_make(&s->t, &c), MSID_OK);
+    UT_STATUS(tsim_bench_make(&s->b, &pc, warmup), MSID_OK);
+    msid_rng_seed(&s->r, seed);
+}
+
+static void scene_free(scene *s)
+{
+    tsim_bench_free(&s->b);
+    tsim_design_free(&s->t);
+}
+
+/* pipe_run on the scene's design, bench and rng. */
+static msid_status scene_run(scene *s, pipeline *pp, const run_opts *o)
+{
+    return pipe_run(pp, &s->t, &s->b, o, &s->r);
 }
 
 static run_opts opts_k(uint32_t m, uint32_t K)
@@ -119,28 +143,23 @@ static void test_noiseless_siso(void **state)
 {
     (void)state;
     const uint32_t bins[] = {1, 3, 5, 8, 13, 20, 31};
-    msid_design_cfg c = dt_cfg(64, 7, bins, 1, 1);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg pc = up_siso();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &pc, 400), MSID_OK);
-    msid_rng r;
-    msid_rng_seed(&r, 1u);
+    scene s;
+    scene_make(&s, dt_cfg(64, 7, bins, 1, 1), up_siso(), 400, 1u);
     pipeline pp;
     run_opts o = opts_k(1, 3);
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     double f[7];
-    bin_freqs(&t.d, f);
-    check_G(&pp.frf, &b.plant, f, 1e-9, "SISO");
+    bin_freqs(&s.t.d, f);
+    check_G(&pp.frf, &s.b.plant, f, 1e-9, "SISO");
     for (uint32_t l = 0; l < 7; ++l)
         UT_CHECK(msid_frf_dof_known_input(&pp.frf, l) == 2.0 && fabs(msid_frf_cond(&pp.frf, l) - 1.0) < 1e-12, "line %u", l);
     UT_CHECK(pp.frf.K_total == 3 && pp.frf.bad_line == -1 && pp.frf.bad_experiment == -1, "%u", pp.frf.K_total);
     pipe_free(&pp);
     /* without warm-up the transient spoils the estimate: the check can fail */
+    const msid_plant_cfg pc = up_siso();
     tsim_bench b0;
     UT_STATUS(tsim_bench_make(&b0, &pc, 0), MSID_OK);
-    UT_STATUS(pipe_run(&pp, &t, &b0, &o, &r), MSID_OK);
+    UT_STATUS(pipe_run(&pp, &s.t, &b0, &o, &s.r), MSID_OK);
     double worst = 0.0;
     for (uint32_t l = 0; l < 7; ++l) {
         msid_cplx G;
@@ -150,36 +169,28 @@ static void test_noiseless_siso(void **state)
     UT_CHECK(worst > 1e-6, "transient not visible: %.3g", worst);
     pipe_free(&pp);
     tsim_bench_free(&b0);
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 static void test_noiseless_mimo(void **state)
 {
     (void)state;
     const uint32_t bins[] = {1, 2, 5, 9, 17, 33, 50, 63};
-    const msid_plant_cfg pc = up_mimo();
     for (uint32_t m = 2; m <= 3; ++m) {
-        msid_design_cfg c = dt_cfg(128, 8, bins, 2, m);
-        tsim_design t;
-        UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-        tsim_bench b;
-        UT_STATUS(tsim_bench_make(&b, &pc, 500), MSID_OK);
-        msid_rng r;
-        msid_rng_seed(&r, 2u);
+        scene s;
+        scene_make(&s, dt_cfg(128, 8, bins, 2, m), up_mimo(), 500, 2u);
         pipeline pp;
         run_opts o = opts_k(m, 3);
-        UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+        UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
         double f[8];
-        bin_freqs(&t.d, f);
-        check_G(&pp.frf, &b.plant, f, 1e-9, m == 2 ? "2x2 m=2" : "2x2 m=3");
+        bin_freqs(&s.t.d, f);
+        check_G(&pp.frf, &s.b.plant, f, 1e-9, m == 2 ? "2x2 m=2" : "2x2 m=3");
         for (uint32_t l = 0; l < 8; ++l) {
             UT_CHECK(fabs(msid_frf_cond(&pp.frf, l) - 1.0) < 1e-9, "cond %.17g", msid_frf_cond(&pp.frf, l));
             UT_CHECK(msid_frf_dof_known_input(&pp.frf, l) == 2.0 * m, "dof_ki %g", msid_frf_dof_known_input(&pp.frf, l));
         }
         pipe_free(&pp);
-        tsim_bench_free(&b);
-        tsim_design_free(&t);
+        scene_free(&s);
     }
 }
 
@@ -189,26 +200,19 @@ static void test_singular_identical_experiments(void **state)
 {
     (void)state;
     const uint32_t bins[] = {2, 3, 7};
-    msid_design_cfg c = dt_cfg(32, 3, bins, 2, 2);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg pc = up_mimo();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &pc, 200), MSID_OK);
-    msid_rng r;
-    msid_rng_seed(&r, 3u);
+    scene s;
+    scene_make(&s, dt_cfg(32, 3, bins, 2, 2), up_mimo(), 200, 3u);
     pipeline pp;
     run_opts o = opts_k(2, 3);
     o.same_rows = 1;   /* experiment 1 repeats experiment 0: Ubar has rank 1 at every line */
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_E_SINGULAR);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_E_SINGULAR);
     UT_CHECK(pp.frf.bad_line == 0, "bad_line %d", (int)pp.frf.bad_line);
     for (uint32_t l = 0; l < 3; ++l) {
         UT_CHECK(msid_frf_line_status(&pp.frf, l) == MSID_LINE_SINGULAR && isnan(msid_frf_G(&pp.frf, l)[0].re) &&
                  isnan(msid_frf_dof(&pp.frf, l)) && !(msid_frf_cond(&pp.frf, l) < 1e12), "line %u", l);
     }
     pipe_free(&pp);
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 /* Statistics built directly: line 1's inputs are the same in every experiment. */
@@ -293,23 +297,16 @@ static void test_few_periods_pipeline(void **state)
 {
     (void)state;
     const uint32_t bins[] = {2, 3, 7};
-    msid_design_cfg c = dt_cfg(32, 3, bins, 2, 2);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg pc = up_mimo();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &pc, 100), MSID_OK);
-    b.sigma_y[0] = b.sigma_y[1] = 0.1;
-    msid_rng r;
-    msid_rng_seed(&r, 4u);
+    scene s;
+    scene_make(&s, dt_cfg(32, 3, bins, 2, 2), up_mimo(), 100, 4u);
+    s.b.sigma_y[0] = s.b.sigma_y[1] = 0.1;
     pipeline pp;
     run_opts o = opts_k(2, 3);
     o.K[1] = 1;
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_E_FEW_PERIODS);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_E_FEW_PERIODS);
     UT_CHECK(pp.frf.bad_experiment == 1, "%d", (int)pp.frf.bad_experiment);
     pipe_free(&pp);
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 /* ---------- folded CT lines and DC lines ---------- */
@@ -332,34 +329,30 @@ static void test_folded_lines_conjugate(void **state)
         c.bins = NULL;
         c.omega = omega;
         c.sample_time = h;
-        tsim_design t;
-        UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-        UT_CHECK(t.d.folded[2] == 1 && t.d.folded[3] == 1 && t.d.folded[0] == 0 && t.d.folded[1] == 0, "%d", 0);
-        tsim_bench b;
-        UT_STATUS(tsim_bench_make(&b, &pcs[mi], 300), MSID_OK);
+        scene s;
+        scene_make(&s, c, pcs[mi], 300, 10u);
+        UT_CHECK(s.t.d.folded[2] == 1 && s.t.d.folded[3] == 1 && s.t.d.folded[0] == 0 && s.t.d.folded[1] == 0, "%d", 0);
         /* noiseless: G at the CT frequency, i.e. conj(G(b/P)) on folded lines */
-        msid_rng r;
-        msid_rng_seed(&r, 10u);
         pipeline pp;
         run_opts o = opts_k(nu, 3);
-        o.folded = t.d.folded;
-        UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
-        check_G(&pp.frf, &b.plant, fct, 1e-9, "folded CT");
+        o.folded = s.t.d.folded;
+        UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
+        check_G(&pp.frf, &s.b.plant, fct, 1e-9, "folded CT");
         pipe_free(&pp);
         /* noisy: with and without the folded flags, the folded lines are exact conjugates */
-        b.sigma_y[0] = b.sigma_y[1] = 0.05;
-        b.sigma_u[0] = b.sigma_u[1] = 0.02;
+        s.b.sigma_y[0] = s.b.sigma_y[1] = 0.05;
+        s.b.sigma_u[0] = s.b.sigma_u[1] = 0.02;
         pipeline pa, pb;
-        msid_rng_seed(&r, 11u);
+        msid_rng_seed(&s.r, 11u);
         o.K[0] = o.K[1] = 6;
-        UT_STATUS(pipe_run(&pa, &t, &b, &o, &r), MSID_OK);
-        msid_rng_seed(&r, 11u);
+        UT_STATUS(scene_run(&s, &pa, &o), MSID_OK);
+        msid_rng_seed(&s.r, 11u);
         run_opts o2 = o;
         o2.folded = NULL;
-        UT_STATUS(pipe_run(&pb, &t, &b, &o2, &r), MSID_OK);
+        UT_STATUS(scene_run(&s, &pb, &o2), MSID_OK);
         const uint32_t g = nu * nu;
         for (uint32_t l = 0; l < 4; ++l) {
-            const int fl = t.d.folded[l];
+            const int fl = s.t.d.folded[l];
             const msid_cplx *Ga = msid_frf_G(&pa.frf, l), *Gb = msid_frf_G(&pb.frf, l);
             const msid_cplx *Ca = msid_frf_cov(&pa.frf, l), *Cb = msid_frf_cov(&pb.frf, l);
             const msid_cplx *Ka = msid_frf_cov_known_input(&pa.frf, l), *Kb = msid_frf_cov_known_input(&pb.frf, l);
@@ -372,8 +365,7 @@ static void test_folded_lines_conjugate(void **state)
         }
         pipe_free(&pa);
         pipe_free(&pb);
-        tsim_bench_free(&b);
-        tsim_design_free(&t);
+        scene_free(&s);
     }
 }
 
@@ -389,26 +381,20 @@ static void test_dc_line_real(void **state)
     (void)state;
     const uint32_t bins[] = {0, 3, 7};
     /* SISO noiseless: value; noisy: still exactly real */
-    msid_design_cfg c = dt_cfg(32, 3, bins, 1, 1);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg ps = up_siso(), pm = up_mimo();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &ps, 300), MSID_OK);
-    msid_rng r;
-    msid_rng_seed(&r, 12u);
+    scene s;
+    scene_make(&s, dt_cfg(32, 3, bins, 1, 1), up_siso(), 300, 12u);
     pipeline pp;
     run_opts o = opts_k(1, 3);
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     double f[3];
-    bin_freqs(&t.d, f);
-    check_G(&pp.frf, &b.plant, f, 1e-9, "DC SISO");
+    bin_freqs(&s.t.d, f);
+    check_G(&pp.frf, &s.b.plant, f, 1e-9, "DC SISO");
     check_dc_real(&pp.frf, "SISO noiseless");
     pipe_free(&pp);
-    b.sigma_y[0] = 0.3;
-    b.sigma_u[0] = 0.1;
+    s.b.sigma_y[0] = 0.3;
+    s.b.sigma_u[0] = 0.1;
     o.K[0] = 5;
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     check_dc_real(&pp.frf, "SISO noisy");
     pipe_free(&pp);
 #ifdef MSID_HAVE_FFTW
@@ -416,30 +402,29 @@ static void test_dc_line_real(void **state)
     UT_STATUS(msid_fft_fftw_create(&fw, 32, MSID_FFTW_ESTIMATE), MSID_OK);
     o.path = MSID_DFT_FFT;
     o.fft = &fw.be;
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     check_dc_real(&pp.frf, "SISO noisy FFTW");
     pipe_free(&pp);
     o.path = MSID_DFT_STREAM;
     o.fft = NULL;
 #endif
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
-    /* 2x2, Hadamard pattern (real at DC), noisy */
-    c = dt_cfg(32, 3, bins, 2, 2);
+    scene_free(&s);
+    /* 2x2, Hadamard pattern (real at DC), noisy; a new design and bench, the rng runs on */
+    msid_design_cfg c = dt_cfg(32, 3, bins, 2, 2);
     c.pattern = MSID_PATTERN_HADAMARD;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    UT_STATUS(tsim_bench_make(&b, &pm, 300), MSID_OK);
-    b.sigma_y[0] = b.sigma_y[1] = 0.2;
+    const msid_plant_cfg pm = up_mimo();
+    UT_STATUS(tsim_design_make(&s.t, &c), MSID_OK);
+    UT_STATUS(tsim_bench_make(&s.b, &pm, 300), MSID_OK);
+    s.b.sigma_y[0] = s.b.sigma_y[1] = 0.2;
     o = opts_k(2, 4);
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     check_dc_real(&pp.frf, "2x2 Hadamard");
     msid_cplx G0[4];
-    msid_plant_frf(&b.plant, 0.0, G0);
+    msid_plant_frf(&s.b.plant, 0.0, G0);
     for (int k = 0; k < 4; ++k)
         UT_CHECK(fabs(msid_frf_G(&pp.frf, 0)[k].re - G0[k].re) < 0.1, "DC G[%d] %.4f vs %.4f", k, msid_frf_G(&pp.frf, 0)[k].re, G0[k].re);
     pipe_free(&pp);
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 /* ---------- covariance and dof closed forms ---------- */
@@ -448,20 +433,14 @@ static void test_covariance_siso_closed_form(void **state)
 {
     (void)state;
     const uint32_t bins[] = {1, 4, 9, 15};
-    msid_design_cfg c = dt_cfg(32, 4, bins, 1, 1);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg ps = up_siso();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &ps, 200), MSID_OK);
-    b.sigma_y[0] = 0.2;
-    b.sigma_u[0] = 0.05;
-    msid_rng r;
-    msid_rng_seed(&r, 13u);
+    scene s;
+    scene_make(&s, dt_cfg(32, 4, bins, 1, 1), up_siso(), 200, 13u);
+    s.b.sigma_y[0] = 0.2;
+    s.b.sigma_u[0] = 0.05;
     pipeline pp;
     const uint32_t K = 7;
     run_opts o = opts_k(1, K);
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     const msid_pstats *st = pp.stats[0];
     for (uint32_t l = 0; l < 4; ++l) {
         const msid_cplx *z = msid_pstats_mean(st, l), *M = msid_pstats_scatter(st, l);
@@ -488,27 +467,20 @@ static void test_covariance_siso_closed_form(void **state)
         UT_CHECK(fabs(msid_frf_snr_db(&pp.frf, l)[0] - snr) <= 1e-9, "line %u snr %.6f vs %.6f", l, msid_frf_snr_db(&pp.frf, l)[0], snr);
     }
     pipe_free(&pp);
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 static void test_dof_unbalanced_mimo(void **state)
 {
     (void)state;
     const uint32_t bins[] = {2, 5, 11};
-    msid_design_cfg c = dt_cfg(32, 3, bins, 2, 2);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg pm = up_mimo();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &pm, 200), MSID_OK);
-    b.sigma_y[0] = b.sigma_y[1] = 0.1;
-    msid_rng r;
-    msid_rng_seed(&r, 14u);
+    scene s;
+    scene_make(&s, dt_cfg(32, 3, bins, 2, 2), up_mimo(), 200, 14u);
+    s.b.sigma_y[0] = s.b.sigma_y[1] = 0.1;
     pipeline pp;
     run_opts o = opts_k(2, 4);
     o.K[1] = 7;
-    UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+    UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     for (uint32_t l = 0; l < 3; ++l) {
         /* W = Ubar^{-1} (m = nu): c_e = |row e of W|^2 / K_e */
         const msid_cplx *z0 = msid_pstats_mean(pp.stats[0], l), *z1 = msid_pstats_mean(pp.stats[1], l);
@@ -527,8 +499,7 @@ static void test_dof_unbalanced_mimo(void **state)
         UT_CHECK(msid_frf_dof(&pp.frf, l) < 9.0 && msid_frf_dof(&pp.frf, l) > 3.0, "dof %g", msid_frf_dof(&pp.frf, l));
     }
     pipe_free(&pp);
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 /* ---------- detection lines ---------- */
@@ -539,15 +510,9 @@ static void test_detection_lines(void **state)
     /* complex bins only: DC and Nyquist are refused as detection lines (real-valued,
      * the F(2m, 2n) test would not hold there) */
     const uint32_t bins[] = {2, 5}, det[] = {9, 13, 15};
-    msid_design_cfg c = dt_cfg(32, 2, bins, 1, 1);
-    tsim_design t;
-    UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
-    const msid_plant_cfg ps = up_siso();
-    tsim_bench b;
-    UT_STATUS(tsim_bench_make(&b, &ps, 200), MSID_OK);
-    b.sigma_y[0] = 1.0;
-    msid_rng r;
-    msid_rng_seed(&r, 15u);
+    scene s;
+    scene_make(&s, dt_cfg(32, 2, bins, 1, 1), up_siso(), 200, 15u);
+    s.b.sigma_y[0] = 1.0;
     const int N = 200;
     const uint32_t K = 6;
     double sum[3] = {0, 0, 0};
@@ -557,7 +522,7 @@ static void test_detection_lines(void **state)
         run_opts o = opts_k(1, K);
         o.n_detect = 3;
         o.detect_bins = det;
-        UT_STATUS(pipe_run(&pp, &t, &b, &o, &r), MSID_OK);
+        UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
         for (uint32_t d = 0; d < 3; ++d) {
             const double p = msid_frf_detect_pvalue(&pp.frf, d)[0];
             /* independent: F = K |ybar|^2 / pooled variance ~ F(2, 2(K-1)) under H0 */
@@ -592,7 +557,7 @@ static void test_detection_lines(void **state)
         o.detect_bins = det;
         o.inj_amp = 3.0;
         o.inj_bin = 9;
-        UT_STATUS(pipe_run(&pp, &t2, &b, &o, &r), MSID_OK);
+        UT_STATUS(pipe_run(&pp, &t2, &s.b, &o, &s.r), MSID_OK);
         const double p9 = msid_frf_detect_pvalue(&pp.frf, 0)[0], p13 = msid_frf_detect_pvalue(&pp.frf, 1)[0];
         UT_CHECK(p9 < 1e-6 && p13 > 1e-6, "m=%u p(bin 9) %.3g p(bin 13) %.3g", m, p9, p13);
         const msid_cplx *dm = msid_frf_detect_mean(&pp.frf, 0);
@@ -601,8 +566,7 @@ static void test_detection_lines(void **state)
         pipe_free(&pp);
         tsim_design_free(&t2);
     }
-    tsim_bench_free(&b);
-    tsim_design_free(&t);
+    scene_free(&s);
 }
 
 static void test_init_errors(void **state)
