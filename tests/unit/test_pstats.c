@@ -17,6 +17,13 @@ static msid_status ps_make(pst *o, uint32_t L, uint32_t q, uint32_t skip, uint32
     return msid_pstats_init(&o->ps, &c, o->mem, n);
 }
 
+/* Offer periods from..to-1 of z (L*q values each) with flags[p] (NULL: 0); each must return MSID_OK. */
+static void ps_add_periods(pst *o, const msid_cplx *z, uint32_t from, uint32_t to, const uint32_t *flags)
+{
+    const size_t n = (size_t)o->ps.n_lines * o->ps.n_channels;
+    for (uint32_t p = from; p < to; ++p) UT_STATUS(msid_pstats_add(&o->ps, z + p * n, flags ? flags[p] : 0), MSID_OK);
+}
+
 /* Random complex periods z[p][l*q + c]: offset mean + circular Gaussian noise. */
 static msid_cplx *make_periods(uint32_t K, uint32_t L, uint32_t q, double offset, double sigma, msid_rng *r)
 {
@@ -28,6 +35,18 @@ static msid_cplx *make_periods(uint32_t K, uint32_t L, uint32_t q, double offset
             z[(size_t)p * L * q + k] = ut_c(mu[k].re + sigma * msid_rng_normal(r), mu[k].im + sigma * msid_rng_normal(r));
     free(mu);
     return z;
+}
+
+/* A fresh trial on o: reset, offer K new periods (offset mean, unit noise) and detect.
+ * Return values are not checked (the callers check the outcome). */
+static void ps_trial(pst *o, uint32_t K, double offset, msid_rng *r)
+{
+    const uint32_t L = o->ps.n_lines, q = o->ps.n_channels;
+    msid_pstats_reset(&o->ps);
+    msid_cplx *z = make_periods(K, L, q, offset, 1.0, r);
+    for (uint32_t p = 0; p < K; ++p) msid_pstats_add(&o->ps, z + (size_t)p * L * q, 0);
+    msid_pstats_detect(&o->ps);
+    free(z);
 }
 
 /* Two-pass long-double mean and scatter over the periods listed in use[]. */
@@ -122,7 +141,7 @@ static void test_skip_gap_nonfinite(void **state)
     for (int hist = 0; hist < 2; ++hist) {
         pst o;
         UT_STATUS(ps_make(&o, L, q, 3, hist ? 16 : 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
-        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, fl[p]), MSID_OK);
+        ps_add_periods(&o, z, 0, K, fl);
         /* valid periods: 1, 3, 5 (skipped), 6, 8, 9, 11 (used) */
         const uint32_t use[] = {6, 8, 9, 11};
         check_against_two_pass(&o.ps, z, use, 4, 1e-12);
@@ -132,7 +151,7 @@ static void test_skip_gap_nonfinite(void **state)
         UT_CHECK(msid_pstats_history(&o.ps) == (hist ? 4u : 0u), "history %u", msid_pstats_history(&o.ps));
         /* a new segment skips 3 valid periods again; statistics and counters are kept */
         msid_pstats_new_segment(&o.ps);
-        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, fl[p]), MSID_OK);
+        ps_add_periods(&o, z, 0, K, fl);
         const uint32_t use2[] = {6, 8, 9, 11, 6, 8, 9, 11};
         check_against_two_pass(&o.ps, z, use2, 8, 1e-12);
         const msid_pstats_counts n2 = msid_pstats_get_counts(&o.ps);
@@ -153,7 +172,7 @@ static void test_capacity(void **state)
     UT_STATUS(ps_make(&o, L, q, 1, 5, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
     UT_STATUS(msid_pstats_add(&o.ps, z, 0), MSID_OK);                 /* skipped: not stored */
     UT_STATUS(msid_pstats_add(&o.ps, z + 1 * L * q, MSID_PERIOD_GAP), MSID_OK);  /* gap: not stored */
-    for (uint32_t p = 2; p < 7; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
+    ps_add_periods(&o, z, 2, 7, NULL);
     UT_STATUS(msid_pstats_add(&o.ps, z + 7 * L * q, 0), MSID_E_CAPACITY);
     const uint32_t use[] = {2, 3, 4, 5, 6};
     check_against_two_pass(&o.ps, z, use, 5, 1e-12);
@@ -237,7 +256,7 @@ static void test_transient_pvalue_closed_form(void **state)
         msid_cplx *z = make_periods(K, 1, 1, 3.0, 1.0, &r);
         pst o;
         UT_STATUS(ps_make(&o, 1, 1, 0, K, MSID_TRANSIENT_FLAG, 1e-9), MSID_OK);
-        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + p, 0), MSID_OK);
+        ps_add_periods(&o, z, 0, K, NULL);
         UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
         UT_CHECK(msid_pstats_get_counts(&o.ps).tested == 1, "K=%u", K);
         for (uint32_t p = 0; p < K; ++p) {
@@ -284,8 +303,8 @@ static void test_transient_drop(void **state)
         pst o, ref;
         UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_DROP, 0.01), MSID_OK);
         UT_STATUS(ps_make(&ref, L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
-        for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
-        for (uint32_t p = 1; p < K; ++p) UT_STATUS(msid_pstats_add(&ref.ps, z + (size_t)p * L * q, 0), MSID_OK);
+        ps_add_periods(&o, z, 0, K, NULL);
+        ps_add_periods(&ref, z, 1, K, NULL);
         UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
         double pv;
         UT_CHECK(msid_pstats_period_state(&o.ps, 0, &pv) == 2 && pv < level(0.01, 0, K), "trial %d: period 0 state %d p %.3g", trial,
@@ -318,7 +337,7 @@ static void test_transient_flag_keeps_stats(void **state)
     for (uint32_t k = 0; k < L * q; ++k) z[k].re += 8.0;
     pst o;
     UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
-    for (uint32_t p = 0; p < K; ++p) UT_STATUS(msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0), MSID_OK);
+    ps_add_periods(&o, z, 0, K, NULL);
     msid_cplx *mean0 = (msid_cplx *)malloc(sizeof(msid_cplx) * L * q), *m20 = (msid_cplx *)malloc(sizeof(msid_cplx) * L * q * q);
     memcpy(mean0, o.ps.mean, sizeof(msid_cplx) * L * q);
     memcpy(m20, o.ps.m2, sizeof(msid_cplx) * L * q * q);
@@ -357,10 +376,7 @@ static void test_transient_flag_levels(void **state)
     UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_FLAG, alpha), MSID_OK);
     uint32_t nflag = 0, nkeep = 0;
     for (int t = 0; t < 300; ++t) {
-        msid_pstats_reset(&o.ps);
-        msid_cplx *z = make_periods(K, L, q, 1.0, 1.0, &r);
-        for (uint32_t p = 0; p < K; ++p) msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0);
-        msid_pstats_detect(&o.ps);
+        ps_trial(&o, K, 1.0, &r);
         uint32_t flagged = 0;
         for (uint32_t p = 0; p < K; ++p) {
             double pv;
@@ -372,7 +388,6 @@ static void test_transient_flag_levels(void **state)
             nkeep += (uint32_t)!want;
         }
         UT_CHECK(msid_pstats_get_counts(&o.ps).transient_flagged == flagged && msid_pstats_count(&o.ps) == K, "trial %d", t);
-        free(z);
     }
     UT_CHECK(nflag > 20 && nkeep > 20, "both outcomes exercised: %u flagged, %u kept", nflag, nkeep);
     tsim_free(o.mem);
@@ -389,12 +404,8 @@ static void test_transient_false_alarm_rate(void **state)
     UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_DROP, alpha), MSID_OK);
     uint32_t any = 0;
     for (uint32_t t = 0; t < N; ++t) {
-        msid_pstats_reset(&o.ps);
-        msid_cplx *z = make_periods(K, L, q, 3.0, 1.0, &r);
-        for (uint32_t p = 0; p < K; ++p) msid_pstats_add(&o.ps, z + (size_t)p * L * q, 0);
-        msid_pstats_detect(&o.ps);
+        ps_trial(&o, K, 3.0, &r);
         any += msid_pstats_get_counts(&o.ps).transient_flagged > 0;
-        free(z);
     }
     const double frac = (double)any / N, bound = alpha + 4.0 * sqrt(alpha * (1 - alpha) / N);
     print_message("transient false alarms: %u of %u experiments (bound %.3f)\n", any, N, bound);
