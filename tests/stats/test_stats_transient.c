@@ -40,13 +40,34 @@ static mc_case tcase(const char *name, msid_transient_mode mode, int from_rest)
     return c;
 }
 
+/* Run the Monte Carlo of c into r and print its summary. */
+static void run_case(const mc_case *c, mc_result *r)
+{
+    assert_int_equal(mc_run(c, r), 0);
+    mc_print(c->name, r);
+}
+
+/* The FRF is right: no bias, covariance as reported, 95% regions cover 95%. */
+static void check_frf_right(const mc_result *r)
+{
+    assert_int_equal(mc_check_bias(r, 4.5), 0);
+    assert_int_equal(mc_check_cov(r, 0, 4.5), 0);
+    assert_true(fabs(r->cov_elem_a - 0.95) <= 0.025);
+}
+
+/* Stationary data: dropped periods per experiment within alpha = 0.01 plus a
+ * binomial 4.5 sigma margin over R experiments. */
+static void check_rarely_flagged(const mc_result *r, uint32_t R)
+{
+    assert_true(r->mean_dropped <= 0.01 + 4.5 * sqrt(0.01 * 0.99 / R));
+}
+
 static void transient_biases_when_ignored(void **s)
 {
     (void)s;
     static mc_result r;
     mc_case c = tcase("rest-off", MSID_TRANSIENT_OFF, 1);
-    assert_int_equal(mc_run(&c, &r), 0);
-    mc_print(c.name, &r);
+    run_case(&c, &r);
     assert_true(mc_check_bias(&r, 4.5) > 0);
 }
 
@@ -57,12 +78,9 @@ static void transient_dropped(void **s)
     static mc_result r;
     mc_case c = tcase("rest-drop", MSID_TRANSIENT_DROP, 1);
     c.sigma_y = 0.1;
-    assert_int_equal(mc_run(&c, &r), 0);
-    mc_print(c.name, &r);
+    run_case(&c, &r);
     assert_true(r.mean_dropped >= 0.99);
-    assert_int_equal(mc_check_bias(&r, 4.5), 0);
-    assert_int_equal(mc_check_cov(&r, 0, 4.5), 0);
-    assert_true(fabs(r.cov_elem_a - 0.95) <= 0.025);
+    check_frf_right(&r);
 }
 
 /* A weak transient (t ~ 15 per line, about one noise sd on the averaged FRF):
@@ -72,8 +90,7 @@ static void weak_transient_power(void **s)
     (void)s;
     static mc_result r;
     mc_case c = tcase("rest-drop-weak", MSID_TRANSIENT_DROP, 1);
-    assert_int_equal(mc_run(&c, &r), 0);
-    mc_print(c.name, &r);
+    run_case(&c, &r);
     assert_true(r.mean_dropped > 0.5);
 }
 
@@ -82,13 +99,10 @@ static void stationary_rarely_flagged(void **s)
     (void)s;
     static mc_result r;
     mc_case c = tcase("steady-drop", MSID_TRANSIENT_DROP, 0);
-    assert_int_equal(mc_run(&c, &r), 0);
-    mc_print(c.name, &r);
-    /* alpha = 0.01 per experiment (conservative test): binomial 4.5 sigma margin */
-    assert_true(r.mean_dropped <= 0.01 + 4.5 * sqrt(0.01 * 0.99 / c.R));
-    assert_int_equal(mc_check_bias(&r, 4.5), 0);
-    assert_int_equal(mc_check_cov(&r, 0, 4.5), 0);
-    assert_true(fabs(r.cov_elem_a - 0.95) <= 0.025);
+    run_case(&c, &r);
+    /* alpha = 0.01 per experiment (conservative test) */
+    check_rarely_flagged(&r, c.R);
+    check_frf_right(&r);
 }
 
 /* With a DC line (real-valued spectra: the leave-one-out statistic is F(1, K-2)
@@ -103,12 +117,9 @@ static void stationary_with_dc_rarely_flagged(void **s)
     c.design.n_lines = 3;
     c.design.bins = BDC;
     c.R = 4000;
-    assert_int_equal(mc_run(&c, &r), 0);
-    mc_print(c.name, &r);
-    assert_true(r.mean_dropped <= 0.01 + 4.5 * sqrt(0.01 * 0.99 / c.R));
-    assert_int_equal(mc_check_bias(&r, 4.5), 0);
-    assert_int_equal(mc_check_cov(&r, 0, 4.5), 0);
-    assert_true(fabs(r.cov_elem_a - 0.95) <= 0.025);
+    run_case(&c, &r);
+    check_rarely_flagged(&r, c.R);
+    check_frf_right(&r);
 }
 
 int main(void)
