@@ -49,23 +49,57 @@ static MatC lmfd_G(const VecR &th, size_t ny, size_t nu, int nD, int nN, cd z)
     return D.inverse() * N;
 }
 
+// The 20 lines (P = 256) of the DT ml tests.
+static const std::vector<uint32_t> ML_BINS = {1, 2, 3, 4, 5, 6, 8, 10, 12, 14, 17, 20, 24, 28, 33, 40, 48, 56, 64, 80};
+
+// The 2x2 DT test model, second order (nD = nN = 2).
+static LmfdModel mimo_lmfd()
+{
+    MatR D1(2, 2), D2(2, 2), N0(2, 2), N1(2, 2), N2(2, 2);
+    D1 << -1.2, 0.1, 0.05, -0.9;
+    D2 << 0.5, 0.0, 0.0, 0.3;
+    N0 << 0.2, 0.0, 0.0, 0.1;
+    N1 << 0.5, 0.2, 0.1, 0.4;
+    N2 << 0.3, -0.1, 0.2, 0.2;
+    LmfdModel lm;
+    lm.domain = Domain::DT;
+    lm.nD = 2;
+    lm.nN = 2;
+    lm.Dm = {D1, D2};
+    lm.Nm = {N0, N1, N2};
+    return lm;
+}
+
+// Smallest dof over the weighted lines (for the cost law).
+static double min_dof(const std::vector<WeightedLine> &w)
+{
+    double nmin = 1e300;
+    for (const auto &l : w) nmin = std::min(nmin, l.dof);
+    return nmin;
+}
+
+static LmfdSpec spec(int nD, int nN)
+{
+    LmfdSpec s;
+    s.nD = nD;
+    s.nN = nN;
+    return s;
+}
+
 struct CrbCase {
     VecR theta0;
     size_t ny, nu;
     int nD, nN;
-    uint32_t K, R, m;
+    uint32_t K = 20, R, m;
     double sigma;
-    std::vector<uint32_t> bins;
-    uint32_t P;
+    std::vector<uint32_t> bins = ML_BINS;
+    uint32_t P = 256;
     Weight weight;
 };
 
 static SSModel realise(const CrbCase &c)
 {
-    LmfdSpec s;
-    s.nD = c.nD;
-    s.nN = c.nN;
-    return lmfd_to_ss(lmfd_unpack(c.theta0, s, c.ny, c.nu, Domain::DT, 0.0));
+    return lmfd_to_ss(lmfd_unpack(c.theta0, spec(c.nD, c.nN), c.ny, c.nu, Domain::DT, 0.0));
 }
 
 static void run_crb(const CrbCase &c, const char *name)
@@ -116,9 +150,7 @@ static void run_crb(const CrbCase &c, const char *name)
     const MatR crb = F.inverse();
     msid_rng rng;
     msid_rng_seed(&rng, 777);
-    LmfdSpec s;
-    s.nD = c.nD;
-    s.nN = c.nN;
+    const LmfdSpec s = spec(c.nD, c.nN);
     std::vector<VecR> th;
     MatR rep = MatR::Zero(np, np);
     double Vsum = 0, Esum = 0;
@@ -133,9 +165,7 @@ static void run_crb(const CrbCase &c, const char *name)
         rep += res.cov;
         Vsum += res.cost;
         Esum += res.cost_expected;
-        double nmin = 1e300;
-        for (const auto &l : w) nmin = std::min(nmin, l.dof);
-        reject += cost_pvalue(cost_law(res.dof, nmin, (double)c.ny), res.cost) < 0.05;
+        reject += cost_pvalue(cost_law(res.dof, min_dof(w), (double)c.ny), res.cost) < 0.05;
     }
     VecR mean = VecR::Zero(np);
     for (auto &t : th) mean += t;
@@ -173,12 +203,9 @@ static void ml_crb_siso(void **)
     c.theta0 << -1.2, 0.7, 0.1, 0.38, 0.37;       // (0.1 + 0.38 q + 0.37 q^2) / (1 - 1.2 q + 0.7 q^2), q = 1/z
     c.ny = c.nu = 1;
     c.nD = c.nN = 2;
-    c.K = 20;
     c.R = 3000;
     c.m = 1;
     c.sigma = 0.5;
-    c.bins = {1, 2, 3, 4, 5, 6, 8, 10, 12, 14, 17, 20, 24, 28, 33, 40, 48, 56, 64, 80};
-    c.P = 256;
     c.weight = Weight::Cov;
     run_crb(c, "ml-siso");
 }
@@ -189,25 +216,10 @@ static void ml_crb_mimo(void **)
     c.ny = c.nu = 2;
     c.nD = c.nN = 2;
     // per output row k: D1[k,:], D2[k,:], N0[k,:], N1[k,:], N2[k,:]
-    MatR D1(2, 2), D2(2, 2), N0(2, 2), N1(2, 2), N2(2, 2);
-    D1 << -1.2, 0.1, 0.05, -0.9;
-    D2 << 0.5, 0.0, 0.0, 0.3;
-    N0 << 0.2, 0.0, 0.0, 0.1;
-    N1 << 0.5, 0.2, 0.1, 0.4;
-    N2 << 0.3, -0.1, 0.2, 0.2;
-    LmfdModel lm;
-    lm.domain = Domain::DT;
-    lm.nD = 2;
-    lm.nN = 2;
-    lm.Dm = {D1, D2};
-    lm.Nm = {N0, N1, N2};
-    c.theta0 = lmfd_pack(lm);
-    c.K = 20;
+    c.theta0 = lmfd_pack(mimo_lmfd());
     c.R = 1200;
     c.m = 2;
     c.sigma = 0.3;
-    c.bins = {1, 2, 3, 4, 5, 6, 8, 10, 12, 14, 17, 20, 24, 28, 33, 40, 48, 56, 64, 80};
-    c.P = 256;
     c.weight = Weight::KnownInput;
     run_crb(c, "ml-2x2");
 }
@@ -268,33 +280,23 @@ static void ml_ct_within_uncertainty(void **)
 // calibrated (conservative), using the per-experiment dof for the inverse moments.
 static void ml_cost_calibrated_mimo_cov(void **)
 {
-    MatR D1(2, 2), D2(2, 2), N0(2, 2), N1(2, 2), N2(2, 2);
-    D1 << -1.2, 0.1, 0.05, -0.9; D2 << 0.5, 0.0, 0.0, 0.3;
-    N0 << 0.2, 0, 0, 0.1; N1 << 0.5, 0.2, 0.1, 0.4; N2 << 0.3, -0.1, 0.2, 0.2;
-    LmfdModel lm;
-    lm.domain = Domain::DT; lm.nD = 2; lm.nN = 2; lm.Dm = {D1, D2}; lm.Nm = {N0, N1, N2};
-    static const uint32_t bins[] = {1, 2, 3, 4, 5, 6, 8, 10, 12, 14, 17, 20, 24, 28, 33, 40, 48, 56, 64, 80};
     fitsim::Bench b;
-    b.design.period = 256; b.design.n_lines = 20; b.design.bins = bins; b.design.n_inputs = 2; b.design.n_experiments = 2;
-    b.design.seed = 5; b.ny = 2; b.K = 8; b.sigma_y = 0.3; b.clean = fitsim::dt_plant(lmfd_to_ss(lm));
+    b.design.period = 256; b.design.n_lines = 20; b.design.bins = ML_BINS.data(); b.design.n_inputs = 2; b.design.n_experiments = 2;
+    b.design.seed = 5; b.ny = 2; b.K = 8; b.sigma_y = 0.3; b.clean = fitsim::dt_plant(lmfd_to_ss(mimo_lmfd()));
     fitsim::Runner run(b);
     msid_rng rng;
     msid_rng_seed(&rng, 17);
     const int R = 300;
     double Vs = 0, Es = 0;
     int rej = 0;
-    LmfdSpec s;
-    s.nD = 2;
-    s.nN = 2;
+    const LmfdSpec s = spec(2, 2);
     for (int r = 0; r < R; ++r) {
         const FrfData f = run.run(rng);
         const auto w = weigh(f, Domain::DT, Weight::Cov);
         const MlResult res = lmfd_ml(w, Domain::DT, 0, s, lmfd_sk(w, Domain::DT, 0, s, 30), MlOptions(), false);
-        double nmin = 1e300;
-        for (const auto &l : w) nmin = std::min(nmin, l.dof);
         Vs += res.cost;
         Es += res.cost_expected;
-        rej += cost_pvalue(cost_law(res.dof, nmin, 2.0), res.cost) < 0.05;
+        rej += cost_pvalue(cost_law(res.dof, min_dof(w), 2.0), res.cost) < 0.05;
     }
     std::printf("[ml-2x2-cov-K8] mean cost %.2f vs expected %.2f, rejected at 5%% in %.3f of %d runs\n", Vs / R, Es / R, (double)rej / R, R);
     assert_true(Vs / Es > 0.85 && Vs / Es < 1.05);
@@ -310,9 +312,8 @@ static void ml_undermodelled_rejected(void **)
     pl.B = MatR(2, 1); pl.B << 1, 0;
     pl.C = MatR(1, 2); pl.C << 0.5, 0.3;
     pl.D = MatR(1, 1); pl.D << 0.1;
-    static const uint32_t bins[] = {1, 2, 3, 4, 5, 6, 8, 10, 12, 14, 17, 20, 24, 28, 33, 40, 48, 56, 64, 80};
     fitsim::Bench b;
-    b.design.period = 256; b.design.n_lines = 20; b.design.bins = bins; b.design.n_inputs = 1; b.design.n_experiments = 1;
+    b.design.period = 256; b.design.n_lines = 20; b.design.bins = ML_BINS.data(); b.design.n_inputs = 1; b.design.n_experiments = 1;
     b.ny = 1; b.K = 20; b.sigma_y = 0.5; b.clean = fitsim::dt_plant(pl);
     fitsim::Runner run(b);
     msid_rng rng;
@@ -322,13 +323,9 @@ static void ml_undermodelled_rejected(void **)
     for (int r = 0; r < R; ++r) {
         const FrfData f = run.run(rng);
         const auto w = weigh(f, Domain::DT, Weight::Cov);
-        LmfdSpec s;
-        s.nD = 1;
-        s.nN = 1;
+        const LmfdSpec s = spec(1, 1);
         const MlResult res = lmfd_ml(w, Domain::DT, 0.0, s, lmfd_sk(w, Domain::DT, 0.0, s, 30), MlOptions(), false);
-        double nmin = 1e300;
-        for (const auto &l : w) nmin = std::min(nmin, l.dof);
-        rej += cost_pvalue(cost_law(res.dof, nmin, 1.0), res.cost) < 0.05;
+        rej += cost_pvalue(cost_law(res.dof, min_dof(w), 1.0), res.cost) < 0.05;
     }
     std::printf("[undermodelled] rejected at 5%% in %d of %d runs\n", rej, R);
     assert_true(rej >= 95);
@@ -449,17 +446,24 @@ static void pintelon_p1(void **)
 
 // ---------------- González §V-B(3) (G3) ----------------
 
-static void gonzalez_g3(void **)
+// G0(s) = 2/(s+1), the plant of González's cases G3 and G4.
+static SSModel two_over_s_plus_1()
 {
-    // G0(s) = 2/(s+1); u = 1/2 + cos(2t - pi/2); sigma^2 = 0.25; h = pi/10; N = 20..300 step 10
-    const double omega[2] = {0.0, 2.0}, amp[2] = {0.5, 1.0}, ph[2] = {0.0, -0.25};
-    const double h = M_PI / 10, sigma = 0.5;
     SSModel pl;
     pl.domain = Domain::CT;
     pl.A = MatR::Constant(1, 1, -1.0);
     pl.B = MatR::Constant(1, 1, 1.0);
     pl.C = MatR::Constant(1, 1, 2.0);
     pl.D = MatR::Zero(1, 1);
+    return pl;
+}
+
+static void gonzalez_g3(void **)
+{
+    // G0(s) = 2/(s+1); u = 1/2 + cos(2t - pi/2); sigma^2 = 0.25; h = pi/10; N = 20..300 step 10
+    const double omega[2] = {0.0, 2.0}, amp[2] = {0.5, 1.0}, ph[2] = {0.0, -0.25};
+    const double h = M_PI / 10, sigma = 0.5;
+    const SSModel pl = two_over_s_plus_1();
     const int R = 1000;
     std::vector<double> Ns, emp90, bnd;
     for (uint32_t N = 20; N <= 300; N += 10) {
@@ -482,9 +486,7 @@ static void gonzalez_g3(void **)
         msid_rng_seed(&rng, 300 + N);
         std::vector<double> err;
         double bound = 0;
-        LmfdSpec s;
-        s.nD = 1;
-        s.nN = 0;
+        const LmfdSpec s = spec(1, 0);
         for (int r = 0; r < R; ++r) {
             const FrfData f = run.run(rng);
             const auto w = weigh(f, Domain::CT, Weight::KnownInput, sigma * sigma);   // Sigma known (Thm 5)
@@ -605,10 +607,7 @@ static void direct_g4(void **)
     msid_design_cfg dc{};
     dc.period = 7; dc.n_lines = 3; dc.omega = om; dc.sample_time = 4.0 / 7.0; dc.amplitudes = amp;
     dc.n_inputs = 1; dc.n_experiments = 1; dc.seed = 9;
-    SSModel pl;
-    pl.domain = Domain::CT;
-    pl.A = MatR::Constant(1, 1, -1.0); pl.B = MatR::Constant(1, 1, 1.0); pl.C = MatR::Constant(1, 1, 2.0); pl.D = MatR::Zero(1, 1);
-    direct_case("direct-G4", pl, dc, 1, 38, 0.4, 4000);
+    direct_case("direct-G4", two_over_s_plus_1(), dc, 1, 38, 0.4, 4000);
 }
 
 static void direct_mimo_aliased(void **)

@@ -99,6 +99,21 @@ static double rel_err_on(const SSModel &a, const SSModel &b, const std::vector<d
     return std::sqrt(e / n);
 }
 
+static LmfdSpec spec(int nD, int nN)
+{
+    LmfdSpec s;
+    s.nD = nD;
+    s.nN = nN;
+    return s;
+}
+
+// Cases G1, G2: one CT line at w1 (h = 0.1) with value G, variance 0.01, weighted by its covariance.
+static std::vector<WeightedLine> one_line(double w1, cd G)
+{
+    const FrfData f = exact_data(Domain::CT, 0.1, {w1}, {MatC::Constant(1, 1, G)}, 0.01);
+    return weigh(f, Domain::CT, Weight::Cov);
+}
+
 static void expect_error(const std::function<void()> &f, const std::string &phrase)
 {
     try {
@@ -120,12 +135,8 @@ static void g1_closed_form(void **)
 {
     const double w1 = 1.0 / std::sqrt(2.0);
     for (cd G : {cd(1.3, -0.6), cd(0.9, -0.85), cd(2.0, 0.3)}) {
-        FrfData f = exact_data(Domain::CT, 0.1, {w1}, {MatC::Constant(1, 1, G)}, 0.01);
-        auto w = weigh(f, Domain::CT, Weight::Cov);
-        LmfdSpec s;
-        s.nD = 1;
-        s.nN = 0;
-        const ClosedForm cf = lmfd_closed_form(w, Domain::CT, 0.1, s);
+        const auto w = one_line(w1, G);
+        const ClosedForm cf = lmfd_closed_form(w, Domain::CT, 0.1, spec(1, 0));
         assert_true(cf.unique);
         const double a1 = -G.imag() / (w1 * G.real()), b0 = std::norm(G) / G.real();
         std::printf("G1: a1 %.15g vs %.15g, b0 %.15g vs %.15g\n", cf.model.Dm[0](0, 0), a1, cf.model.Nm[0](0, 0), b0);
@@ -140,11 +151,8 @@ static void g2_family(void **)
 {
     const double w1 = 1.0 / std::sqrt(2.0);
     const cd G(1.3, -0.6);
-    FrfData f = exact_data(Domain::CT, 0.1, {w1}, {MatC::Constant(1, 1, G)}, 0.01);
-    auto w = weigh(f, Domain::CT, Weight::Cov);
-    LmfdSpec s;
-    s.nD = 1;
-    s.nN = 1;
+    const auto w = one_line(w1, G);
+    LmfdSpec s = spec(1, 1);
     const ClosedForm cf = lmfd_closed_form(w, Domain::CT, 0.1, s);
     assert_false(cf.unique);
     assert_int_equal(cf.kernel.cols(), 1);
@@ -179,9 +187,7 @@ static void recover(const SSModel &truth, const std::vector<double> &om, int ord
     so.estimate_D = truth.D.norm() > 0;
     const SubspaceResult sr = fit_subspace(f, d, w, true, so);
     const double e_sub = rel_err_on(sr.model, truth, om);
-    LmfdSpec s;
-    s.nD = nD;
-    s.nN = nN;
+    const LmfdSpec s = spec(nD, nN);
     const LmfdModel st = lmfd_sk(w, d, h, s, 30);
     MlOptions mo;
     const MlResult ml = lmfd_ml(w, d, h, s, st, mo, true);
@@ -288,15 +294,12 @@ static void errors(void **)
     fm.lines[1].cov.resize(0, 0);
     expect_error([&] { weigh(fm, Domain::DT, Weight::Cov); }, "needs the FRF covariance");
     // over-constrained closed form
-    LmfdSpec s;
-    s.nD = 1;
-    s.nN = 1;
+    LmfdSpec s = spec(1, 1);
     expect_error([&] { lmfd_closed_form(w, Domain::DT, 0, s); }, "over-constrained");
     // non-convergence: one iteration from a poor start
     MlOptions mo;
     mo.max_iter = 1;
-    s.nD = 2;
-    s.nN = 2;
+    s = spec(2, 2);
     LmfdModel st = lmfd_sk(w, Domain::DT, 0, s, 0);
     st.Dm[0](0, 0) += 0.3;
     expect_error([&] { lmfd_ml(w, Domain::DT, 0, s, st, mo, true); }, "did not converge");
