@@ -124,15 +124,17 @@ static int send_frame(void *ctx, const msid_can_frame *f, int timeout_ms)
         if (w >= 0) { set_err(s, "short write on %s%s", "CAN socket", 0); return -MSID_DAQ_E_IO; }
         if (errno == EINTR) continue;
         if (errno == ENOBUFS || errno == EAGAIN) {
-            /* the device queue is full: wait for room, then retry */
-            s->st.send_retries++;
+            /* the device queue is full (the qdisc dropped the frame): wait for room, then retry */
+            const int e = errno;
             struct timespec t;
             clock_gettime(CLOCK_MONOTONIC, &t);
             const long el = (long)(t.tv_sec - t0.tv_sec) * 1000 + (t.tv_nsec - t0.tv_nsec) / 1000000;
             if (timeout_ms >= 0 && el >= timeout_ms) {
-                set_err(s, "the CAN send queue stayed full (ENOBUFS) for %s ms%s", "the whole timeout", 0);
+                snprintf(s->err, sizeof s->err, "the CAN send queue stayed full (%s) for %d ms",
+                         e == ENOBUFS ? "ENOBUFS" : "EAGAIN", timeout_ms);
                 return -MSID_DAQ_E_BUSY;
             }
+            s->st.send_retries++;   /* counted only when the frame is sent again */
             struct pollfd p = {s->fd, POLLOUT, 0};
             if (poll(&p, 1, 1) >= 0) {
                 const struct timespec nap = {0, 100000};

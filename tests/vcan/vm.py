@@ -5,8 +5,9 @@ The host kernel here has no AF_CAN, so the CAN tests run inside a small VM:
   - kernel: the linux-image-*-amd64 package that linux-image-amd64 depends on,
     fetched with `apt-get download` and unpacked with `dpkg -x` by
     scripts/deps.sh into $MSID_VCAN_DIR (default /var/cache/msid-vcan/k);
-  - initramfs: busybox-static plus the CAN, virtio and 9p modules, built here
-    in a temporary directory on every run (a few MB, well under a second);
+  - initramfs: busybox-static plus the CAN, virtio and 9p modules and sch_tbf
+    (token-bucket qdisc: the ENOBUFS test), built here in a temporary
+    directory on every run (a few MB, well under a second);
   - the host root is shared read-only over 9p (`-virtfs ... readonly=on`) and
     chrooted into, so the guest runs the host's own build and python (also from
     a checkout under /tmp); a second 9p share (read-write) is the results
@@ -31,7 +32,8 @@ import tempfile
 import time
 
 MODULES = ["can", "can-raw", "can-dev", "vcan", "virtio_ring", "virtio", "virtio_pci_modern_dev",
-           "virtio_pci_legacy_dev", "virtio_pci", "netfs", "fscache", "9pnet", "9pnet_virtio", "9p"]
+           "virtio_pci_legacy_dev", "virtio_pci", "netfs", "fscache", "9pnet", "9pnet_virtio", "9p",
+           "sch_tbf"]   # sch_tbf: a rate-limited vcan0 makes sends fail with ENOBUFS (in_vm/test_enobufs.py)
 KDIR = os.environ.get("MSID_VCAN_DIR", "/var/cache/msid-vcan/k")
 QEMU = "qemu-system-x86_64"
 BUSYBOX = "/bin/busybox"

@@ -45,7 +45,7 @@ typedef struct msid_can_link_stats {
     uint64_t frames;        /**< frames delivered to the caller */
     uint64_t kernel_drops;  /**< frames the kernel dropped for a full socket queue (SO_RXQ_OVFL) */
     uint64_t bad_length;    /**< reads whose length was neither CAN_MTU nor CANFD_MTU, rejected */
-    uint64_t send_retries;  /**< sends that met ENOBUFS and were retried after poll() */
+    uint64_t send_retries;  /**< send attempts refused with ENOBUFS/EAGAIN and retried after poll() */
     uint64_t timestamps;    /**< frames that carried a kernel timestamp */
 } msid_can_link_stats;
 

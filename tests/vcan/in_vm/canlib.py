@@ -95,6 +95,14 @@ def measure(tmp, design, *extra, iface="vcan0", out="frf.json", skip=1, ok=True)
     return r
 
 
+def sim_measure(design, tmp, *sim_args, seed=4):
+    """One `msid can measure` against a fresh simulator with these options: (its result, the
+    simulator's report, its truth)."""
+    with Sim(tmp, "--seed", seed, *sim_args) as sim:
+        r = measure(tmp, design)
+    return r, sim.report(), sim.truth()
+
+
 def cplx(o):
     return np.asarray(o["re"], float) + 1j * np.asarray(o["im"], float)
 

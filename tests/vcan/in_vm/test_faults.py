@@ -20,16 +20,13 @@ def design(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def clean(design, tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("clean")
-    with c.Sim(tmp, "--seed", 4) as sim:
-        r = c.measure(tmp, design)
-    return {"doc": r.doc, "truth": sim.truth()}
+    r, _, truth = c.sim_measure(design, tmp_path_factory.mktemp("clean"))
+    return {"doc": r.doc, "truth": truth}
 
 
 def run_fault(design, tmp, *sim_args):
-    with c.Sim(tmp, "--seed", 4, *sim_args) as sim:
-        r = c.measure(tmp, design)
-    return r.doc, sim.report(), sim.truth(), r.stderr
+    r, rep, truth = c.sim_measure(design, tmp, *sim_args)
+    return r.doc, rep, truth, r.stderr
 
 
 def lost_by_frame(frames):
