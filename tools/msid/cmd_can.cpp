@@ -270,20 +270,8 @@ static int cmd_measure(int argc, char **argv)
     if (enc == "int16") sf.encoding = MSID_CAN_ENC_S16;
     else if (enc == "float32") sf.encoding = MSID_CAN_ENC_F32;
     else throw UsageError("--encoding must be int16 or float32 (got '" + enc + "')");
-    if (a.has("scale")) {
-        const double s = parse_double(a.get("scale"), "--scale");
-        if (!(s > 0 && s < 1e30)) throw UsageError("--scale must be positive");
-        sf.scale = (float)s;
-    }
-    sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D->params.periods ? D->params.periods : 8);
-    if (sf.periods < 2 || sf.periods > 100000) throw UsageError("--periods must be 2..100000");
-    double rate = 0;
-    if (a.has("rate")) {
-        rate = parse_double(a.get("rate"), "--rate");
-        if (!(rate >= 0 && rate <= 4e9) || rate != std::floor(rate))
-            throw UsageError("--rate must be a whole number of Hz (0: as fast as possible)");
-        sf.rate = (uint32_t)rate;
-    }
+    FrfRequest rq;
+    parse_measure_options(a, *D, sf, rq);
     const double bitrate = a.has("bitrate") ? parse_double(a.get("bitrate"), "--bitrate") : 0;
     const double dbitrate = a.has("data-bitrate") ? parse_double(a.get("data-bitrate"), "--data-bitrate") : bitrate;
     if (bitrate < 0 || dbitrate < 0) throw UsageError("--bitrate must be >= 0");
@@ -291,12 +279,6 @@ static int cmd_measure(int argc, char **argv)
     const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
     if (!(timeout > 0)) throw UsageError("--timeout must be positive");
     const msid_design &d = D->d;
-    FrfRequest rq;
-    request_from_design(rq, *D);
-    parse_estimate_options(a, rq);
-    if (rate > 0 && !d.is_ct) rq.fs = rate;
-    if (rq.skip + 2 > sf.periods)
-        throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
 
     auto cfg = config_from_design(*D, sf);
 
@@ -362,9 +344,9 @@ static int cmd_measure(int argc, char **argv)
     const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("the device reports %u outputs", ny));
     const uint32_t chunks = msid_can_chunks(C, sf.encoding, sf.fd);
-    if (bitrate > 0 && rate > 0) {
+    if (bitrate > 0 && sf.rate > 0) {
         const double tf = can_frame_seconds(sf.fd, bitrate, dbitrate > 0 ? dbitrate : bitrate);
-        const double load = rate * chunks * tf;
+        const double rate = sf.rate, load = rate * chunks * tf;
         if (load > 1.0)
             throw Error(fmt("the bus cannot carry %u channels at %g Hz: %u %s frame(s) per sample, %.0f frames/s, "
                             "need %.2f times the bus capacity at %g bit/s (worst-case bit stuffing); lower --rate%s",

@@ -181,19 +181,8 @@ static int cmd_measure(int argc, char **argv)
     const uint32_t enc = parse_enum(a, "encoding", "int16", {"int16", "int32", "float32"});
     const uint32_t wo = parse_enum(a, "word-order", "ABCD", {"ABCD", "CDAB", "BADC", "DCBA"});
     StreamFmt sf;
-    if (a.has("scale")) {
-        const double s = parse_double(a.get("scale"), "--scale");
-        if (!(s > 0 && s < 1e30)) throw UsageError("--scale must be positive");
-        sf.scale = (float)s;
-    }
-    sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D->params.periods ? D->params.periods : 8);
-    if (sf.periods < 2 || sf.periods > 100000) throw UsageError("--periods must be 2..100000");
-    if (a.has("rate")) {
-        const double r = parse_double(a.get("rate"), "--rate");
-        if (!(r >= 0 && r <= 4e9) || r != std::floor(r))
-            throw UsageError("--rate must be a whole number of Hz (0: as fast as the host reads)");
-        sf.rate = (uint32_t)r;
-    }
+    FrfRequest rq;
+    parse_measure_options(a, *D, sf, rq);
     const uint32_t resp_ms = a.has("response-timeout") ? parse_u32(a.get("response-timeout"), "--response-timeout") : 200;
     const uint32_t byte_ms = a.has("byte-timeout") ? parse_u32(a.get("byte-timeout"), "--byte-timeout") : 50;
     if (resp_ms < 1 || resp_ms > 60000 || byte_ms < 1 || byte_ms > 60000)
@@ -205,12 +194,6 @@ static int cmd_measure(int argc, char **argv)
     const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
     if (!(timeout > 0)) throw UsageError("--timeout must be positive");
     const msid_design &d = D->d;
-    FrfRequest rq;
-    request_from_design(rq, *D);
-    parse_estimate_options(a, rq);
-    if (sf.rate > 0 && !d.is_ct) rq.fs = sf.rate;
-    if (rq.skip + 2 > sf.periods)
-        throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
     auto cfg = config_from_design(*D, sf);
 
     // 1. who is there?

@@ -1,6 +1,7 @@
 // Design -> msid-can/1 parameter set (see param_upload.hpp).
 #include "param_upload.hpp"
 
+#include <cmath>
 #include <cstring>
 
 namespace msidcli {
@@ -88,6 +89,28 @@ const char *device_error(uint32_t code)
     case MSID_CAN_ERR_CFG: return "malformed or unsupported configuration";
     default: return "unknown device error";
     }
+}
+
+void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq)
+{
+    if (a.has("scale")) {
+        const double s = parse_double(a.get("scale"), "--scale");
+        if (!(s > 0 && s < 1e30)) throw UsageError("--scale must be positive");
+        sf.scale = (float)s;
+    }
+    sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D.params.periods ? D.params.periods : 8);
+    if (sf.periods < 2 || sf.periods > 100000) throw UsageError("--periods must be 2..100000");
+    if (a.has("rate")) {
+        const double r = parse_double(a.get("rate"), "--rate");
+        if (!(r >= 0 && r <= 4e9) || r != std::floor(r))
+            throw UsageError("--rate must be a whole number of Hz (0: unpaced)");
+        sf.rate = (uint32_t)r;
+    }
+    request_from_design(rq, D);
+    parse_estimate_options(a, rq);
+    if (sf.rate > 0 && !D.d.is_ct) rq.fs = sf.rate;
+    if (rq.skip + 2 > sf.periods)
+        throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
 }
 
 }  // namespace msidcli

@@ -2,7 +2,7 @@
 // CAN upload (CFG frames) and the Modbus upload (parameter mailbox): the device
 // rebuilds the design from these parameters with lib/, never from samples.
 #pragma once
-#include "design_io.hpp"
+#include "pipeline.hpp"
 
 extern "C" {
 #include "msid_daq/msid_can_proto.h"
@@ -24,6 +24,12 @@ struct StreamFmt {
     uint32_t encoding = MSID_CAN_ENC_S16, fd = 0, rate = 0, periods = 8;
     float scale = 0.001f;
 };
+
+// The options every `measure` command shares: --scale, --periods (2..100000,
+// default the design's or 8) and --rate (whole Hz, 0: unpaced) into `sf`; the
+// design's lines and --skip-periods/--detect-lines/--transient/--alpha into `rq`
+// (a DT rate also sets rq.fs). --skip-periods must leave 2 periods. Throws UsageError.
+void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq);
 
 // Same lines and coefficients (what the device would generate).
 bool same_coef(const msid_design &a, const msid_design &b);
