@@ -12,7 +12,7 @@ from pathlib import Path
 SRC = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(SRC / "tests" / "vcan" / "in_vm"))
 import canlib  # noqa: E402  (coverage check, F law, binomial interval, lines_equal)
-from canlib import check_coverage, cplx, lines_equal, run, run_ok  # noqa: E402,F401
+from canlib import check_coverage, cplx, fails, lines_equal, run, run_ok  # noqa: E402,F401
 
 MSID = os.environ.get("MSID_BIN", "")
 DEVSIM = os.environ.get("MSID_DEVSIM", "")
@@ -100,13 +100,3 @@ def frf_equal(a, b):
         for e in d["experiments"]:
             e.pop("source")
     return lines_equal(a, b)
-
-
-def fails(tmp, r, code, *needles):
-    """One message, exit status `code`, no output file or temporary left."""
-    assert r.returncode == code, r.stderr
-    lines = [l for l in r.stderr.splitlines() if l.strip()]
-    assert len(lines) == 1, r.stderr
-    for n in needles:
-        assert n in r.stderr, r.stderr
-    assert not (Path(tmp) / "frf.json").exists() and not list(Path(tmp).glob("*.tmp.*"))

@@ -198,3 +198,17 @@ def lines_equal(a, b):
     da.pop("acquisition", None)
     db.pop("acquisition", None)
     return da == db
+
+
+def fails(tmp, r, code, *needles, absent=()):
+    """One message on stderr, exit status `code`, and neither frf.json, a temporary nor
+    any of the files named in `absent` left in `tmp`."""
+    tmp = Path(tmp)
+    assert r.returncode == code, r.stderr
+    lines = [l for l in r.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1, r.stderr
+    for n in needles:
+        assert n in r.stderr, r.stderr
+    assert not (tmp / "frf.json").exists() and not list(tmp.glob("*.tmp.*"))
+    for name in absent:
+        assert not (tmp / name).exists(), name
