@@ -8,6 +8,8 @@ APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev
 PY_MODS=(numpy jsonschema pytest)
 # CAN tests in the vcan VM (tests/vcan): qemu, busybox for its initramfs, can-utils as the reference.
 APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
+# On target (tests/target, firmware_sim/baremetal): Cortex-M cross compiler, newlib, MPS2 boards in qemu.
+APT_PKGS+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
 # Modbus (daq/, firmware_sim/, tests/modbus): libmodbus on both ends, socat for RTU pty pairs.
 APT_PKGS+=(libmodbus-dev socat)
 

@@ -198,7 +198,13 @@ static void stream_block(msid_linedft *d, const double *x, uint32_t n)
         uint32_t l = 0;
         for (; l + 4u <= L; l += 4u) kernel4(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
         for (; l < L; ++l) kernel1(w, P, d->bins[l], d->idx[l], d->acc + (size_t)l * C, C, xs, ns);
-        for (l = 0; l < L; ++l) d->idx[l] = (uint32_t)(((uint64_t)d->idx[l] + (uint64_t)d->bins[l] * ns) % P);
+        /* (idx + b*ns) mod P in 32 bits (no 64-bit division on a Cortex-M): b <= P/2 <= 2^23
+         * and ns <= CHUNK = 2^8, so b*ns < 2^32; idx + (b*ns mod P) < 2P < 2^32. Same integers. */
+        for (l = 0; l < L; ++l) {
+            const uint32_t adv = ns == 1u ? d->bins[l] : (d->bins[l] * ns) % P;
+            const uint32_t t = d->idx[l] + adv;
+            d->idx[l] = t >= P ? t - P : t;
+        }
     }
 }
 

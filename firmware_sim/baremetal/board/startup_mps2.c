@@ -49,6 +49,7 @@ void board_ticks_start(void)
     REG(SYST_RVR) = 0xFFFFFFu;
     REG(SYST_CVR) = 0u;
     REG(SYST_CSR) = 7u;   /* processor clock, interrupt on wrap, enable */
+    while (REG(SYST_CVR) == 0u) {}   /* the first tick loads the reload value */
 }
 
 uint64_t board_ticks(void)
