@@ -208,6 +208,25 @@ static void stream_block(msid_linedft *d, const double *x, uint32_t n)
     }
 }
 
+/* One sample (the per-sample interrupt of a firmware): each accumulator gets
+ * the same single term v*w added as in the kernels, so the bits are the same. */
+static void stream_one(msid_linedft *d, const double *x)
+{
+    const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
+    const msid_cplx *w = d->twiddle->w;
+    msid_cplx *acc = d->acc;
+    for (uint32_t l = 0; l < L; ++l, acc += C) {
+        const uint32_t i = d->idx[l];
+        const double wr = w[i].re, wi = w[i].im;
+        for (uint32_t c = 0; c < C; ++c) {
+            const double v = x[c];
+            acc[c].re += v * wr;
+            acc[c].im += v * wi;
+        }
+        d->idx[l] = step(i, d->bins[l], P);
+    }
+}
+
 static void finish_period(msid_linedft *d)
 {
     const size_t L = d->n_lines, C = d->n_channels, P = d->period;
@@ -256,6 +275,8 @@ size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
             const double *src = x + c;
             for (uint32_t s = 0; s < take; ++s, src += C) d0[s] = src[0];
         }
+    } else if (take == 1u) {
+        stream_one(d, x);
     } else {
         stream_block(d, x, take);
     }

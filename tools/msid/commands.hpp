@@ -12,6 +12,7 @@ int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
+int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
 }  // namespace msidcli
 #include <string>
 #include <vector>

@@ -18,7 +18,7 @@ static const char *USAGE =
     "  compare  relative H2 and Hinf distance between two models\n"
     "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
     "  modbus   measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device\n"
-    "  bench    benchmarks: `msid bench frf`, `msid bench fit`\n"
+    "  bench    benchmarks: `msid bench frf`, `msid bench fit`, `msid bench target`, `msid bench wcet`\n"
     "  version  print the version\n"
     "\n"
     "`msid <command> --help` shows the options of a command. See README.md and docs/.\n";
