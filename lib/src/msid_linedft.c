@@ -117,6 +117,7 @@ static inline uint32_t step(uint32_t i, uint32_t k, uint32_t P)
     return i >= P ? i - P : i;
 }
 
+#ifdef MSID_SSE2
 /* Four lines, all channels, ns samples. acc is [4][C] (line stride C). */
 static void kernel4(const msid_cplx *w, uint32_t P, const uint32_t *k, const uint32_t *idx,
                     msid_cplx *acc, uint32_t C, const double *x, uint32_t ns)
@@ -170,6 +171,8 @@ static void kernel4(const msid_cplx *w, uint32_t P, const uint32_t *k, const uin
     }
 }
 
+#endif
+
 static void kernel1(const msid_cplx *w, uint32_t P, uint32_t k, uint32_t idx,
                     msid_cplx *acc, uint32_t C, const double *x, uint32_t ns)
 {
@@ -188,6 +191,49 @@ static void kernel1(const msid_cplx *w, uint32_t P, uint32_t k, uint32_t idx,
     }
 }
 
+#ifndef MSID_SSE2
+/* Two lines, all channels, ns samples (targets without SSE2, e.g. a Cortex-M7
+ * with 16 double registers): a channel pair shares each twiddle load and index
+ * step, 8 accumulators in registers. Each accumulator still adds its terms in
+ * sample order, so the sums equal kernel1's bit for bit. acc is [2][C]. */
+static void kernel2(const msid_cplx *w, uint32_t P, const uint32_t *k, const uint32_t *idx,
+                    msid_cplx *acc, uint32_t C, const double *x, uint32_t ns)
+{
+    const uint32_t k0 = k[0], k1 = k[1];
+    uint32_t c = 0;
+    for (; c + 2u <= C; c += 2u) {
+        uint32_t i0 = idx[0], i1 = idx[1];
+        msid_cplx *a0 = acc + c, *a1 = acc + C + c;
+        double r00 = a0[0].re, q00 = a0[0].im, r01 = a0[1].re, q01 = a0[1].im;
+        double r10 = a1[0].re, q10 = a1[0].im, r11 = a1[1].re, q11 = a1[1].im;
+        const double *row = x + c;
+        for (uint32_t s = 0; s < ns; ++s, row += C) {
+            const double v0 = row[0], v1 = row[1];
+            const double c0 = w[i0].re, s0 = w[i0].im, c1 = w[i1].re, s1 = w[i1].im;
+            r00 += v0 * c0; q00 += v0 * s0; r01 += v1 * c0; q01 += v1 * s0;
+            r10 += v0 * c1; q10 += v0 * s1; r11 += v1 * c1; q11 += v1 * s1;
+            i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+        }
+        a0[0].re = r00; a0[0].im = q00; a0[1].re = r01; a0[1].im = q01;
+        a1[0].re = r10; a1[0].im = q10; a1[1].re = r11; a1[1].im = q11;
+    }
+    if (c < C) {   /* odd channel count: the last channel, line by line */
+        for (uint32_t j = 0; j < 2u; ++j) {
+            uint32_t i = idx[j];
+            double r = acc[j * C + c].re, q = acc[j * C + c].im;
+            const double *row = x + c;
+            for (uint32_t s = 0; s < ns; ++s, row += C) {
+                r += row[0] * w[i].re;
+                q += row[0] * w[i].im;
+                i = step(i, k[j], P);
+            }
+            acc[j * C + c].re = r;
+            acc[j * C + c].im = q;
+        }
+    }
+}
+#endif
+
 static void stream_block(msid_linedft *d, const double *x, uint32_t n)
 {
     const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
@@ -196,7 +242,11 @@ static void stream_block(msid_linedft *d, const double *x, uint32_t n)
         const uint32_t ns = (n - s0) < CHUNK ? (n - s0) : CHUNK;
         const double *xs = x + (size_t)s0 * C;
         uint32_t l = 0;
+#ifdef MSID_SSE2
         for (; l + 4u <= L; l += 4u) kernel4(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
+#else
+        for (; l + 2u <= L; l += 2u) kernel2(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
+#endif
         for (; l < L; ++l) kernel1(w, P, d->bins[l], d->idx[l], d->acc + (size_t)l * C, C, xs, ns);
         /* (idx + b*ns) mod P in 32 bits (no 64-bit division on a Cortex-M): b <= P/2 <= 2^23
          * and ns <= CHUNK = 2^8, so b*ns < 2^32; idx + (b*ns mod P) < 2P < 2^32. Same integers. */
