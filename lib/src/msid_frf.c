@@ -3,6 +3,7 @@
 #include "msid/msid_frf.h"
 #include "msid_internal.h"
 #include "msid_cmat.h"
+#include <float.h>
 #include <math.h>
 
 static size_t work_cplx(uint32_t nu, uint32_t ny, uint32_t m)
@@ -151,6 +152,14 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
             for (uint32_t j = 0; j < nu; ++j) s2 += msid__cabs2(z[j]);
         }
         if (s2 > uscale) uscale = s2;
+        /* |U|^2 overflowed or underflowed: every product below would too (issue 15 #5, #8) */
+        double amax = 0.0;
+        for (uint32_t e = 0; e < m; ++e)
+            for (uint32_t j = 0; j < nu; ++j) {
+                const msid_cplx z = msid_pstats_mean(stats[e], l)[j];
+                amax = fmax(amax, fmax(fabs(z.re), fabs(z.im)));
+            }
+        if (!(s2 <= DBL_MAX) || (s2 < DBL_MIN && amax > 0.0)) { f->bad_line = (int32_t)l; return MSID_E_RANGE; }
     }
 
     for (uint32_t l = 0; l < L; ++l) {
@@ -244,7 +253,7 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                 G[i * nu + j] = s;
             }
         /* Covariances: sum_e (w_e^T conj w_e) (x) S_e, index (i + ny j, i' + ny j'). */
-        double csum = 0.0, c2 = 0.0;
+        double cw[MSID_MAX_EXPERIMENTS], cmax = 0.0;   /* c_e = |w_e|^2 / K_e, for the dof */
         for (uint32_t e = 0; e < m; ++e) {
             const uint32_t Ke = msid_pstats_count(stats[e]);
             const msid_cplx *M2 = msid_pstats_scatter(stats[e], l);
@@ -265,9 +274,8 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                 }
             double wn = 0.0;
             for (uint32_t j = 0; j < nu; ++j) wn += msid__cabs2(W[e * nu + j]);
-            const double ce = wn / (double)Ke;
-            csum += ce;
-            c2 += ce * ce / (double)(Ke - 1u);
+            cw[e] = wn / (double)Ke;
+            cmax = fmax(cmax, cw[e]);
             /* upper triangle only (c >= r); mirrored below */
             for (uint32_t j = 0; j < nu; ++j)
                 for (uint32_t jp = j; jp < nu; ++jp) {
@@ -290,7 +298,22 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                 Cb[c * g + r] = msid__cconj(Cb[r * g + c]);
             }
         }
+        /* dof = (sum c_e)^2 / sum c_e^2/(K_e - 1), scale-free: formed from c_e / max c_e so that
+           inputs scaled by 1e+-78 cannot overflow c_e^2 (the ratio is exact for one experiment) */
+        double csum = 0.0, c2 = 0.0;
+        for (uint32_t e = 0; e < m; ++e) {
+            const double r = cmax > 0.0 ? cw[e] / cmax : 0.0;
+            csum += r;
+            c2 += r * r / (double)(msid_pstats_count(stats[e]) - 1u);
+        }
         f->dof[l] = csum * csum / c2;
+        /* anything that still overflowed is a range error, never a NaN in a result */
+        int fin = msid__finite(f->dof[l]);
+        for (uint32_t k = 0; k < g && fin; ++k) fin = msid__finite(G[k].re) && msid__finite(G[k].im);
+        for (uint32_t k = 0; k < g * g && fin; ++k)
+            fin = msid__finite(Ca[k].re) && msid__finite(Ca[k].im) && msid__finite(Cb[k].re) && msid__finite(Cb[k].im);
+        for (uint32_t k = 0; k < ny * ny && fin; ++k) fin = msid__finite(N[k].re) && msid__finite(N[k].im);
+        if (!fin && ret == MSID_OK) { f->bad_line = (int32_t)l; ret = MSID_E_RANGE; }
         f->dof_ki[l] = (double)dofk;
         if (f->folded[l]) {
             /* The DT bin carries G(-j w) = conj(G(j w)): report the CT value. */
