@@ -200,12 +200,19 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
         double cond = 1.0, smin = R[0].re;       /* one input: a single column, |Ubar| */
         if (nu == 2u) {
             /* R = [a b; 0 d]: singular values^2 are the roots of s^2 - t s + |a|^2 |d|^2 */
-            const double aa = msid__cabs2(R[0]), bb = msid__cabs2(R[1]), dd = msid__cabs2(R[3]);
+            /* R scaled by a power of two 2^-ex (exact: same bits) so that |R|^4 cannot overflow for
+               inputs near 1e78 (issue 15 #5) */
+            int ex = 0;
+            (void)frexp(fmax(fmax(fabs(R[0].re), fabs(R[0].im)), fmax(fmax(fabs(R[1].re), fabs(R[1].im)),
+                                                                     fmax(fabs(R[3].re), fabs(R[3].im)))), &ex);
+            const msid_cplx r0 = msid__cscale(R[0], ldexp(1.0, -ex)), r1 = msid__cscale(R[1], ldexp(1.0, -ex));
+            const msid_cplx r3 = msid__cscale(R[3], ldexp(1.0, -ex));
+            const double aa = msid__cabs2(r0), bb = msid__cabs2(r1), dd = msid__cabs2(r3);
             const double t = aa + bb + dd, det = aa * dd;
             /* t^2 - 4 det written without cancellation */
             const double disc = sqrt((aa - dd) * (aa - dd) + bb * (bb + 2.0 * (aa + dd)));
             const double s2max = 0.5 * (t + disc), s2min = s2max > 0.0 ? det / s2max : 0.0;
-            smin = sqrt(s2min);
+            smin = ldexp(sqrt(s2min), ex);
             cond = s2min > 0.0 ? sqrt(s2max / s2min) : HUGE_VAL;
         } else if (nu > 2u) {
             for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];

@@ -16,7 +16,7 @@ def bench(tmp_path_factory):
     d = tmp_path_factory.mktemp("hardbench")
     b = h.make_dt_bench(d, periods=6)
     h.run_ok(*h.frf_args(b, d / "frf.json"))
-    h.run_ok("fit", "--method", "lmfd", "--order", 2, d / "frf.json", "-o", d / "model.json")
+    h.run_ok("fit", "--method", "subspace", "--order", 4, d / "frf.json", "-o", d / "model.json")
     return {"dir": d, "bench": b, "frf": d / "frf.json", "model": d / "model.json"}
 
 
