@@ -315,15 +315,7 @@ static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
         /* one attempt: after a failure the next poll reads the header first, so a retry never
            asks for slots the device has overwritten meanwhile (and the counts stay the device's) */
         int transient;
-        const uint64_t bad0 = a->cl->cnt.bad_replies;
         int rc = call(a->cl, MSID_MB_READ_INPUT, a->cl->h.ring_addr + slot * W, (uint32_t)k * W, a->buf, 0, &transient);
-        /* A reply that did not match its request (a duplicated or late answer) has been flushed: one
-           immediate retry is safe (the tags prove every sample used) and keeps a device that answers
-           twice from starving the poll loop (issue 15 #8) */
-        if (rc < 0 && transient && a->cl->cnt.bad_replies != bad0) {
-            a->cl->cnt.retries++;
-            rc = call(a->cl, MSID_MB_READ_INPUT, a->cl->h.ring_addr + slot * W, (uint32_t)k * W, a->buf, 0, &transient);
-        }
         if (rc < 0) return transient ? 0 : rc;
         (*left)--;
         uint32_t i = take(a, n, 0, (uint32_t)k, to, prog);
