@@ -322,6 +322,9 @@ static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
         if (i == k) continue;
         /* a tag did not match: overwritten while we read (the header now says so), or a stale reply */
         if ((rc = msid_mb_read_header(a->cl)) < 0) return rc;
+        /* this header is checked like the poll's (found by fuzz_mb_acq: a segment start far beyond the
+           design's K P, read here, declared 65536 samples missing) */
+        if ((rc = check_state(a)) < 0 || (rc = check_counts(a)) < 0) return rc;
         if (a->r < ring_low(a)) {
             /* within this segment the read position may move past `to`, up to the write index */
             uint64_t lim = a->cl->h.segment == a->seg ? a->cl->h.write_index : to;
