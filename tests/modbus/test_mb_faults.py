@@ -155,7 +155,10 @@ def test_write_index_stepping_back_is_one_clear_error(design, tmp_path):
     samples, no note): it is a protocol error now, reported once, nothing written."""
     with c.Sim(tmp_path, "--seed", 4, "--index-back-at", "0:1000") as sim:
         r = c.measure(tmp_path, sim, design, ok=False, timeout=120)
-    c.fails(tmp_path, r, 1, "write index stepped back", "experiment 1")
+    c.fails(tmp_path, r, 1, "experiment 1")
+    # seen either as the step back itself or, when the host had not read past the new index yet, as a
+    # DONE before the design's K P samples
+    assert "write index stepped back" in r.stderr or f"reported DONE after {K * P - 16} of the design's" in r.stderr
 
 
 def test_device_that_answers_twice(design, tmp_path):
