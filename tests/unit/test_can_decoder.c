@@ -432,6 +432,25 @@ static void decoder_done_beyond_the_design(void **st)
     assert_int_equal(a.dec.cnt.samples_lost, (uint64_t)M * (0xFFFFFFFFull - P * KP));
     assert_int_equal(a.dec.cnt.done_beyond, 0);
     bench_free(&a);
+    /* an adversarial device: every DONE sent twice, and experiment 0's DONE replayed inside experiment 1
+       (and at the end): ignored, the statistics are the clean run's, every experiment closed once */
+    build(MSID_CAN_ENC_F32, 0);
+    bench_init(&a, MSID_CAN_ENC_F32, 0, 16);
+    a.dec.cfg.samples_total = (uint64_t)P * KP;
+    bench_init(&b, MSID_CAN_ENC_F32, 0, 16);
+    for (uint32_t e = 0; e < M; ++e)
+        for (size_t i = 0; i < NFR[e]; ++i) {
+            assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[e][i]), MSID_OK);
+            if (i + 1 == NFR[e]) assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[e][i]), MSID_OK);
+            if (e == 1 && i == NFR[e] / 2) assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[0][NFR[0] - 1]), MSID_OK);
+        }
+    assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[0][NFR[0] - 1]), MSID_OK);
+    direct(&b);
+    assert_same_stats(&a, &b);
+    assert_int_equal(a.dec.cnt.experiments_done, M);
+    assert_int_equal(a.dec.cnt.samples_lost, 0);
+    bench_free(&a);
+    bench_free(&b);
 }
 
 static void decoder_repairs_duplicates_and_reordering(void **st)
