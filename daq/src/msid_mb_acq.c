@@ -265,7 +265,8 @@ static int check_counts(msid_mb_acq *a)
                  h->write_index, (unsigned long long)a->r, a->exp + 1);
         return -MSID_DAQ_E_BADDATA;
     }
-    if (h->segment != a->seg && s0 > a->seg_start + a->total) {
+    /* each restart starts within the K P samples of the segment before it */
+    if (h->segment != a->seg && s0 > a->seg_start + a->total * (uint64_t)((h->segment - a->seg) & 0xFFFFu)) {
         snprintf(a->cl->err, sizeof a->cl->err, "the device's new segment starts at sample %llu, beyond the %llu "
                  "samples of the segment before it (experiment %u)", (unsigned long long)s0,
                  (unsigned long long)a->total, a->exp + 1);
