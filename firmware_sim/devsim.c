@@ -176,6 +176,8 @@ static void report_body(FILE *f)
             (unsigned long long)CNT.dropped, (unsigned long long)CNT.duplicated, (unsigned long long)CNT.reordered,
             (unsigned long long)CNT.malformed, (unsigned long long)CNT.error_frames, (unsigned long long)CNT.bus_off,
             (unsigned long long)CNT.busoff_samples, (unsigned long long)CNT.restarts);
+    fprintf(f, " \"rate_hz\": %u, \"paced_waits\": %llu, \"late_samples\": %llu,\n", configured ? CFG.rate_hz : 0,
+            (unsigned long long)CNT.paced_waits, (unsigned long long)CNT.late_samples);
     fprintf(f, " \"tx_busy\": %llu, \"send_retries\": %llu}\n", (unsigned long long)CNT.tx_busy,
             (unsigned long long)CAN.st.send_retries);
 }
@@ -509,6 +511,9 @@ static const char *USAGE =
     "  --drop-at E:N         drop the connection (RTU: 1 s of silence) at sample N of experiment E\n"
     "  --stall-at E:N:D[:MS] at sample N of experiment E stop answering for MS ms (default 300) and write\n"
     "                        D samples regardless of the host, so the ring overruns\n"
+    "  --never-done          (adversarial) write samples past K P and never report DONE\n"
+    "  --answer-twice        (adversarial) send every reply twice\n"
+    "  --index-back-at E:N   (adversarial) from sample N of experiment E report a write index 16 samples back\n"
     "  --restart-at E:N, --seed, --noise-*, --plant, --truth, --report, --idle-exit: as for CAN\n";
 
 static uint64_t num_u(const char *opt, const char *v)
@@ -580,7 +585,7 @@ int main(int argc, char **argv)
     O.seed = 1;
     O.sigma_y = 0.05;
     O.sigma_u = 0.002;
-    O.busoff_exp = O.restart_exp = O.drop_exp = O.stall_exp = -1;
+    O.busoff_exp = O.restart_exp = O.drop_exp = O.stall_exp = O.back_exp = -1;
     O.baud = 115200;
     O.unit = 1;
     O.emulate_baud = 1;
@@ -589,6 +594,8 @@ int main(int argc, char **argv)
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); return 0; }
         if (!strcmp(a, "--no-baud-emulation")) { O.emulate_baud = 0; continue; }
+        if (!strcmp(a, "--never-done")) { O.never_done = 1; continue; }
+        if (!strcmp(a, "--answer-twice")) { O.answer_twice = 1; continue; }
         if (i + 1 >= argc) { fprintf(stderr, "msid-devsim: error: unknown option or missing value: %s\n%s", a, USAGE); return 2; }
         const char *v = argv[++i];
         if (!strcmp(a, "--iface")) O.iface = v;
@@ -620,6 +627,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--exception-every")) kv(a, v, &O.exc_every, &O.exc_code, 6);
         else if (!strcmp(a, "--corrupt-every")) O.corrupt_every = num_u(a, v);
         else if (!strcmp(a, "--drop-at")) pair(a, v, &O.drop_exp, &O.drop_at, NULL);
+        else if (!strcmp(a, "--index-back-at")) pair(a, v, &O.back_exp, &O.back_at, NULL);
         else if (!strcmp(a, "--stall-at")) {
             uint64_t d4[4] = {0, 0, 0, 300};
             char buf[64];
@@ -670,6 +678,10 @@ int main(int argc, char **argv)
                 dl.tv_sec += (time_t)(ns / 1000000000ull);
                 dl.tv_nsec += (long)(ns % 1000000000ull);
                 if (dl.tv_nsec >= 1000000000L) { dl.tv_sec++; dl.tv_nsec -= 1000000000L; }
+                struct timespec now;
+                clock_gettime(CLOCK_MONOTONIC, &now);
+                if (now.tv_sec < dl.tv_sec || (now.tv_sec == dl.tv_sec && now.tv_nsec < dl.tv_nsec)) CNT.paced_waits++;
+                else CNT.late_samples++;   /* behind its clock (a loaded machine): sent at once */
                 clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL);
             }
             if ((n_sample & 63) == 0) poll_host(0);

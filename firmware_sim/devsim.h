@@ -49,6 +49,10 @@ typedef struct sim_opts {
     uint64_t corrupt_every;          /* RTU: every K-th reply with a bad CRC */
     int drop_exp; uint64_t drop_at;  /* drop the connection at sample N of experiment E (-1: none) */
     int stall_exp; uint64_t stall_at, stall_samples, stall_ms;   /* stall: no replies, D samples regardless */
+    /* adversarial device (tests of the host's range checks) */
+    int never_done;                  /* Modbus: keep writing past K P samples and never report DONE */
+    int answer_twice;                /* Modbus: send every reply twice */
+    int back_exp; uint64_t back_at;  /* Modbus: from sample N of experiment E report a write index 16 samples back */
 } sim_opts;
 
 /* Counters of what the simulator did (written to the report). */
@@ -56,6 +60,7 @@ typedef struct sim_counts {
     uint64_t frames_sent, sample_frames, samples;
     uint64_t dropped, duplicated, reordered, malformed, error_frames, bus_off, restarts, tx_busy;
     uint64_t busoff_samples;         /* samples not sent while bus-off */
+    uint64_t paced_waits, late_samples;  /* --rate: samples that waited for their deadline / found it passed */
     uint32_t experiments_done;
 } sim_counts;
 

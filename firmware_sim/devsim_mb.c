@@ -95,7 +95,7 @@ static void update_header(void)
     h.sample_regs = W;
     h.ring_addr = MSID_MB_RING_ADDR;
     h.ring_samples = R;
-    h.write_index = (uint32_t)w;
+    h.write_index = (uint32_t)(w - (O.back_exp == (int)mexp && n_sample >= O.back_at && w >= 16 ? 16 : 0));
     h.seg_start = (uint32_t)s0;
     h.segment = segment & 0xFFFFu;
     h.restarts = restarts_total & 0xFFFFu;
@@ -201,7 +201,7 @@ static void write_sample(void)
     w++;
     n_sample++;
     MC.samples++;
-    if (n_sample >= n_total) {
+    if (n_sample >= n_total && !O.never_done) {
         mstate = MSID_MB_STATE_DONE;
         MC.experiments_done++;
         sim_write_atomic(O.report, report_body);
@@ -316,6 +316,7 @@ static void serve(const uint8_t *q, int len)
     }
     if (modbus_reply(MB, q, len, &MAP) < 0) return;
     MC.replies++;
+    if (O.answer_twice && modbus_reply(MB, q, len, &MAP) >= 0) MC.replies++;   /* adversarial: a duplicate */
     if (fc == 4 && addr + cnt > MSID_MB_RING_ADDR && W && R) {
         const uint32_t a = addr > MSID_MB_RING_ADDR ? addr - MSID_MB_RING_ADDR : 0;
         const uint32_t b = addr + cnt - MSID_MB_RING_ADDR;

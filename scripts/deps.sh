@@ -12,6 +12,8 @@ APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
 APT_PKGS+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
 # Modbus (daq/, firmware_sim/, tests/modbus): libmodbus on both ends, socat for RTU pty pairs.
 APT_PKGS+=(libmodbus-dev socat)
+# Hardening (tests/fuzz, the sanitizer build): Debian's clang with libFuzzer, ASan and UBSan runtimes.
+APT_PKGS+=(clang libclang-rt-dev)
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else
   echo "deps: need root (or sudo) to run: $*" >&2; return 1; fi; }

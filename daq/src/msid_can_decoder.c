@@ -188,12 +188,24 @@ static void on_status(msid_can_decoder *d, const msid_can_frame *f)
     case MSID_CAN_ST_STATE: {
         v->have_state = 1;
         v->state = b[1]; v->experiment = b[2]; v->error = b[3]; v->value = msid_can_get_u32(b + 4);
+        if ((v->state == MSID_CAN_STATE_RUNNING || v->state == MSID_CAN_STATE_DONE) &&
+            v->experiment >= d->cfg.meas->n_experiments) {
+            d->cnt.malformed++;   /* an experiment the design does not have (found by fuzz_can_decoder) */
+            break;
+        }
         if (v->state == MSID_CAN_STATE_RUNNING) {
             if (!d->open || d->exp != v->experiment) open_exp(d, v->experiment);
         } else if (v->state == MSID_CAN_STATE_DONE) {
             if (d->open && d->exp == v->experiment) {
-                if (d->seen && d->last_s >= (int64_t)v->value) d->cnt.malformed++;
-                close_exp(d, (int64_t)v->value);
+                int64_t n = (int64_t)v->value;
+                if (d->cfg.samples_total && (uint64_t)n > d->cfg.samples_total) {
+                    /* more samples than the design has: never let the device's count size the gap walk */
+                    d->cnt.malformed++;
+                    d->cnt.done_beyond++;
+                    n = (int64_t)d->cfg.samples_total;
+                }
+                if (d->seen && d->last_s >= n) d->cnt.malformed++;
+                close_exp(d, n);
                 d->done_exp = (int)v->experiment;
                 d->cnt.experiments_done++;
             }
@@ -281,6 +293,10 @@ static msid_status feed(msid_can_decoder *d, const msid_can_frame *f)
     if (((flags & MSID_CAN_PSTART) != 0) != (s >= 0 && s % d->cfg.period == 0) ||
         ((flags & MSID_CAN_SEGSTART) != 0) != (s == 0)) {
         d->cnt.malformed++;
+        return d->st.err;
+    }
+    if (d->cfg.samples_total && s >= (int64_t)d->cfg.samples_total) {
+        d->cnt.malformed++;   /* beyond the design's K P samples */
         return d->st.err;
     }
     msid_can_slot *sl = &d->slot[(uint64_t)s % W];

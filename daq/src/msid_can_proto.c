@@ -250,6 +250,10 @@ static int config_complete(const msid_can_config *c)
     if (c->phase_mode == MSID_PHASE_USER && c->got[9] == 0) return 0;
     if (c->got[12] != 1 || c->got[13] != 1 || c->got[14] != 1 || c->got[15] != 2) return 0;
     if (c->encoding > 1 || c->fd > 1) return 0;
+    /* every count that sizes memory or work on either end, against what a design allows */
+    if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD || c->n_experiments == 0 ||
+        c->n_experiments > MSID_MAX_EXPERIMENTS || c->periods < 2 || c->periods > MSID_CAN_MAX_PERIODS)
+        return 0;
     if (c->encoding == MSID_CAN_ENC_S16 && !(c->scale > 0.0f && c->scale < 1e30f)) return 0;
     return 1;
 }
@@ -342,4 +346,5 @@ void msid_can_config_design_cfg(const msid_can_config *c, msid_design_cfg *dc, c
     dc->n_experiments = c->n_experiments;
     dc->pattern = (msid_pattern)c->pattern;
     dc->twiddle = tw;
+    dc->crest = MSID_CREST_NONE;   /* a device never reports them: O(1), not O(m nu P L) (issue 15 #6) */
 }

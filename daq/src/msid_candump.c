@@ -24,6 +24,7 @@ int msid_candump_format(char *buf, size_t cap, const msid_can_frame *f, const ch
         buf[n++] = HEX[((f->flags & MSID_CANF_BRS) ? 1 : 0) | ((f->flags & MSID_CANF_ESI) ? 2 : 0)];
     } else if (f->id & MSID_CAN_RTR_FLAG) {
         buf[n++] = 'R';
+        if (f->len > 0 && f->len <= 8) buf[n++] = (char)('0' + f->len);   /* 123#R8: the requested length */
     }
     if (!(f->id & MSID_CAN_RTR_FLAG) || (f->flags & MSID_CANF_FD))
         for (unsigned i = 0; i < f->len; ++i) {
@@ -73,7 +74,8 @@ int msid_candump_parse(const char *s, msid_can_frame *f, char *iface, size_t ifa
     if (nid == 3) {
         if (id > 0x7FF) return -MSID_DAQ_E_FORMAT;
     } else if (nid == 8) {
-        if (!(id & MSID_CAN_ERR_FLAG)) id = (id & 0x1FFFFFFFu) | MSID_CAN_EFF_FLAG;
+        /* an error frame is the flag and its class bits only (no EFF/RTR bits, as SocketCAN delivers it) */
+        id = (id & 0x1FFFFFFFu) | ((id & MSID_CAN_ERR_FLAG) ? MSID_CAN_ERR_FLAG : MSID_CAN_EFF_FLAG);
     } else {
         return -MSID_DAQ_E_FORMAT;
     }

@@ -194,6 +194,13 @@ int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods)
                  msid_mb_encoding_name(a->cfg.encoding));
         return -MSID_DAQ_E_BADDATA;
     }
+    const uint64_t want = (uint64_t)(periods ? periods : a->cl->h.periods) * a->cfg.period;
+    if (a->cfg.period && (a->cl->h.period != a->cfg.period || a->cl->h.total != want || want == 0)) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device announces %u samples of period %u per segment, the design "
+                 "%llu of period %u", a->cl->h.total, a->cl->h.period, (unsigned long long)want, a->cfg.period);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    a->total = a->cfg.period ? want : 0;
     a->exp = e;
     a->r = 0;
     a->seg = 0;          /* START opens segment 0 at sample 0 (the device may be further already) */
@@ -236,6 +243,38 @@ static int check_state(msid_mb_acq *a)
     if ((h->state != MSID_MB_STATE_RUNNING && h->state != MSID_MB_STATE_DONE) || h->experiment != a->exp) {
         snprintf(a->cl->err, sizeof a->cl->err, "the device left experiment %u (state %u, experiment %u)", a->exp + 1, h->state,
                  h->experiment + 1);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    return 0;
+}
+
+/* The header's counts against what the design and the samples read so far allow (issue 15 #2, #7). */
+static int check_counts(msid_mb_acq *a)
+{
+    const msid_mb_header *h = &a->cl->h;
+    if (!a->total) return 0;
+    const uint64_t wi = h->write_index, s0 = h->seg_start;
+    if (h->total != a->total) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device changed its samples per segment from %llu to %u during "
+                 "experiment %u", (unsigned long long)a->total, h->total, a->exp + 1);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    if (wi < a->r || s0 < a->seg_start || s0 > wi || (h->segment == a->seg && s0 != a->seg_start)) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device's write index stepped back (segment %u from sample %llu, "
+                 "write index %u, %llu samples read) during experiment %u", h->segment, (unsigned long long)s0,
+                 h->write_index, (unsigned long long)a->r, a->exp + 1);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    /* each restart starts within the K P samples of the segment before it */
+    if (h->segment != a->seg && s0 > a->seg_start + a->total * (uint64_t)((h->segment - a->seg) & 0xFFFFu)) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device's new segment starts at sample %llu, beyond the %llu "
+                 "samples of the segment before it (experiment %u)", (unsigned long long)s0,
+                 (unsigned long long)a->total, a->exp + 1);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    if (h->state == MSID_MB_STATE_DONE && h->segment == a->seg && wi - s0 < a->total) {
+        snprintf(a->cl->err, sizeof a->cl->err, "the device reported DONE after %llu of the design's %llu samples of "
+                 "experiment %u", (unsigned long long)(wi - s0), (unsigned long long)a->total, a->exp + 1);
         return -MSID_DAQ_E_BADDATA;
     }
     return 0;
@@ -284,9 +323,13 @@ static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
         if (i == k) continue;
         /* a tag did not match: overwritten while we read (the header now says so), or a stale reply */
         if ((rc = msid_mb_read_header(a->cl)) < 0) return rc;
+        /* this header is checked like the poll's (found by fuzz_mb_acq: a segment start far beyond the
+           design's K P, read here, declared 65536 samples missing) */
+        if ((rc = check_state(a)) < 0 || (rc = check_counts(a)) < 0) return rc;
         if (a->r < ring_low(a)) {
             /* within this segment the read position may move past `to`, up to the write index */
-            const uint64_t lim = a->cl->h.segment == a->seg ? a->cl->h.write_index : to;
+            uint64_t lim = a->cl->h.segment == a->seg ? a->cl->h.write_index : to;
+            if (a->total && lim > a->seg_start + a->total) lim = a->seg_start + a->total;   /* never beyond K P */
             overrun(a, ring_low(a) < lim ? ring_low(a) : lim);
             *prog = 1;
             /* the reply may hold the newer samples from the new read position on: the device
@@ -312,10 +355,12 @@ int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
     int rc = msid_mb_read_header(a->cl);
     if (rc < 0) return rc;
     if ((rc = check_state(a)) < 0) return rc;
+    if ((rc = check_counts(a)) < 0) return rc;
     uint32_t left = a->cfg.batch;
     for (;;) {
         const int newseg = a->cl->h.segment != a->seg;
-        const uint64_t end = newseg ? a->cl->h.seg_start : a->cl->h.write_index;
+        uint64_t end = newseg ? a->cl->h.seg_start : a->cl->h.write_index;
+        if (a->total && end > a->seg_start + a->total) end = a->seg_start + a->total;   /* nothing beyond K P */
         /* overwritten before we read them (the part in this segment) */
         const uint64_t lo = ring_low(a);
         if (a->r < lo) {
@@ -329,7 +374,9 @@ int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
         new_segment(a);
         *prog = 1;
     }
-    if (a->cl->h.state == MSID_MB_STATE_DONE && a->r >= a->cl->h.write_index) {
+    const int all = a->total && a->r >= a->seg_start + a->total;
+    if (all || (a->cl->h.state == MSID_MB_STATE_DONE && a->r >= a->cl->h.write_index)) {
+        if (all && a->cl->h.state != MSID_MB_STATE_DONE) a->cnt.done_missing++;
         msid_stream_end(&a->st);
         a->open = 0;
         a->cnt.experiments_done++;

@@ -32,6 +32,13 @@ size_t msid_design_mem_size(const msid_design_cfg *c)
     s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));           /* running index */
     s = msid__add(s, msid__chunk(m * nu, sizeof(msid_cplx)));     /* line matrix */
     s = msid__add(s, msid__chunk(cond_work_doubles(c->n_inputs), sizeof(double)));
+    if (c->crest == MSID_CREST_FFT) {   /* DFT input, output and the first transform's real parts */
+        s = msid__add(s, msid__chunk(c->period, sizeof(double)));
+        s = msid__add(s, msid__chunk(c->period / 2u + 1u, sizeof(msid_cplx)));
+        s = msid__add(s, msid__chunk(c->period / 2u + 1u, sizeof(double)));
+    } else if (c->crest != MSID_CREST_DIRECT && c->crest != MSID_CREST_NONE) {
+        return 0;
+    }
     return s;
 }
 
@@ -72,6 +79,41 @@ static double dc_pattern(msid_pattern p, uint32_t i, uint32_t e, uint32_t m)
     return (i & 1u) ? cs : sn;
 }
 
+/* Crest factors from two real DFTs per input and experiment, O(m nu P log P). With w[k] = exp(-j 2 pi k/P)
+ * the generated sample is u(n) = sum_l Re(c_l) cos(phi) - Im(c_l) sin(phi), phi = 2 pi b_l n / P. Put Re(c_l),
+ * Im(c_l) at bin b_l of two real sequences a, b; their forward DFTs A, B give, for n = 0..P/2,
+ *   u(n) = Re A(n) + Im B(n),   u(P - n) = Re A(n) - Im B(n)   (the cosines are even, the sines odd).
+ * Deterministic for a deterministic backend; equal to direct synthesis up to rounding. */
+static msid_status crest_fft(msid_design *d, const msid_fft_backend *fft, double *x, msid_cplx *X, double *re)
+{
+    const uint32_t P = d->period, L = d->n_lines, nu = d->n_inputs, m = d->n_experiments, H = P / 2u;
+    for (uint32_t n = 0; n < P; ++n) x[n] = 0.0;
+    for (uint32_t e = 0; e < m; ++e)
+        for (uint32_t i = 0; i < nu; ++i) {
+            const msid_cplx *cf = d->coef + ((size_t)e * nu + i) * L;
+            for (uint32_t l = 0; l < L; ++l) x[d->bins[l]] = cf[l].re;
+            if (fft->r2c(fft->ctx, x, X) != MSID_OK) return MSID_E_BACKEND;
+            for (uint32_t k = 0; k <= H; ++k) re[k] = X[k].re;
+            for (uint32_t l = 0; l < L; ++l) x[d->bins[l]] = cf[l].im;
+            if (fft->r2c(fft->ctx, x, X) != MSID_OK) return MSID_E_BACKEND;
+            for (uint32_t l = 0; l < L; ++l) x[d->bins[l]] = 0.0;
+            double peak = 0.0, ss = 0.0;
+            for (uint32_t k = 0; k <= H; ++k) {
+                const double u = re[k] + X[k].im;
+                peak = fmax(peak, fabs(u));
+                ss += u * u;
+                if (k > 0 && P - k != k) {   /* sample P - k (for even P, k = P/2 is its own mirror) */
+                    const double v = re[k] - X[k].im;
+                    peak = fmax(peak, fabs(v));
+                    ss += v * v;
+                }
+            }
+            const double rms = sqrt(ss / (double)P);
+            d->crest[(size_t)e * nu + i] = rms > 0.0 ? peak / rms : HUGE_VAL;
+        }
+    return MSID_OK;
+}
+
 msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem, size_t len)
 {
     if (!d) return MSID_E_NULL;
@@ -92,6 +134,8 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
     if (!c->twiddle) return MSID_E_NULL;
     if (c->twiddle->period != c->period) return MSID_E_PERIOD;
     if (c->n_lines > c->period / 2u + 1u) return fail(d, MSID_E_LINE_DUP, -1, -1, -1);
+    if (c->crest == MSID_CREST_FFT && (!c->fft || !c->fft->r2c)) return MSID_E_NULL;
+    if (c->crest == MSID_CREST_FFT && c->fft->period != c->period) return MSID_E_BACKEND;
 
     const size_t need = msid_design_mem_size(c);
     if (need == 0) return MSID_E_DIMS;
@@ -114,6 +158,13 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
     uint32_t *idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
     msid_cplx *lm = (msid_cplx *)msid__take(&a, (size_t)m * nu * sizeof(msid_cplx));
     double *work = (double *)msid__take(&a, cond_work_doubles(nu) * sizeof(double));
+    double *fx = 0, *fre = 0;
+    msid_cplx *fX = 0;
+    if (c->crest == MSID_CREST_FFT) {
+        fx = (double *)msid__take(&a, (size_t)P * sizeof(double));
+        fX = (msid_cplx *)msid__take(&a, (size_t)(P / 2u + 1u) * sizeof(msid_cplx));
+        fre = (double *)msid__take(&a, (size_t)(P / 2u + 1u) * sizeof(double));
+    }
     for (uint32_t k = 0; k < P / 16u + 8u; ++k) bitmap[k] = 0;
 
     /* ---- line frequencies and the aliasing map ---- */
@@ -235,7 +286,13 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
         if (!(smin > 1e-12 * smax)) return fail(d, MSID_E_SINGULAR, (int32_t)l, -1, d->bins[l]);
     }
 
-    /* ---- crest factors from the exact generated samples ---- */
+    /* ---- crest factors ---- */
+    if (c->crest == MSID_CREST_NONE) {
+        for (size_t k = 0; k < (size_t)m * nu; ++k) d->crest[k] = NAN;
+        return MSID_OK;
+    }
+    if (c->crest == MSID_CREST_FFT) return crest_fft(d, c->fft, fx, fX, fre);
+    /* direct synthesis of the exact generated samples */
     const msid_cplx *w = c->twiddle->w;
     for (uint32_t e = 0; e < m; ++e) {
         for (uint32_t i = 0; i < nu; ++i) {

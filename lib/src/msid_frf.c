@@ -3,6 +3,7 @@
 #include "msid/msid_frf.h"
 #include "msid_internal.h"
 #include "msid_cmat.h"
+#include <float.h>
 #include <math.h>
 
 static size_t work_cplx(uint32_t nu, uint32_t ny, uint32_t m)
@@ -151,6 +152,14 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
             for (uint32_t j = 0; j < nu; ++j) s2 += msid__cabs2(z[j]);
         }
         if (s2 > uscale) uscale = s2;
+        /* |U|^2 overflowed or underflowed: every product below would too (issue 15 #5, #8) */
+        double amax = 0.0;
+        for (uint32_t e = 0; e < m; ++e)
+            for (uint32_t j = 0; j < nu; ++j) {
+                const msid_cplx z = msid_pstats_mean(stats[e], l)[j];
+                amax = fmax(amax, fmax(fabs(z.re), fabs(z.im)));
+            }
+        if (!(s2 <= DBL_MAX) || (s2 < DBL_MIN && amax > 0.0)) { f->bad_line = (int32_t)l; return MSID_E_RANGE; }
     }
 
     for (uint32_t l = 0; l < L; ++l) {
@@ -191,12 +200,19 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
         double cond = 1.0, smin = R[0].re;       /* one input: a single column, |Ubar| */
         if (nu == 2u) {
             /* R = [a b; 0 d]: singular values^2 are the roots of s^2 - t s + |a|^2 |d|^2 */
-            const double aa = msid__cabs2(R[0]), bb = msid__cabs2(R[1]), dd = msid__cabs2(R[3]);
+            /* R scaled by a power of two 2^-ex (exact: same bits) so that |R|^4 cannot overflow for
+               inputs near 1e78 (issue 15 #5) */
+            int ex = 0;
+            (void)frexp(fmax(fmax(fabs(R[0].re), fabs(R[0].im)), fmax(fmax(fabs(R[1].re), fabs(R[1].im)),
+                                                                     fmax(fabs(R[3].re), fabs(R[3].im)))), &ex);
+            const msid_cplx r0 = msid__cscale(R[0], ldexp(1.0, -ex)), r1 = msid__cscale(R[1], ldexp(1.0, -ex));
+            const msid_cplx r3 = msid__cscale(R[3], ldexp(1.0, -ex));
+            const double aa = msid__cabs2(r0), bb = msid__cabs2(r1), dd = msid__cabs2(r3);
             const double t = aa + bb + dd, det = aa * dd;
             /* t^2 - 4 det written without cancellation */
             const double disc = sqrt((aa - dd) * (aa - dd) + bb * (bb + 2.0 * (aa + dd)));
             const double s2max = 0.5 * (t + disc), s2min = s2max > 0.0 ? det / s2max : 0.0;
-            smin = sqrt(s2min);
+            smin = ldexp(sqrt(s2min), ex);
             cond = s2min > 0.0 ? sqrt(s2max / s2min) : HUGE_VAL;
         } else if (nu > 2u) {
             for (uint32_t k = 0; k < nu * nu; ++k) Rc[k] = R[k];
@@ -244,7 +260,7 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                 G[i * nu + j] = s;
             }
         /* Covariances: sum_e (w_e^T conj w_e) (x) S_e, index (i + ny j, i' + ny j'). */
-        double csum = 0.0, c2 = 0.0;
+        double cw[MSID_MAX_EXPERIMENTS], cmax = 0.0;   /* c_e = |w_e|^2 / K_e, for the dof */
         for (uint32_t e = 0; e < m; ++e) {
             const uint32_t Ke = msid_pstats_count(stats[e]);
             const msid_cplx *M2 = msid_pstats_scatter(stats[e], l);
@@ -265,9 +281,8 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                 }
             double wn = 0.0;
             for (uint32_t j = 0; j < nu; ++j) wn += msid__cabs2(W[e * nu + j]);
-            const double ce = wn / (double)Ke;
-            csum += ce;
-            c2 += ce * ce / (double)(Ke - 1u);
+            cw[e] = wn / (double)Ke;
+            cmax = fmax(cmax, cw[e]);
             /* upper triangle only (c >= r); mirrored below */
             for (uint32_t j = 0; j < nu; ++j)
                 for (uint32_t jp = j; jp < nu; ++jp) {
@@ -290,7 +305,22 @@ msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats)
                 Cb[c * g + r] = msid__cconj(Cb[r * g + c]);
             }
         }
+        /* dof = (sum c_e)^2 / sum c_e^2/(K_e - 1), scale-free: formed from c_e / max c_e so that
+           inputs scaled by 1e+-78 cannot overflow c_e^2 (the ratio is exact for one experiment) */
+        double csum = 0.0, c2 = 0.0;
+        for (uint32_t e = 0; e < m; ++e) {
+            const double r = cmax > 0.0 ? cw[e] / cmax : 0.0;
+            csum += r;
+            c2 += r * r / (double)(msid_pstats_count(stats[e]) - 1u);
+        }
         f->dof[l] = csum * csum / c2;
+        /* anything that still overflowed is a range error, never a NaN in a result */
+        int fin = msid__finite(f->dof[l]);
+        for (uint32_t k = 0; k < g && fin; ++k) fin = msid__finite(G[k].re) && msid__finite(G[k].im);
+        for (uint32_t k = 0; k < g * g && fin; ++k)
+            fin = msid__finite(Ca[k].re) && msid__finite(Ca[k].im) && msid__finite(Cb[k].re) && msid__finite(Cb[k].im);
+        for (uint32_t k = 0; k < ny * ny && fin; ++k) fin = msid__finite(N[k].re) && msid__finite(N[k].im);
+        if (!fin && ret == MSID_OK) { f->bad_line = (int32_t)l; ret = MSID_E_RANGE; }
         f->dof_ki[l] = (double)dofk;
         if (f->folded[l]) {
             /* The DT bin carries G(-j w) = conj(G(j w)): report the CT value. */

@@ -138,7 +138,22 @@ msid_status msid_meas_push_gap(msid_meas *ms, size_t n)
 {
     if (ms->current < 0) return MSID_E_STATE;
     if (ms->err != MSID_OK) return ms->err;
+    const size_t P = ms->period;
     while (n) {
+        if (ms->dft.pos == 0 && !msid_linedft_ready(&ms->dft) && n >= P) {
+            /* whole missing periods: each is offered and rejected as a gap, counted in O(1), so the
+               cost of a gap does not grow with its length (counters saturate) */
+            const uint64_t q = n / P;
+            msid_pstats_counts *c = &ms->ps[ms->current].cnt;
+            const uint64_t off = (uint64_t)c->offered + q, gap = (uint64_t)c->gap + q;
+            c->offered = off > UINT32_MAX ? UINT32_MAX : (uint32_t)off;
+            c->gap = gap > UINT32_MAX ? UINT32_MAX : (uint32_t)gap;
+            ms->dft.periods += q;
+            ms->dft.flags = 0;   /* a pending mark belonged to the first of these periods */
+            ms->samples[ms->current] += q * P;
+            n -= (size_t)(q * P);
+            continue;
+        }
         const size_t k = msid_linedft_push_gap(&ms->dft, n);
         n -= k;
         ms->samples[ms->current] += k;

@@ -38,7 +38,11 @@ def test_no_loss_and_counters(live):
     a = live["doc"]["acquisition"]
     assert a["samples"] == 2 * K * P == live["report"]["samples"]
     assert a["samples_lost"] == a["overrun_samples"] == a["device_overruns"] == 0
-    assert a["retries"] == a["timeouts"] == a["crc_errors"] == a["exceptions"] == a["stale_replies"] == 0
+    # The device injected nothing. On a loaded machine a reply can still come after the response timeout
+    # (issue 15 #9: this asserted zero retries and failed once over RTU): a retry is allowed, but each has a
+    # counted cause and no sample is lost (above); the FRF is checked against the truth below.
+    assert a["exceptions"] == 0 and live["report"]["injected"]["delayed"] == 0
+    assert a["retries"] <= a["timeouts"] + a["crc_errors"] + a["bad_replies"] + a["io_errors"]
     assert a["transport"] == ("modbus-rtu" if live["case"].startswith("rtu") else "modbus-tcp")
     assert (a["encoding"], a["word_order"]) == tuple(live["case"].split("-")[1:])
     assert a["config_crc"] == live["truth"]["config_crc"] == live["report"]["config_crc"]

@@ -132,3 +132,39 @@ def test_device_that_hangs_never_blocks_the_host(design, tmp_path):
         took = time.monotonic() - t0
     c.fails(tmp_path, r, 1, "no valid reply", "after 4 attempts")
     assert took < 10, took
+
+
+# ---- adversarial device: the header's counts are checked against the design (issue 15 #2, #7) ----
+
+def test_device_that_never_reports_done_ends_after_k_p(design, tmp_path, clean):
+    """A device that keeps writing past K P samples and never reports DONE: with --transient off the
+    host used to poll forever. Each experiment now ends after the design's K P samples (the header's
+    TOTAL), with a note, and the FRF is the clean run's."""
+    doc, rep, _, err = run_fault(design, tmp_path, "--never-done", extra=("--transient", "off"))
+    a = doc["acquisition"]
+    assert a["samples_lost"] == 0 and a["samples"] == 2 * K * P
+    assert "without the device reporting DONE" in err
+    (tmp_path / "honest").mkdir()
+    with c.Sim(tmp_path / "honest", "--seed", 4) as sim:   # the same device, honest, same options
+        clean_off = c.measure(tmp_path / "honest", sim, design, "--transient", "off").doc
+    assert c.frf_equal(doc, clean_off)
+
+
+def test_write_index_stepping_back_is_one_clear_error(design, tmp_path):
+    """A write index that steps back used to end the experiment early (exit 0 with part of the
+    samples, no note): it is a protocol error now, reported once, nothing written."""
+    with c.Sim(tmp_path, "--seed", 4, "--index-back-at", "0:1000") as sim:
+        r = c.measure(tmp_path, sim, design, ok=False, timeout=120)
+    c.fails(tmp_path, r, 1, "experiment 1")
+    # seen either as the step back itself or, when the host had not read past the new index yet, as a
+    # DONE before the design's K P samples
+    assert "write index stepped back" in r.stderr or f"reported DONE after {K * P - 16} of the design's" in r.stderr
+
+
+def test_device_that_answers_twice(design, tmp_path):
+    """Every reply sent twice: the stale duplicate answers the next request, so no ring read succeeds.
+    The run used to end with the misleading "produced no new sample"; it now names the cause, once,
+    in bounded time, with nothing written."""
+    with c.Sim(tmp_path, "--seed", 4, "--answer-twice") as sim:
+        r = c.measure(tmp_path, sim, design, "--timeout", 3, ok=False, timeout=120)
+    c.fails(tmp_path, r, 1, "did not match their requests", "answers twice")

@@ -113,6 +113,30 @@ static void config_upload(void **st)
         fr[4][6] ^= 1;
         for (size_t i = 0; i + 1 < n; ++i) msid_can_config_feed(&RX, fr[i], 8, 1);
         assert_int_equal(msid_can_config_feed(&RX, fr[n - 1], 8, 1), -MSID_CAN_ERR_CRC);
+        /* regression (issue 15 #4): a valid CRC does not make an absurd count acceptable. An upload asking
+           for 5,000,000 periods (replay sized 4.58 GB from a 7 KB log), 1 period, or a period beyond
+           MSID_MAX_PERIOD is refused at COMMIT; 100000 periods is the limit */
+        const uint32_t bad_periods[] = {5000000u, 1u, MSID_CAN_MAX_PERIODS + 1u};
+        for (int b = 0; b < 4; ++b) {
+            static msid_can_config big;
+            big = CFG;
+            if (b < 3) big.periods = bad_periods[b]; else big.period = MSID_MAX_PERIOD + 1u;
+            uint8_t fb[200][8];
+            const size_t nb = msid_can_config_frames(&big, fb, 200);
+            msid_can_config_reset(&RX);
+            for (size_t i = 0; i + 1 < nb; ++i) msid_can_config_feed(&RX, fb[i], 8, 1);
+            assert_int_equal(msid_can_config_feed(&RX, fb[nb - 1], 8, 1), -MSID_CAN_ERR_CFG);
+        }
+        {
+            static msid_can_config lim;
+            lim = CFG;
+            lim.periods = MSID_CAN_MAX_PERIODS;
+            uint8_t fb[200][8];
+            const size_t nb = msid_can_config_frames(&lim, fb, 200);
+            msid_can_config_reset(&RX);
+            for (size_t i = 0; i + 1 < nb; ++i) msid_can_config_feed(&RX, fb[i], 8, 1);
+            assert_int_equal(msid_can_config_feed(&RX, fb[nb - 1], 8, 1), 1);
+        }
         /* another protocol version is refused at BEGIN */
         assert_int_equal(msid_can_config_feed(&RX, fr[0], 8, 2), -MSID_CAN_ERR_VERSION);
         assert_int_equal(msid_can_config_feed(&RX, fr[1], 8, 1), -MSID_CAN_ERR_CFG);
@@ -150,6 +174,19 @@ static void candump_lines(void **st)
     msid_candump_format(buf, sizeof buf, &f, "vcan0");
     assert_int_equal(msid_candump_parse(buf, &g, ifn, sizeof ifn), 0);
     assert_int_equal(g.id, MSID_CAN_EFF_FLAG | 0x1ABCDEF0u);
+    /* regressions (issue 15 #10): an RTR frame keeps its length (123#R8), an error frame read from a
+       log keeps only the error flag and its class bits */
+    memset(&f, 0, sizeof f);
+    f.id = MSID_CAN_RTR_FLAG | 0x123u; f.len = 8;
+    msid_candump_format(buf, sizeof buf, &f, "vcan0");
+    assert_non_null(strstr(buf, " 123#R8\n"));
+    assert_int_equal(msid_candump_parse(buf, &g, ifn, sizeof ifn), 0);
+    assert_true(g.id == (MSID_CAN_RTR_FLAG | 0x123u) && g.len == 8);
+    f.len = 0;
+    msid_candump_format(buf, sizeof buf, &f, "vcan0");
+    assert_non_null(strstr(buf, " 123#R\n"));
+    assert_int_equal(msid_candump_parse("(1.0) vcan0 E0000044#0004000000000000\n", &g, ifn, sizeof ifn), 0);
+    assert_int_equal(g.id, MSID_CAN_ERR_FLAG | 0x44u);
     assert_int_equal(msid_candump_parse("   \n", &g, ifn, sizeof ifn), 1);
     static const char *bad[] = {
         "1700000000.1 vcan0 212#00\n", "(1700000000.1) vcan0 2123#00\n", "(1700000000.1) vcan0 212#0\n",
@@ -350,6 +387,72 @@ static void decoder_gap_rejects_the_period(void **st)
     bench_free(&a);
 }
 
+/* Regression (issue 15 #1): a DONE frame claiming 0xFFFFFFFF samples. With the design's K P the
+ * decoder closes at K P (counted as malformed and done_beyond): nothing is lost, the statistics are
+ * those of the direct push; a sample index beyond K P is malformed. Without a bound the same DONE
+ * costs O(1) (whole gap periods are counted, not walked). */
+static void decoder_done_beyond_the_design(void **st)
+{
+    (void)st;
+    bench a, b;
+    build(MSID_CAN_ENC_F32, 0);
+    for (uint32_t e = 0; e < M; ++e)
+        msid_can_encode_state(FR[e][NFR[e] - 1].data, MSID_CAN_STATE_DONE, e, 0, 0xFFFFFFFFu);
+    bench_init(&a, MSID_CAN_ENC_F32, 0, 16);
+    a.dec.cfg.samples_total = (uint64_t)P * KP;
+    bench_init(&b, MSID_CAN_ENC_F32, 0, 16);
+    /* a frame of sample K P (beyond the design) before DONE: malformed, not a sample */
+    msid_can_frame extra = FR[0][1];
+    msid_can_encode_sample(extra.data, MSID_CAN_ENC_F32, 0, 0, P * KP, 0, MSID_CAN_PSTART, (const double[C]){0}, C, 0.001);
+    for (uint32_t e = 0; e < M; ++e)
+        for (size_t i = 0; i < NFR[e]; ++i) {
+            if (e == 0 && i + 1 == NFR[e]) assert_int_equal(msid_can_decoder_feed(&a.dec, &extra), MSID_OK);
+            assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[e][i]), MSID_OK);
+        }
+    direct(&b);
+    assert_same_stats(&a, &b);
+    assert_int_equal(a.dec.cnt.done_beyond, M);
+    assert_int_equal(a.dec.cnt.malformed, M + 1);
+    assert_int_equal(a.dec.cnt.samples_lost, 0);
+    assert_int_equal(a.dec.cnt.experiments_done, M);
+    bench_free(&a);
+    bench_free(&b);
+    /* found by fuzz_can_decoder: RUNNING/DONE of an experiment the design does not have made the core's
+       "argument out of range" sticky (the run failed with that message); it is a malformed frame now */
+    bench_init(&a, MSID_CAN_ENC_F32, 0, 16);
+    msid_can_frame bad = FR[0][0];
+    msid_can_encode_state(bad.data, MSID_CAN_STATE_RUNNING, M + 3, 0, P * KP);
+    assert_int_equal(msid_can_decoder_feed(&a.dec, &bad), MSID_OK);
+    assert_int_equal(a.dec.cnt.malformed, 1);
+    assert_int_equal(a.dec.open, 0);
+    bench_free(&a);
+    /* unbounded (samples_total 0): 2^32 - K P missing samples declared, in O(1) */
+    bench_init(&a, MSID_CAN_ENC_F32, 0, 16);
+    feed_all(&a, 99, 0);
+    assert_int_equal(a.dec.cnt.samples_lost, (uint64_t)M * (0xFFFFFFFFull - P * KP));
+    assert_int_equal(a.dec.cnt.done_beyond, 0);
+    bench_free(&a);
+    /* an adversarial device: every DONE sent twice, and experiment 0's DONE replayed inside experiment 1
+       (and at the end): ignored, the statistics are the clean run's, every experiment closed once */
+    build(MSID_CAN_ENC_F32, 0);
+    bench_init(&a, MSID_CAN_ENC_F32, 0, 16);
+    a.dec.cfg.samples_total = (uint64_t)P * KP;
+    bench_init(&b, MSID_CAN_ENC_F32, 0, 16);
+    for (uint32_t e = 0; e < M; ++e)
+        for (size_t i = 0; i < NFR[e]; ++i) {
+            assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[e][i]), MSID_OK);
+            if (i + 1 == NFR[e]) assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[e][i]), MSID_OK);
+            if (e == 1 && i == NFR[e] / 2) assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[0][NFR[0] - 1]), MSID_OK);
+        }
+    assert_int_equal(msid_can_decoder_feed(&a.dec, &FR[0][NFR[0] - 1]), MSID_OK);
+    direct(&b);
+    assert_same_stats(&a, &b);
+    assert_int_equal(a.dec.cnt.experiments_done, M);
+    assert_int_equal(a.dec.cnt.samples_lost, 0);
+    bench_free(&a);
+    bench_free(&b);
+}
+
 static void decoder_repairs_duplicates_and_reordering(void **st)
 {
     (void)st;
@@ -509,6 +612,7 @@ int main(void)
         cmocka_unit_test(candump_replay),
         cmocka_unit_test(decoder_bit_identical_to_direct_push),
         cmocka_unit_test(decoder_gap_rejects_the_period),
+        cmocka_unit_test(decoder_done_beyond_the_design),
         cmocka_unit_test(decoder_repairs_duplicates_and_reordering),
         cmocka_unit_test(decoder_malformed_frames_are_counted),
         cmocka_unit_test(decoder_device_restart_opens_a_segment),

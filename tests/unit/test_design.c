@@ -2,6 +2,9 @@
  * closed form of the pattern, crest factors, expected input DFT vs a naive
  * long-double DFT, and the continuous-time aliasing map vs an independent fold. */
 #include "unit_util.h"
+#ifdef MSID_HAVE_FFTW
+#include "msid/msid_fft_fftw.h"
+#endif
 
 static msid_design_cfg base_cfg(uint32_t P, uint32_t L, const uint32_t *bins, uint32_t nu, uint32_t m)
 {
@@ -450,6 +453,60 @@ static void test_crest_and_samples(void **state)
     }
 }
 
+/* Issue 15 #6: crest factors by two real DFTs (MSID_CREST_FFT, O(m nu P log P)) equal direct synthesis
+ * up to rounding, for odd and even P with a DC line; MSID_CREST_NONE leaves them NaN; an FFT of the
+ * wrong length or none is refused. Deterministic: two inits give the same bits. */
+static void test_crest_fft_equals_direct(void **state)
+{
+    (void)state;
+#ifdef MSID_HAVE_FFTW
+    const uint32_t b[] = {0, 1, 4, 7, 13, 20};
+    const uint32_t Ps[] = {60, 61, 4096};
+    for (int k = 0; k < 3; ++k) {
+        const uint32_t P = Ps[k];
+        msid_design_cfg c = base_cfg(P, 6, b, 2, 3);
+        c.phase_mode = MSID_PHASE_RANDOM;
+        c.seed = 77;
+        tsim_design direct, fft, fft2, none;
+        UT_STATUS(tsim_design_make(&direct, &c), MSID_OK);
+        msid_fft_fftw fw;
+        UT_STATUS(msid_fft_fftw_create(&fw, P, MSID_FFTW_ESTIMATE), MSID_OK);
+        c.crest = MSID_CREST_FFT;
+        c.fft = &fw.be;
+        UT_STATUS(tsim_design_make(&fft, &c), MSID_OK);
+        UT_STATUS(tsim_design_make(&fft2, &c), MSID_OK);
+        for (uint32_t e = 0; e < 3; ++e)
+            for (uint32_t i = 0; i < 2; ++i) {
+                const double x = msid_design_crest_factor(&direct.d, e, i), y = msid_design_crest_factor(&fft.d, e, i);
+                const double y2 = msid_design_crest_factor(&fft2.d, e, i);
+                UT_CHECK(fabs(x - y) <= 1e-13 * x && memcmp(&y, &y2, sizeof y) == 0, "P=%u e=%u i=%u: %.17g vs %.17g", P,
+                         e, i, x, y);
+            }
+        c.crest = MSID_CREST_NONE;
+        UT_STATUS(tsim_design_make(&none, &c), MSID_OK);
+        UT_CHECK(isnan(msid_design_crest_factor(&none.d, 0, 0)), "NONE at P=%u", P);
+        tsim_design_free(&none);
+        c.crest = MSID_CREST_FFT;
+        c.fft = NULL;
+        UT_STATUS(tsim_design_make(&none, &c), MSID_E_NULL);
+        tsim_design_free(&none);
+        tsim_design_free(&direct);
+        tsim_design_free(&fft);
+        tsim_design_free(&fft2);
+        msid_fft_fftw_destroy(&fw);
+    }
+    msid_fft_fftw wrong;
+    UT_STATUS(msid_fft_fftw_create(&wrong, 64, MSID_FFTW_ESTIMATE), MSID_OK);
+    msid_design_cfg c = base_cfg(60, 6, b, 2, 3);
+    c.crest = MSID_CREST_FFT;
+    c.fft = &wrong.be;
+    tsim_design t;
+    UT_STATUS(tsim_design_make(&t, &c), MSID_E_BACKEND);
+    tsim_design_free(&t);
+    msid_fft_fftw_destroy(&wrong);
+#endif
+}
+
 static void test_input_dft_vs_naive(void **state)
 {
     (void)state;
@@ -726,6 +783,7 @@ int main(void)
         cmocka_unit_test(test_schroeder_crest),
         cmocka_unit_test(test_phase_modes),
         cmocka_unit_test(test_crest_and_samples),
+        cmocka_unit_test(test_crest_fft_equals_direct),
         cmocka_unit_test(test_input_dft_vs_naive),
         cmocka_unit_test(test_ct_alias_map_random),
         cmocka_unit_test(test_ct_gonzalez_fig1),

@@ -26,6 +26,7 @@ typedef struct {
     double inj_amp;
     uint32_t inj_bin;
     int same_rows;                      /* 1: every experiment gets experiment 0's rows */
+    double scale_u, scale_y;            /* 0 or a factor on the inputs / outputs (range tests) */
 } run_opts;
 
 static void pipe_free(pipeline *pp)
@@ -58,6 +59,8 @@ static msid_status pipe_run(pipeline *pp, const tsim_design *t, tsim_bench *b, c
         if (o->inj_amp != 0.0)
             for (size_t n = 0; n < (size_t)K * P; ++n)
                 rows[n * C + nu] += o->inj_amp * cos(UT_TWO_PI * (double)((o->inj_bin * n) % P) / P + 0.3);
+        if (o->scale_u != 0.0 || o->scale_y != 0.0)
+            for (size_t k = 0; k < (size_t)K * P * C; ++k) rows[k] *= (k % C < nu ? o->scale_u : o->scale_y);
         UT_STATUS(msid_meas_begin(&pp->ms, e), MSID_OK);
         UT_STATUS(msid_meas_push(&pp->ms, rows, (size_t)K * P), MSID_OK);
         UT_STATUS(msid_meas_end(&pp->ms, NULL), MSID_OK);
@@ -405,6 +408,7 @@ static void test_dc_line_real(void **state)
     UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     check_dc_real(&pp.frf, "SISO noisy FFTW");
     pipe_free(&pp);
+    msid_fft_fftw_destroy(&fw);   /* issue 15 #9: the plan leaked (LeakSanitizer) */
     o.path = MSID_DFT_STREAM;
     o.fft = NULL;
 #endif
@@ -500,6 +504,44 @@ static void test_dof_unbalanced_mimo(void **state)
     }
     pipe_free(&pp);
     scene_free(&s);
+}
+
+/* Regression (issue 15 #5, #8): data scaled far from 1 never gives NaN/Inf results or a misleading
+ * "singular" status. Inputs and outputs both scaled by 1e78 (and 1e-78): the dof is scale-free and
+ * equals the unscaled one; outputs near 1e155 overflow the covariances and inputs of 1e160 or 1e-200
+ * overflow/underflow |U|^2: each is MSID_E_RANGE with the line named. */
+static void test_range_of_magnitudes(void **state)
+{
+    (void)state;
+    const uint32_t bins[] = {2, 5, 11};
+    scene s;
+    pipeline pp;
+    double dof0[3];
+    const double su[] = {1.0, 1e78, 1e-78, 1.0, 1e160, 1e-200};
+    const double sy[] = {1.0, 1e78, 1e-78, 1e155, 1.0, 1.0};
+    for (int k = 0; k < 6; ++k) {
+        scene_make(&s, dt_cfg(32, 3, bins, 2, 2), up_mimo(), 200, 14u);   /* same seed: same data each time */
+        s.b.sigma_y[0] = s.b.sigma_y[1] = 0.1;
+        run_opts o = opts_k(2, 4);
+        o.K[1] = 7;
+        o.scale_u = su[k];
+        o.scale_y = sy[k];
+        const msid_status st = scene_run(&s, &pp, &o);
+        if (k < 3) {
+            UT_STATUS(st, MSID_OK);
+            for (uint32_t l = 0; l < 3; ++l) {
+                const double dof = msid_frf_dof(&pp.frf, l);
+                if (k == 0) dof0[l] = dof;
+                UT_CHECK(isfinite(dof) && fabs(dof - dof0[l]) <= 1e-12 * dof0[l], "scale %g line %u dof %.17g vs %.17g",
+                         su[k], l, dof, dof0[l]);
+                UT_CHECK(isfinite(msid_frf_cov(&pp.frf, l)[0].re), "scale %g line %u cov", su[k], l);
+            }
+        } else {
+            UT_CHECK(st == MSID_E_RANGE && pp.frf.bad_line >= 0, "u x %g, y x %g: status %s", su[k], sy[k], msid_strerror(st));
+        }
+        pipe_free(&pp);
+        scene_free(&s);
+    }
 }
 
 /* ---------- detection lines ---------- */
@@ -612,6 +654,7 @@ int main(void)
         cmocka_unit_test(test_dc_line_real),
         cmocka_unit_test(test_covariance_siso_closed_form),
         cmocka_unit_test(test_dof_unbalanced_mimo),
+        cmocka_unit_test(test_range_of_magnitudes),
         cmocka_unit_test(test_detection_lines),
         cmocka_unit_test(test_init_errors),
     };

@@ -189,6 +189,36 @@ static void test_capacity_sticky(void **state)
     done(&o);
 }
 
+/* Regression (issue 15 #1): a gap of 2^32 - 1 samples is accounted in O(1) (whole periods are counted,
+ * not walked), with the same counts as a short gap walked period by period, and a mark pending before a
+ * run of whole gap periods does not leak into the next real period. */
+static void test_huge_gap_is_o1(void **state)
+{
+    (void)state;
+    const uint32_t P = 16, bins[] = {1, 3};
+    meas o;
+    msid_meas_cfg c = cfg(&o, P, bins, 2, NULL, 0);
+    UT_STATUS(init(&o, &c), MSID_OK);
+    double rows[4 * 16 * 3];
+    for (size_t k = 0; k < sizeof rows / sizeof rows[0]; ++k) rows[k] = (double)(k % 7) - 3.0;
+    const uint64_t big = 0xFFFFFFFFull;   /* would be 2^28 period walks */
+    UT_STATUS(msid_meas_begin(&o.ms, 0), MSID_OK);
+    UT_STATUS(msid_meas_push(&o.ms, rows, 3), MSID_OK);          /* a partial period, then the gap */
+    UT_STATUS(msid_meas_push_gap(&o.ms, (size_t)big), MSID_OK);
+    const uint64_t pos = (3 + big) % P;
+    UT_STATUS(msid_meas_push(&o.ms, rows, (size_t)(P - pos)), MSID_OK);   /* rest of the gap's last period */
+    UT_STATUS(msid_meas_mark_gap(&o.ms), MSID_OK);               /* a mark at a period start ... */
+    UT_STATUS(msid_meas_push_gap(&o.ms, 2 * P), MSID_OK);        /* ... then whole gap periods */
+    UT_STATUS(msid_meas_push(&o.ms, rows, 2 * P), MSID_OK);      /* two clean periods: both used */
+    UT_STATUS(msid_meas_end(&o.ms, NULL), MSID_OK);
+    const msid_pstats_counts n = msid_pstats_get_counts(msid_meas_stats(&o.ms, 0));
+    const uint64_t gap_periods = (3 + big + (P - pos)) / P;
+    UT_CHECK(n.gap == gap_periods + 2 && n.used == 2 && n.offered == gap_periods + 4,
+             "gap %u (want %llu) used %u offered %u", n.gap, (unsigned long long)gap_periods + 2, n.used, n.offered);
+    UT_CHECK(o.ms.samples[0] == 3 + big + (P - pos) + 4 * P, "samples %llu", (unsigned long long)o.ms.samples[0]);
+    done(&o);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -196,6 +226,7 @@ int main(void)
         cmocka_unit_test(test_state_machine),
         cmocka_unit_test(test_accounting),
         cmocka_unit_test(test_capacity_sticky),
+        cmocka_unit_test(test_huge_gap_is_o1),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

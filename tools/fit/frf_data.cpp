@@ -83,6 +83,7 @@ FrfData read_frf(const std::string &path)
     f.ny = uint(need(j, "n_outputs", path), path, "'n_outputs'");
     f.m = uint(need(j, "n_experiments", path), path, "'n_experiments'");
     if (f.nu == 0 || f.ny == 0 || f.nu > 16 || f.ny > 16) throw FitError(where(path, "n_inputs/n_outputs out of range"));
+    if (f.m == 0 || f.m > 64) throw FitError(where(path, "'n_experiments' must be 1..64"));
     const Json &dom = need(j, "domain", path);
     if (dom == "ct") f.domain = Domain::CT;
     else if (dom == "dt") f.domain = Domain::DT;
@@ -110,10 +111,12 @@ FrfData read_frf(const std::string &path)
         if (e.contains("cov")) {
             l.cov = cmat(e["cov"], g, g, path, ctx + ".cov");
             l.dof = num(need(e, "dof", path, ctx), path, ctx + ".dof");
+            if (!(l.dof >= 1)) throw FitError(where(path, ctx + ".dof must be at least 1"));
         }
         if (e.contains("cov_known_input")) {
             l.cov_ki = cmat(e["cov_known_input"], g, g, path, ctx + ".cov_known_input");
             l.dof_ki = e.contains("dof_known_input") ? num(e["dof_known_input"], path, ctx + ".dof_known_input") : l.dof;
+            if (!(l.dof_ki >= 1)) throw FitError(where(path, ctx + ".dof_known_input must be at least 1"));
         }
         if (e.contains("noise_cov")) l.noise = cmat(e["noise_cov"], f.ny, f.ny, path, ctx + ".noise_cov");
         f.lines.push_back(std::move(l));

@@ -78,8 +78,10 @@ ModelFile read_model(const std::string &path)
         LmfdModel L;
         L.domain = m.domain;
         L.h = m.h;
-        L.nD = (int)ival(l, "nD", path);
-        L.nN = (int)ival(l, "nN", path);
+        const int64_t nD = ival(l, "nD", path), nN = ival(l, "nN", path);
+        if (nD > 400 || nN > 400) throw FitError("'" + path + "': lmfd.nD and lmfd.nN must be at most 400");
+        L.nD = (int)nD;   // range-checked before the cast (a crafted 2^32 - 1 was a crash)
+        L.nN = (int)nN;
         if (!l.contains("D") || !l["D"].is_array() || (int)l["D"].size() != L.nD || !l.contains("N") ||
             !l["N"].is_array() || (int)l["N"].size() != L.nN + 1)
             throw FitError("'" + path + "': lmfd.D needs nD and lmfd.N nN+1 matrices");

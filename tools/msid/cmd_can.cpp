@@ -101,11 +101,11 @@ struct Acq {
             throw Error("cannot write '" + log_path + "'");
         }
     }
+    // history: periods kept per experiment for the transient test (room for a device restart or two)
     void init(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t base,
-              const msid_can_config &c, uint32_t window)
+              const msid_can_config &c, uint32_t window, uint32_t history)
     {
-        // history: room for a device restart or two per experiment
-        job = std::make_unique<FrfJob>(rq, nu, ny, m, periods, 4 * periods + 8);
+        job = std::make_unique<FrfJob>(rq, nu, ny, m, periods, history);
         msid_can_decoder_cfg dc{};
         dc.base = base;
         dc.n_inputs = nu;
@@ -116,6 +116,7 @@ struct Acq {
         dc.period = c.period;
         dc.window = window;
         dc.meas = job->meas();
+        dc.samples_total = (uint64_t)periods * c.period;   // a DONE count beyond K P is not trusted
         const size_t n = msid_can_decoder_mem_size(&dc);
         if (!n) throw Error(fmt("%u inputs + %u outputs do not fit the %s %s sample frames", nu, ny,
                                 c.fd ? "CAN FD" : "classic", c.encoding ? "float32" : "int16"));
@@ -203,6 +204,9 @@ static std::vector<std::string> loss_notes(const msid_can_decoder &d, const msid
     if (ls.kernel_drops)
         n.push_back(fmt("the kernel dropped %llu frame(s) for a full socket queue (raise --rcvbuf)",
                         (unsigned long long)ls.kernel_drops));
+    if (c.done_beyond)
+        n.push_back(fmt("%llu DONE frame(s) announced more samples than the design's periods x period: the "
+                        "experiment was closed at the design's count", (unsigned long long)c.done_beyond));
     if (c.malformed) n.push_back(fmt("%llu malformed frame(s) ignored", (unsigned long long)c.malformed));
     if (c.duplicates) n.push_back(fmt("%llu duplicate frame(s) ignored", (unsigned long long)c.duplicates));
     if (c.restarts) n.push_back(fmt("the device restarted %llu time(s)", (unsigned long long)c.restarts));
@@ -390,7 +394,7 @@ static int cmd_measure(int argc, char **argv)
         throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", dev.cfg_crc, crc));
 
     // 3. run the experiments
-    acq.init(rq, nu, ny, m, sf.periods, base, *cfg, window);
+    acq.init(rq, nu, ny, m, sf.periods, base, *cfg, window, 4 * sf.periods + 8);
     for (const auto &f : early) acq.feed(f);
     msid_can_frame fr[64];
     for (uint32_t e = 0; e < m; ++e) {
@@ -457,6 +461,7 @@ static int cmd_replay(int argc, char **argv)
     msid_can_config_reset(cfg.get());
     bool have_cfg = false, have_info = false;
     uint32_t ny = 0, version = 0;
+    uint64_t sample_frames = 0;
     std::string iface;
     msid_can_frame fr[64];
     for (;;) {
@@ -466,6 +471,9 @@ static int cmd_replay(int argc, char **argv)
         for (int i = 0; i < k; ++i) {
             const msid_can_frame &f = fr[i];
             if (iface.empty()) iface = rd.iface;
+            if (!(f.id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG | MSID_CAN_ERR_FLAG)) && (f.id & 0x780u) == base &&
+                (f.id & 0x7Fu) >= MSID_CAN_ID_S16)
+                ++sample_frames;
             if (f.id == base + MSID_CAN_ID_CFG) {
                 if (msid_can_config_feed(cfg.get(), f.data, f.len, MSID_CAN_PROTO_VERSION) == 1) {
                     std::memcpy(got.get(), cfg.get(), sizeof *cfg);
@@ -499,13 +507,17 @@ static int cmd_replay(int argc, char **argv)
     if (got->rate_hz && !dd->d.is_ct) rq.fs = got->rate_hz;
     const uint32_t nu = got->n_inputs, m = got->n_experiments;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("'%s': the device reports %u outputs", path.c_str(), ny));
-    if (rq.skip + 2 > got->periods)
+    if ((uint64_t)rq.skip + 2 > got->periods)
         throw Error(fmt("--skip-periods %u leaves fewer than 2 of the %u periods", rq.skip, got->periods));
 
     // Pass 2: every frame through the decoder, as live.
     Acq acq;
     acq.iface = iface;
-    acq.init(rq, nu, ny, m, got->periods, base, *got, window);
+    // The history is sized by what the log can hold, not by the periods its upload asks for (a 7 KB log
+    // must not size gigabytes): no experiment has more periods than the log has frames for.
+    const uint64_t fit = sample_frames / ((uint64_t)got->period * msid_can_chunks(nu + ny, got->encoding, got->fd)) + 8;
+    const uint64_t want = 4ull * got->periods + 8;
+    acq.init(rq, nu, ny, m, got->periods, base, *got, window, (uint32_t)(fit < want ? fit : want));
     msid_candump_rewind(&rd);
     for (;;) {
         const int k = t.be->recv(t.ctx, fr, 64, 0);

@@ -388,6 +388,9 @@ int cmd_compare(int argc, char **argv)
     try {
         const ModelFile m1 = read_model(a.positional()[0]), m2 = read_model(a.positional()[1]);
         const Distance dd = ss_distance(m1.ss, m2.ss);
+        if (!(dd.h2_ref > 0) || !(dd.hinf_ref > 0) || !std::isfinite(dd.h2_ref) || !std::isfinite(dd.hinf_ref))
+            throw Error(fmt("'%s': the reference's H2 norm is %g and its Hinf norm %g: relative distances need a "
+                            "reference with finite, non-zero norms", m2.path.c_str(), dd.h2_ref, dd.hinf_ref));
         std::printf("relative H2 distance %.6g, relative Hinf distance %.6g (reference H2 %.6g, Hinf %.6g)\n", dd.h2,
                     dd.hinf, dd.h2_ref, dd.hinf_ref);
         if (a.has("output"))

@@ -254,10 +254,12 @@ static int cmd_measure(int argc, char **argv)
     qc.word_order = wo;
     qc.scale = (double)sf.scale;
     qc.meas = job.meas();
+    qc.period = d.period;   // the header's P and K P are checked against the design
     Mem mq(msid_mb_acq_mem_size(&qc));
     msid_mb_acq q;
     check(msid_mb_acq_init(&q, &qc, mq.p, mq.n), "Modbus adapter setup");
     double stream_s = 0;
+    uint64_t bad_at_progress = 0;   // bad replies when a sample last arrived
     for (uint32_t e = 0; e < m; ++e) {
         if (msid_mb_acq_start(&q, e, sf.periods) < 0)
             throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
@@ -266,16 +268,28 @@ static int cmd_measure(int argc, char **argv)
         last = t0;
         for (;;) {
             int prog = 0;
+            const uint64_t nodone = q.cnt.done_missing;
             const int r = msid_mb_acq_poll(&q, &prog);
+            if (r == 1 && q.cnt.done_missing != nodone && msid_mb_command(&cl, MSID_MB_CMD_STOP, e, 0) < 0)
+                throw Error(fmt("experiment %u on %s: the device did not stop after the design's samples: %s", e + 1,
+                                L.name.c_str(), cl.err));
             if (r == 1) break;
             if (r == -MSID_DAQ_E_ARG && q.st.err == MSID_E_CAPACITY)
                 throw Error("more periods arrived than the measurement holds (device restarted too often?)");
             if (r == -MSID_DAQ_E_ARG) check(q.st.err, "measurement");
             if (r < 0) throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
-            if (prog) clock_gettime(CLOCK_MONOTONIC, &last);
-            else if (secs_since(last) > timeout)
+            if (prog) {
+                clock_gettime(CLOCK_MONOTONIC, &last);
+                bad_at_progress = cl.cnt.bad_replies;
+            } else if (secs_since(last) > timeout) {
+                if (cl.cnt.bad_replies > bad_at_progress)   // not a silent device: its replies do not match
+                    throw Error(fmt("no new sample for %g s during experiment %u: %llu repl%s from %s did not match "
+                                    "their requests (a device that answers twice, or a second master on the link?)",
+                                    timeout, e + 1, (unsigned long long)(cl.cnt.bad_replies - bad_at_progress),
+                                    cl.cnt.bad_replies - bad_at_progress == 1 ? "y" : "ies", L.name.c_str()));
                 throw Error(fmt("the device on %s produced no new sample for %g s during experiment %u", L.name.c_str(),
                                 timeout, e + 1));
+            }
             else usleep(sf.rate ? 2000 : 200);
         }
         stream_s += secs_since(t0);
@@ -293,6 +307,9 @@ static int cmd_measure(int argc, char **argv)
         notes.push_back(fmt("%llu sample(s) overwritten in the device's ring before they were read (%llu overrun(s)): "
                             "the periods they touch were rejected",
                             (unsigned long long)q.cnt.overrun_samples, (unsigned long long)q.cnt.overrun_events));
+    if (q.cnt.done_missing)
+        notes.push_back(fmt("%llu experiment(s) ended after the design's %u x %u samples without the device "
+                            "reporting DONE", (unsigned long long)q.cnt.done_missing, sf.periods, d.period));
     if (q.cnt.restarts) notes.push_back(fmt("the device restarted %llu time(s)", (unsigned long long)q.cnt.restarts));
     if (cl.cnt.retries)
         notes.push_back(fmt("%llu request(s) retried (%llu timeout(s), %llu bad CRC, %llu exception(s), %llu reconnect(s))",

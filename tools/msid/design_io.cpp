@@ -1,5 +1,7 @@
 #include "design_io.hpp"
 
+#include "msid/msid_fft_fftw.h"
+
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -58,6 +60,17 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
     c.n_experiments = p.n_experiments;
     c.pattern = p.pattern;
     c.twiddle = &D->tw;
+    // Crest factors by two real DFTs per input (O(m nu P log P)), not direct synthesis (O(m nu P L): 26 s
+    // for P = 2^20 with 1000 lines; issue 15 #6). The plan lives only for the init.
+    struct Plan {
+        msid_fft_fftw f{};
+        bool on = false;
+        ~Plan() { if (on) msid_fft_fftw_destroy(&f); }
+    } plan;
+    check(msid_fft_fftw_create(&plan.f, p.period, MSID_FFTW_ESTIMATE), "FFTW plan");
+    plan.on = true;
+    c.crest = MSID_CREST_FFT;
+    c.fft = &plan.f.be;
     if (p.phase_mode == MSID_PHASE_USER && p.phases.size() != (size_t)p.n_inputs * L)
         throw Error(fmt("%zu phases for %u inputs x %zu lines", p.phases.size(), p.n_inputs, L));
     n = msid_design_mem_size(&c);

@@ -2,6 +2,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -30,6 +31,9 @@ int main(int argc, char **argv)
         return argc < 2 ? 2 : 0;
     }
     const std::string cmd = argv[1];
+    // A file size limit (ulimit -f) must end a run with an error, not SIGXFSZ: then write() fails with
+    // EFBIG and the temporary file is removed (issue 15 #10: out.json.tmp.PID was left behind).
+    std::signal(SIGXFSZ, SIG_IGN);
     try {
         if (cmd == "excite") return msidcli::cmd_excite(argc, argv);
         if (cmd == "frf") return msidcli::cmd_frf(argc, argv);

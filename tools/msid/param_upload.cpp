@@ -99,7 +99,8 @@ void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfReq
         sf.scale = (float)s;
     }
     sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D.params.periods ? D.params.periods : 8);
-    if (sf.periods < 2 || sf.periods > 100000) throw UsageError("--periods must be 2..100000");
+    if (sf.periods < 2 || sf.periods > MSID_CAN_MAX_PERIODS)
+        throw UsageError(fmt("--periods must be 2..%u", MSID_CAN_MAX_PERIODS));
     if (a.has("rate")) {
         const double r = parse_double(a.get("rate"), "--rate");
         if (!(r >= 0 && r <= 4e9) || r != std::floor(r))
@@ -109,7 +110,7 @@ void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfReq
     request_from_design(rq, D);
     parse_estimate_options(a, rq);
     if (sf.rate > 0 && !D.d.is_ct) rq.fs = sf.rate;
-    if (rq.skip + 2 > sf.periods)
+    if ((uint64_t)rq.skip + 2 > sf.periods)   // 64-bit: a huge --skip-periods must not wrap
         throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
 }
 

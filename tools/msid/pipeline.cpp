@@ -218,7 +218,7 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     mc.path = path;
     mc.fft = I.fftw.on ? &I.fftw.f.be : nullptr;
     mc.skip_periods = rq.skip;
-    mc.transient = maxK >= rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
+    mc.transient = maxK >= (uint64_t)rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
     mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? history : 0;
     mc.alpha = rq.alpha;
     const size_t nm = msid_meas_mem_size(&mc);

@@ -53,6 +53,9 @@ typedef struct msid_can_decoder_cfg {
     uint32_t window;        /**< reorder window in samples, 1..MSID_CAN_MAX_WINDOW (0: 16) */
     uint32_t block;         /**< rows per ::msid_meas_push (0: 256) */
     msid_meas *meas;        /**< the measurement to feed */
+    uint64_t samples_total; /**< K P: samples per experiment segment the design allows (0: unchecked). A DONE
+                                 frame announcing more, or a sample index at or beyond it, is malformed: the
+                                 experiment closes at K P, so a hostile count cannot size the work. */
 } msid_can_decoder_cfg;
 
 /** Counters (cumulative over the run). */
@@ -76,6 +79,7 @@ typedef struct msid_can_counters {
     uint64_t restarts;        /**< device restarts seen in the sample stream (new segments) */
     uint64_t periods_marked;  /**< periods discarded for bus-off or controller overflow */
     uint64_t experiments_done;/**< experiments closed by DONE */
+    uint64_t done_beyond;     /**< DONE frames announcing more than samples_total samples (closed at samples_total) */
     uint64_t stream_ns;       /**< sum over experiments of the time from their first to their last sample frame
                                    (receive timestamps; 0 without timestamps) */
 } msid_can_counters;

@@ -95,6 +95,8 @@ enum { MSID_CAN_ENC_S16 = 0, MSID_CAN_ENC_F32 = 1 };
 
 /** Largest number of lines a device accepts. */
 #define MSID_CAN_MAX_LINES 1024u
+/** Largest number of periods per experiment a parameter set may ask for (the host's --periods limit). */
+#define MSID_CAN_MAX_PERIODS 100000u
 
 /** The uploaded configuration (design parameters and stream format). */
 typedef struct msid_can_config {

@@ -57,6 +57,10 @@ typedef struct msid_mb_acq_cfg {
     uint32_t encoding, word_order;
     double scale;               /**< int16/int32 step */
     msid_meas *meas;            /**< the measurement to feed */
+    uint32_t period;            /**< P of the design (0: unchecked). With it the header's P and TOTAL must be the
+                                     design's P and K P, a segment ends after K P samples whether or not the
+                                     device reports DONE, and a write index that steps back or a DONE before
+                                     K P samples is a protocol error: the device's counts never size the work. */
 } msid_mb_acq_cfg;
 
 /** Counters of the poller (cumulative). */
@@ -68,6 +72,7 @@ typedef struct msid_mb_counters {
     uint64_t restarts;          /**< new segments seen (device restarts) */
     uint64_t experiments_done;
     uint64_t device_overruns;   /**< the device's own overrun count, summed over experiments */
+    uint64_t done_missing;      /**< experiments closed after K P samples while the device still reported RUNNING */
 } msid_mb_counters;
 
 /** Ring poller (caller-owned). */
@@ -83,6 +88,7 @@ typedef struct msid_mb_acq {
     uint64_t r;                 /**< next sample index (of the run) to read */
     uint32_t seg;               /**< segment number */
     uint64_t seg_start;         /**< its first sample index */
+    uint64_t total;             /**< K P: samples per segment (0: unchecked) */
     msid_mb_counters cnt;
 } msid_mb_acq;
 

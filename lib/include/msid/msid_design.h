@@ -27,6 +27,7 @@
 #include "msid_types.h"
 #include "msid_status.h"
 #include "msid_twiddle.h"
+#include "msid_fft.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -45,6 +46,17 @@ typedef enum msid_pattern {
     MSID_PATTERN_HADAMARD = 1  /**< T = rows of the Sylvester Hadamard matrix, m a power of 2 */
 } msid_pattern;
 
+/**
+ * How ::msid_design_init computes the crest factors max|u|/rms(u) (issue 15 #6: direct synthesis is
+ * O(m nu P L), 26 s for P = 2^20 with 1000 lines).
+ */
+typedef enum msid_crest_mode {
+    MSID_CREST_DIRECT = 0, /**< direct synthesis of every sample, O(m nu P L), no extra memory (small designs) */
+    MSID_CREST_FFT = 1,    /**< two real DFTs per input and experiment through cfg->fft, O(m nu P log P);
+                                2.5 P doubles more working memory. Same samples up to rounding (~1e-15 relative) */
+    MSID_CREST_NONE = 2    /**< not computed (NaN), O(1): devices and readers that never report them */
+} msid_crest_mode;
+
 /** Design configuration. All pointers are read during init only. */
 typedef struct msid_design_cfg {
     uint32_t period;          /**< P, samples per period, [MSID_MIN_PERIOD, MSID_MAX_PERIOD] */
@@ -62,6 +74,8 @@ typedef struct msid_design_cfg {
     uint32_t n_experiments;   /**< m in [nu, MSID_MAX_EXPERIMENTS] */
     msid_pattern pattern;     /**< pattern across experiments */
     const msid_twiddle *twiddle; /**< table of the same period; used to compute the crest factors */
+    msid_crest_mode crest;    /**< how the crest factors are computed (0: MSID_CREST_DIRECT) */
+    const msid_fft_backend *fft; /**< MSID_CREST_FFT: a real DFT of length `period` */
 } msid_design_cfg;
 
 /** Which lines made a design fail (see ::msid_design_diag). -1 when not applicable. */

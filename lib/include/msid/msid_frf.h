@@ -88,7 +88,10 @@ msid_status msid_frf_init(msid_frf *f, const msid_frf_cfg *cfg, void *mem, size_
  * @return MSID_OK; MSID_E_FEW_PERIODS (see bad_experiment) if an experiment has < 2 periods;
  *         MSID_E_SINGULAR (see bad_line and ::msid_frf_line_status) if Ubar is singular
  *         (cond > 1e12) or the inputs do not excite a line (MSID_LINE_UNEXCITED) - the
- *         other lines are still solved; MSID_E_DIMS if the statistics do not match.
+ *         other lines are still solved; MSID_E_DIMS if the statistics do not match;
+ *         MSID_E_RANGE (see bad_line) if |U|^2 at a line over- or underflows (nothing is
+ *         solved then), or a solved line's G, covariances, noise or dof are not finite
+ *         (data scaled near 1e+-150): results are never silently NaN or infinite.
  */
 msid_status msid_frf_compute(msid_frf *f, const msid_pstats *const *stats);
 

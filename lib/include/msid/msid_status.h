@@ -35,6 +35,7 @@ typedef enum msid_status {
     MSID_E_SINGULAR,           /**< the input matrix is singular at a line */
     MSID_E_BACKEND,            /**< the FFT backend failed or does not match the period */
     MSID_E_NOT_FINITE,         /**< a value that must be finite is NaN or infinite */
+    MSID_E_RANGE,              /**< magnitudes beyond what double precision can process (e.g. data scaled by 1e150) */
     MSID_E_COUNT_              /**< number of codes (not a status) */
 } msid_status;
 

@@ -1,0 +1,41 @@
+// libFuzzer: the file readers of the command line, through their own entry points: the first byte picks
+// the reader, the rest is the file. msid-frf/1 (read_frf), msid-model/1 (read_model), msid-design/1
+// (read_design_file) and experiment CSV (read_record_csv). A reader must return a value or throw its
+// one error; any other exception, a crash or a sanitizer report is a finding.
+#include "csv_io.hpp"
+#include "design_io.hpp"
+#include "frf_data.hpp"
+#include "model_io.hpp"
+
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <unistd.h>
+
+static std::string tmp_path()
+{
+    static std::string p;
+    if (p.empty()) p = "/tmp/msid-fuzz-files." + std::to_string(getpid());
+    return p;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    if (size < 1) return 0;
+    const std::string path = tmp_path();
+    FILE *f = std::fopen(path.c_str(), "wb");
+    if (!f) return 0;
+    std::fwrite(data + 1, 1, size - 1, f);
+    std::fclose(f);
+    try {
+        switch (data[0] % 4) {
+        case 0: (void)msidfit::read_frf(path); break;
+        case 1: (void)msidfit::read_model(path); break;
+        case 2: (void)msidcli::read_design_file(path); break;
+        default: (void)msidcli::read_record_csv(path); break;
+        }
+    } catch (const msidfit::FitError &) {
+    } catch (const msidcli::Error &) {
+    }
+    return 0;
+}

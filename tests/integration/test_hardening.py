@@ -1,0 +1,142 @@
+"""Regressions of issue 15 through the command line: every field read from a file or an option is
+range-checked before it sizes memory or work, and a result is never written with NaN/Inf (JSON null).
+Each case: one clear message, non-zero exit, no output file and no temporary left behind."""
+import json
+import resource
+import subprocess
+
+import numpy as np
+import pytest
+
+import helpers as h
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    d = tmp_path_factory.mktemp("hardbench")
+    b = h.make_dt_bench(d, periods=6)
+    h.run_ok(*h.frf_args(b, d / "frf.json"))
+    h.run_ok("fit", "--method", "subspace", "--order", 4, d / "frf.json", "-o", d / "model.json")
+    return {"dir": d, "bench": b, "frf": d / "frf.json", "model": d / "model.json"}
+
+
+def fails(tmp, r, *needles, out=None):
+    assert r.returncode != 0, r.stdout
+    lines = [l for l in r.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1, r.stderr
+    for n in needles:
+        assert n in r.stderr, r.stderr
+    if out is not None:
+        assert not out.exists()
+    assert not list(tmp.glob("*.tmp.*")), list(tmp.glob("*"))
+
+
+def scaled_csvs(bench, tmp, su, sy):
+    paths = []
+    for p in bench["experiments"]:
+        cols = h.read_csv(p)
+        c = {k: np.asarray(v) * (su if k.startswith("u") else sy if k.startswith("y") else 1.0) for k, v in cols.items()}
+        q = tmp / p.name
+        h.write_csv(q, c)
+        paths.append(q)
+    return paths
+
+
+def frf(bench, exps, out, *extra):
+    args = ["frf", "--design", bench["design"]]
+    for p in exps:
+        args += ["--experiment", p]
+    return h.run(*args, *extra, "-o", out)
+
+
+@pytest.mark.parametrize("nN", [4294967295, 2147483647])
+def test_validate_crafted_lmfd_order(bench, tmp_path, nN):
+    """#3: lmfd.nN cast to int without a range check crashed `msid validate` (SIGSEGV; UBSan overflow)."""
+    m = json.loads(bench["model"].read_text())
+    m["lmfd"] = {"nD": 1, "nN": nN, "D": [[[1, 0], [0, 1]]], "N": []}
+    p = tmp_path / "crafted.json"
+    p.write_text(json.dumps(m))
+    r = h.run("validate", p, bench["frf"], "-o", tmp_path / "v.json")
+    fails(tmp_path, r, "lmfd.nD and lmfd.nN must be at most 400", out=tmp_path / "v.json")
+
+
+def test_scaled_data_gives_finite_results_or_one_error(bench, tmp_path):
+    """#5, #8: inputs and outputs scaled by 1e78 give the same dof (it was null from csum^2/c2); outputs
+    near 1e155 overflow the covariances and inputs of 1e160 or 1e-200 overflow/underflow |U|^2 (they
+    were JSON null with exit 0, or a misleading "singular ... condition number 1"): one range error."""
+    base = h.load_json(bench["frf"])
+    out = tmp_path / "f.json"
+    r = frf(bench["bench"], scaled_csvs(bench["bench"], tmp_path, 1e78, 1e78), out)
+    assert r.returncode == 0, r.stderr
+    doc = h.load_json(out)
+    h.validate(doc, "msid-frf-1")
+    for a, b in zip(doc["lines"], base["lines"]):
+        assert a["dof"] == pytest.approx(b["dof"], rel=1e-12)
+    out.unlink()
+    for su, sy in ((1.0, 1e155), (1e160, 1.0), (1e-200, 1.0)):
+        r = frf(bench["bench"], scaled_csvs(bench["bench"], tmp_path, su, sy), out)
+        fails(tmp_path, r, "beyond what double precision can process", out=out)
+        assert "singular" not in r.stderr
+
+
+def test_denormal_sample_rate(bench, tmp_path):
+    """#5: --fs 4.9e-324 wrote null frequencies with exit 0."""
+    out = tmp_path / "f.json"
+    r = frf(bench["bench"], bench["bench"]["experiments"], out, "--fs", "4.9e-324")
+    if r.returncode == 0:   # an accepted rate must give a finite, schema-valid file
+        h.validate(h.load_json(out), "msid-frf-1")
+    else:
+        fails(tmp_path, r, out=out)
+
+
+def test_compare_against_zero_reference(bench, tmp_path):
+    """#5: relative distances to an all-zero model were written as null with exit 0."""
+    z = json.loads(bench["model"].read_text())
+    for k in ("B", "C", "D"):
+        z[k] = [[0.0] * len(row) for row in z[k]]
+    z.pop("lmfd", None)
+    p = tmp_path / "zero.json"
+    p.write_text(json.dumps(z))
+    r = h.run("compare", bench["model"], p, "-o", tmp_path / "c.json")
+    fails(tmp_path, r, "relative distances need a reference with finite, non-zero norms", out=tmp_path / "c.json")
+
+
+@pytest.mark.parametrize("field,value,msg", [
+    ("dof", 0, "dof must be at least 1"),
+    ("dof", -3.5, "dof must be at least 1"),
+    ("n_experiments", 2 ** 31, "'n_experiments' must be 1..64"),
+])
+def test_fit_range_checks_frf_fields(bench, tmp_path, field, value, msg):
+    """#5: fit/validate accepted dof <= 0 and n_experiments = 2^31."""
+    d = json.loads(bench["frf"].read_text())
+    if field == "dof":
+        d["lines"][1]["dof"] = value
+    else:
+        d[field] = value
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps(d))
+    r = h.run("fit", "--method", "ml", "--order", 2, p, "-o", tmp_path / "m.json")
+    fails(tmp_path, r, msg, out=tmp_path / "m.json")
+
+
+def test_file_size_limit_leaves_no_temporary(bench, tmp_path):
+    """#10: a run killed by SIGXFSZ left out.json.tmp.PID behind; now write() fails (EFBIG) and the
+    temporary is removed: one error, no file."""
+    out = tmp_path / "f.json"
+    args = ["frf", "--design", bench["bench"]["design"]]
+    for p in bench["bench"]["experiments"]:
+        args += ["--experiment", p]
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+
+    r = subprocess.run([h.msid_bin()] + [str(a) for a in args] + ["-o", str(out)], capture_output=True, text=True,
+                       preexec_fn=limit, timeout=60)
+    fails(tmp_path, r, "cannot write", out=out)
+
+
+def test_huge_skip_periods(bench, tmp_path):
+    """#10: a huge --skip-periods wrapped the first check (skip + 2 in 32 bits)."""
+    out = tmp_path / "f.json"
+    r = frf(bench["bench"], bench["bench"]["experiments"], out, "--skip-periods", 4294967295)
+    fails(tmp_path, r, out=out)
