@@ -23,41 +23,54 @@ unsigned lpm_default_window(unsigned R, unsigned nu, unsigned ny, unsigned m)
 namespace {
 
 // The fixed part of the local design for one window position: the window covers
-// bins k+o .. k+o+2W. With rho_t = (o+t)/W the T polynomial spans {rho^s}, s <= R;
-// Qp (n x Le, orthonormal columns) spans its orthogonal complement (Part I: the
-// transient is eliminated by projecting the window onto that complement, which
-// leaves the G-coefficient estimates and the residuals of the full LS unchanged).
-// Bt[t][s*Le + c] = Qp(t, c) rho_t^s: the projected regressor of r^s U(k+r).
+// bins k+o .. k+o+2W, rho_t = (o+t)/W. wts = rho_t^a (a <= 2R) turns a window of
+// data into its polynomial moments; the transient polynomials span {rho^s, s <= R},
+// with orthonormal basis Q = P Rinv (P_ta = rho_t^a, QR of P), so projections onto
+// them are fixed combinations of moments: sum_t Q_tc x_t = sum_a Rinv[a][c] (moment a of x).
 struct WindowOp {
-    unsigned Le = 0;            // projected rows per experiment
-    std::vector<double> Bt;     // n x ((R+1) Le), row t contiguous
+    std::vector<double> wts;    // n x (2R+1): wts[t * (2R+1) + a] = rho_t^a
+    std::vector<double> rinv;   // (R+1) x (R+1), Rinv[a][c] at a*(R+1)+c (empty without transient)
 };
 
 WindowOp window_op(int o, unsigned W, unsigned R, bool transient)
 {
-    const unsigned n = 2 * W + 1;
+    const unsigned n = 2 * W + 1, na = 2 * R + 1;
     WindowOp op;
-    Eigen::MatrixXd Qp;
-    std::vector<double> rho(n);
-    for (unsigned t = 0; t < n; ++t) rho[t] = (double)(o + (int)t) / (double)W;
+    op.wts.resize((size_t)na * n);
+    for (unsigned t = 0; t < n; ++t) {
+        const double rho = (double)(o + (int)t) / (double)W;
+        double p = 1;
+        for (unsigned a = 0; a < na; ++a, p *= rho) op.wts[(size_t)t * na + a] = p;
+    }
     if (transient) {
         Eigen::MatrixXd P(n, R + 1);
         for (unsigned t = 0; t < n; ++t)
-            for (unsigned s = 0; s <= R; ++s) P(t, s) = std::pow(rho[t], (double)s);
+            for (unsigned a = 0; a <= R; ++a) P(t, a) = op.wts[(size_t)t * na + a];
         Eigen::HouseholderQR<Eigen::MatrixXd> qr(P);
-        Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, n);
-        Qp = Q.rightCols(n - (R + 1));
-    } else {
-        Qp = Eigen::MatrixXd::Identity(n, n);
+        const Eigen::MatrixXd Rm = qr.matrixQR().topRows(R + 1).triangularView<Eigen::Upper>();
+        const Eigen::MatrixXd Ri = Rm.inverse();
+        op.rinv.resize((size_t)(R + 1) * (R + 1));
+        for (unsigned a = 0; a <= R; ++a)
+            for (unsigned c = 0; c <= R; ++c) op.rinv[a * (R + 1) + c] = Ri(a, c);
     }
-    op.Le = (unsigned)Qp.cols();
-    const unsigned cols = (R + 1) * op.Le;
-    op.Bt.assign((size_t)n * cols, 0.0);
-    for (unsigned t = 0; t < n; ++t)
-        for (unsigned s = 0; s <= R; ++s)
-            for (unsigned c = 0; c < op.Le; ++c)
-                op.Bt[(size_t)t * cols + s * op.Le + c] = Qp(t, c) * std::pow(rho[t], (double)s);
     return op;
+}
+
+// Moments sum_t rho_t^a x[t], a < na, of a complex sequence; wT[t * stride + a] = rho_t^a.
+// t outer, a inner: 2 na independent accumulator chains instead of two long reductions.
+inline void moments(const cd *x, const double *wT, unsigned stride, unsigned n, unsigned na, cd *out)
+{
+    double sr[17], si[17];
+    for (unsigned a = 0; a < na; ++a) sr[a] = si[a] = 0.0;
+    for (unsigned t = 0; t < n; ++t) {
+        const double xr = x[t].real(), xi = x[t].imag();
+        const double *w = wT + (size_t)t * stride;
+        for (unsigned a = 0; a < na; ++a) {
+            sr[a] += w[a] * xr;
+            si[a] += w[a] * xi;
+        }
+    }
+    for (unsigned a = 0; a < na; ++a) out[a] = cd(sr[a], si[a]);
 }
 
 struct Worker {
@@ -69,113 +82,147 @@ struct Worker {
     std::vector<double> pfloor;  // per input: 1e-12 x (window rows) x its mean |U|^2 over the record
     size_t bad_bin = 0;          // first singular bin in this worker's range (0: none)
 
+    // Normal equations of the local LS from products of the spectra (Part I: Theta =
+    // Y K^H (K K^H)^-1 with K = [r^s U; r^s]): every entry of K K^H, Y K^H, Y Y^H is a
+    // polynomial moment of U_j conj U_j', U_j, Y_i conj U_j, Y_i or Y_i conj Y_i' over the
+    // window. The transient block is eliminated by the Schur complement with the fixed
+    // orthonormal basis Q (equivalently: projecting onto the complement of the polynomials).
     void run(size_t i0, size_t i1)
     {
+        if (i0 >= i1) return;
         const unsigned nu = S.nu, ny = S.ny, m = S.m, R = cfg.order, W = res.W;
-        const unsigned n = 2 * W + 1, ng = nu * (R + 1), g = ny * nu;
-        const unsigned Le = ops[0].Le, L = m * Le, cols = (R + 1) * Le;
-        // Unknown a = (R - s) nu + j: the G(k) coefficients (s = 0) come last, so the
-        // trailing nu x nu block of the Cholesky factor gives their covariance block.
-        std::vector<double> xr((size_t)ng * L), xi((size_t)ng * L), yr((size_t)ny * L), yi((size_t)ny * L);
-        std::vector<double> ar(cols), ai(cols);
-        std::vector<cd> A((size_t)ng * ng), Lc((size_t)ng * ng), Z((size_t)ng * ny), Th((size_t)ny * ng);
-        std::vector<cd> Cv((size_t)ny * ny), Li((size_t)nu * nu), M((size_t)nu * nu), Vres((size_t)ny * L);
+        const unsigned n = 2 * W + 1, ng = nu * (R + 1), g = ny * nu, na = 2 * R + 1, nr = R + 1;
+        const unsigned nT = cfg.transient ? R + 1 : 0;
+        const unsigned npu = nu * (nu + 1) / 2, npy = ny * (ny + 1) / 2;
+        // products over the bins this worker's windows touch: [lo, hi)
+        const size_t lo = std::min(std::max(res.bins[i0], (size_t)W + 1) - W, Kmax - 2 * W);
+        const size_t hi = std::min(std::max(res.bins[i1 - 1], (size_t)W + 1) - W, Kmax - 2 * W) + n;
+        const size_t span = hi - lo;
+        // per experiment: U_j conj U_j' (j <= j'), U_j, Y_i conj U_j, Y_i, Y_i conj Y_i' (i <= i')
+        const size_t nseq = npu + nu + (size_t)ny * nu + ny + npy;
+        std::vector<cd> seq((size_t)m * nseq * span);
+        for (unsigned e = 0; e < m; ++e) {
+            cd *base = &seq[(size_t)e * nseq * span];
+            size_t q = 0;
+            for (unsigned j = 0; j < nu; ++j)
+                for (unsigned j2 = j; j2 < nu; ++j2, ++q)
+                    for (size_t k = 0; k < span; ++k) base[q * span + k] = S.U(e, j)[lo + k] * std::conj(S.U(e, j2)[lo + k]);
+            for (unsigned j = 0; j < nu; ++j, ++q)
+                for (size_t k = 0; k < span; ++k) base[q * span + k] = S.U(e, j)[lo + k];
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned j = 0; j < nu; ++j, ++q)
+                    for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k] * std::conj(S.U(e, j)[lo + k]);
+            for (unsigned i = 0; i < ny; ++i, ++q)
+                for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k];
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned i2 = i; i2 < ny; ++i2, ++q)
+                    for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k] * std::conj(S.Y(e, i2)[lo + k]);
+        }
+        std::vector<cd> mpu((size_t)npu * na), mu((size_t)nu * na), mq((size_t)ny * nu * nr), mt((size_t)ny * nr), my(npy);
+        std::vector<cd> cc((size_t)ng * nr), dd((size_t)ny * nr);
+        std::vector<cd> A((size_t)ng * ng), Lc((size_t)ng * ng), B((size_t)ng * ny), Z((size_t)ng * ny), X((size_t)ng * ny);
+        std::vector<cd> YY((size_t)ny * ny), Li((size_t)nu * nu), M((size_t)nu * nu);
         for (size_t bi = i0; bi < i1; ++bi) {
             const size_t k = res.bins[bi];
             const size_t w0 = std::min(std::max(k, (size_t)W + 1) - W, Kmax - 2 * W);
             const WindowOp &op = ops[(size_t)(w0 + 2 * W - k)];
-            // project every regressor and output onto the complement of the T polynomials
-            auto project = [&](const cd *X, unsigned ncols) {
-                std::fill(ar.begin(), ar.begin() + ncols, 0.0);
-                std::fill(ai.begin(), ai.begin() + ncols, 0.0);
-                for (unsigned t = 0; t < n; ++t) {
-                    const double ur = X[w0 + t].real(), ui = X[w0 + t].imag();
-                    const double *b = &op.Bt[(size_t)t * cols];
-                    for (unsigned r = 0; r < ncols; ++r) {
-                        ar[r] += b[r] * ur;
-                        ai[r] += b[r] * ui;
-                    }
-                }
-            };
+            const double *wts = op.wts.data();
+            std::fill(A.begin(), A.end(), cd(0));
+            std::fill(B.begin(), B.end(), cd(0));
+            std::fill(YY.begin(), YY.end(), cd(0));
             for (unsigned e = 0; e < m; ++e) {
-                for (unsigned j = 0; j < nu; ++j) {
-                    project(S.U(e, j), cols);
-                    for (unsigned s = 0; s <= R; ++s) {
-                        const size_t row = (size_t)((R - s) * nu + j) * L + e * Le;
-                        for (unsigned c = 0; c < Le; ++c) {
-                            xr[row + c] = ar[s * Le + c];
-                            xi[row + c] = ai[s * Le + c];
+                const cd *base = &seq[(size_t)e * nseq * span + (w0 - lo)];
+                size_t q = 0;
+                for (unsigned p = 0; p < npu; ++p, ++q) moments(base + q * span, wts, na, n, na, &mpu[(size_t)p * na]);
+                for (unsigned j = 0; j < nu; ++j, ++q) moments(base + q * span, wts, na, n, nT ? na : 0, &mu[(size_t)j * na]);
+                for (unsigned p = 0; p < ny * nu; ++p, ++q) moments(base + q * span, wts, na, n, nr, &mq[(size_t)p * nr]);
+                for (unsigned i = 0; i < ny; ++i, ++q) moments(base + q * span, wts, na, n, nT ? nr : 0, &mt[(size_t)i * nr]);
+                for (unsigned p = 0; p < npy; ++p, ++q) moments(base + q * span, wts, na, n, 1, &my[p]);
+                // projections on the transient basis: cc[(s,j), c] = sum_a Rinv[a][c] mu_j(s + a), dd[i, c]
+                for (unsigned s = 0; s <= R; ++s)
+                    for (unsigned j = 0; j < nu; ++j)
+                        for (unsigned c = 0; c < nT; ++c) {
+                            cd v = 0;
+                            for (unsigned a = 0; a <= R; ++a) v += op.rinv[a * nr + c] * mu[(size_t)j * na + s + a];
+                            cc[(size_t)((R - s) * nu + j) * nr + c] = v;
+                        }
+                for (unsigned i = 0; i < ny; ++i)
+                    for (unsigned c = 0; c < nT; ++c) {
+                        cd v = 0;
+                        for (unsigned a = 0; a <= R; ++a) v += op.rinv[a * nr + c] * mt[(size_t)i * nr + a];
+                        dd[(size_t)i * nr + c] = v;
+                    }
+                // A += K_G K_G^H - cc cc^H (lower triangle), B += K_G Y^H - cc dd^H, YY += Y Y^H - dd dd^H
+                for (unsigned s = 0; s <= R; ++s)
+                    for (unsigned j = 0; j < nu; ++j) {
+                        const unsigned ra = (R - s) * nu + j;
+                        for (unsigned s2 = 0; s2 <= R; ++s2)
+                            for (unsigned j2 = 0; j2 < nu; ++j2) {
+                                const unsigned rb = (R - s2) * nu + j2;
+                                if (rb > ra) continue;
+                                const unsigned jl = std::min(j, j2), jh = std::max(j, j2);
+                                const unsigned p = jl * nu - jl * (jl - 1) / 2 + (jh - jl);
+                                cd v = mpu[(size_t)p * na + s + s2];
+                                if (j > j2) v = std::conj(v);
+                                for (unsigned c = 0; c < nT; ++c)
+                                    v -= cc[(size_t)ra * nr + c] * std::conj(cc[(size_t)rb * nr + c]);
+                                A[(size_t)ra * ng + rb] += v;
+                            }
+                        for (unsigned i = 0; i < ny; ++i) {
+                            cd v = std::conj(mq[(size_t)(i * nu + j) * nr + s]);
+                            for (unsigned c = 0; c < nT; ++c) v -= cc[(size_t)ra * nr + c] * std::conj(dd[(size_t)i * nr + c]);
+                            B[(size_t)ra * ny + i] += v;
                         }
                     }
-                }
-                for (unsigned i = 0; i < ny; ++i) {
-                    project(S.Y(e, i), Le);
-                    for (unsigned c = 0; c < Le; ++c) {
-                        yr[(size_t)i * L + e * Le + c] = ar[c];
-                        yi[(size_t)i * L + e * Le + c] = ai[c];
+                for (unsigned i = 0, p = 0; i < ny; ++i)
+                    for (unsigned i2 = i; i2 < ny; ++i2, ++p) {
+                        cd v = my[p];
+                        for (unsigned c = 0; c < nT; ++c) v -= dd[(size_t)i * nr + c] * std::conj(dd[(size_t)i2 * nr + c]);
+                        YY[(size_t)i * ny + i2] += v;
                     }
-                }
             }
-            // normal matrix A = X X^H (lower triangle) and its Cholesky factor A = Lc Lc^H
-            // sum_c p_c conj(q_c) over the L projected columns (split re/im rows)
-            auto dotc = [L](const double *pr, const double *pi, const double *qr, const double *qi) {
-                double sr = 0, si = 0;
-                for (unsigned c = 0; c < L; ++c) {
-                    sr += pr[c] * qr[c] + pi[c] * qi[c];
-                    si += pi[c] * qr[c] - pr[c] * qi[c];
-                }
-                return cd(sr, si);
-            };
-            for (unsigned a = 0; a < ng; ++a)
-                for (unsigned b = 0; b <= a; ++b)
-                    A[(size_t)a * ng + b] = dotc(&xr[(size_t)a * L], &xi[(size_t)a * L], &xr[(size_t)b * L], &xi[(size_t)b * L]);
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned i2 = 0; i2 < i; ++i2) YY[(size_t)i * ny + i2] = std::conj(YY[(size_t)i2 * ny + i]);
+            // Cholesky A = Lc Lc^H
             bool singular = false;
             for (unsigned j = 0; j < ng && !singular; ++j) {
                 double d = A[(size_t)j * ng + j].real();
                 const double d0 = d;
                 for (unsigned c = 0; c < j; ++c) d -= std::norm(Lc[(size_t)j * ng + c]);
-                // a pivot below 1e-12 of its diagonal: this regressor lies in the span of the others
+                // a pivot below 1e-12 of its diagonal: this regressor lies in the span of the others;
                 // or an input with (almost) no power in this window against its level in the record
                 if (!(d > 1e-12 * d0) || !(d0 > pfloor[j % nu])) { singular = true; break; }
                 const double ljj = std::sqrt(d);
                 Lc[(size_t)j * ng + j] = ljj;
                 for (unsigned i = j + 1; i < ng; ++i) {
-                    cd s = A[(size_t)i * ng + j];
-                    for (unsigned c = 0; c < j; ++c) s -= Lc[(size_t)i * ng + c] * std::conj(Lc[(size_t)j * ng + c]);
-                    Lc[(size_t)i * ng + j] = s / ljj;
+                    cd v = A[(size_t)i * ng + j];
+                    for (unsigned c = 0; c < j; ++c) v -= Lc[(size_t)i * ng + c] * std::conj(Lc[(size_t)j * ng + c]);
+                    Lc[(size_t)i * ng + j] = v / ljj;
                 }
             }
             if (singular) {
                 bad_bin = k;
                 return;
             }
-            // rhs X Y^H, forward then backward substitution: Th^H = A^-1 X Y^H
+            // Z = Lc^-1 B, X = Lc^-H Z = A^-1 B = Theta^H; C_v = (YY - Z^H Z) / q
             for (unsigned i = 0; i < ny; ++i) {
                 for (unsigned a = 0; a < ng; ++a) {
-                    cd s = dotc(&xr[(size_t)a * L], &xi[(size_t)a * L], &yr[(size_t)i * L], &yi[(size_t)i * L]);
-                    for (unsigned c = 0; c < a; ++c) s -= Lc[(size_t)a * ng + c] * Z[(size_t)c * ny + i];
-                    Z[(size_t)a * ny + i] = s / Lc[(size_t)a * ng + a].real();
+                    cd v = B[(size_t)a * ny + i];
+                    for (unsigned c = 0; c < a; ++c) v -= Lc[(size_t)a * ng + c] * Z[(size_t)c * ny + i];
+                    Z[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
                 }
                 for (unsigned a = ng; a-- > 0;) {
-                    cd s = Z[(size_t)a * ny + i];
-                    for (unsigned c = a + 1; c < ng; ++c) s -= std::conj(Lc[(size_t)c * ng + a]) * Th[(size_t)i * ng + c];
-                    Th[(size_t)i * ng + a] = s / Lc[(size_t)a * ng + a].real();   // still Th^H(a, i)
+                    cd v = Z[(size_t)a * ny + i];
+                    for (unsigned c = a + 1; c < ng; ++c) v -= std::conj(Lc[(size_t)c * ng + a]) * X[(size_t)c * ny + i];
+                    X[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
                 }
-                for (unsigned a = 0; a < ng; ++a) Th[(size_t)i * ng + a] = std::conj(Th[(size_t)i * ng + a]);
             }
-            // residuals V = Y - Th X and C_v = V V^H / q
-            for (unsigned i = 0; i < ny; ++i)
-                for (unsigned c = 0; c < L; ++c) {
-                    cd s(yr[(size_t)i * L + c], yi[(size_t)i * L + c]);
-                    for (unsigned a = 0; a < ng; ++a)
-                        s -= Th[(size_t)i * ng + a] * cd(xr[(size_t)a * L + c], xi[(size_t)a * L + c]);
-                    Vres[(size_t)i * L + c] = s;
-                }
+            cd *G = &res.G[bi * g], *C = &res.cov[bi * g * g], *N = &res.noise[bi * ny * ny];
             for (unsigned i = 0; i < ny; ++i)
                 for (unsigned i2 = 0; i2 < ny; ++i2) {
-                    cd s = 0;
-                    for (unsigned c = 0; c < L; ++c) s += Vres[(size_t)i * L + c] * std::conj(Vres[(size_t)i2 * L + c]);
-                    Cv[(size_t)i * ny + i2] = s / (double)res.q;
+                    cd v = YY[(size_t)i * ny + i2];
+                    for (unsigned a = 0; a < ng; ++a) v -= std::conj(Z[(size_t)a * ny + i]) * Z[(size_t)a * ny + i2];
+                    N[(size_t)i * ny + i2] = v / (double)res.q;
                 }
             // M = (L22 L22^H)^-1, L22 the trailing nu x nu block: the G(k) block of A^-1
             const unsigned o = R * nu;
@@ -183,27 +230,25 @@ struct Worker {
             for (unsigned j = 0; j < nu; ++j) {
                 Li[(size_t)j * nu + j] = 1.0 / Lc[(size_t)(o + j) * ng + o + j].real();
                 for (unsigned i = j + 1; i < nu; ++i) {
-                    cd s = 0;
-                    for (unsigned c = j; c < i; ++c) s -= Lc[(size_t)(o + i) * ng + o + c] * Li[(size_t)c * nu + j];
-                    Li[(size_t)i * nu + j] = s / Lc[(size_t)(o + i) * ng + o + i].real();
+                    cd v = 0;
+                    for (unsigned c = j; c < i; ++c) v -= Lc[(size_t)(o + i) * ng + o + c] * Li[(size_t)c * nu + j];
+                    Li[(size_t)i * nu + j] = v / Lc[(size_t)(o + i) * ng + o + i].real();
                 }
             }
             for (unsigned a = 0; a < nu; ++a)
                 for (unsigned b = 0; b < nu; ++b) {
-                    cd s = 0;
-                    for (unsigned c = 0; c < nu; ++c) s += std::conj(Li[(size_t)c * nu + a]) * Li[(size_t)c * nu + b];
-                    M[(size_t)a * nu + b] = s;
+                    cd v = 0;
+                    for (unsigned c = 0; c < nu; ++c) v += std::conj(Li[(size_t)c * nu + a]) * Li[(size_t)c * nu + b];
+                    M[(size_t)a * nu + b] = v;
                 }
-            cd *G = &res.G[bi * g], *C = &res.cov[bi * g * g], *N = &res.noise[bi * ny * ny];
             for (unsigned i = 0; i < ny; ++i)
-                for (unsigned j = 0; j < nu; ++j) G[i * nu + j] = Th[(size_t)i * ng + o + j];
-            std::copy(Cv.begin(), Cv.end(), N);
+                for (unsigned j = 0; j < nu; ++j) G[i * nu + j] = std::conj(X[(size_t)(o + j) * ny + i]);
             // Cov[(i + ny j), (i2 + ny j2)] = C_v(i, i2) M(j2, j): M^T kron C_v in the column-stacked vec
             for (unsigned j = 0; j < nu; ++j)
                 for (unsigned i = 0; i < ny; ++i)
                     for (unsigned j2 = 0; j2 < nu; ++j2)
                         for (unsigned i2 = 0; i2 < ny; ++i2)
-                            C[(size_t)(i + ny * j) * g + i2 + ny * j2] = Cv[(size_t)i * ny + i2] * M[(size_t)j2 * nu + j];
+                            C[(size_t)(i + ny * j) * g + i2 + ny * j2] = N[(size_t)i * ny + i2] * M[(size_t)j2 * nu + j];
         }
     }
 };
@@ -214,6 +259,7 @@ LpmResult lpm(const Spectra &s, const LpmConfig &c)
 {
     const unsigned nu = s.nu, ny = s.ny, m = s.m, R = c.order;
     if (nu == 0 || ny == 0 || m == 0) throw EstError("no inputs, outputs or experiments");
+    if (R > 8) throw EstError("order R must be 0..8");
     const unsigned W = c.window ? c.window : lpm_default_window(R, nu, ny, m);
     const long q = lpm_dof(W, R, nu, m, c.transient);
     if (q <= 0) {
@@ -266,7 +312,7 @@ LpmResult lpm(const Spectra &s, const LpmConfig &c)
         double p = 0;
         for (unsigned e = 0; e < m; ++e)
             for (size_t k = 1; k <= Kmax; ++k) p += std::norm(s.U(e, j)[k]);
-        pfloor[j] = 1e-12 * (double)(m * ops[0].Le) * p / (double)(m * Kmax);
+        pfloor[j] = 1e-12 * (2.0 * W + 1) * p / (double)Kmax;
     }
     std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor});
     std::vector<std::thread> th;

@@ -18,7 +18,7 @@
 namespace msidest {
 
 struct LpmConfig {
-    unsigned order = 2;        // R: degree of the local polynomials of G and T
+    unsigned order = 2;        // R: degree of the local polynomials of G and T (0..8)
     unsigned window = 0;       // W: half-width (2W+1 bins); 0 = lpm_default_window()
     size_t k_lo = 1;           // first bin of the band (>= 1)
     size_t k_hi = 0;           // last bin of the band (0 = the last bin below Nyquist)

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <random>
 #include <unistd.h>
 
@@ -63,25 +64,28 @@ int cmd_bench_lpm(int argc, char **argv)
     std::vector<msidest::RecordView> views{{rows.data(), N, C}};
     msidest::LpmConfig cfg;
     msidest::LpmResult res;
-    double best[3] = {1e300, 1e300, 1e300};
+    // wall time, and the CPU time of the process (the machine may be shared: CPU time shows the work)
+    double best[3] = {1e300, 1e300, 1e300}, cpu[3] = {1e300, 1e300, 1e300};
     for (unsigned th = 1; th <= 2; ++th)
         for (unsigned k = 0; k < runs; ++k) {
             cfg.threads = th;
-            const double t0 = seconds_now();
+            const double t0 = seconds_now(), c0 = (double)std::clock() / CLOCKS_PER_SEC;
             const auto S = msidest::record_spectra(views, nu, ny);
-            const double t1 = seconds_now();
+            const double t1 = seconds_now(), c1 = (double)std::clock() / CLOCKS_PER_SEC;
             res = msidest::lpm(S, cfg);
-            const double t2 = seconds_now();
+            const double t2 = seconds_now(), c2 = (double)std::clock() / CLOCKS_PER_SEC;
             best[th] = std::min(best[th], t2 - t0);
-            if (th == 1) best[0] = std::min(best[0], t1 - t0);
+            cpu[th] = std::min(cpu[th], c2 - c0);
+            if (th == 1) best[0] = std::min(best[0], t1 - t0), cpu[0] = std::min(cpu[0], c1 - c0);
         }
     std::printf("msid bench lpm  (msid %s)\nmachine: %s\n", MSID_VERSION, bench_machine().c_str());
     std::printf("data: 2x2, %zu samples, white inputs, R = %u, W = %u (2W+1 = %u bins), q = %u, %zu lines; "
                 "best of %u runs\n\n",
                 N, res.R, res.W, 2 * res.W + 1, res.q, res.bins.size(), runs);
-    std::printf("  %-26s %9.3f s\n", "msid, 1 thread", best[1]);
-    std::printf("  %-26s %9.3f s\n", "msid, 2 threads", best[2]);
-    std::printf("  %-26s %9.3f s   (4 FFTs, FFTW estimate plans)\n", "  of which spectra", best[0]);
+    std::printf("  %-26s %9s   %9s\n", "", "wall", "cpu");
+    std::printf("  %-26s %9.3f s %9.3f s\n", "msid, 1 thread", best[1], cpu[1]);
+    std::printf("  %-26s %9.3f s %9.3f s\n", "msid, 2 threads", best[2], cpu[2]);
+    std::printf("  %-26s %9.3f s %9.3f s   (4 FFTs, FFTW estimate plans)\n", "  of which spectra", best[0], cpu[0]);
     if (a.has("no-peer")) return 0;
     char tmpl[] = "/tmp/msid-bench-lpm-XXXXXX";
     if (!mkdtemp(tmpl)) throw Error("cannot create a temporary directory");
@@ -120,12 +124,12 @@ int cmd_bench_lpm(int argc, char **argv)
             worst = std::max(worst, std::abs(res.G[bi * 4 + t] - gp) / std::abs(gp));
         }
     }
-    const double tp = pj["sec"].get<double>();
-    std::printf("  %-26s %9.3f s   (numpy %s, batched numpy.linalg, best of 2)\n", "NumPy peer", tp,
+    const double tp = pj["sec"].get<double>(), cp = pj["cpu"].get<double>();
+    std::printf("  %-26s %9.3f s %9.3f s   (numpy %s, batched numpy.linalg, best of 2)\n", "NumPy peer", tp, cp,
                 pj["numpy"].get<std::string>().c_str());
-    std::printf("\n  msid is %.1fx (1 thread) / %.1fx (2 threads) faster; max relative difference of G at %zu bins: "
-                "%.2g\n",
-                tp / best[1], tp / best[2], bins.size(), worst);
+    std::printf("\n  msid is %.1fx (1 thread) / %.1fx (2 threads) faster in wall time, %.1fx in CPU time (1 thread);\n"
+                "  max relative difference of G at %zu bins: %.2g\n",
+                tp / best[1], tp / best[2], cp / cpu[1], bins.size(), worst);
     return 0;
 }
 
