@@ -87,7 +87,15 @@ struct Worker {
     // polynomial moment of U_j conj U_j', U_j, Y_i conj U_j, Y_i or Y_i conj Y_i' over the
     // window. The transient block is eliminated by the Schur complement with the fixed
     // orthonormal basis Q (equivalently: projecting onto the complement of the polynomials).
+    std::vector<cd> seq;         // products of the spectra over one block of bins (reused)
+
+    // Blocks of 2048 bins keep the spectra products in cache.
     void run(size_t i0, size_t i1)
+    {
+        for (size_t b0 = i0; b0 < i1 && !bad_bin; b0 += 2048) run_block(b0, std::min(i1, b0 + 2048));
+    }
+
+    void run_block(size_t i0, size_t i1)
     {
         if (i0 >= i1) return;
         const unsigned nu = S.nu, ny = S.ny, m = S.m, R = cfg.order, W = res.W;
@@ -100,7 +108,7 @@ struct Worker {
         const size_t span = hi - lo;
         // per experiment: U_j conj U_j' (j <= j'), U_j, Y_i conj U_j, Y_i, Y_i conj Y_i' (i <= i')
         const size_t nseq = npu + nu + (size_t)ny * nu + ny + npy;
-        std::vector<cd> seq((size_t)m * nseq * span);
+        seq.resize((size_t)m * nseq * span);
         for (unsigned e = 0; e < m; ++e) {
             cd *base = &seq[(size_t)e * nseq * span];
             size_t q = 0;
@@ -118,7 +126,27 @@ struct Worker {
                 for (unsigned i2 = i; i2 < ny; ++i2, ++q)
                     for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k] * std::conj(S.Y(e, i2)[lo + k]);
         }
-        std::vector<cd> mpu((size_t)npu * na), mu((size_t)nu * na), mq((size_t)ny * nu * nr), mt((size_t)ny * nr), my(npy);
+        // moments of every sequence (stride na): how many each needs
+        std::vector<unsigned> naq;
+        for (unsigned p = 0; p < npu; ++p) naq.push_back(na);
+        for (unsigned j = 0; j < nu; ++j) naq.push_back(nT ? na : 0);
+        for (unsigned p = 0; p < ny * nu; ++p) naq.push_back(nr);
+        for (unsigned i = 0; i < ny; ++i) naq.push_back(nT ? nr : 0);
+        for (unsigned p = 0; p < npy; ++p) naq.push_back(1);
+        std::vector<cd> mom((size_t)m * nseq * na), dl(na);
+        // Sliding the interior window by one bin: S_a(k+1) = sum_b C(a,b) (-1/W)^(a-b) D_b with
+        // D_b = S_b(k) - (-1)^b p(k-W) + ((W+1)/W)^b p(k+W+1); recomputed directly every 16 bins.
+        std::vector<double> bino((size_t)na * na, 0.0), vout(na), vin(na);
+        for (unsigned a = 0; a < na; ++a) {
+            double c = 1;   // C(a, b) (-1/W)^(a-b), b = a down to 0
+            for (unsigned b = a + 1; b-- > 0;) {
+                bino[(size_t)a * na + b] = c;
+                c *= -(double)b / (double)(a - b + 1) / (double)W;
+            }
+            vout[a] = a % 2 ? -1.0 : 1.0;
+            vin[a] = std::pow((W + 1.0) / W, (double)a);
+        }
+        size_t prev_k = 0, since = 0;
         std::vector<cd> cc((size_t)ng * nr), dd((size_t)ny * nr);
         std::vector<cd> A((size_t)ng * ng), Lc((size_t)ng * ng), B((size_t)ng * ny), Z((size_t)ng * ny), X((size_t)ng * ny);
         std::vector<cd> YY((size_t)ny * ny), Li((size_t)nu * nu), M((size_t)nu * nu);
@@ -130,14 +158,31 @@ struct Worker {
             std::fill(A.begin(), A.end(), cd(0));
             std::fill(B.begin(), B.end(), cd(0));
             std::fill(YY.begin(), YY.end(), cd(0));
+            const bool interior = w0 + W == k;
+            const bool slide = interior && prev_k + 1 == k && since < 16;
+            since = slide ? since + 1 : 0;
+            prev_k = interior ? k : 0;
+            for (unsigned e = 0; e < m; ++e)
+                for (size_t q = 0; q < nseq; ++q) {
+                    const cd *x = &seq[((size_t)e * nseq + q) * span + (w0 - lo)];
+                    cd *S = &mom[((size_t)e * nseq + q) * na];
+                    const unsigned nq = naq[q];
+                    if (!slide) {
+                        moments(x, wts, na, n, nq, S);
+                        continue;
+                    }
+                    const cd pout = x[-1], pin = x[n - 1];   // p(k-1-W) left, p(k+W) entered
+                    for (unsigned b = 0; b < nq; ++b) dl[b] = S[b] - vout[b] * pout + vin[b] * pin;
+                    for (unsigned a = 0; a < nq; ++a) {
+                        cd v = 0;
+                        for (unsigned b = 0; b <= a; ++b) v += bino[(size_t)a * na + b] * dl[b];
+                        S[a] = v;
+                    }
+                }
             for (unsigned e = 0; e < m; ++e) {
-                const cd *base = &seq[(size_t)e * nseq * span + (w0 - lo)];
-                size_t q = 0;
-                for (unsigned p = 0; p < npu; ++p, ++q) moments(base + q * span, wts, na, n, na, &mpu[(size_t)p * na]);
-                for (unsigned j = 0; j < nu; ++j, ++q) moments(base + q * span, wts, na, n, nT ? na : 0, &mu[(size_t)j * na]);
-                for (unsigned p = 0; p < ny * nu; ++p, ++q) moments(base + q * span, wts, na, n, nr, &mq[(size_t)p * nr]);
-                for (unsigned i = 0; i < ny; ++i, ++q) moments(base + q * span, wts, na, n, nT ? nr : 0, &mt[(size_t)i * nr]);
-                for (unsigned p = 0; p < npy; ++p, ++q) moments(base + q * span, wts, na, n, 1, &my[p]);
+                const cd *base = &mom[(size_t)e * nseq * na];
+                const cd *mpu = base, *mu = base + (size_t)npu * na, *mq = mu + (size_t)nu * na;
+                const cd *mt = mq + (size_t)ny * nu * na, *my = mt + (size_t)ny * na;
                 // projections on the transient basis: cc[(s,j), c] = sum_a Rinv[a][c] mu_j(s + a), dd[i, c]
                 for (unsigned s = 0; s <= R; ++s)
                     for (unsigned j = 0; j < nu; ++j)
@@ -149,7 +194,7 @@ struct Worker {
                 for (unsigned i = 0; i < ny; ++i)
                     for (unsigned c = 0; c < nT; ++c) {
                         cd v = 0;
-                        for (unsigned a = 0; a <= R; ++a) v += op.rinv[a * nr + c] * mt[(size_t)i * nr + a];
+                        for (unsigned a = 0; a <= R; ++a) v += op.rinv[a * nr + c] * mt[(size_t)i * na + a];
                         dd[(size_t)i * nr + c] = v;
                     }
                 // A += K_G K_G^H - cc cc^H (lower triangle), B += K_G Y^H - cc dd^H, YY += Y Y^H - dd dd^H
@@ -169,14 +214,14 @@ struct Worker {
                                 A[(size_t)ra * ng + rb] += v;
                             }
                         for (unsigned i = 0; i < ny; ++i) {
-                            cd v = std::conj(mq[(size_t)(i * nu + j) * nr + s]);
+                            cd v = std::conj(mq[(size_t)(i * nu + j) * na + s]);
                             for (unsigned c = 0; c < nT; ++c) v -= cc[(size_t)ra * nr + c] * std::conj(dd[(size_t)i * nr + c]);
                             B[(size_t)ra * ny + i] += v;
                         }
                     }
                 for (unsigned i = 0, p = 0; i < ny; ++i)
                     for (unsigned i2 = i; i2 < ny; ++i2, ++p) {
-                        cd v = my[p];
+                        cd v = my[(size_t)p * na];
                         for (unsigned c = 0; c < nT; ++c) v -= dd[(size_t)i * nr + c] * std::conj(dd[(size_t)i2 * nr + c]);
                         YY[(size_t)i * ny + i2] += v;
                     }
@@ -314,7 +359,7 @@ LpmResult lpm(const Spectra &s, const LpmConfig &c)
             for (size_t k = 1; k <= Kmax; ++k) p += std::norm(s.U(e, j)[k]);
         pfloor[j] = 1e-12 * (2.0 * W + 1) * p / (double)Kmax;
     }
-    std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor});
+    std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor, 0, {}});
     std::vector<std::thread> th;
     for (unsigned t = 1; t < T; ++t) th.emplace_back([&, t] { wk[t].run(nb * t / T, nb * (t + 1) / T); });
     wk[0].run(0, nb / T);
