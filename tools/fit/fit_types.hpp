@@ -42,6 +42,10 @@ struct FrfData {
     Domain domain = Domain::DT;
     double h = 0.0;           // sample time (0: unknown)
     MatC noise_time;          // ny x ny
+    // "periodic" (default), "lpm" or "etfe": the host estimators pool one noise
+    // covariance per line (cov = M^T kron C_v, one Wishart with `dof`), so their dof is
+    // not split over the experiments like the periodic nonparametric covariance's
+    std::string method = "periodic";
     std::vector<Line> lines;
     size_t g() const { return (size_t)nu * ny; }
 };

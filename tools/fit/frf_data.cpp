@@ -93,6 +93,7 @@ FrfData read_frf(const std::string &path)
         if (!(f.h > 0)) throw FitError(where(path, "'sample_time' must be positive"));
     }
     if (f.domain == Domain::CT && f.h <= 0) throw FitError(where(path, "a continuous-time file needs 'sample_time'"));
+    if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
     const size_t g = f.g();
     f.noise_time = cmat(need(j, "noise_cov", path), f.ny, f.ny, path, "'noise_cov'");
     const Json &lines = need(j, "lines", path);
@@ -163,7 +164,7 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
             // rank-one design factors: its inverse splits over the experiments, so its inverse moments
             // are those of one experiment's Wishart (K_e - 1 = dof/m dof for balanced designs), not of
             // the pooled dof. With one input the factors are scalars and the pooled dof applies.
-            if (w == Weight::Cov && f.nu > 1 && f.m > 1) wl.dof = l.dof / f.m;
+            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method == "periodic") wl.dof = l.dof / f.m;
         }
         // Hermitian part; real lines: real covariance
         MatC H = 0.5 * (C + C.adjoint());

@@ -170,15 +170,18 @@ static const char *HELP =
 
 static int bench_fit(int argc, char **argv);
 
+std::string bench_machine() { return machine(); }
+
 int cmd_bench(int argc, char **argv)
 {
     if (argc >= 3 && !std::strcmp(argv[2], "fit")) return bench_fit(argc, argv);
+    if (argc >= 3 && !std::strcmp(argv[2], "lpm")) return cmd_bench_lpm(argc, argv);
     if (argc >= 3 && !std::strcmp(argv[2], "can")) return cmd_bench_can(argc, argv);
     if (argc >= 3 && !std::strcmp(argv[2], "modbus")) return cmd_bench_modbus(argc, argv);
     if (argc >= 3 && (!std::strcmp(argv[2], "target") || !std::strcmp(argv[2], "wcet"))) return cmd_bench_target(argc, argv);
     if (argc < 3 || std::strcmp(argv[2], "frf") != 0) {
         if (argc >= 3 && !std::strcmp(argv[2], "--help")) { std::fputs(HELP, stdout); return 0; }
-        throw UsageError("usage: msid bench frf|fit|can|modbus|target|wcet [options] (see msid bench frf --help, msid bench fit --help)");
+        throw UsageError("usage: msid bench frf|fit|lpm|can|modbus|target|wcet [options] (see msid bench frf --help, msid bench fit --help)");
     }
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }

@@ -25,15 +25,21 @@ static const char *HELP =
     "  --dft             line DFT path: auto (default), stream, fft\n"
     "  --direct          direct time-domain LS FRF (Gonzalez et al. 2025 eq. 19-23): records need not be\n"
     "                    whole periods; needs --design; exact covariance Sigma kron Z^-1 with Sigma from the\n"
-    "                    residuals, plus the pseudo-covariance pcov of each line\n";
+    "                    residuals, plus the pseudo-covariance pcov of each line\n"
+    "  --method          periodic (default, this estimator), lpm or etfe for records that are not\n"
+    "                    steady-state multisines (msid frf --method lpm --help)\n";
 
 int cmd_frf(int argc, char **argv)
 {
+    for (int i = 2; i < argc; ++i)   // --method lpm|etfe: arbitrary records (cmd_frf_est.cpp)
+        if ((!std::strcmp(argv[i], "--method") && i + 1 < argc && std::strcmp(argv[i + 1], "periodic")) ||
+            (!std::strncmp(argv[i], "--method=", 9) && std::strcmp(argv[i] + 9, "periodic")))
+            return cmd_frf_est(argc, argv);
     for (int i = 2; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
     Args a(argc, argv, 2,
            {"design", "period", "lines", "skip-periods", "fs", "detect-lines", "transient", "alpha", "dft", "block",
-            "output"},
+            "output", "method"},
            {"direct"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");

@@ -1,10 +1,13 @@
 // Subcommands of the msid command line.
 #pragma once
+#include <string>
 namespace msidcli {
 int cmd_excite(int argc, char **argv);
 int cmd_frf(int argc, char **argv);
+int cmd_frf_est(int argc, char **argv);   // --method lpm | etfe
 int cmd_demo(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+int cmd_bench_lpm(int argc, char **argv);   // msid bench lpm
 int cmd_fit(int argc, char **argv);
 int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
@@ -13,6 +16,8 @@ int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
+// CPU model, cores and kernel, for benchmark headers.
+std::string bench_machine();
 }  // namespace msidcli
 #include <string>
 #include <vector>

@@ -1,10 +1,23 @@
 // msid-frf/1 and other JSON documents on disk.
 #pragma once
 #include "design_io.hpp"
+#include <complex>
 
 namespace msidcli {
 
 // Serialise with a trailing newline and write atomically (no partial file on error).
 void write_json_file(const std::string &path, const Json &doc);
+
+// {"re": [[...]], "im": [[...]]} of a rows x cols complex matrix (row-major).
+Json cplx_json(const std::complex<double> *a, size_t rows, size_t cols);
+
+// One msid-frf/1 line of a host estimator (tools/est: lpm, etfe): `pos` holds the
+// position fields (line_position()); G is ny x nu, cov (ny nu)^2 and noise ny x ny,
+// all row-major. The known-input covariance is the same matrix (the noise is pooled
+// over the window / the neighbouring bins, the input is taken as exact), with the
+// same dof; snr per output is |Y|^2 / noise of the output DFT (dB, summed over experiments).
+Json est_line_json(Json pos, unsigned ny, unsigned nu, const std::complex<double> *G,
+                   const std::complex<double> *cov, double dof, const std::complex<double> *noise,
+                   const std::vector<double> &snr_db);
 
 }  // namespace msidcli

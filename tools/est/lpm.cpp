@@ -1,0 +1,380 @@
+#include "lpm.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <thread>
+
+namespace msidest {
+
+long lpm_dof(unsigned W, unsigned R, unsigned nu, unsigned m, bool transient)
+{
+    return (long)m * (2L * W + 1) - (long)(R + 1) * (nu + (transient ? m : 0));
+}
+
+unsigned lpm_default_window(unsigned R, unsigned nu, unsigned ny, unsigned m)
+{
+    unsigned W = 1;
+    while (lpm_dof(W, R, nu, m) < (long)ny + 4) ++W;
+    return W;
+}
+
+namespace {
+
+// The fixed part of the local design for one window position: the window covers
+// bins k+o .. k+o+2W, rho_t = (o+t)/W. wts = rho_t^a (a <= 2R) turns a window of
+// data into its polynomial moments; the transient polynomials span {rho^s, s <= R},
+// with orthonormal basis Q = P Rinv (P_ta = rho_t^a, QR of P), so projections onto
+// them are fixed combinations of moments: sum_t Q_tc x_t = sum_a Rinv[a][c] (moment a of x).
+struct WindowOp {
+    std::vector<double> wts;    // n x (2R+1): wts[t * (2R+1) + a] = rho_t^a
+    std::vector<double> rinv;   // (R+1) x (R+1), Rinv[a][c] at a*(R+1)+c (empty without transient)
+};
+
+WindowOp window_op(int o, unsigned W, unsigned R, bool transient)
+{
+    const unsigned n = 2 * W + 1, na = 2 * R + 1;
+    WindowOp op;
+    op.wts.resize((size_t)na * n);
+    for (unsigned t = 0; t < n; ++t) {
+        const double rho = (double)(o + (int)t) / (double)W;
+        double p = 1;
+        for (unsigned a = 0; a < na; ++a, p *= rho) op.wts[(size_t)t * na + a] = p;
+    }
+    if (transient) {
+        Eigen::MatrixXd P(n, R + 1);
+        for (unsigned t = 0; t < n; ++t)
+            for (unsigned a = 0; a <= R; ++a) P(t, a) = op.wts[(size_t)t * na + a];
+        Eigen::HouseholderQR<Eigen::MatrixXd> qr(P);
+        const Eigen::MatrixXd Rm = qr.matrixQR().topRows(R + 1).triangularView<Eigen::Upper>();
+        const Eigen::MatrixXd Ri = Rm.inverse();
+        op.rinv.resize((size_t)(R + 1) * (R + 1));
+        for (unsigned a = 0; a <= R; ++a)
+            for (unsigned c = 0; c <= R; ++c) op.rinv[a * (R + 1) + c] = Ri(a, c);
+    }
+    return op;
+}
+
+// Moments sum_t rho_t^a x[t], a < na, of a complex sequence; wT[t * stride + a] = rho_t^a.
+// t outer, a inner: 2 na independent accumulator chains instead of two long reductions.
+inline void moments(const cd *x, const double *wT, unsigned stride, unsigned n, unsigned na, cd *out)
+{
+    double sr[17], si[17];
+    for (unsigned a = 0; a < na; ++a) sr[a] = si[a] = 0.0;
+    for (unsigned t = 0; t < n; ++t) {
+        const double xr = x[t].real(), xi = x[t].imag();
+        const double *w = wT + (size_t)t * stride;
+        for (unsigned a = 0; a < na; ++a) {
+            sr[a] += w[a] * xr;
+            si[a] += w[a] * xi;
+        }
+    }
+    for (unsigned a = 0; a < na; ++a) out[a] = cd(sr[a], si[a]);
+}
+
+struct Worker {
+    const Spectra &S;
+    const LpmConfig &cfg;
+    const std::vector<WindowOp> &ops;
+    LpmResult &res;
+    size_t Kmax;
+    std::vector<double> pfloor;  // per input: 1e-12 x (window rows) x its mean |U|^2 over the record
+    size_t bad_bin = 0;          // first singular bin in this worker's range (0: none)
+
+    // Normal equations of the local LS from products of the spectra (Part I: Theta =
+    // Y K^H (K K^H)^-1 with K = [r^s U; r^s]): every entry of K K^H, Y K^H, Y Y^H is a
+    // polynomial moment of U_j conj U_j', U_j, Y_i conj U_j, Y_i or Y_i conj Y_i' over the
+    // window. The transient block is eliminated by the Schur complement with the fixed
+    // orthonormal basis Q (equivalently: projecting onto the complement of the polynomials).
+    std::vector<cd> seq;         // products of the spectra over one block of bins (reused)
+
+    // Blocks of 2048 bins keep the spectra products in cache.
+    void run(size_t i0, size_t i1)
+    {
+        for (size_t b0 = i0; b0 < i1 && !bad_bin; b0 += 2048) run_block(b0, std::min(i1, b0 + 2048));
+    }
+
+    void run_block(size_t i0, size_t i1)
+    {
+        if (i0 >= i1) return;
+        const unsigned nu = S.nu, ny = S.ny, m = S.m, R = cfg.order, W = res.W;
+        const unsigned n = 2 * W + 1, ng = nu * (R + 1), g = ny * nu, na = 2 * R + 1, nr = R + 1;
+        const unsigned nT = cfg.transient ? R + 1 : 0;
+        const unsigned npu = nu * (nu + 1) / 2, npy = ny * (ny + 1) / 2;
+        // products over the bins this worker's windows touch: [lo, hi)
+        const size_t lo = std::min(std::max(res.bins[i0], (size_t)W + 1) - W, Kmax - 2 * W);
+        const size_t hi = std::min(std::max(res.bins[i1 - 1], (size_t)W + 1) - W, Kmax - 2 * W) + n;
+        const size_t span = hi - lo;
+        // per experiment: U_j conj U_j' (j <= j'), U_j, Y_i conj U_j, Y_i, Y_i conj Y_i' (i <= i')
+        const size_t nseq = npu + nu + (size_t)ny * nu + ny + npy;
+        seq.resize((size_t)m * nseq * span);
+        for (unsigned e = 0; e < m; ++e) {
+            cd *base = &seq[(size_t)e * nseq * span];
+            size_t q = 0;
+            for (unsigned j = 0; j < nu; ++j)
+                for (unsigned j2 = j; j2 < nu; ++j2, ++q)
+                    for (size_t k = 0; k < span; ++k) base[q * span + k] = S.U(e, j)[lo + k] * std::conj(S.U(e, j2)[lo + k]);
+            for (unsigned j = 0; j < nu; ++j, ++q)
+                for (size_t k = 0; k < span; ++k) base[q * span + k] = S.U(e, j)[lo + k];
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned j = 0; j < nu; ++j, ++q)
+                    for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k] * std::conj(S.U(e, j)[lo + k]);
+            for (unsigned i = 0; i < ny; ++i, ++q)
+                for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k];
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned i2 = i; i2 < ny; ++i2, ++q)
+                    for (size_t k = 0; k < span; ++k) base[q * span + k] = S.Y(e, i)[lo + k] * std::conj(S.Y(e, i2)[lo + k]);
+        }
+        // moments of every sequence (stride na): how many each needs
+        std::vector<unsigned> naq;
+        for (unsigned p = 0; p < npu; ++p) naq.push_back(na);
+        for (unsigned j = 0; j < nu; ++j) naq.push_back(nT ? na : 0);
+        for (unsigned p = 0; p < ny * nu; ++p) naq.push_back(nr);
+        for (unsigned i = 0; i < ny; ++i) naq.push_back(nT ? nr : 0);
+        for (unsigned p = 0; p < npy; ++p) naq.push_back(1);
+        std::vector<cd> mom((size_t)m * nseq * na), dl(na);
+        // Sliding the interior window by one bin: S_a(k+1) = sum_b C(a,b) (-1/W)^(a-b) D_b with
+        // D_b = S_b(k) - (-1)^b p(k-W) + ((W+1)/W)^b p(k+W+1); recomputed directly every 16 bins.
+        std::vector<double> bino((size_t)na * na, 0.0), vout(na), vin(na);
+        for (unsigned a = 0; a < na; ++a) {
+            double c = 1;   // C(a, b) (-1/W)^(a-b), b = a down to 0
+            for (unsigned b = a + 1; b-- > 0;) {
+                bino[(size_t)a * na + b] = c;
+                c *= -(double)b / (double)(a - b + 1) / (double)W;
+            }
+            vout[a] = a % 2 ? -1.0 : 1.0;
+            vin[a] = std::pow((W + 1.0) / W, (double)a);
+        }
+        size_t prev_k = 0, since = 0;
+        std::vector<cd> cc((size_t)ng * nr), dd((size_t)ny * nr);
+        std::vector<cd> A((size_t)ng * ng), Lc((size_t)ng * ng), B((size_t)ng * ny), Z((size_t)ng * ny), X((size_t)ng * ny);
+        std::vector<cd> YY((size_t)ny * ny), Li((size_t)nu * nu), M((size_t)nu * nu);
+        for (size_t bi = i0; bi < i1; ++bi) {
+            const size_t k = res.bins[bi];
+            const size_t w0 = std::min(std::max(k, (size_t)W + 1) - W, Kmax - 2 * W);
+            const WindowOp &op = ops[(size_t)(w0 + 2 * W - k)];
+            const double *wts = op.wts.data();
+            std::fill(A.begin(), A.end(), cd(0));
+            std::fill(B.begin(), B.end(), cd(0));
+            std::fill(YY.begin(), YY.end(), cd(0));
+            const bool interior = w0 + W == k;
+            const bool slide = interior && prev_k + 1 == k && since < 16;
+            since = slide ? since + 1 : 0;
+            prev_k = interior ? k : 0;
+            for (unsigned e = 0; e < m; ++e)
+                for (size_t q = 0; q < nseq; ++q) {
+                    const cd *x = &seq[((size_t)e * nseq + q) * span + (w0 - lo)];
+                    cd *S = &mom[((size_t)e * nseq + q) * na];
+                    const unsigned nq = naq[q];
+                    if (!slide) {
+                        moments(x, wts, na, n, nq, S);
+                        continue;
+                    }
+                    const cd pout = x[-1], pin = x[n - 1];   // p(k-1-W) left, p(k+W) entered
+                    for (unsigned b = 0; b < nq; ++b) dl[b] = S[b] - vout[b] * pout + vin[b] * pin;
+                    for (unsigned a = 0; a < nq; ++a) {
+                        cd v = 0;
+                        for (unsigned b = 0; b <= a; ++b) v += bino[(size_t)a * na + b] * dl[b];
+                        S[a] = v;
+                    }
+                }
+            for (unsigned e = 0; e < m; ++e) {
+                const cd *base = &mom[(size_t)e * nseq * na];
+                const cd *mpu = base, *mu = base + (size_t)npu * na, *mq = mu + (size_t)nu * na;
+                const cd *mt = mq + (size_t)ny * nu * na, *my = mt + (size_t)ny * na;
+                // projections on the transient basis: cc[(s,j), c] = sum_a Rinv[a][c] mu_j(s + a), dd[i, c]
+                for (unsigned s = 0; s <= R; ++s)
+                    for (unsigned j = 0; j < nu; ++j)
+                        for (unsigned c = 0; c < nT; ++c) {
+                            cd v = 0;
+                            for (unsigned a = 0; a <= R; ++a) v += op.rinv[a * nr + c] * mu[(size_t)j * na + s + a];
+                            cc[(size_t)((R - s) * nu + j) * nr + c] = v;
+                        }
+                for (unsigned i = 0; i < ny; ++i)
+                    for (unsigned c = 0; c < nT; ++c) {
+                        cd v = 0;
+                        for (unsigned a = 0; a <= R; ++a) v += op.rinv[a * nr + c] * mt[(size_t)i * na + a];
+                        dd[(size_t)i * nr + c] = v;
+                    }
+                // A += K_G K_G^H - cc cc^H (lower triangle), B += K_G Y^H - cc dd^H, YY += Y Y^H - dd dd^H
+                for (unsigned s = 0; s <= R; ++s)
+                    for (unsigned j = 0; j < nu; ++j) {
+                        const unsigned ra = (R - s) * nu + j;
+                        for (unsigned s2 = 0; s2 <= R; ++s2)
+                            for (unsigned j2 = 0; j2 < nu; ++j2) {
+                                const unsigned rb = (R - s2) * nu + j2;
+                                if (rb > ra) continue;
+                                const unsigned jl = std::min(j, j2), jh = std::max(j, j2);
+                                const unsigned p = jl * nu - jl * (jl - 1) / 2 + (jh - jl);
+                                cd v = mpu[(size_t)p * na + s + s2];
+                                if (j > j2) v = std::conj(v);
+                                for (unsigned c = 0; c < nT; ++c)
+                                    v -= cc[(size_t)ra * nr + c] * std::conj(cc[(size_t)rb * nr + c]);
+                                A[(size_t)ra * ng + rb] += v;
+                            }
+                        for (unsigned i = 0; i < ny; ++i) {
+                            cd v = std::conj(mq[(size_t)(i * nu + j) * na + s]);
+                            for (unsigned c = 0; c < nT; ++c) v -= cc[(size_t)ra * nr + c] * std::conj(dd[(size_t)i * nr + c]);
+                            B[(size_t)ra * ny + i] += v;
+                        }
+                    }
+                for (unsigned i = 0, p = 0; i < ny; ++i)
+                    for (unsigned i2 = i; i2 < ny; ++i2, ++p) {
+                        cd v = my[(size_t)p * na];
+                        for (unsigned c = 0; c < nT; ++c) v -= dd[(size_t)i * nr + c] * std::conj(dd[(size_t)i2 * nr + c]);
+                        YY[(size_t)i * ny + i2] += v;
+                    }
+            }
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned i2 = 0; i2 < i; ++i2) YY[(size_t)i * ny + i2] = std::conj(YY[(size_t)i2 * ny + i]);
+            // Cholesky A = Lc Lc^H
+            bool singular = false;
+            for (unsigned j = 0; j < ng && !singular; ++j) {
+                double d = A[(size_t)j * ng + j].real();
+                const double d0 = d;
+                for (unsigned c = 0; c < j; ++c) d -= std::norm(Lc[(size_t)j * ng + c]);
+                // a pivot below 1e-12 of its diagonal: this regressor lies in the span of the others;
+                // or an input with (almost) no power in this window against its level in the record
+                if (!(d > 1e-12 * d0) || !(d0 > pfloor[j % nu])) { singular = true; break; }
+                const double ljj = std::sqrt(d);
+                Lc[(size_t)j * ng + j] = ljj;
+                for (unsigned i = j + 1; i < ng; ++i) {
+                    cd v = A[(size_t)i * ng + j];
+                    for (unsigned c = 0; c < j; ++c) v -= Lc[(size_t)i * ng + c] * std::conj(Lc[(size_t)j * ng + c]);
+                    Lc[(size_t)i * ng + j] = v / ljj;
+                }
+            }
+            if (singular) {
+                bad_bin = k;
+                return;
+            }
+            // Z = Lc^-1 B, X = Lc^-H Z = A^-1 B = Theta^H; C_v = (YY - Z^H Z) / q
+            for (unsigned i = 0; i < ny; ++i) {
+                for (unsigned a = 0; a < ng; ++a) {
+                    cd v = B[(size_t)a * ny + i];
+                    for (unsigned c = 0; c < a; ++c) v -= Lc[(size_t)a * ng + c] * Z[(size_t)c * ny + i];
+                    Z[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
+                }
+                for (unsigned a = ng; a-- > 0;) {
+                    cd v = Z[(size_t)a * ny + i];
+                    for (unsigned c = a + 1; c < ng; ++c) v -= std::conj(Lc[(size_t)c * ng + a]) * X[(size_t)c * ny + i];
+                    X[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
+                }
+            }
+            cd *G = &res.G[bi * g], *C = &res.cov[bi * g * g], *N = &res.noise[bi * ny * ny];
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned i2 = 0; i2 < ny; ++i2) {
+                    cd v = YY[(size_t)i * ny + i2];
+                    for (unsigned a = 0; a < ng; ++a) v -= std::conj(Z[(size_t)a * ny + i]) * Z[(size_t)a * ny + i2];
+                    N[(size_t)i * ny + i2] = v / (double)res.q;
+                }
+            // M = (L22 L22^H)^-1, L22 the trailing nu x nu block: the G(k) block of A^-1
+            const unsigned o = R * nu;
+            std::fill(Li.begin(), Li.end(), cd(0));
+            for (unsigned j = 0; j < nu; ++j) {
+                Li[(size_t)j * nu + j] = 1.0 / Lc[(size_t)(o + j) * ng + o + j].real();
+                for (unsigned i = j + 1; i < nu; ++i) {
+                    cd v = 0;
+                    for (unsigned c = j; c < i; ++c) v -= Lc[(size_t)(o + i) * ng + o + c] * Li[(size_t)c * nu + j];
+                    Li[(size_t)i * nu + j] = v / Lc[(size_t)(o + i) * ng + o + i].real();
+                }
+            }
+            for (unsigned a = 0; a < nu; ++a)
+                for (unsigned b = 0; b < nu; ++b) {
+                    cd v = 0;
+                    for (unsigned c = 0; c < nu; ++c) v += std::conj(Li[(size_t)c * nu + a]) * Li[(size_t)c * nu + b];
+                    M[(size_t)a * nu + b] = v;
+                }
+            for (unsigned i = 0; i < ny; ++i)
+                for (unsigned j = 0; j < nu; ++j) G[i * nu + j] = std::conj(X[(size_t)(o + j) * ny + i]);
+            // Cov[(i + ny j), (i2 + ny j2)] = C_v(i, i2) M(j2, j): M^T kron C_v in the column-stacked vec
+            for (unsigned j = 0; j < nu; ++j)
+                for (unsigned i = 0; i < ny; ++i)
+                    for (unsigned j2 = 0; j2 < nu; ++j2)
+                        for (unsigned i2 = 0; i2 < ny; ++i2)
+                            C[(size_t)(i + ny * j) * g + i2 + ny * j2] = N[(size_t)i * ny + i2] * M[(size_t)j2 * nu + j];
+        }
+    }
+};
+
+}  // namespace
+
+LpmResult lpm(const Spectra &s, const LpmConfig &c)
+{
+    const unsigned nu = s.nu, ny = s.ny, m = s.m, R = c.order;
+    if (nu == 0 || ny == 0 || m == 0) throw EstError("no inputs, outputs or experiments");
+    if (R > 8) throw EstError("order R must be 0..8");
+    const unsigned W = c.window ? c.window : lpm_default_window(R, nu, ny, m);
+    const long q = lpm_dof(W, R, nu, m, c.transient);
+    if (q <= 0) {
+        unsigned wmin = 1;
+        while (lpm_dof(wmin, R, nu, m, c.transient) <= 0) ++wmin;
+        char b[400];
+        std::snprintf(b, sizeof b,
+                      "window W = %u is too small for order R = %u: %u experiment(s) x (2W+1) = %u bins leave "
+                      "q = %ld <= 0 noise degrees of freedom after the (R+1)(nu+m) = %u parameters; use --window %u "
+                      "or more (or a lower --order)",
+                      W, R, m, m * (2 * W + 1), q, (R + 1) * (nu + (c.transient ? m : 0)), wmin);
+        throw EstError(b);
+    }
+    const size_t Kmax = s.N >= 3 ? (s.N - 1) / 2 : 0;   // last bin below Nyquist
+    if (2 * (size_t)W + 1 > Kmax) {
+        char b[300];
+        std::snprintf(b, sizeof b,
+                      "record too short for the window: %zu samples give %zu bins between DC and Nyquist, the "
+                      "window needs 2W+1 = %u (W = %u); record at least %zu samples or use a smaller --window",
+                      s.N, Kmax, 2 * W + 1, W, (size_t)(2 * W + 1) * 2 + 2);
+        throw EstError(b);
+    }
+    const size_t k_lo = c.k_lo, k_hi = c.k_hi ? c.k_hi : Kmax;
+    if (k_lo < 1 || k_hi > Kmax || k_lo > k_hi) {
+        char b[200];
+        std::snprintf(b, sizeof b, "band bins %zu..%zu outside the usable bins 1..%zu (DC and Nyquist excluded)", k_lo,
+                      k_hi, Kmax);
+        throw EstError(b);
+    }
+    LpmResult res;
+    res.N = s.N;
+    res.nu = nu;
+    res.ny = ny;
+    res.m = m;
+    res.R = R;
+    res.W = W;
+    res.q = (unsigned)q;
+    const size_t nb = k_hi - k_lo + 1, g = (size_t)ny * nu;
+    res.bins.resize(nb);
+    for (size_t i = 0; i < nb; ++i) res.bins[i] = k_lo + i;
+    res.G.resize(nb * g);
+    res.cov.resize(nb * g * g);
+    res.noise.resize(nb * ny * ny);
+    std::vector<WindowOp> ops;
+    for (int o = -2 * (int)W; o <= 0; ++o) ops.push_back(window_op(o, W, R, c.transient));
+
+    const unsigned T = std::max(1u, std::min<unsigned>(c.threads, (unsigned)((nb + 1023) / 1024)));
+    std::vector<double> pfloor(nu, 0.0);
+    for (unsigned j = 0; j < nu; ++j) {
+        double p = 0;
+        for (unsigned e = 0; e < m; ++e)
+            for (size_t k = 1; k <= Kmax; ++k) p += std::norm(s.U(e, j)[k]);
+        pfloor[j] = 1e-12 * (2.0 * W + 1) * p / (double)Kmax;
+    }
+    std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor, 0, {}});
+    std::vector<std::thread> th;
+    for (unsigned t = 1; t < T; ++t) th.emplace_back([&, t] { wk[t].run(nb * t / T, nb * (t + 1) / T); });
+    wk[0].run(0, nb / T);
+    for (auto &x : th) x.join();
+    for (const auto &w : wk)
+        if (w.bad_bin) {
+            char b[400];
+            std::snprintf(b, sizeof b,
+                          "the local input matrix is singular at bin %zu (%.6g cycles/sample): the inputs do not "
+                          "excite the %u bins around it%s; restrict --band to where every input has power",
+                          w.bad_bin, (double)w.bad_bin / s.N, 2 * W + 1,
+                          nu > 1 ? " independently (inputs correlated or one missing)" : "");
+            throw EstError(b);
+        }
+    return res;
+}
+
+}  // namespace msidest
