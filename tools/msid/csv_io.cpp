@@ -170,24 +170,17 @@ static std::string slurp(const std::string &path)
 {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    struct stat st;
     std::string s;
-    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) s.reserve((size_t)st.st_size + 1);
     char buf[1 << 16];
     for (;;) {
-        // read straight into the reserved string when its size is known
-        if (s.capacity() > s.size() + 1) {
-            const size_t old = s.size(), room = s.capacity() - old - 1;
-            s.resize(old + room);
-            const ssize_t k = ::read(fd, &s[old], room);
-            if (k < 0) { if (errno == EINTR) { s.resize(old); continue; } s.resize(old); break; }
-            s.resize(old + (size_t)k);
-            if (k == 0) break;
-            continue;
-        }
         const ssize_t k = ::read(fd, buf, sizeof buf);
         if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) { if (k < 0) { ::close(fd); throw Error("cannot read '" + path + "': " + std::strerror(errno)); } break; }
+        if (k < 0) {
+            const int e = errno;
+            ::close(fd);
+            throw Error("cannot read '" + path + "': " + std::strerror(e));
+        }
+        if (k == 0) break;
         s.append(buf, (size_t)k);
     }
     ::close(fd);
@@ -314,7 +307,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
     double row[MSID_MAX_CHANNELS + 1];
     while (p < e) {
         const char *ls = p;
-        while (*p == ' ' || *p == '\t') ++p;
+        while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
         if (*p == '\n' || (*p == '\r' && p[1] == '\n')) {   // blank line
             if (!out.first_blank) out.first_blank = ls;
             p += *p == '\r' ? 2 : 1;
@@ -324,7 +317,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         p = ls;
         size_t c = 0;
         for (;; ++c) {
-            while (*p == ' ' || *p == '\t') ++p;
+            while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
             if (c >= ncol) {   // beyond the header: only empty trailing fields
                 if (*p == d) { ++p; continue; }
                 if (*p == '\r' || *p == '\n') break;
@@ -338,12 +331,12 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
                 double v = 0;
                 const char *r = parse_double(q, e, v);
                 const bool ok = r != nullptr && r != q;
-                if (ok) while (*r == ' ' || *r == '\t') ++r;
+                if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
                 if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
                     const std::string cell = cell_text(p, d);
                     out.err = cell.empty()
-                                  ? fmt("'%s' line %zu, column %s: empty cell", L.path->c_str(), line_of(L, ls),
-                                        L.names[c].c_str())
+                                  ? fmt("'%s' line %zu, column %s: '' is not a number (empty cell)", L.path->c_str(),
+                                        line_of(L, ls), L.names[c].c_str())
                                   : fmt("'%s' line %zu, column %s: '%s' is not a number%s", L.path->c_str(),
                                         line_of(L, ls), L.names[c].c_str(), cell.c_str(),
                                         d == ';' && cell.find(',') != std::string::npos

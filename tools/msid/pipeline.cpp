@@ -117,12 +117,10 @@ static void validate_lines(const FrfRequest &rq)
     }
 }
 
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+void check_records(const FrfRequest &rq, const std::vector<Record> &recs)
 {
-    std::vector<std::string> notes;
-    validate_lines(rq);
     if (recs.empty()) throw Error("no experiment files given (--experiment)");
-    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
+    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size();
     for (const auto &r : recs)
         if (r.nu != nu || r.ny != ny)
             throw Error(fmt("'%s' has %u inputs and %u outputs but '%s' has %u and %u", r.path.c_str(), r.nu, r.ny,
@@ -137,6 +135,14 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
             throw Error(fmt("the design has %u experiments but %u experiment files are given",
                             rq.design->d.n_experiments, m));
     }
+}
+
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+{
+    std::vector<std::string> notes;
+    validate_lines(rq);
+    check_records(rq, recs);
+    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
     uint32_t maxK = 0;
     for (const auto &r : recs) {
         const uint64_t K = r.n_rows / P, left = r.n_rows % P;
