@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -67,10 +68,13 @@ void write_mat(const std::string &path, const std::vector<double> &x, size_t n, 
     M.Close(m);
 }
 
-// Best wall time of `msid args...` (stdout to /dev/null) over >= 3 runs lasting >= min_s.
-double time_msid(const std::vector<std::string> &args, double min_s)
+// Best wall and CPU (user + system, all threads) times of `msid args...`
+// (stdout to /dev/null) over >= 3 runs lasting >= min_s; each best separately.
+struct Times { double wall = 1e30, cpu = 1e30; };
+
+Times time_msid(const std::vector<std::string> &args, double min_s)
 {
-    auto once = [&] {
+    auto once = [&](Times &best) {
         const double t0 = now_s();
         std::fflush(stdout);
         const pid_t pid = fork();
@@ -84,13 +88,18 @@ double time_msid(const std::vector<std::string> &args, double min_s)
             _exit(127);
         }
         int st = 0;
-        waitpid(pid, &st, 0);
+        struct rusage ru;
+        wait4(pid, &st, 0, &ru);
+        const double wall = now_s() - t0;
         if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) throw Error("msid " + args[1] + " failed in the benchmark");
-        return now_s() - t0;
+        const double cpu = ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+        best.wall = std::min(best.wall, wall);
+        best.cpu = std::min(best.cpu, cpu);
     };
-    once();
-    double best = 1e30, t_end = now_s() + min_s;
-    for (int reps = 0; reps < 3 || now_s() < t_end; ++reps) best = std::min(best, once());
+    Times warm, best;
+    once(warm);
+    const double t_end = now_s() + min_s;
+    for (int reps = 0; reps < 3 || now_s() < t_end; ++reps) once(best);
     return best;
 }
 
@@ -172,7 +181,7 @@ int cmd_bench_io(int argc, char **argv)
                 m, n, C, P, K, L, bytes_csv / 1e6, min_s);
     struct Fmt { const char *name, *ext, *cols; };
     const Fmt fmts[] = {{"csv", ".csv", nullptr}, {"npy", ".npy", "u1=1,u2=2,y1=3,y2=4"}, {"mat", ".mat", nullptr}};
-    double t_msid[3];
+    Times t_msid[3];
     for (int k = 0; k < 3; ++k) {
         std::vector<std::string> args{"msid", "frf", "--period", std::to_string(P), "--lines", lines};
         for (uint32_t e = 0; e < m; ++e) { args.push_back("--experiment"); args.push_back(dir + "/e" + std::to_string(e + 1) + fmts[k].ext); }
@@ -193,23 +202,28 @@ int cmd_bench_io(int argc, char **argv)
             if (pclose(p) != 0) { note = "peer failed: " + out.substr(0, 300); out.clear(); }
         } else note = "cannot start python3";
     }
-    std::printf("%-6s %14s %14s %10s\n", "input", "msid frf [ms]", "peer [ms]", "x peer");
     const char *peer_name[3] = {"pandas.read_csv + NumPy", "numpy.load + NumPy", "scipy.io.loadmat + NumPy"};
+    std::printf("%-5s %12s %12s %8s %12s %12s %8s %12s   %s\n", "input", "msid wall", "peer wall", "x peer",
+                "msid cpu", "peer cpu", "x peer", "x CSV peer", "peer");
+    const double csv_wall = out.empty() ? -1 : json_num(out, "csv"), csv_cpu = out.empty() ? -1 : json_num(out, "csv_cpu");
     for (int k = 0; k < 3; ++k) {
-        const double tp = out.empty() ? -1 : json_num(out, fmts[k].name);
-        if (tp > 0)
-            std::printf("%-6s %14.1f %14.1f %10.2f   (peer: %s)\n", fmts[k].name, 1e3 * t_msid[k], 1e3 * tp,
-                        tp / t_msid[k], peer_name[k]);
-        else
-            std::printf("%-6s %14.1f %14s %10s\n", fmts[k].name, 1e3 * t_msid[k], "-", "-");
+        const double tw = out.empty() ? -1 : json_num(out, fmts[k].name);
+        const double tc = out.empty() ? -1 : json_num(out, (std::string(fmts[k].name) + "_cpu").c_str());
+        auto ms = [](double t) { return t > 0 ? fmt("%9.1f ms", 1e3 * t) : std::string("        -   "); };
+        auto x = [](double a, double b) { return a > 0 && b > 0 ? fmt("%8.2f", a / b) : std::string("       -"); };
+        std::printf("%-5s %12s %12s %s %12s %12s %s %7s/%-4s   %s\n", fmts[k].name, ms(t_msid[k].wall).c_str(),
+                    ms(tw).c_str(), x(tw, t_msid[k].wall).c_str(), ms(t_msid[k].cpu).c_str(), ms(tc).c_str(),
+                    x(tc, t_msid[k].cpu).c_str(), x(csv_wall, t_msid[k].wall).c_str() + 3,
+                    x(csv_cpu, t_msid[k].cpu).c_str() + 4, peer_name[k]);
     }
     if (!out.empty()) {
         const size_t v = out.find('{');
-        std::printf("\npeer versions: %s", v == std::string::npos ? out.c_str() : out.substr(v).c_str());
+        std::printf("\npeer: %s", v == std::string::npos ? out.c_str() : out.substr(v).c_str());
     }
     if (!note.empty()) std::printf("\n%s\n", note.c_str());
-    std::printf("msid times include process start and writing the FRF file; the peer's are inside Python (no start-up, no "
-                "output file)\n");
+    std::printf("wall: elapsed time; cpu: user + system time of all threads. msid times include process start and\n"
+                "writing the FRF file; the peer's are inside Python (no interpreter start-up, no output file).\n"
+                "x CSV peer: the pandas CSV peer's time over msid's on this input (wall/cpu).\n");
     if (!a.has("keep")) {
         for (const char *f : {"e1.csv", "e2.csv", "e1.npy", "e2.npy", "e1.mat", "e2.mat", "bins.txt", "frf.json"})
             std::remove((dir + "/" + f).c_str());

@@ -24,6 +24,21 @@
 
 namespace msidcli {
 
+void *alloc_big(size_t bytes)
+{
+    constexpr size_t H = (size_t)1 << 21;
+    void *p;
+    if (bytes >= H) {
+        const size_t b = (bytes + H - 1) & ~(H - 1);
+        p = std::aligned_alloc(H, b);
+        if (p) madvise(p, b, MADV_HUGEPAGE);
+    } else {
+        p = std::malloc(bytes ? bytes : 1);
+    }
+    if (!p) throw std::bad_alloc();
+    return p;
+}
+
 // ---------------------------------------------------------------- columns ---
 
 bool is_time_name(const std::string &name)

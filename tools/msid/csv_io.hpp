@@ -2,20 +2,50 @@
 // .npy/.npz and MATLAB .mat (v5, v7.3). One entry point, read_experiment(),
 // gives every estimator the same samples matrix and column names.
 #pragma once
+#include <cstdint>
+#include <cstdlib>
+#include <memory>
+#include <new>
 #include <string>
 #include <utility>
 #include <vector>
-#include <cstdint>
 
 namespace msidcli {
+
+// Allocator of the sample matrices: blocks of 2 MiB and more are 2 MiB
+// aligned and marked for transparent huge pages (one page fault per 2 MiB
+// instead of per 4 KiB), and resize() does not zero-fill (every element is
+// written by the reader before it is read).
+void *alloc_big(size_t bytes);
+template <class T> struct BigAlloc {
+    using value_type = T;
+    BigAlloc() = default;
+    template <class U> BigAlloc(const BigAlloc<U> &) {}
+    T *allocate(size_t n) { return static_cast<T *>(alloc_big(n * sizeof(T))); }
+    void deallocate(T *p, size_t) { std::free(p); }
+    template <class U, class... A> void construct(U *p, A &&...a)
+    {
+        if constexpr (sizeof...(A) == 0) ::new ((void *)p) U;
+        else ::new ((void *)p) U(std::forward<A>(a)...);
+    }
+    template <class U> bool operator==(const BigAlloc<U> &) const { return true; }
+    template <class U> bool operator!=(const BigAlloc<U> &) const { return false; }
+};
+using Samples = std::vector<double, BigAlloc<double>>;
 
 // One experiment record: rows of [u_1..u_nu, y_1..y_ny], one per sample.
 struct Record {
     std::string path;
     uint32_t nu = 0, ny = 0;
     size_t n_rows = 0;
-    std::vector<double> rows;            // n_rows * (nu + ny), row-major
+    Samples rows;                        // n_rows * (nu + ny), row-major (empty when `view` is set)
     std::vector<std::string> columns;    // nu + ny names in the file, in row order (u1.., y1..)
+    // Zero-copy records (a C-order float64 .npy whose columns are u1.., y1.. in
+    // order): the samples stay in the mapped file, kept alive by `keep`.
+    const double *view = nullptr;
+    std::shared_ptr<const void> keep;
+    // The n_rows x (nu + ny) samples, row-major: use this, not `rows`.
+    const double *data() const { return view ? view : rows.data(); }
 };
 
 // `--columns u1=Force,y1=Acc1,...`: which file column (CSV header name, or a

@@ -34,13 +34,13 @@ struct R2c {
     std::complex<double> at(size_t k) const { return {out[k][0], out[k][1]}; }
 };
 
-// Samples used by the cheap checks: at least 4 periods, at least 2^16
+// Samples used by the cheap checks: at least 4 periods, at least 2^14
 // samples when the record has them, never more than the record.
 size_t window_periods(const Record &r, uint32_t P, uint32_t skip)
 {
     const size_t K = r.n_rows / P;
     const size_t avail = K > skip ? K - skip : 0;
-    const size_t want = std::max<size_t>(4, ((size_t)1 << 16) / P + 1);
+    const size_t want = std::max<size_t>(4, ((size_t)1 << 14) / P + 1);
     return std::min(avail, want);
 }
 
@@ -52,7 +52,7 @@ std::vector<std::vector<std::complex<double>>> period_spectra(const Record &r, u
     const size_t C = r.nu + r.ny, M = (P + 1) / 2 - 1;
     std::vector<std::vector<std::complex<double>>> s(count, std::vector<std::complex<double>>(M));
     for (size_t p = 0; p < count; ++p) {
-        const double *x = r.rows.data() + (first + p) * P * C + j;
+        const double *x = r.data() + (first + p) * P * C + j;
         for (uint32_t n = 0; n < P; ++n) f.in[n] = x[(size_t)n * C];
         f.run();
         for (size_t k = 1; k <= M; ++k) s[p][k - 1] = f.at(k);
@@ -66,7 +66,7 @@ std::vector<std::vector<std::complex<double>>> period_spectra(const Record &r, u
 static double nonperiodic_fraction_at(const Record &r, uint32_t P, size_t start, size_t count)
 {
     const size_t C = r.nu + r.ny;
-    const double *x0 = r.rows.data() + start * C;
+    const double *x0 = r.data() + start * C;
     double num = 0, den = 0;
     std::vector<double> ubar(P);
     for (uint32_t j = 0; j < r.nu; ++j) {
@@ -198,9 +198,9 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     std::vector<double> pw(nf / 2 + 1, 0.0);
     for (uint32_t j = 0; j < r.nu; ++j) {
         double mean = 0;
-        for (size_t n = 0; n < N; ++n) mean += r.rows[n * C + j];
+        for (size_t n = 0; n < N; ++n) mean += r.data()[n * C + j];
         mean /= (double)N;
-        for (size_t n = 0; n < nf; ++n) f.in[n] = n < N ? r.rows[n * C + j] - mean : 0.0;
+        for (size_t n = 0; n < nf; ++n) f.in[n] = n < N ? r.data()[n * C + j] - mean : 0.0;
         f.run();
         for (size_t k = 0; k <= nf / 2; ++k) pw[k] += std::norm(f.at(k));
     }

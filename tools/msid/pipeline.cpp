@@ -168,7 +168,7 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         const size_t blk = rq.block ? rq.block : nwhole;
         for (size_t k = 0; k < nwhole; k += blk) {
             const size_t n = std::min(blk, nwhole - k);
-            check(msid_meas_push(&ms, r.rows.data() + k * C, n), "'" + r.path + "'");
+            check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
         }
         check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
         src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
