@@ -231,7 +231,8 @@ inline uint64_t eight_value(uint64_t w)   // little-endian: first char in the lo
 
 inline bool digit(char c) { return (unsigned)(c - '0') < 10u; }
 
-inline const char *parse_double(const char *p, const char *end, double &v)
+// `slow` is set when std::from_chars was needed (only then can v be non-finite).
+inline const char *parse_double(const char *p, const char *end, double &v, bool &slow_path)
 {
     const char *s = p;
     const bool neg = *p == '-';
@@ -280,6 +281,7 @@ inline const char *parse_double(const char *p, const char *end, double &v)
         return p;
     }
 slow:
+    slow_path = true;
     auto res = std::from_chars(s, end, v);
     return res.ec == std::errc() ? res.ptr : nullptr;
 }
@@ -319,7 +321,6 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
     const size_t ncol = L.dest.size(), C = L.C;
     const char d = L.delim;
     const char *p = b;
-    double row[MSID_MAX_CHANNELS + 1];
     while (p < e) {
         const char *ls = p;
         while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
@@ -330,6 +331,11 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         }
         if (out.first_blank) out.row_after_blank = true;
         p = ls;
+        if (out.n >= out.cap) {   // cannot happen: rows <= newlines counted
+            out.err = fmt("'%s': internal error: row count", L.path->c_str());
+            return;
+        }
+        double *dst = out.rows + out.n * C;   // written in place
         size_t c = 0;
         for (;; ++c) {
             while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
@@ -344,7 +350,8 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
             if (dc >= 0) {
                 const char *q = p + (*p == '+');
                 double v = 0;
-                const char *r = parse_double(q, e, v);
+                bool slow = false;
+                const char *r = parse_double(q, e, v, slow);
                 const bool ok = r != nullptr && r != q;
                 if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
                 if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
@@ -358,12 +365,12 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
                                             ? " (decimal commas are not supported)" : "");
                     return;
                 }
-                if (!std::isfinite(v)) {
+                if (slow && !std::isfinite(v)) {
                     out.err = fmt("'%s' line %zu, column %s: NaN or Inf is not allowed", L.path->c_str(),
                                   line_of(L, ls), L.names[c].c_str());
                     return;
                 }
-                row[dc] = v;
+                dst[dc] = v;
                 p = r;
             } else {
                 while (*p != d && *p != '\n' && *p != '\r') ++p;
@@ -384,11 +391,6 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
                               L.path->c_str(), line_of(L, ls), c + 1, ncol, L.names[k].c_str());
                 return;
             }
-        if (out.n >= out.cap) {   // cannot happen: rows <= newlines counted
-            out.err = fmt("'%s': internal error: row count", L.path->c_str());
-            return;
-        }
-        std::memcpy(out.rows + out.n * C, row, C * sizeof(double));
         out.n++;
     }
 }
