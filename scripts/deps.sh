@@ -3,9 +3,11 @@
 # Called by ./bootstrap.sh; safe to run again.
 set -euo pipefail
 
-APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev
+APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev libmatio-dev zlib1g-dev
           nlohmann-json3-dev libeigen3-dev python3 python3-pip)
 PY_MODS=(numpy jsonschema pytest)
+# Experiment-file tests and `msid bench io`: scipy (writes .mat v5), h5py (writes .mat v7.3), pandas (the CSV peer).
+PY_MODS+=(scipy h5py pandas)
 # CAN tests in the vcan VM (tests/vcan): qemu, busybox for its initramfs, can-utils as the reference.
 APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
 # On target (tests/target, firmware_sim/baremetal): Cortex-M cross compiler, newlib, MPS2 boards in qemu.

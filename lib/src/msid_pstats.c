@@ -17,6 +17,7 @@ size_t msid_pstats_mem_size(const msid_pstats_cfg *c)
         s = msid__add(s, msid__chunk(H, 1));
         s = msid__add(s, msid__chunk(H, 1));
         s = msid__add(s, msid__chunk(H, sizeof(double)));
+        s = msid__add(s, msid__chunk(H, sizeof(uint32_t)));
     }
     return s;
 }
@@ -34,8 +35,9 @@ void msid_pstats_reset(msid_pstats *ps)
     clear_stats(ps);
     ps->nhist = 0;
     ps->seg_skipped = 0;
-    msid_pstats_counts z = {0, 0, 0, 0, 0, 0, 0, 0};
+    msid_pstats_counts z = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
     ps->cnt = z;
+    ps->drift_pval = NAN;
 }
 
 msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *mem, size_t len)
@@ -59,12 +61,13 @@ msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *me
     ps->alpha = c->alpha != 0.0 ? c->alpha : 0.01;
     ps->mean = (msid_cplx *)msid__take(&a, L * q * sizeof(msid_cplx));
     ps->m2 = (msid_cplx *)msid__take(&a, L * q * q * sizeof(msid_cplx));
-    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0;
+    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0;
     if (H) {
         ps->hist = (msid_cplx *)msid__take(&a, H * L * q * sizeof(msid_cplx));
         ps->hflag = (uint8_t *)msid__take(&a, H);
         ps->hdrop = (uint8_t *)msid__take(&a, H);
         ps->hpval = (double *)msid__take(&a, H * sizeof(double));
+        ps->hidx = (uint32_t *)msid__take(&a, H * sizeof(uint32_t));
     }
     msid_pstats_reset(ps);
     return MSID_OK;
@@ -115,6 +118,7 @@ msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
         ps->hflag[ps->nhist] = 0;
         ps->hdrop[ps->nhist] = 0;
         ps->hpval[ps->nhist] = NAN;
+        ps->hidx[ps->nhist] = ps->cnt.offered - 1u;
         ps->nhist++;
     }
     welford(ps, z);
@@ -171,17 +175,47 @@ static double f1_tail(double f, uint32_t n)
     return p < 0.0 ? 0.0 : (p > 1.0 ? 1.0 : p);
 }
 
+/* Combining p-values: channels by Bonferroni within a line; lines by a
+ * Fisher sum (conservative Gamma(L,1) tail) and a Bonferroni minimum, each at
+ * half the level. */
+typedef struct pcomb { double fisher, pmin, cmin; uint32_t ntested, qt; } pcomb;
+
+static void pc_channel(pcomb *c, double pv)
+{
+    c->qt++;
+    if (pv < c->cmin) c->cmin = pv;
+}
+
+static void pc_line_end(pcomb *c)
+{
+    if (c->qt == 0) return;
+    double pl = c->cmin * (double)c->qt;          /* Bonferroni over channels */
+    if (pl > 1.0) pl = 1.0;
+    c->ntested++;
+    c->fisher += pl > 0.0 ? -log(pl) : 745.0;
+    if (pl < c->pmin) c->pmin = pl;
+    c->cmin = 1.0;
+    c->qt = 0;
+}
+
+static double pc_result(const pcomb *c)
+{
+    if (c->ntested == 0) return 1.0;
+    const double pf = gamma_upper_int(c->ntested, c->fisher);
+    double pb = c->pmin * (double)c->ntested;
+    if (pb > 1.0) pb = 1.0;
+    double pv = 2.0 * (pf < pb ? pf : pb);
+    return pv > 1.0 ? 1.0 : pv;
+}
+
 /* p-value of one kept period p against the other kept periods. */
 static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K)
 {
     const size_t L = ps->n_lines, q = ps->n_channels;
     const msid_cplx *zp = ps->hist + (size_t)p * L * q;
     const double Kd = (double)K, n = (double)(K - 2u);
-    double fisher = 0.0, pmin = 1.0;
-    uint32_t ntested = 0;
+    pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
     for (size_t l = 0; l < L; ++l) {
-        double cmin = 1.0;
-        uint32_t qt = 0;
         for (size_t c = 0; c < q; ++c) {
             const msid_cplx mu = mean[l * q + c];
             const double dev2 = msid__cabs2(msid__csub(zp[l * q + c], mu));
@@ -201,22 +235,54 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
                 else
                     pv = exp(-n * log1p(t / n));     /* P(F(2, 2n) > t) */
             }
-            qt++;
-            if (pv < cmin) cmin = pv;
+            pc_channel(&pc, pv);
         }
-        if (qt == 0) continue;
-        double pl = cmin * (double)qt;               /* Bonferroni over channels */
-        if (pl > 1.0) pl = 1.0;
-        ntested++;
-        fisher += pl > 0.0 ? -log(pl) : 745.0;
-        if (pl < pmin) pmin = pl;
+        pc_line_end(&pc);
     }
-    if (ntested == 0) return 1.0;
-    const double pf = gamma_upper_int(ntested, fisher);
-    double pb = pmin * (double)ntested;
-    if (pb > 1.0) pb = 1.0;
-    double pv = 2.0 * (pf < pb ? pf : pb);
-    return pv > 1.0 ? 1.0 : pv;
+    return pc_result(&pc);
+}
+
+/* Drift: p-value of a linear trend in the period number over the stored
+ * periods [first, nhist) (none dropped yet); see msid_pstats_detect. */
+static double trend_pvalue(const msid_pstats *ps, uint32_t first)
+{
+    const size_t L = ps->n_lines, q = ps->n_channels, nq = L * q;
+    const uint32_t Kt = ps->nhist - first;
+    const double xm = 0.5 * (double)(Kt - 1u), n = (double)(Kt - 2u);
+    double Sxx = 0.0;
+    for (uint32_t k = 0; k < Kt; ++k) Sxx += ((double)k - xm) * ((double)k - xm);
+    pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
+    for (size_t l = 0; l < L; ++l) {
+        for (size_t c = 0; c < q; ++c) {
+            const size_t i = l * q + c;
+            msid_cplx zm = msid__c(0.0, 0.0), sxz = msid__c(0.0, 0.0);
+            for (uint32_t k = 0; k < Kt; ++k) zm = msid__cadd(zm, ps->hist[(size_t)(first + k) * nq + i]);
+            zm = msid__cscale(zm, 1.0 / (double)Kt);
+            double tss = 0.0;
+            int real = 1;
+            for (uint32_t k = 0; k < Kt; ++k) {
+                const msid_cplx z = ps->hist[(size_t)(first + k) * nq + i];
+                const msid_cplx d = msid__csub(z, zm);
+                if (z.im != 0.0) real = 0;
+                tss += msid__cabs2(d);
+                sxz = msid__cadd(sxz, msid__cscale(d, (double)k - xm));
+            }
+            const double ess = msid__cabs2(sxz) / Sxx;      /* |b|^2 Sxx */
+            const double rss = tss - ess;
+            const double floor_ = 1e-24 * (msid__cabs2(zm) + tss) + 1e-300;
+            double pv;
+            if (rss <= floor_) {
+                if (ess <= floor_) continue;                 /* deterministic channel, constant */
+                pv = 0.0;                                    /* deterministic channel, trending */
+            } else {
+                const double t = ess * n / rss;
+                pv = real ? f1_tail(t, Kt - 2u) : exp(-n * log1p(t / n));
+            }
+            pc_channel(&pc, pv);
+        }
+        pc_line_end(&pc);
+    }
+    return pc_result(&pc);
 }
 
 /* Two-pass mean and diagonal scatter over the kept history periods. */
@@ -256,6 +322,17 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     double *m2d = (double *)ps->m2;      /* L*q doubles fit in L*q*q complex */
     const uint32_t K0 = ps->nhist;
     ps->cnt.tested = 1;
+    /* Drift first: a trend that persists through the late half is no start-up
+     * transient; then flag only, drop nothing. */
+    msid_transient_mode mode = ps->transient;
+    ps->cnt.drift_tested = 0;
+    ps->cnt.drift = 0;
+    ps->drift_pval = NAN;
+    if (K0 >= 6u) {
+        ps->drift_pval = trend_pvalue(ps, K0 / 2u);
+        ps->cnt.drift_tested = 1;
+        if (ps->drift_pval < ps->alpha) { ps->cnt.drift = 1; mode = MSID_TRANSIENT_FLAG; }
+    }
     for (;;) {
         uint32_t K;
         kept_moments(ps, mean, m2d, &K);
@@ -271,7 +348,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
             const double r = pv / period_level(ps->alpha, p, K0);
             if (r < worst) { worst = r; wp = p; }
         }
-        if (ps->transient == MSID_TRANSIENT_FLAG) {
+        if (mode == MSID_TRANSIENT_FLAG) {
             for (uint32_t p = 0; p < ps->nhist; ++p)
                 if (ps->hpval[p] < period_level(ps->alpha, p, K0) && !ps->hflag[p]) {
                     ps->hflag[p] = 1;
@@ -310,6 +387,13 @@ const msid_cplx *msid_pstats_scatter(const msid_pstats *ps, uint32_t l)
 
 msid_pstats_counts msid_pstats_get_counts(const msid_pstats *ps) { return ps->cnt; }
 uint32_t msid_pstats_history(const msid_pstats *ps) { return ps->nhist; }
+
+uint32_t msid_pstats_period_number(const msid_pstats *ps, uint32_t k)
+{
+    return k < ps->nhist ? ps->hidx[k] : UINT32_MAX;
+}
+
+double msid_pstats_drift_pvalue(const msid_pstats *ps) { return ps->drift_pval; }
 
 int msid_pstats_period_state(const msid_pstats *ps, uint32_t k, double *pval)
 {

@@ -128,12 +128,7 @@ std::string machine()
     return cpu + ", " + std::to_string(n) + " cores, " + u.sysname + " " + u.release;
 }
 
-std::string peer_script()
-{
-    const char *env = std::getenv("MSID_PYTHON_DIR");
-    std::string dir = env ? env : std::string(MSID_SOURCE_DIR) + "/tools/python";
-    return dir + "/msid/bench_peer.py";
-}
+std::string peer_script() { return bench_python_dir() + "/msid/bench_peer.py"; }
 
 double run_peer(const Config &c, double min_s, std::string &note)
 {
@@ -158,6 +153,14 @@ double run_peer(const Config &c, double min_s, std::string &note)
 
 }  // namespace
 
+std::string bench_machine() { return machine(); }
+
+std::string bench_python_dir()
+{
+    const char *env = std::getenv("MSID_PYTHON_DIR");
+    return env ? env : std::string(MSID_SOURCE_DIR) + "/tools/python";
+}
+
 static const char *HELP =
     "usage: msid bench frf [--quick] [--min-seconds S] [--no-peer] [--measure] [--only 1|2|3]\n"
     "\n"
@@ -179,9 +182,10 @@ int cmd_bench(int argc, char **argv)
     if (argc >= 3 && !std::strcmp(argv[2], "can")) return cmd_bench_can(argc, argv);
     if (argc >= 3 && !std::strcmp(argv[2], "modbus")) return cmd_bench_modbus(argc, argv);
     if (argc >= 3 && (!std::strcmp(argv[2], "target") || !std::strcmp(argv[2], "wcet"))) return cmd_bench_target(argc, argv);
+    if (argc >= 3 && !std::strcmp(argv[2], "io")) return cmd_bench_io(argc, argv);
     if (argc < 3 || std::strcmp(argv[2], "frf") != 0) {
         if (argc >= 3 && !std::strcmp(argv[2], "--help")) { std::fputs(HELP, stdout); return 0; }
-        throw UsageError("usage: msid bench frf|fit|lpm|can|modbus|target|wcet [options] (see msid bench frf --help, msid bench fit --help)");
+        throw UsageError("usage: msid bench frf|fit|lpm|io|can|modbus|target|wcet [options] (see msid bench <name> --help)");
     }
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }

@@ -18,10 +18,14 @@ int cmd_bench_modbus(int argc, char **argv);
 int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
 // CPU model, cores and kernel, for benchmark headers.
 std::string bench_machine();
+int cmd_bench_io(int argc, char **argv);
 }  // namespace msidcli
 #include <string>
 #include <vector>
 namespace msidcli {
 // Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
 int exec_with_build(std::vector<std::string> args);
+// The machine line of the benchmarks (CPU, cores, kernel) and the directory of the Python peers.
+std::string bench_machine();
+std::string bench_python_dir();
 }  // namespace msidcli

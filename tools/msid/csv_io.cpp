@@ -1,26 +1,63 @@
+// Experiment files -> Record: the CSV reader, the column mapping shared with
+// the binary readers (array_io.cpp), and the format dispatch.
+//
+// Speed: the file is read with one read(2) into one buffer; cells are parsed
+// in place by std::from_chars (no per-cell or per-line strings); files over
+// 4 MiB are split at line boundaries and parsed by two threads, the parts
+// joined in file order (the values, and so every result, are independent of
+// the split).
 #include "csv_io.hpp"
 #include "cli_util.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <thread>
+#include <unistd.h>
 
 namespace msidcli {
 
-static std::string slurp(const std::string &path)
+void *alloc_big(size_t bytes)
 {
-    FILE *f = std::fopen(path.c_str(), "rb");
-    if (!f) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    std::string s;
-    char buf[1 << 16];
-    size_t k;
-    while ((k = std::fread(buf, 1, sizeof buf, f)) > 0) s.append(buf, k);
-    bool bad = std::ferror(f);
-    std::fclose(f);
-    if (bad) throw Error("cannot read '" + path + "'");
-    return s;
+    constexpr size_t H = (size_t)1 << 21;
+    void *p;
+    if (bytes >= H) {
+        const size_t b = (bytes + H - 1) & ~(H - 1);
+        p = std::aligned_alloc(H, b);
+        if (p) madvise(p, b, MADV_HUGEPAGE);
+    } else {
+        p = std::malloc(bytes ? bytes : 1);
+    }
+    if (!p) throw std::bad_alloc();
+    return p;
+}
+
+// ---------------------------------------------------------------- columns ---
+
+bool is_time_name(const std::string &name)
+{
+    std::string n = name;
+    for (auto &ch : n) ch = (char)std::tolower((unsigned char)ch);
+    return n == "t" || n == "time" || n == "n" || n == "sample" || n == "index";
+}
+
+// "u3" -> (0, 3), "Y12" -> (1, 12); (-1, 0) if not of that form (k in 1..64).
+static std::pair<int, uint32_t> uy_name(const std::string &s)
+{
+    if (s.size() < 2 || s.size() > 3) return {-1, 0};
+    const char c = (char)std::tolower((unsigned char)s[0]);
+    if (c != 'u' && c != 'y') return {-1, 0};
+    uint32_t k = 0;
+    auto res = std::from_chars(s.data() + 1, s.data() + s.size(), k);
+    if (res.ec != std::errc() || res.ptr != s.data() + s.size() || k == 0 || k > 64 || s[1] == '0') return {-1, 0};
+    return {c == 'u' ? 0 : 1, k};
 }
 
 static std::string trim(std::string_view v)
@@ -31,117 +68,486 @@ static std::string trim(std::string_view v)
     return std::string(v.substr(a, b - a));
 }
 
-Record read_record_csv(const std::string &path)
+ColumnMap parse_column_map(const std::string &spec)
 {
-    const std::string text = slurp(path);
-    Record r;
-    r.path = path;
-    size_t pos = 0, lineno = 0;
-    auto next_line = [&](std::string_view &line) -> bool {
-        if (pos >= text.size()) return false;
-        size_t e = text.find('\n', pos);
-        if (e == std::string::npos) e = text.size();
-        line = std::string_view(text).substr(pos, e - pos);
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        pos = e + 1;
-        ++lineno;
-        return true;
-    };
-    if (text.size() >= 3 && (unsigned char)text[0] == 0xEF && (unsigned char)text[1] == 0xBB &&
-        (unsigned char)text[2] == 0xBF)
-        pos = 3;   /* UTF-8 byte order mark, as some spreadsheet exports write */
-    std::string_view line;
-    if (!next_line(line) || trim(line).empty())
-        throw Error("'" + path + "' is empty: expected a header row with columns u1.. and y1..");
+    ColumnMap m;
+    size_t a = 0;
+    for (;;) {
+        const size_t b = spec.find(',', a);
+        const std::string item = trim(std::string_view(spec).substr(a, b == std::string::npos ? std::string::npos : b - a));
+        const size_t eq = item.find('=');
+        if (eq == std::string::npos || trim(item.substr(0, eq)).empty() || trim(item.substr(eq + 1)).empty())
+            throw UsageError("--columns: '" + item + "' is not <u<k>|y<k>>=<column name>");
+        std::string dst = trim(item.substr(0, eq)), src = trim(item.substr(eq + 1));
+        if (uy_name(dst).first < 0)
+            throw UsageError("--columns: '" + dst + "' is not u<k> or y<k> (k = 1..64)");
+        for (auto &ch : dst) ch = (char)std::tolower((unsigned char)ch);
+        for (const auto &e : m.map) {
+            if (e.first == dst) throw UsageError("--columns: " + dst + " is mapped twice");
+            if (e.second == src) throw UsageError("--columns: column '" + src + "' is mapped twice");
+        }
+        m.map.emplace_back(dst, src);
+        if (b == std::string::npos) break;
+        a = b + 1;
+    }
+    uint32_t maxu = 0, maxy = 0, cu = 0, cy = 0;
+    for (const auto &e : m.map) {
+        auto [kind, k] = uy_name(e.first);
+        (kind == 0 ? cu : cy)++;
+        uint32_t &mx = kind == 0 ? maxu : maxy;
+        mx = std::max(mx, k);
+    }
+    if (cu == 0 || cy == 0) throw UsageError("--columns must map at least u1 and y1");
+    if (cu != maxu) throw UsageError(fmt("--columns: inputs must be u1..u%u without gaps", maxu));
+    if (cy != maxy) throw UsageError(fmt("--columns: outputs must be y1..y%u without gaps", maxy));
+    return m;
+}
 
-    // Header: map each cell to a destination column, or -1 (ignored time column).
-    std::vector<std::string> names;
-    {
-        size_t a = 0;
-        for (;;) {
-            size_t b = line.find(',', a);
-            names.push_back(trim(line.substr(a, b == std::string_view::npos ? std::string_view::npos : b - a)));
-            if (b == std::string_view::npos) break;
-            a = b + 1;
+static std::string list_names(const std::vector<std::string> &names)
+{
+    std::string s;
+    size_t shown = 0;
+    for (const auto &n : names) {
+        if (n.empty()) continue;
+        if (shown == 12) { s += ", ..."; break; }
+        if (shown++) s += ", ";
+        s += "'" + n + "'";
+    }
+    return s.empty() ? "no named columns" : s;
+}
+
+std::vector<size_t> resolve_columns(const std::string &path, const std::vector<std::string> &names,
+                                    const ColumnMap &cols, bool strict, uint32_t &nu, uint32_t &ny)
+{
+    std::vector<std::pair<std::string, size_t>> dst;   // ("u1", index into names)
+    if (!cols.empty()) {
+        for (const auto &[d, s] : cols.map) {
+            size_t hit = SIZE_MAX, nhit = 0;
+            for (size_t i = 0; i < names.size(); ++i)
+                if (names[i] == s) { if (hit == SIZE_MAX) hit = i; ++nhit; }
+            if (nhit == 0) {   // case-insensitive, if unique
+                for (size_t i = 0; i < names.size(); ++i)
+                    if (names[i].size() == s.size() &&
+                        std::equal(s.begin(), s.end(), names[i].begin(), [](char x, char y) {
+                            return std::tolower((unsigned char)x) == std::tolower((unsigned char)y);
+                        })) { if (hit == SIZE_MAX) hit = i; ++nhit; }
+            }
+            if (nhit == 0)
+                throw Error(fmt("'%s': no column '%s' (for %s); the file has %s", path.c_str(), s.c_str(), d.c_str(),
+                                list_names(names).c_str()));
+            if (nhit > 1) throw Error(fmt("'%s': column '%s' appears twice", path.c_str(), s.c_str()));
+            dst.emplace_back(d, hit);
+        }
+    } else {
+        for (size_t i = 0; i < names.size(); ++i) {
+            auto [kind, k] = uy_name(names[i]);
+            if (kind < 0) {
+                if (names[i].empty() || is_time_name(names[i]) || !strict) continue;
+                throw Error(fmt("'%s' line 1: column '%s' is not u<k>, y<k> or a time column (t, time, n, sample, "
+                                "index); map named columns with --columns u1=NAME,y1=NAME",
+                                path.c_str(), names[i].c_str()));
+            }
+            std::string d = fmt("%c%u", kind == 0 ? 'u' : 'y', k);
+            for (const auto &e : dst)
+                if (e.first == d) throw Error(fmt("'%s' line 1: column '%s' appears twice", path.c_str(), names[i].c_str()));
+            dst.emplace_back(d, i);
         }
     }
-    std::vector<int> kind(names.size(), -1);   // 0 = u, 1 = y, -1 = ignored
-    std::vector<uint32_t> num(names.size(), 0);
-    uint32_t maxu = 0, maxy = 0;
-    for (size_t c = 0; c < names.size(); ++c) {
-        std::string n = names[c];
-        for (auto &ch : n) ch = (char)std::tolower((unsigned char)ch);
-        if (n == "t" || n == "time" || n == "n" || n == "sample" || n == "index") continue;
-        uint64_t k = 0;
-        auto res = n.size() >= 2 ? std::from_chars(n.data() + 1, n.data() + n.size(), k) : std::from_chars_result{n.data(), std::errc::invalid_argument};
-        if ((n[0] != 'u' && n[0] != 'y') || res.ec != std::errc() || res.ptr != n.data() + n.size() || k == 0 || k > 64)
-            throw Error(fmt("'%s' line 1: column '%s' is not u<k>, y<k> or a time column (t, time, n, sample, index)",
-                            path.c_str(), names[c].c_str()));
-        kind[c] = n[0] == 'u' ? 0 : 1;
-        num[c] = (uint32_t)k;
-        for (size_t j = 0; j < c; ++j)
-            if (kind[j] == kind[c] && num[j] == num[c])
-                throw Error(fmt("'%s' line 1: column '%s' appears twice", path.c_str(), names[c].c_str()));
-        if (kind[c] == 0 && k > maxu) maxu = (uint32_t)k;
-        if (kind[c] == 1 && k > maxy) maxy = (uint32_t)k;
+    uint32_t cu = 0, cy = 0, maxu = 0, maxy = 0;
+    for (const auto &e : dst) {
+        auto [kind, k] = uy_name(e.first);
+        if (kind == 0) { ++cu; maxu = std::max(maxu, k); } else { ++cy; maxy = std::max(maxy, k); }
     }
-    uint32_t cu = 0, cy = 0;
-    for (size_t c = 0; c < names.size(); ++c) { if (kind[c] == 0) ++cu; if (kind[c] == 1) ++cy; }
-    if (cu == 0) throw Error("'" + path + "' has no input columns (u1, u2, ...)");
-    if (cy == 0) throw Error("'" + path + "' has no output columns (y1, y2, ...)");
+    if (cu == 0)
+        throw Error(fmt("'%s' has no input columns (u1, u2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
+                        path.c_str(), list_names(names).c_str()));
+    if (cy == 0)
+        throw Error(fmt("'%s' has no output columns (y1, y2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
+                        path.c_str(), list_names(names).c_str()));
     if (cu != maxu) throw Error(fmt("'%s': input columns must be u1..u%u without gaps", path.c_str(), maxu));
     if (cy != maxy) throw Error(fmt("'%s': output columns must be y1..y%u without gaps", path.c_str(), maxy));
     if (cu > MSID_MAX_INPUTS) throw Error(fmt("'%s': %u inputs, at most %u are supported", path.c_str(), cu, MSID_MAX_INPUTS));
     if (cy > MSID_MAX_OUTPUTS) throw Error(fmt("'%s': %u outputs, at most %u are supported", path.c_str(), cy, MSID_MAX_OUTPUTS));
-    r.nu = cu;
-    r.ny = cy;
-    const size_t C = cu + cy;
-    std::vector<size_t> dest(names.size(), SIZE_MAX);
-    for (size_t c = 0; c < names.size(); ++c)
-        if (kind[c] >= 0) dest[c] = kind[c] == 0 ? num[c] - 1 : cu + num[c] - 1;
+    nu = cu;
+    ny = cy;
+    std::vector<size_t> src(cu + cy);
+    for (const auto &e : dst) {
+        auto [kind, k] = uy_name(e.first);
+        src[kind == 0 ? k - 1 : cu + k - 1] = e.second;
+    }
+    return src;
+}
 
-    r.rows.reserve(text.size() / (C * 8 + 1) * C + C);
-    size_t blank_at = 0;
-    while (next_line(line)) {
-        if (trim(line).empty()) { if (!blank_at) blank_at = lineno; continue; }
-        if (blank_at)
-            throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), blank_at));
-        const size_t base = r.rows.size();
-        r.rows.resize(base + C);
-        size_t a = 0, c = 0;
-        for (;;) {
-            size_t b = line.find(',', a);
-            std::string_view cell = line.substr(a, b == std::string_view::npos ? std::string_view::npos : b - a);
-            if (c >= names.size())
-                throw Error(fmt("'%s' line %zu: ragged row, more than the %zu cells of the header",
-                                path.c_str(), lineno, names.size()));
-            if (kind[c] >= 0) {
-                size_t s0 = 0, s1 = cell.size();
-                while (s0 < s1 && (cell[s0] == ' ' || cell[s0] == '\t')) ++s0;
-                while (s1 > s0 && (cell[s1 - 1] == ' ' || cell[s1 - 1] == '\t')) --s1;
-                const char *p0 = cell.data() + s0, *p1 = cell.data() + s1;
-                if (s0 < s1 && *p0 == '+') ++p0;
-                double v = 0;
-                auto res = std::from_chars(p0, p1, v);
-                if (s0 == s1 || res.ec != std::errc() || res.ptr != p1)
-                    throw Error(fmt("'%s' line %zu, column %s: '%s' is not a number", path.c_str(), lineno,
-                                    names[c].c_str(), std::string(cell).c_str()));
-                if (!std::isfinite(v))
-                    throw Error(fmt("'%s' line %zu, column %s: NaN or Inf is not allowed", path.c_str(), lineno,
-                                    names[c].c_str()));
-                r.rows[base + dest[c]] = v;
+// -------------------------------------------------------------------- CSV ---
+
+// The whole file in one buffer, with a '\n' appended so every line ends in one.
+static std::string slurp(const std::string &path)
+{
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+    std::string s;
+    char buf[1 << 16];
+    for (;;) {
+        const ssize_t k = ::read(fd, buf, sizeof buf);
+        if (k < 0 && errno == EINTR) continue;
+        if (k < 0) {
+            const int e = errno;
+            ::close(fd);
+            throw Error("cannot read '" + path + "': " + std::strerror(e));
+        }
+        if (k == 0) break;
+        s.append(buf, (size_t)k);
+    }
+    ::close(fd);
+    s.push_back('\n');
+    return s;
+}
+
+namespace {
+
+// Decimal to double, correctly rounded, so bit-identical to std::from_chars:
+// the exact fast path of Clinger (1990) for numbers of at most 15 significant
+// digits with a decimal exponent in [-22, 22] (mantissa and power of ten are
+// exact doubles, so one IEEE multiply or divide rounds correctly), else
+// std::from_chars. Returns the end of the number, or nullptr if none.
+const double POW10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                          1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+// Eight ASCII digits at once (SWAR): are they all digits, and their value.
+inline bool eight_digits(uint64_t w)
+{
+    return (((w & 0xF0F0F0F0F0F0F0F0ull) | (((w + 0x0606060606060606ull) & 0xF0F0F0F0F0F0F0F0ull) >> 4)) ==
+            0x3333333333333333ull);
+}
+
+inline uint64_t eight_value(uint64_t w)   // little-endian: first char in the low byte
+{
+    w -= 0x3030303030303030ull;
+    w = (w * 10) + (w >> 8);
+    w = (((w & 0x000000FF000000FFull) * 0x000F424000000064ull) +
+         (((w >> 16) & 0x000000FF000000FFull) * 0x0000271000000001ull)) >> 32;
+    return (uint32_t)w;
+}
+
+inline bool digit(char c) { return (unsigned)(c - '0') < 10u; }
+
+// `slow` is set when std::from_chars was needed (only then can v be non-finite).
+inline const char *parse_double(const char *p, const char *end, double &v, bool &slow_path)
+{
+    const char *s = p;
+    const bool neg = *p == '-';
+    if (neg) ++p;
+    uint64_t m = 0;   // kept below 10^15 < 2^53: exact
+    int e10 = 0;
+    const char *d0 = p;
+    while (digit(*p)) {
+        if (m >= 100000000000000ull) goto slow;
+        m = m * 10 + (uint64_t)(*p - '0');
+        ++p;
+    }
+    {
+        bool any = p != d0;
+        if (*p == '.') {
+            ++p;
+            const char *f0 = p;
+            uint64_t w;
+            while (p + 8 <= end && m < 10000000ull && (std::memcpy(&w, p, 8), eight_digits(w))) {
+                m = m * 100000000ull + eight_value(w);
+                p += 8;
             }
-            ++c;
+            while (digit(*p)) {
+                if (m >= 100000000000000ull) goto slow;
+                m = m * 10 + (uint64_t)(*p - '0');
+                ++p;
+            }
+            e10 = -(int)(p - f0);
+            any = any || p != f0;
+        }
+        if (!any) goto slow;   // inf, nan, or not a number
+        if (*p == 'e' || *p == 'E') {
+            const char *q = p + 1;
+            bool en = false;
+            if (*q == '-' || *q == '+') { en = *q == '-'; ++q; }
+            if (!digit(*q)) goto slow;
+            int x = 0;
+            while (digit(*q)) { if (x < 10000) x = x * 10 + (*q - '0'); ++q; }
+            e10 += en ? -x : x;
+            p = q;
+        }
+        if (e10 < -22 || e10 > 22) goto slow;
+        double d = (double)m;
+        d = e10 < 0 ? d / POW10[-e10] : d * POW10[e10];
+        v = neg ? -d : d;
+        return p;
+    }
+slow:
+    slow_path = true;
+    auto res = std::from_chars(s, end, v);
+    return res.ec == std::errc() ? res.ptr : nullptr;
+}
+
+struct CsvLayout {
+    const std::string *path;
+    const char *text;            // buffer start (line numbers count from here)
+    char delim;
+    std::vector<int> dest;       // per file column: destination column or -1
+    std::vector<std::string> names;
+    size_t C;
+};
+
+struct Chunk {
+    double *rows = nullptr;              // room for `cap` rows of C values
+    size_t cap = 0, n = 0;
+    const char *first_blank = nullptr;   // first blank line in the chunk
+    bool row_after_blank = false;
+    std::string err;                     // first error (message), empty if none
+};
+
+size_t line_of(const CsvLayout &L, const char *p)
+{
+    return 1 + (size_t)std::count(L.text, p, '\n');
+}
+
+std::string cell_text(const char *p, char delim)
+{
+    const char *e = p;
+    while (*e != delim && *e != '\n' && *e != '\r') ++e;
+    return trim(std::string_view(p, (size_t)(e - p)));
+}
+
+// Parse the lines in [b, e) (b at a line start, e just after a '\n').
+void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
+{
+    const size_t ncol = L.dest.size(), C = L.C;
+    const char d = L.delim;
+    const char *p = b;
+    while (p < e) {
+        const char *ls = p;
+        while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
+        if (*p == '\n' || (*p == '\r' && p[1] == '\n')) {   // blank line
+            if (!out.first_blank) out.first_blank = ls;
+            p += *p == '\r' ? 2 : 1;
+            continue;
+        }
+        if (out.first_blank) out.row_after_blank = true;
+        p = ls;
+        if (out.n >= out.cap) {   // cannot happen: rows <= newlines counted
+            out.err = fmt("'%s': internal error: row count", L.path->c_str());
+            return;
+        }
+        double *dst = out.rows + out.n * C;   // written in place
+        size_t c = 0;
+        for (;; ++c) {
+            while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
+            if (c >= ncol) {   // beyond the header: only empty trailing fields
+                if (*p == d) { ++p; continue; }
+                if (*p == '\r' || *p == '\n') break;
+                out.err = fmt("'%s' line %zu: ragged row, more than the %zu cells of the header", L.path->c_str(),
+                              line_of(L, ls), ncol);
+                return;
+            }
+            const int dc = L.dest[c];
+            if (dc >= 0) {
+                const char *q = p + (*p == '+');
+                double v = 0;
+                bool slow = false;
+                const char *r = parse_double(q, e, v, slow);
+                const bool ok = r != nullptr && r != q;
+                if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
+                if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
+                    const std::string cell = cell_text(p, d);
+                    out.err = cell.empty()
+                                  ? fmt("'%s' line %zu, column %s: '' is not a number (empty cell)", L.path->c_str(),
+                                        line_of(L, ls), L.names[c].c_str())
+                                  : fmt("'%s' line %zu, column %s: '%s' is not a number%s", L.path->c_str(),
+                                        line_of(L, ls), L.names[c].c_str(), cell.c_str(),
+                                        d == ';' && cell.find(',') != std::string::npos
+                                            ? " (decimal commas are not supported)" : "");
+                    return;
+                }
+                if (slow && !std::isfinite(v)) {
+                    out.err = fmt("'%s' line %zu, column %s: NaN or Inf is not allowed", L.path->c_str(),
+                                  line_of(L, ls), L.names[c].c_str());
+                    return;
+                }
+                dst[dc] = v;
+                p = r;
+            } else {
+                while (*p != d && *p != '\n' && *p != '\r') ++p;
+            }
+            if (*p == d) { ++p; continue; }
+            break;
+        }
+        if (*p == '\r') ++p;
+        if (*p != '\n') {
+            out.err = fmt("'%s' line %zu: stray carriage return", L.path->c_str(), line_of(L, ls));
+            return;
+        }
+        ++p;
+        // missing trailing cells are fine only for ignored columns
+        for (size_t k = c + 1; k < ncol; ++k)
+            if (L.dest[k] >= 0) {
+                out.err = fmt("'%s' line %zu: ragged row, %zu cells where the header has %zu (column %s missing)",
+                              L.path->c_str(), line_of(L, ls), c + 1, ncol, L.names[k].c_str());
+                return;
+            }
+        out.n++;
+    }
+}
+
+}  // namespace
+
+FileBytes::FileBytes(const std::string &path)
+{
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+        void *m = mmap(nullptr, (size_t)st.st_size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+        if (m != MAP_FAILED) {
+            map_ = m;
+            p_ = (const char *)m;
+            n_ = (size_t)st.st_size;
+            ::close(fd);
+            return;
+        }
+    }
+    ::close(fd);
+    own_ = slurp(path);
+    own_.pop_back();   // slurp's newline
+    p_ = own_.data();
+    n_ = own_.size();
+}
+
+FileBytes::~FileBytes()
+{
+    if (map_) munmap(map_, n_);
+}
+
+// The CSV text, ending in a newline (appended in a copy when the file lacks it).
+struct Text {
+    FileBytes fb;
+    std::string own;
+    const char *p;
+    size_t n;
+    explicit Text(const std::string &path) : fb(path)
+    {
+        if (fb.size() && fb.data()[fb.size() - 1] == '\n') { p = fb.data(); n = fb.size(); return; }
+        own.assign(fb.data(), fb.size());
+        own.push_back('\n');
+        p = own.data();
+        n = own.size();
+    }
+};
+
+Record read_record_csv(const std::string &path, const ColumnMap &cols)
+{
+    const Text text(path);
+    const char *t0 = text.p, *end = t0 + text.n;
+    const char *p = t0;
+    if (text.n >= 3 && (unsigned char)t0[0] == 0xEF && (unsigned char)t0[1] == 0xBB && (unsigned char)t0[2] == 0xBF)
+        p += 3;   /* UTF-8 byte order mark, as some spreadsheet exports write */
+    const char *hl = p;
+    const char *he = (const char *)std::memchr(p, '\n', (size_t)(end - p));
+    std::string_view header(hl, (size_t)(he - hl));
+    if (!header.empty() && header.back() == '\r') header.remove_suffix(1);
+    if (trim(header).empty())
+        throw Error("'" + path + "' is empty: expected a header row with columns u1.. and y1.. (or named columns and "
+                    "--columns)");
+    // Delimiter: the most frequent of ',', ';' and tab in the header (',' on a tie).
+    const long nc = std::count(header.begin(), header.end(), ','), ns = std::count(header.begin(), header.end(), ';'),
+               nt = std::count(header.begin(), header.end(), '\t');
+    const char delim = ns > nc && ns >= nt ? ';' : (nt > nc && nt > ns ? '\t' : ',');
+    CsvLayout L;
+    L.path = &path;
+    L.text = t0;
+    L.delim = delim;
+    {
+        size_t a = 0;
+        for (;;) {
+            const size_t b = header.find(delim, a);
+            L.names.push_back(trim(header.substr(a, b == std::string_view::npos ? std::string_view::npos : b - a)));
             if (b == std::string_view::npos) break;
             a = b + 1;
         }
-        if (c != names.size())
-            throw Error(fmt("'%s' line %zu: ragged row, %zu cells where the header has %zu", path.c_str(), lineno, c,
-                            names.size()));
-        r.n_rows++;
+        while (L.names.size() > 1 && L.names.back().empty()) L.names.pop_back();   // trailing delimiters
     }
+    for (auto &n : L.names)   // quoted header names ("Force")
+        if (n.size() >= 2 && n.front() == '"' && n.back() == '"') n = n.substr(1, n.size() - 2);
+    Record r;
+    r.path = path;
+    const std::vector<size_t> src = resolve_columns(path, L.names, cols, true, r.nu, r.ny);
+    L.C = r.nu + r.ny;
+    L.dest.assign(L.names.size(), -1);
+    for (size_t k = 0; k < src.size(); ++k) {
+        L.dest[src[k]] = (int)k;
+        r.columns.push_back(L.names[src[k]]);
+    }
+
+    // Split the data at line starts for the threads.
+    const char *d0 = he + 1;
+    const size_t bytes = (size_t)(end - d0);
+    unsigned nt_ = bytes > (4u << 20) ? std::max(1u, std::min(2u, std::thread::hardware_concurrency())) : 1u;
+    std::vector<const char *> cut{d0};
+    for (unsigned k = 1; k < nt_; ++k) {
+        const char *q = d0 + bytes * k / nt_;
+        q = (const char *)std::memchr(q, '\n', (size_t)(end - q));
+        cut.push_back(q ? q + 1 : end);
+    }
+    cut.push_back(end);
+    // Each part writes its rows straight into the record, at an offset given by
+    // the newlines before it (an upper bound on its rows: blank lines are
+    // squeezed out afterwards).
+    std::vector<Chunk> ch(nt_);
+    size_t total = 0;
+    for (unsigned k = 0; k < nt_; ++k) {
+        ch[k].cap = (size_t)std::count(cut[k], cut[k + 1], '\n');
+        total += ch[k].cap;
+    }
+    r.rows.resize(total * L.C);
+    for (size_t k = 0, off = 0; k < nt_; off += ch[k].cap, ++k) ch[k].rows = r.rows.data() + off * L.C;
+    if (nt_ == 1) parse_chunk(L, cut[0], cut[1], ch[0]);
+    else {
+        std::vector<std::thread> th;
+        for (unsigned k = 1; k < nt_; ++k)
+            th.emplace_back([&, k] { parse_chunk(L, cut[k], cut[k + 1], ch[k]); });
+        parse_chunk(L, cut[0], cut[1], ch[0]);
+        for (auto &x : th) x.join();
+    }
+    // Errors in file order; a blank line followed by data anywhere later.
+    const char *blank = nullptr;
+    for (auto &c : ch) {
+        if (blank && c.n) throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), line_of(L, blank)));
+        if (!c.err.empty()) throw Error(c.err);
+        if (c.first_blank && c.row_after_blank)
+            throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), line_of(L, c.first_blank)));
+        if (c.first_blank && !blank) blank = c.first_blank;
+    }
+    for (auto &c : ch) {
+        if (c.n && c.rows != r.rows.data() + r.n_rows * L.C)
+            std::memmove(r.rows.data() + r.n_rows * L.C, c.rows, c.n * L.C * sizeof(double));
+        r.n_rows += c.n;
+    }
+    r.rows.resize(r.n_rows * L.C);
     if (r.n_rows == 0) throw Error("'" + path + "' has a header but no samples");
     return r;
+}
+
+static bool ends_with(const std::string &s, const char *suf)
+{
+    const size_t n = std::strlen(suf);
+    if (s.size() < n) return false;
+    for (size_t i = 0; i < n; ++i)
+        if (std::tolower((unsigned char)s[s.size() - n + i]) != suf[i]) return false;
+    return true;
+}
+
+Record read_experiment(const std::string &path, const ColumnMap &cols)
+{
+    if (ends_with(path, ".npy")) return read_record_npy(path, cols);
+    if (ends_with(path, ".npz")) return read_record_npz(path, cols);
+    if (ends_with(path, ".mat")) return read_record_mat(path, cols);
+    return read_record_csv(path, cols);
 }
 
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols)

@@ -1,27 +1,113 @@
-// Strict CSV reading/writing of experiment records.
+// Experiment records from files as they come: CSV (',', ';' or tab), NumPy
+// .npy/.npz and MATLAB .mat (v5, v7.3). One entry point, read_experiment(),
+// gives every estimator the same samples matrix and column names.
 #pragma once
-#include <string>
-#include <vector>
 #include <cstdint>
+#include <cstdlib>
+#include <memory>
+#include <new>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace msidcli {
+
+// Allocator of the sample matrices: blocks of 2 MiB and more are 2 MiB
+// aligned and marked for transparent huge pages (one page fault per 2 MiB
+// instead of per 4 KiB), and resize() does not zero-fill (every element is
+// written by the reader before it is read).
+void *alloc_big(size_t bytes);
+template <class T> struct BigAlloc {
+    using value_type = T;
+    BigAlloc() = default;
+    template <class U> BigAlloc(const BigAlloc<U> &) {}
+    T *allocate(size_t n) { return static_cast<T *>(alloc_big(n * sizeof(T))); }
+    void deallocate(T *p, size_t) { std::free(p); }
+    template <class U, class... A> void construct(U *p, A &&...a)
+    {
+        if constexpr (sizeof...(A) == 0) ::new ((void *)p) U;
+        else ::new ((void *)p) U(std::forward<A>(a)...);
+    }
+    template <class U> bool operator==(const BigAlloc<U> &) const { return true; }
+    template <class U> bool operator!=(const BigAlloc<U> &) const { return false; }
+};
+using Samples = std::vector<double, BigAlloc<double>>;
 
 // One experiment record: rows of [u_1..u_nu, y_1..y_ny], one per sample.
 struct Record {
     std::string path;
     uint32_t nu = 0, ny = 0;
     size_t n_rows = 0;
-    std::vector<double> rows;   // n_rows * (nu + ny)
+    Samples rows;                        // n_rows * (nu + ny), row-major (empty when `view` is set)
+    std::vector<std::string> columns;    // nu + ny names in the file, in row order (u1.., y1..)
+    // Zero-copy records (a C-order float64 .npy whose columns are u1.., y1.. in
+    // order): the samples stay in the mapped file, kept alive by `keep`.
+    const double *view = nullptr;
+    std::shared_ptr<const void> keep;
+    // The n_rows x (nu + ny) samples, row-major: use this, not `rows`.
+    const double *data() const { return view ? view : rows.data(); }
 };
 
-// Read a CSV with a header row. Columns u1..u<nu> are inputs, y1..y<ny>
-// outputs; a time column (t, time, n, sample, index) is allowed and ignored.
-// Any other problem (missing/empty file, unknown or duplicate column, gaps in
-// the numbering, ragged row, non-numeric cell, NaN/Inf) throws Error naming
-// the file, line and column.
-Record read_record_csv(const std::string &path);
+// `--columns u1=Force,y1=Acc1,...`: which file column (CSV header name, or a
+// variable / matrix column of a binary file) feeds each input and output.
+// Empty: the file's own u<k>/y<k> columns are used.
+struct ColumnMap {
+    std::vector<std::pair<std::string, std::string>> map;   // ("u1", "Force"), ...
+    bool empty() const { return map.empty(); }
+};
+
+// Parse a --columns value; throws UsageError (u<k>/y<k> targets without gaps,
+// each target and each source at most once).
+ColumnMap parse_column_map(const std::string &spec);
+
+// THE reader: an experiment file of any supported format (chosen by the file's
+// extension: .npy, .npz, .mat, anything else is CSV). Every problem (missing
+// or unreadable file, unknown or duplicate column, ragged row, non-numeric
+// cell, NaN/Inf, truncated binary) throws one Error naming the file, the row
+// (CSV: line) and the column or variable. See README "CSV records".
+Record read_experiment(const std::string &path, const ColumnMap &cols = {});
+
+// The CSV reader alone (read_experiment dispatches to it).
+Record read_record_csv(const std::string &path, const ColumnMap &cols = {});
 
 // Format rows (n x cols) with a header; values printed to round-trip exactly.
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols);
+
+// ---- shared by the format readers (csv_io.cpp, array_io.cpp) ----
+
+// A named source column in a file: `name` as shown to users.
+// Resolve the u/y assignment from the available names: with a map, each
+// mapped source must exist (else Error listing what the file holds); without,
+// names u<k>/y<k> (case-insensitive) are taken, names in `ignorable` skipped,
+// anything else is an error when `strict`. Returns per destination column
+// (u1..u_nu, y1..y_ny) the index into `names`; sets nu, ny.
+std::vector<size_t> resolve_columns(const std::string &path, const std::vector<std::string> &names,
+                                    const ColumnMap &cols, bool strict, uint32_t &nu, uint32_t &ny);
+
+// Is this a time/index column name (t, time, n, sample, index; case-insensitive)?
+bool is_time_name(const std::string &name);
+
+// A whole file's bytes, mapped read-only (no copy); read into memory when it
+// cannot be mapped (a pipe). Throws Error naming the file.
+class FileBytes {
+public:
+    explicit FileBytes(const std::string &path);
+    ~FileBytes();
+    FileBytes(const FileBytes &) = delete;
+    FileBytes &operator=(const FileBytes &) = delete;
+    const char *data() const { return p_; }
+    size_t size() const { return n_; }
+
+private:
+    const char *p_ = nullptr;
+    size_t n_ = 0;
+    std::string own_;
+    void *map_ = nullptr;
+};
+
+// Binary readers (array_io.cpp).
+Record read_record_npy(const std::string &path, const ColumnMap &cols);
+Record read_record_npz(const std::string &path, const ColumnMap &cols);
+Record read_record_mat(const std::string &path, const ColumnMap &cols);
 
 }  // namespace msidcli

@@ -117,12 +117,10 @@ static void validate_lines(const FrfRequest &rq)
     }
 }
 
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+void check_records(const FrfRequest &rq, const std::vector<Record> &recs)
 {
-    std::vector<std::string> notes;
-    validate_lines(rq);
     if (recs.empty()) throw Error("no experiment files given (--experiment)");
-    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
+    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size();
     for (const auto &r : recs)
         if (r.nu != nu || r.ny != ny)
             throw Error(fmt("'%s' has %u inputs and %u outputs but '%s' has %u and %u", r.path.c_str(), r.nu, r.ny,
@@ -137,6 +135,14 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
             throw Error(fmt("the design has %u experiments but %u experiment files are given",
                             rq.design->d.n_experiments, m));
     }
+}
+
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+{
+    std::vector<std::string> notes;
+    validate_lines(rq);
+    check_records(rq, recs);
+    const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
     uint32_t maxK = 0;
     for (const auto &r : recs) {
         const uint64_t K = r.n_rows / P, left = r.n_rows % P;
@@ -162,7 +168,7 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         const size_t blk = rq.block ? rq.block : nwhole;
         for (size_t k = 0; k < nwhole; k += blk) {
             const size_t n = std::min(blk, nwhole - k);
-            check(msid_meas_push(&ms, r.rows.data() + k * C, n), "'" + r.path + "'");
+            check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
         }
         check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
         src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
@@ -246,18 +252,30 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         ps[e] = msid_meas_stats(&ms, e);
         const msid_pstats_counts c = msid_pstats_get_counts(ps[e]);
         Json flagged = Json::array(), dropped = Json::array(), pvals = Json::array();
+        const double dp = msid_pstats_drift_pvalue(ps[e]);
+        std::string flagged_list;
         for (uint32_t k = 0; k < msid_pstats_history(ps[e]); ++k) {
             double pv;
             const int s = msid_pstats_period_state(ps[e], k, &pv);
-            const uint32_t period_index = k + c.skipped;   // 0-based index in the file
-            if (s >= 1) flagged.push_back(period_index);
-            if (s == 2) dropped.push_back(period_index);
-            if (s >= 1)
+            // period number in the record, counted from 1: the same in the notes and the file
+            const uint32_t num = msid_pstats_period_number(ps[e], k) + 1;
+            if (s >= 1) flagged.push_back(num);
+            if (s == 2) dropped.push_back(num);
+            if (s >= 1 && c.drift) flagged_list += (flagged_list.empty() ? "" : ", ") + std::to_string(num);
+            else if (s >= 1)
                 out.notes.push_back(fmt("'%s': period %u departs from the others more than the noise explains "
-                                        "(p = %.2g): likely a transient%s",
-                                        r.source.c_str(), period_index + 1, pv,
+                                        "(p = %.2g): likely a start-up transient%s",
+                                        r.source.c_str(), num, pv,
                                         s == 2 ? "; dropped" : "; kept (use --skip-periods or --transient drop)"));
         }
+        if (c.drift)
+            out.notes.push_back(fmt("'%s': the spectra drift through the whole record (a trend over the last %u of %u "
+                                    "periods, p = %.2g): drift, not a start-up transient; no period dropped%s%s. The "
+                                    "FRF is an average over the drift; check the plant and sensors (temperature, "
+                                    "offsets, gain changes) or measure shorter records",
+                                    r.source.c_str(), msid_pstats_history(ps[e]) - msid_pstats_history(ps[e]) / 2,
+                                    msid_pstats_history(ps[e]), dp, flagged_list.empty() ? "" : "; periods ",
+                                    flagged_list.empty() ? "" : (flagged_list + " depart most from the mean").c_str()));
         Json je;
         je["source"] = r.source;
         je["samples"] = r.samples;
@@ -269,6 +287,9 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         je["transient_tested"] = c.tested != 0;
         je["transient_flagged"] = flagged;
         je["transient_dropped"] = dropped;
+        je["drift_tested"] = c.drift_tested != 0;
+        je["drift"] = c.drift != 0;
+        if (std::isfinite(dp)) je["drift_p_value"] = dp; else je["drift_p_value"] = nullptr;
         je["leftover_samples"] = r.leftover;
         exps.push_back(je);
         used += c.used;

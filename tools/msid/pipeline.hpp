@@ -36,6 +36,10 @@ void request_from_core_design(FrfRequest &rq, const msid_design &d);
 // --skip-periods, --detect-lines, --transient, --alpha (shared by the estimating commands).
 void parse_estimate_options(const Args &a, FrfRequest &rq);
 
+// The records agree with each other and the request (same columns, m >= nu,
+// the design's inputs and experiments). Throws Error.
+void check_records(const FrfRequest &rq, const std::vector<Record> &recs);
+
 // Validate everything, run the core, build the document. Throws Error.
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs);
 

@@ -24,7 +24,7 @@ FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vect
         if (r.n_rows <= rq.skip * (size_t)d.period)
             throw Error(fmt("'%s': %zu samples, nothing left after skipping %u periods", r.path.c_str(), r.n_rows, rq.skip));
         msidfit::DirectRecord x;
-        x.rows = r.rows.data() + (size_t)rq.skip * d.period * (nu + ny);
+        x.rows = r.data() + (size_t)rq.skip * d.period * (nu + ny);
         x.n = r.n_rows - (size_t)rq.skip * d.period;
         x.stride = nu + ny;
         x.y_col = nu;

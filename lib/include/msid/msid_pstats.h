@@ -50,6 +50,8 @@ typedef struct msid_pstats_counts {
     uint32_t transient_dropped; /**< of those, dropped (DROP mode) */
     uint32_t used;           /**< periods in the statistics (K) */
     int tested;              /**< 1 if the transient test ran (needs >= 3 periods) */
+    int drift_tested;        /**< 1 if the drift test ran (needs >= 6 stored periods) */
+    int drift;               /**< 1 if the drift test fired (then nothing is dropped) */
 } msid_pstats_counts;
 
 /** Instance (caller-owned). */
@@ -64,6 +66,8 @@ typedef struct msid_pstats {
     uint8_t *hflag;         /**< [max_periods] 1 = flagged by the test */
     uint8_t *hdrop;         /**< [max_periods] 1 = dropped */
     double *hpval;          /**< [max_periods] test p-value per accepted period (NaN if untested) */
+    uint32_t *hidx;         /**< [max_periods] 0-based number of each accepted period among all offered */
+    double drift_pval;      /**< p-value of the drift test (NaN if untested) */
     uint32_t nhist;         /**< accepted periods stored */
     uint32_t seg_skipped;   /**< periods skipped in the current segment */
     msid_pstats_counts cnt;
@@ -112,6 +116,17 @@ msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
  * alpha; the family-wise false-alarm probability stays below alpha.
  * DROP mode removes the most significant period (relative to its level) and
  * repeats while K >= 3.
+ *
+ * Drift (a trend through the whole record) is told apart from a start-up
+ * transient first: with K >= 6 stored periods, a straight line in the period
+ * number is fitted to every line and channel over the LATE half of the periods
+ * (k >= K/2, where a start-up transient has died out), z_k = a + b k + e_k.
+ * t = |b|^2 Sxx (n) / RSS with n = K_late - 2 is F(2, 2n) for a constant
+ * spectrum in circular Gaussian noise (F(1, n) on a real line); channels,
+ * lines combine as in the transient test. Drift is declared at p < alpha
+ * (its own false-alarm probability alpha per experiment); then the periods
+ * the transient test flags are kept (never dropped: dropping early periods of
+ * a drifting record only moves the estimate towards the late state).
  * @return MSID_OK.
  */
 msid_status msid_pstats_detect(msid_pstats *ps);
@@ -137,6 +152,17 @@ uint32_t msid_pstats_history(const msid_pstats *ps);
  * @return 0 kept, 1 flagged and kept, 2 flagged and dropped; -1 if k is out of range.
  */
 int msid_pstats_period_state(const msid_pstats *ps, uint32_t k, double *pval);
+
+/**
+ * @brief Number of stored period k among all periods offered to this
+ *        experiment (0-based: skipped, gap and non-finite periods count), so
+ *        that reports name the period as it sits in the record; UINT32_MAX if
+ *        k is out of range.
+ */
+uint32_t msid_pstats_period_number(const msid_pstats *ps, uint32_t k);
+
+/** @brief p-value of the drift test (NaN if it did not run); see ::msid_pstats_detect. */
+double msid_pstats_drift_pvalue(const msid_pstats *ps);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,304 @@
+"""Experiment files as they come: named columns (--columns), ';' and tab
+delimiters, trailing commas, time and extra columns, NumPy .npy/.npz and
+MATLAB .mat v5 (written by SciPy) and v7.3 (HDF5, written by h5py). Every
+format must give the FRF bit-identical to the plain CSV of the same samples;
+every bad file one message naming file, row/line and column/variable, and no
+output file."""
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+import helpers as h
+
+P = 64
+BINS = [1, 3, 5, 7, 11]
+K = 6
+
+
+def _samples(seed=3):
+    """A 2x2 record: periodic multisine inputs (K periods) and a noisy static mix."""
+    rng = np.random.default_rng(seed)
+    n = np.arange(P)
+    per = np.stack([sum(np.cos(2 * np.pi * b * n / P + rng.uniform(0, 2 * np.pi)) for b in BINS) for _ in range(2)], 1)
+    u = np.tile(per, (K, 1)) + 1e-3 * rng.standard_normal((K * P, 2))
+    y = u @ np.array([[0.5, -0.2], [0.3, 1.0]]) + 0.01 * rng.standard_normal((K * P, 2))
+    return u, y
+
+
+def _frf(tmp_path, files, extra=(), name="frf.json"):
+    out = tmp_path / name
+    args = ["frf", "--period", P, "--lines", ",".join(map(str, BINS))]
+    for f in files:
+        args += ["--experiment", f]
+    h.run_ok(*args, *extra, "-o", out)
+    doc = h.load_json(out)
+    h.validate(doc, "msid-frf-1")
+    return doc
+
+
+def _lines(doc):
+    return [(l["G"], l["cov"]) for l in doc["lines"]]
+
+
+@pytest.fixture(scope="module")
+def data():
+    return [_samples(3), _samples(4)]
+
+
+@pytest.fixture
+def reference(tmp_path, data):
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"ref{e}.csv"
+        h.write_csv(p, h.experiment_columns(u, y))
+        files.append(p)
+    return _lines(_frf(tmp_path, files, name="ref.json"))
+
+
+def _text(u, y, header, delim=",", trailing="", time=False, extra=None):
+    rows = [delim.join(header) + trailing]
+    for k in range(u.shape[0]):
+        cells = ([repr(k * 1e-3)] if time else []) + [repr(float(v)) for v in (*u[k], *y[k])]
+        if extra is not None:
+            cells.append(extra if k == 0 else "")
+        rows.append(delim.join(cells) + trailing)
+    return "\n".join(rows) + "\n"
+
+
+def test_named_columns_semicolons_trailing_commas_time_and_rate(tmp_path, data, reference):
+    """A logger's export: time column, named channels in another order, ';',
+    trailing delimiters, a sample-rate column filled in the first row only."""
+    files = []
+    for e, (u, y) in enumerate(data):
+        # columns: Time;Acc2;Force1;Acc1;Force2;Fs  (mapped by name, order differs)
+        rows = ["Time;Acc2;Force1;Acc1;Force2;Fs;"]
+        for k in range(u.shape[0]):
+            rows.append(";".join([repr(k * 1e-3), repr(float(y[k, 1])), repr(float(u[k, 0])), repr(float(y[k, 0])),
+                                  repr(float(u[k, 1])), "1000" if k == 0 else ""]) + ";")
+        p = tmp_path / f"log{e}.csv"
+        p.write_text("\n".join(rows) + "\n", encoding="utf-8")
+        files.append(p)
+    doc = _frf(tmp_path, files, ["--columns", "u1=Force1,u2=Force2,y1=Acc1,y2=Acc2"])
+    assert _lines(doc) == reference
+
+
+def test_tab_delimiter_and_time_column(tmp_path, data, reference):
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"t{e}.tsv"
+        p.write_text(_text(u, y, ["t", "u1", "u2", "y1", "y2"], delim="\t", time=True), encoding="utf-8")
+        files.append(p)
+    assert _lines(_frf(tmp_path, files)) == reference
+
+
+def _npy_files(tmp_path, data, fortran=False):
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"e{e}.npy"
+        x = np.column_stack([u, y])
+        np.save(p, np.asfortranarray(x) if fortran else x)
+        files.append(p)
+    return files
+
+
+@pytest.mark.parametrize("fortran", [False, True])
+def test_npy_matrix_with_positional_columns(tmp_path, data, reference, fortran):
+    files = _npy_files(tmp_path, data, fortran)
+    assert _lines(_frf(tmp_path, files, ["--columns", "u1=1,u2=2,y1=3,y2=4"])) == reference
+
+
+def test_npy_float32_and_transposed(tmp_path, data):
+    """float32 samples are widened exactly; a channels x samples matrix is read as such."""
+    files32, filesT = [], []
+    for e, (u, y) in enumerate(data):
+        x = np.column_stack([u, y]).astype(np.float32)
+        p = tmp_path / f"f{e}.npy"
+        np.save(p, x)
+        files32.append(p)
+        q = tmp_path / f"T{e}.npy"
+        np.save(q, x.T.astype(np.float64))
+        filesT.append(q)
+    cols = ["--columns", "u1=1,u2=2,y1=3,y2=4"]
+    assert _lines(_frf(tmp_path, files32, cols, "a.json")) == _lines(_frf(tmp_path, filesT, cols, "b.json"))
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_npz_vectors_by_name(tmp_path, data, reference, compress):
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"e{e}.npz"
+        (np.savez_compressed if compress else np.savez)(p, u1=u[:, 0], u2=u[:, 1], y1=y[:, 0], y2=y[:, 1],
+                                                        t=np.arange(u.shape[0]) * 1e-3)
+        files.append(p)
+    assert _lines(_frf(tmp_path, files)) == reference
+
+
+def test_npz_matrix_columns_mapped(tmp_path, data, reference):
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"m{e}.npz"
+        np.savez_compressed(p, force=u, acc=y, fs=np.array([1000.0]))
+        files.append(p)
+    doc = _frf(tmp_path, files, ["--columns", "u1=force:1,u2=force:2,y1=acc:1,y2=acc:2"])
+    assert _lines(doc) == reference
+
+
+def test_mat_v5_scipy(tmp_path, data, reference):
+    sio = pytest.importorskip("scipy.io")
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"e{e}.mat"
+        # a logger's layout: one matrix of channels plus a scalar rate and a name string
+        sio.savemat(p, {"Force": u, "Acc1": y[:, :1], "Acc2": y[:, 1], "fs": 1000.0, "note": "bench 3"})
+        files.append(p)
+    doc = _frf(tmp_path, files, ["--columns", "u1=Force:1,u2=Force:2,y1=Acc1,y2=Acc2"])
+    assert _lines(doc) == reference
+
+
+def _write_mat73(path, variables):
+    """MATLAB v7.3: HDF5 with a 512-byte user block holding the MATLAB header,
+    each variable a dataset (stored transposed, MATLAB is column-major) with
+    its MATLAB_class attribute: a fixed-length NULLTERM string, as MATLAB
+    writes it (h5py's default NULLPAD string reads back truncated)."""
+    h5py = pytest.importorskip("h5py")
+    tid = h5py.h5t.C_S1.copy()
+    tid.set_size(len("double"))
+    tid.set_strpad(h5py.h5t.STR_NULLTERM)
+    with h5py.File(path, "w", userblock_size=512) as f:
+        for name, v in variables.items():
+            v = np.atleast_2d(np.asarray(v, dtype=float))
+            if v.shape[0] == 1:
+                v = v.T
+            ds = f.create_dataset(name, data=v.T)
+            a = h5py.h5a.create(ds.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
+            a.write(np.array(b"double", dtype="S6"), mtype=tid)   # the 6 bytes, no conversion
+    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 00:00:00 2026 HDF5 schema 1.00 ."
+    with open(path, "r+b") as f:
+        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+
+
+def test_mat_v73_hdf5(tmp_path, data, reference):
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"h{e}.mat"
+        _write_mat73(p, {"u1": u[:, 0], "u2": u[:, 1], "y1": y[:, 0], "y2": y[:, 1]})
+        files.append(p)
+    assert _lines(_frf(tmp_path, files)) == reference
+
+
+# ---- bad files: one message naming file, row/line and column/variable; no output ----
+
+def _fails(tmp_path, files, extra, *phrases):
+    out = tmp_path / "never.json"
+    args = ["frf", "--period", P, "--lines", ",".join(map(str, BINS))]
+    for f in files:
+        args += ["--experiment", f]
+    r = h.run(*args, *extra, "-o", out)
+    err = r.stderr.splitlines()
+    assert r.returncode in (1, 2) and len(err) == 1, r.stderr
+    for ph in phrases:
+        assert ph in err[0], (ph, err[0])
+    assert not out.exists()
+    return err[0]
+
+
+def test_bad_csv_named_cell(tmp_path, data):
+    u, y = data[0]
+    p = tmp_path / "bad.csv"
+    text = _text(u, y, ["Time", "F1", "F2", "A1", "A2"], delim=";", time=True).splitlines()
+    cells = text[9].split(";")
+    cells[3] = "0,25"    # decimal comma in A1, file line 10
+    text[9] = ";".join(cells)
+    p.write_text("\n".join(text) + "\n", encoding="utf-8")
+    _fails(tmp_path, [p], ["--columns", "u1=F1,u2=F2,y1=A1,y2=A2"], f"'{p}' line 10, column A1",
+           "'0,25' is not a number", "decimal commas")
+
+
+def test_bad_csv_missing_mapped_column(tmp_path, data):
+    u, y = data[0]
+    p = tmp_path / "a.csv"
+    p.write_text(_text(u, y, ["t", "F1", "F2", "A1", "A2"], time=True), encoding="utf-8")
+    _fails(tmp_path, [p], ["--columns", "u1=F1,u2=F2,y1=A1,y2=Acc2"], f"'{p}': no column 'Acc2' (for y2)",
+           "'F1'")
+
+
+def test_bad_csv_mapped_cell_missing(tmp_path, data):
+    u, y = data[0]
+    p = tmp_path / "short.csv"
+    text = _text(u, y, ["u1", "u2", "y1", "y2"]).splitlines()
+    text[20] = ",".join(text[20].split(",")[:3])
+    p.write_text("\n".join(text) + "\n", encoding="utf-8")
+    _fails(tmp_path, [p], [], f"'{p}' line 21: ragged row", "column y2 missing")
+
+
+def test_bad_columns_option(tmp_path, data):
+    p = _npy_files(tmp_path, data)[0]
+    _fails(tmp_path, [p], ["--columns", "u1=1,u3=2,y1=3"], "--columns: inputs must be u1..u3 without gaps")
+    _fails(tmp_path, [p], ["--columns", "u1=1,y1=1"], "column '1' is mapped twice")
+
+
+def test_bad_npy_nan_names_row_and_column(tmp_path, data):
+    u, y = data[0]
+    x = np.column_stack([u, y])
+    x[37, 2] = np.nan
+    p = tmp_path / "nan.npy"
+    np.save(p, x)
+    _fails(tmp_path, [p], ["--columns", "u1=1,u2=2,y1=3,y2=4"], f"'{p}' row 38, column 3: NaN or Inf")
+
+
+def test_bad_npy_without_columns_and_truncated(tmp_path, data):
+    p = _npy_files(tmp_path, data)[0]
+    _fails(tmp_path, [p], [], f"'{p}' holds one {K * P} x 4 matrix", "--columns u1=1,y1=2")
+    b = p.read_bytes()
+    t = tmp_path / "trunc.npy"
+    t.write_bytes(b[:-100])
+    _fails(tmp_path, [t], ["--columns", "u1=1,u2=2,y1=3,y2=4"], f"'{t}': truncated")
+    c = tmp_path / "c.npy"
+    np.save(c, np.zeros((K * P, 4), complex))
+    _fails(tmp_path, [c], ["--columns", "u1=1,u2=2,y1=3,y2=4"], "'<c16' is not supported")
+
+
+def test_bad_npz_lengths_and_corrupt(tmp_path, data):
+    u, y = data[0]
+    p = tmp_path / "len.npz"
+    np.savez(p, u1=u[:, 0], u2=u[:, 1], y1=y[:-1, 0], y2=y[:, 1])
+    _fails(tmp_path, [p], [], f"'{p}': variable 'y1' has {K * P - 1} samples but 'u1' has {K * P}")
+    q = tmp_path / "inf.npz"
+    y2 = y.copy()
+    y2[5, 1] = np.inf
+    np.savez_compressed(q, u1=u[:, 0], u2=u[:, 1], y1=y2[:, 0], y2=y2[:, 1])
+    _fails(tmp_path, [q], [], f"'{q}' row 6, column y2: NaN or Inf")
+    z = tmp_path / "junk.npz"
+    z.write_bytes(b"not a zip at all" * 10)
+    _fails(tmp_path, [z], [], f"'{z}' is not an .npz (zip) file")
+    # a deflated member with its data damaged
+    d = tmp_path / "damaged.npz"
+    with zipfile.ZipFile(d, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name, v in (("u1", u[:, 0]), ("u2", u[:, 1]), ("y1", y[:, 0]), ("y2", y[:, 1])):
+            with zf.open(name + ".npy", "w") as f:
+                np.lib.format.write_array(f, v)
+    raw = bytearray(d.read_bytes())
+    raw[200:260] = b"\xff" * 60
+    d.write_bytes(bytes(raw))
+    _fails(tmp_path, [d], [], f"'{d}' variable 'u1'")
+
+
+def test_bad_mat(tmp_path, data):
+    sio = pytest.importorskip("scipy.io")
+    u, y = data[0]
+    p = tmp_path / "cplx.mat"
+    sio.savemat(p, {"u1": u[:, 0] + 0j, "u2": u[:, 1], "y1": y[:, 0], "y2": y[:, 1]})
+    _fails(tmp_path, [p], ["--columns", "u1=u1,u2=u2,y1=y1,y2=y2"], f"'{p}' variable 'u1' is complex")
+    q = tmp_path / "nan.mat"
+    y2 = y.copy()
+    y2[99, 0] = np.nan
+    sio.savemat(q, {"u1": u[:, 0], "u2": u[:, 1], "y1": y2[:, 0], "y2": y2[:, 1]})
+    _fails(tmp_path, [q], [], f"'{q}' row 100, column y1: NaN or Inf")
+    r = tmp_path / "junk.mat"
+    r.write_bytes(b"MATLAB 5.0 MAT-file" + b"\0" * 30)
+    _fails(tmp_path, [r], [], f"'{r}'")
+    s = tmp_path / "names.mat"
+    sio.savemat(s, {"Force": u, "Acc": y})
+    _fails(tmp_path, [s], [], f"'{s}' has no input columns", "'Force:1'", "--columns")

@@ -1,0 +1,393 @@
+// Binary experiment files -> Record: NumPy .npy (own reader, format 1.0-3.0),
+// .npz (a zip of .npy members, stored or deflated; inflated with zlib) and
+// MATLAB .mat v5 / v7.3 (libmatio; v7.3 is HDF5, Debian's matio is built
+// with it).
+//
+// Columns of a binary file (the names --columns maps, see README "CSV records"):
+//  - a vector variable `name` (n, n x 1 or 1 x n) is one column `name`;
+//  - a matrix variable `name` of n samples x C channels gives columns
+//    `name:1` .. `name:C` (a matrix with more columns than rows is read as
+//    C channels x n samples);
+//  - a .npy file holds one unnamed matrix: its columns are `1` .. `C`.
+// Without --columns, vectors named u<k> / y<k> (and t/time, ignored) are taken.
+#include "csv_io.hpp"
+#include "cli_util.hpp"
+
+#include <cerrno>
+#include <sys/mman.h>
+#include <cmath>
+#include <cstring>
+#include <fcntl.h>
+#include "matio_dl.hpp"
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+namespace msidcli {
+
+namespace {
+
+// One source array: name, dims (rows x cols in samples x channels after any
+// transpose), and an element accessor over raw bytes.
+struct Array {
+    std::string name;      // variable name ("" for .npy)
+    size_t n = 0, C = 0;   // samples, channels
+    // element (i, c) as double, from the raw buffer
+    const unsigned char *data = nullptr;
+    size_t esize = 8;
+    char kind = 'f';       // 'f' float, 'i' signed, 'u' unsigned
+    bool swap = false;     // big-endian
+    size_t si = 0, sc = 0; // element strides (in elements) for sample and channel
+    double at(size_t i, size_t c) const
+    {
+        const unsigned char *p = data + (i * si + c * sc) * esize;
+        unsigned char b[8];
+        for (size_t k = 0; k < esize; ++k) b[k] = swap ? p[esize - 1 - k] : p[k];
+        switch (kind) {
+        case 'f': if (esize == 8) { double v; std::memcpy(&v, b, 8); return v; }
+                  else { float v; std::memcpy(&v, b, 4); return v; }
+        case 'i': switch (esize) {
+                  case 1: { int8_t v; std::memcpy(&v, b, 1); return v; }
+                  case 2: { int16_t v; std::memcpy(&v, b, 2); return v; }
+                  case 4: { int32_t v; std::memcpy(&v, b, 4); return v; }
+                  default: { int64_t v; std::memcpy(&v, b, 8); return (double)v; } }
+        default: switch (esize) {
+                  case 1: return b[0];
+                  case 2: { uint16_t v; std::memcpy(&v, b, 2); return v; }
+                  case 4: { uint32_t v; std::memcpy(&v, b, 4); return v; }
+                  default: { uint64_t v; std::memcpy(&v, b, 8); return (double)v; } }
+        }
+    }
+};
+
+// Parse one .npy image (whole file, or a .npz member) into an Array viewing `buf`.
+Array parse_npy(const std::string &where, std::string_view buf, const std::string &name)
+{
+    const auto *b = (const unsigned char *)buf.data();
+    if (buf.size() < 10 || std::memcmp(b, "\x93NUMPY", 6) != 0)
+        throw Error("'" + where + "' is not a NumPy .npy array (no \\x93NUMPY magic)");
+    const unsigned major = b[6];
+    size_t hlen, hoff;
+    if (major == 1) { hlen = b[8] | (size_t)b[9] << 8; hoff = 10; }
+    else if (major == 2 || major == 3) {
+        if (buf.size() < 12) throw Error("'" + where + "': truncated .npy header");
+        hlen = b[8] | (size_t)b[9] << 8 | (size_t)b[10] << 16 | (size_t)b[11] << 24; hoff = 12;
+    } else throw Error(fmt("'%s': .npy format version %u is not supported", where.c_str(), major));
+    if (hoff + hlen > buf.size()) throw Error("'" + where + "': truncated .npy header");
+    const std::string h(buf.substr(hoff, hlen));
+    auto field = [&](const char *key) -> std::string {
+        const size_t k = h.find(std::string("'") + key + "'");
+        if (k == std::string::npos) throw Error(fmt("'%s': .npy header has no '%s'", where.c_str(), key));
+        size_t v = h.find(':', k);
+        if (v == std::string::npos) throw Error(fmt("'%s': bad .npy header", where.c_str()));
+        ++v;
+        while (v < h.size() && h[v] == ' ') ++v;
+        return h.substr(v);
+    };
+    Array a;
+    a.name = name;
+    std::string descr = field("descr");
+    if (descr.empty() || (descr[0] != '\'' && descr[0] != '"'))
+        throw Error("'" + where + "': structured .npy arrays are not supported; save a plain float array (or an .npz of "
+                    "one vector per channel)");
+    descr = descr.substr(1, descr.find(descr[0], 1) - 1);
+    if (descr.size() < 3) throw Error("'" + where + "': bad dtype '" + descr + "'");
+    const char endian = descr[0], kind = descr[1];
+    const int sz = std::atoi(descr.c_str() + 2);
+    const bool ok = (kind == 'f' && (sz == 4 || sz == 8)) ||
+                    ((kind == 'i' || kind == 'u') && (sz == 1 || sz == 2 || sz == 4 || sz == 8));
+    if (!ok)
+        throw Error("'" + where + "': dtype '" + descr + "' is not supported (float32/64 or integers; complex is not)");
+    a.kind = kind;
+    a.esize = (size_t)sz;
+    a.swap = endian == '>' && sz > 1;
+    const bool fortran = field("fortran_order").rfind("True", 0) == 0;
+    std::string shp = field("shape");
+    if (shp.empty() || shp[0] != '(') throw Error("'" + where + "': bad .npy shape");
+    shp = shp.substr(1, shp.find(')') - 1);
+    std::vector<size_t> dims;
+    for (size_t p = 0; p < shp.size();) {
+        while (p < shp.size() && (shp[p] == ' ' || shp[p] == ',')) ++p;
+        if (p >= shp.size()) break;
+        char *e;
+        dims.push_back((size_t)std::strtoull(shp.c_str() + p, &e, 10));
+        p = (size_t)(e - shp.c_str());
+    }
+    if (dims.size() == 1) dims.push_back(1);
+    if (dims.size() != 2)
+        throw Error(fmt("'%s': a %zu-dimensional array; expected a vector or a samples x channels matrix", where.c_str(),
+                        dims.size()));
+    const size_t R = dims[0], Cc = dims[1];
+    const size_t need = R * Cc * a.esize, have = buf.size() - hoff - hlen;
+    if (have < need)
+        throw Error(fmt("'%s': truncated: the header says %zu x %zu %s (%zu bytes of data) but %zu are there",
+                        where.c_str(), R, Cc, descr.c_str(), need, have));
+    a.data = b + hoff + hlen;
+    // element (r, c) at r*Cc + c (C order) or r + c*R (Fortran order)
+    size_t sr = fortran ? 1 : Cc, scc = fortran ? R : 1;
+    if (Cc > R) { a.n = Cc; a.C = R; a.si = scc; a.sc = sr; }   // channels x samples
+    else { a.n = R; a.C = Cc; a.si = sr; a.sc = scc; }
+    return a;
+}
+
+// Names of the columns of the arrays: see the file comment.
+struct Source { size_t arr, col; };
+
+Record assemble(const std::string &path, const std::vector<Array> &arrs, const ColumnMap &cols, bool npy_file)
+{
+    std::vector<std::string> names;
+    std::vector<Source> srcs;
+    for (size_t k = 0; k < arrs.size(); ++k) {
+        const Array &a = arrs[k];
+        if (a.C == 1 && !npy_file) { names.push_back(a.name); srcs.push_back({k, 0}); continue; }
+        for (size_t c = 0; c < a.C; ++c) {
+            names.push_back(npy_file ? std::to_string(c + 1) : a.name + ":" + std::to_string(c + 1));
+            srcs.push_back({k, c});
+        }
+    }
+    if (npy_file && cols.empty())
+        throw Error(fmt("'%s' holds one %zu x %zu matrix without column names: map its columns (numbered from 1) with "
+                        "--columns u1=1,y1=2,...", path.c_str(), arrs[0].n, arrs[0].C));
+    Record r;
+    r.path = path;
+    const std::vector<size_t> src = resolve_columns(path, names, cols, false, r.nu, r.ny);
+    const size_t C = src.size();
+    const size_t n = arrs[srcs[src[0]].arr].n;
+    for (size_t k = 0; k < C; ++k) {
+        const Array &a = arrs[srcs[src[k]].arr];
+        r.columns.push_back(names[src[k]]);
+        if (a.n != n)
+            throw Error(fmt("'%s': variable '%s' has %zu samples but '%s' has %zu", path.c_str(), names[src[k]].c_str(),
+                            a.n, names[src[0]].c_str(), n));
+    }
+    if (n == 0) throw Error("'" + path + "' holds no samples");
+    r.n_rows = n;
+    r.rows.resize(n * C);
+    // Row by row (one pass over the output); plain little-endian doubles are
+    // copied, anything else converted; non-finite values are looked up after.
+    std::vector<const Array *> A(C);
+    std::vector<const unsigned char *> base(C);
+    std::vector<size_t> step(C);
+    bool plain = true;
+    for (size_t k = 0; k < C; ++k) {
+        A[k] = &arrs[srcs[src[k]].arr];
+        base[k] = A[k]->data + srcs[src[k]].col * A[k]->sc * A[k]->esize;
+        step[k] = A[k]->si * A[k]->esize;
+        plain = plain && A[k]->kind == 'f' && A[k]->esize == 8 && !A[k]->swap;
+    }
+    double *out = r.rows.data();
+    bool finite = true;
+    for (size_t i = 0; i < n; ++i)
+        for (size_t k = 0; k < C; ++k) {
+            double v;
+            if (plain) std::memcpy(&v, base[k] + i * step[k], 8);
+            else v = A[k]->at(i, srcs[src[k]].col);
+            out[i * C + k] = v;
+            finite = finite && std::isfinite(v);
+        }
+    if (!finite)
+        for (size_t i = 0; i < n; ++i)
+            for (size_t k = 0; k < C; ++k)
+                if (!std::isfinite(out[i * C + k]))
+                    throw Error(fmt("'%s' row %zu, column %s: NaN or Inf is not allowed", path.c_str(), i + 1,
+                                    names[src[k]].c_str()));
+    return r;
+}
+
+uint32_t le32(const unsigned char *p) { return p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
+uint16_t le16(const unsigned char *p) { return (uint16_t)(p[0] | p[1] << 8); }
+uint64_t le64(const unsigned char *p) { return le32(p) | (uint64_t)le32(p + 4) << 32; }
+
+std::string g_mat_msg;   // matio's last log message
+void mat_log(int, char *msg) { g_mat_msg = msg ? msg : ""; }
+
+}  // namespace
+
+Record read_record_npy(const std::string &path, const ColumnMap &cols)
+{
+    auto buf = std::make_shared<const FileBytes>(path);
+    std::vector<Array> arrs{parse_npy(path, std::string_view(buf->data(), buf->size()), "")};
+    const Array &a = arrs[0];
+    // Zero copy: little-endian float64 in C order, 8-byte aligned, columns mapped 1..C in order.
+    bool identity = !cols.empty() && a.kind == 'f' && a.esize == 8 && !a.swap && a.sc == 1 && a.si == a.C &&
+                    ((uintptr_t)a.data % alignof(double)) == 0 && cols.map.size() == a.C;
+    if (identity) {
+        uint32_t nu = 0, ny = 0;
+        std::vector<std::string> names;
+        for (size_t c = 0; c < a.C; ++c) names.push_back(std::to_string(c + 1));
+        const std::vector<size_t> src = resolve_columns(path, names, cols, false, nu, ny);
+        for (size_t k = 0; k < src.size(); ++k) identity = identity && src[k] == k;
+        if (identity) {
+            Record r;
+            r.path = path;
+            r.nu = nu;
+            r.ny = ny;
+            r.n_rows = a.n;
+            for (size_t k = 0; k < src.size(); ++k) r.columns.push_back(names[k]);
+            r.view = reinterpret_cast<const double *>(a.data);
+            r.keep = buf;
+            if (a.n == 0) throw Error("'" + path + "' holds no samples");
+            const double *x = r.view;
+            bool finite = true;
+            for (size_t i = 0; i < a.n * a.C; ++i) finite = finite && std::isfinite(x[i]);
+            if (!finite)
+                for (size_t i = 0; i < a.n * a.C; ++i)
+                    if (!std::isfinite(x[i]))
+                        throw Error(fmt("'%s' row %zu, column %zu: NaN or Inf is not allowed", path.c_str(),
+                                        i / a.C + 1, i % a.C + 1));
+            return r;
+        }
+    }
+    return assemble(path, arrs, cols, true);
+}
+
+Record read_record_npz(const std::string &path, const ColumnMap &cols)
+{
+    const FileBytes z(path);
+    const auto *b = (const unsigned char *)z.data();
+    const size_t N = z.size();
+    // End of central directory: the last "PK\5\6" within 64 KiB + 22 bytes of the end.
+    size_t eocd = SIZE_MAX;
+    for (size_t k = N >= 22 ? N - 22 : 0; N >= 22; --k) {
+        if (le32(b + k) == 0x06054b50u) { eocd = k; break; }
+        if (k == 0 || N - k > 65557) break;
+    }
+    if (eocd == SIZE_MAX) throw Error("'" + path + "' is not an .npz (zip) file: no end-of-central-directory record");
+    uint64_t nent = le16(b + eocd + 10), cdoff = le32(b + eocd + 16);
+    if ((nent == 0xFFFF || cdoff == 0xFFFFFFFFu) && eocd >= 20 && le32(b + eocd - 20) == 0x07064b50u) {
+        const uint64_t z64 = le64(b + eocd - 20 + 8);   // zip64 end of central directory record
+        if (z64 + 56 > N || le32(b + z64) != 0x06064b50u) throw Error("'" + path + "': bad zip64 directory");
+        nent = le64(b + z64 + 32);
+        cdoff = le64(b + z64 + 48);
+    }
+    std::vector<std::string> bufs;   // inflated members (kept alive for the Arrays)
+    std::vector<Array> arrs;
+    bufs.reserve(nent);
+    size_t p = cdoff;
+    for (uint64_t e = 0; e < nent; ++e) {
+        if (p + 46 > N || le32(b + p) != 0x02014b50u) throw Error("'" + path + "': corrupt zip central directory");
+        const unsigned method = le16(b + p + 10);
+        uint64_t csize = le32(b + p + 20), usize = le32(b + p + 24), loff = le32(b + p + 42);
+        const size_t fnl = le16(b + p + 28), exl = le16(b + p + 30), cml = le16(b + p + 32);
+        if (p + 46 + fnl + exl > N) throw Error("'" + path + "': corrupt zip central directory");
+        std::string fname((const char *)b + p + 46, fnl);
+        // zip64 extra field: the 0xFFFFFFFF sizes/offset follow in this order
+        for (size_t x = p + 46 + fnl; x + 4 <= p + 46 + fnl + exl;) {
+            const unsigned id = le16(b + x), len = le16(b + x + 2);
+            if (id == 1) {
+                size_t q = x + 4;
+                if (usize == 0xFFFFFFFFu && q + 8 <= x + 4 + len) { usize = le64(b + q); q += 8; }
+                if (csize == 0xFFFFFFFFu && q + 8 <= x + 4 + len) { csize = le64(b + q); q += 8; }
+                if (loff == 0xFFFFFFFFu && q + 8 <= x + 4 + len) { loff = le64(b + q); q += 8; }
+            }
+            x += 4 + len;
+        }
+        p += 46 + fnl + exl + cml;
+        if (fname.size() < 4 || fname.compare(fname.size() - 4, 4, ".npy") != 0) continue;
+        const std::string var = fname.substr(0, fname.size() - 4);
+        const std::string where = path + "' variable '" + var;   // quoted as '<path>' variable '<var>'
+        if (loff + 30 > N || le32(b + loff) != 0x04034b50u) throw Error("'" + where + "': corrupt zip member");
+        const size_t data = loff + 30 + le16(b + loff + 26) + le16(b + loff + 28);
+        if (data + csize > N) throw Error("'" + where + "': truncated zip member");
+        std::string m;
+        if (method == 0) {   // stored: parse in place
+            arrs.push_back(parse_npy(where, std::string_view((const char *)b + data, csize), var));
+            continue;
+        } else if (method == 8) {
+            m.resize(usize);
+            z_stream zs{};
+            if (inflateInit2(&zs, -MAX_WBITS) != Z_OK) throw Error("zlib: inflateInit2 failed");
+            zs.next_in = const_cast<Bytef *>(b + data);
+            zs.avail_in = (uInt)csize;
+            zs.next_out = (Bytef *)&m[0];
+            zs.avail_out = (uInt)usize;
+            const int rc = inflate(&zs, Z_FINISH);
+            const size_t got = zs.total_out;
+            inflateEnd(&zs);
+            if (rc != Z_STREAM_END || got != usize) throw Error("'" + where + "': corrupt deflated data");
+        } else throw Error(fmt("'%s': zip compression method %u is not supported (stored or deflated)", where.c_str(), method));
+        bufs.push_back(std::move(m));
+        arrs.push_back(parse_npy(where, bufs.back(), var));
+    }
+    if (arrs.empty()) throw Error("'" + path + "' holds no .npy arrays");
+    return assemble(path, arrs, cols, false);
+}
+
+Record read_record_mat(const std::string &path, const ColumnMap &cols)
+{
+    {   // matio prints to stderr on failure; check that the file opens first
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+        ::close(fd);
+    }
+    const Matio &M = matio();
+    M.LogInitFunc("msid", mat_log);   // matio's messages go to the one error, not to stderr
+    mat_t *mf = M.Open(path.c_str(), MAT_ACC_RDONLY);
+    if (!mf)
+        throw Error("'" + path + "' is not a MATLAB .mat file (v4, v5 or v7.3) or is corrupt" +
+                    (g_mat_msg.empty() ? std::string() : " (matio: " + g_mat_msg + ")"));
+    struct Closer {
+        const Matio &M;
+        mat_t *m;
+        std::vector<matvar_t *> v;
+        ~Closer() { for (auto *x : v) M.VarFree(x); M.Close(m); }
+    } cl{M, mf, {}};
+    std::vector<Array> arrs;
+    std::vector<std::string> skipped;
+    while (matvar_t *info = M.VarReadNextInfo(mf)) {
+        const std::string name = info->name ? info->name : "";
+        const bool numeric = info->class_type == MAT_C_DOUBLE || info->class_type == MAT_C_SINGLE ||
+                             (info->class_type >= MAT_C_INT8 && info->class_type <= MAT_C_UINT64);
+        const bool wanted = cols.empty() || [&] {
+            for (const auto &e : cols.map)
+                if (e.second == name || e.second.rfind(name + ":", 0) == 0) return true;
+            return false;
+        }();
+        if (!wanted) { M.VarFree(info); continue; }
+        if (!numeric || info->rank != 2 || info->isComplex || info->isLogical) {
+            const bool needed = !cols.empty();
+            std::string why = info->isComplex ? "complex" : info->rank != 2 ? fmt("%d-dimensional", info->rank)
+                                                                         : "not a numeric array";
+            M.VarFree(info);
+            if (needed) throw Error("'" + path + "' variable '" + name + "' is " + why + ": expected a real vector or matrix");
+            skipped.push_back(name);
+            continue;
+        }
+        M.VarFree(info);
+        matvar_t *v = M.VarRead(mf, name.c_str());
+        if (!v || !v->data) {
+            if (v) M.VarFree(v);
+            throw Error("'" + path + "' variable '" + name + "': cannot read its data (truncated or corrupt file)");
+        }
+        cl.v.push_back(v);
+        Array a;
+        a.name = name;
+        switch (v->data_type) {
+        case MAT_T_DOUBLE: a.kind = 'f'; a.esize = 8; break;
+        case MAT_T_SINGLE: a.kind = 'f'; a.esize = 4; break;
+        case MAT_T_INT8: a.kind = 'i'; a.esize = 1; break;
+        case MAT_T_UINT8: a.kind = 'u'; a.esize = 1; break;
+        case MAT_T_INT16: a.kind = 'i'; a.esize = 2; break;
+        case MAT_T_UINT16: a.kind = 'u'; a.esize = 2; break;
+        case MAT_T_INT32: a.kind = 'i'; a.esize = 4; break;
+        case MAT_T_UINT32: a.kind = 'u'; a.esize = 4; break;
+        case MAT_T_INT64: a.kind = 'i'; a.esize = 8; break;
+        case MAT_T_UINT64: a.kind = 'u'; a.esize = 8; break;
+        default: throw Error("'" + path + "' variable '" + name + "': unsupported element type");
+        }
+        const size_t R = v->dims[0], Cc = v->dims[1];
+        if (v->nbytes < R * Cc * a.esize)
+            throw Error("'" + path + "' variable '" + name + "': truncated data");
+        a.data = (const unsigned char *)v->data;
+        // MATLAB is column-major: (r, c) at r + c*R
+        if (Cc > R) { a.n = Cc; a.C = R; a.si = R; a.sc = 1; }
+        else { a.n = R; a.C = Cc; a.si = 1; a.sc = R; }
+        arrs.push_back(a);
+    }
+    if (arrs.empty())
+        throw Error("'" + path + "' holds no real numeric vectors or matrices" +
+                    (skipped.empty() ? std::string() : " (skipped: " + skipped[0] + (skipped.size() > 1 ? ", ..." : "") + ")"));
+    return assemble(path, arrs, cols, false);
+}
+
+}  // namespace msidcli

@@ -1,0 +1,23 @@
+// libmatio loaded on first use (dlopen): it pulls in HDF5 and a few dozen
+// libraries, which would otherwise cost every `msid` start ~10 ms.
+#pragma once
+#include <matio.h>
+
+namespace msidcli {
+
+struct Matio {
+    decltype(&Mat_Open) Open;
+    decltype(&Mat_Close) Close;
+    decltype(&Mat_VarReadNextInfo) VarReadNextInfo;
+    decltype(&Mat_VarRead) VarRead;
+    decltype(&Mat_VarFree) VarFree;
+    decltype(&Mat_LogInitFunc) LogInitFunc;
+    decltype(&Mat_CreateVer) CreateVer;
+    decltype(&Mat_VarCreate) VarCreate;
+    decltype(&Mat_VarWrite) VarWrite;
+};
+
+// The loaded library; throws Error if libmatio cannot be loaded.
+const Matio &matio();
+
+}  // namespace msidcli

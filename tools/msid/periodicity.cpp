@@ -1,0 +1,328 @@
+// Input periodicity: --period auto, --lines auto, and the diagnostics that
+// name a non-periodic input or a wrong --period. See periodicity.hpp and
+// docs/statistics.md ("Input periodicity").
+#include "periodicity.hpp"
+#include "cli_util.hpp"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+namespace msidcli {
+
+namespace {
+
+// RAII real-to-complex FFTW plan of length n (ESTIMATE: deterministic).
+struct R2c {
+    int n;
+    double *in;
+    fftw_complex *out;
+    fftw_plan plan;
+    explicit R2c(int n_) : n(n_)
+    {
+        in = fftw_alloc_real((size_t)n);
+        out = fftw_alloc_complex((size_t)n / 2 + 1);
+        if (!in || !out) throw Error("out of memory for an FFT of length " + std::to_string(n));
+        plan = fftw_plan_dft_r2c_1d(n, in, out, FFTW_ESTIMATE);
+    }
+    ~R2c() { fftw_destroy_plan(plan); fftw_free(in); fftw_free(out); }
+    R2c(const R2c &) = delete;
+    R2c &operator=(const R2c &) = delete;
+    void run() { fftw_execute(plan); }
+    std::complex<double> at(size_t k) const { return {out[k][0], out[k][1]}; }
+};
+
+// Samples used by the cheap checks: at least 4 periods, at least 2^14
+// samples when the record has them, never more than the record.
+size_t window_periods(const Record &r, uint32_t P, uint32_t skip)
+{
+    const size_t K = r.n_rows / P;
+    const size_t avail = K > skip ? K - skip : 0;
+    const size_t want = std::max<size_t>(4, ((size_t)1 << 14) / P + 1);
+    return std::min(avail, want);
+}
+
+// Per-period input spectra at bins 1 .. ceil(P/2)-1 of channel j over periods
+// first .. first+count-1: spec[p][k-1].
+std::vector<std::vector<std::complex<double>>> period_spectra(const Record &r, uint32_t P, size_t first, size_t count,
+                                                              uint32_t j, R2c &f)
+{
+    const size_t C = r.nu + r.ny, M = (P + 1) / 2 - 1;
+    std::vector<std::vector<std::complex<double>>> s(count, std::vector<std::complex<double>>(M));
+    for (size_t p = 0; p < count; ++p) {
+        const double *x = r.data() + (first + p) * P * C + j;
+        for (uint32_t n = 0; n < P; ++n) f.in[n] = x[(size_t)n * C];
+        f.run();
+        for (size_t k = 1; k <= M; ++k) s[p][k - 1] = f.at(k);
+    }
+    return s;
+}
+
+}  // namespace
+
+// nonperiodic_fraction() over `count` periods of P starting at row `start`.
+static double nonperiodic_fraction_at(const Record &r, uint32_t P, size_t start, size_t count)
+{
+    const size_t C = r.nu + r.ny;
+    const double *x0 = r.data() + start * C;
+    double num = 0, den = 0;
+    std::vector<double> ubar(P);
+    for (uint32_t j = 0; j < r.nu; ++j) {
+        double mean = 0;
+        std::fill(ubar.begin(), ubar.end(), 0.0);
+        for (size_t p = 0; p < count; ++p) {
+            const double *x = x0 + p * P * C + j;
+            for (uint32_t n = 0; n < P; ++n) ubar[n] += x[(size_t)n * C];
+        }
+        for (uint32_t n = 0; n < P; ++n) { mean += ubar[n]; ubar[n] /= (double)count; }
+        mean /= (double)count * P;
+        for (size_t p = 0; p < count; ++p) {
+            const double *x = x0 + p * P * C + j;
+            for (uint32_t n = 0; n < P; ++n) {
+                const double v = x[(size_t)n * C], d = v - ubar[n], a = v - mean;
+                num += d * d;
+                den += a * a;
+            }
+        }
+    }
+    return den > 0 ? num / den : 0.0;
+}
+
+double nonperiodic_fraction(const Record &r, uint32_t P, size_t first, size_t count)
+{
+    return nonperiodic_fraction_at(r, P, first * P, count);
+}
+
+// The best period near P (|P' - P| <= 2) on the checking window (starting at
+// the same sample, skip * P), or 0 if none is better than eta.
+static uint32_t better_neighbour(const Record &r, uint32_t P, uint32_t skip, double eta, double &eta_best)
+{
+    uint32_t best = 0;
+    eta_best = eta;
+    const size_t start = (size_t)skip * P, rows = r.n_rows > start ? r.n_rows - start : 0;
+    for (int d = -2; d <= 2; ++d) {
+        if (d == 0 || (int64_t)P + d < (int64_t)MSID_MIN_PERIOD) continue;
+        const uint32_t Q = (uint32_t)((int64_t)P + d);
+        const size_t K = std::min(rows / Q, window_periods(r, P, skip));
+        if (K < 2) continue;
+        const double et = nonperiodic_fraction_at(r, Q, start, K);
+        if (et < eta_best) { eta_best = et; best = Q; }
+    }
+    return best;
+}
+
+// Leakage of the inputs into non-excited bins and the phase drift per period
+// at the strongest line, both with period P: the symptoms of a wrong period.
+static std::string wrong_period_symptoms(const Record &r, uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins)
+{
+    const size_t K = window_periods(r, P, skip);
+    if (K < 2 || P < 4) return "";
+    R2c f((int)P);
+    std::vector<uint8_t> exc((P + 1) / 2, 0);
+    for (uint32_t b : bins) if (b > 0 && b < exc.size()) exc[b] = 1;
+    double leak = 0, tot = 0, best = -1, drift = 0;
+    uint32_t kbest = 0;
+    for (uint32_t j = 0; j < r.nu; ++j) {
+        auto s = period_spectra(r, P, skip, K, j, f);
+        for (size_t k = 1; k <= s[0].size(); ++k) {
+            double pw = 0;
+            for (size_t p = 0; p < K; ++p) pw += std::norm(s[p][k - 1]);
+            tot += pw;
+            if (!bins.empty() && !exc[k]) leak += pw;
+            if (pw > best) {
+                best = pw;
+                kbest = (uint32_t)k;
+                std::complex<double> acc = 0;
+                for (size_t p = 0; p + 1 < K; ++p) acc += s[p + 1][k - 1] * std::conj(s[p][k - 1]);
+                drift = std::arg(acc) * 180.0 / M_PI;
+            }
+        }
+    }
+    std::string out;
+    if (!bins.empty() && tot > 0) out += fmt("%.0f%% of the input power leaks into non-excited bins and ", 100 * leak / tot);
+    out += fmt("the input phase at bin %u drifts by %.1f degrees per period", kbest, drift);
+    return out;
+}
+
+void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &recs)
+{
+    for (const Record &r : recs) {
+        const size_t K = window_periods(r, P, skip);
+        if (K < 2) continue;   // too short: run_frf says so
+        const double eta = nonperiodic_fraction(r, P, skip, K);
+        double eta_n;
+        uint32_t Q = eta > 1e-9 ? better_neighbour(r, P, skip, eta, eta_n) : 0;
+        if (Q && !(eta_n < 0.5 * eta)) Q = 0;
+        if (!Q && eta > NONPERIODIC_FRACTION) {   // far off? search the whole record
+            std::vector<Record> one{r};
+            std::string rep;
+            try {
+                const uint32_t Q2 = find_period(one, rep);
+                if (Q2 != P) {
+                    const size_t K2 = window_periods(r, Q2, 0);
+                    eta_n = K2 >= 2 ? nonperiodic_fraction(r, Q2, 0, K2) : 1.0;
+                    if (eta_n < 0.5 * eta) Q = Q2;
+                }
+            } catch (const Error &) {
+            }
+        }
+        if (Q)
+            throw Error(fmt("'%s': --period %u does not fit the input: it repeats every %u samples (the part of the input "
+                            "that changes from period to period is %.2g%% of its power with %u, %.2g%% with %u); with "
+                            "%u, %s. Use --period %u",
+                            r.path.c_str(), P, Q, 100 * eta_n, Q, 100 * eta, P, P,
+                            wrong_period_symptoms(r, P, skip, bins).c_str(), Q));
+        if (eta > NONPERIODIC_FRACTION)
+            throw Error(fmt("'%s': the input is not periodic with period %u: %.0f%% of its power changes from period to "
+                            "period (its spectrum differs between periods; a periodic input with noise changes only by "
+                            "the noise), and it repeats with no other period either. For a sweep, chirp, noise or "
+                            "operating data use --method lpm (any excitation)",
+                            r.path.c_str(), P, 100 * eta));
+    }
+}
+
+uint32_t find_period(const std::vector<Record> &recs, std::string &report)
+{
+    const Record &r = recs.at(0);
+    const size_t C = r.nu + r.ny;
+    const size_t N = std::min<size_t>(r.n_rows, (size_t)1 << 22);
+    if (N < 2 * MSID_MIN_PERIOD)
+        throw Error(fmt("'%s': %zu samples are too few to find a period (--period auto)", r.path.c_str(), r.n_rows));
+    size_t nf = 1;
+    while (nf < 2 * N) nf <<= 1;
+    R2c f((int)nf);
+    std::vector<double> acf(nf / 2 + 1, 0.0);
+    fftw_complex *spec = fftw_alloc_complex(nf / 2 + 1);
+    std::vector<double> pw(nf / 2 + 1, 0.0);
+    for (uint32_t j = 0; j < r.nu; ++j) {
+        double mean = 0;
+        for (size_t n = 0; n < N; ++n) mean += r.data()[n * C + j];
+        mean /= (double)N;
+        for (size_t n = 0; n < nf; ++n) f.in[n] = n < N ? r.data()[n * C + j] - mean : 0.0;
+        f.run();
+        for (size_t k = 0; k <= nf / 2; ++k) pw[k] += std::norm(f.at(k));
+    }
+    // inverse transform of the power spectrum: the (biased) autocorrelation
+    for (size_t k = 0; k <= nf / 2; ++k) { spec[k][0] = pw[k]; spec[k][1] = 0; }
+    std::vector<double> ac(nf);
+    fftw_plan ip = fftw_plan_dft_c2r_1d((int)nf, spec, ac.data(), FFTW_ESTIMATE);
+    fftw_execute(ip);
+    fftw_destroy_plan(ip);
+    fftw_free(spec);
+    if (!(ac[0] > 0)) throw Error(fmt("'%s': the inputs are constant: no period to find (--period auto)", r.path.c_str()));
+    // rho(tau): unbiased autocorrelation normalised by the variance
+    auto rho = [&](size_t t) { return ac[t] / (double)(N - t) / (ac[0] / (double)N); };
+    size_t t0 = 1;
+    while (t0 <= N / 2 && rho(t0) >= 0.5) ++t0;   // past the main lobe
+    const size_t lo = std::max<size_t>(t0, MSID_MIN_PERIOD), hi = N / 2;
+    double rmax = -2;
+    for (size_t t = lo; t <= hi; ++t) rmax = std::max(rmax, rho(t));
+    uint32_t P = 0;
+    if (rmax > 0) {
+        size_t t = lo;
+        while (t <= hi && rho(t) < 0.95 * rmax) ++t;
+        while (t + 1 <= hi && rho(t + 1) >= rho(t)) ++t;   // climb to the local peak
+        P = (uint32_t)std::min<size_t>(t, MSID_MAX_PERIOD);
+    }
+    double eta = 1.0;
+    if (P) {   // refine by the exact non-periodic fraction around the peak
+        uint32_t bestP = P;
+        for (int d = -2; d <= 2; ++d) {
+            const int64_t Q = (int64_t)P + d;
+            if (Q < (int64_t)MSID_MIN_PERIOD || (size_t)Q * 2 > r.n_rows) continue;
+            const size_t K = r.n_rows / (size_t)Q;
+            const double e = nonperiodic_fraction(r, (uint32_t)Q, 0, K);
+            if (e < eta) { eta = e; bestP = (uint32_t)Q; }
+        }
+        P = bestP;
+    }
+    if (!P || eta > NONPERIODIC_FRACTION)
+        throw Error(fmt("'%s': the input does not repeat: no period with at least 2 repetitions leaves less than %.0f%% "
+                        "of the input power changing from period to period%s. Give --period, or for a sweep, chirp, "
+                        "noise or operating data use --method lpm",
+                        r.path.c_str(), 100 * NONPERIODIC_FRACTION,
+                        P ? fmt(" (best: %u samples, %.0f%% changing)", P, 100 * eta).c_str() : ""));
+    report = fmt("period %u samples (found from the input's repetition: %.2g%% of the input power changes from "
+                 "period to period, %zu whole periods in '%s')",
+                 P, 100 * eta, r.n_rows / P, r.path.c_str());
+    return P;
+}
+
+std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report)
+{
+    if (P < 3) throw Error(fmt("period %u has no bins between DC and Nyquist for --lines auto", P));
+    const size_t M = (P + 1) / 2 - 1;
+    size_t J = 0;
+    for (const auto &r : recs) J += r.nu;
+    const double level = LINES_AUTO_ALPHA / ((double)M * (double)J);
+    std::vector<uint8_t> exc(M + 1, 0);
+    R2c f((int)P);
+    size_t Kmin = SIZE_MAX;
+    for (const auto &r : recs) {
+        const size_t Kall = r.n_rows / P;
+        if (Kall < (size_t)skip + 2)
+            throw Error(fmt("'%s': --lines auto needs at least 2 whole periods of %u samples after skipping %u",
+                            r.path.c_str(), P, skip));
+        const size_t K = Kall - skip;
+        Kmin = std::min(Kmin, K);
+        const double n = (double)(K - 1);
+        for (uint32_t j = 0; j < r.nu; ++j) {
+            auto s = period_spectra(r, P, skip, K, j, f);
+            std::vector<double> m2(M), v(M);
+            double mx = 0;
+            for (size_t k = 0; k < M; ++k) {
+                std::complex<double> mu = 0;
+                for (size_t p = 0; p < K; ++p) mu += s[p][k];
+                mu /= (double)K;
+                double ss = 0;
+                for (size_t p = 0; p < K; ++p) ss += std::norm(s[p][k] - mu);
+                m2[k] = std::norm(mu);
+                v[k] = ss / n;
+                mx = std::max(mx, m2[k]);
+            }
+            for (size_t k = 0; k < M; ++k) {
+                if (!(m2[k] > 1e-20 * mx)) continue;
+                // P(F(2, 2(K-1)) > F) = (1 + F/(K-1))^-(K-1)
+                const double F = v[k] > 0 ? (double)K * m2[k] / v[k] : HUGE_VAL;
+                const double pv = std::isinf(F) ? 0.0 : std::exp(-n * std::log1p(F / n));
+                if (pv < level) exc[k + 1] = 1;
+            }
+        }
+    }
+    std::vector<uint32_t> bins;
+    for (size_t k = 1; k <= M; ++k) if (exc[k]) bins.push_back((uint32_t)k);
+    if (bins.empty())
+        throw Error(fmt("--lines auto: no bin of period %u carries a periodic input component (F test over %zu periods, "
+                        "family-wise false-alarm probability %g): is the input periodic with this period?",
+                        P, Kmin, LINES_AUTO_ALPHA));
+    report = fmt("%zu excited bins of %zu (F test of the period mean against the period-to-period variation over %zu "
+                 "periods, each bin at %.2g so that a record without excitation reports any bin with probability <= %g)",
+                 bins.size(), M, Kmin, level, LINES_AUTO_ALPHA);
+    return bins;
+}
+
+std::string format_bins(const std::vector<uint32_t> &b)
+{
+    std::string s;
+    for (size_t i = 0; i < b.size();) {
+        size_t j = i + 1;
+        if (j < b.size()) {
+            const uint32_t st = b[j] - b[i];
+            while (j + 1 < b.size() && b[j + 1] - b[j] == st) ++j;
+            if (j - i >= 2) {   // a run of at least 3
+                if (!s.empty()) s += ',';
+                s += st == 1 ? fmt("%u:%u", b[i], b[j]) : fmt("%u:%u:%u", b[i], st, b[j]);
+                i = j + 1;
+                continue;
+            }
+        }
+        if (!s.empty()) s += ',';
+        s += std::to_string(b[i]);
+        ++i;
+    }
+    return s;
+}
+
+}  // namespace msidcli
