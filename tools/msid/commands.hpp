@@ -8,6 +8,10 @@ int cmd_bench(int argc, char **argv);
 int cmd_fit(int argc, char **argv);
 int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_modes(int argc, char **argv);
+// cmd_fit_modal.cpp: --order auto|a:b scan, modal parameters of a model document
+bool fit_order_is_scan(int argc, char **argv);
+int cmd_fit_scan(int argc, char **argv);
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
@@ -15,7 +19,9 @@ int cmd_bench_modbus(int argc, char **argv);
 }  // namespace msidcli
 #include <string>
 #include <vector>
+#include <nlohmann/json.hpp>
 namespace msidcli {
+void add_modes(nlohmann::ordered_json &doc, bool print);
 // Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
 int exec_with_build(std::vector<std::string> args);
 }  // namespace msidcli
