@@ -77,7 +77,8 @@ def test_frf_realisations_bad_split(tmp_path):
 def test_detection_lines_one_realisation(tmp_path):
     b = h.make_dt_bench(tmp_path, periods=6, nonlinear=0.4)
     out = tmp_path / "frf.json"
-    r = h.run_ok(*h.frf_args(b, out, "--detect-lines", "2:2:40"))
+    # odd lines 1..41 excited, cubic: odd harmonics above the band (even lines stay empty)
+    r = h.run_ok(*h.frf_args(b, out, "--detect-lines", "43:2:81"))
     doc = h.load_json(out)
     h.validate(doc, "msid-frf-1")
     nl = doc["nonlinear_distortion"]
@@ -91,7 +92,7 @@ def test_detection_lines_one_realisation(tmp_path):
     lin = tmp_path / "lin"
     lin.mkdir()
     b = h.make_dt_bench(lin, periods=6)
-    h.run_ok(*h.frf_args(b, lin / "frf.json", "--detect-lines", "2:2:40"))
+    h.run_ok(*h.frf_args(b, lin / "frf.json", "--detect-lines", "43:2:81"))
     assert not h.load_json(lin / "frf.json")["nonlinear_distortion"]["distortion_detected"]
 
 
@@ -111,9 +112,12 @@ def test_order_selection_cli(linfrf, method, rng):
     doc = h.load_json(out)
     h.validate(doc, "msid-model-1")
     sel = doc["order_selection"]
-    assert sel["chosen"] == 4 and doc["order"] == 4 and sel["rule"] == "p-value"
+    assert sel["chosen"] == 4 and doc["order"] == 4
     rows = {o["order"]: o for o in sel["orders"]}
-    assert rows[2]["p_value"] < 0.05 <= rows[4]["p_value"]
+    if method == "ml":   # ML cost follows its law: the p-value rule decides
+        assert sel["rule"] == "p-value" and rows[2]["p_value"] < 0.05 <= rows[4]["p_value"]
+    else:                # subspace is not ML: its cost may sit above the law; the elbow picks 4 here
+        assert sel["rule"] in ("p-value", "elbow") and rows[4]["cost"] < 1e-3 * rows[2]["cost"]
     assert not list(linfrf.glob("*.tmp"))
     assert len(doc["modes"]["modes"]) == 2
 

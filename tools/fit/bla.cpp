@@ -2,6 +2,7 @@
 
 #include "stats.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace msidfit {
@@ -40,20 +41,32 @@ BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const
     return b;
 }
 
+double fisher_combined(const std::vector<double> &p, int *n, int *significant)
+{
+    double x = 0;
+    int k = 0, sig = 0;
+    for (double v : p) {
+        if (!std::isfinite(v)) continue;
+        x -= 2.0 * std::log(std::max(v, 1e-300));
+        ++k;
+        sig += v < 0.01;
+    }
+    if (n) *n = k;
+    if (significant) *significant = sig;
+    return k ? chi2_sf(2.0 * k, x) : 1.0;
+}
+
 BlaSummary bla_summary(const std::vector<BlaLine> &lines)
 {
     BlaSummary s;
     double nl = 0, nn = 0;
+    std::vector<double> p;
     for (const auto &l : lines) {
-        for (Eigen::Index i = 0; i < l.p_value.size(); ++i) {
-            if (std::isnan(l.p_value(i))) continue;
-            ++s.entries;
-            s.significant += l.p_value(i) < 0.01;
-        }
+        for (Eigen::Index i = 0; i < l.p_value.size(); ++i) p.push_back(l.p_value(i));
         nl += l.var_nl.sum();
         nn += l.cov_noise.diagonal().real().sum();
     }
-    s.p_value = binom_sf(s.entries, 0.01, s.significant);
+    s.p_value = fisher_combined(p, &s.entries, &s.significant);
     s.detected = s.p_value < 0.01;
     s.nl_to_noise_db = nl > 0 && nn > 0 ? 10.0 * std::log10(nl / nn) : NAN;
     return s;

@@ -15,8 +15,8 @@
 // Under "no nonlinear distortion" (and Gaussian noise of equal level in every
 // realisation) each diagonal entry of C_BLA / C_BLA,n is F(2(R-1), 2 sum n_r)
 // distributed (independent numerator and denominator); its tail is the
-// per-entry p-value. Over all lines and entries, the number of p-values below
-// 1% is Binomial(N, 0.01) without distortion: its tail is the global p-value.
+// per-entry p-value. Over all lines and entries the p-values combine by
+// Fisher's method, -2 sum ln p ~ chi2(2N) without distortion: the global p-value.
 #pragma once
 #include "fit_types.hpp"
 
@@ -38,10 +38,13 @@ BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const
 
 struct BlaSummary {
     int entries = 0, significant = 0;     // line entries tested, and those with p < 1%
-    double p_value = 1.0;                 // binomial tail of `significant`
+    double p_value = 1.0;                 // Fisher's combination of the entries' p-values
     bool detected = false;                // p_value < 0.01
     double nl_to_noise_db = NAN;          // 10 log10(sum var_nl / sum diag cov_noise), NaN if sum var_nl <= 0
 };
+// Fisher's combination P(chi2(2N) > -2 sum ln p_i) of the finite p-values
+// (N of them, `significant` below 1%).
+double fisher_combined(const std::vector<double> &p, int *n = nullptr, int *significant = nullptr);
 BlaSummary bla_summary(const std::vector<BlaLine> &lines);
 
 }  // namespace msidfit

@@ -146,8 +146,9 @@ Json detection_distortion(const Json &doc)
     const uint32_t m = doc["n_experiments"].get<uint32_t>(), ny = doc["n_outputs"].get<uint32_t>();
     std::vector<double> K;
     for (const auto &e : doc["experiments"]) K.push_back((double)e["periods_used"].get<uint64_t>());
-    double qsum = 0;
-    int n = 0, sig = 0;
+    double qsum = 0, dof = 0;
+    for (double k : K) dof += k - 1.0;
+    std::vector<double> pv;
     for (const auto &d : doc["detection_lines"]) {
         const MatC Y = jcmat(d["Y_mean"]);   // m x ny
         for (uint32_t i = 0; i < ny; ++i) {
@@ -155,13 +156,14 @@ Json detection_distortion(const Json &doc)
             if (!(v > 0)) continue;
             double s = 0;
             for (uint32_t e = 0; e < m; ++e) s += K[e] * std::norm(Y(e, i));
-            qsum += s / (m * v);   // E = 1 (about) without periodic content
-            ++n;
-            sig += d["p_value"][i].is_number() && d["p_value"][i].get<double>() < 0.01;
+            qsum += s / (m * v);   // F(2m, 2 dof) without periodic content: mean dof/(dof-1)
+            pv.push_back(d["p_value"][i].is_number() ? d["p_value"][i].get<double>() : NAN);
         }
     }
+    int n = 0, sig = 0;
+    const double p = msidfit::fisher_combined(pv, &n, &sig);
     if (!n) return nullptr;
-    const double excess = qsum / n - 1.0;
+    const double excess = qsum / (double)pv.size() - (dof > 1 ? dof / (dof - 1.0) : 1.0);
     Json o;
     o["method"] = "detection lines (one realisation): output power at the non-excited lines over its noise level; "
                   "assumes the nonlinear contributions there stand for those at the excited lines (odd/even "
@@ -169,7 +171,7 @@ Json detection_distortion(const Json &doc)
     o["realisations"] = 1;
     o["entries_tested"] = n;
     o["entries_significant_1pct"] = sig;
-    o["p_value"] = msidfit::binom_sf(n, 0.01, sig);
+    o["p_value"] = p;   // Fisher's combination of the detection-line p-values
     o["distortion_detected"] = o["p_value"].get<double>() < 0.01;
     o["nl_to_noise_db"] = excess > 0 ? Json(10.0 * std::log10(excess)) : Json(nullptr);
     return o;
