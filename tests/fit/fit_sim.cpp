@@ -67,6 +67,28 @@ std::function<void(const tsim_design &, uint32_t, size_t, double *)> ct_plant(co
     };
 }
 
+SSModel structure(const std::vector<double> &fn, const std::vector<double> &zeta, const MatR &phi, const MatR &psi)
+{
+    const Eigen::Index K = (Eigen::Index)fn.size(), ny = phi.rows(), nu = psi.rows();
+    SSModel m;
+    m.domain = Domain::CT;
+    m.A = MatR::Zero(2 * K, 2 * K);
+    m.B = MatR::Zero(2 * K, nu);
+    m.C = MatR::Zero(ny, 2 * K);
+    m.D = MatR::Zero(ny, nu);
+    for (Eigen::Index k = 0; k < K; ++k) {
+        const double w = 2 * M_PI * fn[(size_t)k], z = zeta[(size_t)k];
+        m.A(2 * k, 2 * k + 1) = 1.0;
+        m.A(2 * k + 1, 2 * k) = -w * w;
+        m.A(2 * k + 1, 2 * k + 1) = -2 * z * w;
+        m.B.row(2 * k + 1) = psi.col(k).transpose();
+        m.C.col(2 * k) = -w * w * phi.col(k);
+        m.C.col(2 * k + 1) = -2 * z * w * phi.col(k);
+        m.D += phi.col(k) * psi.col(k).transpose();
+    }
+    return m;
+}
+
 Runner::Runner(const Bench &b) : b_(b)
 {
     if (tsim_design_make(&t_, &b_.design) != MSID_OK) throw FitError("test design failed");

@@ -30,6 +30,13 @@ std::function<void(const tsim_design &, uint32_t, size_t, double *)> dt_plant(co
 // A CT state-space plant sampled exactly (steady-state multisine response at t = n h).
 std::function<void(const tsim_design &, uint32_t, size_t, double *)> ct_plant(const SSModel &m);
 
+// A lightly damped structure as a bench engineer meets it: modes k with natural
+// frequency fn[k] (Hz), damping ratio zeta[k], mode shape phi(:, k) at the ny
+// acceleration outputs and psi(:, k) at the nu force inputs. CT state space with
+// states (q_k, dq_k/dt): q_k'' = -w_k^2 q_k - 2 zeta_k w_k q_k' + psi_k^T u,
+// y = sum_k phi_k q_k'' (accelerance: direct feedthrough D = sum_k phi_k psi_k^T).
+SSModel structure(const std::vector<double> &fn, const std::vector<double> &zeta, const MatR &phi, const MatR &psi);
+
 class Runner {
 public:
     explicit Runner(const Bench &b);

@@ -41,6 +41,7 @@ struct FrfData {
     uint32_t P = 0, nu = 0, ny = 0, m = 0;
     Domain domain = Domain::DT;
     double h = 0.0;           // sample time (0: unknown)
+    uint32_t realisations = 1;  // robust BLA file (msid frf --realisations): cov is a plain sample covariance
     MatC noise_time;          // ny x ny
     // "periodic" (default), "lpm" or "etfe": the host estimators pool one noise
     // covariance per line (cov = M^T kron C_v, one Wishart with `dof`), so their dof is

@@ -1,5 +1,6 @@
 #include "frf_data.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -94,6 +95,9 @@ FrfData read_frf(const std::string &path)
     }
     if (f.domain == Domain::CT && f.h <= 0) throw FitError(where(path, "a continuous-time file needs 'sample_time'"));
     if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
+    if (j.contains("nonlinear_distortion") && j["nonlinear_distortion"].is_object() &&
+        j["nonlinear_distortion"].contains("realisations") && j["nonlinear_distortion"]["realisations"].is_number_integer())
+        f.realisations = (uint32_t)std::max<int64_t>(1, j["nonlinear_distortion"]["realisations"].get<int64_t>());
     const size_t g = f.g();
     f.noise_time = cmat(need(j, "noise_cov", path), f.ny, f.ny, path, "'noise_cov'");
     const Json &lines = need(j, "lines", path);
@@ -164,7 +168,10 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
             // rank-one design factors: its inverse splits over the experiments, so its inverse moments
             // are those of one experiment's Wishart (K_e - 1 = dof/m dof for balanced designs), not of
             // the pooled dof. With one input the factors are scalars and the pooled dof applies.
-            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method == "periodic") wl.dof = l.dof / f.m;
+            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method == "periodic" && f.realisations < 2) wl.dof = l.dof / f.m;
+            // A robust-BLA file's cov is a plain sample covariance of the g = ny nu vector (R - 1 dof):
+            // its inverse moment is n/(n - g); dof/nu gives that mean in the laws written for p = ny.
+            if (w == Weight::Cov && f.nu > 1 && f.realisations >= 2) wl.dof = l.dof / f.nu;
         }
         // Hermitian part; real lines: real covariance
         MatC H = 0.5 * (C + C.adjoint());

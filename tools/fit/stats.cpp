@@ -70,3 +70,57 @@ double cost_pvalue(const CostLaw &L, double V)
 }
 
 }  // namespace msidfit
+
+namespace msidfit {
+
+// Continued fraction of I_x(a, b) (modified Lentz), used where it converges fast:
+// x < (a + 1) / (a + b + 2); the symmetry I_x(a, b) = 1 - I_{1-x}(b, a) otherwise.
+static double beta_cf(double a, double b, double x)
+{
+    const double tiny = 1e-300;
+    double c = 1.0, d = 1.0 - (a + b) * x / (a + 1.0);
+    if (std::fabs(d) < tiny) d = tiny;
+    d = 1.0 / d;
+    double h = d;
+    for (int m = 1; m < 100000; ++m) {
+        const double m2 = 2.0 * m;
+        double aa = m * (b - m) * x / ((a + m2 - 1.0) * (a + m2));
+        d = 1.0 + aa * d; if (std::fabs(d) < tiny) d = tiny;
+        c = 1.0 + aa / c; if (std::fabs(c) < tiny) c = tiny;
+        d = 1.0 / d;
+        h *= d * c;
+        aa = -(a + m) * (a + b + m) * x / ((a + m2) * (a + m2 + 1.0));
+        d = 1.0 + aa * d; if (std::fabs(d) < tiny) d = tiny;
+        c = 1.0 + aa / c; if (std::fabs(c) < tiny) c = tiny;
+        d = 1.0 / d;
+        const double del = d * c;
+        h *= del;
+        if (std::fabs(del - 1.0) < 1e-15) break;
+    }
+    return h;
+}
+
+double beta_inc(double a, double b, double x)
+{
+    if (!(x > 0)) return 0.0;
+    if (!(x < 1)) return 1.0;
+    const double lb = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
+    if (x < (a + 1.0) / (a + b + 2.0)) return std::exp(lb) * beta_cf(a, b, x) / a;
+    return 1.0 - std::exp(lb) * beta_cf(b, a, 1.0 - x) / b;
+}
+
+double f_sf(double d1, double d2, double x)
+{
+    if (!(x > 0)) return 1.0;
+    if (!std::isfinite(x)) return 0.0;
+    return beta_inc(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * x));
+}
+
+double binom_sf(int n, double p, int k)
+{
+    if (k <= 0) return 1.0;
+    if (k > n) return 0.0;
+    return beta_inc((double)k, (double)(n - k + 1), p);   // P(X >= k) = I_p(k, n - k + 1)
+}
+
+}  // namespace msidfit

@@ -18,3 +18,12 @@ CostLaw cost_law(double nu, double n, double p);
 double cost_pvalue(const CostLaw &law, double V);
 
 }  // namespace msidfit
+
+namespace msidfit {
+// Regularized incomplete beta I_x(a, b), a, b > 0, 0 <= x <= 1.
+double beta_inc(double a, double b, double x);
+// P(F(d1, d2) > x).
+double f_sf(double d1, double d2, double x);
+// P(Binomial(n, p) >= k).
+double binom_sf(int n, double p, int k);
+}  // namespace msidfit

@@ -2,6 +2,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "frf_io.hpp"
+#include "nl_verdict.hpp"
 
 #include "lmfd_fit.hpp"
 #include "model_io.hpp"
@@ -30,7 +31,7 @@ static const char *FIT_HELP =
     "  ml        weighted maximum likelihood (eq. 40) of an over-constrained LMFD by Levenberg-Marquardt,\n"
     "            started from subspace (default) or Sanathanan-Koerner; parameter covariance (inverse\n"
     "            Fisher information) and the finite-sample bounds (45)-(46)\n"
-    "  --order n     state order; LMFD degrees nD = n/ny, nN = nD (dt) or nD-1 (ct)\n"
+    "  --order n     state order (auto, a:b or a:step:b: order selection, see docs/fitting.md); LMFD degrees nD = n/ny, nN = nD (dt) or nD-1 (ct)\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n";
@@ -107,6 +108,7 @@ int cmd_fit(int argc, char **argv)
 {
     for (int i = 2; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(FIT_HELP, stdout); return 0; }
+    if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)
     Args a(argc, argv, 2,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
             "output"},
@@ -290,6 +292,7 @@ int cmd_fit(int argc, char **argv)
         const double dof = neq - nparams;
         doc["cost"] = cost_json(V, dof, known || wt == Weight::None ? 1e300 : min_dof(w), (double)ny);
         doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
+        add_modes(doc, true);   // modal parameters with standard deviations (cmd_fit_modal.cpp)
         write_json_file(out, doc);
         std::printf("wrote %s: %s fit, order %d, weighted cost %.6g (expected %.6g, %s)\n", out.c_str(), method.c_str(),
                     (int)ss.n(), V, doc["cost"]["expected"].get<double>(),
@@ -355,6 +358,7 @@ int cmd_validate(int argc, char **argv)
             std::printf("largest normalised residual %.3g at bin %u (1 expected on average)\n", worst_q, f.lines[(size_t)worst].bin);
         std::printf("verdict: %s\n", ok ? "consistent with the data at 5%" : "NOT consistent with the data at 5%");
         if (wt == Weight::None) std::printf("note: unweighted residuals: the p-value assumes unit noise\n");
+        const Json nlv = distortion_verdict(f.path, mf, wname, pv);   // noise vs distortion level (frf_bla.cpp)
         if (a.has("output")) {
             Json r;
             r["format"] = "msid-validation/1";
@@ -366,6 +370,7 @@ int cmd_validate(int argc, char **argv)
             r["dof"] = dof;
             r["p_value"] = pv;
             r["consistent_at_5pct"] = ok;
+            if (!nlv.is_null()) r["nonlinear_distortion"] = nlv;
             r["lines"] = per;
             write_json_file(a.get("output"), r);
         }

@@ -3,6 +3,7 @@
 #include "frf_io.hpp"
 #include "periodicity.hpp"
 #include "pipeline.hpp"
+#include "frf_bla.hpp"
 
 #include <cstdio>
 #include <cstring>
@@ -35,7 +36,11 @@ static const char *HELP =
     "                    whole periods; needs --design; exact covariance Sigma kron Z^-1 with Sigma from the\n"
     "                    residuals, plus the pseudo-covariance pcov of each line\n"
     "  --method          periodic (default, this estimator), lpm or etfe for records that are not\n"
-    "                    steady-state multisines (msid frf --method lpm --help)\n";
+    "                    steady-state multisines (msid frf --method lpm --help)\n"
+    "  --realisations R  the experiments are R blocks of equal size, one per random-phase realisation: the\n"
+    "                    FRF is the best linear approximation (mean over realisations), cov its total\n"
+    "                    covariance (noise + nonlinear distortion, dof R-1), cov_noise the noise part\n"
+    "                    (robust method, Pintelon & Schoukens 2012 sec. 4.3.1; docs/statistics.md)\n";
 
 int cmd_frf(int argc, char **argv)
 {
@@ -47,7 +52,7 @@ int cmd_frf(int argc, char **argv)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
     Args a(argc, argv, 2,
            {"design", "period", "lines", "skip-periods", "fs", "detect-lines", "transient", "alpha", "dft", "block",
-            "output", "method", "columns"},
+            "output", "method", "columns", "realisations"},
            {"direct"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
@@ -102,7 +107,22 @@ int cmd_frf(int argc, char **argv)
         for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
             if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
     }
-    FrfOutcome o = a.has("direct") ? run_frf_direct(rq, *D, recs) : run_frf(rq, recs);
+    const uint32_t R = a.has("realisations") ? parse_u32(a.get("realisations"), "--realisations") : 1;
+    if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
+    FrfOutcome o = a.has("direct") ? run_frf_direct(rq, *D, recs)
+                   : a.has("realisations") ? run_frf_realisations(rq, recs, R)   // BLA + noise/distortion split
+                                           : run_frf(rq, recs);
+    if (!a.has("realisations") && !a.has("direct")) {
+        const Json nl = detection_distortion(o.doc);   // one realisation: level from the detection lines
+        if (!nl.is_null()) {
+            o.doc["nonlinear_distortion"] = nl;
+            if (nl["distortion_detected"].get<bool>())
+                o.notes.push_back("the detection lines show nonlinear distortion (" +
+                                  (nl["nl_to_noise_db"].is_number() ? fmt("%.1f dB", nl["nl_to_noise_db"].get<double>()) : std::string("?")) +
+                                  " relative to the noise); cov holds the noise only: measure several realisations "
+                                  "(--realisations R) to include it");
+        }
+    }
     write_json_file(out, o.doc);
     for (const auto &n : o.notes) std::fprintf(stderr, "msid frf: note: %s\n", n.c_str());
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %zu experiment(s), %llu periods used, %llu rejected "

@@ -11,6 +11,10 @@ int cmd_bench_lpm(int argc, char **argv);   // msid bench lpm
 int cmd_fit(int argc, char **argv);
 int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_modes(int argc, char **argv);
+// cmd_fit_modal.cpp: --order auto|a:b scan, modal parameters of a model document
+bool fit_order_is_scan(int argc, char **argv);
+int cmd_fit_scan(int argc, char **argv);
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
@@ -22,7 +26,9 @@ int cmd_bench_io(int argc, char **argv);
 }  // namespace msidcli
 #include <string>
 #include <vector>
+#include <nlohmann/json.hpp>
 namespace msidcli {
+void add_modes(nlohmann::ordered_json &doc, bool print);
 // Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
 int exec_with_build(std::vector<std::string> args);
 // The machine line of the benchmarks (CPU, cores, kernel) and the directory of the Python peers.

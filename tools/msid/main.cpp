@@ -16,6 +16,7 @@ static const char *USAGE =
     "           --method lpm|etfe for records that are not steady-state multisines\n"
     "  demo     design, simulate a built-in 2x2 plant, estimate, and compare with the truth\n"
     "  fit      parametric models from an FRF file: --method subspace | lmfd | ml (msid-model/1)\n"
+    "  modes    natural frequencies, damping ratios, residues of a model with standard deviations\n"
     "  validate a model against an FRF file: weighted residual cost, p-value, verdict\n"
     "  compare  relative H2 and Hinf distance between two models\n"
     "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
@@ -43,6 +44,7 @@ int main(int argc, char **argv)
         if (cmd == "fit") return msidcli::cmd_fit(argc, argv);
         if (cmd == "validate") return msidcli::cmd_validate(argc, argv);
         if (cmd == "compare") return msidcli::cmd_compare(argc, argv);
+        if (cmd == "modes") return msidcli::cmd_modes(argc, argv);
         if (cmd == "can") return msidcli::cmd_can(argc, argv);
         if (cmd == "modbus") return msidcli::cmd_modbus(argc, argv);
         if (cmd == "version" || cmd == "--version") {

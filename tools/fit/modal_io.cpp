@@ -1,0 +1,146 @@
+#include "modal_io.hpp"
+
+#include "model_io.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <regex>
+
+namespace msidfit {
+
+static MatR jmat(const Json &v, Eigen::Index rows, Eigen::Index cols)
+{
+    MatR M(rows, cols);
+    for (Eigen::Index r = 0; r < rows; ++r)
+        for (Eigen::Index c = 0; c < cols; ++c) M(r, c) = v.at((size_t)r).at((size_t)c).get<double>();
+    return M;
+}
+
+// Entry of an LMFD coefficient named like "D1[2,1]" or "N0[1,1]" (1-based).
+struct Slot {
+    char mat;
+    int index, row, col;
+};
+
+static Slot slot_of(const std::string &name)
+{
+    static const std::regex re(R"(^([DN])(\d+)\[(\d+),(\d+)\]$)");
+    std::smatch m;
+    if (!std::regex_match(name, m, re)) throw FitError("parameter name '" + name + "' is not an LMFD coefficient");
+    return {m[1].str()[0], std::stoi(m[2].str()), std::stoi(m[3].str()) - 1, std::stoi(m[4].str()) - 1};
+}
+
+ModalReport modal_report(const Json &j)
+{
+    ModalReport r;
+    r.domain = j.at("domain") == "ct" ? Domain::CT : Domain::DT;
+    r.h = j.contains("sample_time") && j["sample_time"].is_number() ? j["sample_time"].get<double>() : 0.0;
+    const Eigen::Index n = j.at("order").get<Eigen::Index>(), nu = j.at("n_inputs").get<Eigen::Index>(),
+                       ny = j.at("n_outputs").get<Eigen::Index>();
+    SSModel ss;
+    ss.domain = r.domain;
+    ss.h = r.h;
+    ss.A = jmat(j.at("A"), n, n);
+    ss.B = jmat(j.at("B"), n, nu);
+    ss.C = jmat(j.at("C"), ny, n);
+    ss.D = jmat(j.at("D"), ny, nu);
+    const bool lm = j.contains("lmfd") && j["lmfd"].is_object() && n > 0;
+    const bool pars = j.contains("parameters") && j["parameters"].is_object() && j["parameters"].contains("cov");
+    if (!lm || !pars) {
+        r.modes = modes_of(ss, r.h);
+        r.sd_source = n == 0 ? "none: the model has no poles"
+                      : j.value("method", "") == "subspace"
+                          ? "none: subspace gives no parameter covariance (refit with --method ml for standard deviations)"
+                          : "none: the model file holds no parameter covariance";
+        return r;
+    }
+    const Json &l = j["lmfd"];
+    LmfdModel base;
+    base.domain = r.domain;
+    base.h = r.h;
+    base.nD = l.at("nD").get<int>();
+    base.nN = l.at("nN").get<int>();
+    for (int i = 0; i < base.nD; ++i) base.Dm.push_back(jmat(l.at("D").at((size_t)i), ny, ny));
+    for (int i = 0; i <= base.nN; ++i) base.Nm.push_back(jmat(l.at("N").at((size_t)i), ny, nu));
+    const Json &p = j["parameters"];
+    std::vector<Slot> slots;
+    for (const auto &nm : p.at("names")) slots.push_back(slot_of(nm.get<std::string>()));
+    const Eigen::Index np = (Eigen::Index)slots.size();
+    VecR th(np);
+    for (Eigen::Index i = 0; i < np; ++i) th(i) = p.at("values").at((size_t)i).get<double>();
+    const MatR cov = jmat(p.at("cov"), np, np);
+    auto realise = [&](const VecR &t) {
+        LmfdModel m = base;
+        for (Eigen::Index i = 0; i < np; ++i) {
+            const Slot &s = slots[(size_t)i];
+            (s.mat == 'D' ? m.Dm[(size_t)s.index - 1] : m.Nm[(size_t)s.index])(s.row, s.col) = t(i);
+        }
+        return lmfd_to_ss(m);
+    };
+    r.modes = modes_with_sd(realise, th, cov, r.h);
+    r.have_sd = true;
+    r.sd_source = "delta method from the parameter covariance (inverse Fisher information) of the LMFD";
+    return r;
+}
+
+Json modal_json(const ModalReport &r)
+{
+    Json o;
+    const bool hz = r.domain == Domain::CT || r.h > 0;
+    o["frequency_unit"] = hz ? "Hz" : "cycles/sample";
+    o["residue_variable"] = r.domain == Domain::CT ? "s" : "z";
+    o["sd_source"] = r.sd_source;
+    o["tolerance_note"] = "first-order (delta method) standard deviations; valid while they are small against the "
+                          "distance between poles";
+    Json a = Json::array();
+    for (const Mode &m : r.modes) {
+        Json e;
+        e["pole"] = {m.pole.real(), m.pole.imag()};
+        e["pole_ct"] = {m.pole_ct.real(), m.pole_ct.imag()};
+        e["real_pole"] = m.real;
+        e["fn"] = m.fn;
+        e["wn"] = m.wn;
+        e["zeta"] = m.zeta;
+        e["residue"] = cmat_json(m.residue);
+        if (r.have_sd) {
+            e["sd_fn"] = m.sd_fn;
+            e["sd_wn"] = m.sd_wn;
+            e["sd_zeta"] = m.sd_zeta;
+            e["sd_residue"] = {{"re", rmat_json(m.sd_residue_re)}, {"im", rmat_json(m.sd_residue_im)}};
+        } else {
+            e["sd_fn"] = nullptr;
+            e["sd_wn"] = nullptr;
+            e["sd_zeta"] = nullptr;
+            e["sd_residue"] = nullptr;
+        }
+        a.push_back(e);
+    }
+    o["modes"] = a;
+    return o;
+}
+
+std::string modal_text(const ModalReport &r)
+{
+    const bool hz = r.domain == Domain::CT || r.h > 0;
+    std::string s;
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%-4s %-14s %-12s %-12s %-12s %s\n", "mode", hz ? "fn [Hz]" : "fn [cyc/smp]", "sd(fn)",
+                  "zeta [%]", "sd(zeta)[%]", "|residue| (largest entry)");
+    s += buf;
+    int k = 1;
+    for (const Mode &m : r.modes) {
+        Eigen::Index i, jj;
+        const double rmax = m.residue.cwiseAbs().maxCoeff(&i, &jj);
+        if (r.have_sd)
+            std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12.3g %-12.4g %-12.3g %.4g%s\n", k++, m.fn, m.sd_fn,
+                          100 * m.zeta, 100 * m.sd_zeta, rmax, m.real ? "  (real pole)" : "");
+        else
+            std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12s %-12.4g %-12s %.4g%s\n", k++, m.fn, "-", 100 * m.zeta, "-",
+                          rmax, m.real ? "  (real pole)" : "");
+        s += buf;
+    }
+    s += "standard deviations: " + r.sd_source + "\n";
+    return s;
+}
+
+}  // namespace msidfit

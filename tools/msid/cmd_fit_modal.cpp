@@ -1,0 +1,209 @@
+// Order selection (`msid fit --order auto | a:b | a:step:b`), modal parameters
+// in every model file, and `msid modes model.json`. See docs/fitting.md.
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "frf_io.hpp"
+
+#include "frf_data.hpp"
+#include "modal_io.hpp"
+#include "order_select.hpp"
+#include "stats.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <unistd.h>
+#include <fcntl.h>
+
+namespace msidcli {
+
+using namespace msidfit;
+
+bool fit_order_is_scan(int argc, char **argv)
+{
+    for (int i = 2; i < argc; ++i) {
+        std::string a = argv[i], v;
+        if (a == "--order" && i + 1 < argc) v = argv[i + 1];
+        else if (a.rfind("--order=", 0) == 0) v = a.substr(8);
+        else continue;
+        return v == "auto" || v.find(':') != std::string::npos;
+    }
+    return false;
+}
+
+void add_modes(Json &doc, bool print)
+{
+    try {
+        const ModalReport r = modal_report(doc);
+        doc["modes"] = modal_json(r);
+        if (print && !r.modes.empty()) std::fputs(modal_text(r).c_str(), stdout);
+    } catch (const std::exception &e) {
+        doc["modes"] = Json{{"error", std::string("no modal parameters: ") + e.what()}};
+    }
+}
+
+// Run `msid fit` with stdout silenced; returns its exit status (throws its Error).
+static int fit_quiet(std::vector<std::string> args)
+{
+    std::vector<char *> av;
+    for (auto &s : args) av.push_back(&s[0]);
+    av.push_back(nullptr);
+    std::fflush(stdout);
+    const int saved = dup(STDOUT_FILENO), null = open("/dev/null", O_WRONLY);
+    dup2(null, STDOUT_FILENO);
+    close(null);
+    struct Restore {
+        int fd;
+        ~Restore() { std::fflush(stdout); dup2(fd, STDOUT_FILENO); close(fd); }
+    } restore{saved};
+    return cmd_fit((int)args.size(), av.data());
+}
+
+int cmd_fit_scan(int argc, char **argv)
+{
+    // the options of `msid fit`, with --order and -o/--output taken out
+    std::vector<std::string> base;
+    std::string range, out, frf, method;
+    for (int i = 0; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto value = [&](const char *key, std::string &dst) {
+            const std::string k = std::string("--") + key;
+            if (a == k && i + 1 < argc) { dst = argv[++i]; return true; }
+            if (a.rfind(k + "=", 0) == 0) { dst = a.substr(k.size() + 1); return true; }
+            return false;
+        };
+        if (i >= 2 && value("order", range)) continue;
+        if (i >= 2 && (a == "-o" && i + 1 < argc)) { out = argv[++i]; continue; }
+        if (i >= 2 && value("output", out)) continue;
+        if (i >= 2) {
+            std::string m;
+            const int at = i;
+            if (value("method", m)) { method = m; base.push_back("--method"); base.push_back(m); continue; }
+            i = at;
+        }
+        base.push_back(a);
+    }
+    if (out.empty()) throw UsageError("missing -o <model.json>");
+    if (method == "lmfd") throw UsageError("--order auto/a:b needs --method subspace or ml (lmfd interpolates at every order)");
+    // the FRF: the one positional argument (the first argument of base after "msid fit" that names a readable file)
+    FrfData f;
+    bool found = false;
+    for (size_t i = 2; i < base.size() && !found; ++i) {
+        if (base[i].rfind("-", 0) == 0) continue;
+        try {
+            f = read_frf(base[i]);
+            found = true;
+        } catch (const FitError &) {
+        }
+    }
+    if (!found) throw UsageError("give exactly one readable msid-frf/1 file");
+    double neq = 0;
+    for (const auto &l : f.lines) neq += (l.real ? 1.0 : 2.0) * (double)f.g();
+    const int step = method == "subspace" ? 1 : (int)f.ny;
+    const int cap = std::min(40, (int)std::floor(neq / (2.0 * (f.nu + f.ny))));
+    bool is_auto = false;
+    std::vector<int> orders;
+    try {
+        orders = parse_order_range(range, step, cap, &is_auto);
+    } catch (const FitError &e) {
+        throw UsageError(e.what());
+    }
+    std::vector<Json> docs;
+    const std::string tmp = out + ".order-scan.tmp";
+    auto fit_at = [&](int n) {
+        std::vector<std::string> args = base;
+        args.push_back("--order");
+        args.push_back(std::to_string(n));
+        args.push_back("-o");
+        args.push_back(tmp);
+        OrderFit r;
+        std::remove(tmp.c_str());
+        int rc = 0;
+        try {
+            rc = fit_quiet(args);
+        } catch (const Error &e) {
+            std::remove(tmp.c_str());
+            throw FitError(e.what());
+        }
+        Json d = read_json(tmp);
+        std::remove(tmp.c_str());
+        r.ok = true;
+        r.converged = rc == 0 && d.value("converged", true);
+        r.cost = d["cost"]["value"].get<double>();
+        r.expected = d["cost"]["expected"].get<double>();
+        r.dof = d["cost"]["dof"].get<double>();
+        r.p_value = d["cost"]["p_value"].is_number() ? d["cost"]["p_value"].get<double>() : NAN;
+        const Eigen::Index k = d["order"].get<Eigen::Index>(), nu = f.nu, ny = f.ny;
+        r.model.domain = d["domain"] == "ct" ? Domain::CT : Domain::DT;
+        auto jm = [](const Json &v, Eigen::Index rr, Eigen::Index cc) {
+            MatR M(rr, cc);
+            for (Eigen::Index i = 0; i < rr; ++i)
+                for (Eigen::Index j = 0; j < cc; ++j) M(i, j) = v.at((size_t)i).at((size_t)j).get<double>();
+            return M;
+        };
+        r.model.A = jm(d["A"], k, k);
+        r.model.B = jm(d["B"], k, nu);
+        r.model.C = jm(d["C"], ny, k);
+        r.model.D = jm(d["D"], ny, nu);
+        d["__order"] = n;
+        docs.push_back(std::move(d));
+        return r;
+    };
+    const OrderSelection sel = select_order(orders, fit_at, f.h, 0.05, StabTol{}, is_auto);
+    std::printf("order  cost          expected      p-value     stable poles\n");
+    for (const auto &r : sel.rows) {
+        if (!r.fit.ok) {
+            std::printf("%-6d failed: %s\n", r.order, r.fit.error.c_str());
+            continue;
+        }
+        std::printf("%-6d %-13.6g %-13.6g %-11.3g %d/%zu%s%s\n", r.order, r.fit.cost, r.fit.expected, r.fit.p_value,
+                    r.n_stable, r.poles.size(), r.fit.converged ? "" : "  (not converged)",
+                    r.order == sel.chosen ? "  <- chosen" : "");
+    }
+    if (sel.chosen < 0) throw Error("no order in '" + range + "' gave a model: " + sel.rows.back().fit.error);
+    Json doc;
+    for (auto &d : docs)
+        if (d["__order"] == sel.chosen) doc = std::move(d);
+    doc.erase("__order");
+    doc["order_selection"] = order_selection_json(sel);
+    write_json_file(out, doc);
+    std::printf("chosen order %d (%s rule); wrote %s\n", sel.chosen, sel.rule.c_str(), out.c_str());
+    ModalReport mr = modal_report(doc);
+    if (!mr.modes.empty()) std::fputs(modal_text(mr).c_str(), stdout);
+    return 0;
+}
+
+int cmd_modes(int argc, char **argv)
+{
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help")) {
+            std::fputs("usage: msid modes model.json [-o modes.json]\n"
+                       "Natural frequencies, damping ratios and residues of every pole pair of an msid-model/1 file,\n"
+                       "with standard deviations from its parameter covariance (delta method; ml and unique lmfd\n"
+                       "models). DT poles are mapped to CT by ln(z)/h.\n",
+                       stdout);
+            return 0;
+        }
+    Args a(argc, argv, 2, {"output"}, {});
+    if (a.positional().size() != 1) throw UsageError("give one msid-model/1 file");
+    try {
+        const Json j = read_json(a.positional()[0]);
+        if (!j.is_object() || j.value("format", "") != "msid-model/1")
+            throw FitError("'" + a.positional()[0] + "': not an msid-model/1 file");
+        const ModalReport r = modal_report(j);
+        std::fputs(modal_text(r).c_str(), stdout);
+        if (a.has("output")) {
+            Json o = modal_json(r);
+            o["format"] = "msid-modes/1";
+            o["model"] = a.positional()[0];
+            write_json_file(a.get("output"), o);
+        }
+        return 0;
+    } catch (const FitError &e) {
+        throw Error(e.what());
+    } catch (const Json::exception &e) {
+        throw Error("'" + a.positional()[0] + "': malformed model file (" + e.what() + ")");
+    }
+}
+
+}  // namespace msidcli

@@ -1,0 +1,231 @@
+// `msid frf --realisations R`: the best linear approximation and the split of
+// the FRF variance into noise (period to period) and nonlinear distortion
+// (realisation to realisation), Pintelon & Schoukens 2012 §4.3.1 (robust
+// method; equations in tools/fit/bla.hpp and docs/statistics.md).
+#include "frf_bla.hpp"
+
+#include "bla.hpp"
+#include "stats.hpp"
+#include "frf_data.hpp"
+
+#include <cstdio>
+
+#include <cmath>
+
+namespace msidcli {
+
+using msidfit::MatC;
+using msidfit::cd;
+
+static MatC jcmat(const Json &v)
+{
+    const Json &re = v.at("re"), &im = v.at("im");
+    MatC M((Eigen::Index)re.size(), re.empty() ? 0 : (Eigen::Index)re[0].size());
+    for (Eigen::Index r = 0; r < M.rows(); ++r)
+        for (Eigen::Index c = 0; c < M.cols(); ++c)
+            M(r, c) = cd(re[(size_t)r][(size_t)c].get<double>(), im[(size_t)r][(size_t)c].get<double>());
+    return M;
+}
+
+static Json cjson(const MatC &M)
+{
+    Json re = Json::array(), im = Json::array();
+    for (Eigen::Index r = 0; r < M.rows(); ++r) {
+        Json a = Json::array(), b = Json::array();
+        for (Eigen::Index c = 0; c < M.cols(); ++c) { a.push_back(M(r, c).real()); b.push_back(M(r, c).imag()); }
+        re.push_back(a);
+        im.push_back(b);
+    }
+    return Json{{"re", re}, {"im", im}};
+}
+
+static std::vector<double> vvec(const msidfit::VecR &v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> &recs, uint32_t R)
+{
+    if (R < 2) throw UsageError("--realisations must be at least 2 (one realisation: use --detect-lines for the distortion level)");
+    if (recs.size() % R)
+        throw UsageError("--realisations " + std::to_string(R) + ": the " + std::to_string(recs.size()) +
+                         " experiments do not split into " + std::to_string(R) + " blocks of equal size");
+    const size_t per = recs.size() / R;
+    std::vector<FrfOutcome> outs;
+    for (uint32_t r = 0; r < R; ++r) {
+        std::vector<Record> block(recs.begin() + (long)(r * per), recs.begin() + (long)((r + 1) * per));
+        try {
+            outs.push_back(run_frf(rq, block));
+        } catch (const Error &e) {
+            throw Error("realisation " + std::to_string(r + 1) + " (experiments " + std::to_string(r * per + 1) + ".." +
+                        std::to_string((r + 1) * per) + "): " + e.what(), e.code);
+        }
+    }
+    FrfOutcome o = outs[0];
+    Json &doc = o.doc;
+    const size_t L = doc["lines"].size();
+    doc["n_experiments"] = recs.size();
+    uint64_t used = 0, rej = 0;
+    Json exps = Json::array();
+    MatC ncov = MatC::Zero(jcmat(doc["noise_cov"]).rows(), jcmat(doc["noise_cov"]).cols());
+    for (uint32_t r = 0; r < R; ++r) {
+        used += outs[r].doc["periods_used"].get<uint64_t>();
+        rej += outs[r].doc["periods_rejected"].get<uint64_t>();
+        for (auto e : outs[r].doc["experiments"]) {
+            e["realisation"] = r;
+            exps.push_back(e);
+        }
+        ncov += jcmat(outs[r].doc["noise_cov"]) / (double)R;
+        if (r > 0)
+            for (const auto &n : outs[r].notes) o.notes.push_back("realisation " + std::to_string(r + 1) + ": " + n);
+    }
+    doc["periods_used"] = used;
+    doc["periods_rejected"] = rej;
+    doc["experiments"] = exps;
+    doc["noise_cov"] = cjson(ncov);
+    std::vector<msidfit::BlaLine> bl;
+    for (size_t l = 0; l < L; ++l) {
+        std::vector<MatC> G, C;
+        std::vector<double> dof;
+        MatC cki;
+        double dki = 0;
+        for (uint32_t r = 0; r < R; ++r) {
+            const Json &e = outs[r].doc["lines"][l];
+            G.push_back(jcmat(e["G"]));
+            C.push_back(jcmat(e["cov"]));
+            dof.push_back(e["dof"].get<double>());
+            const MatC k = jcmat(e["cov_known_input"]) / ((double)R * R);
+            cki = r ? MatC(cki + k) : k;
+            dki += e.contains("dof_known_input") ? e["dof_known_input"].get<double>() : dof.back();
+        }
+        const msidfit::BlaLine b = msidfit::bla_line(G, C, dof);
+        Json &e = doc["lines"][l];
+        e["G"] = cjson(b.G);
+        e["cov"] = cjson(b.cov);
+        e["dof"] = b.dof;
+        e["cov_noise"] = cjson(b.cov_noise);
+        e["dof_noise"] = b.dof_noise;
+        e["var_nl"] = vvec(b.var_nl);
+        e["var_s"] = vvec(b.var_s);
+        Json pv = Json::array();
+        for (Eigen::Index i = 0; i < b.p_value.size(); ++i)
+            pv.push_back(std::isfinite(b.p_value(i)) ? Json(b.p_value(i)) : Json(nullptr));
+        e["nl_p_value"] = pv;
+        e["cov_known_input"] = cjson(cki);   // noise only, pooled (no distortion in it)
+        e["dof_known_input"] = dki;
+        if (e.contains("noise_cov")) {
+            MatC nc = MatC::Zero(ncov.rows(), ncov.cols());
+            for (uint32_t r = 0; r < R; ++r) nc += jcmat(outs[r].doc["lines"][l]["noise_cov"]) / (double)R;
+            e["noise_cov"] = cjson(nc);
+        }
+        bl.push_back(b);
+    }
+    const msidfit::BlaSummary s = msidfit::bla_summary(bl);
+    Json nl;
+    nl["method"] = "robust (Pintelon & Schoukens 2012 §4.3.1): BLA = mean over realisations; cov = total covariance "
+                   "from the realisation-to-realisation spread; cov_noise from the periods; var_nl = diag(cov - cov_noise)";
+    nl["realisations"] = R;
+    nl["experiments_per_realisation"] = per;
+    nl["entries_tested"] = s.entries;
+    nl["entries_significant_1pct"] = s.significant;
+    nl["p_value"] = s.p_value;
+    nl["distortion_detected"] = s.detected;
+    nl["nl_to_noise_db"] = std::isfinite(s.nl_to_noise_db) ? Json(s.nl_to_noise_db) : Json(nullptr);
+    doc["nonlinear_distortion"] = nl;
+    if (s.detected)
+        o.notes.push_back(fmt("nonlinear distortion detected (%d of %d line entries significant at 1%%, p = %.3g); its "
+                              "variance is %.1f dB relative to the noise; cov holds noise + distortion",
+                              s.significant, s.entries, s.p_value, s.nl_to_noise_db));
+    return o;
+}
+
+}  // namespace msidcli
+
+namespace msidcli {
+
+Json detection_distortion(const Json &doc)
+{
+    if (!doc.contains("detection_lines") || doc["detection_lines"].empty()) return nullptr;
+    const uint32_t m = doc["n_experiments"].get<uint32_t>(), ny = doc["n_outputs"].get<uint32_t>();
+    std::vector<double> K;
+    for (const auto &e : doc["experiments"]) K.push_back((double)e["periods_used"].get<uint64_t>());
+    double qsum = 0, dof = 0;
+    for (double k : K) dof += k - 1.0;
+    std::vector<double> pv;
+    for (const auto &d : doc["detection_lines"]) {
+        const MatC Y = jcmat(d["Y_mean"]);   // m x ny
+        for (uint32_t i = 0; i < ny; ++i) {
+            const double v = d["noise_var"][i].get<double>();
+            if (!(v > 0)) continue;
+            double s = 0;
+            for (uint32_t e = 0; e < m; ++e) s += K[e] * std::norm(Y(e, i));
+            qsum += s / (m * v);   // F(2m, 2 dof) without periodic content: mean dof/(dof-1)
+            pv.push_back(d["p_value"][i].is_number() ? d["p_value"][i].get<double>() : NAN);
+        }
+    }
+    int n = 0, sig = 0;
+    const double p = msidfit::fisher_combined(pv, &n, &sig);
+    if (!n) return nullptr;
+    const double excess = qsum / (double)pv.size() - (dof > 1 ? dof / (dof - 1.0) : 1.0);
+    Json o;
+    o["method"] = "detection lines (one realisation): output power at the non-excited lines over its noise level; "
+                  "assumes the nonlinear contributions there stand for those at the excited lines (odd/even "
+                  "detection lines of a random-phase multisine); not added to cov";
+    o["realisations"] = 1;
+    o["entries_tested"] = n;
+    o["entries_significant_1pct"] = sig;
+    o["p_value"] = p;   // Fisher's combination of the detection-line p-values
+    o["distortion_detected"] = o["p_value"].get<double>() < 0.01;
+    o["nl_to_noise_db"] = excess > 0 ? Json(10.0 * std::log10(excess)) : Json(nullptr);
+    return o;
+}
+
+Json distortion_verdict(const std::string &frf_path, const msidfit::ModelFile &mf, const std::string &weight,
+                        double p_total)
+{
+    using namespace msidfit;
+    const Json doc = read_json(frf_path);
+    const Json nl = doc.contains("nonlinear_distortion") ? doc["nonlinear_distortion"] : detection_distortion(doc);
+    if (nl.is_null()) return nullptr;
+    Json v;
+    v["distortion_detected"] = nl["distortion_detected"];
+    v["nl_to_noise_db"] = nl["nl_to_noise_db"];
+    const bool det = nl["distortion_detected"].get<bool>();
+    const std::string lvl = nl["nl_to_noise_db"].is_number() ? fmt("%.1f dB", nl["nl_to_noise_db"].get<double>()) : "below the noise";
+    if (nl["realisations"].get<int>() >= 2 && weight == "cov") {
+        // the same cost weighted by the noise covariance only
+        FrfData f = read_frf(frf_path);
+        for (size_t l = 0; l < f.lines.size(); ++l) {
+            f.lines[l].cov = jcmat(doc["lines"][l]["cov_noise"]);
+            f.lines[l].dof = doc["lines"][l]["dof_noise"].get<double>();
+        }
+        const auto w = weigh(f, mf.domain, Weight::Cov);
+        double V = 0, neq = 0, nmin = 1e300;
+        for (size_t l = 0; l < w.size(); ++l) {
+            const MatC Gm = mf.lmfd ? lmfd_eval(*mf.lmfd, w[l].x) : ss_eval(mf.ss, w[l].x);
+            const MatC d = w[l].G - Gm;
+            V += (w[l].real ? 0.5 : 1.0) * (w[l].Linv * Eigen::Map<const MatC>(d.data(), d.size(), 1)).squaredNorm();
+            neq += (w[l].real ? 1.0 : 2.0) * (double)f.g();
+            nmin = std::min(nmin, w[l].dof);
+        }
+        const double pn = cost_pvalue(cost_law(neq - mf.n_params, nmin, (double)f.ny), V);
+        v["p_value_noise_only"] = pn;
+        v["p_value_total"] = p_total;
+        std::string finding;
+        if (p_total >= 0.05 && pn >= 0.05) finding = "residuals at the noise level";
+        else if (p_total >= 0.05) finding = "residuals at the nonlinear distortion level: consistent with the total (noise + distortion) covariance, not with the noise alone";
+        else finding = "residuals above the noise and the nonlinear distortion: model error";
+        v["finding"] = finding;
+        std::printf("nonlinear distortion (%d realisations, %s relative to the noise%s): %s (p = %.3g with the total "
+                    "covariance, %.3g with the noise alone)\n",
+                    nl["realisations"].get<int>(), lvl.c_str(), det ? ", detected" : ", not detected", finding.c_str(),
+                    p_total, pn);
+        return v;
+    }
+    std::string finding;
+    if (!det) finding = "the detection lines show no nonlinear distortion";
+    else if (p_total >= 0.05) finding = "the detection lines show nonlinear distortion; residuals are consistent";
+    else finding = "the detection lines show nonlinear distortion (" + lvl + " relative to the noise): the residuals may be at the distortion level; measure several realisations (msid frf --realisations R) to weigh with it";
+    v["finding"] = finding;
+    std::printf("nonlinear distortion (one realisation, from the detection lines): %s\n", finding.c_str());
+    return v;
+}
+
+}  // namespace msidcli
