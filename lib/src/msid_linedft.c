@@ -295,13 +295,37 @@ static void stream_one(msid_linedft *d, const double *x)
 }
 
 /* Single-precision streaming (MSID_DFT_STREAM_F32): each sample is rounded to
- * float once, each accumulator adds its terms in sample order in float. */
+ * float once, each accumulator adds its terms in sample order in float.
+ * Samples are converted in blocks of F32_BLOCK (1 KB of stack at 32 channels);
+ * within a block two lines and a channel pair share each twiddle load and
+ * index step, 8 accumulators in registers. The order of the terms per
+ * accumulator is the sample order whatever the blocking: same bits. */
+#define F32_BLOCK 8u
+
+static void f32_one_line(const float *tw, uint32_t P, uint32_t k, uint32_t *idx, float *a, uint32_t C,
+                         const float *xf, uint32_t ns)
+{
+    for (uint32_t c = 0; c < C; ++c) {
+        uint32_t i = *idx;
+        float re = a[2u * c], im = a[2u * c + 1u];
+        for (uint32_t s = 0; s < ns; ++s) {
+            const float v = xf[s * C + c];
+            re += v * tw[2u * i];
+            im += v * tw[2u * i + 1u];
+            i = step(i, k, P);
+        }
+        a[2u * c] = re;
+        a[2u * c + 1u] = im;
+    }
+    for (uint32_t s = 0; s < ns; ++s) *idx = step(*idx, k, P);
+}
+
 static void stream_f32(msid_linedft *d, const double *x, uint32_t n)
 {
     const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
     const float *tw = d->twf;
-    float xf[MSID_MAX_CHANNELS];
-    for (uint32_t s = 0; s < n; ++s, x += C) {
+    float xf[F32_BLOCK * MSID_MAX_CHANNELS];
+    if (n == 1u) {   /* one sample per call: no blocking overhead */
         for (uint32_t c = 0; c < C; ++c) xf[c] = (float)x[c];
         float *a = d->accf;
         for (uint32_t l = 0; l < L; ++l, a += 2u * C) {
@@ -314,6 +338,49 @@ static void stream_f32(msid_linedft *d, const double *x, uint32_t n)
             }
             d->idx[l] = step(i, d->bins[l], P);
         }
+        return;
+    }
+    for (uint32_t s0 = 0; s0 < n; s0 += F32_BLOCK) {
+        const uint32_t ns = (n - s0) < F32_BLOCK ? (n - s0) : F32_BLOCK;
+        for (uint32_t k = 0; k < ns * C; ++k) xf[k] = (float)x[(size_t)s0 * C + k];
+        uint32_t l = 0;
+        for (; l + 2u <= L; l += 2u) {
+            const uint32_t k0 = d->bins[l], k1 = d->bins[l + 1u];
+            float *a0 = d->accf + 2u * (size_t)l * C, *a1 = a0 + 2u * C;
+            uint32_t c = 0;
+            for (; c + 2u <= C; c += 2u) {
+                uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
+                float r00 = a0[2u * c], q00 = a0[2u * c + 1u], r01 = a0[2u * c + 2u], q01 = a0[2u * c + 3u];
+                float r10 = a1[2u * c], q10 = a1[2u * c + 1u], r11 = a1[2u * c + 2u], q11 = a1[2u * c + 3u];
+                const float *row = xf + c;
+                for (uint32_t s = 0; s < ns; ++s, row += C) {
+                    const float v0 = row[0], v1 = row[1];
+                    const float c0 = tw[2u * i0], s0f = tw[2u * i0 + 1u], c1 = tw[2u * i1], s1f = tw[2u * i1 + 1u];
+                    r00 += v0 * c0; q00 += v0 * s0f; r01 += v1 * c0; q01 += v1 * s0f;
+                    r10 += v0 * c1; q10 += v0 * s1f; r11 += v1 * c1; q11 += v1 * s1f;
+                    i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+                }
+                a0[2u * c] = r00; a0[2u * c + 1u] = q00; a0[2u * c + 2u] = r01; a0[2u * c + 3u] = q01;
+                a1[2u * c] = r10; a1[2u * c + 1u] = q10; a1[2u * c + 2u] = r11; a1[2u * c + 3u] = q11;
+            }
+            if (c < C) {   /* odd channel count: the last channel of both lines */
+                uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
+                float r0 = a0[2u * c], q0 = a0[2u * c + 1u], r1 = a1[2u * c], q1 = a1[2u * c + 1u];
+                const float *row = xf + c;
+                for (uint32_t s = 0; s < ns; ++s, row += C) {
+                    const float v = row[0];
+                    r0 += v * tw[2u * i0]; q0 += v * tw[2u * i0 + 1u];
+                    r1 += v * tw[2u * i1]; q1 += v * tw[2u * i1 + 1u];
+                    i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+                }
+                a0[2u * c] = r0; a0[2u * c + 1u] = q0; a1[2u * c] = r1; a1[2u * c + 1u] = q1;
+            }
+            for (uint32_t s = 0; s < ns; ++s) {
+                d->idx[l] = step(d->idx[l], k0, P);
+                d->idx[l + 1u] = step(d->idx[l + 1u], k1, P);
+            }
+        }
+        if (l < L) f32_one_line(tw, P, d->bins[l], &d->idx[l], d->accf + 2u * (size_t)l * C, C, xf, ns);
     }
 }
 
