@@ -26,7 +26,7 @@ msid_dft_path msid_linedft_choose(uint32_t P, uint32_t L, uint32_t C, int have_f
 
 static msid_dft_path resolve_path(const msid_linedft_cfg *c)
 {
-    if (c->path == MSID_DFT_STREAM || c->path == MSID_DFT_FFT) return c->path;
+    if (c->path == MSID_DFT_STREAM || c->path == MSID_DFT_FFT || c->path == MSID_DFT_STREAM_F32) return c->path;
     return msid_linedft_choose(c->period, c->n_lines, c->n_channels, c->fft != 0);
 }
 
@@ -35,13 +35,18 @@ size_t msid_linedft_mem_size(const msid_linedft_cfg *c)
     if (!c) return 0;
     if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return 0;
     if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS || c->n_lines == 0) return 0;
-    if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT) return 0;
+    if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT &&
+        c->path != MSID_DFT_STREAM_F32) return 0;
     const size_t L = c->n_lines, C = c->n_channels, P = c->period;
     size_t s = msid__chunk(L, sizeof(uint32_t));                 /* bins */
     s = msid__add(s, msid__chunk(L * C, sizeof(msid_cplx)));      /* out */
     if (resolve_path(c) == MSID_DFT_FFT) {
         s = msid__add(s, msid__chunk(msid__mul(C, P), sizeof(double)));
         s = msid__add(s, msid__chunk(P / 2u + 1u, sizeof(msid_cplx)));
+    } else if (resolve_path(c) == MSID_DFT_STREAM_F32) {
+        s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));
+        s = msid__add(s, msid__chunk(2u * L * C, sizeof(float)));
+        s = msid__add(s, msid__chunk(msid__mul(2u, P), sizeof(float)));
     } else {
         s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));
         s = msid__add(s, msid__chunk(L * C, sizeof(msid_cplx)));
@@ -56,6 +61,9 @@ static void clear_period(msid_linedft *d)
     if (d->path == MSID_DFT_STREAM) {
         for (size_t k = 0; k < (size_t)d->n_lines * d->n_channels; ++k) d->acc[k].re = d->acc[k].im = 0.0;
         for (uint32_t l = 0; l < d->n_lines; ++l) d->idx[l] = 0;
+    } else if (d->path == MSID_DFT_STREAM_F32) {
+        for (size_t k = 0; k < 2u * (size_t)d->n_lines * d->n_channels; ++k) d->accf[k] = 0.0f;
+        for (uint32_t l = 0; l < d->n_lines; ++l) d->idx[l] = 0;
     }
 }
 
@@ -65,7 +73,8 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
     if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
     if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS) return MSID_E_DIMS;
     if (c->n_lines == 0) return MSID_E_NO_LINES;
-    if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT) return MSID_E_ARG;
+    if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT &&
+        c->path != MSID_DFT_STREAM_F32) return MSID_E_ARG;
     for (uint32_t l = 0; l < c->n_lines; ++l)
         if ((uint64_t)c->bins[l] * 2u > c->period) return MSID_E_LINE_RANGE;
     const msid_dft_path path = resolve_path(c);
@@ -87,11 +96,19 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
     d->fft = c->fft;
     d->bins = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
     d->out = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
-    d->idx = 0; d->acc = 0; d->buf = 0; d->fout = 0;
+    d->idx = 0; d->acc = 0; d->buf = 0; d->fout = 0; d->accf = 0; d->twf = 0;
     if (path == MSID_DFT_FFT) {
         /* every period is fully written (data or gap zeros) before a transform */
         d->buf = (double *)msid__take(&a, C * P * sizeof(double));
         d->fout = (msid_cplx *)msid__take(&a, (P / 2u + 1u) * sizeof(msid_cplx));
+    } else if (path == MSID_DFT_STREAM_F32) {
+        d->idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
+        d->accf = (float *)msid__take(&a, 2u * L * C * sizeof(float));
+        d->twf = (float *)msid__take(&a, 2u * P * sizeof(float));
+        for (size_t k = 0; k < P; ++k) {   /* correctly rounded, so the same floats everywhere */
+            d->twf[2u * k] = (float)c->twiddle->w[k].re;
+            d->twf[2u * k + 1u] = (float)c->twiddle->w[k].im;
+        }
     } else {
         d->idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
         d->acc = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
@@ -277,6 +294,96 @@ static void stream_one(msid_linedft *d, const double *x)
     }
 }
 
+/* Single-precision streaming (MSID_DFT_STREAM_F32): each sample is rounded to
+ * float once, each accumulator adds its terms in sample order in float.
+ * Samples are converted in blocks of F32_BLOCK (1 KB of stack at 32 channels);
+ * within a block two lines and a channel pair share each twiddle load and
+ * index step, 8 accumulators in registers. The order of the terms per
+ * accumulator is the sample order whatever the blocking: same bits. */
+#define F32_BLOCK 8u
+
+static void f32_one_line(const float *tw, uint32_t P, uint32_t k, uint32_t *idx, float *a, uint32_t C,
+                         const float *xf, uint32_t ns)
+{
+    for (uint32_t c = 0; c < C; ++c) {
+        uint32_t i = *idx;
+        float re = a[2u * c], im = a[2u * c + 1u];
+        for (uint32_t s = 0; s < ns; ++s) {
+            const float v = xf[s * C + c];
+            re += v * tw[2u * i];
+            im += v * tw[2u * i + 1u];
+            i = step(i, k, P);
+        }
+        a[2u * c] = re;
+        a[2u * c + 1u] = im;
+    }
+    for (uint32_t s = 0; s < ns; ++s) *idx = step(*idx, k, P);
+}
+
+static void stream_f32(msid_linedft *d, const double *x, uint32_t n)
+{
+    const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
+    const float *tw = d->twf;
+    float xf[F32_BLOCK * MSID_MAX_CHANNELS];
+    if (n == 1u) {   /* one sample per call: no blocking overhead */
+        for (uint32_t c = 0; c < C; ++c) xf[c] = (float)x[c];
+        float *a = d->accf;
+        for (uint32_t l = 0; l < L; ++l, a += 2u * C) {
+            const uint32_t i = d->idx[l];
+            const float wr = tw[2u * i], wi = tw[2u * i + 1u];
+            for (uint32_t c = 0; c < C; ++c) {
+                const float re = a[2u * c] + xf[c] * wr, im = a[2u * c + 1u] + xf[c] * wi;
+                a[2u * c] = re;
+                a[2u * c + 1u] = im;
+            }
+            d->idx[l] = step(i, d->bins[l], P);
+        }
+        return;
+    }
+    for (uint32_t s0 = 0; s0 < n; s0 += F32_BLOCK) {
+        const uint32_t ns = (n - s0) < F32_BLOCK ? (n - s0) : F32_BLOCK;
+        for (uint32_t k = 0; k < ns * C; ++k) xf[k] = (float)x[(size_t)s0 * C + k];
+        uint32_t l = 0;
+        for (; l + 2u <= L; l += 2u) {
+            const uint32_t k0 = d->bins[l], k1 = d->bins[l + 1u];
+            float *a0 = d->accf + 2u * (size_t)l * C, *a1 = a0 + 2u * C;
+            uint32_t c = 0;
+            for (; c + 2u <= C; c += 2u) {
+                uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
+                float r00 = a0[2u * c], q00 = a0[2u * c + 1u], r01 = a0[2u * c + 2u], q01 = a0[2u * c + 3u];
+                float r10 = a1[2u * c], q10 = a1[2u * c + 1u], r11 = a1[2u * c + 2u], q11 = a1[2u * c + 3u];
+                const float *row = xf + c;
+                for (uint32_t s = 0; s < ns; ++s, row += C) {
+                    const float v0 = row[0], v1 = row[1];
+                    const float c0 = tw[2u * i0], s0f = tw[2u * i0 + 1u], c1 = tw[2u * i1], s1f = tw[2u * i1 + 1u];
+                    r00 += v0 * c0; q00 += v0 * s0f; r01 += v1 * c0; q01 += v1 * s0f;
+                    r10 += v0 * c1; q10 += v0 * s1f; r11 += v1 * c1; q11 += v1 * s1f;
+                    i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+                }
+                a0[2u * c] = r00; a0[2u * c + 1u] = q00; a0[2u * c + 2u] = r01; a0[2u * c + 3u] = q01;
+                a1[2u * c] = r10; a1[2u * c + 1u] = q10; a1[2u * c + 2u] = r11; a1[2u * c + 3u] = q11;
+            }
+            if (c < C) {   /* odd channel count: the last channel of both lines */
+                uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
+                float r0 = a0[2u * c], q0 = a0[2u * c + 1u], r1 = a1[2u * c], q1 = a1[2u * c + 1u];
+                const float *row = xf + c;
+                for (uint32_t s = 0; s < ns; ++s, row += C) {
+                    const float v = row[0];
+                    r0 += v * tw[2u * i0]; q0 += v * tw[2u * i0 + 1u];
+                    r1 += v * tw[2u * i1]; q1 += v * tw[2u * i1 + 1u];
+                    i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+                }
+                a0[2u * c] = r0; a0[2u * c + 1u] = q0; a1[2u * c] = r1; a1[2u * c + 1u] = q1;
+            }
+            for (uint32_t s = 0; s < ns; ++s) {
+                d->idx[l] = step(d->idx[l], k0, P);
+                d->idx[l + 1u] = step(d->idx[l + 1u], k1, P);
+            }
+        }
+        if (l < L) f32_one_line(tw, P, d->bins[l], &d->idx[l], d->accf + 2u * (size_t)l * C, C, xf, ns);
+    }
+}
+
 static void finish_period(msid_linedft *d)
 {
     const size_t L = d->n_lines, C = d->n_channels, P = d->period;
@@ -285,6 +392,11 @@ static void finish_period(msid_linedft *d)
             msid_status st = d->fft->r2c(d->fft->ctx, d->buf + c * P, d->fout);
             if (st != MSID_OK) { d->err = MSID_E_BACKEND; d->flags |= MSID_PERIOD_NONFINITE; }
             for (size_t l = 0; l < L; ++l) d->out[l * C + c] = d->fout[d->bins[l]];
+        }
+    } else if (d->path == MSID_DFT_STREAM_F32) {
+        for (size_t k = 0; k < L * C; ++k) {
+            d->out[k].re = (double)d->accf[2u * k];
+            d->out[k].im = (double)d->accf[2u * k + 1u];
         }
     } else {
         for (size_t k = 0; k < L * C; ++k) d->out[k] = d->acc[k];
@@ -325,6 +437,8 @@ size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
             const double *src = x + c;
             for (uint32_t s = 0; s < take; ++s, src += C) d0[s] = src[0];
         }
+    } else if (d->path == MSID_DFT_STREAM_F32) {
+        stream_f32(d, x, take);
     } else if (take == 1u) {
         stream_one(d, x);
     } else {

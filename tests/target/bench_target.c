@@ -37,7 +37,7 @@ static void *take(size_t n)
 
 static uint32_t insn(uint64_t ticks) { return (uint32_t)(ticks * (1000000000u / BOARD_TICK_HZ)); }
 
-typedef struct { uint32_t nu, ny, L, m; int table; const char *name; uint32_t block; } bcase;
+typedef struct { uint32_t nu, ny, L, m; int table; const char *name; uint32_t block; int f32; } bcase;
 
 static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 push only */
 {
@@ -61,7 +61,7 @@ static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 pu
     msid_meas_cfg mc;
     memset(&mc, 0, sizeof mc);
     mc.period = P; mc.n_inputs = c->nu; mc.n_outputs = c->ny; mc.n_experiments = c->m;
-    mc.n_lines = c->L; mc.bins = bins; mc.twiddle = &tw; mc.path = MSID_DFT_STREAM;
+    mc.n_lines = c->L; mc.bins = bins; mc.twiddle = &tw; mc.path = c->f32 ? MSID_DFT_STREAM_F32 : MSID_DFT_STREAM;
     msid_meas ms;
     const size_t nm = msid_meas_mem_size(&mc);
     if (msid_meas_init(&ms, &mc, take(nm), nm) != MSID_OK) return 1;
@@ -112,6 +112,9 @@ int main(void)
         {1, 1, 1, 1, 1, "siso1"},  {1, 1, 2, 1, 1, "siso2"},     {1, 1, 50, 1, 1, "siso50"},
         {2, 2, 50, 2, 1, "mimo2x2_50"}, {1, 1, 1, 1, 0, "siso1_otf"}, {1, 1, 50, 1, 0, "siso50_otf"},
         {1, 1, 1, 1, 1, "siso1", 16}, {1, 1, 50, 1, 1, "siso50", 16}, {2, 2, 50, 2, 1, "mimo2x2_50", 16},
+        {1, 1, 1, 1, 1, "siso1_f32", 1, 1}, {1, 1, 50, 1, 1, "siso50_f32", 1, 1},
+        {1, 1, 1, 1, 1, "siso1_f32", 16, 1}, {1, 1, 50, 1, 1, "siso50_f32", 16, 1},
+        {2, 2, 50, 2, 1, "mimo2x2_50_f32", 16, 1},
     };
     printf("# msid bench target: %s, P=%u, %u samples per case\n",
 #if defined(__ARM_FP) && (__ARM_FP & 8)

@@ -9,7 +9,8 @@
  *   rng     msid_rng uniform and normal streams
  *   gen     generated samples of a 2-input, 2-experiment design (both modes)
  *   frf     a 2x2 plant with 2 experiments, noisy inputs, coloured output noise:
- *           G, covariances, dof (msid_meas + msid_frf, tests/common simulator)
+ *           G, covariances, dof (msid_meas + msid_frf, tests/common simulator);
+ *   frf_f32 the same through MSID_DFT_STREAM_F32
  * Lines starting with "libm" hold values that go through the C library's
  * exp/log (p-values); they are compared with a relative tolerance of 1e-12.
  * Everything else must match exactly, except where compare.py is told a
@@ -129,7 +130,7 @@ static void gen(void)
     tsim_design_free(&t);
 }
 
-static void frf(void)
+static void frf(int f32)
 {
     enum { P = 128, K = 6, L = 8, NU = 2, NY = 2, M = 2, D = 2 };
     uint32_t bins[L];
@@ -151,7 +152,7 @@ static void frf(void)
     msid_meas_cfg mc;
     memset(&mc, 0, sizeof mc);
     mc.period = P; mc.n_inputs = NU; mc.n_outputs = NY; mc.n_experiments = M; mc.n_lines = L; mc.bins = bins;
-    mc.n_detect = D; mc.detect_bins = det; mc.twiddle = &t.tw; mc.path = MSID_DFT_STREAM;
+    mc.n_detect = D; mc.detect_bins = det; mc.twiddle = &t.tw; mc.path = f32 ? MSID_DFT_STREAM_F32 : MSID_DFT_STREAM;
     mc.max_periods = K; mc.transient = MSID_TRANSIENT_FLAG;
     const size_t nm = msid_meas_mem_size(&mc);
     void *mm = tsim_alloc(nm);
@@ -193,11 +194,11 @@ static void frf(void)
         hb(msid_frf_noise_cov(&f, l), sizeof(msid_cplx) * NY * NY);
     }
     for (uint32_t d = 0; d < D; ++d) hb(msid_frf_detect_var(&f, d), sizeof(double) * NY);
-    put("frf");
+    put(f32 ? "frf_f32" : "frf");
     /* p-values use libm exp/log: printed, compared with a tolerance */
     for (uint32_t d = 0; d < D; ++d) {
         const double *p = msid_frf_detect_pvalue(&f, d);
-        printf("libm dpval%u %.17g %.17g\n", (unsigned)d, p[0], p[1]);
+        printf("libm dpval%u%s %.17g %.17g\n", (unsigned)d, f32 ? "_f32" : "", p[0], p[1]);
     }
     free(rows);
     tsim_free(fm);
@@ -214,6 +215,7 @@ int main(void)
     twiddles();
     rng();
     gen();
-    frf();
+    frf(0);
+    frf(1);   /* the single-precision streaming path: float arithmetic is IEEE-754 too */
     return 0;
 }

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,7 @@ int bench_target(int argc, char **argv)
         std::printf("  %-11s %5s %-9s %-9s %5s %3s %12s %10s %10s %10s\n", "case", "block", "work", "gen", "lines", "C",
                     "insn/sample", "max insn", "mem_meas", "mem_frf");
         double push1 = 0, push50 = 0, gp1 = 0, bpush1 = 0, bpush50 = 0, bgp1 = 0;
+        double fpush1 = 0, fpush50 = 0, fgp1 = 0, fbpush1 = 0, fbpush50 = 0, fbgp1 = 0;
         size_t pos = 0;
         while ((pos = out.find("case ", pos)) != std::string::npos) {
             const std::string line = out.substr(pos - 1, out.find('\n', pos) - pos + 1);
@@ -91,12 +93,17 @@ int bench_target(int argc, char **argv)
             if (name == "siso1" && work == "push") (b1 ? push1 : bpush1) = ips;
             if (name == "siso1" && work == "gen+push") (b1 ? gp1 : bgp1) = ips;
             if (name == "siso50" && work == "push") (b1 ? push50 : bpush50) = ips;
+            if (name == "siso1_f32" && work == "push") (b1 ? fpush1 : fbpush1) = ips;
+            if (name == "siso1_f32" && work == "gen+push") (b1 ? fgp1 : fbgp1) = ips;
+            if (name == "siso50_f32" && work == "push") (b1 ? fpush50 : fbpush50) = ips;
         }
         std::printf("  one-line SISO, generation + estimation: %.1f instructions per sample (SFRA: 103 cycles)\n", gp1);
         std::printf("  per extra line*channel (SISO 1 -> 50 lines, 2 channels): %.1f instructions (goal <= 10 on the M7)\n",
                     (push50 - push1) / (49.0 * 2.0));
         std::printf("  in blocks of 16 samples: one-line SISO %.1f, per extra line*channel %.1f instructions per sample\n",
                     bgp1, (bpush50 - bpush1) / (49.0 * 2.0));
+        std::printf("  float32 path (MSID_DFT_STREAM_F32): one-line SISO %.1f (blocks of 16: %.1f), per extra line*channel "
+                    "%.1f (blocks: %.1f)\n", fgp1, fbgp1, (fpush50 - fpush1) / 98.0, (fbpush50 - fbpush1) / 98.0);
     }
     // flash and RAM per object, from the linker map of the bare-metal example (it links what a firmware needs)
     for (auto &c : cpus) {

@@ -30,7 +30,11 @@ extern "C" {
 typedef enum msid_dft_path {
     MSID_DFT_AUTO = 0,   /**< FFT path if a backend is given and it is cheaper */
     MSID_DFT_STREAM = 1, /**< per-sample accumulation at the lines */
-    MSID_DFT_FFT = 2     /**< one real FFT per channel per period (needs a backend) */
+    MSID_DFT_FFT = 2,    /**< one real FFT per channel per period (needs a backend) */
+    MSID_DFT_STREAM_F32 = 3 /**< streaming in single precision (FPUs without double, e.g. Cortex-M4F):
+                                 samples rounded to float, float twiddles and accumulators per period,
+                                 spectra handed on as double. Error per period and line at most
+                                 (P + 3) * 2^-24 * sum_n |x_c(n)| (docs/target.md); never chosen by AUTO */
 } msid_dft_path;
 
 /** Period flags (bit set). */
@@ -66,6 +70,8 @@ typedef struct msid_linedft {
     int ready;                    /**< 1 when `out` holds a completed, unreleased period */
     uint64_t periods;             /**< completed periods since init/reset */
     msid_status err;              /**< sticky backend error */
+    float *accf;                  /**< [2*L*C] running sums re, im (STREAM_F32) */
+    float *twf;                   /**< [2*P] twiddles re, im in single precision (STREAM_F32) */
 } msid_linedft;
 
 /** @brief Path AUTO would choose for these dimensions (STREAM without a backend). */
