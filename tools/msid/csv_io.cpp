@@ -331,7 +331,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         }
         if (out.first_blank) out.row_after_blank = true;
         p = ls;
-        if (out.n >= out.cap) {   // cannot happen: rows <= newlines counted
+        if (out.n >= out.cap) {   // cannot happen: see the row bound in read_record_csv
             out.err = fmt("'%s': internal error: row count", L.path->c_str());
             return;
         }
@@ -495,17 +495,21 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
         cut.push_back(q ? q + 1 : end);
     }
     cut.push_back(end);
-    // Each part writes its rows straight into the record, at an offset given by
-    // the newlines before it (an upper bound on its rows: blank lines are
-    // squeezed out afterwards).
+    // Room by an upper bound, without a counting pass: a row holds at least
+    // max(cells, 2 C) bytes (each mapped number a character and a delimiter or
+    // newline). Pages never written are never touched (no zero fill). Part 0
+    // writes into the record, the others into their own buffers, appended after.
+    const size_t row_min = std::max(L.names.size(), 2 * L.C);
     std::vector<Chunk> ch(nt_);
-    size_t total = 0;
-    for (unsigned k = 0; k < nt_; ++k) {
-        ch[k].cap = (size_t)std::count(cut[k], cut[k + 1], '\n');
-        total += ch[k].cap;
+    std::vector<Samples> part(nt_);
+    r.rows.resize((bytes / row_min + 1) * L.C);
+    ch[0].rows = r.rows.data();
+    ch[0].cap = bytes / row_min + 1;
+    for (unsigned k = 1; k < nt_; ++k) {
+        ch[k].cap = (size_t)(cut[k + 1] - cut[k]) / row_min + 1;
+        part[k].resize(ch[k].cap * L.C);
+        ch[k].rows = part[k].data();
     }
-    r.rows.resize(total * L.C);
-    for (size_t k = 0, off = 0; k < nt_; off += ch[k].cap, ++k) ch[k].rows = r.rows.data() + off * L.C;
     if (nt_ == 1) parse_chunk(L, cut[0], cut[1], ch[0]);
     else {
         std::vector<std::thread> th;
@@ -525,10 +529,10 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
     }
     for (auto &c : ch) {
         if (c.n && c.rows != r.rows.data() + r.n_rows * L.C)
-            std::memmove(r.rows.data() + r.n_rows * L.C, c.rows, c.n * L.C * sizeof(double));
+            std::memcpy(r.rows.data() + r.n_rows * L.C, c.rows, c.n * L.C * sizeof(double));
         r.n_rows += c.n;
     }
-    r.rows.resize(r.n_rows * L.C);
+    r.rows.resize(r.n_rows * L.C);   // shrinks in place; the untouched tail was never faulted in
     if (r.n_rows == 0) throw Error("'" + path + "' has a header but no samples");
     return r;
 }
