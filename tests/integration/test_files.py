@@ -302,3 +302,35 @@ def test_bad_mat(tmp_path, data):
     s = tmp_path / "names.mat"
     sio.savemat(s, {"Force": u, "Acc": y})
     _fails(tmp_path, [s], [], f"'{s}' has no input columns", "'Force:1'", "--columns")
+
+
+def test_large_csv_two_threads_same_result_and_line_numbers(tmp_path):
+    """Over 4 MiB the CSV is parsed by two threads: the FRF equals the .npy of
+    the same samples, and an error or a blank line in the second half is
+    reported at its true line."""
+    rng = np.random.default_rng(11)
+    Kb, n = 2500, np.arange(P)
+    per = np.stack([sum(np.cos(2 * np.pi * b * n / P + rng.uniform(0, 2 * np.pi)) for b in BINS) for _ in range(2)], 1)
+    u = np.tile(per, (Kb, 1)) + 1e-3 * rng.standard_normal((Kb * P, 2))
+    y = u @ np.array([[0.5, -0.2], [0.3, 1.0]]) + 0.01 * rng.standard_normal((Kb * P, 2))
+    x = np.column_stack([u[:, 0], y[:, 0]])   # SISO: one experiment
+    text = "u1,y1\n" + "".join(f"{a!r},{b!r}\n" for a, b in x.tolist())
+    assert len(text) > 5 << 20
+    big = tmp_path / "big.csv"
+    big.write_text(text, encoding="utf-8")
+    npy = tmp_path / "big.npy"
+    np.save(npy, x)
+    assert _lines(_frf(tmp_path, [big], name="c.json")) == \
+        _lines(_frf(tmp_path, [npy], ["--columns", "u1=1,y1=2"], name="n.json"))
+    rows = text.split("\n")
+    k = int(0.8 * len(rows))               # file line k + 1, in the second thread's part
+    bad = rows.copy()
+    bad[k] = bad[k].replace(",", ",x", 1)
+    b1 = tmp_path / "bad1.csv"
+    b1.write_text("\n".join(bad), encoding="utf-8")
+    _fails(tmp_path, [b1], [], f"'{b1}' line {k + 1}, column y1")
+    blank = rows.copy()
+    blank[k] = ""
+    b2 = tmp_path / "bad2.csv"
+    b2.write_text("\n".join(blank), encoding="utf-8")
+    _fails(tmp_path, [b2], [], f"'{b2}' line {k + 1}: empty line inside the data")
