@@ -546,9 +546,9 @@ static bool ends_with(const std::string &s, const char *suf)
     return true;
 }
 
-Record read_experiment(const std::string &path, const ColumnMap &cols)
+Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
 {
-    if (ends_with(path, ".npy")) return read_record_npy(path, cols);
+    if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy);
     if (ends_with(path, ".npz")) return read_record_npz(path, cols);
     if (ends_with(path, ".mat")) return read_record_mat(path, cols);
     return read_record_csv(path, cols);
