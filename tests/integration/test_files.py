@@ -334,3 +334,30 @@ def test_large_csv_two_threads_same_result_and_line_numbers(tmp_path):
     b2 = tmp_path / "bad2.csv"
     b2.write_text("\n".join(blank), encoding="utf-8")
     _fails(tmp_path, [b2], [], f"'{b2}' line {k + 1}: empty line inside the data")
+
+
+def test_number_formats_parse_exactly(tmp_path):
+    """The fast number parser (exact Clinger path, else std::from_chars) gives
+    the doubles Python's float() gives, for numbers written in many styles
+    (shortest repr, 9/15/17 significant digits, exponents, 20 decimals, '+'):
+    the FRF equals the one of the same values written as repr."""
+    rng = np.random.default_rng(5)
+    n = np.arange(P * K)
+    u = np.cos(2 * np.pi * 3 * n / P) + 0.5 * np.cos(2 * np.pi * 5 * n / P + 1) + 1e-3 * rng.standard_normal(n.size)
+    y = 0.7 * u + 0.01 * rng.standard_normal(n.size)
+    styles = ["%r", "%.9g", "%.3e", "%.15g", "%.17g", "%.1f", "%E", "%.20f", "%g", "%+.12e"]
+
+    def cell(v, i):
+        f = styles[i % len(styles)]
+        return repr(float(v)) if f == "%r" else f % v
+    rows = [(cell(a, i), cell(b, i + 3)) for i, (a, b) in enumerate(zip(u, y))]
+    styled = tmp_path / "styled.csv"
+    styled.write_text("u1,y1\n" + "".join(f"{a},{b}\n" for a, b in rows), encoding="utf-8")
+    ref = tmp_path / "ref.csv"
+    ref.write_text("u1,y1\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in rows), encoding="utf-8")
+    out = []
+    for f in (styled, ref):
+        o = tmp_path / (f.stem + ".json")
+        h.run_ok("frf", "--period", P, "--lines", "3,5", "--experiment", f, "-o", o)
+        out.append(h.load_json(o)["lines"])
+    assert out[0] == out[1]

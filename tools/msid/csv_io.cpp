@@ -231,59 +231,55 @@ inline uint64_t eight_value(uint64_t w)   // little-endian: first char in the lo
 
 inline bool digit(char c) { return (unsigned)(c - '0') < 10u; }
 
-// `slow` is set when std::from_chars was needed (only then can v be non-finite).
+// The general path: std::from_chars (correctly rounded; inf/nan parse and are
+// rejected by the caller). Kept out of line so the fast path stays in registers.
+__attribute__((noinline)) const char *parse_slow(const char *s, const char *end, double &v, bool &slow_path)
+{
+    slow_path = true;
+    auto res = std::from_chars(s, end, v);
+    return res.ec == std::errc() ? res.ptr : nullptr;
+}
+
+// `slow_path` is set when std::from_chars was needed (only then can v be non-finite).
 inline const char *parse_double(const char *p, const char *end, double &v, bool &slow_path)
 {
     const char *s = p;
     const bool neg = *p == '-';
-    if (neg) ++p;
-    uint64_t m = 0;   // kept below 10^15 < 2^53: exact
-    int e10 = 0;
+    p += neg;
+    uint64_t m = 0;
     const char *d0 = p;
-    while (digit(*p)) {
-        if (m >= 100000000000000ull) goto slow;
-        m = m * 10 + (uint64_t)(*p - '0');
-        ++p;
-    }
-    {
-        bool any = p != d0;
-        if (*p == '.') {
-            ++p;
-            const char *f0 = p;
-            uint64_t w;
-            while (p + 8 <= end && m < 10000000ull && (std::memcpy(&w, p, 8), eight_digits(w))) {
-                m = m * 100000000ull + eight_value(w);
-                p += 8;
-            }
-            while (digit(*p)) {
-                if (m >= 100000000000000ull) goto slow;
-                m = m * 10 + (uint64_t)(*p - '0');
-                ++p;
-            }
-            e10 = -(int)(p - f0);
-            any = any || p != f0;
+    while (digit(*p)) m = m * 10 + (uint64_t)(*p++ - '0');
+    size_t nd = (size_t)(p - d0);
+    int e10 = 0;
+    if (*p == '.') {
+        const char *f0 = ++p;
+        uint64_t w;
+        if (p + 8 <= end && (std::memcpy(&w, p, 8), eight_digits(w)) && nd <= 7) {
+            m = m * 100000000ull + eight_value(w);
+            p += 8;
         }
-        if (!any) goto slow;   // inf, nan, or not a number
-        if (*p == 'e' || *p == 'E') {
-            const char *q = p + 1;
-            bool en = false;
-            if (*q == '-' || *q == '+') { en = *q == '-'; ++q; }
-            if (!digit(*q)) goto slow;
-            int x = 0;
-            while (digit(*q)) { if (x < 10000) x = x * 10 + (*q - '0'); ++q; }
-            e10 += en ? -x : x;
-            p = q;
-        }
-        if (e10 < -22 || e10 > 22) goto slow;
-        double d = (double)m;
-        d = e10 < 0 ? d / POW10[-e10] : d * POW10[e10];
-        v = neg ? -d : d;
-        return p;
+        while (digit(*p)) m = m * 10 + (uint64_t)(*p++ - '0');
+        e10 = -(int)(p - f0);
+        nd += (size_t)(p - f0);
     }
-slow:
-    slow_path = true;
-    auto res = std::from_chars(s, end, v);
-    return res.ec == std::errc() ? res.ptr : nullptr;
+    // at most 15 digits (leading zeros included): m < 10^15 < 2^53, exact
+    if (nd == 0 || nd > 15) return parse_slow(s, end, v, slow_path);
+    if ((*p | 0x20) == 'e') {
+        const char *q = p + 1;
+        const bool en = *q == '-';
+        q += (*q == '-' || *q == '+');
+        if (!digit(*q)) return parse_slow(s, end, v, slow_path);
+        int x = 0;
+        while (digit(*q) && x < 10000) x = x * 10 + (*q++ - '0');
+        if (digit(*q)) return parse_slow(s, end, v, slow_path);
+        e10 += en ? -x : x;
+        p = q;
+    }
+    if (e10 < -22 || e10 > 22) return parse_slow(s, end, v, slow_path);
+    const double d = (double)m;
+    const double r = e10 < 0 ? d / POW10[-e10] : d * POW10[e10];
+    v = neg ? -r : r;
+    return p;
 }
 
 struct CsvLayout {
