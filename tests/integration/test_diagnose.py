@@ -180,3 +180,25 @@ def test_clean_records_no_false_alarms(tmp_path):
         assert "not periodic" not in r.stderr and "does not fit" not in r.stderr
     print(f"clean records: --lines auto wrong in {wrong_lines} of 40, drift in {drift} of 40")
     assert wrong_lines <= 3 and drift <= 3
+
+
+def test_nonperiodic_threshold_location():
+    """Where the non-periodic test sits: eta = (K-1)/K * noise/(signal + noise)
+    for a periodic input with white input noise. At 3 dB input SNR (eta ~ 0.29)
+    it never fires in 20 records; at -6 dB (eta ~ 0.70) it always does; the
+    message then names the input as not periodic (threshold 0.5, docs/statistics.md)."""
+    import tempfile
+    from pathlib import Path
+    fired = {3: 0, -6: 0}
+    with tempfile.TemporaryDirectory() as d:
+        for snr_db in fired:
+            for seed in range(20):
+                rng = np.random.default_rng(1000 + seed)
+                per = _multisine(P, BINS, rng)
+                s = np.sqrt(np.mean(per ** 2) / 10 ** (snr_db / 10))
+                u = np.tile(per, 8) + s * rng.standard_normal(8 * P)
+                f = _write(Path(d) / f"n{snr_db}_{seed}.csv", u, _siso(u, rng))
+                r, _ = _frf(Path(d), f)
+                fired[snr_db] += "the input is not periodic" in r.stderr
+    print(f"non-periodic test fired: {fired[3]}/20 at +3 dB input SNR, {fired[-6]}/20 at -6 dB")
+    assert fired[3] == 0 and fired[-6] == 20

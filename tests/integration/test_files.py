@@ -302,3 +302,62 @@ def test_bad_mat(tmp_path, data):
     s = tmp_path / "names.mat"
     sio.savemat(s, {"Force": u, "Acc": y})
     _fails(tmp_path, [s], [], f"'{s}' has no input columns", "'Force:1'", "--columns")
+
+
+def test_large_csv_two_threads_same_result_and_line_numbers(tmp_path):
+    """Over 4 MiB the CSV is parsed by two threads: the FRF equals the .npy of
+    the same samples, and an error or a blank line in the second half is
+    reported at its true line."""
+    rng = np.random.default_rng(11)
+    Kb, n = 2500, np.arange(P)
+    per = np.stack([sum(np.cos(2 * np.pi * b * n / P + rng.uniform(0, 2 * np.pi)) for b in BINS) for _ in range(2)], 1)
+    u = np.tile(per, (Kb, 1)) + 1e-3 * rng.standard_normal((Kb * P, 2))
+    y = u @ np.array([[0.5, -0.2], [0.3, 1.0]]) + 0.01 * rng.standard_normal((Kb * P, 2))
+    x = np.column_stack([u[:, 0], y[:, 0]])   # SISO: one experiment
+    text = "u1,y1\n" + "".join(f"{a!r},{b!r}\n" for a, b in x.tolist())
+    assert len(text) > 5 << 20
+    big = tmp_path / "big.csv"
+    big.write_text(text, encoding="utf-8")
+    npy = tmp_path / "big.npy"
+    np.save(npy, x)
+    assert _lines(_frf(tmp_path, [big], name="c.json")) == \
+        _lines(_frf(tmp_path, [npy], ["--columns", "u1=1,y1=2"], name="n.json"))
+    rows = text.split("\n")
+    k = int(0.8 * len(rows))               # file line k + 1, in the second thread's part
+    bad = rows.copy()
+    bad[k] = bad[k].replace(",", ",x", 1)
+    b1 = tmp_path / "bad1.csv"
+    b1.write_text("\n".join(bad), encoding="utf-8")
+    _fails(tmp_path, [b1], [], f"'{b1}' line {k + 1}, column y1")
+    blank = rows.copy()
+    blank[k] = ""
+    b2 = tmp_path / "bad2.csv"
+    b2.write_text("\n".join(blank), encoding="utf-8")
+    _fails(tmp_path, [b2], [], f"'{b2}' line {k + 1}: empty line inside the data")
+
+
+def test_number_formats_parse_exactly(tmp_path):
+    """The fast number parser (exact Clinger path, else std::from_chars) gives
+    the doubles Python's float() gives, for numbers written in many styles
+    (shortest repr, 9/15/17 significant digits, exponents, 20 decimals, '+'):
+    the FRF equals the one of the same values written as repr."""
+    rng = np.random.default_rng(5)
+    n = np.arange(P * K)
+    u = np.cos(2 * np.pi * 3 * n / P) + 0.5 * np.cos(2 * np.pi * 5 * n / P + 1) + 1e-3 * rng.standard_normal(n.size)
+    y = 0.7 * u + 0.01 * rng.standard_normal(n.size)
+    styles = ["%r", "%.9g", "%.3e", "%.15g", "%.17g", "%.1f", "%E", "%.20f", "%g", "%+.12e"]
+
+    def cell(v, i):
+        f = styles[i % len(styles)]
+        return repr(float(v)) if f == "%r" else f % v
+    rows = [(cell(a, i), cell(b, i + 3)) for i, (a, b) in enumerate(zip(u, y))]
+    styled = tmp_path / "styled.csv"
+    styled.write_text("u1,y1\n" + "".join(f"{a},{b}\n" for a, b in rows), encoding="utf-8")
+    ref = tmp_path / "ref.csv"
+    ref.write_text("u1,y1\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in rows), encoding="utf-8")
+    out = []
+    for f in (styled, ref):
+        o = tmp_path / (f.stem + ".json")
+        h.run_ok("frf", "--period", P, "--lines", "3,5", "--experiment", f, "-o", o)
+        out.append(h.load_json(o)["lines"])
+    assert out[0] == out[1]

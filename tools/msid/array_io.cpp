@@ -203,13 +203,13 @@ void mat_log(int, char *msg) { g_mat_msg = msg ? msg : ""; }
 
 }  // namespace
 
-Record read_record_npy(const std::string &path, const ColumnMap &cols)
+Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero_copy)
 {
     auto buf = std::make_shared<const FileBytes>(path);
     std::vector<Array> arrs{parse_npy(path, std::string_view(buf->data(), buf->size()), "")};
     const Array &a = arrs[0];
     // Zero copy: little-endian float64 in C order, 8-byte aligned, columns mapped 1..C in order.
-    bool identity = !cols.empty() && a.kind == 'f' && a.esize == 8 && !a.swap && a.sc == 1 && a.si == a.C &&
+    bool identity = zero_copy && !cols.empty() && a.kind == 'f' && a.esize == 8 && !a.swap && a.sc == 1 && a.si == a.C &&
                     ((uintptr_t)a.data % alignof(double)) == 0 && cols.map.size() == a.C;
     if (identity) {
         uint32_t nu = 0, ny = 0;

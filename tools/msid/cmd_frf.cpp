@@ -88,7 +88,7 @@ int cmd_frf(int argc, char **argv)
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
     std::vector<Record> recs;
-    for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols));
+    for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols, true));   // read via data()
     if (!a.has("direct")) check_records(rq, recs);
     if (auto_period) {
         std::string rep;

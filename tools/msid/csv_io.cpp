@@ -231,59 +231,55 @@ inline uint64_t eight_value(uint64_t w)   // little-endian: first char in the lo
 
 inline bool digit(char c) { return (unsigned)(c - '0') < 10u; }
 
-// `slow` is set when std::from_chars was needed (only then can v be non-finite).
+// The general path: std::from_chars (correctly rounded; inf/nan parse and are
+// rejected by the caller). Kept out of line so the fast path stays in registers.
+__attribute__((noinline)) const char *parse_slow(const char *s, const char *end, double &v, bool &slow_path)
+{
+    slow_path = true;
+    auto res = std::from_chars(s, end, v);
+    return res.ec == std::errc() ? res.ptr : nullptr;
+}
+
+// `slow_path` is set when std::from_chars was needed (only then can v be non-finite).
 inline const char *parse_double(const char *p, const char *end, double &v, bool &slow_path)
 {
     const char *s = p;
     const bool neg = *p == '-';
-    if (neg) ++p;
-    uint64_t m = 0;   // kept below 10^15 < 2^53: exact
-    int e10 = 0;
+    p += neg;
+    uint64_t m = 0;
     const char *d0 = p;
-    while (digit(*p)) {
-        if (m >= 100000000000000ull) goto slow;
-        m = m * 10 + (uint64_t)(*p - '0');
-        ++p;
-    }
-    {
-        bool any = p != d0;
-        if (*p == '.') {
-            ++p;
-            const char *f0 = p;
-            uint64_t w;
-            while (p + 8 <= end && m < 10000000ull && (std::memcpy(&w, p, 8), eight_digits(w))) {
-                m = m * 100000000ull + eight_value(w);
-                p += 8;
-            }
-            while (digit(*p)) {
-                if (m >= 100000000000000ull) goto slow;
-                m = m * 10 + (uint64_t)(*p - '0');
-                ++p;
-            }
-            e10 = -(int)(p - f0);
-            any = any || p != f0;
+    while (digit(*p)) m = m * 10 + (uint64_t)(*p++ - '0');
+    size_t nd = (size_t)(p - d0);
+    int e10 = 0;
+    if (*p == '.') {
+        const char *f0 = ++p;
+        uint64_t w;
+        if (p + 8 <= end && (std::memcpy(&w, p, 8), eight_digits(w)) && nd <= 7) {
+            m = m * 100000000ull + eight_value(w);
+            p += 8;
         }
-        if (!any) goto slow;   // inf, nan, or not a number
-        if (*p == 'e' || *p == 'E') {
-            const char *q = p + 1;
-            bool en = false;
-            if (*q == '-' || *q == '+') { en = *q == '-'; ++q; }
-            if (!digit(*q)) goto slow;
-            int x = 0;
-            while (digit(*q)) { if (x < 10000) x = x * 10 + (*q - '0'); ++q; }
-            e10 += en ? -x : x;
-            p = q;
-        }
-        if (e10 < -22 || e10 > 22) goto slow;
-        double d = (double)m;
-        d = e10 < 0 ? d / POW10[-e10] : d * POW10[e10];
-        v = neg ? -d : d;
-        return p;
+        while (digit(*p)) m = m * 10 + (uint64_t)(*p++ - '0');
+        e10 = -(int)(p - f0);
+        nd += (size_t)(p - f0);
     }
-slow:
-    slow_path = true;
-    auto res = std::from_chars(s, end, v);
-    return res.ec == std::errc() ? res.ptr : nullptr;
+    // at most 15 digits (leading zeros included): m < 10^15 < 2^53, exact
+    if (nd == 0 || nd > 15) return parse_slow(s, end, v, slow_path);
+    if ((*p | 0x20) == 'e') {
+        const char *q = p + 1;
+        const bool en = *q == '-';
+        q += (*q == '-' || *q == '+');
+        if (!digit(*q)) return parse_slow(s, end, v, slow_path);
+        int x = 0;
+        while (digit(*q) && x < 10000) x = x * 10 + (*q++ - '0');
+        if (digit(*q)) return parse_slow(s, end, v, slow_path);
+        e10 += en ? -x : x;
+        p = q;
+    }
+    if (e10 < -22 || e10 > 22) return parse_slow(s, end, v, slow_path);
+    const double d = (double)m;
+    const double r = e10 < 0 ? d / POW10[-e10] : d * POW10[e10];
+    v = neg ? -r : r;
+    return p;
 }
 
 struct CsvLayout {
@@ -331,7 +327,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         }
         if (out.first_blank) out.row_after_blank = true;
         p = ls;
-        if (out.n >= out.cap) {   // cannot happen: rows <= newlines counted
+        if (out.n >= out.cap) {   // cannot happen: see the row bound in read_record_csv
             out.err = fmt("'%s': internal error: row count", L.path->c_str());
             return;
         }
@@ -495,17 +491,21 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
         cut.push_back(q ? q + 1 : end);
     }
     cut.push_back(end);
-    // Each part writes its rows straight into the record, at an offset given by
-    // the newlines before it (an upper bound on its rows: blank lines are
-    // squeezed out afterwards).
+    // Room by an upper bound, without a counting pass: a row holds at least
+    // max(cells, 2 C) bytes (each mapped number a character and a delimiter or
+    // newline). Pages never written are never touched (no zero fill). Part 0
+    // writes into the record, the others into their own buffers, appended after.
+    const size_t row_min = std::max(L.names.size(), 2 * L.C);
     std::vector<Chunk> ch(nt_);
-    size_t total = 0;
-    for (unsigned k = 0; k < nt_; ++k) {
-        ch[k].cap = (size_t)std::count(cut[k], cut[k + 1], '\n');
-        total += ch[k].cap;
+    std::vector<Samples> part(nt_);
+    r.rows.resize((bytes / row_min + 1) * L.C);
+    ch[0].rows = r.rows.data();
+    ch[0].cap = bytes / row_min + 1;
+    for (unsigned k = 1; k < nt_; ++k) {
+        ch[k].cap = (size_t)(cut[k + 1] - cut[k]) / row_min + 1;
+        part[k].resize(ch[k].cap * L.C);
+        ch[k].rows = part[k].data();
     }
-    r.rows.resize(total * L.C);
-    for (size_t k = 0, off = 0; k < nt_; off += ch[k].cap, ++k) ch[k].rows = r.rows.data() + off * L.C;
     if (nt_ == 1) parse_chunk(L, cut[0], cut[1], ch[0]);
     else {
         std::vector<std::thread> th;
@@ -525,10 +525,10 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
     }
     for (auto &c : ch) {
         if (c.n && c.rows != r.rows.data() + r.n_rows * L.C)
-            std::memmove(r.rows.data() + r.n_rows * L.C, c.rows, c.n * L.C * sizeof(double));
+            std::memcpy(r.rows.data() + r.n_rows * L.C, c.rows, c.n * L.C * sizeof(double));
         r.n_rows += c.n;
     }
-    r.rows.resize(r.n_rows * L.C);
+    r.rows.resize(r.n_rows * L.C);   // shrinks in place; the untouched tail was never faulted in
     if (r.n_rows == 0) throw Error("'" + path + "' has a header but no samples");
     return r;
 }
@@ -542,9 +542,9 @@ static bool ends_with(const std::string &s, const char *suf)
     return true;
 }
 
-Record read_experiment(const std::string &path, const ColumnMap &cols)
+Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
 {
-    if (ends_with(path, ".npy")) return read_record_npy(path, cols);
+    if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy);
     if (ends_with(path, ".npz")) return read_record_npz(path, cols);
     if (ends_with(path, ".mat")) return read_record_mat(path, cols);
     return read_record_csv(path, cols);

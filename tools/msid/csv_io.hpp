@@ -38,10 +38,11 @@ struct Record {
     std::string path;
     uint32_t nu = 0, ny = 0;
     size_t n_rows = 0;
-    Samples rows;                        // n_rows * (nu + ny), row-major (empty when `view` is set)
+    Samples rows;                        // n_rows * (nu + ny), row-major (empty only when `view` is set)
     std::vector<std::string> columns;    // nu + ny names in the file, in row order (u1.., y1..)
-    // Zero-copy records (a C-order float64 .npy whose columns are u1.., y1.. in
-    // order): the samples stay in the mapped file, kept alive by `keep`.
+    // Zero-copy records (read_experiment(..., zero_copy = true) of a C-order
+    // float64 .npy whose columns are u1.., y1.. in order): the samples stay in
+    // the mapped file, kept alive by `keep`, and `rows` is empty.
     const double *view = nullptr;
     std::shared_ptr<const void> keep;
     // The n_rows x (nu + ny) samples, row-major: use this, not `rows`.
@@ -65,7 +66,9 @@ ColumnMap parse_column_map(const std::string &spec);
 // or unreadable file, unknown or duplicate column, ragged row, non-numeric
 // cell, NaN/Inf, truncated binary) throws one Error naming the file, the row
 // (CSV: line) and the column or variable. See README "CSV records".
-Record read_experiment(const std::string &path, const ColumnMap &cols = {});
+// `rows` always holds the samples, unless zero_copy is set: then a plain .npy
+// may be used in place (read the samples through data()).
+Record read_experiment(const std::string &path, const ColumnMap &cols = {}, bool zero_copy = false);
 
 // The CSV reader alone (read_experiment dispatches to it).
 Record read_record_csv(const std::string &path, const ColumnMap &cols = {});
@@ -106,7 +109,7 @@ private:
 };
 
 // Binary readers (array_io.cpp).
-Record read_record_npy(const std::string &path, const ColumnMap &cols);
+Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero_copy);
 Record read_record_npz(const std::string &path, const ColumnMap &cols);
 Record read_record_mat(const std::string &path, const ColumnMap &cols);
 
