@@ -67,7 +67,7 @@ BlaSummary bla_summary(const std::vector<BlaLine> &lines)
         nn += l.cov_noise.diagonal().real().sum();
     }
     s.p_value = fisher_combined(p, &s.entries, &s.significant);
-    s.detected = s.p_value < 0.01;
+    s.detected = s.p_value < BLA_DETECT_ALPHA;
     s.nl_to_noise_db = nl > 0 && nn > 0 ? 10.0 * std::log10(nl / nn) : NAN;
     return s;
 }

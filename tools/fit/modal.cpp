@@ -6,7 +6,20 @@
 
 namespace msidfit {
 
-std::vector<Mode> modes_of(const SSModel &m, double h)
+SSModel lmfd_realise_scaled(const LmfdModel &m, double *ws)
+{
+    *ws = 1.0;
+    if (m.domain != Domain::CT || m.nD == 0) return lmfd_to_ss(m);
+    const double det = std::abs(m.Dm[(size_t)m.nD - 1].determinant());
+    if (!(det > 0) || !std::isfinite(det)) return lmfd_to_ss(m);
+    *ws = std::pow(det, -1.0 / (double)(m.ny() * (size_t)m.nD));
+    LmfdModel t = m;   // coefficients of s~ = s / ws
+    for (int i = 1; i <= m.nD; ++i) t.Dm[(size_t)i - 1] *= std::pow(*ws, i);
+    for (int j = 0; j <= m.nN; ++j) t.Nm[(size_t)j] *= std::pow(*ws, j);
+    return lmfd_to_ss(t);
+}
+
+std::vector<Mode> modes_of(const SSModel &m, double h, double xscale)
 {
     std::vector<Mode> out;
     const Eigen::Index n = m.A.rows();
@@ -23,13 +36,13 @@ std::vector<Mode> modes_of(const SSModel &m, double h)
         const bool isreal = std::abs(l.imag()) <= 1e-12 * scale;
         if (!isreal && l.imag() < 0) continue;   // the conjugate member of a pair
         Mode md;
-        md.pole = isreal ? cd(l.real(), 0.0) : l;
+        md.pole = (isreal ? cd(l.real(), 0.0) : l) * xscale;
         md.real = isreal;
         md.pole_ct = m.domain == Domain::DT ? std::log(md.pole) / hs : md.pole;
         md.wn = std::abs(md.pole_ct);
         md.fn = md.wn / (2.0 * M_PI);
         md.zeta = md.wn > 0 ? -md.pole_ct.real() / md.wn : 1.0;
-        md.residue = (Cc * V.col(k)) * (W.row(k) * Bc);
+        md.residue = (Cc * V.col(k)) * (W.row(k) * Bc) * xscale;
         if (isreal) md.residue = md.residue.real().cast<cd>();
         out.push_back(md);
     }
@@ -65,9 +78,9 @@ static const Mode &nearest(const std::vector<Mode> &ms, const Mode &ref)
 }
 
 std::vector<Mode> modes_with_sd(const std::function<SSModel(const VecR &)> &realise, const VecR &theta,
-                                const MatR &cov, double h)
+                                const MatR &cov, double h, double xscale)
 {
-    std::vector<Mode> nom = modes_of(realise(theta), h);
+    std::vector<Mode> nom = modes_of(realise(theta), h, xscale);
     if (nom.empty() || cov.rows() != theta.size()) return nom;
     const Eigen::Index np = theta.size();
     std::vector<MatR> J(nom.size());
@@ -75,11 +88,13 @@ std::vector<Mode> modes_with_sd(const std::function<SSModel(const VecR &)> &real
     for (Eigen::Index i = 0; i < np; ++i) {
         const double sd = std::sqrt(std::max(0.0, cov(i, i)));
         if (!(sd > 0) || !std::isfinite(sd)) continue;
-        const double st = 1e-4 * sd;
+        // step: small against sd (linearisation error O(step^2)) but large against the rounding
+        // error of the eigenvalues of a companion realisation (condition numbers of 1e6 and more)
+        const double st = 1e-2 * sd;
         VecR tp = theta, tm = theta;
         tp(i) += st;
         tm(i) -= st;
-        const std::vector<Mode> mp = modes_of(realise(tp), h), mm = modes_of(realise(tm), h);
+        const std::vector<Mode> mp = modes_of(realise(tp), h, xscale), mm = modes_of(realise(tm), h, xscale);
         if (mp.empty() || mm.empty()) continue;
         for (size_t k = 0; k < nom.size(); ++k)
             J[k].col(i) = (mode_vec(nearest(mp, nom[k])) - mode_vec(nearest(mm, nom[k]))) / (2.0 * st);

@@ -9,7 +9,7 @@
 // Residues: with A = V diag(lambda) V^-1, R_k = (C v_k)(w_k^T B) (w_k^T the
 // k-th row of V^-1), so G(x) = D + sum_k R_k / (x - x_k), x = s (CT) or z (DT).
 // Standard deviations: sd(q) = sqrt(J Sigma_theta J^T), J = dq/dtheta by central
-// differences of the eigen-decomposition with steps of 1e-4 sd(theta_i)
+// differences of the eigen-decomposition with steps of 1e-2 sd(theta_i)
 // (delta method, first order; Pintelon & Schoukens 2012 §7.2 on the
 // variance of derived quantities).
 #pragma once
@@ -33,11 +33,18 @@ struct Mode {
 
 // Poles and residues of a state-space model, sorted by natural frequency,
 // pairs reported once (Im >= 0). h: sample time of a DT model (0: unknown).
-std::vector<Mode> modes_of(const SSModel &m, double h);
+// xscale: the model is in the scaled variable x / xscale (CT only): poles and
+// residues are multiplied by xscale.
+std::vector<Mode> modes_of(const SSModel &m, double h, double xscale = 1.0);
+
+// Realisation of a CT LMFD in the scaled variable s / ws with ws = |det D_nD|^(-1/(ny nD))
+// (the geometric mean of the pole magnitudes): well-conditioned companion eigenvalues.
+// Returns the realisation and sets *ws (1 for DT, where z^-1 needs no scaling).
+SSModel lmfd_realise_scaled(const LmfdModel &m, double *ws);
 
 // Modes with standard deviations: `realise` maps the parameter vector to a
 // state-space model, theta is the estimate, cov its covariance.
 std::vector<Mode> modes_with_sd(const std::function<SSModel(const VecR &)> &realise, const VecR &theta,
-                                const MatR &cov, double h);
+                                const MatR &cov, double h, double xscale = 1.0);
 
 }  // namespace msidfit

@@ -69,15 +69,21 @@ ModalReport modal_report(const Json &j)
     VecR th(np);
     for (Eigen::Index i = 0; i < np; ++i) th(i) = p.at("values").at((size_t)i).get<double>();
     const MatR cov = jmat(p.at("cov"), np, np);
+    double ws = 1.0;
+    lmfd_realise_scaled(base, &ws);   // one frequency scale for every perturbation
     auto realise = [&](const VecR &t) {
         LmfdModel m = base;
         for (Eigen::Index i = 0; i < np; ++i) {
             const Slot &s = slots[(size_t)i];
             (s.mat == 'D' ? m.Dm[(size_t)s.index - 1] : m.Nm[(size_t)s.index])(s.row, s.col) = t(i);
         }
+        if (r.domain == Domain::CT) {
+            for (int i = 1; i <= m.nD; ++i) m.Dm[(size_t)i - 1] *= std::pow(ws, i);
+            for (int i = 0; i <= m.nN; ++i) m.Nm[(size_t)i] *= std::pow(ws, i);
+        }
         return lmfd_to_ss(m);
     };
-    r.modes = modes_with_sd(realise, th, cov, r.h);
+    r.modes = modes_with_sd(realise, th, cov, r.h, ws);
     r.have_sd = true;
     r.sd_source = "delta method from the parameter covariance (inverse Fisher information) of the LMFD";
     return r;

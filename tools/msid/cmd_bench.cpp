@@ -173,8 +173,6 @@ static const char *HELP =
 
 static int bench_fit(int argc, char **argv);
 
-std::string bench_machine() { return machine(); }
-
 int cmd_bench(int argc, char **argv)
 {
     if (argc >= 3 && !std::strcmp(argv[2], "fit")) return bench_fit(argc, argv);

@@ -20,8 +20,6 @@ int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
-// CPU model, cores and kernel, for benchmark headers.
-std::string bench_machine();
 int cmd_bench_io(int argc, char **argv);
 }  // namespace msidcli
 #include <string>

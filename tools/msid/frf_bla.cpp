@@ -172,7 +172,7 @@ Json detection_distortion(const Json &doc)
     o["entries_tested"] = n;
     o["entries_significant_1pct"] = sig;
     o["p_value"] = p;   // Fisher's combination of the detection-line p-values
-    o["distortion_detected"] = o["p_value"].get<double>() < 0.01;
+    o["distortion_detected"] = p < msidfit::BLA_DETECT_ALPHA;
     o["nl_to_noise_db"] = excess > 0 ? Json(10.0 * std::log10(excess)) : Json(nullptr);
     return o;
 }
