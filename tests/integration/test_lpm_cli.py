@@ -57,6 +57,21 @@ def test_lpm_siso_matches_peer_and_truth(tmp_path):
     assert 0.90 < np.mean(z <= f95) < 0.99
 
 
+def test_lpm_deterministic_over_threads(tmp_path):
+    # same samples -> bit-identical file, whatever the thread split (the bins 2x2 of 9000 samples
+    # cross several blocks and thread ranges)
+    rng = np.random.default_rng(9)
+    u = rng.standard_normal((9000, 2))
+    y = np.column_stack([lfilter(B, A, u[:, 0]) + u[:, 1], lfilter(B, A, u[:, 1])]) + 0.1 * rng.standard_normal((9000, 2))
+    h.write_csv(tmp_path / "e.csv", h.experiment_columns(u, y))
+    outs = []
+    for t in (1, 2, 3, 1):
+        outs.append(tmp_path / f"f{len(outs)}.json")
+        h.run_ok("frf", "--method", "lpm", "--threads", t, "--experiment", tmp_path / "e.csv", "-o", outs[-1])
+    first = outs[0].read_bytes()
+    assert all(o.read_bytes() == first for o in outs[1:])
+
+
 def test_lpm_fit_and_validate(tmp_path):
     p, _ = _siso(tmp_path, N=2048)
     out = tmp_path / "f.json"
