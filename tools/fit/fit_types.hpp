@@ -42,7 +42,7 @@ struct FrfData {
     Domain domain = Domain::DT;
     double h = 0.0;           // sample time (0: unknown)
     MatC noise_time;          // ny x ny
-    // "periodic" (default), "lpm" or "etfe": the host estimators pool one noise
+    // "periodic" (default), "direct", "lpm" or "etfe": lpm and etfe pool one noise
     // covariance per line (cov = M^T kron C_v, one Wishart with `dof`), so their dof is
     // not split over the experiments like the periodic nonparametric covariance's
     std::string method = "periodic";

@@ -161,7 +161,7 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
             // rank-one design factors: its inverse splits over the experiments, so its inverse moments
             // are those of one experiment's Wishart (K_e - 1 = dof/m dof for balanced designs), not of
             // the pooled dof. With one input the factors are scalars and the pooled dof applies.
-            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method == "periodic") wl.dof = l.dof / f.m;
+            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method != "lpm" && f.method != "etfe") wl.dof = l.dof / f.m;
         }
         // Hermitian part; real lines: real covariance
         MatC H = 0.5 * (C + C.adjoint());
