@@ -163,6 +163,8 @@ struct Worker {
         std::vector<cd> cc((size_t)ng * nr), dd((size_t)ny * nr);
         std::vector<cd> A((size_t)ng * ng), Lc((size_t)ng * ng), B((size_t)ng * ny), Z((size_t)ng * ny), X((size_t)ng * ny);
         std::vector<cd> YY((size_t)ny * ny), Li((size_t)nu * nu), M((size_t)nu * nu);
+        std::vector<double> invd(ng);
+        const double inv_q = 1.0 / (double)res.q;
         for (size_t bi = i0; bi < i1; ++bi) {
             const size_t k = res.bins[bi];
             const size_t w0 = std::min(std::max(k, (size_t)W + 1) - W, Kmax - 2 * W);
@@ -249,12 +251,13 @@ struct Worker {
                 // a pivot below 1e-12 of its diagonal: this regressor lies in the span of the others;
                 // or an input with (almost) no power in this window against its level in the record
                 if (!(d > 1e-12 * d0) || !(d0 > pfloor[j % nu])) { singular = true; break; }
-                const double ljj = std::sqrt(d);
+                const double ljj = std::sqrt(d), inv = 1.0 / ljj;
                 Lc[(size_t)j * ng + j] = ljj;
+                invd[j] = inv;
                 for (unsigned i = j + 1; i < ng; ++i) {
                     cd v = A[(size_t)i * ng + j];
                     for (unsigned c = 0; c < j; ++c) v -= Lc[(size_t)i * ng + c] * std::conj(Lc[(size_t)j * ng + c]);
-                    Lc[(size_t)i * ng + j] = v / ljj;
+                    Lc[(size_t)i * ng + j] = v * inv;
                 }
             }
             if (singular) {
@@ -266,12 +269,13 @@ struct Worker {
                 for (unsigned a = 0; a < ng; ++a) {
                     cd v = B[(size_t)a * ny + i];
                     for (unsigned c = 0; c < a; ++c) v -= Lc[(size_t)a * ng + c] * Z[(size_t)c * ny + i];
-                    Z[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
+                    Z[(size_t)a * ny + i] = v * invd[a];
                 }
-                for (unsigned a = ng; a-- > 0;) {
+                // back substitution for the G(k) unknowns only: they are last, so they depend on each other only
+                for (unsigned a = ng; a-- > R * nu;) {
                     cd v = Z[(size_t)a * ny + i];
                     for (unsigned c = a + 1; c < ng; ++c) v -= std::conj(Lc[(size_t)c * ng + a]) * X[(size_t)c * ny + i];
-                    X[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
+                    X[(size_t)a * ny + i] = v * invd[a];
                 }
             }
             cd *G = &res.G[bi * g], *C = &res.cov[bi * g * g], *N = &res.noise[bi * ny * ny];
@@ -279,17 +283,17 @@ struct Worker {
                 for (unsigned i2 = 0; i2 < ny; ++i2) {
                     cd v = YY[(size_t)i * ny + i2];
                     for (unsigned a = 0; a < ng; ++a) v -= std::conj(Z[(size_t)a * ny + i]) * Z[(size_t)a * ny + i2];
-                    N[(size_t)i * ny + i2] = v / (double)res.q;
+                    N[(size_t)i * ny + i2] = v * inv_q;
                 }
             // M = (L22 L22^H)^-1, L22 the trailing nu x nu block: the G(k) block of A^-1
             const unsigned o = R * nu;
             std::fill(Li.begin(), Li.end(), cd(0));
             for (unsigned j = 0; j < nu; ++j) {
-                Li[(size_t)j * nu + j] = 1.0 / Lc[(size_t)(o + j) * ng + o + j].real();
+                Li[(size_t)j * nu + j] = invd[o + j];
                 for (unsigned i = j + 1; i < nu; ++i) {
                     cd v = 0;
                     for (unsigned c = j; c < i; ++c) v -= Lc[(size_t)(o + i) * ng + o + c] * Li[(size_t)c * nu + j];
-                    Li[(size_t)i * nu + j] = v / Lc[(size_t)(o + i) * ng + o + i].real();
+                    Li[(size_t)i * nu + j] = v * invd[o + i];
                 }
             }
             for (unsigned a = 0; a < nu; ++a)
