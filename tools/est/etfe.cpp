@@ -74,7 +74,7 @@ EtfeResult etfe(const Spectra &s, const EtfeConfig &c)
     // 2 9^(2m) exp(-c s^2 tr Phi / ||Phi||), c = 1/144, K = sigma_e (Gaussian); union bound over M lines.
     r.log_term = std::log(2.0 * (double)c.M / c.delta) + m * std::log(81.0);
     const double noise_factor = std::sqrt((double)ny) + 24.0 * std::sqrt(r.log_term);
-    const size_t g = (size_t)ny * nu, Np = r.Np;
+    const size_t Np = r.Np;
     for (size_t l = c.l_lo; l <= l_hi; ++l) {
         const size_t k = l * Np;
         MatC U(nu, m), Y(ny, m), Phi = MatC::Zero(ny, ny);
@@ -112,7 +112,6 @@ EtfeResult etfe(const Spectra &s, const EtfeConfig &c)
                     for (unsigned i2 = 0; i2 < ny; ++i2) r.cov.push_back(Phi(i, i2) * Minv(j2, j));
         for (unsigned i = 0; i < ny; ++i)
             for (unsigned i2 = 0; i2 < ny; ++i2) r.noise.push_back(Phi(i, i2));
-        (void)g;
         const double phi_op = Eigen::SelfAdjointEigenSolver<MatC>(Phi, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
         // eq. (12) with the unscaled DFT: ||U^+|| (||V|| + ||T||), ||V|| <= sqrt(||Phi||) noise_factor (eq. 25),
         // ||T|| <= sqrt(m) 2 ||G||_* D_u (Lemma 2 per experiment, times sqrt(m) for the stacked columns)

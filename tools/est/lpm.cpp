@@ -73,6 +73,13 @@ inline void moments(const cd *x, const double *wT, unsigned stride, unsigned n, 
     for (unsigned a = 0; a < na; ++a) out[a] = cd(sr[a], si[a]);
 }
 
+// The first index >= i (or bins.size()) whose bin is a multiple of 16.
+inline size_t align16(const std::vector<size_t> &bins, size_t i)
+{
+    if (i >= bins.size()) return bins.size();
+    return std::min(bins.size(), i + (16 - bins[i] % 16) % 16);
+}
+
 struct Worker {
     const Spectra &S;
     const LpmConfig &cfg;
@@ -89,10 +96,16 @@ struct Worker {
     // orthonormal basis Q (equivalently: projecting onto the complement of the polynomials).
     std::vector<cd> seq;         // products of the spectra over one block of bins (reused)
 
-    // Blocks of 2048 bins keep the spectra products in cache.
+    // Blocks of about 2048 bins keep the spectra products in cache. Blocks (and the thread
+    // ranges, see lpm()) start at the band start or at a bin that is a multiple of 16, where
+    // the moments are recomputed anyway: results do not depend on the threads or blocks.
     void run(size_t i0, size_t i1)
     {
-        for (size_t b0 = i0; b0 < i1 && !bad_bin; b0 += 2048) run_block(b0, std::min(i1, b0 + 2048));
+        for (size_t b0 = i0; b0 < i1 && !bad_bin;) {
+            const size_t b1 = std::min(i1, align16(res.bins, b0 + 2048));
+            run_block(b0, b1);
+            b0 = b1;
+        }
     }
 
     void run_block(size_t i0, size_t i1)
@@ -135,7 +148,7 @@ struct Worker {
         for (unsigned p = 0; p < npy; ++p) naq.push_back(1);
         std::vector<cd> mom((size_t)m * nseq * na), dl(na);
         // Sliding the interior window by one bin: S_a(k+1) = sum_b C(a,b) (-1/W)^(a-b) D_b with
-        // D_b = S_b(k) - (-1)^b p(k-W) + ((W+1)/W)^b p(k+W+1); recomputed directly every 16 bins.
+        // D_b = S_b(k) - (-1)^b p(k-W) + ((W+1)/W)^b p(k+W+1); recomputed directly at bins k % 16 == 0.
         std::vector<double> bino((size_t)na * na, 0.0), vout(na), vin(na);
         for (unsigned a = 0; a < na; ++a) {
             double c = 1;   // C(a, b) (-1/W)^(a-b), b = a down to 0
@@ -146,10 +159,12 @@ struct Worker {
             vout[a] = a % 2 ? -1.0 : 1.0;
             vin[a] = std::pow((W + 1.0) / W, (double)a);
         }
-        size_t prev_k = 0, since = 0;
+        size_t prev_k = 0;
         std::vector<cd> cc((size_t)ng * nr), dd((size_t)ny * nr);
         std::vector<cd> A((size_t)ng * ng), Lc((size_t)ng * ng), B((size_t)ng * ny), Z((size_t)ng * ny), X((size_t)ng * ny);
         std::vector<cd> YY((size_t)ny * ny), Li((size_t)nu * nu), M((size_t)nu * nu);
+        std::vector<double> invd(ng);
+        const double inv_q = 1.0 / (double)res.q;
         for (size_t bi = i0; bi < i1; ++bi) {
             const size_t k = res.bins[bi];
             const size_t w0 = std::min(std::max(k, (size_t)W + 1) - W, Kmax - 2 * W);
@@ -159,8 +174,7 @@ struct Worker {
             std::fill(B.begin(), B.end(), cd(0));
             std::fill(YY.begin(), YY.end(), cd(0));
             const bool interior = w0 + W == k;
-            const bool slide = interior && prev_k + 1 == k && since < 16;
-            since = slide ? since + 1 : 0;
+            const bool slide = interior && prev_k + 1 == k && k % 16 != 0;
             prev_k = interior ? k : 0;
             for (unsigned e = 0; e < m; ++e)
                 for (size_t q = 0; q < nseq; ++q) {
@@ -237,12 +251,13 @@ struct Worker {
                 // a pivot below 1e-12 of its diagonal: this regressor lies in the span of the others;
                 // or an input with (almost) no power in this window against its level in the record
                 if (!(d > 1e-12 * d0) || !(d0 > pfloor[j % nu])) { singular = true; break; }
-                const double ljj = std::sqrt(d);
+                const double ljj = std::sqrt(d), inv = 1.0 / ljj;
                 Lc[(size_t)j * ng + j] = ljj;
+                invd[j] = inv;
                 for (unsigned i = j + 1; i < ng; ++i) {
                     cd v = A[(size_t)i * ng + j];
                     for (unsigned c = 0; c < j; ++c) v -= Lc[(size_t)i * ng + c] * std::conj(Lc[(size_t)j * ng + c]);
-                    Lc[(size_t)i * ng + j] = v / ljj;
+                    Lc[(size_t)i * ng + j] = v * inv;
                 }
             }
             if (singular) {
@@ -254,12 +269,13 @@ struct Worker {
                 for (unsigned a = 0; a < ng; ++a) {
                     cd v = B[(size_t)a * ny + i];
                     for (unsigned c = 0; c < a; ++c) v -= Lc[(size_t)a * ng + c] * Z[(size_t)c * ny + i];
-                    Z[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
+                    Z[(size_t)a * ny + i] = v * invd[a];
                 }
-                for (unsigned a = ng; a-- > 0;) {
+                // back substitution for the G(k) unknowns only: they are last, so they depend on each other only
+                for (unsigned a = ng; a-- > R * nu;) {
                     cd v = Z[(size_t)a * ny + i];
                     for (unsigned c = a + 1; c < ng; ++c) v -= std::conj(Lc[(size_t)c * ng + a]) * X[(size_t)c * ny + i];
-                    X[(size_t)a * ny + i] = v / Lc[(size_t)a * ng + a].real();
+                    X[(size_t)a * ny + i] = v * invd[a];
                 }
             }
             cd *G = &res.G[bi * g], *C = &res.cov[bi * g * g], *N = &res.noise[bi * ny * ny];
@@ -267,17 +283,17 @@ struct Worker {
                 for (unsigned i2 = 0; i2 < ny; ++i2) {
                     cd v = YY[(size_t)i * ny + i2];
                     for (unsigned a = 0; a < ng; ++a) v -= std::conj(Z[(size_t)a * ny + i]) * Z[(size_t)a * ny + i2];
-                    N[(size_t)i * ny + i2] = v / (double)res.q;
+                    N[(size_t)i * ny + i2] = v * inv_q;
                 }
             // M = (L22 L22^H)^-1, L22 the trailing nu x nu block: the G(k) block of A^-1
             const unsigned o = R * nu;
             std::fill(Li.begin(), Li.end(), cd(0));
             for (unsigned j = 0; j < nu; ++j) {
-                Li[(size_t)j * nu + j] = 1.0 / Lc[(size_t)(o + j) * ng + o + j].real();
+                Li[(size_t)j * nu + j] = invd[o + j];
                 for (unsigned i = j + 1; i < nu; ++i) {
                     cd v = 0;
                     for (unsigned c = j; c < i; ++c) v -= Lc[(size_t)(o + i) * ng + o + c] * Li[(size_t)c * nu + j];
-                    Li[(size_t)i * nu + j] = v / Lc[(size_t)(o + i) * ng + o + i].real();
+                    Li[(size_t)i * nu + j] = v * invd[o + i];
                 }
             }
             for (unsigned a = 0; a < nu; ++a)
@@ -361,8 +377,9 @@ LpmResult lpm(const Spectra &s, const LpmConfig &c)
     }
     std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor, 0, {}});
     std::vector<std::thread> th;
-    for (unsigned t = 1; t < T; ++t) th.emplace_back([&, t] { wk[t].run(nb * t / T, nb * (t + 1) / T); });
-    wk[0].run(0, nb / T);
+    auto split = [&](unsigned t) { return t == 0 ? 0 : t == T ? nb : align16(res.bins, nb * t / T); };
+    for (unsigned t = 1; t < T; ++t) th.emplace_back([&, t] { wk[t].run(split(t), split(t + 1)); });
+    wk[0].run(0, split(1));
     for (auto &x : th) x.join();
     for (const auto &w : wk)
         if (w.bad_bin) {

@@ -43,7 +43,7 @@ struct FrfData {
     double h = 0.0;           // sample time (0: unknown)
     uint32_t realisations = 1;  // robust BLA file (msid frf --realisations): cov is a plain sample covariance
     MatC noise_time;          // ny x ny
-    // "periodic" (default), "lpm" or "etfe": the host estimators pool one noise
+    // "periodic" (default), "direct", "lpm" or "etfe": lpm and etfe pool one noise
     // covariance per line (cov = M^T kron C_v, one Wishart with `dof`), so their dof is
     // not split over the experiments like the periodic nonparametric covariance's
     std::string method = "periodic";

@@ -168,7 +168,8 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
             // rank-one design factors: its inverse splits over the experiments, so its inverse moments
             // are those of one experiment's Wishart (K_e - 1 = dof/m dof for balanced designs), not of
             // the pooled dof. With one input the factors are scalars and the pooled dof applies.
-            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method == "periodic" && f.realisations < 2) wl.dof = l.dof / f.m;
+            if (w == Weight::Cov && f.nu > 1 && f.m > 1 && f.method != "lpm" && f.method != "etfe" && f.realisations < 2)
+                wl.dof = l.dof / f.m;
             // A robust-BLA file's cov is a plain sample covariance of the g = ny nu vector (R - 1 dof):
             // its inverse moment is n/(n - g); dof/nu gives that mean in the laws written for p = ny.
             if (w == Weight::Cov && f.nu > 1 && f.realisations >= 2) wl.dof = l.dof / f.nu;

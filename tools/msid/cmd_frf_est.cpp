@@ -31,7 +31,9 @@ static const char *HELP_EST =
     "  --period M       input period in samples; the record holds Np >= 2 whole periods\n"
     "  --delta D        failure probability of the bound, jointly over the M lines (default 0.05)\n"
     "  --gstar S        ||G||_* = sum_t t ||g_t||, adds the transient term of the bound (default: left out)\n"
-    "  --band F1:F2     lines in [F1, F2]: Hz with --fs, else cycles/sample (default: all, DC excluded)\n"
+    "  --band F1:F2     lines in [F1, F2]: Hz with --fs, else cycles/sample (default: all, DC excluded;\n"
+    "                   long records give N/2 lines, each with its covariance: narrow the band)\n"
+    "  --threads T      split the bins over T threads (default: up to 2); results do not depend on T\n"
     "  --experiment     CSV with header u1..u<nu>, y1..y<ny>; lpm: any m >= 1 records of equal length;\n"
     "                   etfe: m >= nu records\n";
 
