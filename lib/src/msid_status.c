@@ -30,7 +30,8 @@ const char *msid_strerror(msid_status s)
     case MSID_E_NOT_FINITE: return "a value that must be finite is NaN or infinite";
     case MSID_E_RANGE: return "the data's magnitudes are beyond what double precision can process at a line (|U| or |Y| "
                               "near 1e150 or 1e-150): rescale the records, e.g. change their units";
-    case MSID_E_COUNT_: break;
+    case MSID_E_COUNT_:
+    case MSID_STATUS_FORCE_INT_: break;
     }
     return "unknown msid status";
 }

@@ -89,7 +89,8 @@ int cmd_frf(int argc, char **argv)
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
     std::vector<Record> recs;
     for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols, true));   // read via data()
-    if (!a.has("direct")) check_records(rq, recs);
+    // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
+    if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
     if (auto_period) {
         std::string rep;
         rq.period = find_period(recs, rep);

@@ -36,7 +36,10 @@ typedef enum msid_status {
     MSID_E_BACKEND,            /**< the FFT backend failed or does not match the period */
     MSID_E_NOT_FINITE,         /**< a value that must be finite is NaN or infinite */
     MSID_E_RANGE,              /**< magnitudes beyond what double precision can process (e.g. data scaled by 1e150) */
-    MSID_E_COUNT_              /**< number of codes (not a status) */
+    MSID_E_COUNT_,             /**< number of codes (not a status) */
+    /** Not a status: keeps the enum int-sized where the ABI packs enums (arm-none-eabi's
+     *  -fshort-enums default), so any int converts to msid_status without truncation. */
+    MSID_STATUS_FORCE_INT_ = 0x7fffffff
 } msid_status;
 
 /**
