@@ -176,8 +176,9 @@ static void report_body(FILE *f)
             (unsigned long long)CNT.dropped, (unsigned long long)CNT.duplicated, (unsigned long long)CNT.reordered,
             (unsigned long long)CNT.malformed, (unsigned long long)CNT.error_frames, (unsigned long long)CNT.bus_off,
             (unsigned long long)CNT.busoff_samples, (unsigned long long)CNT.restarts);
-    fprintf(f, " \"rate_hz\": %u, \"paced_waits\": %llu, \"late_samples\": %llu,\n", configured ? CFG.rate_hz : 0,
-            (unsigned long long)CNT.paced_waits, (unsigned long long)CNT.late_samples);
+    fprintf(f, " \"rate_hz\": %u, \"paced_waits\": %llu, \"late_samples\": %llu, \"early_samples\": %llu,\n",
+            configured ? CFG.rate_hz : 0, (unsigned long long)CNT.paced_waits, (unsigned long long)CNT.late_samples,
+            (unsigned long long)CNT.early_samples);
     fprintf(f, " \"tx_busy\": %llu, \"send_retries\": %llu}\n", (unsigned long long)CNT.tx_busy,
             (unsigned long long)CAN.st.send_retries);
 }
@@ -682,7 +683,9 @@ int main(int argc, char **argv)
                 clock_gettime(CLOCK_MONOTONIC, &now);
                 if (now.tv_sec < dl.tv_sec || (now.tv_sec == dl.tv_sec && now.tv_nsec < dl.tv_nsec)) CNT.paced_waits++;
                 else CNT.late_samples++;   /* behind its clock (a loaded machine): sent at once */
-                clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL);
+                while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &dl, NULL) == EINTR && !stop_flag) {}
+                clock_gettime(CLOCK_MONOTONIC, &now);
+                if (now.tv_sec < dl.tv_sec || (now.tv_sec == dl.tv_sec && now.tv_nsec < dl.tv_nsec)) CNT.early_samples++;
             }
             if ((n_sample & 63) == 0) poll_host(0);
             if (state == MSID_CAN_STATE_RUNNING) run_step();

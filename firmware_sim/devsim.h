@@ -61,6 +61,7 @@ typedef struct sim_counts {
     uint64_t dropped, duplicated, reordered, malformed, error_frames, bus_off, restarts, tx_busy;
     uint64_t busoff_samples;         /* samples not sent while bus-off */
     uint64_t paced_waits, late_samples;  /* --rate: samples that waited for their deadline / found it passed */
+    uint64_t early_samples;              /* --rate: samples sent before their deadline (never, if paced) */
     uint32_t experiments_done;
 } sim_counts;
 

@@ -83,3 +83,77 @@ def test_replay_missing_file_and_bad_options(tmp_path):
     assert r.returncode == 2 and "unknown subcommand" in r.stderr
     r = c.run("can", "--help")
     assert r.returncode == 0 and "msid can measure" in r.stdout
+
+
+# ---- hostile logs (issue 15 #1, #4): a msid-can/1 log written here, frame by frame ----
+
+def _frame(t, fid, data):
+    return f"({t:.6f}) vcan0 {fid:03X}#{bytes(data).hex().upper()}"
+
+
+def _cfg_frames(periods, P=64, bins=(1, 3, 5), seed=7):
+    import struct
+    import zlib
+    recs = [(0x01, 1, 0), (0x02, 0, P), (0x03, 0, len(bins)), (0x04, 0, 1), (0x05, 0, 1), (0x06, 0, 0),
+            (0x07, 0, 0), (0x08, 0, seed & 0xFFFFFFFF), (0x08, 1, seed >> 32)]
+    recs += [(0x09, l, b) for l, b in enumerate(bins)]
+    recs += [(0x10, 0, 1), (0x11, 0, struct.unpack("<I", struct.pack("<f", 0.001))[0]), (0x12, 0, 0), (0x13, 0, 0),
+             (0x14, 0, periods)]
+    out, crc = [], 0
+    for p, idx, v in recs:
+        d = bytes([p, idx & 0xFF, (idx >> 8) & 0xFF, idx >> 16]) + v.to_bytes(4, "little")
+        crc = zlib.crc32(d, crc)
+        out.append(d)
+    out.append(bytes([0x7F, 0, 0, 0]) + crc.to_bytes(4, "little"))
+    return out
+
+
+def _hostile_log(path, periods=4, done=None, P=64):
+    """Host CFG upload, device INFO, RUNNING(0), K P samples of a 1-input 1-output device (float32 classic,
+    2 frames per sample), DONE(0, done or K P)."""
+    import math
+    import struct
+    t, lines = 1.0, []
+    for d in _cfg_frames(periods, P):
+        lines.append(_frame(t, 0x201, d))
+        t += 1e-4
+    lines.append(_frame(t, 0x202, [1, 1, 1, 1, 0, 0, 0, 0]))
+    lines.append(_frame(t, 0x202, [0, 3, 0, 0] + list((periods * P).to_bytes(4, "little"))))
+    for n in range(periods * P):
+        u = math.cos(2 * math.pi * n / P) + math.cos(2 * math.pi * 3 * n / P + 1) + math.cos(2 * math.pi * 5 * n / P + 2)
+        row = (u, 0.5 * u + 0.01 * ((n * 7919) % 13))
+        fl = (0x40 if n % P == 0 else 0) | (0x80 if n == 0 else 0)
+        for k in range(2):
+            t += 1e-5
+            lines.append(_frame(t, 0x220 + k, [n & 0xFF, (n >> 8) & 0xFF, n >> 16, fl] + list(struct.pack("<f", row[k]))))
+    lines.append(_frame(t, 0x202, [0, 4, 0, 0] + list((done if done is not None else periods * P).to_bytes(4, "little"))))
+    write_log(path, lines)
+
+
+def test_replay_done_beyond_the_design_is_bounded(tmp_path):
+    """#1: a DONE claiming 0xFFFFFFFF samples made replay run ~50 s and exit 0 with 4.29e9 missing samples.
+    It is closed at the design's K P now: a note, nothing missing, the same FRF as the honest log."""
+    _hostile_log(tmp_path / "ok.log")
+    _hostile_log(tmp_path / "bad.log", done=0xFFFFFFFF)
+    ok = c.run("can", "replay", "--log", tmp_path / "ok.log", "--skip-periods", 1, "-o", tmp_path / "ok.json")
+    assert ok.returncode == 0, ok.stderr
+    r = c.run("can", "replay", "--log", tmp_path / "bad.log", "--skip-periods", 1, "-o", tmp_path / "bad.json")
+    assert r.returncode == 0, r.stderr
+    assert "announced more samples than the design" in r.stderr and "0 missing" in r.stdout, r.stdout + r.stderr
+    a, b = json.loads((tmp_path / "ok.json").read_text()), json.loads((tmp_path / "bad.json").read_text())
+    assert a["lines"] == b["lines"] and b["acquisition"]["samples_lost"] == 0
+    assert b["acquisition"]["malformed"] == 1
+
+
+def test_replay_upload_asking_for_absurd_periods(tmp_path):
+    """#4: an upload asking for 5,000,000 periods (valid CRC) made replay take 4.58 GB: it is not a
+    complete design upload now (2..100000 periods), one clear error, nothing written."""
+    _hostile_log(tmp_path / "big.log", periods=4)
+    lines = (tmp_path / "big.log").read_text().splitlines()
+    cfg = _cfg_frames(5000000)
+    lines[:len(cfg)] = [_frame(1.0 + 1e-4 * i, 0x201, d) for i, d in enumerate(cfg)]
+    write_log(tmp_path / "big.log", lines)
+    r = c.run("can", "replay", "--log", tmp_path / "big.log", "-o", tmp_path / "f.json")
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "no complete design upload" in r.stderr
+    assert not (tmp_path / "f.json").exists()
