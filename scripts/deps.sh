@@ -68,6 +68,18 @@ if [ -n "$need" ]; then
   [ -z "$(mb_missing)" ] || { echo "deps: pymodbus $PYMODBUS still missing" >&2; exit 1; }
 fi
 
+# scikit-rf (PyPI, pinned): VectorFitting is the independent peer of the parametric fits
+# (tests/integration/test_fit_structures.py, msid bench fit).
+SKRF=2.2.0
+skrf_missing() { python3 -c "import skrf, sys; sys.exit(skrf.__version__ != '$SKRF')" 2>/dev/null || echo "scikit-rf==$SKRF"; }
+need=$(skrf_missing)
+if [ -n "$need" ]; then
+  echo "deps: pip installing $need"
+  { python3 -m pip install -q "$need" || python3 -m pip install -q --break-system-packages "$need"; } >> deps.log 2>&1 || {
+    tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
+  [ -z "$(skrf_missing)" ] || { echo "deps: scikit-rf $SKRF still missing" >&2; exit 1; }
+fi
+
 # The vcan VM boots Debian's own kernel: the package linux-image-amd64 depends on, fetched
 # with apt-get download and unpacked with dpkg -x, once (tests/vcan/vm.py reads it there).
 VCAN_DIR=${MSID_VCAN_DIR:-/var/cache/msid-vcan/k}
