@@ -62,17 +62,27 @@ if [ -n "$need" ]; then
   [ -z "$(can_missing)" ] || { echo "deps: python modules still missing: $(can_missing)" >&2; exit 1; }
 fi
 
+# pip_pinned CHECK-FUNCTION NAME: install what CHECK-FUNCTION prints (a pinned spec) unless it prints nothing.
+pip_pinned() {
+  local need; need=$($1)
+  [ -n "$need" ] || return 0
+  echo "deps: pip installing $need"
+  { python3 -m pip install -q "$need" || python3 -m pip install -q --break-system-packages "$need"; } >> deps.log 2>&1 || {
+    tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
+  [ -z "$($1)" ] || { echo "deps: $2 still missing" >&2; exit 1; }
+}
+
 # pymodbus (PyPI, pinned; needs Python >= 3.10) with pyserial: the independent Modbus peer (tests/modbus).
 PYMODBUS=3.16.1
 mb_missing() { python3 -c "import pymodbus, serial, sys; sys.exit(pymodbus.__version__ != '$PYMODBUS')" 2>/dev/null ||
   echo "pymodbus[serial]==$PYMODBUS"; }
-need=$(mb_missing)
-if [ -n "$need" ]; then
-  echo "deps: pip installing $need"
-  { python3 -m pip install -q "$need" || python3 -m pip install -q --break-system-packages "$need"; } >> deps.log 2>&1 || {
-    tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
-  [ -z "$(mb_missing)" ] || { echo "deps: pymodbus $PYMODBUS still missing" >&2; exit 1; }
-fi
+pip_pinned mb_missing "pymodbus $PYMODBUS"
+
+# scikit-rf (PyPI, pinned): VectorFitting is the independent peer of the parametric fits
+# (tests/integration/test_fit_structures.py, msid bench fit).
+SKRF=2.2.0
+skrf_missing() { python3 -c "import skrf, sys; sys.exit(skrf.__version__ != '$SKRF')" 2>/dev/null || echo "scikit-rf==$SKRF"; }
+pip_pinned skrf_missing "scikit-rf $SKRF"
 
 # The vcan VM boots Debian's own kernel: the package linux-image-amd64 depends on, fetched
 # with apt-get download and unpacked with dpkg -x, once (tests/vcan/vm.py reads it there).

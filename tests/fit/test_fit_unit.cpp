@@ -302,7 +302,15 @@ static void errors(void **)
     s = spec(2, 2);
     LmfdModel st = lmfd_sk(w, Domain::DT, 0, s, 0);
     st.Dm[0](0, 0) += 0.3;
-    expect_error([&] { lmfd_ml(w, Domain::DT, 0, s, st, mo, true); }, "did not converge");
+    // (issue 9: not an error any more — the best iterate comes back marked not converged, with its gradient)
+    {
+        const MlResult nc = lmfd_ml(w, Domain::DT, 0, s, st, mo, true);
+        assert_false(nc.converged);
+        assert_int_equal(nc.iterations, 1);
+        assert_true(nc.grad_norm > 0 && std::isfinite(nc.cost));
+        mo.max_iter = 200;
+        assert_true(lmfd_ml(w, Domain::DT, 0, s, st, mo, true).converged);   // negative control
+    }
     // a CT file fitted with a DT model
     FrfData fc = exact_data(Domain::CT, 0.1, {1.0, 2.0, 3.0}, {MatC::Ones(1, 1), MatC::Ones(1, 1), MatC::Ones(1, 1)}, 1e-3);
     expect_error([&] { weigh(fc, Domain::DT, Weight::Cov); }, "continuous-time FRF");

@@ -179,9 +179,18 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
         if (l.real) H = H.real().cast<cd>();
         Eigen::LLT<MatC> llt(H);
         const double scale = H.diagonal().real().cwiseAbs().maxCoeff();
-        if (llt.info() != Eigen::Success || !(scale > 0) || !std::isfinite(scale))
+        if (llt.info() != Eigen::Success || !(scale > 0) || !std::isfinite(scale)) {
+            // a sample covariance of ny outputs from M periods has rank <= M - 1: name that cause
+            if (w != Weight::None && noise_var <= 0.0 && wl.dof < (double)f.ny && scale > 0 && std::isfinite(scale))
+                throw FitError("'" + f.path + "': the covariance rests on " + std::to_string(std::lround(wl.dof + 1)) +
+                               " periods per experiment, too few for " + std::to_string(f.ny) +
+                               " outputs (singular at line bin " + std::to_string(l.bin) +
+                               "): weighting by the inverse sample covariance needs M >= 4 (Pintelon 2002, Theorem 2) "
+                               "and M > " + std::to_string(f.ny) + " for " + std::to_string(f.ny) +
+                               " outputs; measure more periods or use --weight none");
             throw FitError("'" + f.path + "': singular weights at line bin " + std::to_string(l.bin) +
                            " (covariance not positive definite)");
+        }
         MatC Lm = llt.matrixL();
         const double dmin = Lm.diagonal().real().minCoeff(), dmax = Lm.diagonal().real().maxCoeff();
         if (!(dmin > 1e-8 * dmax))

@@ -399,6 +399,37 @@ static Eigen::Index n_residuals(const Prob &P, const std::vector<WeightedLine> &
     return n;
 }
 
+MatR fisher_cov(const MatR &J, int &rank)
+{
+    MatR JtJ = MatR::Zero(J.cols(), J.cols());
+    JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+    JtJ = JtJ.selfadjointView<Eigen::Lower>();
+    const VecR sd = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt();
+    Eigen::SelfAdjointEigenSolver<MatR> es(sd.cwiseInverse().asDiagonal() * JtJ * sd.cwiseInverse().asDiagonal());
+    const VecR ev = es.eigenvalues();
+    const double tol = 1e-12 * std::max(ev.maxCoeff(), 1e-300) * (double)ev.size();
+    VecR inv(ev.size());
+    rank = 0;
+    for (Eigen::Index k = 0; k < ev.size(); ++k) {
+        inv(k) = ev(k) > tol ? 1.0 / ev(k) : 0.0;
+        rank += ev(k) > tol;
+    }
+    return 0.5 * sd.cwiseInverse().asDiagonal() * es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose() *
+           sd.cwiseInverse().asDiagonal();
+}
+
+// Sample-ML correction: weights estimated with n complex dof (p outputs) inflate the
+// variance by about n/(n - p - 1) (exact for p = 1: Pintelon & Schoukens SML, (M-2)/(M-3)
+// relative to the CRB with the (n-1)/n bias of the inverse sample covariance).
+double sample_ml_factor(const std::vector<WeightedLine> &w, size_t ny, bool known_noise)
+{
+    double nmin = 1e300;
+    for (const auto &l : w) nmin = std::min(nmin, l.dof);
+    if (known_noise || nmin >= 1e8) return 1.0;
+    const double p = (double)ny;
+    return nmin > p + 1.0 ? nmin / (nmin - p - 1.0) : std::numeric_limits<double>::infinity();
+}
+
 // Covariance, model FRF with covariance, and Theorem 5 quantities at scaled parameters th.
 static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, const VecR &th,
                             const std::vector<Eigen::Index> &free, const MlOptions &o, bool known_noise, Eigen::Index nres)
@@ -415,22 +446,9 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     const double h = P.h;
     res.model = lmfd_unpack(Sf.cwiseProduct(th), s, P.ny, P.nu, d, h);
     // Fisher information: r has components of variance 1/2, so Cov = (J^T J)^{-1} / 2 (scaled coordinates)
-    const MatR JtJ = J.transpose() * J;
-    Eigen::LDLT<MatR> ldlt(JtJ);
-    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-14 * ldlt.vectorD().maxCoeff()))
-        throw FitError("the Fisher information is singular at the ML estimate: the parameters are not identifiable "
-                       "(over-parametrised model, or pin coefficients)");
-    MatR covs = 0.5 * ldlt.solve(MatR::Identity(JtJ.rows(), JtJ.cols()));
-    // Sample-ML correction: weights estimated with n complex dof (p outputs) inflate the
-    // variance by about n/(n - p - 1) (exact for p = 1: Pintelon & Schoukens SML, (M-2)/(M-3)
-    // relative to the CRB with the (n-1)/n bias of the inverse sample covariance).
-    double nmin = 1e300;
-    for (const auto &l : w) nmin = std::min(nmin, l.dof);
-    res.cov_factor = 1.0;
-    if (!known_noise && nmin < 1e8) {
-        const double p = (double)P.ny;
-        res.cov_factor = nmin > p + 1.0 ? nmin / (nmin - p - 1.0) : std::numeric_limits<double>::infinity();
-    }
+    MatR covs = fisher_cov(J, res.cov_rank);
+    res.grad_norm = (J.transpose() * r).cwiseQuotient(J.colwise().norm().transpose().cwiseMax(1e-300)).norm();
+    res.cov_factor = sample_ml_factor(w, P.ny, known_noise);
     covs *= res.cov_factor;
     VecR Sfree((Eigen::Index)free.size());
     for (size_t f = 0; f < free.size(); ++f) Sfree((Eigen::Index)f) = Sf(free[f]);
@@ -444,6 +462,8 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     }
     res.cost = V;         // eq. (40) in likelihood units: residual components have variance 1/2
     res.dof = (double)(nres - (Eigen::Index)free.size());
+    double nmin = 1e300;
+    for (const auto &l : w) nmin = std::min(nmin, l.dof);
     const double nw = nmin < 1e8 ? nmin : 0.0;
     const double mu = nw > (double)P.ny ? nw / (nw - (double)P.ny) : 1.0;
     res.cost_expected = 0.5 * res.dof * (known_noise ? 1.0 : mu);
@@ -529,18 +549,15 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
         }
         if (conv) break;
         if (!stepped) {
-            // no decrease possible: converged if the gradient is negligible
+            // no decrease possible: converged if the gradient is negligible, else the best iterate so far
             const double gn = grad.norm() / (1.0 + V);
-            if (gn < 1e-6) { conv = true; break; }
-            throw FitError("ml did not converge: no descent step after " + std::to_string(it) + " iterations (cost " +
-                           std::to_string(V) + ", gradient " + std::to_string(gn) + ")");
+            conv = gn < 1e-6;
+            break;
         }
     }
-    if (!conv)
-        throw FitError("ml did not converge in " + std::to_string(o.max_iter) + " iterations (cost " +
-                       std::to_string(V) + "); try another start or order");
     MlResult res = evaluate_at(P, w, th, free, o, known_noise, nres);
-    res.iterations = it + 1;
+    res.iterations = std::min(it + 1, o.max_iter);
+    res.converged = conv;
     return res;
 }
 

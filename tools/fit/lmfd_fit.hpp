@@ -59,6 +59,9 @@ struct MlResult {
     double cost_expected = 0.0;
     double dof = 0.0;         // real residual dof (N_real - n_theta)
     int iterations = 0;
+    bool converged = true;    // false: the iterations ran out; this is the best iterate
+    double grad_norm = 0.0;   // |D^-1 J^T r|, D^2 = diag(J^T J) (scale free)
+    int cov_rank = 0;         // rank of the Fisher information (pseudo-inverse when below the parameter count)
     std::vector<MatC> G;      // model FRF at the lines
     std::vector<MatC> Gcov;   // its covariance (J Cov J^H)
     double frf_bound = 0.0, theta_bound = 0.0, sigma_min_J = 0.0, lambda_max_cov = 0.0;
@@ -68,7 +71,8 @@ struct MlResult {
 LmfdModel lmfd_sk(const std::vector<WeightedLine> &w, Domain d, double h, const LmfdSpec &s, int iters,
                   const std::vector<MatC> *Gtarget = nullptr);
 
-// Weighted ML from a start. Throws FitError on non-convergence (iterations and cost in the message).
+// Weighted ML from a start. When the iterations run out (or no descent step exists away from a
+// stationary point) the best iterate comes back with converged = false; it is never thrown away.
 MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const LmfdSpec &s, const LmfdModel &start,
                  const MlOptions &o, bool known_noise);
 
@@ -76,6 +80,13 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
 // closed-form solution), as lmfd_ml reports them at its optimum.
 MlResult lmfd_evaluate(const std::vector<WeightedLine> &w, Domain d, double h, const LmfdSpec &s, const LmfdModel &m,
                        const MlOptions &o, bool known_noise);
+
+// Parameter covariance of eq. (40) from the whitened Jacobian J: 1/2 (J^T J)^+ in unit-scaled
+// columns (a singular Fisher matrix at a good estimate is a rank-deficient parametrisation: the
+// pseudo-inverse, eigenvalues below 1e-12 n lambda_max dropped), and its rank.
+MatR fisher_cov(const MatR &J, int &rank);
+// Sample-ML factor n/(n - ny - 1) for weights estimated with n complex dof (1 for known noise).
+double sample_ml_factor(const std::vector<WeightedLine> &w, size_t ny, bool known_noise);
 
 // Cost (40) of an LMFD on the weighted lines.
 double weighted_cost_lmfd(const LmfdModel &m, const std::vector<WeightedLine> &w);

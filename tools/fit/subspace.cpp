@@ -1,4 +1,5 @@
 #include "subspace.hpp"
+#include "stats.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <thread>
@@ -348,14 +349,23 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
         estimate_AC(pc0, r0, 1, A, C, sv);
         n = auto_order(sv, std::min(r0 - 1, max_order));
     }
-    int rlo = std::max(n + 1, (int)std::ceil(1.5 * n)), rhi = std::min(6 * n, rmax);
+    // Block-row counts tried: r in {1.5n, 2n, 3n, 4n} within [n + 1, rmax] (a scan of every r in
+    // [1.5n, 6n] cost 30-100 fits; these four bracket the best r on the structures of issue 9;
+    // the trials run in parallel).
+    std::vector<int> rs;
     if (o.r) {
         if (o.r <= n || o.r > rmax)
             throw FitError("block rows r = " + std::to_string(o.r) + " must lie in [" + std::to_string(n + 1) + ", " +
                            std::to_string(rmax) + "]");
-        rlo = rhi = o.r;
+        rs.push_back(o.r);
+    } else {
+        for (int r : {(int)std::ceil(1.5 * n), 2 * n, 3 * n, 4 * n}) {
+            r = std::min(std::max(r, n + 1), rmax);
+            if (std::find(rs.begin(), rs.end(), r) == rs.end()) rs.push_back(r);
+        }
+        std::sort(rs.begin(), rs.end());
     }
-    if (rhi < rlo) rhi = rlo = std::min(std::max(n + 1, rlo), rmax);
+    const int rhi = rs.back();
     double best = 1e300;
     const Precomp pc = precompute(w, sh, rhi, weighted);
     // Each block-row count is an independent fit: run them on the available cores.
@@ -366,10 +376,11 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
         int refl = 0;
         std::string err;
     };
-    const int nr = rhi - rlo + 1;
+    const int nr = (int)rs.size();
     std::vector<Trial> trials((size_t)nr);
-    auto work = [&](int r) {
-        Trial &t = trials[(size_t)(r - rlo)];
+    auto work = [&](int i) {
+        const int r = rs[(size_t)i];
+        Trial &t = trials[(size_t)i];
         try {
             SSModel &m = t.m;
             m.domain = d;
@@ -398,13 +409,14 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
     if (hw > 1 && nr > 1) {
         std::vector<std::thread> pool;
         for (unsigned t = 0; t < hw; ++t)
-            pool.emplace_back([&, t] { for (int r = rlo + (int)t; r <= rhi; r += (int)hw) work(r); });
+            pool.emplace_back([&, t] { for (int i = (int)t; i < nr; i += (int)hw) work(i); });
         for (auto &th : pool) th.join();
     } else {
-        for (int r = rlo; r <= rhi; ++r) work(r);
+        for (int i = 0; i < nr; ++i) work(i);
     }
-    for (int r = rlo; r <= rhi; ++r) {   // in order: ties go to the smaller r, deterministically
-        Trial &t = trials[(size_t)(r - rlo)];
+    for (int i = 0; i < nr; ++i) {   // in order: ties go to the smaller r, deterministically
+        const int r = rs[(size_t)i];
+        Trial &t = trials[(size_t)i];
         res.scan.emplace_back(r, t.V);
         if (std::isfinite(t.V) && t.V < best) {
             best = t.V;
@@ -416,6 +428,18 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
         }
     }
     if (!(best < 1e300)) throw FitError("subspace identification failed at every block-row count");
+    res.feedthrough = o.estimate_D;
+    if (o.estimate_D && o.feedthrough_auto && weighted) {
+        // likelihood-ratio test of D = 0: 2 (V0 - V1) ~ chi2 with ny nu dof (cost (35) in likelihood units)
+        SSModel m0 = res.model;
+        const double V0 = fit_BD(m0, w, false);
+        res.feedthrough_p = chi2_sf((double)(ny * nu), std::max(0.0, 2.0 * (V0 - res.cost)));
+        if (res.feedthrough_p >= 0.01) { res.model = m0; res.cost = V0; res.feedthrough = false; }
+    }
+    std::vector<int> order_idx;
+    for (int i = 0; i < nr; ++i) if (std::isfinite(trials[(size_t)i].V)) order_idx.push_back(i);
+    std::stable_sort(order_idx.begin(), order_idx.end(), [&](int a, int b) { return trials[(size_t)a].V < trials[(size_t)b].V; });
+    for (size_t k = 0; k < order_idx.size() && k < 3; ++k) res.candidates.push_back(trials[(size_t)order_idx[k]].m);
     return res;
 }
 

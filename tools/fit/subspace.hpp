@@ -12,6 +12,7 @@ struct SubspaceOptions {
     int r = 0;                 // block rows; 0: scan [1.5n, 6n] for the smallest cost (35)
     bool stable = false;       // reflect unstable poles, then re-estimate B, D
     bool estimate_D = true;    // false: D = 0 (strictly proper)
+    bool feedthrough_auto = false;   // with estimate_D: keep D only if a likelihood-ratio test at 1% needs it
     double wscale = 0.0;       // CT bilinear frequency scaling (0: geometric mean of the line frequencies)
 };
 
@@ -23,6 +24,9 @@ struct SubspaceResult {
     double cost = 0.0;                            // weighted cost (35)
     double wscale = 0.0;
     int reflected = 0;
+    bool feedthrough = true;                      // D estimated
+    double feedthrough_p = -1;                    // p-value of the LR test of D = 0 (auto), -1 if not run
+    std::vector<SSModel> candidates;              // the best models of the r scan, best first (up to 3): ml starts
 };
 
 // Lines of a weighted data set that carry information (complex lines count 2, real 1).

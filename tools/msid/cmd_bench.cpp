@@ -11,6 +11,7 @@ extern "C" {
 
 #include "frf_io.hpp"
 #include "lmfd_fit.hpp"
+#include "poleres.hpp"
 #include "model_io.hpp"
 #include "subspace.hpp"
 
@@ -349,20 +350,126 @@ struct FitCfg {
 
 }  // namespace
 
+namespace {
+
+std::string python_dir()
+{
+    const char *env = std::getenv("MSID_PYTHON_DIR");
+    return env ? env : std::string(MSID_SOURCE_DIR) + "/tools/python";
+}
+
+// Run a shell command, capture stdout+stderr; returns the exit status.
+int run_capture(const std::string &cmd, std::string &out)
+{
+    FILE *p = popen((cmd + " 2>&1").c_str(), "r");
+    char buf[512];
+    while (p && std::fgets(buf, sizeof buf, p)) out += buf;
+    return p ? pclose(p) : -1;
+}
+
+// Wall time of a whole process (median of reps).
+double process_time(const std::string &cmd, int reps)
+{
+    std::vector<double> t;
+    for (int k = 0; k < reps; ++k) {
+        const double t0 = now();
+        if (std::system((cmd + " >/dev/null 2>&1").c_str()) != 0) return -1;
+        t.push_back(now() - t0);
+    }
+    std::sort(t.begin(), t.end());
+    return t[t.size() / 2];
+}
+
+// Issue 9: the simulated structures against vector fitting (scikit-rf), and the order-20 ml timing.
+void bench_structures(const std::string &dir, double min_s)
+{
+    std::printf("structures (issue 9): accelerances, rigid-body + elastic modes with 0.5-2%% damping, 267 lines, "
+                "0.2%% noise, 16 periods; peer: scikit-rf VectorFitting at the same order\n");
+    std::string outp;
+    const std::string js = dir + "/vf.json";
+    const int rc = run_capture("cd '" + dir + "' && PYTHONPATH='" + python_dir() + "' python3 -m msid.bench_vf_peer '" + dir +
+                                   "' '" + js + "'", outp);
+    if (rc != 0) {
+        std::printf("  peer unavailable (scripts/deps.sh installs scikit-rf): %s\n\n", outp.substr(0, 300).c_str());
+        return;
+    }
+    const Json pj = read_json_file(js);
+    std::printf("  %-14s %5s %6s | %-30s | %-30s | %-26s\n", "case", "order", "range", "vector fitting: cost, rel.err, time",
+                "msid ml: cost, rel.err, time", "msid subspace: cost (x VF)");
+    for (const Json &c : pj["cases"]) {
+        const FrfData f = read_frf(c["file"].get<std::string>());
+        const auto w = weigh(f, Domain::CT, Weight::Cov);
+        const int n = c["order"].get<int>();
+        PrOptions po;
+        po.order = n;
+        PrResult r;
+        const double t_ml = best_time([&] { r = pr_ml_fit(f, Domain::CT, w, true, po); }, c["modes"].get<int>() == 10 ? min_s : 0.0);
+        const Json &G0 = c["G0"];
+        double num = 0, den = 0;
+        for (size_t l = 0; l < w.size(); ++l)
+            for (Eigen::Index ij = 0; ij < (Eigen::Index)f.g(); ++ij) {
+                const cd g0(G0["re"][l][(size_t)ij].get<double>(), G0["im"][l][(size_t)ij].get<double>());
+                num += std::norm(r.G[l].data()[ij] - g0);
+                den += std::norm(g0);
+            }
+        SubspaceOptions so;
+        so.order = n;
+        SubspaceResult sr;
+        const double t_sub = best_time([&] { sr = fit_subspace(f, Domain::CT, w, true, so); }, 0.0);
+        const std::string name = std::string(c["kind"].get<std::string>()) + " " + std::to_string(c["modes"].get<int>()) + " modes";
+        std::printf("  %-14s %5d %4.0fdB | %9.5g %9.3g %8.3f s | %9.5g %9.3g %8.3f s | %9.5g (%.2fx) %s %5.1f ms\n",
+                    name.c_str(), n, c["dynamic_range_db"].get<double>(), c["vf_cost"].get<double>(),
+                    c["vf_rel_error"].get<double>(), c["vf_seconds"].get<double>(), r.cost, std::sqrt(num / den), t_ml,
+                    sr.cost, sr.cost / c["vf_cost"].get<double>(), ss_stable(sr.model) ? "stable" : "UNSTABLE",
+                    t_sub * 1e3);
+    }
+    std::printf("  (scikit-rf %s; rel.err = |G_model - G_true| / |G_true| over the lines; cost = eq. (40) on the file's "
+                "covariance; ml time: best of runs for the 10-mode SISO, one run otherwise)\n\n",
+                pj["skrf"].get<std::string>().c_str());
+}
+
+// The whole `msid fit --method subspace` process against a plain NumPy weighted subspace (fixed r = 12) process.
+void bench_process(const std::string &dir)
+{
+    msid_rng r;
+    msid_rng_seed(&r, 606);
+    const SSModel m = random_system(r, 6, 2, 2);
+    const std::string frf = dir + "/proc.json";
+    write_json_file(frf, frf_doc(r, m, 202, 40.0, 10));
+    char self[4096];
+    const ssize_t k = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (k <= 0) return;
+    self[k] = 0;
+    const std::string msid_cmd = std::string("'") + self + "' fit --method subspace --order 6 '" + frf + "' -o '" + dir + "/proc-model.json'";
+    const std::string peer_cmd = "python3 '" + python_dir() + "/msid/bench_fit_peer.py' 6 '" + dir + "/proc-peer.json' '" + frf + "' --r 12";
+    const double t_msid = process_time(msid_cmd, 15), t_peer = process_time(peer_cmd, 5);
+    std::printf("whole process: 2x2, order 6, 202 lines (wall time, median)\n");
+    std::printf("  msid fit --method subspace   %8.1f ms\n", t_msid * 1e3);
+    if (t_peer > 0)
+        std::printf("  NumPy subspace, r = 12       %8.1f ms   (python3 start-up, import, fit)   msid %.1fx faster\n\n",
+                    t_peer * 1e3, t_peer / t_msid);
+    else
+        std::printf("  NumPy peer failed\n\n");
+}
+
+}  // namespace
+
 static int bench_fit(int argc, char **argv)
 {
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2]\n"
+            std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"
                        "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"
                        "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
                        "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
-                       "error against the true system) over N random systems (default 50).\n", stdout);
+                       "error against the true system) over N random systems (default 50); 3: the simulated\n"
+                       "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
+                       "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n", stdout);
             return 0;
         }
     Args a(argc, argv, 3, {"systems", "min-seconds", "only"}, {"no-peer"});
     const uint32_t only = a.has("only") ? parse_u32(a.get("only"), "--only") : 0;
-    if (only > 2) throw UsageError("--only takes 1 (SISO) or 2 (2x2)");
+    if (only > 4) throw UsageError("--only takes 1 (SISO), 2 (2x2), 3 (structures) or 4 (whole process)");
     const int NS = a.has("systems") ? (int)parse_u32(a.get("systems"), "--systems") : 50;
     const double min_s = a.has("min-seconds") ? parse_double(a.get("min-seconds"), "--min-seconds") : 0.5;
     if (NS < 1) throw UsageError("--systems must be at least 1");
@@ -374,7 +481,7 @@ static int bench_fit(int argc, char **argv)
                 EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION, machine().c_str());
     std::printf("data: random stable DT systems, 40 dB SNR, line covariance from 10 repetitions; times: best of runs >= %.2g s\n\n", min_s);
     for (const FitCfg &c : cfgs) {
-        if (only && &c != &cfgs[only - 1]) continue;
+        if (only && (only > 2 || &c != &cfgs[only - 1])) continue;
         msid_rng r;
         msid_rng_seed(&r, 1000 + c.n);
         std::vector<SSModel> truth;
@@ -470,6 +577,8 @@ static int bench_fit(int argc, char **argv)
             std::printf("  peer unavailable: %s\n", note.c_str());
         std::printf("\n");
     }
+    if ((!only || only == 3) && !a.has("no-peer")) bench_structures(dir, min_s);
+    if (!only || only == 4) bench_process(dir);
     std::string rm = "rm -rf '" + dir + "'";
     if (std::system(rm.c_str()) != 0) std::fprintf(stderr, "msid bench: note: could not remove %s\n", dir.c_str());
     return 0;

@@ -5,10 +5,12 @@
 #include "nl_verdict.hpp"
 
 #include "lmfd_fit.hpp"
+#include "poleres.hpp"
 #include "model_io.hpp"
 #include "stats.hpp"
 #include "subspace.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -21,17 +23,22 @@ static const char *FIT_HELP =
     "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
     "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
-    "                [--max-iter N] [--delta D] [--beta B]\n"
+    "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
     "\n"
     "  subspace  frequency-domain subspace (McKelvey; Pintelon 2002 Alg. 1, CT by the bilinear map,\n"
-    "            Alg. 2.1) weighted by the FRF covariance; block rows scanned over [1.5n, 6n] for the\n"
+    "            Alg. 2.1) weighted by the FRF covariance; block rows r in {1.5n, 2n, 3n, 4n}, the one with the\n"
     "            smallest weighted cost (35); order from the singular values when --order is omitted\n"
     "  lmfd      closed-form ML of a left matrix fraction D(p)^-1 N(p), fully or under-constrained\n"
     "            (Gonzalez et al. 2025 Thm 6): minimum-norm solution, kernel basis, --pin to fix entries\n"
-    "  ml        weighted maximum likelihood (eq. 40) of an over-constrained LMFD by Levenberg-Marquardt,\n"
-    "            started from subspace (default) or Sanathanan-Koerner; parameter covariance (inverse\n"
-    "            Fisher information) and the finite-sample bounds (45)-(46)\n"
-    "  --order n     state order (auto, a:b or a:step:b: order selection, see docs/fitting.md); LMFD degrees nD = n/ny, nN = nD (dt) or nD-1 (ct)\n"
+    "  ml        weighted maximum likelihood (eq. 40): --param poles (default; dt with several inputs: lmfd)\n"
+    "            pole-residue form from vector-fitting and subspace starts, scaled trust-region LM, order 40+;\n"
+    "            --param lmfd: LMFD from subspace (default) or Sanathanan-Koerner, with bounds (45)-(46);\n"
+    "            parameter covariance (pseudo-inverse Fisher information with its rank). When the iterations\n"
+    "            run out the best iterate is written marked \"converged\": false and the exit status is 3\n"
+    "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
+    "  --stable  subspace: reflect unstable poles; ml (poles): constrained to stable poles\n"
+    "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
+    "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md)\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n";
@@ -78,6 +85,17 @@ static Json frf_at_lines(const FrfData &f, const std::vector<MatC> &G, const std
     return a;
 }
 
+static Json params_json(const std::vector<std::string> &names, const VecR &theta, const MatR &cov, double factor, int rank)
+{
+    Json pr;
+    pr["names"] = names;
+    pr["values"] = std::vector<double>(theta.data(), theta.data() + theta.size());
+    pr["cov"] = rmat_json(cov);
+    pr["cov_factor"] = factor;
+    pr["cov_rank"] = rank;
+    return pr;
+}
+
 static Json lmfd_json(const LmfdModel &m)
 {
     Json l;
@@ -104,6 +122,111 @@ static Json cost_json(double V, double dof, double nmin, double p)
     return c;
 }
 
+
+// Exit status of `msid fit` when ml ran out of iterations: the best iterate is written, marked
+// "converged": false (docs/fitting.md). 1 = error, 2 = usage error.
+static const int EXIT_NOT_CONVERGED = 3;
+
+static Json stability_json(const SSModel &ss, bool enforced)
+{
+    Json j;
+    j["stable"] = ss_stable(ss);
+    j["enforced"] = enforced;
+    double worst = ss.domain == Domain::CT ? -1e300 : 0.0;
+    if (ss.A.rows()) {
+        Eigen::EigenSolver<MatR> es(ss.A, false);
+        for (Eigen::Index k = 0; k < ss.A.rows(); ++k) {
+            const cd l = es.eigenvalues()(k);
+            worst = ss.domain == Domain::CT ? std::max(worst, l.real()) : std::max(worst, std::abs(l));
+        }
+        j[ss.domain == Domain::CT ? "max_real_pole" : "max_abs_pole"] = worst;
+    } else {
+        j[ss.domain == Domain::CT ? "max_real_pole" : "max_abs_pole"] = nullptr;
+    }
+    return j;
+}
+
+static Feedthrough parse_feedthrough(const Args &a)
+{
+    if (a.has("no-d")) {
+        if (a.has("feedthrough") && a.get("feedthrough") != "no") throw UsageError("--no-d contradicts --feedthrough " + a.get("feedthrough"));
+        return Feedthrough::No;
+    }
+    const std::string v = a.get("feedthrough", "auto");
+    if (v == "auto") return Feedthrough::Auto;
+    if (v == "yes") return Feedthrough::Yes;
+    if (v == "no") return Feedthrough::No;
+    throw UsageError("--feedthrough must be auto, yes or no (got '" + v + "')");
+}
+
+static Json feedthrough_json(Feedthrough ft, bool included, double p)
+{
+    Json j;
+    j["mode"] = ft == Feedthrough::Auto ? "auto" : ft == Feedthrough::Yes ? "yes" : "no";
+    j["included"] = included;
+    if (p >= 0) j["lr_p_value"] = p; else j["lr_p_value"] = nullptr;
+    return j;
+}
+
+// ml parametrisation: --param poles|lmfd; default poles, except the LMFD for DT with several inputs
+// (full-rank residue matrices would multiply the state order by the number of inputs).
+static bool use_poles(const Args &a, Domain d, size_t nu)
+{
+    const std::string p = a.get("param", d == Domain::DT && nu > 1 ? "lmfd" : "poles");
+    if (p != "poles" && p != "lmfd") throw UsageError("--param must be poles or lmfd (got '" + p + "')");
+    return p == "poles";
+}
+
+// The weighted fits invert sample covariances: B, D of subspace need M >= 4 periods (Pintelon 2002
+// Thm 2), and an ny x ny noise covariance from M periods is singular unless M > ny. One message
+// naming the periods and the outputs, for any number of outputs.
+static void check_periods(const std::vector<WeightedLine> &w, size_t ny)
+{
+    double dmin = 1e300;
+    for (const auto &l : w) dmin = std::min(dmin, l.dof);
+    if (dmin >= 1e8) return;
+    const long M = std::lround(dmin + 1);
+    const long need = std::max<long>(4, (long)ny + 2);
+    if (dmin + 1 < (double)need - 1e-9)
+        throw FitError("the weights rest on " + std::to_string(M) + " periods per experiment: weighting by the inverse "
+                       "sample covariance needs M >= 4 (Pintelon 2002, Theorem 2)" +
+                       (need > 4 ? " and, with " + std::to_string(ny) + " outputs, M >= " + std::to_string(need) +
+                                   " for a finite sample-ML covariance"
+                                 : std::string()) +
+                       "; measure more periods or use --weight none");
+}
+
+// ML of an LMFD from the subspace (then SK) or the SK start.
+static MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted,
+                             const LmfdSpec &s, const std::string &start, const MlOptions &mo, bool known)
+{
+    const size_t ny = f.ny;
+    LmfdModel st;
+    if (start == "subspace") {
+        SubspaceOptions so;
+        so.order = s.nD * (int)ny;
+        so.estimate_D = !(d == Domain::CT && s.nN < s.nD);
+        const SubspaceResult sr = fit_subspace(f, d, w, weighted && min_dof(w) >= 3, so);
+        std::vector<MatC> target;
+        for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
+        st = lmfd_sk(w, d, f.h, s, 30, &target);
+    } else {
+        st = lmfd_sk(w, d, f.h, s, 30);
+    }
+    return lmfd_ml(w, d, f.h, s, st, mo, known);
+}
+
+// Weighted cost (40) of model FRFs Gm at the lines.
+static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC> &Gm)
+{
+    double V = 0;
+    for (size_t l = 0; l < w.size(); ++l) {
+        const MatC E = w[l].G - Gm[l];
+        V += (w[l].real ? 0.5 : 1.0) * (w[l].Linv * Eigen::Map<const VecC>(E.data(), E.size())).squaredNorm();
+    }
+    return V;
+}
+
 int cmd_fit(int argc, char **argv)
 {
     for (int i = 2; i < argc; ++i)
@@ -111,7 +234,7 @@ int cmd_fit(int argc, char **argv)
     if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)
     Args a(argc, argv, 2,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
-            "output"},
+            "feedthrough", "param", "output"},
            {"stable", "no-d"}, {"pin"});
     if (a.positional().size() != 1) throw UsageError("give exactly one msid-frf/1 file");
     const std::string out = a.require("output");
@@ -146,21 +269,39 @@ int cmd_fit(int argc, char **argv)
         std::vector<MatC> Gc;
         bool have_cov = false;
         double V = 0;
+        const Feedthrough ft = parse_feedthrough(a);
+        settings["feedthrough"] = a.has("no-d") ? "no" : a.get("feedthrough", "auto");
+        const bool weighted = wt != Weight::None;
+        if (method != "lmfd" && weighted) check_periods(w, ny);
+        bool converged = true;
+        double grad_norm = 0.0;
+        int iterations = 0;
+        // an ml result (either parametrisation): parameters, model FRF with covariance, convergence
+        auto take = [&](const auto &r) {
+            nparams = (int)r.theta.size();
+            Gm = r.G;
+            Gc = r.Gcov;
+            have_cov = true;
+            converged = r.converged;
+            grad_norm = r.grad_norm;
+            iterations = r.iterations;
+        };
         if (method == "subspace") {
             SubspaceOptions o;
             o.order = a.has("order") ? (int)parse_u32(a.get("order"), "--order") : 0;
             if (a.has("order") && o.order == 0) throw UsageError("--order must be positive");
             o.r = a.has("r") ? (int)parse_u32(a.get("r"), "--r") : 0;
             o.stable = a.has("stable");
-            o.estimate_D = !a.has("no-d");
-            const SubspaceResult r = fit_subspace(f, d, w, wt != Weight::None, o);
+            o.estimate_D = ft != Feedthrough::No;
+            o.feedthrough_auto = ft == Feedthrough::Auto;
+            const SubspaceResult r = fit_subspace(f, d, w, weighted, o);
             ss = r.model;
             V = r.cost;
             const int n = (int)ss.n();
-            nparams = n * (int)(nu + ny) + (o.estimate_D ? (int)(nu * ny) : 0);
+            nparams = n * (int)(nu + ny) + (r.feedthrough ? (int)(nu * ny) : 0);
             settings["r"] = r.r;
             settings["stable"] = o.stable;
-            settings["estimate_D"] = o.estimate_D;
+            settings["estimate_D"] = r.feedthrough;
             if (d == Domain::CT) settings["wscale"] = r.wscale;
             Json sub;
             sub["singular_values"] = r.sv;
@@ -169,9 +310,48 @@ int cmd_fit(int argc, char **argv)
             sub["r_scan"] = sc;
             sub["reflected_poles"] = r.reflected;
             extra["subspace"] = sub;
+            extra["feedthrough"] = feedthrough_json(ft, r.feedthrough, r.feedthrough_p);
             for (const auto &l : w) Gm.push_back(ss_eval(ss, l.x));
+        } else if (method == "ml" && use_poles(a, d, nu)) {
+            if (a.has("nd") || a.has("nn") || !a.all("pin").empty())
+                throw UsageError("--nd/--nn/--pin belong to the LMFD parametrisation: add --param lmfd");
+            if (!a.has("order")) throw UsageError("give --order");
+            PrOptions po;
+            po.order = (int)parse_u32(a.get("order"), "--order");
+            if (po.order == 0) throw UsageError("--order must be positive");
+            po.feedthrough = ft;
+            po.stable = a.has("stable");
+            po.known_noise = known;
+            if (a.has("max-iter")) po.max_iter = (int)parse_u32(a.get("max-iter"), "--max-iter");
+            const PrResult r = pr_ml_fit(f, d, w, weighted, po);
+            ss = pr_to_ss(r.model);
+            settings["param"] = "poles";
+            settings["stable"] = po.stable;
+            settings["max_iter"] = po.max_iter;
+            extra["parameters"] = params_json(r.names, r.theta, r.cov, r.cov_factor, r.cov_rank);
+            Json pj, pl = Json::array(), rl = Json::array();
+            for (size_t k = 0; k < r.model.poles.size(); ++k) {
+                pl.push_back(Json{{"re", r.model.poles[k].real()}, {"im", r.model.poles[k].imag()}});
+                rl.push_back(cmat_json(r.model.R[k]));
+            }
+            pj["variable"] = d == Domain::CT ? "s" : "z";
+            pj["poles"] = pl;
+            pj["residues"] = rl;
+            pj["D"] = rmat_json(r.model.D);
+            extra["pole_residue"] = pj;
+            Json st = Json::array();
+            for (const auto &x : r.starts) st.push_back(Json{{"start", x.name}, {"cost", x.cost}});
+            extra["starts"] = st;
+            extra["best_start"] = r.best_start;
+            extra["reflected_poles"] = r.reflected;
+            extra["feedthrough"] = feedthrough_json(ft, r.model.feedthrough, r.feedthrough_lr_p);
+            take(r);
+            V = r.cost;
         } else {
+            if (a.has("stable"))
+                throw UsageError("--stable works with subspace and with ml in the pole-residue parametrisation (--param poles)");
             LmfdSpec s;
+            bool auto_nn = false;
             if (a.has("nd") || a.has("nn")) {
                 if (a.has("order")) throw UsageError("give --order or --nd/--nn, not both");
                 s.nD = a.has("nd") ? (int)parse_u32(a.get("nd"), "--nd") : 1;
@@ -180,17 +360,20 @@ int cmd_fit(int argc, char **argv)
                 const uint32_t n = parse_u32(a.get("order"), "--order");
                 if (n == 0 || n % ny) throw UsageError("--order must be a positive multiple of the number of outputs for an LMFD");
                 s.nD = (int)(n / ny);
-                s.nN = d == Domain::CT ? s.nD - 1 : s.nD;
+                // properness from --feedthrough: CT yes -> nN = nD (direct term), no -> nN = nD - 1,
+                // auto -> both, kept by a likelihood-ratio test; DT: the direct term is N_0 (pinned to 0 for no)
+                s.nN = d == Domain::CT && ft == Feedthrough::No ? s.nD - 1 : s.nD;
+                if (d == Domain::DT && ft == Feedthrough::No) s.pins.push_back(parse_pin("N0=0"));
+                auto_nn = d == Domain::CT && ft == Feedthrough::Auto && method == "ml";
             } else {
                 throw UsageError("give --order or --nd/--nn");
             }
             if (s.nN < 0) s.nN = 0;
             for (const auto &p : a.all("pin")) s.pins.push_back(parse_pin(p));
-            settings["nD"] = s.nD;
-            settings["nN"] = s.nN;
             Json pins = Json::array();
             for (const auto &p : a.all("pin")) pins.push_back(p);
             settings["pins"] = pins;
+            if (method == "ml") settings["param"] = "lmfd";
             MlOptions mo;
             if (a.has("max-iter")) mo.max_iter = (int)parse_u32(a.get("max-iter"), "--max-iter");
             if (a.has("delta")) mo.delta = parse_double(a.get("delta"), "--delta");
@@ -199,6 +382,8 @@ int cmd_fit(int argc, char **argv)
                 throw UsageError("--delta must be in (0, 1] and --beta in (0, 1)");
             LmfdModel lm;
             if (method == "lmfd") {
+                settings["nD"] = s.nD;
+                settings["nN"] = s.nN;
                 const ClosedForm cf = lmfd_closed_form(w, d, f.h, s);
                 lm = cf.model;
                 extra["kernel"] = rmat_json(cf.kernel);
@@ -211,12 +396,7 @@ int cmd_fit(int argc, char **argv)
                 extra["unique"] = cf.unique;
                 if (cf.unique) {
                     const MlResult ev = lmfd_evaluate(w, d, f.h, s, lm, mo, known);
-                    Json pr;
-                    pr["names"] = ev.names;
-                    pr["values"] = std::vector<double>(ev.theta.data(), ev.theta.data() + ev.theta.size());
-                    pr["cov"] = rmat_json(ev.cov);
-                    pr["cov_factor"] = ev.cov_factor;
-                    extra["parameters"] = pr;
+                    extra["parameters"] = params_json(ev.names, ev.theta, ev.cov, ev.cov_factor, ev.cov_rank);
                     nparams = (int)ev.theta.size();
                 } else {
                     nparams = (int)(cf.equations * ny);
@@ -227,30 +407,22 @@ int cmd_fit(int argc, char **argv)
                 settings["wscale"] = s.wscale;
             } else {
                 const std::string start = a.get("start", "subspace");
-                LmfdModel st;
-                if (start == "subspace") {
-                    SubspaceOptions so;
-                    so.order = s.nD * (int)ny;
-                    so.estimate_D = !(d == Domain::CT && s.nN < s.nD);
-                    const SubspaceResult sr = fit_subspace(f, d, w, wt != Weight::None && min_dof(w) >= 3, so);
-                    std::vector<MatC> target;
-                    for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
-                    st = lmfd_sk(w, d, f.h, s, 30, &target);
-                } else if (start == "sk") {
-                    st = lmfd_sk(w, d, f.h, s, 30);
-                } else {
-                    throw UsageError("--start must be subspace or sk (got '" + start + "')");
-                }
+                if (start != "subspace" && start != "sk") throw UsageError("--start must be subspace or sk (got '" + start + "')");
                 settings["start"] = start;
-                const MlResult r = lmfd_ml(w, d, f.h, s, st, mo, known);
+                MlResult r = lmfd_ml_from(f, d, w, weighted, s, start, mo, known);
+                double lr_p = -1;
+                if (auto_nn) {
+                    LmfdSpec s0 = s;
+                    s0.nN = s.nD - 1;
+                    const MlResult r0 = lmfd_ml_from(f, d, w, weighted, s0, start, mo, known);
+                    lr_p = chi2_sf((double)(ny * nu), std::max(0.0, 2.0 * (r0.cost - r.cost)));
+                    if (lr_p >= 0.01) { r = r0; s = s0; }
+                }
+                settings["nD"] = s.nD;
+                settings["nN"] = s.nN;
+                extra["feedthrough"] = feedthrough_json(ft, s.nN == s.nD, lr_p);
                 lm = r.model;
-                Json pr;
-                pr["names"] = r.names;
-                pr["values"] = std::vector<double>(r.theta.data(), r.theta.data() + r.theta.size());
-                pr["cov"] = rmat_json(r.cov);
-                pr["cov_factor"] = r.cov_factor;
-                extra["parameters"] = pr;
-                extra["iterations"] = r.iterations;
+                extra["parameters"] = params_json(r.names, r.theta, r.cov, r.cov_factor, r.cov_rank);
                 Json b;
                 b["delta"] = mo.delta;
                 b["beta"] = mo.beta;
@@ -262,10 +434,8 @@ int cmd_fit(int argc, char **argv)
                                 "periods, no undermodelling; theta bound also needs the estimate inside the ball "
                                 "where the Jacobian stays within (1-beta) sigma_min of its value";
                 extra["bounds"] = b;
-                nparams = (int)r.theta.size();
-                Gm = r.G;
-                Gc = r.Gcov;
-                have_cov = true;
+                take(r);
+                settings["max_iter"] = mo.max_iter;
             }
             try {
                 ss = lmfd_to_ss(lm);
@@ -278,6 +448,11 @@ int cmd_fit(int argc, char **argv)
             extra["lmfd"] = lmfd_json(lm);
             V = weighted_cost_lmfd(lm, w);
         }
+        if (method == "ml") {
+            extra["converged"] = converged;
+            extra["gradient_norm"] = grad_norm;
+            extra["iterations"] = iterations;
+        }
         doc["order"] = (int)ss.n();
         doc["n_inputs"] = nu;
         doc["n_outputs"] = ny;
@@ -287,17 +462,41 @@ int cmd_fit(int argc, char **argv)
         doc["C"] = rmat_json(ss.C);
         doc["D"] = rmat_json(ss.D);
         doc["stable"] = ss_stable(ss);
+        doc["stability"] = stability_json(ss, a.has("stable"));
         doc["n_params"] = nparams;
         for (auto it = extra.begin(); it != extra.end(); ++it) doc[it.key()] = it.value();
         const double dof = neq - nparams;
-        doc["cost"] = cost_json(V, dof, known || wt == Weight::None ? 1e300 : min_dof(w), (double)ny);
+        // The cost block always comes from the FRF covariance when the file has one, whatever weighting
+        // the fit used: an unweighted fit's p-value would otherwise depend on the units of the data.
+        Json cost = cost_json(V, dof, known || wt == Weight::None ? 1e300 : min_dof(w), (double)ny);
+        cost["weight"] = settings["weight"];
+        if (wt == Weight::None) {
+            try {
+                const auto wc = weigh(f, d, Weight::Cov);
+                if (Gm.size() == wc.size()) {
+                    cost = cost_json(cost_at(wc, Gm), dof, min_dof(wc), (double)ny);
+                    cost["weight"] = "cov";
+                    cost["fit_cost_unweighted"] = V;
+                }
+            } catch (const FitError &) {
+                // no usable covariance in the file: unit weights, as documented
+            }
+        }
+        doc["cost"] = cost;
         doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
         add_modes(doc, true);   // modal parameters with standard deviations (cmd_fit_modal.cpp)
         write_json_file(out, doc);
-        std::printf("wrote %s: %s fit, order %d, weighted cost %.6g (expected %.6g, %s)\n", out.c_str(), method.c_str(),
-                    (int)ss.n(), V, doc["cost"]["expected"].get<double>(),
+        std::printf("wrote %s: %s fit, order %d, weighted cost %.6g (expected %.6g, %s)%s\n", out.c_str(), method.c_str(),
+                    (int)ss.n(), doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
                     doc["cost"]["p_value"].is_null() ? "no p-value"
-                                                     : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str());
+                                                     : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
+                    doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+        if (!converged) {
+            std::fprintf(stderr, "msid fit: warning: ml did not converge in %d iterations (cost %.6g, gradient norm %.3g): "
+                                 "wrote the best iterate to %s marked \"converged\": false (exit status %d)\n",
+                         iterations, V, grad_norm, out.c_str(), EXIT_NOT_CONVERGED);
+            return EXIT_NOT_CONVERGED;
+        }
         return 0;
     } catch (const FitError &e) {
         throw Error(e.what());
@@ -322,9 +521,19 @@ int cmd_validate(int argc, char **argv)
             throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +
                            std::to_string(mf.ss.C.rows()) + " outputs, the FRF " + std::to_string(f.nu) + " and " +
                            std::to_string(f.ny));
-        const std::string wname = a.has("weight") ? a.get("weight") : (mf.weight.empty() ? "cov" : mf.weight);
-        const Weight wt = parse_weight(wname);
-        const auto w = weigh(f, mf.domain, wt);
+        // The verdict comes from the FRF covariance whatever weighting the fit used (a --weight none
+        // fit is validated with the covariance: unit weights would make the verdict depend on the units).
+        std::string wname = a.has("weight") ? a.get("weight") : (mf.weight == "known-input" ? "known-input" : "cov");
+        Weight wt = parse_weight(wname);
+        std::vector<WeightedLine> w;
+        try {
+            w = weigh(f, mf.domain, wt);
+        } catch (const FitError &) {
+            if (a.has("weight") || wt != Weight::Cov) throw;
+            wname = "none";   // the FRF has no covariance: unit weights (noted below)
+            wt = Weight::None;
+            w = weigh(f, mf.domain, wt);
+        }
         double V = 0, neq = 0;
         Json per = Json::array();
         const double g = (double)f.g();

@@ -3,7 +3,8 @@ weighted frequency-domain subspace algorithm (McKelvey et al. 1996; Pintelon
 2002 Algorithm 1, discrete time) on msid-frf/1 files, with the same block-row
 scan over r in [1.5 n, 6 n] minimising the weighted cost (35).
 
-Usage: python3 bench_fit_peer.py ORDER OUT.json FRF1.json [FRF2.json ...]
+Usage: python3 bench_fit_peer.py ORDER OUT.json FRF1.json [FRF2.json ...] [--r R]
+(--r R: one fixed block-row count instead of the scan)
 Writes {"models": [{"A","B","C","D"} per file], "sec_per_fit": [...]}.
 """
 import json
@@ -75,16 +76,23 @@ def fit(ny, nu, z, G, Cov, n, r):
 
 
 def main():
-    n = int(sys.argv[1])
-    out = sys.argv[2]
+    args = sys.argv[1:]
+    fixed_r = None
+    if "--r" in args:
+        i = args.index("--r")
+        fixed_r = int(args[i + 1])
+        del args[i:i + 2]
+    n = int(args[0])
+    out = args[1]
     models, times = [], []
-    for path in sys.argv[3:]:
+    for path in args[2:]:
         ny, nu, z, G, C = load(path)
         F = len(z)
         rmax = int(math.floor(2 * F * nu / (nu + ny))) - 1
         t0 = time.perf_counter()
         best = None
-        for r in range(max(n + 1, math.ceil(1.5 * n)), min(6 * n, rmax) + 1):
+        rs = [fixed_r] if fixed_r else range(max(n + 1, math.ceil(1.5 * n)), min(6 * n, rmax) + 1)
+        for r in rs:
             c, m = fit(ny, nu, z, G, C, n, r)
             if best is None or c < best[0]:
                 best = (c, m)

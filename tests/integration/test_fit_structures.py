@@ -1,0 +1,181 @@
+"""`msid fit` on simulated structures as a bench engineer meets them (issue 9):
+12 modes (2 rigid-body), 0.5-2% damping, accelerations (direct feedthrough),
+60-80 dB dynamic range, 267 lines, SISO, 1x3 and 2x3 — against vector fitting
+(scikit-rf's VectorFitting, the independent peer) at the same order; feedthrough
+choice, stability, non-convergence, unit invariance of fit and validate, and the
+M >= 4 refusal for any number of outputs. Generator: tools/python/msid/structures.py."""
+import json
+
+import numpy as np
+import pytest
+
+import helpers as h
+from msid import structures as S
+
+SEED = 2          # dynamic range 65 dB (SISO), 77 dB (1x3), 78 dB (2x3)
+
+
+def _fit(tmp, frf, name, *args, ok=True):
+    out = tmp / f"{name}.json"
+    r = h.run("fit", *args, "--domain", "ct", frf, "-o", out)
+    if ok:
+        assert r.returncode == 0, r.stderr
+    return r, (h.load_json(out) if out.exists() else None)
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    d = tmp_path_factory.mktemp("structures")
+    out = {}
+    for kind in ("siso", "1x3", "2x3"):
+        st = S.structure(kind, SEED)
+        p = S.write(d / f"{kind}.json", S.frf_doc(st, SEED))
+        om, G, C = S.load_frf(p)
+        out[kind] = {"st": st, "path": p, "om": om, "G": G, "C": C, "G0": S.frf(st, 1j * om), "dir": d}
+    return out
+
+
+@pytest.mark.parametrize("kind", ["siso", "1x3", "2x3"])
+def test_ml_and_subspace_against_vector_fitting(data, kind):
+    D = data[kind]
+    n = S.order(D["st"])                                      # 24: 12 modes
+    assert 60 <= S.dynamic_range_db(D["G0"]) <= 80
+    Gvf, _ = S.vector_fit(D["path"], n)
+    V_vf, e_vf = S.weighted_cost(D["G"], Gvf, D["C"]), S.rel_error(Gvf, D["G0"])
+    _, ml = _fit(D["dir"], D["path"], f"ml-{kind}", "--method", "ml", "--order", n)
+    h.validate(ml, "msid-model-1")
+    Gml = np.array([h.cplx(e["G"]) for e in ml["frf"]])
+    V_ml, e_ml = S.weighted_cost(D["G"], Gml, D["C"]), S.rel_error(Gml, D["G0"])
+    print(f"{kind}: ml V = {V_ml:.6g} rel {e_ml:.3g}; vector fitting V = {V_vf:.6g} rel {e_vf:.3g}")
+    assert ml["converged"] is True and ml["stable"] is True
+    assert ml["feedthrough"]["included"] is True            # accelerations: direct term found by auto
+    assert abs(ml["cost"]["value"] - V_ml) < 1e-6 * V_ml      # the file's cost is eq. (40) on the same weights
+    assert V_ml <= V_vf * (1 + 1e-9), (V_ml, V_vf)
+    # relative error against the measured FRF: as good as vector fitting's (within 2%)
+    d_ml, d_vf = S.rel_error(Gml, D["G"]), S.rel_error(Gvf, D["G"])
+    assert d_ml <= d_vf * 1.02, (d_ml, d_vf)
+    # against the truth: weighting by a sample covariance of M = 16 periods costs the sample-ML
+    # efficiency factor sqrt(n/(n - ny - 1)) = 1.04-1.07 in std on this homoscedastic noise, which
+    # unweighted vector fitting does not pay (measured 1.06-1.12): bound 1.15, not "no worse"
+    assert e_ml <= e_vf * 1.15, (e_ml, e_vf)
+    # the covariance is usable by the modal step: full rank (identifiable pole-residue form)
+    assert ml["parameters"]["cov_rank"] == len(ml["parameters"]["names"]) == ml["n_params"]
+    _, sub = _fit(D["dir"], D["path"], f"sub-{kind}", "--method", "subspace", "--order", n, "--stable")
+    Gs = np.array([h.cplx(e["G"]) for e in sub["frf"]])
+    V_sub = S.weighted_cost(D["G"], Gs, D["C"])
+    print(f"{kind}: subspace V = {V_sub:.6g} ({V_sub / V_vf:.3g}x vector fitting), stable {sub['stable']}")
+    assert sub["stable"] is True and sub["stability"]["stable"] is True
+    assert V_sub <= 2 * V_vf, (V_sub, V_vf)
+
+
+def test_negative_control_under_modelled(data):
+    # the same comparison cannot pass vacuously: at order 12 (half the modes) ml's cost is far
+    # above the order-24 vector fit, and validate says NOT consistent
+    D = data["siso"]
+    Gvf, _ = S.vector_fit(D["path"], 24)
+    _, ml = _fit(D["dir"], D["path"], "ml-under", "--method", "ml", "--order", 12)
+    assert ml["cost"]["value"] > 10 * S.weighted_cost(D["G"], Gvf, D["C"])
+    r = h.run_ok("validate", D["dir"] / "ml-under.json", D["path"])
+    assert "NOT consistent" in r.stdout
+
+
+@pytest.mark.xfail(strict=True, reason="open (issue 9 item 3): the subspace cost is not monotone in the order on this structure; "
+                                       "the r set {1.5n, 2n, 3n, 4n} does not make it so")
+def test_subspace_cost_does_not_rise_with_order(data):
+    D = data["siso"]
+    costs = []
+    for n in (16, 20, 24, 28, 32):
+        _, m = _fit(D["dir"], D["path"], f"sub{n}", "--method", "subspace", "--order", n)
+        costs.append(m["cost"]["value"])
+    assert all(b <= a * (1 + 1e-9) for a, b in zip(costs, costs[1:])), costs
+
+
+def test_order_40_ml(data):
+    # high order: over-modelled by 16 poles, still a model (never refused), stable, at most the order-24 cost
+    D = data["siso"]
+    _, m24 = _fit(D["dir"], D["path"], "ml24", "--method", "ml", "--order", 24)
+    r, m40 = _fit(D["dir"], D["path"], "ml40", "--method", "ml", "--order", 40, ok=False)
+    assert r.returncode in (0, 3), r.stderr
+    assert m40["order"] == 40 and m40["cost"]["value"] <= m24["cost"]["value"] * (1 + 1e-9)
+    assert 0 < m40["parameters"]["cov_rank"] <= len(m40["parameters"]["names"])
+
+
+def test_not_converged_writes_the_best_iterate(data, tmp_path):
+    D = data["1x3"]
+    out = tmp_path / "nc.json"
+    r = h.run("fit", "--method", "ml", "--order", 24, "--domain", "ct", "--max-iter", 1, D["path"], "-o", out)
+    assert r.returncode == 3, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "did not converge" in lines[0] and '"converged": false' in lines[0]
+    m = h.load_json(out)
+    h.validate(m, "msid-model-1")
+    assert m["converged"] is False and m["gradient_norm"] > 0 and m["cost"]["value"] > 0
+
+
+@pytest.mark.parametrize("kind,quantity,expect", [("siso", "acc", True), ("2x2", "acc", True), ("siso", "vel", False)])
+def test_feedthrough_auto(tmp_path, kind, quantity, expect):
+    st = S.structure(kind, SEED, quantity=quantity)
+    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED))
+    om, G, C = S.load_frf(p)
+    G0 = S.frf(st, 1j * om)
+    n = S.order(st)
+    errs = {}
+    for method in ("ml", "subspace"):
+        for ft in ("auto", "yes", "no"):
+            # forcing D = 0 on accelerance data is the wrong model class: ml may run out of iterations (exit 3)
+            r, m = _fit(tmp_path, p, f"{method}-{ft}", "--method", method, "--order", n, "--feedthrough", ft, ok=False)
+            assert r.returncode == 0 or (r.returncode == 3 and ft == "no" and expect), r.stderr
+            Gm = np.array([h.cplx(e["G"]) for e in m["frf"]])
+            errs[method, ft] = S.rel_error(Gm, G0)
+            assert m["feedthrough"]["mode"] == ft
+            if ft == "auto":
+                assert m["feedthrough"]["included"] is expect, (method, m["feedthrough"])
+                assert m["feedthrough"]["lr_p_value"] is not None
+    if expect:
+        assert errs["ml", "auto"] < errs["ml", "no"] / 3, errs      # forcing D = 0 biases accelerance fits
+    assert errs["ml", "auto"] < 5e-3, errs
+
+
+@pytest.mark.parametrize("method", ["ml", "subspace"])
+def test_stable_option(data, method):
+    D = data["1x3"]
+    _, m = _fit(D["dir"], D["path"], f"st-{method}", "--method", method, "--order", 24, "--stable")
+    assert m["stable"] is True and m["stability"]["enforced"] is True and m["stability"]["max_real_pole"] < 0
+    assert m["cost"]["value"] > 0
+
+
+def _scaled(D, tmp, a, b):
+    return S.write(tmp / f"scaled-{a}-{b}.json", S.frf_doc(D["st"], SEED, out_scale=a, in_scale=b))
+
+
+@pytest.mark.parametrize("args", [("--method", "ml", "--order", 24), ("--method", "subspace", "--order", 24),
+                                  ("--method", "subspace",), ("--method", "ml", "--order", 24, "--weight", "none")])
+def test_unit_invariance(data, tmp_path, args):
+    # outputs in mm/s^2 instead of m/s^2 and the force in kN: no verdict, p-value, order or relative error changes
+    D = data["1x3"]
+    ref = _scaled(D, tmp_path, 1.0, 1.0)
+    sc = _scaled(D, tmp_path, 1e3, 1e-3)
+    res = []
+    for p in (ref, sc):
+        _, m = _fit(tmp_path, p, "m-" + p.stem, *args)
+        v = tmp_path / f"v-{p.stem}.json"
+        h.run_ok("validate", tmp_path / f"m-{p.stem}.json", p, "-o", v)
+        om, G, _ = S.load_frf(p)
+        Gm = np.array([h.cplx(e["G"]) for e in m["frf"]])
+        res.append((m["order"], m["cost"]["p_value"], m["feedthrough"]["included"], S.rel_error(Gm, G),
+                    h.load_json(v)["p_value"], h.load_json(v)["consistent_at_5pct"]))
+    (o1, p1, f1, e1, vp1, c1), (o2, p2, f2, e2, vp2, c2) = res
+    assert o1 == o2 and f1 == f2 and c1 == c2
+    assert abs(e1 - e2) <= 1e-6 * e1
+    assert abs(p1 - p2) <= 1e-6 + 1e-6 * p1 and abs(vp1 - vp2) <= 1e-6 + 1e-6 * vp1, (p1, p2, vp1, vp2)
+
+
+def test_refusal_three_outputs_two_periods(tmp_path):
+    st = S.structure("1x3", SEED)
+    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED, periods=2))
+    for method in ("ml", "subspace"):
+        r = h.run("fit", "--method", method, "--order", 24, "--domain", "ct", p, "-o", tmp_path / "o.json")
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 1 and len(lines) == 1, r.stderr
+        assert "M >= 4" in lines[0] and "2 periods" in lines[0] and "singular weights" not in lines[0], lines[0]
+        assert not (tmp_path / "o.json").exists()
