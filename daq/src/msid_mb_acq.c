@@ -248,6 +248,9 @@ static int check_state(msid_mb_acq *a)
     return 0;
 }
 
+/* Device restarts that may happen between two polls (each at most K P samples after the segment before it). */
+#define MAX_RESTARTS_PER_POLL 2u
+
 /* The header's counts against what the design and the samples read so far allow (issue 15 #2, #7). */
 static int check_counts(msid_mb_acq *a)
 {
@@ -265,8 +268,11 @@ static int check_counts(msid_mb_acq *a)
                  h->write_index, (unsigned long long)a->r, a->exp + 1);
         return -MSID_DAQ_E_BADDATA;
     }
-    /* each restart starts within the K P samples of the segment before it */
-    if (h->segment != a->seg && s0 > a->seg_start + a->total * (uint64_t)((h->segment - a->seg) & 0xFFFFu)) {
+    /* each restart starts within the K P samples of the segment before it; a segment number that jumped by more
+       than MAX_RESTARTS_PER_POLL is not trusted to size the samples declared lost */
+    const uint64_t jumps = (uint64_t)((h->segment - a->seg) & 0xFFFFu);
+    if (h->segment != a->seg &&
+        s0 > a->seg_start + a->total * (jumps < MAX_RESTARTS_PER_POLL ? jumps : MAX_RESTARTS_PER_POLL)) {
         snprintf(a->cl->err, sizeof a->cl->err, "the device's new segment starts at sample %llu, beyond the %llu "
                  "samples of the segment before it (experiment %u)", (unsigned long long)s0,
                  (unsigned long long)a->total, a->exp + 1);

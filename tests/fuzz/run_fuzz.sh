@@ -21,7 +21,7 @@ run)
   mkdir -p "$work/corpus"
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-  "$bdir/$h" "$work/corpus" "$here/corpus/$h" -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 \
+  "$bdir/$h" "$work/corpus" "$here/corpus/$h" -max_total_time="$secs" -seed="${MSID_FUZZ_SEED:-1}" -timeout=10 -rss_limit_mb=2048 \
       -artifact_prefix="$work/" -print_final_stats=1 "$@" 2>"$work/log" || {
     tail -60 "$work/log"; for a in "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-*; do
       [ -e "$a" ] && { echo "run_fuzz: reproducer (base64) $a:"; base64 -w0 "$a"; echo; }; done; exit 1; }
