@@ -27,7 +27,7 @@ static void *take(size_t n)
 
 sim_opts O;
 sim_plant_def PD;
-msid_can_config CFG;
+msid_params CFG;
 static sim_counts CNT;
 static msid_socketcan CAN;
 volatile sig_atomic_t stop_flag;
@@ -198,7 +198,7 @@ uint32_t sim_configure(uint32_t *mstatus)
     msid_status st = msid_twiddle_init(&TW, P, m, n);
     if (st) { *mstatus = st; return MSID_CAN_ERR_DESIGN; }
     msid_design_cfg dc;
-    msid_can_config_design_cfg(&CFG, &dc, &TW);
+    msid_params_design_cfg(&CFG, &dc, &TW);
     n = msid_design_mem_size(&dc);
     m = n ? take(n) : NULL;
     if (!m) { *mstatus = n ? MSID_E_MEM_SIZE : MSID_E_DIMS; return MSID_CAN_ERR_DESIGN; }
@@ -292,7 +292,7 @@ static void handle_host_frame(const msid_can_frame *f)
     last_host_frame = now_s();
     if (f->id == O.base + MSID_CAN_ID_CFG) {
         if (state == MSID_CAN_STATE_RUNNING) return;   /* ignored while running */
-        const int r = msid_can_config_feed(&CFG, f->data, f->len, O.version);
+        const int r = msid_params_feed(&CFG, f->data, f->len, O.version);
         if (r < 0) {
             configured = 0;
             state = MSID_CAN_STATE_ERROR;
@@ -332,7 +332,7 @@ static void handle_host_frame(const msid_can_frame *f)
     case MSID_CAN_CMD_RESET:
         flush_held();
         configured = 0;
-        msid_can_config_reset(&CFG);
+        msid_params_reset(&CFG);
         state = MSID_CAN_STATE_IDLE;
         send_state(MSID_CAN_STATE_IDLE, 0, 0, 0);
         break;

@@ -10,7 +10,7 @@
 #include <stdio.h>
 #include <time.h>
 #include "msid/msid.h"
-#include "msid_daq/msid_can_proto.h"
+#include "msid_daq/msid_params.h"
 #include "msid_daq/msid_socketcan.h"
 
 #define SIM_MAX_STATES 16u
@@ -68,7 +68,7 @@ typedef struct sim_counts {
 /* Shared by the CAN (devsim.c) and Modbus (devsim_mb.c) front ends. */
 extern sim_opts O;
 extern sim_plant_def PD;
-extern msid_can_config CFG;           /* the uploaded configuration (msid-can/1 parameter records) */
+extern msid_params CFG;           /* the uploaded configuration (msid-can/1 parameter records) */
 extern msid_design DES;
 extern int configured;
 extern uint64_t n_sample, n_total;    /* sample index in the segment, samples per segment */

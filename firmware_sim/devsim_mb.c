@@ -129,7 +129,7 @@ static void apply_records(void)
     msid_mb_unpack_records(rec, HR + MSID_MB_HR_CFG_REC, n);
     for (uint32_t i = 0; i < n; ++i) {
         if (rec[i][0] == MSID_CAN_P_BEGIN) cfg_records = 0, merr = mdetail = 0;
-        const int r = msid_can_config_feed(&CFG, rec[i], 8, MSID_CAN_PROTO_VERSION);
+        const int r = msid_params_feed(&CFG, rec[i], 8, MSID_CAN_PROTO_VERSION);
         cfg_records++;
         if (r < 0) {
             configured = 0;
@@ -174,7 +174,7 @@ static void execute(void)
         if (mstate == MSID_MB_STATE_RUNNING) mstate = MSID_MB_STATE_CONFIGURED;
     } else if (cmd == MSID_MB_CMD_RESET) {
         configured = 0;
-        msid_can_config_reset(&CFG);
+        msid_params_reset(&CFG);
         mstate = MSID_MB_STATE_IDLE;
         merr = mdetail = 0;
     }

@@ -4,7 +4,7 @@
  * Seeds: a valid design upload (fuzz_can_config), a clean experiment of frames in the harness's format
  * (fuzz_can_decoder), and a consistent device header with its ring (fuzz_mb_acq). */
 #include "msid/msid.h"
-#include "msid_daq/msid_can_proto.h"
+#include "msid_daq/msid_params.h"
 #include "msid_daq/msid_mb_proto.h"
 
 #include <stdio.h>
@@ -26,7 +26,7 @@ static void put_frame(FILE *f, uint32_t id, uint8_t len, uint8_t flags, const ui
     fwrite(d, 1, len, f);
 }
 
-static msid_can_config CFG;
+static msid_params CFG;
 
 int main(int argc, char **argv)
 {
@@ -37,7 +37,7 @@ int main(int argc, char **argv)
     CFG.phase_mode = MSID_PHASE_RANDOM; CFG.seed = 7; CFG.encoding = MSID_CAN_ENC_S16; CFG.scale = 0.001f;
     CFG.periods = 4;
     uint8_t rec[64][8];
-    const size_t n = msid_can_config_frames(&CFG, rec, 64);
+    const size_t n = msid_params_frames(&CFG, rec, 64);
     FILE *f = open_seed(dir, "fuzz_can_config", "upload");
     if (!f) return 1;
     fwrite(rec, 8, n, f);

@@ -15,6 +15,7 @@
 
 #include "msid/msid.h"
 #include "msid_daq/msid_can_decoder.h"
+#include "msid_daq/msid_params.h"
 #include "msid_daq/msid_candump.h"
 
 #define BASE 0x200u
@@ -66,9 +67,9 @@ static void codec_roundtrip(void **st)
     assert_int_equal(msid_can_crc32(0, (const uint8_t *)"123456789", 9), 0xCBF43926u);
 }
 
-static msid_can_config CFG, RX;
+static msid_params CFG, RX;
 
-static void fill_config(msid_can_config *c, int ct)
+static void fill_config(msid_params *c, int ct)
 {
     memset(c, 0, sizeof *c);
     c->period = 64; c->n_lines = 3; c->n_inputs = 2; c->n_experiments = 2;
@@ -92,12 +93,12 @@ static void config_upload(void **st)
     uint8_t fr[200][8];
     for (int ct = 0; ct < 2; ++ct) {
         fill_config(&CFG, ct);
-        const size_t n = msid_can_config_frames(&CFG, NULL, 0);
+        const size_t n = msid_params_frames(&CFG, NULL, 0);
         assert_true(n > 10 && n <= 200);
-        assert_int_equal(msid_can_config_frames(&CFG, fr, 200), n);
-        msid_can_config_reset(&RX);
-        for (size_t i = 0; i + 1 < n; ++i) assert_int_equal(msid_can_config_feed(&RX, fr[i], 8, 1), 0);
-        assert_int_equal(msid_can_config_feed(&RX, fr[n - 1], 8, 1), 1);
+        assert_int_equal(msid_params_frames(&CFG, fr, 200), n);
+        msid_params_reset(&RX);
+        for (size_t i = 0; i + 1 < n; ++i) assert_int_equal(msid_params_feed(&RX, fr[i], 8, 1), 0);
+        assert_int_equal(msid_params_feed(&RX, fr[n - 1], 8, 1), 1);
         assert_int_equal(RX.period, 64);
         assert_int_equal(RX.is_ct, ct);
         assert_true(RX.seed == CFG.seed && RX.scale == CFG.scale && RX.periods == 7 && RX.rate_hz == 1000);
@@ -105,42 +106,42 @@ static void config_upload(void **st)
         if (ct) assert_memory_equal(RX.omega, CFG.omega, 3 * sizeof(double));
         else assert_memory_equal(RX.bins, CFG.bins, 3 * sizeof(uint32_t));
         /* a lost frame or a flipped bit: the COMMIT's CRC does not match */
-        msid_can_config_reset(&RX);
+        msid_params_reset(&RX);
         for (size_t i = 0; i + 1 < n; ++i)
-            if (i != 5) msid_can_config_feed(&RX, fr[i], 8, 1);
-        assert_int_equal(msid_can_config_feed(&RX, fr[n - 1], 8, 1), -MSID_CAN_ERR_CRC);
-        msid_can_config_reset(&RX);
+            if (i != 5) msid_params_feed(&RX, fr[i], 8, 1);
+        assert_int_equal(msid_params_feed(&RX, fr[n - 1], 8, 1), -MSID_CAN_ERR_CRC);
+        msid_params_reset(&RX);
         fr[4][6] ^= 1;
-        for (size_t i = 0; i + 1 < n; ++i) msid_can_config_feed(&RX, fr[i], 8, 1);
-        assert_int_equal(msid_can_config_feed(&RX, fr[n - 1], 8, 1), -MSID_CAN_ERR_CRC);
+        for (size_t i = 0; i + 1 < n; ++i) msid_params_feed(&RX, fr[i], 8, 1);
+        assert_int_equal(msid_params_feed(&RX, fr[n - 1], 8, 1), -MSID_CAN_ERR_CRC);
         /* regression (issue 15 #4): a valid CRC does not make an absurd count acceptable. An upload asking
            for 5,000,000 periods (replay sized 4.58 GB from a 7 KB log), 1 period, or a period beyond
            MSID_MAX_PERIOD is refused at COMMIT; 100000 periods is the limit */
-        const uint32_t bad_periods[] = {5000000u, 1u, MSID_CAN_MAX_PERIODS + 1u};
+        const uint32_t bad_periods[] = {5000000u, 1u, MSID_PARAMS_MAX_PERIODS + 1u};
         for (int b = 0; b < 4; ++b) {
-            static msid_can_config big;
+            static msid_params big;
             big = CFG;
             if (b < 3) big.periods = bad_periods[b]; else big.period = MSID_MAX_PERIOD + 1u;
             uint8_t fb[200][8];
-            const size_t nb = msid_can_config_frames(&big, fb, 200);
-            msid_can_config_reset(&RX);
-            for (size_t i = 0; i + 1 < nb; ++i) msid_can_config_feed(&RX, fb[i], 8, 1);
-            assert_int_equal(msid_can_config_feed(&RX, fb[nb - 1], 8, 1), -MSID_CAN_ERR_CFG);
+            const size_t nb = msid_params_frames(&big, fb, 200);
+            msid_params_reset(&RX);
+            for (size_t i = 0; i + 1 < nb; ++i) msid_params_feed(&RX, fb[i], 8, 1);
+            assert_int_equal(msid_params_feed(&RX, fb[nb - 1], 8, 1), -MSID_CAN_ERR_CFG);
         }
         {
-            static msid_can_config lim;
+            static msid_params lim;
             lim = CFG;
-            lim.periods = MSID_CAN_MAX_PERIODS;
+            lim.periods = MSID_PARAMS_MAX_PERIODS;
             uint8_t fb[200][8];
-            const size_t nb = msid_can_config_frames(&lim, fb, 200);
-            msid_can_config_reset(&RX);
-            for (size_t i = 0; i + 1 < nb; ++i) msid_can_config_feed(&RX, fb[i], 8, 1);
-            assert_int_equal(msid_can_config_feed(&RX, fb[nb - 1], 8, 1), 1);
+            const size_t nb = msid_params_frames(&lim, fb, 200);
+            msid_params_reset(&RX);
+            for (size_t i = 0; i + 1 < nb; ++i) msid_params_feed(&RX, fb[i], 8, 1);
+            assert_int_equal(msid_params_feed(&RX, fb[nb - 1], 8, 1), 1);
         }
         /* another protocol version is refused at BEGIN */
-        assert_int_equal(msid_can_config_feed(&RX, fr[0], 8, 2), -MSID_CAN_ERR_VERSION);
-        assert_int_equal(msid_can_config_feed(&RX, fr[1], 8, 1), -MSID_CAN_ERR_CFG);
-        assert_int_equal(msid_can_config_feed(&RX, fr[0], 5, 1), -MSID_CAN_ERR_CFG);
+        assert_int_equal(msid_params_feed(&RX, fr[0], 8, 2), -MSID_CAN_ERR_VERSION);
+        assert_int_equal(msid_params_feed(&RX, fr[1], 8, 1), -MSID_CAN_ERR_CFG);
+        assert_int_equal(msid_params_feed(&RX, fr[0], 5, 1), -MSID_CAN_ERR_CFG);
     }
 }
 

@@ -7,6 +7,7 @@
 
 extern "C" {
 #include "msid_daq/msid_can_decoder.h"
+#include "msid_daq/msid_params.h"
 #include "msid_daq/msid_candump.h"
 #include "msid_daq/msid_socketcan.h"
 }
@@ -103,7 +104,7 @@ struct Acq {
     }
     // history: periods kept per experiment for the transient test (room for a device restart or two)
     void init(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t base,
-              const msid_can_config &c, uint32_t window, uint32_t history)
+              const msid_params &c, uint32_t window, uint32_t history)
     {
         job = std::make_unique<FrfJob>(rq, nu, ny, m, periods, history);
         msid_can_decoder_cfg dc{};
@@ -132,14 +133,14 @@ struct Acq {
     }
 };
 
-static std::string fmt_name(const msid_can_config &c)
+static std::string fmt_name(const msid_params &c)
 {
     return std::string(c.fd ? "fd" : "classic") + "/" + (c.encoding ? "float32" : "int16");
 }
 
 // The `acquisition` block of the FRF document.
 static Json acquisition_json(const Acq &a, const msid_can_link_stats &ls, const std::string &transport, uint32_t base,
-                             const msid_can_config &cfg, uint32_t crc)
+                             const msid_params &cfg, uint32_t crc)
 {
     const msid_can_decoder &d = a.dec;
     const msid_can_counters &c = d.cnt;
@@ -359,9 +360,9 @@ static int cmd_measure(int argc, char **argv)
     }
 
     // 2. upload the design as parameters
-    const size_t nf = msid_can_config_frames(cfg.get(), nullptr, 0);
+    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
     std::vector<uint8_t> cf(nf * 8);
-    msid_can_config_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
     const uint32_t crc = msid_can_get_u32(&cf[(nf - 1) * 8 + 4]);
     // Flow control: after every block of CFG frames, QUERY and wait for the device's answer,
     // so a device with a small receive FIFO has consumed the block before the next one.
@@ -454,11 +455,11 @@ static int cmd_replay(int argc, char **argv)
     msid_can_transport &t = rd.tr;
 
     // Pass 1: the last committed configuration and the device's INFO.
-    auto cfg = std::make_unique<msid_can_config>();
-    auto got = std::make_unique<msid_can_config>();
+    auto cfg = std::make_unique<msid_params>();
+    auto got = std::make_unique<msid_params>();
     std::memset(cfg.get(), 0, sizeof *cfg);
     std::memset(got.get(), 0, sizeof *got);
-    msid_can_config_reset(cfg.get());
+    msid_params_reset(cfg.get());
     bool have_cfg = false, have_info = false;
     uint32_t ny = 0, version = 0;
     uint64_t sample_frames = 0;
@@ -475,7 +476,7 @@ static int cmd_replay(int argc, char **argv)
                 (f.id & 0x7Fu) >= MSID_CAN_ID_S16)
                 ++sample_frames;
             if (f.id == base + MSID_CAN_ID_CFG) {
-                if (msid_can_config_feed(cfg.get(), f.data, f.len, MSID_CAN_PROTO_VERSION) == 1) {
+                if (msid_params_feed(cfg.get(), f.data, f.len, MSID_CAN_PROTO_VERSION) == 1) {
                     std::memcpy(got.get(), cfg.get(), sizeof *cfg);
                     have_cfg = true;
                 }

@@ -228,9 +228,9 @@ static int cmd_measure(int argc, char **argv)
                         enc != MSID_MB_ENC_S16 ? " or use int16" : ""));
 
     // 3. upload the design as parameters
-    const size_t nf = msid_can_config_frames(cfg.get(), nullptr, 0);
+    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
     std::vector<uint8_t> rec(nf * 8);
-    msid_can_config_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
     const uint32_t crc = msid_can_get_u32(&rec[(nf - 1) * 8 + 4]);
     if (msid_mb_upload(&cl, enc, wo, reinterpret_cast<const uint8_t(*)[8]>(rec.data()), nf) < 0)
         throw Error(fmt("design upload to %s failed: %s", L.name.c_str(), cl.err));

@@ -15,14 +15,14 @@ bool same_coef(const msid_design &a, const msid_design &b)
            std::memcmp(a.bins, b.bins, a.n_lines * sizeof(uint32_t)) == 0;
 }
 
-std::unique_ptr<DevDesign> device_design(const msid_can_config &c)
+std::unique_ptr<DevDesign> device_design(const msid_params &c)
 {
     auto D = std::make_unique<DevDesign>();
     if (c.period < MSID_MIN_PERIOD || c.period > MSID_MAX_PERIOD) { D->st = MSID_E_PERIOD; return D; }
     D->mtw = Mem(msid_twiddle_mem_size(c.period));
     if ((D->st = msid_twiddle_init(&D->tw, c.period, D->mtw.p, D->mtw.n)) != MSID_OK) return D;
     msid_design_cfg dc;
-    msid_can_config_design_cfg(&c, &dc, &D->tw);
+    msid_params_design_cfg(&c, &dc, &D->tw);
     const size_t n = msid_design_mem_size(&dc);
     if (!n) { D->st = MSID_E_DIMS; return D; }
     D->md = Mem(n);
@@ -31,14 +31,14 @@ std::unique_ptr<DevDesign> device_design(const msid_can_config &c)
 }
 
 
-std::unique_ptr<msid_can_config> config_from_design(const Design &D, const StreamFmt &s)
+std::unique_ptr<msid_params> config_from_design(const Design &D, const StreamFmt &s)
 {
     const msid_design &d = D.d;
-    auto c = std::make_unique<msid_can_config>();
+    auto c = std::make_unique<msid_params>();
     std::memset(c.get(), 0, sizeof *c);
     const uint32_t L = d.n_lines, nu = d.n_inputs;
-    if (L > MSID_CAN_MAX_LINES)
-        throw Error(fmt("the design has %u lines: an msid-can/1 device takes at most %u", L, MSID_CAN_MAX_LINES));
+    if (L > MSID_PARAMS_MAX_LINES)
+        throw Error(fmt("the design has %u lines: an msid-can/1 device takes at most %u", L, MSID_PARAMS_MAX_LINES));
     c->period = d.period;
     c->n_lines = L;
     c->n_inputs = nu;
@@ -99,8 +99,8 @@ void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfReq
         sf.scale = (float)s;
     }
     sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D.params.periods ? D.params.periods : 8);
-    if (sf.periods < 2 || sf.periods > MSID_CAN_MAX_PERIODS)
-        throw UsageError(fmt("--periods must be 2..%u", MSID_CAN_MAX_PERIODS));
+    if (sf.periods < 2 || sf.periods > MSID_PARAMS_MAX_PERIODS)
+        throw UsageError(fmt("--periods must be 2..%u", MSID_PARAMS_MAX_PERIODS));
     if (a.has("rate")) {
         const double r = parse_double(a.get("rate"), "--rate");
         if (!(r >= 0 && r <= 4e9) || r != std::floor(r))

@@ -5,7 +5,7 @@
 #include "pipeline.hpp"
 
 extern "C" {
-#include "msid_daq/msid_can_proto.h"
+#include "msid_daq/msid_params.h"
 }
 
 namespace msidcli {
@@ -17,7 +17,7 @@ struct DevDesign {
     msid_design d{};
     msid_status st = MSID_OK;
 };
-std::unique_ptr<DevDesign> device_design(const msid_can_config &c);
+std::unique_ptr<DevDesign> device_design(const msid_params &c);
 
 // Stream options that travel with the design.
 struct StreamFmt {
@@ -36,7 +36,7 @@ bool same_coef(const msid_design &a, const msid_design &b);
 
 // The parameter set of a design: the compact form (phase mode + seed) when the device
 // rebuilds exactly the same coefficients from it, else explicit phases. Throws Error.
-std::unique_ptr<msid_can_config> config_from_design(const Design &D, const StreamFmt &s);
+std::unique_ptr<msid_params> config_from_design(const Design &D, const StreamFmt &s);
 
 // Message of a device error code (MSID_CAN_ERR_*; the Modbus device reports the same codes).
 const char *device_error(uint32_t code);

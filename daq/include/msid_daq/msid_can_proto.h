@@ -93,32 +93,6 @@ enum {
 /** Channel encodings. */
 enum { MSID_CAN_ENC_S16 = 0, MSID_CAN_ENC_F32 = 1 };
 
-/** Largest number of lines a device accepts. */
-#define MSID_CAN_MAX_LINES 1024u
-/** Largest number of periods per experiment a parameter set may ask for (the host's --periods limit). */
-#define MSID_CAN_MAX_PERIODS 100000u
-
-/** The uploaded configuration (design parameters and stream format). */
-typedef struct msid_can_config {
-    uint32_t period, n_lines, n_inputs, n_experiments;
-    uint32_t pattern, phase_mode;
-    uint64_t seed;
-    uint32_t bins[MSID_CAN_MAX_LINES];
-    double amp[MSID_MAX_INPUTS * MSID_CAN_MAX_LINES];     /**< [i L + l] */
-    double phase[MSID_MAX_INPUTS * MSID_CAN_MAX_LINES];   /**< [i L + l], turns */
-    double omega[MSID_CAN_MAX_LINES];
-    double sample_time;
-    int have_amp, have_phase, is_ct;
-    uint32_t encoding, fd, rate_hz, periods;
-    float scale;
-    /* receive-side bookkeeping */
-    uint32_t crc;       /**< CRC of the committed configuration */
-    uint32_t n_frames;  /**< CFG frames since BEGIN */
-    uint32_t got[16];   /**< words received per parameter class */
-    uint32_t run_crc;
-    int open;           /**< 1 between BEGIN and COMMIT */
-} msid_can_config;
-
 /** Channels carried by one sample frame of this format. */
 uint32_t msid_can_chunk_channels(uint32_t encoding, uint32_t fd);
 /** Payload bytes of a sample frame (8 classic, 64 FD). */
@@ -167,27 +141,6 @@ void msid_can_encode_state(uint8_t *data, uint32_t state, uint32_t experiment, u
 void msid_can_encode_info(uint8_t *data, uint32_t version, uint32_t nu, uint32_t ny, uint32_t cfg_crc);
 /** @brief Build a STATUS COUNTERS payload. */
 void msid_can_encode_counters(uint8_t *data, uint32_t tec, uint32_t rec, uint32_t restarts, uint32_t tx_dropped);
-
-/** @brief Empty configuration (no BEGIN seen). */
-void msid_can_config_reset(msid_can_config *c);
-
-/**
- * @brief CFG frames (8 bytes each) that upload `c`, BEGIN first and COMMIT last.
- * @param out room for `cap` frames, or NULL to count
- * @return the number of frames (0 if c is out of range)
- */
-size_t msid_can_config_frames(const msid_can_config *c, uint8_t (*out)[8], size_t cap);
-
-/**
- * @brief Apply one CFG frame (device side, and the host replaying a log).
- * @return 0 accepted (more to come), 1 committed (c is complete and consistent),
- *         or -MSID_CAN_ERR_VERSION / -MSID_CAN_ERR_CRC / -MSID_CAN_ERR_CFG.
- */
-int msid_can_config_feed(msid_can_config *c, const uint8_t *data, uint32_t len, uint32_t host_version);
-
-/** @brief Fill a design configuration that points into `c` (valid while c lives). */
-void msid_can_config_design_cfg(const msid_can_config *c, msid_design_cfg *dc, const msid_twiddle *tw);
-
 #ifdef __cplusplus
 }
 #endif
