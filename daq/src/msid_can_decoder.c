@@ -178,16 +178,33 @@ static void open_exp(msid_can_decoder *d, uint32_t e)
     d->exp = e;
 }
 
+int msid_can_device_update(msid_can_device *v, const uint8_t *b)
+{
+    switch (b[0]) {
+    case MSID_CAN_ST_STATE:
+        v->have_state = 1;
+        v->state = b[1]; v->experiment = b[2]; v->error = b[3]; v->value = msid_can_get_u32(b + 4);
+        return MSID_CAN_ST_STATE;
+    case MSID_CAN_ST_INFO:
+        v->have_info = 1;
+        v->version = b[1]; v->nu = b[2]; v->ny = b[3]; v->cfg_crc = msid_can_get_u32(b + 4);
+        return MSID_CAN_ST_INFO;
+    case MSID_CAN_ST_COUNTERS:
+        v->have_counters = 1;
+        v->tec = b[1]; v->rec = b[2]; v->restarts = b[3]; v->tx_dropped = msid_can_get_u32(b + 4);
+        return MSID_CAN_ST_COUNTERS;
+    default:
+        return -1;
+    }
+}
+
 static void on_status(msid_can_decoder *d, const msid_can_frame *f)
 {
     d->cnt.status_frames++;
     if (f->len != 8 || (f->flags & MSID_CANF_FD)) { d->cnt.malformed++; return; }
-    const uint8_t *b = f->data;
     msid_can_device *v = &d->dev;
-    switch (b[0]) {
+    switch (msid_can_device_update(v, f->data)) {
     case MSID_CAN_ST_STATE: {
-        v->have_state = 1;
-        v->state = b[1]; v->experiment = b[2]; v->error = b[3]; v->value = msid_can_get_u32(b + 4);
         if ((v->state == MSID_CAN_STATE_RUNNING || v->state == MSID_CAN_STATE_DONE) &&
             v->experiment >= d->cfg.meas->n_experiments) {
             d->cnt.malformed++;   /* an experiment the design does not have (found by fuzz_can_decoder) */
@@ -215,12 +232,7 @@ static void on_status(msid_can_decoder *d, const msid_can_frame *f)
         break;
     }
     case MSID_CAN_ST_INFO:
-        v->have_info = 1;
-        v->version = b[1]; v->nu = b[2]; v->ny = b[3]; v->cfg_crc = msid_can_get_u32(b + 4);
-        break;
     case MSID_CAN_ST_COUNTERS:
-        v->have_counters = 1;
-        v->tec = b[1]; v->rec = b[2]; v->restarts = b[3]; v->tx_dropped = msid_can_get_u32(b + 4);
         break;
     default:
         d->cnt.malformed++;

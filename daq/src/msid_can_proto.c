@@ -133,3 +133,17 @@ void msid_can_encode_counters(uint8_t *d, uint32_t tec, uint32_t rec, uint32_t r
     d[3] = (uint8_t)(restarts > 255 ? 255 : restarts);
     msid_can_put_u32(d + 4, tx_dropped);
 }
+
+const char *msid_can_device_error_name(uint32_t code)
+{
+    switch (code) {
+    case MSID_CAN_ERR_VERSION: return "protocol version mismatch";
+    case MSID_CAN_ERR_CRC: return "configuration CRC mismatch (a CFG frame was lost)";
+    case MSID_CAN_ERR_DESIGN: return "the device refused the design";
+    case MSID_CAN_ERR_NOT_CONFIGURED: return "the device is not configured";
+    case MSID_CAN_ERR_EXPERIMENT: return "experiment index out of range";
+    case MSID_CAN_ERR_DIMS: return "the design's inputs do not match the device";
+    case MSID_CAN_ERR_CFG: return "malformed or unsupported configuration";
+    default: return "unknown device error";
+    }
+}

@@ -1,4 +1,4 @@
-/* Status messages shared by every daq transport. */
+/* The daq error space: transport, device and protocol statuses, and core statuses carried unchanged. */
 #include "msid_daq/msid_daq.h"
 
 const char *msid_daq_strerror(msid_daq_status s)
@@ -20,6 +20,26 @@ const char *msid_daq_strerror(msid_daq_status s)
     case MSID_DAQ_E_EXCEPTION: return "exception response";
     case MSID_DAQ_E_BADDATA: return "reply does not match the request";
     case MSID_DAQ_E_CONNECT: return "cannot connect";
+    case MSID_DAQ_E_DEVICE: return "the device reported an error";
+    case MSID_DAQ_E_PROTOCOL: return "the device does not follow the protocol";
+    case MSID_DAQ_E_HOOK: return "the frame hook failed";
     default: return "unknown daq status";
     }
+}
+
+int msid_daq_core(msid_status st)
+{
+    return st == MSID_OK ? 0 : -(MSID_DAQ_CORE_BASE + (int)st);
+}
+
+msid_status msid_daq_core_status(int rc)
+{
+    return rc <= -MSID_DAQ_CORE_BASE ? (msid_status)(-rc - MSID_DAQ_CORE_BASE) : MSID_OK;
+}
+
+const char *msid_daq_message(int rc)
+{
+    if (rc >= 0) return msid_daq_strerror(MSID_DAQ_OK);
+    if (rc <= -MSID_DAQ_CORE_BASE) return msid_strerror(msid_daq_core_status(rc));
+    return msid_daq_strerror((msid_daq_status)-rc);
 }

@@ -1,6 +1,7 @@
 /* The Modbus acquisition adapter: retried requests, design upload, commands, ring polling. */
 #define _POSIX_C_SOURCE 200809L
 #include "msid_daq/msid_mb_acq.h"
+#include "msid_daq/msid_can_proto.h"   /* device error codes: the same on both protocols */
 
 #include <stdio.h>
 #include <string.h>
@@ -20,14 +21,14 @@ size_t msid_mb_acq_mem_size(const msid_mb_acq_cfg *c)
     return up(sizeof(uint16_t) * MSID_MB_MAX_READ) + up(sizeof(double) * C) + msid_stream_mem_size(&sc);
 }
 
-msid_status msid_mb_acq_init(msid_mb_acq *a, const msid_mb_acq_cfg *c, void *mem, size_t len)
+int msid_mb_acq_init(msid_mb_acq *a, const msid_mb_acq_cfg *c, void *mem, size_t len)
 {
-    if (!a || !c || !mem || !c->meas || !c->client) return MSID_E_NULL;
+    if (!a || !c || !mem || !c->meas || !c->client) return msid_daq_core(MSID_E_NULL);
     const size_t need = msid_mb_acq_mem_size(c);
-    if (need == 0) return MSID_E_DIMS;
-    if (c->encoding != MSID_MB_ENC_F32 && !(c->scale > 0)) return MSID_E_ARG;
-    if (((uintptr_t)mem) % MSID_MEM_ALIGN) return MSID_E_MEM_ALIGN;
-    if (len < need) return MSID_E_MEM_SIZE;
+    if (need == 0) return msid_daq_core(MSID_E_DIMS);
+    if (c->encoding != MSID_MB_ENC_F32 && !(c->scale > 0)) return msid_daq_core(MSID_E_ARG);
+    if (((uintptr_t)mem) % MSID_MEM_ALIGN) return msid_daq_core(MSID_E_MEM_ALIGN);
+    if (len < need) return msid_daq_core(MSID_E_MEM_SIZE);
     memset(a, 0, sizeof *a);
     a->cfg = *c;
     a->cl = c->client;
@@ -39,7 +40,7 @@ msid_status msid_mb_acq_init(msid_mb_acq *a, const msid_mb_acq_cfg *c, void *mem
     a->buf = (uint16_t *)p; p += up(sizeof(uint16_t) * MSID_MB_MAX_READ);
     a->row = (double *)p; p += up(sizeof(double) * a->C);
     const msid_stream_cfg sc = {a->C, 0, c->meas};
-    return msid_stream_init(&a->st, &sc, p, need - (size_t)(p - (char *)mem));
+    return msid_daq_core(msid_stream_init(&a->st, &sc, p, need - (size_t)(p - (char *)mem)));
 }
 
 static void sleep_ms(uint32_t ms)
@@ -68,14 +69,13 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
                 int *transient)
 {
     *transient = 0;
-    const msid_mb_backend *be = a->tr->be;
-    void *ctx = a->tr->ctx;
+    const msid_mb_transport *t = a->tr;
     int rc = 0;
     for (uint32_t attempt = 0;; ++attempt) {
         a->cnt.requests++;
-        rc = kind == MSID_MB_READ_INPUT     ? be->read_input(ctx, addr, n, regs)
-             : kind == MSID_MB_READ_HOLDING ? be->read_holding(ctx, addr, n, regs)
-                                            : be->write_holding(ctx, addr, n, regs);
+        rc = kind == MSID_MB_READ_INPUT     ? msid_mb_read_input(t, addr, n, regs)
+             : kind == MSID_MB_READ_HOLDING ? msid_mb_read_holding(t, addr, n, regs)
+                                            : msid_mb_write_holding(t, addr, n, regs);
         if (rc == 0) {
             if (kind == MSID_MB_WRITE_HOLDING) a->cnt.registers_written += n;
             else a->cnt.registers_read += n;
@@ -85,7 +85,7 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
         switch (-rc) {
         case MSID_DAQ_E_EXCEPTION: {
             a->cnt.exceptions++;
-            const uint32_t x = be->exception(ctx);
+            const uint32_t x = msid_mb_exception(t);
             if (x != 5 && x != 6) {
                 snprintf(a->err, sizeof a->err, "the device answered exception %u (%s) to %s %u..%u", x,
                          msid_mb_exception_name(x), kind_name(kind), addr, addr + n - 1);
@@ -105,13 +105,13 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
         sleep_ms(b < 1000 ? b : 1000);
         if (reconnect) {
             a->cnt.reconnects++;
-            be->reconnect(ctx);   /* a failed connect is the next attempt's I/O error */
+            msid_mb_reconnect(t);   /* a failed connect is the next attempt's I/O error */
         } else {
-            be->flush(ctx);
+            msid_mb_flush(t);
         }
         if (attempt >= retries) {
             snprintf(a->err, sizeof a->err, "no valid reply to %s %u..%u after %u attempts: %s", kind_name(kind), addr,
-                     addr + n - 1, attempt + 1, be->error(ctx));
+                     addr + n - 1, attempt + 1, msid_mb_error(t));
             *transient = 1;
             return rc;
         }
@@ -162,6 +162,46 @@ int msid_mb_upload(msid_mb_client *a, uint32_t encoding, uint32_t word_order, co
     return 0;
 }
 
+int msid_mb_identify(msid_mb_client *a)
+{
+    const int rc = msid_mb_read_header(a);
+    if (rc < 0) return rc;
+    if (a->h.version != MSID_MB_PROTO_VERSION) {
+        snprintf(a->err, sizeof a->err, "register map version mismatch: the device serves msid-modbus/%u, this host "
+                 "msid-modbus/%u", a->h.version, MSID_MB_PROTO_VERSION);
+        return -MSID_DAQ_E_PROTOCOL;
+    }
+    return 0;
+}
+
+int msid_mb_configure(msid_mb_client *a, uint32_t encoding, uint32_t word_order, const uint8_t (*rec)[8], size_t n)
+{
+    if (!rec || n < 2) return -MSID_DAQ_E_ARG;
+    const int rc = msid_mb_upload(a, encoding, word_order, rec, n);
+    if (rc < 0) return rc;
+    const msid_mb_header *h = &a->h;
+    if (h->state == MSID_MB_STATE_ERROR) {
+        if (h->error == MSID_CAN_ERR_DESIGN)
+            snprintf(a->err, sizeof a->err, "the device refused the configuration: %s (%s)",
+                     msid_can_device_error_name(h->error), msid_strerror((msid_status)h->detail));
+        else
+            snprintf(a->err, sizeof a->err, "the device refused the configuration: %s",
+                     msid_can_device_error_name(h->error));
+        return -MSID_DAQ_E_DEVICE;
+    }
+    if (h->state != MSID_MB_STATE_CONFIGURED) {
+        snprintf(a->err, sizeof a->err, "the device did not confirm the configuration (state %u)", h->state);
+        return -MSID_DAQ_E_PROTOCOL;
+    }
+    const uint32_t crc = (uint32_t)rec[n - 1][4] | (uint32_t)rec[n - 1][5] << 8 | (uint32_t)rec[n - 1][6] << 16 |
+                         (uint32_t)rec[n - 1][7] << 24;
+    if (h->crc != crc) {
+        snprintf(a->err, sizeof a->err, "the device confirmed configuration CRC %08X, the host sent %08X", h->crc, crc);
+        return -MSID_DAQ_E_PROTOCOL;
+    }
+    return 0;
+}
+
 int msid_mb_command(msid_mb_client *a, uint32_t cmd, uint32_t e, uint32_t periods)
 {
     int rc = msid_mb_read_header(a);
@@ -184,8 +224,9 @@ int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods)
     const int rc = msid_mb_command(a->cl, MSID_MB_CMD_START, e, periods);
     if (rc < 0) return rc;
     if (a->cl->h.state == MSID_MB_STATE_ERROR) {
-        snprintf(a->cl->err, sizeof a->cl->err, "the device refused to start experiment %u (error %u)", e + 1, a->cl->h.error);
-        return -MSID_DAQ_E_BADDATA;
+        snprintf(a->cl->err, sizeof a->cl->err, "the device refused to start experiment %u: %s (error %u)", e + 1,
+                 msid_can_device_error_name(a->cl->h.error), a->cl->h.error);
+        return -MSID_DAQ_E_DEVICE;
     }
     if (a->cl->h.ring_samples == 0 || a->cl->h.sample_regs != a->W || a->cl->h.ring_addr < MSID_MB_IR_HEADER ||
         a->cl->h.ring_addr + (uint64_t)a->cl->h.ring_samples * a->W > 65536u) {
@@ -205,8 +246,9 @@ int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods)
     a->r = 0;
     a->seg = 0;          /* START opens segment 0 at sample 0 (the device may be further already) */
     a->seg_start = 0;
-    a->open = msid_stream_begin(&a->st, e) == MSID_OK;
-    return a->open ? 0 : -MSID_DAQ_E_ARG;
+    const msid_status st = msid_stream_begin(&a->st, e);
+    a->open = st == MSID_OK;
+    return msid_daq_core(st);
 }
 
 /* Samples [a->r, to) are gone: declare them missing (an overrun). */
@@ -236,9 +278,9 @@ static int check_state(msid_mb_acq *a)
 {
     const msid_mb_header *h = &a->cl->h;
     if (h->state == MSID_MB_STATE_ERROR) {
-        snprintf(a->cl->err, sizeof a->cl->err, "the device reported error %u (detail %u) during experiment %u", h->error,
-                 h->detail, a->exp + 1);
-        return -MSID_DAQ_E_BADDATA;
+        snprintf(a->cl->err, sizeof a->cl->err, "the device reported error %u (%s, detail %u) during experiment %u",
+                 h->error, msid_can_device_error_name(h->error), h->detail, a->exp + 1);
+        return -MSID_DAQ_E_DEVICE;
     }
     if ((h->state != MSID_MB_STATE_RUNNING && h->state != MSID_MB_STATE_DONE) || h->experiment != a->exp) {
         snprintf(a->cl->err, sizeof a->cl->err, "the device left experiment %u (state %u, experiment %u)", a->exp + 1, h->state,
@@ -347,10 +389,21 @@ static int read_ring(msid_mb_acq *a, uint64_t to, uint32_t *left, int *prog)
             return -MSID_DAQ_E_BADDATA;
         } else {
             a->cnt.stale_replies++;
-            a->cl->tr->be->flush(a->cl->tr->ctx);
+            msid_mb_flush(a->cl->tr);
         }
     }
     return 0;
+}
+
+/* The core refused what the stream handed it: its status in the daq error space, and the message. */
+static int core_refused(msid_mb_acq *a)
+{
+    if (a->st.err == MSID_E_CAPACITY)
+        snprintf(a->cl->err, sizeof a->cl->err, "more periods arrived than the measurement holds (device restarted too "
+                 "often?)");
+    else
+        snprintf(a->cl->err, sizeof a->cl->err, "measurement: %s", msid_strerror(a->st.err));
+    return msid_daq_core(a->st.err);
 }
 
 int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
@@ -374,7 +427,7 @@ int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
             *prog = 1;
         }
         if ((rc = read_ring(a, end, &left, prog)) < 0) return rc;
-        if (a->st.err != MSID_OK) return -MSID_DAQ_E_ARG;
+        if (a->st.err != MSID_OK) return core_refused(a);
         if (a->r < end) return 0;              /* out of requests for this poll */
         if (!newseg) break;
         new_segment(a);
@@ -387,7 +440,7 @@ int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
         a->open = 0;
         a->cnt.experiments_done++;
         a->cnt.device_overruns += a->cl->h.overruns;
-        return a->st.err != MSID_OK ? -MSID_DAQ_E_ARG : 1;
+        return a->st.err != MSID_OK ? core_refused(a) : 1;
     }
     return 0;
 }

@@ -7,6 +7,7 @@
 
 extern "C" {
 #include "msid_daq/msid_can_decoder.h"
+#include "msid_daq/msid_can_session.h"
 #include "msid_daq/msid_params.h"
 #include "msid_daq/msid_candump.h"
 #include "msid_daq/msid_socketcan.h"
@@ -239,24 +240,26 @@ static uint32_t parse_window(const Args &a)
 }
 
 
-// ---- measure -----------------------------------------------------------------
+// ---- measure: parse options -> open transport -> session -> estimation job ----
 
-static void send_or_throw(msid_can_transport &t, Acq &acq, const msid_can_frame &f)
+// The session's frame hook: every frame sent and received into the --log file.
+static int log_hook(void *user, const msid_can_frame *f)
 {
-    const int r = t.be->send(t.ctx, &f, 2000);
-    if (r < 0) throw Error(std::string("cannot send on the CAN bus: ") + t.be->error(t.ctx));
-    msid_can_frame g = f;
-    g.flags |= MSID_CANF_TX;
-    acq.log_frame(g);
+    try {
+        static_cast<Acq *>(user)->log_frame(*f);
+        return 0;
+    } catch (const Error &) {
+        return -1;
+    }
 }
 
-static msid_can_frame frame8(uint32_t id, const uint8_t *d)
+// A failed session step: one message (the session decoded the device's error), the log's when it failed.
+[[noreturn]] static void session_failed(const Acq &acq, const msid_can_session &s, int rc)
 {
-    msid_can_frame f{};
-    f.id = id;
-    f.len = 8;
-    std::memcpy(f.data, d, 8);
-    return f;
+    if (rc == -MSID_DAQ_E_HOOK) throw Error("cannot write '" + acq.log_path + "'");
+    const msid_status st = msid_daq_core_status(rc);
+    if (st != MSID_OK && st != MSID_E_CAPACITY) check(st, "decoder");   // the core's reason, as every command reports it
+    throw Error(s.err);
 }
 
 static int cmd_measure(int argc, char **argv)
@@ -282,11 +285,15 @@ static int cmd_measure(int argc, char **argv)
     if (bitrate < 0 || dbitrate < 0) throw UsageError("--bitrate must be >= 0");
     const int rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
     const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
-    if (!(timeout > 0)) throw UsageError("--timeout must be positive");
+    if (!(timeout > 0 && timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
     const msid_design &d = D->d;
 
     auto cfg = config_from_design(*D, sf);
+    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
+    std::vector<uint8_t> cf(nf * 8);
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
 
+    // open the transport
     msid_socketcan sc;
     msid_socketcan_cfg scc{};
     scc.iface = iface.c_str();
@@ -298,52 +305,29 @@ static int cmd_measure(int argc, char **argv)
     scc.rcvbuf = rcvbuf;
     const int r = msid_socketcan_open(&sc, &scc);
     if (r < 0) throw Error(sc.err);
-    struct Closer { msid_socketcan &s; ~Closer() { s.tr.be->close(s.tr.ctx); } } closer{sc};
-    msid_can_transport &t = sc.tr;
+    struct Closer { msid_socketcan &s; ~Closer() { msid_can_close(&s.tr); } } closer{sc};
 
     Acq acq;
     acq.iface = iface;
     if (a.has("log")) acq.open_log(a.get("log"));
 
-    // 1. who is there?
-    uint8_t buf[8];
-    msid_can_encode_ctrl(buf, MSID_CAN_CMD_QUERY, 0, 0);
-    send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CTRL, buf));
-    msid_can_device dev{};
-    std::vector<msid_can_frame> early;   // status frames before the decoder exists
-    auto wait_status = [&](double secs, auto done) {
-        timespec t0;
-        clock_gettime(CLOCK_MONOTONIC, &t0);
-        msid_can_frame fr[64];
-        for (;;) {
-            timespec t1;
-            clock_gettime(CLOCK_MONOTONIC, &t1);
-            const double el = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-            if (el > secs) return false;
-            const int k = t.be->recv(t.ctx, fr, 64, 50);
-            if (k == -MSID_DAQ_E_TIMEOUT) continue;
-            if (k < 0) throw Error(std::string("CAN receive: ") + t.be->error(t.ctx));
-            bool hit = false;
-            for (int i = 0; i < k; ++i) {   // the whole batch is kept, even after the awaited frame
-                acq.log_frame(fr[i]);
-                early.push_back(fr[i]);
-                if (fr[i].id != base + MSID_CAN_ID_STATUS || fr[i].len != 8) continue;
-                const uint8_t *b = fr[i].data;
-                if (b[0] == MSID_CAN_ST_INFO) {
-                    dev.have_info = 1; dev.version = b[1]; dev.nu = b[2]; dev.ny = b[3]; dev.cfg_crc = msid_can_get_u32(b + 4);
-                } else if (b[0] == MSID_CAN_ST_STATE) {
-                    dev.have_state = 1; dev.state = b[1]; dev.experiment = b[2]; dev.error = b[3]; dev.value = msid_can_get_u32(b + 4);
-                }
-                hit = hit || done();
-            }
-            if (hit) return true;
-        }
-    };
-    if (!wait_status(2.0, [&] { return dev.have_info != 0; }))
+    // the session: who is there?
+    auto s = std::make_unique<msid_can_session>();
+    msid_can_session_cfg ssc{};
+    ssc.tr = &sc.tr;
+    ssc.base = base;
+    ssc.silence_ms = (uint32_t)std::ceil(timeout * 1000.0);
+    ssc.on_frame = log_hook;
+    ssc.user = &acq;
+    if (msid_can_session_init(s.get(), &ssc) < 0) throw Error("CAN session setup");
+    int rc = msid_can_session_identify(s.get(), 2000);
+    if (rc == -MSID_DAQ_E_TIMEOUT)
         throw Error(fmt("no msid-can device answered at base %s on %s within 2 s", hex(base).c_str(), iface.c_str()));
-    if (dev.version != MSID_CAN_PROTO_VERSION)
+    if (rc == -MSID_DAQ_E_PROTOCOL)
         throw Error(fmt("protocol version mismatch: the device on %s speaks msid-can/%u, this host msid-can/%u",
-                        iface.c_str(), dev.version, MSID_CAN_PROTO_VERSION));
+                        iface.c_str(), s->dev.version, MSID_CAN_PROTO_VERSION));
+    if (rc < 0) session_failed(acq, *s, rc);
+    const msid_can_device &dev = s->dev;
     if (dev.nu != d.n_inputs)
         throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs));
     const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
@@ -359,75 +343,30 @@ static int cmd_measure(int argc, char **argv)
                             sf.fd ? "" : ", or use --fd"));
     }
 
-    // 2. upload the design as parameters
-    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
-    std::vector<uint8_t> cf(nf * 8);
-    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
-    const uint32_t crc = msid_can_get_u32(&cf[(nf - 1) * 8 + 4]);
-    // Flow control: after every block of CFG frames, QUERY and wait for the device's answer,
-    // so a device with a small receive FIFO has consumed the block before the next one.
-    const size_t block = 16;
-    for (size_t i = 0; i < nf; ++i) {
-        if (i == nf - 1 || (i > 0 && i % block == 0)) {
-            dev.have_state = 0;
-            msid_can_encode_ctrl(buf, MSID_CAN_CMD_QUERY, 0, 0);
-            send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CTRL, buf));
-            if (!wait_status(5.0, [&] { return dev.have_state != 0; }))
-                throw Error(fmt("the device stopped answering during the design upload (after %zu of %zu frames)", i, nf));
-            if (dev.state == MSID_CAN_STATE_ERROR)
-                throw Error(fmt("the device refused the configuration: %s", device_error(dev.error)));
-        }
-        if (i == nf - 1) dev.have_state = 0;
-        send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CFG, &cf[i * 8]));
-    }
-    if (!wait_status(5.0, [&] {
-            return dev.have_state && (dev.state == MSID_CAN_STATE_CONFIGURED || dev.state == MSID_CAN_STATE_ERROR);
-        }))
-        throw Error("the device did not confirm the configuration within 5 s");
-    if (dev.state == MSID_CAN_STATE_ERROR) {
-        if (dev.error == MSID_CAN_ERR_VERSION)
-            throw Error(fmt("protocol version mismatch: the device on %s refused msid-can/%u (it speaks msid-can/%u)",
-                            iface.c_str(), MSID_CAN_PROTO_VERSION, dev.version));
-        throw Error(fmt("the device refused the configuration: %s%s", device_error(dev.error),
-                        dev.error == MSID_CAN_ERR_DESIGN ? (std::string(" (") + msid_strerror((msid_status)dev.value) + ")").c_str() : ""));
-    }
-    if (dev.cfg_crc != crc)
-        throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", dev.cfg_crc, crc));
-
-    // 3. run the experiments
+    // the estimation job and its decoder, then the design upload as parameters
     acq.init(rq, nu, ny, m, sf.periods, base, *cfg, window, 4 * sf.periods + 8);
-    for (const auto &f : early) acq.feed(f);
-    msid_can_frame fr[64];
-    for (uint32_t e = 0; e < m; ++e) {
-        const uint64_t done_before = acq.dec.cnt.experiments_done;
-        msid_can_encode_ctrl(buf, MSID_CAN_CMD_START, e, sf.periods);
-        send_or_throw(t, acq, frame8(base + MSID_CAN_ID_CTRL, buf));
-        timespec last;
-        clock_gettime(CLOCK_MONOTONIC, &last);
-        while (acq.dec.cnt.experiments_done == done_before) {
-            const int k = t.be->recv(t.ctx, fr, 64, 100);
-            timespec now;
-            clock_gettime(CLOCK_MONOTONIC, &now);
-            if (k == -MSID_DAQ_E_TIMEOUT) {
-                if ((double)(now.tv_sec - last.tv_sec) + 1e-9 * (double)(now.tv_nsec - last.tv_nsec) > timeout)
-                    throw Error(fmt("the device went silent for %g s during experiment %u", timeout, e + 1));
-                continue;
-            }
-            if (k < 0) throw Error(std::string("CAN receive: ") + t.be->error(t.ctx));
-            last = now;
-            for (int i = 0; i < k; ++i) {
-                acq.log_frame(fr[i]);
-                acq.feed(fr[i]);
-                const msid_can_device &v = acq.dec.dev;
-                if (fr[i].id == base + MSID_CAN_ID_STATUS && v.have_state && v.state == MSID_CAN_STATE_ERROR)
-                    throw Error(fmt("the device reported an error during experiment %u: %s", e + 1, device_error(v.error)));
-            }
-        }
-    }
+    if ((rc = msid_can_session_attach(s.get(), &acq.dec)) < 0) session_failed(acq, *s, rc);
+    rc = msid_can_session_upload(s.get(), reinterpret_cast<const uint8_t(*)[8]>(cf.data()), nf);
+    if (rc < 0) session_failed(acq, *s, rc);
+    const uint32_t crc = s->crc;
+
+    // run the experiments
+    for (uint32_t e = 0; e < m; ++e)
+        if ((rc = msid_can_session_run(s.get(), e, sf.periods)) < 0) session_failed(acq, *s, rc);
     msid_can_link_stats ls;
-    t.be->stats(t.ctx, &ls);
-    FrfOutcome o = acq.job->finish(sources(acq, m, d.period), loss_notes(acq.dec, ls));
-    o.doc["acquisition"] = acquisition_json(acq, ls, "socketcan", base, *cfg, crc);
+    msid_can_get_stats(&sc.tr, &ls);
+    auto notes = loss_notes(acq.dec, ls);
+    if (s->cnt.done_recovered)
+        notes.push_back(fmt("%llu DONE frame(s) lost: the experiment(s) were closed by the device's answer to a QUERY",
+                            (unsigned long long)s->cnt.done_recovered));
+    if (s->cnt.early_dropped)
+        notes.push_back(fmt("%llu frame(s) before the upload were not decoded (more than %u)",
+                            (unsigned long long)s->cnt.early_dropped, MSID_CAN_SESSION_EARLY));
+    FrfOutcome o = acq.job->finish(sources(acq, m, d.period), notes);
+    Json aj = acquisition_json(acq, ls, "socketcan", base, *cfg, crc);
+    aj["queries"] = s->cnt.queries;
+    aj["done_recovered"] = s->cnt.done_recovered;
+    o.doc["acquisition"] = aj;
     write_json_file(out, o.doc);
     acq.close_log();
     for (const auto &n : o.notes) std::fprintf(stderr, "msid can: note: %s\n", n.c_str());
@@ -451,7 +390,7 @@ static int cmd_replay(int argc, char **argv)
     const uint32_t base = parse_base(a), window = parse_window(a);
     msid_candump_reader rd;
     if (msid_candump_open(&rd, path.c_str()) < 0) throw Error(rd.err);
-    struct Closer { msid_candump_reader &r; ~Closer() { r.tr.be->close(r.tr.ctx); } } closer{rd};
+    struct Closer { msid_candump_reader &r; ~Closer() { msid_can_close(&r.tr); } } closer{rd};
     msid_can_transport &t = rd.tr;
 
     // Pass 1: the last committed configuration and the device's INFO.
@@ -466,9 +405,9 @@ static int cmd_replay(int argc, char **argv)
     std::string iface;
     msid_can_frame fr[64];
     for (;;) {
-        const int k = t.be->recv(t.ctx, fr, 64, 0);
+        const int k = msid_can_recv(&t, fr, 64, 0);
         if (k == -MSID_DAQ_E_EOF) break;
-        if (k < 0) throw Error("'" + path + "': " + t.be->error(t.ctx));
+        if (k < 0) throw Error("'" + path + "': " + msid_can_error(&t));
         for (int i = 0; i < k; ++i) {
             const msid_can_frame &f = fr[i];
             if (iface.empty()) iface = rd.iface;
@@ -521,9 +460,9 @@ static int cmd_replay(int argc, char **argv)
     acq.init(rq, nu, ny, m, got->periods, base, *got, window, (uint32_t)(fit < want ? fit : want));
     msid_candump_rewind(&rd);
     for (;;) {
-        const int k = t.be->recv(t.ctx, fr, 64, 0);
+        const int k = msid_can_recv(&t, fr, 64, 0);
         if (k == -MSID_DAQ_E_EOF) break;
-        if (k < 0) throw Error("'" + path + "': " + t.be->error(t.ctx));
+        if (k < 0) throw Error("'" + path + "': " + msid_can_error(&t));
         for (int i = 0; i < k; ++i) acq.feed(fr[i]);
     }
     std::vector<std::string> notes;
@@ -535,7 +474,7 @@ static int cmd_replay(int argc, char **argv)
         if (msid_meas_stats(acq.dec.cfg.meas, e) && acq.dec.cfg.meas->samples[e] == 0)
             throw Error(fmt("'%s' holds no samples of experiment %u of %u", path.c_str(), e + 1, m));
     msid_can_link_stats ls;
-    t.be->stats(t.ctx, &ls);
+    msid_can_get_stats(&t, &ls);
     auto ln = loss_notes(acq.dec, ls);
     notes.insert(notes.end(), ln.begin(), ln.end());
     FrfOutcome o = acq.job->finish(sources(acq, m, rq.period), notes);

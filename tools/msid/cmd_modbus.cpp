@@ -8,6 +8,7 @@
 extern "C" {
 #include "msid_daq/msid_mb_acq.h"
 #include "msid_daq/msid_modbus.h"
+#include "msid_daq/msid_params.h"
 }
 
 #include <cerrno>
@@ -54,7 +55,7 @@ struct Link {
     msid_modbus m{};
     bool open = false;
     std::string name;       // "tcp:127.0.0.1:1502" / "rtu:/dev/pts/3"
-    ~Link() { if (open) m.tr.be->close(m.tr.ctx); }
+    ~Link() { if (open) msid_mb_close(&m.tr); }
 };
 
 static uint32_t parse_enum(const Args &a, const char *key, const char *def, const std::vector<std::string> &names)
@@ -103,11 +104,11 @@ static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms
 }
 
 // Register rate of the link: RTU from baud and framing, TCP measured with full reads.
-static double link_reg_rate(const Args &a, msid_mb_client &cl, uint32_t max_regs, bool &measured)
+static double link_reg_rate(const Args &a, const Link &L, msid_mb_client &cl, uint32_t max_regs, bool &measured)
 {
     measured = !a.has("rtu");
     if (!measured) {
-        const msid_modbus &m = *static_cast<msid_modbus *>(cl.tr->ctx);
+        const msid_modbus &m = L.m;
         const uint32_t bits = 1u + (uint32_t)m.cfg.data_bits + (m.cfg.parity != 'N') + (uint32_t)m.cfg.stop_bits;
         return msid_mb_rtu_reg_rate(m.cfg.baud, bits, max_regs);
     }
@@ -132,7 +133,7 @@ static Json acquisition_json(const Link &L, const msid_mb_client &cl, const msid
     const msid_mb_counters &c = q.cnt;
     const msid_stream_counters &s = q.st.cnt;
     Json j;
-    j["transport"] = std::string("modbus-") + cl.tr->be->name;
+    j["transport"] = std::string("modbus-") + msid_mb_backend_name(cl.tr);
     j["endpoint"] = L.name.substr(4);
     j["unit"] = unit;
     j["protocol"] = fmt("msid-modbus/%u", MSID_MB_PROTO_VERSION);
@@ -196,17 +197,20 @@ static int cmd_measure(int argc, char **argv)
     const msid_design &d = D->d;
     auto cfg = config_from_design(*D, sf);
 
-    // 1. who is there?
+    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
+    std::vector<uint8_t> rec(nf * 8);
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
+    const uint32_t crc = msid_can_get_u32(&rec[(nf - 1) * 8 + 4]);
+
+    // open the transport; the client session: who is there?
     Link L;
     open_link(a, L, resp_ms, byte_ms);
     msid_mb_client cl;
     msid_mb_client_init(&cl, &L.m.tr, retries, 20);
-    if (msid_mb_read_header(&cl) < 0)
-        throw Error(fmt("no msid-modbus device answered on %s: %s", L.name.c_str(), cl.err));
+    int rc = msid_mb_identify(&cl);
+    if (rc == -MSID_DAQ_E_PROTOCOL) throw Error(fmt("%s (on %s)", cl.err, L.name.c_str()));
+    if (rc < 0) throw Error(fmt("no msid-modbus device answered on %s: %s", L.name.c_str(), cl.err));
     const msid_mb_header &h = cl.h;
-    if (h.version != MSID_MB_PROTO_VERSION)
-        throw Error(fmt("register map version mismatch: the device on %s serves msid-modbus/%u, this host msid-modbus/%u",
-                        L.name.c_str(), h.version, MSID_MB_PROTO_VERSION));
     if (h.nu != d.n_inputs) throw Error(fmt("the device has %u input(s) but the design has %u", h.nu, d.n_inputs));
     const uint32_t nu = h.nu, ny = h.ny, m = d.n_experiments, C = nu + ny;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS || C > MSID_MAX_CHANNELS) throw Error(fmt("the device reports %u outputs", ny));
@@ -217,7 +221,7 @@ static int cmd_measure(int argc, char **argv)
 
     // 2. can the link carry it?
     bool measured = false;
-    const double lrate = link_reg_rate(a, cl, max_regs, measured);
+    const double lrate = link_reg_rate(a, L, cl, max_regs, measured);
     if (sf.rate > 0 && (double)sf.rate * W > 0.8 * lrate)
         throw Error(fmt("the link cannot carry %u channels at %u Hz: %.0f registers/s (%u per sample: a tag and %u %s "
                         "value(s)) but %s carries about %.0f registers/s %s (80%% of it is usable beside header "
@@ -227,18 +231,10 @@ static int cmd_measure(int argc, char **argv)
                                  : fmt("(%u-register reads at %d baud, from the framing)", max_regs, L.m.cfg.baud).c_str(),
                         enc != MSID_MB_ENC_S16 ? " or use int16" : ""));
 
-    // 3. upload the design as parameters
-    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
-    std::vector<uint8_t> rec(nf * 8);
-    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
-    const uint32_t crc = msid_can_get_u32(&rec[(nf - 1) * 8 + 4]);
-    if (msid_mb_upload(&cl, enc, wo, reinterpret_cast<const uint8_t(*)[8]>(rec.data()), nf) < 0)
-        throw Error(fmt("design upload to %s failed: %s", L.name.c_str(), cl.err));
-    if (h.state == MSID_MB_STATE_ERROR)
-        throw Error(fmt("the device refused the configuration: %s%s", device_error(h.error),
-                        h.error == MSID_CAN_ERR_DESIGN ? (std::string(" (") + msid_strerror((msid_status)h.detail) + ")").c_str() : ""));
-    if (h.state != MSID_MB_STATE_CONFIGURED) throw Error(fmt("the device did not confirm the configuration (state %u)", h.state));
-    if (h.crc != crc) throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", h.crc, crc));
+    // 3. upload the design as parameters (the client decodes the device's verdict)
+    rc = msid_mb_configure(&cl, enc, wo, reinterpret_cast<const uint8_t(*)[8]>(rec.data()), nf);
+    if (rc == -MSID_DAQ_E_DEVICE || rc == -MSID_DAQ_E_PROTOCOL) throw Error(cl.err);
+    if (rc < 0) throw Error(fmt("design upload to %s failed: %s", L.name.c_str(), cl.err));
 
     // 4. run the experiments into the one FRF job
     FrfJob job(rq, nu, ny, m, sf.periods, 4 * sf.periods + 8);
@@ -257,12 +253,14 @@ static int cmd_measure(int argc, char **argv)
     qc.period = d.period;   // the header's P and K P are checked against the design
     Mem mq(msid_mb_acq_mem_size(&qc));
     msid_mb_acq q;
-    check(msid_mb_acq_init(&q, &qc, mq.p, mq.n), "Modbus adapter setup");
+    check(msid_daq_core_status(msid_mb_acq_init(&q, &qc, mq.p, mq.n)), "Modbus adapter setup");
     double stream_s = 0;
     uint64_t bad_at_progress = 0;   // bad replies when a sample last arrived
     for (uint32_t e = 0; e < m; ++e) {
-        if (msid_mb_acq_start(&q, e, sf.periods) < 0)
+        if ((rc = msid_mb_acq_start(&q, e, sf.periods)) < 0) {
+            check(msid_daq_core_status(rc), "measurement");
             throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
+        }
         timespec t0, last;
         clock_gettime(CLOCK_MONOTONIC, &t0);
         last = t0;
@@ -274,9 +272,8 @@ static int cmd_measure(int argc, char **argv)
                 throw Error(fmt("experiment %u on %s: the device did not stop after the design's samples: %s", e + 1,
                                 L.name.c_str(), cl.err));
             if (r == 1) break;
-            if (r == -MSID_DAQ_E_ARG && q.st.err == MSID_E_CAPACITY)
-                throw Error("more periods arrived than the measurement holds (device restarted too often?)");
-            if (r == -MSID_DAQ_E_ARG) check(q.st.err, "measurement");
+            if (msid_daq_core_status(r) == MSID_E_CAPACITY) throw Error(cl.err);
+            check(msid_daq_core_status(r), "measurement");   // any other core refusal, as every command reports it
             if (r < 0) throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
             if (prog) {
                 clock_gettime(CLOCK_MONOTONIC, &last);

@@ -77,20 +77,6 @@ std::unique_ptr<msid_params> config_from_design(const Design &D, const StreamFmt
     return c;
 }
 
-const char *device_error(uint32_t code)
-{
-    switch (code) {
-    case MSID_CAN_ERR_VERSION: return "protocol version mismatch";
-    case MSID_CAN_ERR_CRC: return "configuration CRC mismatch (a CFG frame was lost)";
-    case MSID_CAN_ERR_DESIGN: return "the device refused the design";
-    case MSID_CAN_ERR_NOT_CONFIGURED: return "the device is not configured";
-    case MSID_CAN_ERR_EXPERIMENT: return "experiment index out of range";
-    case MSID_CAN_ERR_DIMS: return "the design's inputs do not match the device";
-    case MSID_CAN_ERR_CFG: return "malformed or unsupported configuration";
-    default: return "unknown device error";
-    }
-}
-
 void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq)
 {
     if (a.has("scale")) {

@@ -38,7 +38,4 @@ bool same_coef(const msid_design &a, const msid_design &b);
 // rebuilds exactly the same coefficients from it, else explicit phases. Throws Error.
 std::unique_ptr<msid_params> config_from_design(const Design &D, const StreamFmt &s);
 
-// Message of a device error code (MSID_CAN_ERR_*; the Modbus device reports the same codes).
-const char *device_error(uint32_t code);
-
 }  // namespace msidcli

@@ -136,6 +136,12 @@ msid_status msid_can_decoder_feed(msid_can_decoder *d, const msid_can_frame *f);
 /** @brief Close an open experiment without a DONE frame (e.g. the device went silent): pending samples are flushed, missing ones declared. */
 msid_status msid_can_decoder_abort(msid_can_decoder *d);
 
+/**
+ * @brief Apply the 8-byte payload of a STATUS frame to *v (STATE, INFO or COUNTERS).
+ * @return the multiplexer it held (MSID_CAN_ST_*), or -1 for an unknown one (v unchanged).
+ */
+int msid_can_device_update(msid_can_device *v, const uint8_t *data);
+
 /** @brief Name of a bus state ("active", "warning", "passive", "bus-off", "restarted"). */
 const char *msid_can_bus_state_name(msid_can_bus_state s);
 

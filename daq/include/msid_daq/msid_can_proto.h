@@ -133,6 +133,9 @@ void msid_can_encode_sample(uint8_t *data, uint32_t encoding, uint32_t fd, uint3
 void msid_can_decode_values(const uint8_t *data, uint32_t encoding, uint32_t fd, uint32_t k, double *row,
                             uint32_t n_channels, double scale);
 
+/** @brief Name of a device error code (MSID_CAN_ERR_*; an msid-modbus/1 device reports the same codes). */
+const char *msid_can_device_error_name(uint32_t code);
+
 /** @brief Build the CTRL payload (8 bytes). */
 void msid_can_encode_ctrl(uint8_t *data, uint32_t cmd, uint32_t experiment, uint32_t periods);
 /** @brief Build a STATUS STATE payload. */

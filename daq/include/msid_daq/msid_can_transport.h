@@ -5,7 +5,8 @@
  * A transport moves CAN frames; it knows nothing of msid-can/1. Backends plug
  * in as a table of function pointers, the way libmodbus plugs its RTU and TCP
  * backends in: ::msid_socketcan (live SocketCAN) and ::msid_candump_reader
- * (replay of a candump .log file) today, a Modbus bridge later. The caller
+ * (replay of a candump .log file). Callers use the wrapper functions below
+ * (::msid_can_recv, ::msid_can_send, ...), never the table itself. The caller
  * owns every backend struct; no backend allocates after open.
  */
 #ifndef MSID_CAN_TRANSPORT_H
@@ -69,6 +70,28 @@ typedef struct msid_can_transport {
     const msid_can_backend *be;
     void *ctx;
 } msid_can_transport;
+
+/**
+ * @brief Receive up to n frames into f[0..n-1], waiting at most timeout_ms (-1: forever, 0: poll).
+ * @return the count (>= 1), -MSID_DAQ_E_TIMEOUT, -MSID_DAQ_E_EOF (end of a log) or another -msid_daq_status
+ *         (::msid_can_error has the detail).
+ */
+int msid_can_recv(const msid_can_transport *t, msid_can_frame *f, int n, int timeout_ms);
+
+/**
+ * @brief Send one frame; a full queue is retried for at most timeout_ms.
+ * @return 0 or -msid_daq_status (::msid_can_error has the detail).
+ */
+int msid_can_send(const msid_can_transport *t, const msid_can_frame *f, int timeout_ms);
+
+/** @brief Copy the transport's cumulative link counters into *s. */
+void msid_can_get_stats(const msid_can_transport *t, msid_can_link_stats *s);
+
+/** @brief Detail of the transport's last error ("" if none); valid until the next call on t. */
+const char *msid_can_error(const msid_can_transport *t);
+
+/** @brief Release the transport (a transport that was never opened, be == NULL, is left alone). */
+void msid_can_close(msid_can_transport *t);
 
 #ifdef __cplusplus
 }

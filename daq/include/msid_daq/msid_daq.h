@@ -1,13 +1,22 @@
 /**
  * @file msid_daq.h
- * @brief Status codes shared by every transport of the host acquisition
- *        (daq/): SocketCAN, candump replay, Modbus TCP and RTU.
+ * @brief The one error space of the host acquisition (daq/): every daq
+ *        object (transports, the Modbus client and poller, the CAN session)
+ *        returns 0 (or a count) on success and a negative code on failure.
  *
- * Backend functions return 0 (or a count) on success and -msid_daq_status on
- * failure; ::msid_daq_strerror names a status.
+ * A negative code is either -msid_daq_status (the link, the device or the
+ * protocol failed) or, when the core (lib/) refused, the core's status carried
+ * unchanged: ::msid_daq_core(st) == -(MSID_DAQ_CORE_BASE + st). A caller asks
+ * ::msid_daq_core_status for the core's reason and ::msid_daq_message for the
+ * text of any code; it never looks into an object for the reason. The objects
+ * that keep a message buffer (`err`) add the details (addresses, counts,
+ * device error names). The CAN frame decoder and ::msid_stream feed the core
+ * directly and return msid_status, the core's own space.
  */
 #ifndef MSID_DAQ_H
 #define MSID_DAQ_H
+
+#include "msid/msid_status.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -31,11 +40,26 @@ typedef enum msid_daq_status {
     MSID_DAQ_E_EXCEPTION,   /**< Modbus: the device answered with an exception response */
     MSID_DAQ_E_BADDATA,     /**< Modbus: a reply that does not match the request */
     MSID_DAQ_E_CONNECT,     /**< Modbus: cannot connect (TCP) or open the serial port (RTU) */
+    MSID_DAQ_E_DEVICE,      /**< the device reported an error or refused the configuration (the object's err names it) */
+    MSID_DAQ_E_PROTOCOL,    /**< the device does not follow the protocol (version, CRC, counts; the object's err) */
+    MSID_DAQ_E_HOOK,        /**< the caller's frame hook failed (e.g. a log that cannot be written) */
     MSID_DAQ_E_COUNT_
 } msid_daq_status;
 
+/** Core statuses are carried as -(MSID_DAQ_CORE_BASE + msid_status), beyond every msid_daq_status. */
+#define MSID_DAQ_CORE_BASE 1000
+
 /** @brief Message of a transport status. */
 const char *msid_daq_strerror(msid_daq_status s);
+
+/** @brief A core status in the daq error space: 0 for MSID_OK, else -(MSID_DAQ_CORE_BASE + st). */
+int msid_daq_core(msid_status st);
+
+/** @brief The core status a daq code carries (MSID_OK if the code is not a core refusal). */
+msid_status msid_daq_core_status(int rc);
+
+/** @brief Text of any daq code: msid_strerror of a carried core status, else ::msid_daq_strerror of -rc ("ok" for rc >= 0). */
+const char *msid_daq_message(int rc);
 
 #ifdef __cplusplus
 }

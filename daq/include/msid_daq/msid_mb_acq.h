@@ -19,6 +19,13 @@
  * segment (device restart) closes the current one and opens another of the
  * same experiment at the device's segment start. No allocation: memory comes
  * from the caller.
+ *
+ * Errors: every function of the client and the poller returns 0 (or 1, see
+ * ::msid_mb_acq_poll) or a negative code of the daq error space (msid_daq.h):
+ * -msid_daq_status for the link, the device (-MSID_DAQ_E_DEVICE, its error
+ * decoded by name) and the protocol (-MSID_DAQ_E_PROTOCOL, -MSID_DAQ_E_BADDATA),
+ * or the core's status carried unchanged (::msid_daq_core) when the core
+ * refused. The client's err says what and why.
  */
 #ifndef MSID_MB_ACQ_H
 #define MSID_MB_ACQ_H
@@ -101,8 +108,12 @@ void msid_mb_client_init(msid_mb_client *c, msid_mb_transport *tr, uint32_t retr
 /** @brief Bytes of working memory; 0 if cfg is invalid. */
 size_t msid_mb_acq_mem_size(const msid_mb_acq_cfg *cfg);
 
-/** @brief Initialise. @return MSID_OK, MSID_E_NULL, MSID_E_DIMS, MSID_E_ARG, MSID_E_MEM_SIZE, MSID_E_MEM_ALIGN. */
-msid_status msid_mb_acq_init(msid_mb_acq *a, const msid_mb_acq_cfg *cfg, void *mem, size_t len);
+/**
+ * @brief Initialise on `len` bytes of caller memory at `mem` (MSID_MEM_ALIGN-aligned, ::msid_mb_acq_mem_size).
+ * @return 0, or the core's reason as ::msid_daq_core(MSID_E_NULL / MSID_E_DIMS / MSID_E_ARG / MSID_E_MEM_SIZE /
+ *         MSID_E_MEM_ALIGN).
+ */
+int msid_mb_acq_init(msid_mb_acq *a, const msid_mb_acq_cfg *cfg, void *mem, size_t len);
 
 /**
  * @brief One request with retries, backoff, flush and reconnect.
@@ -125,17 +136,37 @@ int msid_mb_read_header(msid_mb_client *c);
  */
 int msid_mb_upload(msid_mb_client *c, uint32_t encoding, uint32_t word_order, const uint8_t (*rec)[8], size_t n);
 
+/**
+ * @brief Read the header and check the register map version.
+ * @return 0, -MSID_DAQ_E_PROTOCOL (another version; c->err), -MSID_DAQ_E_BADDATA (not an msid-modbus
+ *         device) or a transport error.
+ */
+int msid_mb_identify(msid_mb_client *c);
+
+/**
+ * @brief ::msid_mb_upload, then the device's verdict decoded: CONFIGURED with the CRC of the COMMIT record.
+ * @return 0, -MSID_DAQ_E_DEVICE (refused: the device's error name and, for a refused design, the core's
+ *         reason in c->err), -MSID_DAQ_E_PROTOCOL (not confirmed, or another CRC) or a transport error.
+ */
+int msid_mb_configure(msid_mb_client *c, uint32_t encoding, uint32_t word_order, const uint8_t (*rec)[8], size_t n);
+
 /** @brief Execute a command (START, STOP, RESET) and wait (bounded) until the device reports it done. */
 int msid_mb_command(msid_mb_client *c, uint32_t cmd, uint32_t experiment, uint32_t periods);
 
-/** @brief START experiment e (K periods, 0: configured) and open it in the stream. */
+/**
+ * @brief START experiment e (K periods, 0: configured) and open it in the stream.
+ * @return 0, -MSID_DAQ_E_DEVICE (refused, decoded in the client's err), -MSID_DAQ_E_BADDATA (a ring or
+ *         counts that do not match), a core status (::msid_daq_core) or a transport error.
+ */
 int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods);
 
 /**
  * @brief One poll: the header, then up to `batch` ring reads.
  * @return 1 when the experiment is complete (closed in the measurement),
- *         0 to poll again, -msid_daq_status on a transport failure or a
- *         device error (the client's err), -MSID_DAQ_E_ARG on a core error (a->st.err).
+ *         0 to poll again, -msid_daq_status on a transport failure, a device
+ *         error (-MSID_DAQ_E_DEVICE) or a protocol error (the client's err),
+ *         or the core's status (::msid_daq_core, e.g. MSID_E_CAPACITY) when
+ *         the measurement refused the samples.
  * @param progressed set to 1 if new samples were read or declared missing
  */
 int msid_mb_acq_poll(msid_mb_acq *a, int *progressed);

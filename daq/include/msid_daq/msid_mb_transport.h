@@ -8,6 +8,8 @@
  * reports what went wrong (timeout, bad CRC, exception response, a reply
  * that does not match, a lost connection); retries, backoff and reconnects
  * are the adapter's (::msid_mb_call), so they behave the same on every link.
+ * Callers use the wrapper functions below (::msid_mb_read_input, ...), never
+ * the table itself.
  */
 #ifndef MSID_MB_TRANSPORT_H
 #define MSID_MB_TRANSPORT_H
@@ -45,6 +47,33 @@ typedef struct msid_mb_transport {
     const msid_mb_backend *be;
     void *ctx;
 } msid_mb_transport;
+
+/** @brief Read n <= 125 input registers (FC 04) at addr into dst. @return 0 or -msid_daq_status. */
+int msid_mb_read_input(const msid_mb_transport *t, uint32_t addr, uint32_t n, uint16_t *dst);
+
+/** @brief Read n <= 125 holding registers (FC 03) at addr into dst. @return 0 or -msid_daq_status. */
+int msid_mb_read_holding(const msid_mb_transport *t, uint32_t addr, uint32_t n, uint16_t *dst);
+
+/** @brief Write n <= 123 holding registers (FC 16) at addr from src. @return 0 or -msid_daq_status. */
+int msid_mb_write_holding(const msid_mb_transport *t, uint32_t addr, uint32_t n, const uint16_t *src);
+
+/** @brief Drop what the link holds (stale or partial replies). */
+void msid_mb_flush(const msid_mb_transport *t);
+
+/** @brief Close, flush and connect again. @return 0 or -msid_daq_status. */
+int msid_mb_reconnect(const msid_mb_transport *t);
+
+/** @brief Code of the last exception response (1..255). */
+uint32_t msid_mb_exception(const msid_mb_transport *t);
+
+/** @brief Detail of the transport's last error ("" if none). */
+const char *msid_mb_error(const msid_mb_transport *t);
+
+/** @brief Name of the backend ("tcp", "rtu"). */
+const char *msid_mb_backend_name(const msid_mb_transport *t);
+
+/** @brief Release the transport (a transport that was never opened, be == NULL, is left alone). */
+void msid_mb_close(msid_mb_transport *t);
 
 /** @brief Name of a Modbus exception code ("illegal data address", ...). */
 const char *msid_mb_exception_name(uint32_t code);
