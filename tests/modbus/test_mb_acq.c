@@ -152,6 +152,20 @@ static void connect_to(const sim *s)
     msid_mb_client_init(&H.cl, &H.m.tr, 5, 20);
 }
 
+/* A fresh simulator, connected and identified. */
+static void open_device(sim *s)
+{
+    assert_int_equal(sim_start(s, NULL), 0);
+    connect_to(s);
+    assert_int_equal(msid_mb_identify(&H.cl), 0);
+}
+
+static void close_device(sim *s)
+{
+    msid_mb_close(&H.m.tr);
+    sim_stop(s);
+}
+
 static size_t params(uint32_t n_inputs)
 {
     memset(&CFG, 0, sizeof CFG);
@@ -216,9 +230,7 @@ static void frf_equals_the_simulators_truth(void **st)
 {
     (void)st;
     sim s;
-    assert_int_equal(sim_start(&s, NULL), 0);
-    connect_to(&s);
-    assert_int_equal(msid_mb_identify(&H.cl), 0);
+    open_device(&s);
     assert_int_equal(H.cl.h.nu, NU);
     assert_int_equal(H.cl.h.ny, NY);
     const size_t n = params(NU);
@@ -242,17 +254,14 @@ static void frf_equals_the_simulators_truth(void **st)
     printf("max relative |G - G_true| = %.3g (transposed truth, negative control: %.3g)\n", e0, e1);
     assert_true(e0 < 1e-6);   /* noise off: float32 samples (measured 9e-8), the transient gone after 1 skipped period */
     assert_true(e1 > 1e-2);
-    msid_mb_close(&H.m.tr);
-    sim_stop(&s);
+    close_device(&s);
 }
 
 static void device_errors_are_decoded(void **st)
 {
     (void)st;
     sim s;
-    assert_int_equal(sim_start(&s, NULL), 0);
-    connect_to(&s);
-    assert_int_equal(msid_mb_identify(&H.cl), 0);
+    open_device(&s);
     /* a design for 1 input on a 2-input device */
     size_t n = params(1);
     assert_int_equal(msid_mb_configure(&H.cl, MSID_MB_ENC_F32, MSID_MB_ABCD, (const uint8_t(*)[8])REC, n),
@@ -264,17 +273,14 @@ static void device_errors_are_decoded(void **st)
     assert_int_equal(acq_setup(4 * K, 1), 0);
     assert_int_equal(msid_mb_acq_start(&H.q, 5, K), -MSID_DAQ_E_DEVICE);
     assert_non_null(strstr(H.cl.err, "experiment index out of range"));
-    msid_mb_close(&H.m.tr);
-    sim_stop(&s);
+    close_device(&s);
 }
 
 static void core_refusal_carries_the_core_status(void **st)
 {
     (void)st;
     sim s;
-    assert_int_equal(sim_start(&s, NULL), 0);
-    connect_to(&s);
-    assert_int_equal(msid_mb_identify(&H.cl), 0);
+    open_device(&s);
     const size_t n = params(NU);
     assert_int_equal(msid_mb_configure(&H.cl, MSID_MB_ENC_F32, MSID_MB_ABCD, (const uint8_t(*)[8])REC, n), 0);
     assert_int_equal(acq_setup(2, 0), 0);   /* history of 2 periods: the third of K = 4 does not fit */
@@ -289,8 +295,7 @@ static void core_refusal_carries_the_core_status(void **st)
     assert_int_equal(msid_mb_acq_init(&q, &qc, QM, 16), msid_daq_core(MSID_E_MEM_SIZE));
     qc.meas = NULL;
     assert_int_equal(msid_mb_acq_init(&q, &qc, QM, sizeof QM), msid_daq_core(MSID_E_NULL));
-    msid_mb_close(&H.m.tr);
-    sim_stop(&s);
+    close_device(&s);
 }
 
 int main(void)
