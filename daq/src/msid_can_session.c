@@ -23,7 +23,7 @@ int msid_can_session_init(msid_can_session *s, const msid_can_session_cfg *c)
     s->cfg.send_timeout_ms = def(c->send_timeout_ms, 2000);
     s->cfg.reply_timeout_ms = def(c->reply_timeout_ms, 5000);
     s->cfg.silence_ms = def(c->silence_ms, 10000);
-    s->cfg.query_ms = def(c->query_ms, 500);
+    s->cfg.query_ms = def(c->query_ms, s->cfg.silence_ms / 4 ? s->cfg.silence_ms / 4 : 1);
     s->cfg.upload_block = def(c->upload_block, 16);
     return 0;
 }

@@ -60,7 +60,7 @@ typedef struct msid_can_session_cfg {
     uint32_t send_timeout_ms;    /**< a full send queue is retried this long (default 2000) */
     uint32_t reply_timeout_ms;   /**< wait for an answer during the upload (default 5000) */
     uint32_t silence_ms;         /**< fail when only query replies arrive this long in an experiment (default 10000) */
-    uint32_t query_ms;           /**< QUERY after this long without a new frame in an experiment (default 500) */
+    uint32_t query_ms;           /**< QUERY after this long without a new frame in an experiment (default silence_ms / 4) */
     uint32_t upload_block;       /**< CFG frames between flow-control QUERYs (default 16) */
     msid_can_frame_hook on_frame;/**< NULL: none */
     void *user;                  /**< passed to on_frame */
