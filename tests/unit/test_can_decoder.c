@@ -219,7 +219,7 @@ static void candump_replay(void **st)
     assert_int_equal(msid_candump_open(&r, path), 0);
     msid_can_frame got[64];
     int total = 0, k;
-    while ((k = r.tr.be->recv(r.tr.ctx, got, 64, 0)) > 0) {
+    while ((k = msid_can_recv(&r.tr, got, 64, 0)) > 0) {
         for (int i = 0; i < k; ++i) {
             assert_int_equal(got[i].len, (total + i) % 9);
             if (got[i].len) assert_int_equal(got[i].data[0], (uint8_t)(total + i));
@@ -228,11 +228,11 @@ static void candump_replay(void **st)
     }
     assert_int_equal(total, 100);
     assert_int_equal(k, -MSID_DAQ_E_FORMAT);
-    assert_non_null(strstr(r.tr.be->error(r.tr.ctx), "line 101"));
-    assert_int_equal(r.tr.be->send(r.tr.ctx, &f, 0), -MSID_DAQ_E_ARG);
+    assert_non_null(strstr(msid_can_error(&r.tr), "line 101"));
+    assert_int_equal(msid_can_send(&r.tr, &f, 0), -MSID_DAQ_E_ARG);
     msid_candump_rewind(&r);
-    assert_int_equal(r.tr.be->recv(r.tr.ctx, got, 10, 0), 10);
-    r.tr.be->close(r.tr.ctx);
+    assert_int_equal(msid_can_recv(&r.tr, got, 10, 0), 10);
+    msid_can_close(&r.tr);
     unlink(path);
     assert_int_equal(msid_candump_open(&r, "/nonexistent/x.log"), -MSID_DAQ_E_IO);
 }
