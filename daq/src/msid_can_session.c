@@ -120,11 +120,11 @@ static int waited(const msid_can_session *s, int what)
 static int wait_for(msid_can_session *s, int what, uint32_t timeout_ms)
 {
     const uint64_t t0 = now_ms();
-    while (now_ms() - t0 <= timeout_ms) {
+    do {   /* at least one receive, however late this process was scheduled */
         const int k = pump(s, 50);
         if (k < 0) return k;
         if (k > 0 && waited(s, what)) return 1;
-    }
+    } while (now_ms() - t0 <= timeout_ms);
     return 0;
 }
 
