@@ -444,3 +444,53 @@ int msid_mb_acq_poll(msid_mb_acq *a, int *prog)
     }
     return 0;
 }
+
+static uint64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
+}
+
+int msid_mb_acq_run(msid_mb_acq *a, uint32_t e, uint32_t periods, uint32_t silence_ms, uint32_t idle_us)
+{
+    int rc = msid_mb_acq_start(a, e, periods);
+    if (rc < 0) return rc;
+    msid_mb_client *cl = a->cl;
+    const uint64_t t0 = now_ns();
+    uint64_t last = t0, bad_at_progress = cl->cnt.bad_replies;   /* bad replies when a sample last arrived */
+    for (;;) {
+        int prog = 0;
+        const uint64_t nodone = a->cnt.done_missing;
+        rc = msid_mb_acq_poll(a, &prog);
+        if (rc == 1) {
+            a->cnt.stream_ns += now_ns() - t0;
+            if (a->cnt.done_missing != nodone && (rc = msid_mb_command(cl, MSID_MB_CMD_STOP, e, 0)) < 0) {
+                char why[sizeof cl->err];
+                memcpy(why, cl->err, sizeof why);
+                snprintf(cl->err, sizeof cl->err, "the device did not stop after the design's samples: %.250s", why);
+                return rc;
+            }
+            return 0;
+        }
+        if (rc < 0) return rc;
+        const uint64_t t = now_ns();
+        if (prog) {
+            last = t;
+            bad_at_progress = cl->cnt.bad_replies;
+        } else if (t - last > (uint64_t)silence_ms * 1000000u) {
+            const uint64_t bad = cl->cnt.bad_replies - bad_at_progress;
+            if (bad) {   /* not a silent device: its replies do not match */
+                snprintf(cl->err, sizeof cl->err, "no new sample for %g s: %llu repl%s did not match their requests "
+                         "(a device that answers twice, or a second master on the link?)", (double)silence_ms / 1000.0,
+                         (unsigned long long)bad, bad == 1 ? "y" : "ies");
+                return -MSID_DAQ_E_BADDATA;
+            }
+            snprintf(cl->err, sizeof cl->err, "the device produced no new sample for %g s", (double)silence_ms / 1000.0);
+            return -MSID_DAQ_E_TIMEOUT;
+        } else if (idle_us) {
+            const struct timespec d = {(time_t)(idle_us / 1000000u), (long)(idle_us % 1000000u) * 1000L};
+            nanosleep(&d, NULL);
+        }
+    }
+}

@@ -153,12 +153,14 @@ static void connect_to(const sim *s)
 }
 
 /* A fresh simulator, connected and identified. */
-static void open_device(sim *s)
+static void open_device_with(sim *s, const char *extra)
 {
-    assert_int_equal(sim_start(s, NULL), 0);
+    assert_int_equal(sim_start(s, extra), 0);
     connect_to(s);
     assert_int_equal(msid_mb_identify(&H.cl), 0);
 }
+
+static void open_device(sim *s) { open_device_with(s, NULL); }
 
 static void close_device(sim *s)
 {
@@ -195,22 +197,8 @@ static int acq_setup(uint32_t hist, uint32_t skip)
     return msid_mb_acq_init(&H.q, &qc, QM, sizeof QM);
 }
 
-/* Poll experiment e to its end (bounded: 20000 polls). Returns the last poll's code. */
-static int acquire(uint32_t e)
-{
-    int rc = msid_mb_acq_start(&H.q, e, K);
-    if (rc < 0) return rc;
-    int prog = 0;
-    for (int i = 0; i < 20000; ++i) {
-        rc = msid_mb_acq_poll(&H.q, &prog);
-        if (rc != 0) return rc;
-        if (!prog) {
-            const struct timespec t = {0, 500000L};
-            nanosleep(&t, NULL);
-        }
-    }
-    return 0;
-}
+/* Experiment e to its end through msid_mb_acq_run (10 s without a new sample is a failure). */
+static int acquire(uint32_t e) { return msid_mb_acq_run(&H.q, e, K, 10000, 500); }
 
 static double max_err(const msid_cplx *G, const msid_cplx *T, int transpose)
 {
@@ -236,7 +224,9 @@ static void frf_equals_the_simulators_truth(void **st)
     const size_t n = params(NU);
     assert_int_equal(msid_mb_configure(&H.cl, MSID_MB_ENC_F32, MSID_MB_ABCD, (const uint8_t(*)[8])REC, n), 0);
     assert_int_equal(acq_setup(4 * K, 1), 0);
-    for (uint32_t e = 0; e < NU; ++e) assert_int_equal(acquire(e), 1);
+    for (uint32_t e = 0; e < NU; ++e) assert_int_equal(acquire(e), 0);
+    assert_true(H.q.cnt.stream_ns > 0);
+    assert_int_equal(H.q.cnt.done_missing, 0);
     assert_int_equal(H.q.cnt.experiments_done, NU);
     assert_int_equal(H.q.st.cnt.samples, NU * K * P);
     assert_int_equal(H.q.st.cnt.samples_lost, 0);
@@ -298,12 +288,30 @@ static void core_refusal_carries_the_core_status(void **st)
     close_device(&s);
 }
 
+/* A device that writes past K P and never reports DONE: the run closes the experiment at K P and stops it. */
+static void never_done_is_closed_and_stopped(void **st)
+{
+    (void)st;
+    sim s;
+    open_device_with(&s, "--never-done");
+    const size_t n = params(NU);
+    assert_int_equal(msid_mb_configure(&H.cl, MSID_MB_ENC_F32, MSID_MB_ABCD, (const uint8_t(*)[8])REC, n), 0);
+    assert_int_equal(acq_setup(4 * K, 1), 0);
+    assert_int_equal(acquire(0), 0);
+    assert_int_equal(H.q.cnt.done_missing, 1);
+    assert_int_equal(H.q.st.cnt.samples, K * P);
+    assert_int_equal(msid_mb_read_header(&H.cl), 0);
+    assert_int_not_equal(H.cl.h.state, MSID_MB_STATE_RUNNING);   /* the STOP was obeyed */
+    close_device(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(frf_equals_the_simulators_truth),
         cmocka_unit_test(device_errors_are_decoded),
         cmocka_unit_test(core_refusal_carries_the_core_status),
+        cmocka_unit_test(never_done_is_closed_and_stopped),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -193,7 +193,7 @@ static int cmd_measure(int argc, char **argv)
     const uint32_t max_regs = a.has("max-regs") ? parse_u32(a.get("max-regs"), "--max-regs") : MSID_MB_MAX_READ;
     if (max_regs < 1 || max_regs > MSID_MB_MAX_READ) throw UsageError(fmt("--max-regs must be 1..%u", MSID_MB_MAX_READ));
     const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
-    if (!(timeout > 0)) throw UsageError("--timeout must be positive");
+    if (!(timeout > 0 && timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
     const msid_design &d = D->d;
     auto cfg = config_from_design(*D, sf);
 
@@ -254,43 +254,15 @@ static int cmd_measure(int argc, char **argv)
     Mem mq(msid_mb_acq_mem_size(&qc));
     msid_mb_acq q;
     check(msid_daq_core_status(msid_mb_acq_init(&q, &qc, mq.p, mq.n)), "Modbus adapter setup");
-    double stream_s = 0;
-    uint64_t bad_at_progress = 0;   // bad replies when a sample last arrived
+    const uint32_t silence_ms = (uint32_t)std::ceil(timeout * 1000.0);
     for (uint32_t e = 0; e < m; ++e) {
-        if ((rc = msid_mb_acq_start(&q, e, sf.periods)) < 0) {
-            check(msid_daq_core_status(rc), "measurement");
+        if ((rc = msid_mb_acq_run(&q, e, sf.periods, silence_ms, sf.rate ? 2000 : 200)) < 0) {
+            if (msid_daq_core_status(rc) == MSID_E_CAPACITY) throw Error(cl.err);
+            check(msid_daq_core_status(rc), "measurement");   // any other core refusal, as every command reports it
             throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
         }
-        timespec t0, last;
-        clock_gettime(CLOCK_MONOTONIC, &t0);
-        last = t0;
-        for (;;) {
-            int prog = 0;
-            const uint64_t nodone = q.cnt.done_missing;
-            const int r = msid_mb_acq_poll(&q, &prog);
-            if (r == 1 && q.cnt.done_missing != nodone && msid_mb_command(&cl, MSID_MB_CMD_STOP, e, 0) < 0)
-                throw Error(fmt("experiment %u on %s: the device did not stop after the design's samples: %s", e + 1,
-                                L.name.c_str(), cl.err));
-            if (r == 1) break;
-            if (msid_daq_core_status(r) == MSID_E_CAPACITY) throw Error(cl.err);
-            check(msid_daq_core_status(r), "measurement");   // any other core refusal, as every command reports it
-            if (r < 0) throw Error(fmt("experiment %u on %s: %s", e + 1, L.name.c_str(), cl.err));
-            if (prog) {
-                clock_gettime(CLOCK_MONOTONIC, &last);
-                bad_at_progress = cl.cnt.bad_replies;
-            } else if (secs_since(last) > timeout) {
-                if (cl.cnt.bad_replies > bad_at_progress)   // not a silent device: its replies do not match
-                    throw Error(fmt("no new sample for %g s during experiment %u: %llu repl%s from %s did not match "
-                                    "their requests (a device that answers twice, or a second master on the link?)",
-                                    timeout, e + 1, (unsigned long long)(cl.cnt.bad_replies - bad_at_progress),
-                                    cl.cnt.bad_replies - bad_at_progress == 1 ? "y" : "ies", L.name.c_str()));
-                throw Error(fmt("the device on %s produced no new sample for %g s during experiment %u", L.name.c_str(),
-                                timeout, e + 1));
-            }
-            else usleep(sf.rate ? 2000 : 200);
-        }
-        stream_s += secs_since(t0);
     }
+    const double stream_s = 1e-9 * (double)q.cnt.stream_ns;
 
     std::vector<ExpSource> src;
     const msid_meas *ms = job.meas();

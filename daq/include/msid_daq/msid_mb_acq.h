@@ -80,6 +80,7 @@ typedef struct msid_mb_counters {
     uint64_t experiments_done;
     uint64_t device_overruns;   /**< the device's own overrun count, summed over experiments */
     uint64_t done_missing;      /**< experiments closed after K P samples while the device still reported RUNNING */
+    uint64_t stream_ns;         /**< ::msid_mb_acq_run: sum over experiments of the time from START to the last sample */
 } msid_mb_counters;
 
 /** Ring poller (caller-owned). */
@@ -170,6 +171,17 @@ int msid_mb_acq_start(msid_mb_acq *a, uint32_t e, uint32_t periods);
  * @param progressed set to 1 if new samples were read or declared missing
  */
 int msid_mb_acq_poll(msid_mb_acq *a, int *progressed);
+
+/**
+ * @brief Run experiment e (K = periods) to its end: START, then poll (sleeping idle_us between polls that
+ *        brought nothing) until the experiment is complete; a device that keeps reporting RUNNING after
+ *        the design's K P samples is sent STOP.
+ * @param silence_ms give up when no new sample arrived this long
+ * @return 0; -MSID_DAQ_E_TIMEOUT (no new sample), -MSID_DAQ_E_BADDATA (replies that did not match their
+ *         requests, or a protocol error), -MSID_DAQ_E_DEVICE, a core status (::msid_daq_core, e.g.
+ *         MSID_E_CAPACITY) or a transport error. The client's err says what.
+ */
+int msid_mb_acq_run(msid_mb_acq *a, uint32_t e, uint32_t periods, uint32_t silence_ms, uint32_t idle_us);
 
 #ifdef __cplusplus
 }
