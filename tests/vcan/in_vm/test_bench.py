@@ -15,5 +15,6 @@ def test_bench_can_quick():
         nums = [float(x) for x in re.findall(r"\| (\d+(?:\.\d+)?) ", row + " ")]
         # Rates depend on how busy the (shared, emulated) machine is: under load no paced rate may be
         # loss-free (0 is a valid table entry). Only the shape and that frames moved at all are asserted.
-        assert len(nums) == 4, row
-        assert nums[2] > 0 and nums[3] > 0, row
+        # The last column reads "(lost frames)" when cangen -> candump itself lost frames.
+        assert len(nums) == 4 or (len(nums) == 3 and "(lost frames)" in row), row
+        assert nums[2] > 0, row
