@@ -181,6 +181,31 @@ class FRF:
         _, dof = self._pick(which)
         return regions.radius(v, None if dof is None else dof[:, None, None], level, self.real[:, None, None])
 
+    def subsystem(self, outputs, inputs):
+        """The FRF of the given outputs and inputs (0-based lists), covariances restricted to them: a valid
+        FRF of its own (write_frf), e.g. one SISO path of a MIMO measurement."""
+        outputs, inputs = list(outputs), list(inputs)
+        ny = self.n_outputs
+        idx = [i + ny * j for j in inputs for i in outputs]   # vec of the sub-matrix, columns stacked
+
+        def sub(c):
+            return None if c is None else c[:, idx][:, :, idx]
+        meta = dict(self.meta)
+        meta["n_outputs"], meta["n_inputs"] = len(outputs), len(inputs)
+        if "noise_cov" in meta:
+            meta["noise_cov"] = _cmat_json(_cmat(meta["noise_cov"], (ny, ny), "noise_cov")[np.ix_(outputs, outputs)])
+        extra = []
+        for e in self.line_extra:
+            e = {k: v for k, v in e.items() if k not in ("cond", "input_snr", "cov_noise", "dof_noise", "var_nl", "var_s", "nl_p_value")}
+            if "noise_cov" in e:
+                e["noise_cov"] = _cmat_json(_cmat(e["noise_cov"], (ny, ny), "noise_cov")[np.ix_(outputs, outputs)])
+            if isinstance(e.get("snr"), list) and len(e["snr"]) == ny:
+                e["snr"] = [e["snr"][i] for i in outputs]
+            extra.append(e)
+        return FRF(self.G[:, outputs][:, :, inputs], self.freq, bins=self.bins, cov=sub(self.cov), dof=self.dof,
+                   cov_known_input=sub(self.cov_known_input), dof_known_input=self.dof_known_input,
+                   freq_hz=self.freq_hz, omega=self.omega, real=self.real, meta=meta, line_extra=extra)
+
     # python-control
     def to_control(self):
         """python-control FRD of G (frequencies in rad/s, or rad/sample without a sample time)."""

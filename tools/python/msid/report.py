@@ -10,7 +10,6 @@ Exit status 0, 1 with one message on a bad or missing file (nothing written), 3 
 """
 import base64
 import html
-import io
 import json
 import os
 import sys
@@ -80,10 +79,10 @@ def write_report(outdir):
     frf = read_frf(frf_path)
     model = read_model(model_path) if os.path.exists(model_path) else None
     fig = plot.bode(frf, model)
-    png = io.BytesIO()
-    fig.savefig(png, format="png", dpi=110)
     plot.save(fig, os.path.join(outdir, "bode.svg"))
     plot.save(fig, os.path.join(outdir, "bode.png"))
+    with open(os.path.join(outdir, "bode.png"), "rb") as fh:
+        png = fh.read()
     rows = "".join(_row(k, _fmt(v)) for k, v in _frf_table(frf))
     mrows = "".join(_row(k, _fmt(v)) for k, v in _model_table(model)) if model is not None else ""
     page = f"""<!DOCTYPE html>
@@ -98,7 +97,7 @@ Plot files: <a href="bode.png">bode.png</a>, <a href="bode.svg">bode.svg</a>.</p
 <h2>FRF</h2><table>{rows}</table>
 {'<h2>Model</h2><table>' + mrows + '</table>' if model is not None else ''}
 <h2>Bode plot</h2>
-<img alt="Bode plot with 95% regions" src="data:image/png;base64,{base64.b64encode(png.getvalue()).decode()}">
+<img alt="Bode plot with 95% regions" src="data:image/png;base64,{base64.b64encode(png).decode()}">
 </body></html>
 """
     out = os.path.join(outdir, "report.html")
