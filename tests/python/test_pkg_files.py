@@ -201,3 +201,28 @@ def test_subsystem_keeps_the_right_covariance(demo, tmp_path):
     msid("validate", demo / "model.json", demo / "frf.json")   # the 2x2 model does not fit a 1x2 file:
     r = msid("validate", demo / "model.json", tmp_path / "s.json", check=False)
     assert r.returncode != 0 and "outputs" in r.stderr
+
+
+def test_pip_install(demo, tmp_path):
+    """`pip install ./tools/python` gives `import msid` outside the source tree (a copy of the package is
+    built, offline: --no-build-isolation, so the source tree gets no build/ or egg-info)."""
+    import shutil
+    import subprocess
+    import sys
+    from conftest import ROOT
+    src = tmp_path / "src"
+    shutil.copytree(ROOT / "tools" / "python", src, ignore=shutil.ignore_patterns("__pycache__"))
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-build-isolation", "--no-deps",
+                        "--no-index", "--target", str(tmp_path / "site"), str(src)],
+                       capture_output=True, text=True, timeout=240)
+    if r.returncode != 0 and "bdist_wheel" in r.stderr:
+        pytest.skip("setuptools without bdist_wheel: install the wheel package (scripts/deps.sh does)")
+    assert r.returncode == 0, r.stderr
+    code = ("import msid, sys; f = msid.read_frf(sys.argv[1]); "
+            "print(msid.__file__, f.G.shape, msid.plot.__name__, msid.report.__name__)")
+    env = {k: v for k, v in __import__("os").environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(tmp_path / "site")
+    r = subprocess.run([sys.executable, "-c", code, str(demo / "frf.json")], capture_output=True, text=True,
+                       env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith(str(tmp_path / "site")) and "(14, 2, 2) msid.plot msid.report" in r.stdout
