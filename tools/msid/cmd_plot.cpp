@@ -69,7 +69,9 @@ static int probe(const std::string &py, const std::string &code)
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
 }
 
-int run_python_module(const std::string &module, const std::vector<std::string> &args)
+// PYTHONPATH gets the package directory; Python must import `module` and matplotlib. Returns the
+// interpreter's name; throws Error with one message naming what is missing.
+static std::string prepare_python(const std::string &module)
 {
     const std::string py = interpreter(), dir = python_package_dir();
     if (!dir.empty()) {
@@ -90,14 +92,45 @@ int run_python_module(const std::string &module, const std::vector<std::string> 
     if (rc != 0)
         throw Error("cannot run Python ('" + py + "', exit status " + std::to_string(rc) +
                     "): install python3 with matplotlib, or set MSID_PYTHON");
+    return py;
+}
+
+static std::vector<std::string> argv_of(const std::string &py, const std::string &module,
+                                        const std::vector<std::string> &args)
+{
     std::vector<std::string> av = {py, "-m", module};
     av.insert(av.end(), args.begin(), args.end());
+    return av;
+}
+
+int run_python_module(const std::string &module, const std::vector<std::string> &args)
+{
+    std::vector<std::string> av = argv_of(prepare_python(module), module, args);
     std::vector<char *> cav;
     for (auto &s : av) cav.push_back(s.data());
     cav.push_back(nullptr);
     std::fflush(stdout);
     execvp(cav[0], cav.data());
-    throw Error("cannot run " + py + ": " + std::strerror(errno));
+    throw Error("cannot run " + av[0] + ": " + std::strerror(errno));
+}
+
+int call_python_module(const std::string &module, const std::vector<std::string> &args)
+{
+    std::vector<std::string> av = argv_of(prepare_python(module), module, args);
+    std::vector<char *> cav;
+    for (auto &s : av) cav.push_back(s.data());
+    cav.push_back(nullptr);
+    std::fflush(stdout);
+    std::fflush(stderr);
+    const pid_t pid = fork();
+    if (pid < 0) throw Error("cannot start " + av[0] + ": " + std::strerror(errno));
+    if (pid == 0) {
+        execvp(cav[0], cav.data());
+        _exit(127);
+    }
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {}
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
 }
 
 int cmd_plot(int argc, char **argv)

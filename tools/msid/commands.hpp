@@ -28,6 +28,8 @@ int cmd_export(int argc, char **argv);   // cmd_export.cpp: FRF as CSV or MATLAB
 // source tree or $MSID_PYTHON_DIR); throws Error with one clear message if Python, the package or
 // matplotlib is missing.
 int run_python_module(const std::string &module, const std::vector<std::string> &args);
+// The same, but in a child process: returns its exit status (e.g. `msid measure` calling msid.report).
+int call_python_module(const std::string &module, const std::vector<std::string> &args);
 }  // namespace msidcli
 #include <string>
 #include <vector>
