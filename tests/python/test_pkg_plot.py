@@ -152,3 +152,12 @@ def test_msid_plot_command(demo, siso, tmp_path):
     assert r.returncode != 0 and "python" in r.stderr.lower() and not (tmp_path / "y.png").exists()
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert Path(os.environ["MSID_BIN"]).exists()
+
+
+def test_saved_files_are_reproducible(siso, tmp_path):
+    """Same files -> the same bytes (no dates, fixed SVG ids), for PNG and SVG."""
+    for ext in ("png", "svg"):
+        a, b = tmp_path / f"a.{ext}", tmp_path / f"b.{ext}"
+        plot.save(plot.bode(siso / "frf.json", siso / "model.json"), a)
+        plot.save(plot.bode(siso / "frf.json", siso / "model.json"), b)
+        assert a.read_bytes() == b.read_bytes(), ext

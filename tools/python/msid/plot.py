@@ -187,14 +187,18 @@ def _title(frf, model):
 
 
 def save(fig, path):
-    """Save a figure (format from the extension: png, svg, pdf) atomically."""
+    """Save a figure (format from the extension: png, svg, pdf) atomically and reproducibly."""
     ext = os.path.splitext(path)[1].lower().lstrip(".")
     if ext not in ("png", "svg", "pdf"):
         raise ValueError(f"'{path}': the output must end in .png, .svg or .pdf")
     d = os.path.dirname(os.path.abspath(path))
     tmp = os.path.join(d, f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    import matplotlib
+    # determinism: no dates in SVG/PDF, fixed SVG id salt: the same files give the same bytes
+    md = {"svg": {"Date": None}, "pdf": {"CreationDate": None}}.get(ext, {})
     try:
-        fig.savefig(tmp, format=ext, dpi=110)
+        with matplotlib.rc_context({"svg.hashsalt": "msid"}):
+            fig.savefig(tmp, format=ext, dpi=110, metadata=md)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
