@@ -95,6 +95,7 @@ static std::string prepare_python(const std::string &module)
     return py;
 }
 
+// {py, -m, module, args...}, and its char* view (null-terminated, pointing into `av`) for execvp.
 static std::vector<std::string> argv_of(const std::string &py, const std::string &module,
                                         const std::vector<std::string> &args)
 {
@@ -103,13 +104,20 @@ static std::vector<std::string> argv_of(const std::string &py, const std::string
     return av;
 }
 
-int run_python_module(const std::string &module, const std::vector<std::string> &args)
+static std::vector<char *> c_argv(std::vector<std::string> &av)
 {
-    std::vector<std::string> av = argv_of(prepare_python(module), module, args);
     std::vector<char *> cav;
     for (auto &s : av) cav.push_back(s.data());
     cav.push_back(nullptr);
     std::fflush(stdout);
+    std::fflush(stderr);
+    return cav;
+}
+
+int run_python_module(const std::string &module, const std::vector<std::string> &args)
+{
+    std::vector<std::string> av = argv_of(prepare_python(module), module, args);
+    std::vector<char *> cav = c_argv(av);
     execvp(cav[0], cav.data());
     throw Error("cannot run " + av[0] + ": " + std::strerror(errno));
 }
@@ -117,11 +125,7 @@ int run_python_module(const std::string &module, const std::vector<std::string> 
 int call_python_module(const std::string &module, const std::vector<std::string> &args)
 {
     std::vector<std::string> av = argv_of(prepare_python(module), module, args);
-    std::vector<char *> cav;
-    for (auto &s : av) cav.push_back(s.data());
-    cav.push_back(nullptr);
-    std::fflush(stdout);
-    std::fflush(stderr);
+    std::vector<char *> cav = c_argv(av);
     const pid_t pid = fork();
     if (pid < 0) throw Error("cannot start " + av[0] + ": " + std::strerror(errno));
     if (pid == 0) {
