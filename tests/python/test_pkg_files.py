@@ -108,14 +108,18 @@ def test_model_from_control_validates_with_msid(demo, tmp_path):
     f = pkg.read_frf(demo / "frf.json")
     ss = pkg.read_model(demo / "model.json").to_control()
     for name, sys_ in (("good", ss), ("bad", control.ss(ss.A * 0.97, ss.B, ss.C, ss.D, ss.dt))):
-        m = pkg.Model.from_control(sys_, f, source="frf.json")
+        m = pkg.Model.from_control(sys_, f, source="frf.json", n_params=20)
         p = tmp_path / f"{name}.json"
         pkg.write_model(p, m)
         validate(load(p), "msid-model-1")
         r = msid("validate", p, demo / "frf.json")
         cost = float(r.stdout.split("weighted cost ")[1].split(",")[0])
-        # the package's cost is the one msid validate computes (docs/fitting.md eq. 40 form)
+        expected = float(r.stdout.split("expected ")[1].split(" ")[0])
+        pv = float(r.stdout.split("p-value ")[1].split()[0])
+        # the package's cost block is the one msid validate computes (docs/fitting.md eq. 40 and its law)
         assert m.doc["cost"]["value"] == pytest.approx(cost, rel=1e-5)
+        assert m.doc["cost"]["expected"] == pytest.approx(expected, rel=1e-5)
+        assert m.doc["cost"]["p_value"] == pytest.approx(pv, rel=1e-3, abs=1e-12)
         verdict = "NOT consistent" not in r.stdout
         assert verdict == (name == "good"), r.stdout   # negative control: moved poles are rejected
 

@@ -392,13 +392,14 @@ class Model:
         raise ValueError("form must be 'ss' or 'tf'")
 
     @classmethod
-    def from_control(cls, sys, frf, source=None):
+    def from_control(cls, sys, frf, source=None, n_params=0):
         """A model file from a python-control system (StateSpace or TransferFunction) and the FRF it models.
 
         `method` is "external"; `frf[]` holds the model at the FRF's lines, and `cost` is the weighted
         residual of docs/fitting.md (V = sum over complex lines |L^-1 vec(e)|^2 + 1/2 over real lines,
-        with the FRF's `cov`) against half the residual degrees of freedom (no parameters counted);
-        `msid validate` recomputes it with the exact law."""
+        with the FRF's `cov`) against half the residual degrees of freedom less `n_params` (the free
+        parameters behind the system, if known: `msid validate` subtracts them from its dof too);
+        `msid validate` recomputes the cost with the exact law."""
         import control
         ss = control.ss(sys)
         domain = "ct" if ss.dt == 0 else "dt"
@@ -415,7 +416,7 @@ class Model:
                     "n_inputs": int(ss.ninputs), "n_outputs": int(ss.noutputs),
                     "A": A.reshape(n, n).tolist(), "B": B.reshape(n, ss.ninputs).tolist(),
                     "C": C.reshape(ss.noutputs, n).tolist(), "D": D.reshape(ss.noutputs, ss.ninputs).tolist(),
-                    "n_params": 0})
+                    "n_params": int(n_params)})
         eig = np.linalg.eigvals(A) if n else np.zeros(0)
         stable = bool(np.all(eig.real < 0)) if domain == "ct" else bool(np.all(np.abs(eig) < 1))
         doc["stable"] = stable
@@ -433,7 +434,9 @@ class Model:
                 w = float(np.vdot(e, e).real)
             value += 0.5 * w if frf.real[k] else w
             rdof += e.size if frf.real[k] else 2 * e.size
-        doc["cost"] = {"value": float(value), "expected": rdof / 2.0, "dof": float(rdof), "p_value": None,
+        rdof -= int(n_params)
+        mean, p_value = _cost_law(frf, rdof, value)
+        doc["cost"] = {"value": float(value), "expected": mean, "dof": float(rdof), "p_value": p_value,
                        "weight": "cov" if frf.cov is not None else "none"}
         doc["frf"] = []
         for k in range(frf.n_lines):
@@ -444,6 +447,41 @@ class Model:
             e["cov"] = None
             doc["frf"].append(e)
         return cls(doc)
+
+
+def _cost_law(frf, rdof, value):
+    """Mean and p-value of the weighted cost V (eq. 40) of a model with `rdof` real residual degrees of
+    freedom, as docs/fitting.md ("Validation") states it: each complex term |e|^2/v is F(2, 2n)-like with
+    mean n/(n - ny) and the relative variance of an inverse Wishart moment; V is matched by a scaled
+    chi-square c chi2(k) with those two moments. n: the smallest dof over the lines; for the
+    nonparametric covariance of a multi-input periodic FRF one experiment's share (dof / m), for a
+    robust-BLA file dof / nu. Without a covariance (unit weights): n infinite. p-value None without scipy."""
+    ny = frf.n_outputs
+    if frf.cov is None or frf.dof is None:
+        n = math.inf
+    else:
+        dof = frf.dof.astype(float).copy()
+        meth = frf.meta.get("method", "periodic")
+        m = int(frf.meta.get("n_experiments", 1))
+        real = int((frf.meta.get("nonlinear_distortion") or {}).get("realisations", 1) or 1)
+        if frf.n_inputs > 1 and m > 1 and meth not in ("lpm", "etfe") and real < 2:
+            dof /= m
+        if frf.n_inputs > 1 and real >= 2:
+            dof /= frf.n_inputs
+        n = float(dof.min())
+    mu, s2 = 1.0, 1.0
+    if math.isfinite(n) and n < 1e8:
+        mu = n / (n - ny) if n > ny else math.inf
+        rel = (n ** 3 / ((n - 1) ** 2 * (n - 2))) / (n / (n - 1)) ** 2 if n > 2 else 1e300
+        s2 = rel * mu * mu
+    mean, var = 0.5 * rdof * mu, 0.5 * rdof * s2
+    try:
+        from scipy import stats
+        c, k = var / (2 * mean), 2 * mean * mean / var
+        p = float(stats.chi2.sf(value / c, k)) if math.isfinite(c) and math.isfinite(k) and k > 0 else None
+    except ImportError:
+        p = None
+    return (float(mean) if math.isfinite(mean) else None), p
 
 
 def read_model(path):
