@@ -8,6 +8,10 @@ APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev libmatio-d
 PY_MODS=(numpy jsonschema pytest)
 # Experiment-file tests and `msid bench io`: scipy (writes .mat v5), h5py (writes .mat v7.3), pandas (the CSV peer).
 PY_MODS+=(scipy h5py pandas)
+# The Python package (tools/python, docs/python.md): matplotlib draws `msid plot` and the reports
+# (Debian python3-matplotlib; pip for another python3); wheel lets pip build it offline (tests/python).
+APT_PKGS+=(python3-matplotlib)
+PY_MODS+=(matplotlib wheel)
 # CAN tests in the vcan VM (tests/vcan): qemu, busybox for its initramfs, can-utils as the reference.
 APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
 # On target (tests/target, firmware_sim/baremetal): Cortex-M cross compiler, newlib, MPS2 boards in qemu.
@@ -83,6 +87,12 @@ pip_pinned mb_missing "pymodbus $PYMODBUS"
 SKRF=2.2.0
 skrf_missing() { python3 -c "import skrf, sys; sys.exit(skrf.__version__ != '$SKRF')" 2>/dev/null || echo "scikit-rf==$SKRF"; }
 pip_pinned skrf_missing "scikit-rf $SKRF"
+
+# python-control (PyPI `control`, pinned): FRD/StateSpace/TransferFunction conversion of the Python package.
+PYCONTROL=0.10.2
+control_missing() { python3 -c "import control, sys; sys.exit(control.__version__ != '$PYCONTROL')" 2>/dev/null ||
+  echo "control==$PYCONTROL"; }
+pip_pinned control_missing "python-control $PYCONTROL"
 
 # The vcan VM boots Debian's own kernel: the package linux-image-amd64 depends on, fetched
 # with apt-get download and unpacked with dpkg -x, once (tests/vcan/vm.py reads it there).

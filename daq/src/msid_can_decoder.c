@@ -1,6 +1,8 @@
 /* msid-can/1 frames -> rows -> msid_meas, with gap, duplicate and reorder handling. */
 #include "msid_daq/msid_can_decoder.h"
 
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* CAN_ERR_* classes and controller bits (linux/can/error.h; ABI constants). */
@@ -50,6 +52,22 @@ size_t msid_can_decoder_mem_size(const msid_can_decoder_cfg *c)
     return up(sizeof(msid_can_slot) * win(c)) + up(sizeof(double) * win(c) * C) + msid_stream_mem_size(&sc);
 }
 
+/* The decimal an int16 step uploaded as float32 stands for (0.001f -> 0.001): the DBC, and so cantools,
+ * scale by that decimal; decoding with it makes every sample agree bit for bit (issue 13). The shortest
+ * %.{1..9}g that reads back as the same float32; a step that is not a float32 value is kept. */
+static double step_decimal(double s)
+{
+    const float f = (float)s;
+    if ((double)f != s) return s;
+    char b[32];
+    for (int p = 1; p <= 9; ++p) {
+        snprintf(b, sizeof b, "%.*g", p, s);
+        const double v = strtod(b, NULL);
+        if ((float)v == f) return v;
+    }
+    return s;
+}
+
 msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cfg *c, void *mem, size_t len)
 {
     if (!d || !c || !mem || !c->meas) return MSID_E_NULL;
@@ -64,6 +82,7 @@ msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cf
     d->cfg = *c;
     d->cfg.window = win(c);
     d->cfg.block = blk(c);
+    d->cfg.scale = step_decimal(c->scale);
     d->C = c->n_inputs + c->n_outputs;
     d->chunks = msid_can_chunks(d->C, c->encoding, c->fd);
     d->per = msid_can_chunk_channels(c->encoding, c->fd);

@@ -91,13 +91,13 @@ def _frame(t, fid, data):
     return f"({t:.6f}) vcan0 {fid:03X}#{bytes(data).hex().upper()}"
 
 
-def _cfg_frames(periods, P=64, bins=(1, 3, 5), seed=7):
+def _cfg_frames(periods, P=64, bins=(1, 3, 5), seed=7, encoding=1):
     import struct
     import zlib
     recs = [(0x01, 1, 0), (0x02, 0, P), (0x03, 0, len(bins)), (0x04, 0, 1), (0x05, 0, 1), (0x06, 0, 0),
             (0x07, 0, 0), (0x08, 0, seed & 0xFFFFFFFF), (0x08, 1, seed >> 32)]
     recs += [(0x09, l, b) for l, b in enumerate(bins)]
-    recs += [(0x10, 0, 1), (0x11, 0, struct.unpack("<I", struct.pack("<f", 0.001))[0]), (0x12, 0, 0), (0x13, 0, 0),
+    recs += [(0x10, 0, encoding), (0x11, 0, struct.unpack("<I", struct.pack("<f", 0.001))[0]), (0x12, 0, 0), (0x13, 0, 0),
              (0x14, 0, periods)]
     out, crc = [], 0
     for p, idx, v in recs:

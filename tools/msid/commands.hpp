@@ -1,6 +1,7 @@
 // Subcommands of the msid command line.
 #pragma once
 #include <string>
+#include <vector>
 namespace msidcli {
 int cmd_excite(int argc, char **argv);
 int cmd_frf(int argc, char **argv);
@@ -21,6 +22,14 @@ int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
 int cmd_bench_io(int argc, char **argv);
+int cmd_plot(int argc, char **argv);     // cmd_plot.cpp: wraps python3 -m msid.plot
+int cmd_export(int argc, char **argv);   // cmd_export.cpp: FRF as CSV or MATLAB idfrd .mat
+// Run `python3 -m <module> args...` (execvp) with the msid Python package on PYTHONPATH (installed,
+// source tree or $MSID_PYTHON_DIR); throws Error with one clear message if Python, the package or
+// matplotlib is missing.
+int run_python_module(const std::string &module, const std::vector<std::string> &args);
+// The same, but in a child process: returns its exit status (e.g. `msid measure` calling msid.report).
+int call_python_module(const std::string &module, const std::vector<std::string> &args);
 }  // namespace msidcli
 #include <string>
 #include <vector>

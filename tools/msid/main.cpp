@@ -21,6 +21,8 @@ static const char *USAGE =
     "  compare  relative H2 and Hinf distance between two models\n"
     "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
     "  modbus   measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device\n"
+    "  plot     Bode plot of an FRF file with 95% regions, model overlay and residuals (PNG/SVG/PDF)\n"
+    "  export   an FRF file as CSV or MATLAB .mat (idfrd shape) with standard deviations\n"
     "  bench    benchmarks: `msid bench frf`, `msid bench fit`, `msid bench lpm`, `msid bench target`, `msid bench wcet`\n"
     "  version  print the version\n"
     "\n"
@@ -47,6 +49,8 @@ int main(int argc, char **argv)
         if (cmd == "modes") return msidcli::cmd_modes(argc, argv);
         if (cmd == "can") return msidcli::cmd_can(argc, argv);
         if (cmd == "modbus") return msidcli::cmd_modbus(argc, argv);
+        if (cmd == "plot") return msidcli::cmd_plot(argc, argv);
+        if (cmd == "export") return msidcli::cmd_export(argc, argv);
         if (cmd == "version" || cmd == "--version") {
             std::printf("msid %s\n", MSID_VERSION);
             return 0;

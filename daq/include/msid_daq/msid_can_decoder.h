@@ -48,7 +48,7 @@ typedef struct msid_can_decoder_cfg {
     uint32_t n_outputs;     /**< ny; nu + ny <= MSID_MAX_CHANNELS */
     uint32_t encoding;      /**< MSID_CAN_ENC_S16 or MSID_CAN_ENC_F32 */
     uint32_t fd;            /**< 1: CAN FD sample frames */
-    double scale;           /**< int16 step */
+    double scale;           /**< int16 step; a float32 value is taken as the decimal it stands for (0.001f: 0.001, as the DBC) */
     uint32_t period;        /**< P: checks the period-start markers */
     uint32_t window;        /**< reorder window in samples, 1..MSID_CAN_MAX_WINDOW (0: 16) */
     uint32_t block;         /**< rows per ::msid_meas_push (0: 256) */

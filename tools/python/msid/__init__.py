@@ -1,2 +1,24 @@
-"""Python side of msid: an independent NumPy peer of `msid frf` (frf_peer) and
-the NumPy peer used by `msid bench frf` (bench_peer, also run as a script)."""
+"""msid in Python.
+
+File access (NumPy only): read_frf / write_frf (msid-frf/1), read_model / write_model (msid-model/1),
+FRF.to_control() / Model.to_control() (python-control FRD, StateSpace, TransferFunction) and back
+(FRF.from_control, Model.from_control). Plots (matplotlib): msid.plot (python3 -m msid.plot) and the
+HTML report msid.report (python3 -m msid.report OUTDIR). Exact regions: msid.regions. See docs/python.md.
+
+Also here, for the tests and benchmarks of the C tools: independent NumPy peers of `msid frf`
+(frf_peer), `msid frf --method lpm` (lpm_peer), the benchmark peers (bench_*_peer) and the simulated
+structures of the fitting tests (structures).
+"""
+from .files import FRF, Model, FormatError, read_frf, read_model, write_frf, write_model  # noqa: F401
+
+__version__ = "0.1.0"
+__all__ = ["FRF", "Model", "FormatError", "read_frf", "read_model", "write_frf", "write_model",
+           "plot", "report", "regions"]
+
+
+def __getattr__(name):
+    # msid.plot / msid.report import matplotlib only when used
+    if name in ("plot", "report", "regions"):
+        import importlib
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'msid' has no attribute '{name}'")

@@ -1,0 +1,56 @@
+# `cmake --install build --prefix P` (docs/install.md): headers, static libraries, `msid` and `msid-devsim`,
+# the Python package (P/share/msid/python, found by `msid plot`), P/lib/cmake/msid/msidConfig.cmake
+# exporting msid::core, msid::daq, msid::fit, and P/lib/pkgconfig/msid.pc (core + daq, C).
+include(CMakePackageConfigHelpers)
+set(MSID_CMAKE_DIR lib/cmake/msid)
+
+set_target_properties(msid PROPERTIES EXPORT_NAME core)
+install(TARGETS msid EXPORT msidTargets ARCHIVE DESTINATION lib)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/ DESTINATION include FILES_MATCHING PATTERN "*.h")
+if(TARGET msid_daq)
+  set_target_properties(msid_daq PROPERTIES EXPORT_NAME daq)
+  install(TARGETS msid_daq EXPORT msidTargets ARCHIVE DESTINATION lib)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/daq/include/ DESTINATION include FILES_MATCHING PATTERN "*.h")
+endif()
+if(TARGET msid_fit)
+  set_target_properties(msid_fit PROPERTIES EXPORT_NAME fit)
+  install(TARGETS msid_fit EXPORT msidTargets ARCHIVE DESTINATION lib)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/tools/fit/ DESTINATION include/msid_fit FILES_MATCHING PATTERN "*.hpp")
+endif()
+foreach(t msid_cli msid_devsim)
+  if(TARGET ${t})
+    install(TARGETS ${t} RUNTIME DESTINATION bin)
+  endif()
+endforeach()
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/tools/python/msid DESTINATION share/msid/python
+        PATTERN "__pycache__" EXCLUDE PATTERN "*.pyc" EXCLUDE)
+install(FILES ${PROJECT_SOURCE_DIR}/tools/python/pyproject.toml ${PROJECT_SOURCE_DIR}/tools/python/README.md
+        DESTINATION share/msid/python)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/schemas DESTINATION share/msid)
+
+install(EXPORT msidTargets NAMESPACE msid:: DESTINATION ${MSID_CMAKE_DIR})
+if(NOT DEFINED MSID_HAVE_MODBUS)
+  set(MSID_HAVE_MODBUS OFF)
+endif()
+set(MSID_HAVE_FIT OFF)
+if(TARGET msid_fit)
+  set(MSID_HAVE_FIT ON)
+endif()
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/msidConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/msidConfig.cmake INSTALL_DESTINATION ${MSID_CMAKE_DIR})
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/msidConfigVersion.cmake
+  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMajorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/msidConfig.cmake ${PROJECT_BINARY_DIR}/msidConfigVersion.cmake
+        DESTINATION ${MSID_CMAKE_DIR})
+
+# pkg-config: the C libraries (core, and daq when built); libmodbus as a private requirement.
+set(MSID_PC_LIBS "-lmsid")
+set(MSID_PC_REQUIRES_PRIVATE "")
+if(TARGET msid_daq)
+  set(MSID_PC_LIBS "-lmsid_daq -lmsid")
+  if(MSID_HAVE_MODBUS)
+    set(MSID_PC_REQUIRES_PRIVATE "libmodbus")
+  endif()
+endif()
+configure_file(${PROJECT_SOURCE_DIR}/cmake/msid.pc.in ${PROJECT_BINARY_DIR}/msid.pc @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/msid.pc DESTINATION lib/pkgconfig)

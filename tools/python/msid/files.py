@@ -1,0 +1,501 @@
+"""msid-frf/1 and msid-model/1 files as NumPy arrays (docs/frf-format.md, docs/model-format.md).
+
+    f = read_frf("frf.json")      # f.G: L x ny x nu complex, f.cov: L x g x g (g = ny nu), f.dof: L
+    m = read_model("model.json")  # m.A, m.B, m.C, m.D; m.response(f) evaluates the model at f's lines
+    write_frf("copy.json", f); write_model("copy.json", m)
+
+Conventions of the files, kept here: G[i][j] maps input j to output i; covariances are of vec(G),
+which stacks the columns of G (G[i][j] has index i + ny*j); cov[a][b] = E[(v_a - E v_a) conj(v_b - E v_b)].
+Every key of a file that this module does not turn into an array is kept (FRF.meta, FRF.line_extra,
+Model.doc), so read -> write keeps the file valid for the msid-frf/1 and msid-model/1 schemas and
+for `msid fit` / `msid validate`. Writers are atomic (temporary file, then rename).
+"""
+import json
+import math
+import os
+import tempfile
+
+import numpy as np
+
+FRF_FORMAT = "msid-frf/1"
+MODEL_FORMAT = "msid-model/1"
+_LINE_ARRAYS = ("bin", "freq", "freq_hz", "omega", "real", "G", "cov", "dof", "cov_known_input", "dof_known_input")
+
+
+class FormatError(ValueError):
+    """A file that is not a valid msid document; the message names the file and the key."""
+
+
+def _cmat(obj, shape, where):
+    try:
+        re = np.asarray(obj["re"], dtype=float)
+        im = np.asarray(obj["im"], dtype=float)
+    except (TypeError, KeyError, ValueError) as e:
+        raise FormatError(f"{where}: expected a complex matrix {{re, im}} ({e})") from None
+    if re.shape != tuple(shape) or im.shape != tuple(shape):
+        raise FormatError(f"{where}: expected shape {tuple(shape)}, got re {re.shape} / im {im.shape}")
+    return re + 1j * im
+
+
+def _cmat_json(a):
+    a = np.asarray(a)
+    return {"re": np.real(a).tolist(), "im": np.imag(a).tolist()}
+
+
+def _rmat(obj, shape, where):
+    a = np.asarray(obj, dtype=float)
+    if shape is not None and a.size == 0 and 0 in shape:
+        return np.zeros(shape)
+    if shape is not None and a.shape != tuple(shape):
+        raise FormatError(f"{where}: expected shape {tuple(shape)}, got {a.shape}")
+    return a
+
+
+def _load(path, fmt):
+    try:
+        with open(path, "r", encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except OSError as e:
+        raise FormatError(f"cannot read '{path}': {e.strerror}") from None
+    except json.JSONDecodeError as e:
+        raise FormatError(f"'{path}' is not valid JSON: {e}") from None
+    if not isinstance(doc, dict) or doc.get("format") != fmt:
+        got = doc.get("format") if isinstance(doc, dict) else None
+        raise FormatError(f"'{path}': format is {json.dumps(got)}, expected \"{fmt}\"")
+    return doc
+
+
+def _write_atomic(path, doc):
+    """JSON to a temporary file next to `path`, then rename: a failed write leaves no file."""
+    text = json.dumps(doc, indent=1, allow_nan=False)
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=os.path.basename(path) + ".", suffix=".tmp", dir=d)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _unvec(v, ny, nu):
+    """Per-element values of vec(G) (index i + ny*j) as ny x nu; leading axes are kept."""
+    v = np.asarray(v)
+    return np.swapaxes(v.reshape(v.shape[:-1] + (nu, ny)), -1, -2)
+
+
+class FRF:
+    """An msid-frf/1 file.
+
+    Arrays (L lines, ny outputs, nu inputs, g = ny nu):
+      bins (L,) int, freq (L,) cycles/sample, freq_hz (L,) or None, omega (L,) rad/s or None (CT files),
+      real (L,) bool (DC lines), G (L, ny, nu) complex,
+      cov, cov_known_input (L, g, g) complex or None, dof, dof_known_input (L,) float or None.
+    meta: every top-level key but `lines`; line_extra: per line, the keys not held in arrays.
+    """
+
+    def __init__(self, G, freq, bins=None, cov=None, dof=None, cov_known_input=None, dof_known_input=None,
+                 freq_hz=None, omega=None, real=None, meta=None, line_extra=None):
+        self.G = np.asarray(G, dtype=complex)
+        if self.G.ndim != 3:
+            raise ValueError("G must be L x ny x nu")
+        L = self.G.shape[0]
+        self.freq = np.asarray(freq, dtype=float).reshape(L)
+        self.bins = None if bins is None else np.asarray(bins, dtype=int).reshape(L)
+        self.cov = None if cov is None else np.asarray(cov, dtype=complex)
+        self.dof = None if dof is None else np.asarray(dof, dtype=float).reshape(L)
+        self.cov_known_input = None if cov_known_input is None else np.asarray(cov_known_input, dtype=complex)
+        self.dof_known_input = None if dof_known_input is None else np.asarray(dof_known_input, dtype=float).reshape(L)
+        self.freq_hz = None if freq_hz is None else np.asarray(freq_hz, dtype=float).reshape(L)
+        self.omega = None if omega is None else np.asarray(omega, dtype=float).reshape(L)
+        self.real = np.zeros(L, bool) if real is None else np.asarray(real, dtype=bool).reshape(L)
+        self.meta = dict(meta or {})
+        self.line_extra = [dict(e) for e in line_extra] if line_extra is not None else [{} for _ in range(L)]
+
+    # sizes and axes
+    @property
+    def n_lines(self):
+        return self.G.shape[0]
+
+    @property
+    def n_outputs(self):
+        return self.G.shape[1]
+
+    @property
+    def n_inputs(self):
+        return self.G.shape[2]
+
+    @property
+    def domain(self):
+        return self.meta.get("domain", "dt")
+
+    @property
+    def sample_time(self):
+        return self.meta.get("sample_time")
+
+    def omega_axis(self):
+        """Line frequencies in rad/s (rad/sample when the file has no sample time): the model's frequency."""
+        if self.omega is not None:
+            return self.omega.copy()
+        h = self.sample_time
+        return 2 * np.pi * self.freq / (h if h else 1.0)
+
+    def hz_axis(self):
+        """(frequencies, unit): Hz when the sample rate is known, else cycles/sample."""
+        if self.freq_hz is not None:
+            return self.freq_hz.copy(), "Hz"
+        if self.omega is not None:
+            return self.omega / (2 * np.pi), "Hz"
+        if self.sample_time:
+            return self.freq / self.sample_time, "Hz"
+        return self.freq.copy(), "cycles/sample"
+
+    # uncertainty
+    def _pick(self, which):
+        if which == "cov":
+            return self.cov, self.dof
+        if which == "known-input":
+            return self.cov_known_input, self.dof_known_input if self.dof_known_input is not None else self.dof
+        raise ValueError("which must be 'cov' or 'known-input'")
+
+    def variance(self, which="cov"):
+        """Variance of each element of G, (L, ny, nu), from the diagonal of the covariance of vec(G)."""
+        c, _ = self._pick(which)
+        if c is None:
+            return None
+        return _unvec(np.real(np.diagonal(c, axis1=1, axis2=2)), self.n_outputs, self.n_inputs)
+
+    def std(self, which="cov"):
+        v = self.variance(which)
+        return None if v is None else np.sqrt(np.maximum(v, 0.0))
+
+    def radius(self, level=0.95, which="cov"):
+        """Radius of the exact `level` confidence disc of each G element, (L, ny, nu) (see msid.regions)."""
+        from . import regions
+        v = self.variance(which)
+        if v is None:
+            return None
+        _, dof = self._pick(which)
+        return regions.radius(v, None if dof is None else dof[:, None, None], level, self.real[:, None, None])
+
+    def subsystem(self, outputs, inputs):
+        """The FRF of the given outputs and inputs (0-based lists), covariances restricted to them: a valid
+        FRF of its own (write_frf), e.g. one SISO path of a MIMO measurement."""
+        outputs, inputs = list(outputs), list(inputs)
+        ny = self.n_outputs
+        idx = [i + ny * j for j in inputs for i in outputs]   # vec of the sub-matrix, columns stacked
+
+        def sub(c):
+            return None if c is None else c[:, idx][:, :, idx]
+        meta = dict(self.meta)
+        meta["n_outputs"], meta["n_inputs"] = len(outputs), len(inputs)
+        if "noise_cov" in meta:
+            meta["noise_cov"] = _cmat_json(_cmat(meta["noise_cov"], (ny, ny), "noise_cov")[np.ix_(outputs, outputs)])
+        extra = []
+        for e in self.line_extra:
+            e = {k: v for k, v in e.items() if k not in ("cond", "input_snr", "cov_noise", "dof_noise", "var_nl", "var_s", "nl_p_value")}
+            if "noise_cov" in e:
+                e["noise_cov"] = _cmat_json(_cmat(e["noise_cov"], (ny, ny), "noise_cov")[np.ix_(outputs, outputs)])
+            if isinstance(e.get("snr"), list) and len(e["snr"]) == ny:
+                e["snr"] = [e["snr"][i] for i in outputs]
+            extra.append(e)
+        return FRF(self.G[:, outputs][:, :, inputs], self.freq, bins=self.bins, cov=sub(self.cov), dof=self.dof,
+                   cov_known_input=sub(self.cov_known_input), dof_known_input=self.dof_known_input,
+                   freq_hz=self.freq_hz, omega=self.omega, real=self.real, meta=meta, line_extra=extra)
+
+    # python-control
+    def to_control(self):
+        """python-control FRD of G (frequencies in rad/s, or rad/sample without a sample time)."""
+        import control
+        return control.frd(np.transpose(self.G, (1, 2, 0)), self.omega_axis())
+
+    @classmethod
+    def from_control(cls, frd, period_samples, sample_time=None, cov=None, dof=None, **meta):
+        """An FRF from a python-control FRD sampled on DFT bins of `period_samples`.
+
+        The FRD frequencies (rad/s with `sample_time`, else rad/sample) must be bins k/period_samples;
+        `cov`/`dof` (L x g x g, L) are optional: without them the file has no uncertainty and is written
+        with a zero covariance and dof 1 (msid fit then needs --weight none)."""
+        om = np.asarray(frd.omega, dtype=float)
+        G = np.transpose(np.asarray(frd.frdata if hasattr(frd, "frdata") else frd.fresp), (2, 0, 1))
+        freq = om * (sample_time if sample_time else 1.0) / (2 * np.pi)
+        bins = np.rint(freq * period_samples).astype(int)
+        if np.any(np.abs(bins - freq * period_samples) > 1e-6 * period_samples) or np.any(freq > 0.5 + 1e-12):
+            raise ValueError("FRD frequencies are not DFT bins of period_samples at or below Nyquist")
+        m = {"period_samples": int(period_samples), "domain": "dt"}
+        if sample_time:
+            m["sample_time"] = float(sample_time)
+            m["fs_hz"] = 1.0 / float(sample_time)
+        m.update(meta)
+        return cls(G, bins / period_samples, bins=bins, cov=cov, dof=dof, real=(bins == 0), meta=m,
+                   freq_hz=(bins / period_samples / sample_time) if sample_time else None)
+
+
+def read_frf(path):
+    """Read an msid-frf/1 file (docs/frf-format.md) into an FRF."""
+    doc = _load(path, FRF_FORMAT)
+    try:
+        ny, nu = int(doc["n_outputs"]), int(doc["n_inputs"])
+        lines = doc["lines"]
+    except (KeyError, TypeError, ValueError) as e:
+        raise FormatError(f"'{path}': missing or bad {e}") from None
+    if not isinstance(lines, list) or not lines:
+        raise FormatError(f"'{path}': 'lines' must be a non-empty array")
+    g = ny * nu
+    L = len(lines)
+    G = np.empty((L, ny, nu), complex)
+    have = {k: all(k in ln for ln in lines) for k in _LINE_ARRAYS}
+    cov = np.empty((L, g, g), complex) if have["cov"] else None
+    cki = np.empty((L, g, g), complex) if have["cov_known_input"] else None
+    extra = []
+    for k, ln in enumerate(lines):
+        where = f"'{path}': lines[{k}]"
+        G[k] = _cmat(ln.get("G"), (ny, nu), where + ".G")
+        if cov is not None:
+            cov[k] = _cmat(ln["cov"], (g, g), where + ".cov")
+        if cki is not None:
+            cki[k] = _cmat(ln["cov_known_input"], (g, g), where + ".cov_known_input")
+        extra.append({a: b for a, b in ln.items() if a not in _LINE_ARRAYS})
+
+    def col(key, dtype=float):
+        return np.array([ln[key] for ln in lines], dtype=dtype) if have[key] else None
+
+    meta = {a: b for a, b in doc.items() if a != "lines"}
+    return FRF(G, col("freq"), bins=col("bin", int), cov=cov, dof=col("dof"), cov_known_input=cki,
+               dof_known_input=col("dof_known_input"), freq_hz=col("freq_hz"), omega=col("omega"),
+               real=np.array([bool(ln.get("real", False)) for ln in lines]), meta=meta, line_extra=extra)
+
+
+def write_frf(path, frf):
+    """Write an FRF as msid-frf/1. Keys the FRF does not know (from its meta) are kept as read;
+    a new FRF (FRF(...) or FRF.from_control) gets the schema's required keys with neutral values."""
+    L, ny, nu = frf.G.shape
+    g = ny * nu
+    doc = {"format": FRF_FORMAT}
+    doc.update({k: v for k, v in frf.meta.items() if k != "format"})
+    doc["n_inputs"], doc["n_outputs"] = nu, ny
+    doc.setdefault("generator", "msid python package")
+    doc.setdefault("domain", "dt")
+    doc.setdefault("n_experiments", 1)
+    if "period_samples" not in doc:
+        raise ValueError("an FRF needs meta['period_samples'] (the DFT length of its bins)")
+    doc.setdefault("periods_used", 0)
+    doc.setdefault("periods_rejected", 0)
+    doc.setdefault("noise_cov", _cmat_json(np.zeros((ny, ny))))
+    doc.setdefault("experiments", [{"source": "python", "samples": 0, "periods_total": 0, "periods_skipped": 0,
+                                    "periods_used": 1, "periods_gap": 0, "periods_nonfinite": 0,
+                                    "transient_flagged": [], "transient_dropped": [], "leftover_samples": 0}])
+    P = int(doc["period_samples"])
+    bins = frf.bins if frf.bins is not None else np.rint(frf.freq * P).astype(int)
+    lines = []
+    for k in range(L):
+        ln = {"bin": int(bins[k]), "freq": float(frf.freq[k])}
+        if frf.freq_hz is not None:
+            ln["freq_hz"] = float(frf.freq_hz[k])
+        if frf.omega is not None:
+            ln["omega"] = float(frf.omega[k])
+        if frf.real[k]:
+            ln["real"] = True
+        ln["G"] = _cmat_json(frf.G[k])
+        c = frf.cov[k] if frf.cov is not None else np.zeros((g, g))
+        ln["cov"] = _cmat_json(c)
+        ln["dof"] = float(frf.dof[k]) if frf.dof is not None else 1.0
+        if frf.cov_known_input is not None:
+            ln["cov_known_input"] = _cmat_json(frf.cov_known_input[k])
+        else:
+            ln["cov_known_input"] = _cmat_json(c)
+        if frf.dof_known_input is not None:
+            ln["dof_known_input"] = float(frf.dof_known_input[k])
+        extra = frf.line_extra[k] if k < len(frf.line_extra) else {}
+        ln.update(extra)
+        ln.setdefault("snr", [None] * ny)
+        lines.append(ln)
+    doc["lines"] = lines
+    _write_atomic(path, doc)
+
+
+class Model:
+    """An msid-model/1 file: the state-space model (A, B, C, D), its domain and sample time, the model's
+    FRF at the data lines (frf_G: L x ny x nu, frf_freq), and `doc` (every key of the file)."""
+
+    def __init__(self, doc, path=None):
+        self.doc = doc
+        self.path = path
+        where = f"'{path}'" if path else "model"
+        try:
+            n, nu, ny = int(doc["order"]), int(doc["n_inputs"]), int(doc["n_outputs"])
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError(f"{where}: missing or bad {e}") from None
+        self.A = _rmat(doc.get("A", []), (n, n), where + ".A")
+        self.B = _rmat(doc.get("B", []), (n, nu), where + ".B")
+        self.C = _rmat(doc.get("C", []), (ny, n), where + ".C")
+        self.D = _rmat(doc.get("D"), (ny, nu), where + ".D")
+        fr = doc.get("frf") or []
+        self.frf_freq = np.array([e["freq"] for e in fr], float)
+        self.frf_G = np.array([_cmat(e["G"], (ny, nu), f"{where}.frf[{k}].G") for k, e in enumerate(fr)]).reshape(
+            len(fr), ny, nu)
+
+    @property
+    def domain(self):
+        return self.doc.get("domain", "dt")
+
+    @property
+    def sample_time(self):
+        return self.doc.get("sample_time")
+
+    @property
+    def order(self):
+        return self.A.shape[0]
+
+    @property
+    def n_inputs(self):
+        return self.B.shape[1] if self.B.size else self.D.shape[1]
+
+    @property
+    def n_outputs(self):
+        return self.D.shape[0]
+
+    @property
+    def stabilisation(self):
+        """The order-selection block (stabilisation diagram) or None."""
+        s = self.doc.get("order_selection")
+        return s if isinstance(s, dict) and s.get("orders") else None
+
+    def response_at(self, x):
+        """G(x) = C (x I - A)^-1 B + D at complex points x (s = j omega for CT, z for DT): (len(x), ny, nu)."""
+        x = np.atleast_1d(np.asarray(x, dtype=complex))
+        n = self.order
+        out = np.empty((x.size, self.n_outputs, self.n_inputs), complex)
+        for k, p in enumerate(x):
+            out[k] = self.D + (self.C @ np.linalg.solve(p * np.eye(n) - self.A, self.B) if n else 0)
+        return out
+
+    def response(self, frf):
+        """The model's FRF at the lines of an FRF (the points `msid validate` uses: docs/fitting.md)."""
+        if self.domain == "ct":
+            return self.response_at(1j * frf.omega_axis())
+        return self.response_at(np.exp(2j * np.pi * frf.freq))
+
+    def to_control(self, form="ss"):
+        """python-control StateSpace (form='ss') or TransferFunction (form='tf'); DT models carry dt =
+        sample_time (True when unknown), CT models dt = 0."""
+        import control
+        dt = 0 if self.domain == "ct" else (self.sample_time or True)
+        sys = control.ss(self.A, self.B, self.C, self.D, dt)
+        if form == "ss":
+            return sys
+        if form == "tf":
+            return control.ss2tf(sys)
+        raise ValueError("form must be 'ss' or 'tf'")
+
+    @classmethod
+    def from_control(cls, sys, frf, source=None, n_params=0):
+        """A model file from a python-control system (StateSpace or TransferFunction) and the FRF it models.
+
+        `method` is "external"; `frf[]` holds the model at the FRF's lines, and `cost` is the weighted
+        residual of docs/fitting.md (V = sum over complex lines |L^-1 vec(e)|^2 + 1/2 over real lines,
+        with the FRF's `cov`) against half the residual degrees of freedom less `n_params` (the free
+        parameters behind the system, if known: `msid validate` subtracts them from its dof too);
+        `msid validate` recomputes the cost with the exact law."""
+        import control
+        ss = control.ss(sys)
+        domain = "ct" if ss.dt == 0 else "dt"
+        if domain != frf.domain:
+            raise ValueError(f"the system is {domain} but the FRF is {frf.domain}")
+        A, B, C, D = (np.atleast_2d(np.asarray(M, float)) for M in (ss.A, ss.B, ss.C, ss.D))
+        n = A.shape[0] if ss.nstates else 0
+        doc = {"format": MODEL_FORMAT, "generator": "msid python package (python-control)",
+               "source": source or frf.meta.get("source", ""), "domain": domain}
+        h = frf.sample_time if frf.sample_time else (ss.dt if domain == "dt" and ss.dt not in (True, None) else None)
+        if h:
+            doc["sample_time"] = float(h)
+        doc.update({"method": "external", "settings": {"weight": "cov"}, "order": int(n),
+                    "n_inputs": int(ss.ninputs), "n_outputs": int(ss.noutputs),
+                    "A": A.reshape(n, n).tolist(), "B": B.reshape(n, ss.ninputs).tolist(),
+                    "C": C.reshape(ss.noutputs, n).tolist(), "D": D.reshape(ss.noutputs, ss.ninputs).tolist(),
+                    "n_params": int(n_params)})
+        eig = np.linalg.eigvals(A) if n else np.zeros(0)
+        stable = bool(np.all(eig.real < 0)) if domain == "ct" else bool(np.all(np.abs(eig) < 1))
+        doc["stable"] = stable
+        doc["stability"] = {"stable": stable, "enforced": False}
+        doc["stability"]["max_real_pole" if domain == "ct" else "max_abs_pole"] = (
+            (float(eig.real.max()) if domain == "ct" else float(np.abs(eig).max())) if n else None)
+        tmp = cls(doc)
+        Gm = tmp.response(frf)
+        value, rdof = 0.0, 0
+        for k in range(frf.n_lines):
+            e = (frf.G[k] - Gm[k]).T.reshape(-1)  # vec: columns stacked
+            if frf.cov is not None and frf.dof is not None:
+                w = np.real(np.conj(e) @ np.linalg.solve(frf.cov[k], e))
+            else:
+                w = float(np.vdot(e, e).real)
+            value += 0.5 * w if frf.real[k] else w
+            rdof += e.size if frf.real[k] else 2 * e.size
+        rdof -= int(n_params)
+        mean, p_value = _cost_law(frf, rdof, value)
+        doc["cost"] = {"value": float(value), "expected": mean, "dof": float(rdof), "p_value": p_value,
+                       "weight": "cov" if frf.cov is not None else "none"}
+        doc["frf"] = []
+        for k in range(frf.n_lines):
+            e = {"bin": int(frf.bins[k]) if frf.bins is not None else k, "freq": float(frf.freq[k])}
+            if domain == "ct":
+                e["omega"] = float(frf.omega_axis()[k])
+            e["G"] = _cmat_json(Gm[k])
+            e["cov"] = None
+            doc["frf"].append(e)
+        return cls(doc)
+
+
+def _cost_law(frf, rdof, value):
+    """Mean and p-value of the weighted cost V (eq. 40) of a model with `rdof` real residual degrees of
+    freedom, as docs/fitting.md ("Validation") states it: each complex term |e|^2/v is F(2, 2n)-like with
+    mean n/(n - ny) and the relative variance of an inverse Wishart moment; V is matched by a scaled
+    chi-square c chi2(k) with those two moments. n: the smallest dof over the lines; for the
+    nonparametric covariance of a multi-input periodic FRF one experiment's share (dof / m), for a
+    robust-BLA file dof / nu. Without a covariance (unit weights): n infinite. p-value None without scipy."""
+    ny = frf.n_outputs
+    if frf.cov is None or frf.dof is None:
+        n = math.inf
+    else:
+        dof = frf.dof.astype(float).copy()
+        meth = frf.meta.get("method", "periodic")
+        m = int(frf.meta.get("n_experiments", 1))
+        real = int((frf.meta.get("nonlinear_distortion") or {}).get("realisations", 1) or 1)
+        if frf.n_inputs > 1 and m > 1 and meth not in ("lpm", "etfe") and real < 2:
+            dof /= m
+        if frf.n_inputs > 1 and real >= 2:
+            dof /= frf.n_inputs
+        n = float(dof.min())
+    mu, s2 = 1.0, 1.0
+    if math.isfinite(n) and n < 1e8:
+        mu = n / (n - ny) if n > ny else math.inf
+        rel = (n ** 3 / ((n - 1) ** 2 * (n - 2))) / (n / (n - 1)) ** 2 if n > 2 else 1e300
+        s2 = rel * mu * mu
+    mean, var = 0.5 * rdof * mu, 0.5 * rdof * s2
+    try:
+        from scipy import stats
+        c, k = var / (2 * mean), 2 * mean * mean / var
+        p = float(stats.chi2.sf(value / c, k)) if math.isfinite(c) and math.isfinite(k) and k > 0 else None
+    except ImportError:
+        p = None
+    return (float(mean) if math.isfinite(mean) else None), p
+
+
+def read_model(path):
+    """Read an msid-model/1 file (docs/model-format.md) into a Model."""
+    return Model(_load(path, MODEL_FORMAT), path)
+
+
+def write_model(path, model):
+    """Write a Model as msid-model/1 (its doc, with A..D from the arrays)."""
+    doc = dict(model.doc)
+    doc["format"] = MODEL_FORMAT
+    for k in ("A", "B", "C", "D"):
+        doc[k] = np.asarray(getattr(model, k), float).tolist()
+    for k in ("A", "B", "C", "D"):
+        if not all(math.isfinite(x) for row in doc[k] for x in row):
+            raise ValueError(f"model {k} is not finite")
+    _write_atomic(path, doc)

@@ -1,0 +1,245 @@
+"""Bode plots of an msid FRF with its exact 95% regions, a model overlay, normalised residuals and the
+stabilisation diagram (matplotlib; docs/python.md).
+
+    python3 -m msid.plot FRF.json [--model MODEL.json] [--level 0.95] [--known-input] -o OUT.png|OUT.svg|OUT.pdf
+
+Per output/input pair (column = input, rows per output): magnitude (dB) and phase (degrees) of the
+estimate with the band the `level` confidence disc of radius r sweeps (docs/statistics.md: r^2 = v q,
+q the quantile of F(2, 2 dof), F(1, dof) on DC lines; chi2 only when the file has no dof):
+magnitude |G| -/+ r, phase -/+ asin(r/|G|) (all phases once r >= |G|). With a model: its response on a
+dense grid, and the residual |Ghat - G_model| / sqrt(v) per line against the `level` threshold sqrt(q).
+A model file with an `order_selection` block adds the stabilisation diagram (pole frequency vs order).
+
+The figures are plain matplotlib Figure objects (no pyplot state): `bode(frf, model)` returns one.
+"""
+import argparse
+import os
+import sys
+
+import numpy as np
+
+from . import regions
+from .files import FRF, Model, FormatError, read_frf, read_model
+
+REGION_LABEL = "95% region"
+FLAG_STYLE = {  # stabilisation flags of docs/fitting.md: s stable pole, d damping, f frequency, o new
+    "s": ("o", "tab:green", "stable (f, zeta)"),
+    "d": ("D", "tab:blue", "stable f, zeta moved"),
+    "f": ("s", "tab:orange", "f moved"),
+    "o": ("+", "tab:red", "new"),
+}
+
+
+def _db(x):
+    with np.errstate(divide="ignore"):
+        return 20 * np.log10(x)
+
+
+def _model_axis_points(frf, f_axis):
+    """Complex points where the model is evaluated for plot-axis frequencies f_axis (Hz or cycles/sample)."""
+    _, unit = frf.hz_axis()
+    if frf.domain == "ct":
+        return 1j * 2 * np.pi * f_axis
+    h = frf.sample_time if (unit == "Hz" and frf.sample_time) else 1.0
+    return np.exp(2j * np.pi * f_axis * h)
+
+
+def _grid(f):
+    f = np.asarray(f, float)
+    lo, hi = f.min(), f.max()
+    if lo > 0 and hi > lo:
+        return np.geomspace(lo, hi, 600)
+    return np.linspace(lo, hi if hi > lo else lo + 1, 600)
+
+
+def bode(frf, model=None, level=0.95, which="cov", title=None):
+    """A matplotlib Figure: Bode magnitude/phase with `level` regions for every output/input pair of `frf`
+    (an FRF or a path), the model overlay and residual rows when `model` (Model or path) is given, and
+    the stabilisation diagram when the model carries one."""
+    from matplotlib.figure import Figure
+
+    if not isinstance(frf, FRF):
+        frf = read_frf(frf)
+    if model is not None and not isinstance(model, Model):
+        model = read_model(model)
+    if model is not None and (model.n_inputs, model.n_outputs) != (frf.n_inputs, frf.n_outputs):
+        raise FormatError(f"the model is {model.n_outputs}x{model.n_inputs} but the FRF is "
+                          f"{frf.n_outputs}x{frf.n_inputs}")
+    ny, nu = frf.n_outputs, frf.n_inputs
+    f, unit = frf.hz_axis()
+    logx = bool(np.all(f > 0))
+    r = frf.radius(level, which)
+    var = frf.variance(which)
+    rows_per_out = 3 if model is not None else 2
+    stab = model.stabilisation if model is not None else None
+    nrows = ny * rows_per_out + (1 if stab else 0)
+    ratios = ([3, 2, 1.4] if model is not None else [3, 2]) * ny + ([3] if stab else [])
+    height = 1.35 * sum(ratios) + 0.8
+    fig = Figure(figsize=(4.2 * nu + 1.0, height))
+    # fixed margins (a constrained layout costs a second draw)
+    gs = fig.add_gridspec(nrows, nu, height_ratios=ratios, left=0.9 / (4.2 * nu + 1.0), right=0.98,
+                          bottom=0.55 / height, top=1 - 0.8 / height, hspace=0.45, wspace=0.25)
+    mag = np.abs(frf.G)
+    phase = np.degrees(np.unwrap(np.angle(frf.G), axis=0))
+    if model is not None:
+        fg = _grid(f)
+        Gd = model.response_at(_model_axis_points(frf, fg))
+        Gl = model.response(frf)
+        thr = regions.radius(1.0, None if (frf._pick(which)[1] is None) else frf._pick(which)[1][:, None, None],
+                           level, frf.real[:, None, None]) if var is not None else None
+    lev = f"{100 * level:g}%"
+    bottom = {}  # input -> the lowest axes of its column
+    for i in range(ny):
+        for j in range(nu):
+            base = i * rows_per_out
+            am = fig.add_subplot(gs[base, j])
+            ap = fig.add_subplot(gs[base + 1, j], sharex=am)
+            g, m, ph = frf.G[:, i, j], mag[:, i, j], phase[:, i, j]
+            if r is not None:
+                rr = r[:, i, j]
+                lo = np.where(rr < m, m - rr, np.nan)
+                floor = np.nanmin(np.concatenate([lo, m])) / 10 if np.any(m > 0) else 1e-12
+                lo = np.where(np.isnan(lo), floor, lo)
+                am.fill_between(f, _db(lo), _db(m + rr), color="tab:blue", alpha=0.25, linewidth=0,
+                                label=REGION_LABEL.replace("95%", lev), step=None)
+                half = np.degrees(np.arcsin(np.clip(rr / np.where(m > 0, m, 1), 0, 1)))
+                half = np.where(rr >= m, 180.0, half)
+                ap.fill_between(f, ph - half, ph + half, color="tab:blue", alpha=0.25, linewidth=0,
+                                label=REGION_LABEL.replace("95%", lev))
+            am.plot(f, _db(m), "o-", color="tab:blue", ms=3, lw=1, label="estimate")
+            ap.plot(f, ph, "o-", color="tab:blue", ms=3, lw=1, label="estimate")
+            if model is not None:
+                gd = Gd[:, i, j]
+                pd = np.degrees(np.unwrap(np.angle(gd)))
+                # put the model's phase on the branch of the estimate at the line nearest the grid start
+                k0 = int(np.argmin(np.abs(f - fg[0])))
+                pd += 360.0 * np.round((ph[k0] - np.degrees(np.angle(Gl[k0, i, j])) -
+                                        (pd[0] - np.degrees(np.angle(gd[0])))) / 360.0)
+                am.plot(fg, _db(np.abs(gd)), "-", color="tab:red", lw=1.2, label="model")
+                ap.plot(fg, pd, "-", color="tab:red", lw=1.2, label="model")
+                ar = fig.add_subplot(gs[base + 2, j], sharex=am)
+                if var is not None:
+                    nr = regions.normalised_residual(g - Gl[:, i, j], var[:, i, j])
+                    ar.stem(f, nr, linefmt="tab:red", markerfmt="o", basefmt=" ", label="|e|/sd")
+                    ar.plot(f, thr[:, 0, 0], "--", color="k", lw=0.8, label=f"{lev} limit")
+                    ar.set_ylabel("|e|/sd")
+                else:
+                    ar.stem(f, np.abs(g - Gl[:, i, j]), linefmt="tab:red", markerfmt="o", basefmt=" ")
+                    ar.set_ylabel("|e|")
+                ar.grid(True, alpha=0.3)
+                bottom[j] = ar
+            else:
+                bottom[j] = ap
+            am.set_ylabel("|G| (dB)")
+            ap.set_ylabel("phase (deg)")
+            am.set_title(f"y{i + 1} / u{j + 1}", fontsize=10)
+            for a in (am, ap):
+                a.grid(True, alpha=0.3)
+                if logx:
+                    a.set_xscale("log")
+            if i == 0 and j == 0:
+                am.legend(fontsize=7, loc="best")
+    for a in bottom.values():
+        a.set_xlabel(f"frequency ({unit})")
+    if stab:
+        stabilisation(stab, fig.add_subplot(gs[-1, :]), model)
+    fig.suptitle(title or _title(frf, model), fontsize=10)
+    return fig
+
+
+def stabilisation(block, ax, model=None):
+    """Draw an `order_selection` block (docs/fitting.md) on `ax`: pole frequency against model order,
+    one marker per stabilisation flag, the chosen order marked."""
+    orders = block.get("orders", [])
+    seen = set()
+    for o in orders:
+        if not o.get("ok"):
+            continue
+        for p in o.get("poles", []):
+            fl = p.get("flag", "o")
+            mk, col, lab = FLAG_STYLE.get(fl, FLAG_STYLE["o"])
+            ax.plot(p["fn"], o["order"], mk, color=col, ms=5, mfc="none" if mk != "+" else None,
+                    label=None if fl in seen else lab)
+            seen.add(fl)
+    ch = block.get("chosen")
+    if ch is not None:
+        ax.axhline(ch, color="k", lw=0.8, ls=":", label=f"chosen order {ch}")
+    unit = "Hz"
+    if model is not None:
+        unit = (model.doc.get("modes") or {}).get("frequency_unit") or ("Hz" if model.sample_time else "cycles/sample")
+    ax.set_xlabel(f"pole frequency ({unit})")
+    ax.set_ylabel("order")
+    ax.set_title("stabilisation diagram", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    if any(p["fn"] > 0 for o in orders if o.get("ok") for p in o.get("poles", [])):
+        ax.set_xscale("log")
+    ax.legend(fontsize=7, loc="best")
+    return ax
+
+
+def _title(frf, model):
+    t = f"{frf.meta.get('method', 'periodic')} FRF, {frf.n_outputs}x{frf.n_inputs}, {frf.n_lines} lines"
+    if frf.dof is not None:
+        t += f", dof {np.min(frf.dof):.3g}" + (f"..{np.max(frf.dof):.3g}" if np.ptp(frf.dof) > 0 else "")
+    if model is not None:
+        t += f"; model: {model.doc.get('method', '?')} order {model.order}"
+    return t
+
+
+def save(fig, path):
+    """Save a figure (format from the extension: png, svg, pdf) atomically and reproducibly."""
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    if ext not in ("png", "svg", "pdf"):
+        raise ValueError(f"'{path}': the output must end in .png, .svg or .pdf")
+    d = os.path.dirname(os.path.abspath(path))
+    tmp = os.path.join(d, f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    import matplotlib
+    # determinism: no dates in SVG/PDF, fixed SVG id salt: the same files give the same bytes
+    md = {"svg": {"Date": None}, "pdf": {"CreationDate": None}}.get(ext, {})
+    try:
+        with matplotlib.rc_context({"svg.hashsalt": "msid"}):
+            fig.savefig(tmp, format=ext, dpi=110, metadata=md)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python3 -m msid.plot",
+                                 description="Bode plot of an msid-frf/1 file with exact 95%% regions, "
+                                             "a model overlay and normalised residuals")
+    ap.add_argument("frf", help="msid-frf/1 file")
+    ap.add_argument("--model", help="msid-model/1 file to overlay")
+    ap.add_argument("-o", "--output", required=True, help="OUT.png, OUT.svg or OUT.pdf")
+    ap.add_argument("--level", type=float, default=0.95, help="confidence level of the regions (default 0.95)")
+    ap.add_argument("--known-input", action="store_true", help="regions from cov_known_input instead of cov")
+    a = ap.parse_args(argv)
+    if not 0 < a.level < 1:
+        ap.error("--level must be in (0, 1)")
+    if os.path.splitext(a.output)[1].lower() not in (".png", ".svg", ".pdf"):
+        ap.error(f"'{a.output}': the output must end in .png, .svg or .pdf")
+    return run_cli("msid.plot", lambda: save(bode(a.frf, a.model, level=a.level,
+                                                   which="known-input" if a.known_input else "cov"), a.output) or a.output)
+
+
+def run_cli(prog, job):
+    """The shared end of the plot/report entry points: exit 3 with one message without matplotlib,
+    1 with one message on a bad file, else 0 after printing what `job()` wrote."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        print(f"{prog}: error: matplotlib is not installed (Debian: apt-get install python3-matplotlib; "
+              "else pip install matplotlib)", file=sys.stderr)
+        return 3
+    try:
+        out = job()
+    except (FormatError, ValueError, OSError) as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 1
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
