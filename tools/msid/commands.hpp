@@ -21,6 +21,10 @@ int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
 int cmd_bench_io(int argc, char **argv);
+// cmd_fit_multi.cpp: msid fit --method multi (records with eliminated initial conditions)
+bool fit_method_is(int argc, char **argv, const char *method);
+int cmd_fit_multi(int argc, char **argv);
+int cmd_bench_fit_multi(int argc, char **argv);   // msid bench fit --only multi (cmd_bench_multi.cpp)
 }  // namespace msidcli
 #include <string>
 #include <vector>
