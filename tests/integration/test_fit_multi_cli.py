@@ -129,3 +129,23 @@ def test_bad_input(tmp_path):
     refused(tmp_path, exp_args(files), ["--order"], code=2)
     refused(tmp_path, ["--order", "6"], ["--experiment"], code=2)
     refused(tmp_path, ["--order", "6", "--feedthrough", "yes", *exp_args(files)], ["feedthrough"], code=2)
+
+
+def test_two_channel_ringdowns(tmp_path):
+    """Two outputs sharing the modes with different amplitudes (mode shapes) per record."""
+    rng = np.random.default_rng(9)
+    files = []
+    for i in range(5):
+        T = int(rng.integers(60, 121))
+        y1, y2 = ringdown(rng, T), ringdown(rng, T)
+        f = tmp_path / f"c{i}.csv"
+        write_csv(f, [y1 + 0.01 * rng.standard_normal(T), y2 + 0.01 * rng.standard_normal(T)], ["y1", "y2"])
+        files.append(f)
+    out = tmp_path / "c.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", *exp_args(files), "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    assert doc["n_outputs"] == 2 and doc["order"] == 12   # observer form: n per output
+    for m, fn, z in zip(doc["multi"]["modes"], FN, ZETA):
+        assert abs(m["fn_hz"] - fn) < 4 * m["sd_fn_hz"], (m, fn)
+        assert abs(m["zeta"] - z) < 4 * m["sd_zeta"], (m, z)
