@@ -456,6 +456,8 @@ void bench_process(const std::string &dir)
 
 static int bench_fit(int argc, char **argv)
 {
+    for (int i = 3; i + 1 < argc; ++i)   // --only multi: cmd_bench_multi.cpp
+        if (!std::strcmp(argv[i], "--only") && !std::strcmp(argv[i + 1], "multi")) return cmd_bench_fit_multi(argc, argv);
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) {
             std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"

@@ -30,6 +30,10 @@ int cmd_export(int argc, char **argv);   // cmd_export.cpp: FRF as CSV or MATLAB
 int run_python_module(const std::string &module, const std::vector<std::string> &args);
 // The same, but in a child process: returns its exit status (e.g. `msid measure` calling msid.report).
 int call_python_module(const std::string &module, const std::vector<std::string> &args);
+// cmd_fit_multi.cpp: msid fit --method multi (records with eliminated initial conditions)
+bool fit_method_is(int argc, char **argv, const char *method);
+int cmd_fit_multi(int argc, char **argv);
+int cmd_bench_fit_multi(int argc, char **argv);   // msid bench fit --only multi (cmd_bench_multi.cpp)
 }  // namespace msidcli
 #include <string>
 #include <vector>

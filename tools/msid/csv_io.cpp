@@ -68,9 +68,10 @@ static std::string trim(std::string_view v)
     return std::string(v.substr(a, b - a));
 }
 
-ColumnMap parse_column_map(const std::string &spec)
+ColumnMap parse_column_map(const std::string &spec, bool inputs_optional)
 {
     ColumnMap m;
+    m.inputs_optional = inputs_optional;
     size_t a = 0;
     for (;;) {
         const size_t b = spec.find(',', a);
@@ -97,7 +98,7 @@ ColumnMap parse_column_map(const std::string &spec)
         uint32_t &mx = kind == 0 ? maxu : maxy;
         mx = std::max(mx, k);
     }
-    if (cu == 0 || cy == 0) throw UsageError("--columns must map at least u1 and y1");
+    if ((cu == 0 && !inputs_optional) || cy == 0) throw UsageError("--columns must map at least u1 and y1");
     if (cu != maxu) throw UsageError(fmt("--columns: inputs must be u1..u%u without gaps", maxu));
     if (cy != maxy) throw UsageError(fmt("--columns: outputs must be y1..y%u without gaps", maxy));
     return m;
@@ -158,7 +159,7 @@ std::vector<size_t> resolve_columns(const std::string &path, const std::vector<s
         auto [kind, k] = uy_name(e.first);
         if (kind == 0) { ++cu; maxu = std::max(maxu, k); } else { ++cy; maxy = std::max(maxy, k); }
     }
-    if (cu == 0)
+    if (cu == 0 && !cols.inputs_optional)
         throw Error(fmt("'%s' has no input columns (u1, u2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
                         path.c_str(), list_names(names).c_str()));
     if (cy == 0)

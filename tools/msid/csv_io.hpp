@@ -54,12 +54,13 @@ struct Record {
 // Empty: the file's own u<k>/y<k> columns are used.
 struct ColumnMap {
     std::vector<std::pair<std::string, std::string>> map;   // ("u1", "Force"), ...
+    bool inputs_optional = false;   // records without inputs (free responses: msid fit --method multi)
     bool empty() const { return map.empty(); }
 };
 
 // Parse a --columns value; throws UsageError (u<k>/y<k> targets without gaps,
 // each target and each source at most once).
-ColumnMap parse_column_map(const std::string &spec);
+ColumnMap parse_column_map(const std::string &spec, bool inputs_optional = false);
 
 // THE reader: an experiment file of any supported format (chosen by the file's
 // extension: .npy, .npz, .mat, anything else is CSV). Every problem (missing

@@ -1,0 +1,151 @@
+"""msid fit --method multi end to end (issue 14): records written by NumPy (closed-form
+ring-downs and a state-space recursion, independent of msid), the model file checked
+against the truth, the schema and itself (determinism); bad input refused with one
+message, a non-zero exit and no file."""
+import numpy as np
+
+from helpers import load_json, run, run_ok, validate
+
+FN = np.array([80.0, 130.0, 200.0])
+ZETA = np.array([0.15, 0.1, 0.2])
+TS = 1e-3
+
+
+def ringdown(rng, T):
+    w = 2 * np.pi * FN
+    sig, wd = -ZETA * w, w * np.sqrt(1 - ZETA ** 2)
+    t = np.arange(T)[:, None] * TS
+    a, b = rng.standard_normal(3), rng.standard_normal(3)
+    return (np.exp(sig * t) * (a * np.cos(wd * t) + b * np.sin(wd * t))).sum(axis=1)
+
+
+def write_csv(path, cols, header):
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+
+
+def m1_files(tmp_path, n=6, seed=3):
+    rng = np.random.default_rng(seed)
+    ys = [ringdown(rng, int(rng.integers(60, 121))) for _ in range(n)]
+    sd = np.sqrt(np.mean(np.concatenate(ys) ** 2)) / 100.0
+    files = []
+    for i, y in enumerate(ys):
+        f = tmp_path / f"r{i + 1}.csv"
+        write_csv(f, [y + sd * rng.standard_normal(y.size)], ["y1"])
+        files.append(f)
+    return files
+
+
+def exp_args(files):
+    out = []
+    for f in files:
+        out += ["--experiment", f]
+    return out
+
+
+def test_ringdowns_modes_and_crb(tmp_path):
+    files = m1_files(tmp_path)
+    out = tmp_path / "m.json"
+    r = run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", *exp_args(files), "-o", out)
+    assert "mode" in r.stdout
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    assert doc["method"] == "multi" and doc["n_inputs"] == 0 and doc["multi"]["converged"] is not False
+    modes = doc["multi"]["modes"]
+    assert len(modes) == 3
+    for m, fn, z in zip(modes, FN, ZETA):
+        assert abs(m["fn_hz"] - fn) < 4 * m["sd_fn_hz"] + 1e-9, (m, fn)
+        assert abs(m["zeta"] - z) < 4 * m["sd_zeta"] + 1e-12, (m, z)
+        assert m["sd_fn_hz"] < 0.01 * fn
+    # the reported covariance and the independently computed CRB at the estimate agree
+    assert doc["multi"]["cramer_rao"]["rel_diff_cov"] < 0.05
+    assert len(doc["multi"]["records"]) == len(files)
+    # determinism: the same files give the same bytes
+    out2 = tmp_path / "m2.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", *exp_args(files), "-o", out2)
+    assert out.read_bytes() == out2.read_bytes()
+
+
+def test_input_output_transients(tmp_path):
+    rng = np.random.default_rng(5)
+    p = [0.9 * np.exp(0.5j), 0.8 * np.exp(1.4j)]
+    alpha = np.real(np.poly([p[0], np.conj(p[0]), p[1], np.conj(p[1])]))[1:]
+    beta = np.array([1.0, -0.5, 0.3, 0.2])
+    A = np.zeros((4, 4))
+    A[:, 0] = -alpha
+    A[:3, 1:] = np.eye(3)
+    files = []
+    for i, T in enumerate([50, 90, 140, 200]):
+        x = 3 * rng.standard_normal(4)
+        u = rng.standard_normal(T)
+        y = np.empty(T)
+        for t in range(T):
+            y[t] = x[0]
+            x = A @ x + beta * u[t]
+        f = tmp_path / f"io{i}.csv"
+        write_csv(f, [u, y + 0.02 * rng.standard_normal(T)], ["u1", "y1"])
+        files.append(f)
+    out = tmp_path / "io.json"
+    run_ok("fit", "--method", "multi", "--order", "4", *exp_args(files), "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    par = doc["parameters"]
+    th = np.array(par["values"])
+    sd = np.sqrt(np.diag(np.array(par["cov"])))
+    truth = np.concatenate([alpha, beta])
+    assert np.all(np.abs(th - truth) < 4.5 * sd), (th, truth, sd)
+    assert doc["n_inputs"] == 1 and "lmfd" in doc
+
+
+def refused(tmp_path, args, words, code=None):
+    out = tmp_path / "bad.json"
+    r = run("fit", "--method", "multi", *args, "-o", out)
+    assert r.returncode != 0
+    if code is not None:
+        assert r.returncode == code
+    msg = r.stderr.strip()
+    assert msg.count("\n") == 0, msg          # one message
+    for w in words:
+        assert w in msg, msg
+    assert not out.exists()                   # nothing written
+    return msg
+
+
+def test_bad_input(tmp_path):
+    files = m1_files(tmp_path, n=2)
+    short = tmp_path / "short.csv"
+    write_csv(short, [np.arange(5.0)], ["y1"])
+    refused(tmp_path, ["--order", "6", *exp_args([files[0], short])], ["short.csv", "too few"])
+    two = tmp_path / "two.csv"
+    write_csv(two, [np.arange(100.0), np.arange(100.0)], ["y1", "y2"])
+    refused(tmp_path, ["--order", "6", *exp_args([files[0], two])], ["two.csv", "same channels"])
+    nan = tmp_path / "nan.csv"
+    y = np.linspace(1, 0, 100)
+    y[40] = np.nan
+    write_csv(nan, [y], ["y1"])
+    refused(tmp_path, ["--order", "6", *exp_args([files[0], nan])], ["nan.csv"])
+    tiny = tmp_path / "tiny.csv"
+    write_csv(tiny, [np.linspace(1, 0, 12)], ["y1"])
+    refused(tmp_path, ["--order", "6", "--experiment", tiny], ["too few samples"])
+    refused(tmp_path, exp_args(files), ["--order"], code=2)
+    refused(tmp_path, ["--order", "6"], ["--experiment"], code=2)
+    refused(tmp_path, ["--order", "6", "--feedthrough", "yes", *exp_args(files)], ["feedthrough"], code=2)
+
+
+def test_two_channel_ringdowns(tmp_path):
+    """Two outputs sharing the modes with different amplitudes (mode shapes) per record."""
+    rng = np.random.default_rng(9)
+    files = []
+    for i in range(5):
+        T = int(rng.integers(60, 121))
+        y1, y2 = ringdown(rng, T), ringdown(rng, T)
+        f = tmp_path / f"c{i}.csv"
+        write_csv(f, [y1 + 0.01 * rng.standard_normal(T), y2 + 0.01 * rng.standard_normal(T)], ["y1", "y2"])
+        files.append(f)
+    out = tmp_path / "c.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", *exp_args(files), "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    assert doc["n_outputs"] == 2 and doc["order"] == 12   # observer form: n per output
+    for m, fn, z in zip(doc["multi"]["modes"], FN, ZETA):
+        assert abs(m["fn_hz"] - fn) < 4 * m["sd_fn_hz"], (m, fn)
+        assert abs(m["zeta"] - z) < 4 * m["sd_zeta"], (m, z)

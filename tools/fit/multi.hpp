@@ -1,0 +1,126 @@
+// Maximum-likelihood identification from multiple experiments with the initial
+// conditions of every record eliminated analytically (variable projection),
+// after Markovsky & Pintelon, "Identification of linear time-invariant systems
+// from multiple experiments" (shared/papers/markovsky-pintelon-multiple-experiments.txt).
+//
+// Model class (discrete time, sample index t, q^-1 the delay): for every output j
+// and record i of T_i samples,
+//
+//     y_j(t) = yhat_j(t) + v_j(t),   a(q^-1) yhat_j(t) = sum_k b_jk(q^-1) u_k(t),  t = 0..T_i-1,
+//
+// a(q^-1) = 1 + alpha_1 q^-1 + ... + alpha_n q^-n (the poles: roots of
+// z^n + alpha_1 z^(n-1) + ... + alpha_n, shared by all outputs and records),
+// b_jk(q^-1) = sum_{d=d0}^{n} beta_jkd q^-d (d0 = 0 with a direct term, else 1),
+// and u_k(t < 0) = 0. The n pre-initial values yhat_j(-1..-n) of every record and
+// output are free: they are the record's initial conditions. v is white Gaussian
+// with variance s^2, independent across samples, outputs and records (the output
+// error setup (OE) of §VI; inputs are taken as exact).
+// With no inputs this is the sum-of-damped-exponentials model (SDE) of §VI:
+// every channel of every record is a free combination of the same n modes z_k^t.
+//
+// Cost (ML', §IV): V(alpha) = sum_i || Pi_perp(alpha) y^i ||^2 after the linear
+// parameters (beta, and each record's initial conditions) are eliminated by least
+// squares; per record the initial conditions are projected out (cost linear in
+// the number of records N), then beta by least squares on the projected data.
+// alpha is found by Levenberg-Marquardt on V with Kaufman's variable-projection
+// Jacobian J_m = -Pi_perp d yhat / d alpha_m (Golub & Pereyra 2003).
+//
+// Covariance: cov(alpha, beta) = s2 (J^T J)^-1 with J the Jacobian of the
+// residual with respect to (alpha, beta) after the initial conditions are
+// projected out: the inverse of the Fisher information of (alpha, beta) with the
+// initial conditions as nuisance parameters (the Schur complement), s2 = V / dof,
+// dof = sum_i ny T_i - N ny n - n - ny nu n_b. multi_crb() computes the same
+// bound independently (finite differences of a plain simulator, full Fisher
+// matrix over every parameter including all initial conditions, then inverted).
+#pragma once
+#include "fit_types.hpp"
+
+#include <string>
+#include <vector>
+
+namespace msidfit {
+
+// One record: T samples of nu inputs (T x nu, nu may be 0) and ny outputs (T x ny).
+struct MultiRecord {
+    MatR u, y;
+};
+
+struct MultiOptions {
+    int order = 0;              // n, number of poles (>= 1)
+    bool feedthrough = false;   // b_jk has a direct term beta_jk0 (input-output case only)
+    int max_iter = 200;         // Levenberg-Marquardt iterations
+    double h = 0.0;             // sample time in s for the modes (0: rad/sample)
+    // false: initial conditions fixed at zero instead of eliminated (a WRONG model for
+    // transient records, kept as the negative control of the tests and the benchmark)
+    bool eliminate_ic = true;
+    // start values: "auto" (every applicable start, LM from the one of least cost),
+    // "kung" (autonomous only), "prony", "sm" (Steiglitz-McBride after Prony)
+    std::string start = "auto";
+};
+
+// One pole (pair) with derived modal quantities and delta-method standard deviations.
+struct MultiMode {
+    cd z;                       // DT pole (Im >= 0 member of a pair)
+    cd s;                       // CT pole ln(z) / h (rad/s; rad/sample when h = 0)
+    bool real = false;
+    double wn = 0, fn = 0, zeta = 0;          // |s|, |s| / 2 pi, -Re s / |s|
+    double sd_wn = NAN, sd_fn = NAN, sd_zeta = NAN, sd_z_re = NAN, sd_z_im = NAN;
+};
+
+struct MultiStart {
+    std::string name;
+    double cost = 0.0;
+};
+
+struct MultiResult {
+    int n = 0, nu = 0, ny = 0, d0 = 1, nb = 0;   // nb taps per (j, k): d = d0..n
+    VecR alpha;                       // alpha_1..alpha_n
+    std::vector<MatR> beta;           // beta[d - d0]: ny x nu coefficient of q^-d
+    std::vector<MatR> x0;             // per record: ny x n pre-initial values yhat(-1..-n)
+    VecR theta;                       // (alpha, beta) stacked: alpha, then for j, k, d
+    std::vector<std::string> names;   // of theta
+    MatR cov;                         // covariance of theta (s2 (J^T J)^-1)
+    int cov_rank = 0;
+    double cost = 0.0;                // V = sum of squared residuals
+    double s2 = 0.0;                  // noise variance V / dof
+    double dof = 0.0;
+    size_t n_samples = 0;             // sum_i T_i ny
+    int iterations = 0;
+    bool converged = false;
+    double grad_norm = 0.0;
+    std::vector<MultiStart> starts;
+    std::string best_start;
+    std::vector<MultiMode> modes;     // sorted by natural frequency
+};
+
+// Check the records (same channel counts, finite samples, enough samples for the
+// order) and fit. Throws FitError with one message naming the problem.
+MultiResult multi_fit(const std::vector<MultiRecord> &recs, const MultiOptions &o);
+
+// The cost, linear parameters and covariance at a given alpha (no iterations).
+MultiResult multi_evaluate(const std::vector<MultiRecord> &recs, const VecR &alpha, const MultiOptions &o);
+
+// Starting values of alpha (exposed for the tests and the benchmark).
+VecR multi_start_kung(const std::vector<MultiRecord> &recs, int n);        // stacked block Hankel SVD
+VecR multi_start_prony(const std::vector<MultiRecord> &recs, int n, int d0);  // equation error (ARX) LS
+VecR multi_start_sm(const std::vector<MultiRecord> &recs, int n, int d0, const VecR &a0, int iters);
+
+// Poles, frequencies and damping of alpha with delta-method sd from cov_alpha
+// (dz/dalpha_m = -z^(n-m) / p'(z), p(z) = z^n + alpha_1 z^(n-1) + ... + alpha_n).
+std::vector<MultiMode> multi_modes(const VecR &alpha, const MatR &cov_alpha, double h);
+
+// Simulate yhat of one record (T samples) from alpha, beta (as in MultiResult),
+// the inputs u (T x nu; nu may be 0, T is u.rows()) and the pre-initial values x0 (ny x n).
+MatR multi_simulate(const VecR &alpha, const std::vector<MatR> &beta, int d0, const MatR &u, const MatR &x0, int ny);
+
+// Cramer-Rao bound of theta = (alpha, beta) for records with the given inputs and
+// true pre-initial values, noise variance s2: the full Fisher matrix over theta and
+// every record's initial conditions from central differences of multi_simulate(),
+// inverted; the theta block is returned. Independent of the estimator's projections.
+MatR multi_crb(const VecR &alpha, const std::vector<MatR> &beta, int d0, const std::vector<MatR> &u,
+               const std::vector<MatR> &x0, int ny, double s2);
+
+// Characteristic coefficients alpha_1..alpha_n of prod_k (1 - z_k q^-1) (complex poles in conjugate pairs).
+VecR multi_alpha_from_poles(const std::vector<cd> &z);
+
+}  // namespace msidfit
