@@ -13,34 +13,45 @@ static size_t work_cplx(uint32_t nu, uint32_t ny, uint32_t m)
            (4u * nu * nu + 2u * nu) / 2u + 2u;
 }
 
+/* The one memory layout (see msid__layout): per-line results, the time-domain
+ * noise covariance, detection-line results, and the solver's workspace. */
+static size_t layout(msid_frf *f, const msid_frf_cfg *c, void *mem)
+{
+    const size_t L = c->n_lines, nu = c->n_inputs, ny = c->n_outputs, m = c->n_experiments;
+    const size_t g = ny * nu, D = c->n_detect;
+    msid__layout y = msid__layout_begin(mem);
+    f->folded = (uint8_t *)msid__lay(&y, L, 1);
+    f->G = (msid_cplx *)msid__lay(&y, L * g, sizeof(msid_cplx));
+    f->cov = (msid_cplx *)msid__lay(&y, msid__mul(L, g * g), sizeof(msid_cplx));
+    f->cov_ki = (msid_cplx *)msid__lay(&y, msid__mul(L, g * g), sizeof(msid_cplx));
+    f->dof = (double *)msid__lay(&y, L, sizeof(double));
+    f->dof_ki = (double *)msid__lay(&y, L, sizeof(double));
+    f->noise = (msid_cplx *)msid__lay(&y, L * ny * ny, sizeof(msid_cplx));
+    f->snr = (double *)msid__lay(&y, L * ny, sizeof(double));
+    f->cond = (double *)msid__lay(&y, L, sizeof(double));
+    f->urel = (double *)msid__lay(&y, L, sizeof(double));
+    f->usnr = (double *)msid__lay(&y, L, sizeof(double));
+    f->line_status = (uint8_t *)msid__lay(&y, L, 1);
+    f->noise_time = (msid_cplx *)msid__lay(&y, ny * ny, sizeof(msid_cplx));
+    f->dmean = 0; f->dvar = 0; f->dpval = 0;
+    if (D) {
+        f->dmean = (msid_cplx *)msid__lay(&y, D * m * ny, sizeof(msid_cplx));
+        f->dvar = (double *)msid__lay(&y, D * ny, sizeof(double));
+        f->dpval = (double *)msid__lay(&y, D * ny, sizeof(double));
+    }
+    f->work = (msid_cplx *)msid__lay(&y, work_cplx(c->n_inputs, c->n_outputs, c->n_experiments),
+                                     sizeof(msid_cplx));
+    return y.size;
+}
+
 size_t msid_frf_mem_size(const msid_frf_cfg *c)
 {
     if (!c || c->n_lines == 0) return 0;
     if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS || c->n_outputs == 0 ||
         c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
         c->n_experiments > MSID_MAX_EXPERIMENTS) return 0;
-    const size_t L = c->n_lines, nu = c->n_inputs, ny = c->n_outputs, m = c->n_experiments;
-    const size_t g = ny * nu, D = c->n_detect;
-    size_t s = msid__chunk(L, 1);
-    s = msid__add(s, msid__chunk(L * g, sizeof(msid_cplx)));
-    s = msid__add(s, msid__chunk(msid__mul(L, g * g), sizeof(msid_cplx)));
-    s = msid__add(s, msid__chunk(msid__mul(L, g * g), sizeof(msid_cplx)));
-    s = msid__add(s, msid__chunk(L, sizeof(double)));
-    s = msid__add(s, msid__chunk(L, sizeof(double)));
-    s = msid__add(s, msid__chunk(L * ny * ny, sizeof(msid_cplx)));
-    s = msid__add(s, msid__chunk(L * ny, sizeof(double)));
-    s = msid__add(s, msid__chunk(L, sizeof(double)));
-    s = msid__add(s, msid__chunk(L, sizeof(double)));
-    s = msid__add(s, msid__chunk(L, sizeof(double)));
-    s = msid__add(s, msid__chunk(L, 1));
-    s = msid__add(s, msid__chunk(ny * ny, sizeof(msid_cplx)));
-    if (D) {
-        s = msid__add(s, msid__chunk(D * m * ny, sizeof(msid_cplx)));
-        s = msid__add(s, msid__chunk(D * ny, sizeof(double)));
-        s = msid__add(s, msid__chunk(D * ny, sizeof(double)));
-    }
-    s = msid__add(s, msid__chunk(work_cplx(c->n_inputs, c->n_outputs, c->n_experiments), sizeof(msid_cplx)));
-    return s;
+    msid_frf tmp;
+    return layout(&tmp, c, 0);
 }
 
 msid_status msid_frf_init(msid_frf *f, const msid_frf_cfg *c, void *mem, size_t len)
@@ -52,33 +63,12 @@ msid_status msid_frf_init(msid_frf *f, const msid_frf_cfg *c, void *mem, size_t 
         c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
         c->n_experiments > MSID_MAX_EXPERIMENTS) return MSID_E_DIMS;
     if (c->n_experiments < c->n_inputs) return MSID_E_EXPERIMENTS;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, msid_frf_mem_size(c));
+    const msid_status st = msid__mem_check(mem, len, msid_frf_mem_size(c));
     if (st != MSID_OK) return st;
-    const size_t L = c->n_lines, nu = c->n_inputs, ny = c->n_outputs, m = c->n_experiments;
-    const size_t g = ny * nu, D = c->n_detect;
+    (void)layout(f, c, mem);
+    const size_t L = c->n_lines;
     f->period = c->period; f->n_inputs = c->n_inputs; f->n_outputs = c->n_outputs;
     f->n_experiments = c->n_experiments; f->n_lines = c->n_lines; f->n_detect = c->n_detect;
-    f->folded = (uint8_t *)msid__take(&a, L);
-    f->G = (msid_cplx *)msid__take(&a, L * g * sizeof(msid_cplx));
-    f->cov = (msid_cplx *)msid__take(&a, L * g * g * sizeof(msid_cplx));
-    f->cov_ki = (msid_cplx *)msid__take(&a, L * g * g * sizeof(msid_cplx));
-    f->dof = (double *)msid__take(&a, L * sizeof(double));
-    f->dof_ki = (double *)msid__take(&a, L * sizeof(double));
-    f->noise = (msid_cplx *)msid__take(&a, L * ny * ny * sizeof(msid_cplx));
-    f->snr = (double *)msid__take(&a, L * ny * sizeof(double));
-    f->cond = (double *)msid__take(&a, L * sizeof(double));
-    f->urel = (double *)msid__take(&a, L * sizeof(double));
-    f->usnr = (double *)msid__take(&a, L * sizeof(double));
-    f->line_status = (uint8_t *)msid__take(&a, L);
-    f->noise_time = (msid_cplx *)msid__take(&a, ny * ny * sizeof(msid_cplx));
-    f->dmean = 0; f->dvar = 0; f->dpval = 0;
-    if (D) {
-        f->dmean = (msid_cplx *)msid__take(&a, D * m * ny * sizeof(msid_cplx));
-        f->dvar = (double *)msid__take(&a, D * ny * sizeof(double));
-        f->dpval = (double *)msid__take(&a, D * ny * sizeof(double));
-    }
-    f->work = (msid_cplx *)msid__take(&a, work_cplx(c->n_inputs, c->n_outputs, c->n_experiments) * sizeof(msid_cplx));
     for (size_t l = 0; l < L; ++l) f->folded[l] = c->folded ? (c->folded[l] ? 1u : 0u) : 0u;
     f->bad_line = -1;
     f->bad_experiment = -1;

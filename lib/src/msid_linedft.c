@@ -30,6 +30,30 @@ static msid_dft_path resolve_path(const msid_linedft_cfg *c)
     return msid_linedft_choose(c->period, c->n_lines, c->n_channels, c->fft != 0);
 }
 
+/* The one memory layout (see msid__layout): bins, spectra out, then per path the
+ * FFT period buffers, or the twiddle indices and accumulators (double or float,
+ * with the float twiddle table). */
+static size_t layout(msid_linedft *d, const msid_linedft_cfg *c, msid_dft_path path, void *mem)
+{
+    const size_t L = c->n_lines, C = c->n_channels, P = c->period;
+    msid__layout y = msid__layout_begin(mem);
+    d->bins = (uint32_t *)msid__lay(&y, L, sizeof(uint32_t));
+    d->out = (msid_cplx *)msid__lay(&y, L * C, sizeof(msid_cplx));
+    d->idx = 0; d->acc = 0; d->buf = 0; d->fout = 0; d->accf = 0; d->twf = 0;
+    if (path == MSID_DFT_FFT) {   /* every period is fully written (data or gap zeros) before a transform */
+        d->buf = (double *)msid__lay(&y, msid__mul(C, P), sizeof(double));
+        d->fout = (msid_cplx *)msid__lay(&y, P / 2u + 1u, sizeof(msid_cplx));
+    } else if (path == MSID_DFT_STREAM_F32) {
+        d->idx = (uint32_t *)msid__lay(&y, L, sizeof(uint32_t));
+        d->accf = (float *)msid__lay(&y, 2u * L * C, sizeof(float));
+        d->twf = (float *)msid__lay(&y, msid__mul(2u, P), sizeof(float));
+    } else {
+        d->idx = (uint32_t *)msid__lay(&y, L, sizeof(uint32_t));
+        d->acc = (msid_cplx *)msid__lay(&y, L * C, sizeof(msid_cplx));
+    }
+    return y.size;
+}
+
 size_t msid_linedft_mem_size(const msid_linedft_cfg *c)
 {
     if (!c) return 0;
@@ -37,21 +61,8 @@ size_t msid_linedft_mem_size(const msid_linedft_cfg *c)
     if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS || c->n_lines == 0) return 0;
     if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT &&
         c->path != MSID_DFT_STREAM_F32) return 0;
-    const size_t L = c->n_lines, C = c->n_channels, P = c->period;
-    size_t s = msid__chunk(L, sizeof(uint32_t));                 /* bins */
-    s = msid__add(s, msid__chunk(L * C, sizeof(msid_cplx)));      /* out */
-    if (resolve_path(c) == MSID_DFT_FFT) {
-        s = msid__add(s, msid__chunk(msid__mul(C, P), sizeof(double)));
-        s = msid__add(s, msid__chunk(P / 2u + 1u, sizeof(msid_cplx)));
-    } else if (resolve_path(c) == MSID_DFT_STREAM_F32) {
-        s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));
-        s = msid__add(s, msid__chunk(2u * L * C, sizeof(float)));
-        s = msid__add(s, msid__chunk(msid__mul(2u, P), sizeof(float)));
-    } else {
-        s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));
-        s = msid__add(s, msid__chunk(L * C, sizeof(msid_cplx)));
-    }
-    return s;
+    msid_linedft tmp;
+    return layout(&tmp, c, resolve_path(c), 0);
 }
 
 static void clear_period(msid_linedft *d)
@@ -84,9 +95,9 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
         if (!c->twiddle) return MSID_E_NULL;
         if (c->twiddle->period != c->period) return MSID_E_PERIOD;
     }
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, msid_linedft_mem_size(c));
+    const msid_status st = msid__mem_check(mem, len, msid_linedft_mem_size(c));
     if (st != MSID_OK) return st;
+    (void)layout(d, c, path, mem);
     const size_t L = c->n_lines, C = c->n_channels, P = c->period;
     d->period = c->period;
     d->n_channels = c->n_channels;
@@ -94,24 +105,11 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
     d->path = path;
     d->twiddle = c->twiddle;
     d->fft = c->fft;
-    d->bins = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
-    d->out = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
-    d->idx = 0; d->acc = 0; d->buf = 0; d->fout = 0; d->accf = 0; d->twf = 0;
-    if (path == MSID_DFT_FFT) {
-        /* every period is fully written (data or gap zeros) before a transform */
-        d->buf = (double *)msid__take(&a, C * P * sizeof(double));
-        d->fout = (msid_cplx *)msid__take(&a, (P / 2u + 1u) * sizeof(msid_cplx));
-    } else if (path == MSID_DFT_STREAM_F32) {
-        d->idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
-        d->accf = (float *)msid__take(&a, 2u * L * C * sizeof(float));
-        d->twf = (float *)msid__take(&a, 2u * P * sizeof(float));
+    if (path == MSID_DFT_STREAM_F32) {
         for (size_t k = 0; k < P; ++k) {   /* correctly rounded, so the same floats everywhere */
             d->twf[2u * k] = (float)c->twiddle->w[k].re;
             d->twf[2u * k + 1u] = (float)c->twiddle->w[k].im;
         }
-    } else {
-        d->idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
-        d->acc = (msid_cplx *)msid__take(&a, L * C * sizeof(msid_cplx));
     }
     for (size_t l = 0; l < L; ++l) d->bins[l] = c->bins[l];
     for (size_t k = 0; k < L * C; ++k) d->out[k].re = d->out[k].im = 0.0;

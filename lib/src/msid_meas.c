@@ -22,26 +22,45 @@ static void sub_cfgs(const msid_meas_cfg *c, const uint32_t *bins, msid_linedft_
     pc->alpha = c->alpha;
 }
 
+/* Chunks of a measurement that are not members of the instance. */
+typedef struct meas_chunks {
+    uint32_t *bins, *sorted;   /* [L + D] bins (excited, then detection) and a sorted copy */
+    void *dft, *ps;            /* memory of the line DFT and of the m period statistics */
+    size_t dft_size, ps_size;  /* their _mem_size (0: invalid configuration) */
+} meas_chunks;
+
+/* The one memory layout (see msid__layout): bins, sorted scratch, line DFT, the
+ * m statistics instances, their memory, leftover and sample counters. */
+static size_t layout(msid_meas *ms, meas_chunks *k, const msid_meas_cfg *c, void *mem)
+{
+    uint32_t dummy = 0;
+    msid_linedft_cfg dc;
+    msid_pstats_cfg pc;
+    sub_cfgs(c, &dummy, &dc, &pc);
+    k->dft_size = msid_linedft_mem_size(&dc);
+    k->ps_size = msid_pstats_mem_size(&pc);
+    if (k->dft_size == 0 || k->ps_size == 0) return 0;
+    const size_t m = c->n_experiments;
+    msid__layout y = msid__layout_begin(mem);
+    k->bins = (uint32_t *)msid__lay(&y, nbins(c), sizeof(uint32_t));
+    k->sorted = (uint32_t *)msid__lay(&y, nbins(c), sizeof(uint32_t));
+    k->dft = msid__lay(&y, k->dft_size, 1);
+    ms->ps = (msid_pstats *)msid__lay(&y, m, sizeof(msid_pstats));
+    k->ps = msid__lay(&y, m, k->ps_size);
+    ms->leftover = (uint64_t *)msid__lay(&y, m, sizeof(uint64_t));
+    ms->samples = (uint64_t *)msid__lay(&y, m, sizeof(uint64_t));
+    return y.size;
+}
+
 size_t msid_meas_mem_size(const msid_meas_cfg *c)
 {
     if (!c || c->n_lines == 0) return 0;
     if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS || c->n_outputs == 0 ||
         c->n_outputs > MSID_MAX_OUTPUTS || c->n_experiments == 0 ||
         c->n_experiments > MSID_MAX_EXPERIMENTS) return 0;
-    uint32_t dummy = 0;
-    msid_linedft_cfg dc;
-    msid_pstats_cfg pc;
-    sub_cfgs(c, &dummy, &dc, &pc);
-    const size_t sd = msid_linedft_mem_size(&dc), sp = msid_pstats_mem_size(&pc);
-    if (sd == 0 || sp == 0) return 0;
-    size_t s = msid__chunk(nbins(c), sizeof(uint32_t));
-    s = msid__add(s, msid__chunk(nbins(c), sizeof(uint32_t)));   /* sorted scratch */
-    s = msid__add(s, sd);
-    s = msid__add(s, msid__chunk(c->n_experiments, sizeof(msid_pstats)));
-    s = msid__add(s, msid__mul(sp, c->n_experiments));
-    s = msid__add(s, msid__chunk(c->n_experiments, sizeof(uint64_t)));
-    s = msid__add(s, msid__chunk(c->n_experiments, sizeof(uint64_t)));
-    return s;
+    msid_meas tmp;
+    meas_chunks k;
+    return layout(&tmp, &k, c, 0);
 }
 
 msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *c, void *mem, size_t len)
@@ -59,31 +78,28 @@ msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *c, void *mem, siz
         if (c->detect_bins[l] == 0u || (uint64_t)c->detect_bins[l] * 2u >= c->period) return MSID_E_LINE_RANGE;
     const size_t need = msid_meas_mem_size(c);
     if (need == 0) return MSID_E_DIMS;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, need);
+    msid_status st = msid__mem_check(mem, len, need);
     if (st != MSID_OK) return st;
+    meas_chunks k;
+    (void)layout(ms, &k, c, mem);
     const size_t nb = nbins(c), m = c->n_experiments;
-    uint32_t *bins = (uint32_t *)msid__take(&a, nb * sizeof(uint32_t));
+    uint32_t *bins = k.bins;
     for (size_t l = 0; l < c->n_lines; ++l) bins[l] = c->bins[l];
     for (size_t l = 0; l < c->n_detect; ++l) bins[c->n_lines + l] = c->detect_bins[l];
     /* no bin twice (excited or detection): sort a copy, O(L log L) */
-    uint32_t *srt = (uint32_t *)msid__take(&a, nb * sizeof(uint32_t));
+    uint32_t *srt = k.sorted;
     for (size_t l = 0; l < nb; ++l) srt[l] = bins[l];
     msid__sort_u32(srt, nb);
     for (size_t l = 1; l < nb; ++l) if (srt[l] == srt[l - 1]) return MSID_E_LINE_DUP;
     msid_linedft_cfg dc;
     msid_pstats_cfg pc;
     sub_cfgs(c, bins, &dc, &pc);
-    const size_t sd = msid_linedft_mem_size(&dc), sp = msid_pstats_mem_size(&pc);
-    st = msid_linedft_init(&ms->dft, &dc, msid__take(&a, sd), sd);
+    st = msid_linedft_init(&ms->dft, &dc, k.dft, k.dft_size);
     if (st != MSID_OK) return st;
-    ms->ps = (msid_pstats *)msid__take(&a, m * sizeof(msid_pstats));
     for (size_t e = 0; e < m; ++e) {
-        st = msid_pstats_init(&ms->ps[e], &pc, msid__take(&a, sp), sp);
+        st = msid_pstats_init(&ms->ps[e], &pc, (unsigned char *)k.ps + e * k.ps_size, k.ps_size);
         if (st != MSID_OK) return st;
     }
-    ms->leftover = (uint64_t *)msid__take(&a, m * sizeof(uint64_t));
-    ms->samples = (uint64_t *)msid__take(&a, m * sizeof(uint64_t));
     for (size_t e = 0; e < m; ++e) ms->leftover[e] = ms->samples[e] = 0;
     ms->period = c->period;
     ms->n_inputs = c->n_inputs;

@@ -6,20 +6,29 @@
 #include "msid_cmat.h"
 #include <math.h>
 
+/* The one memory layout (see msid__layout): mean, scatter, then the period history. */
+static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
+{
+    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
+    msid__layout y = msid__layout_begin(mem);
+    ps->mean = (msid_cplx *)msid__lay(&y, L * q, sizeof(msid_cplx));
+    ps->m2 = (msid_cplx *)msid__lay(&y, msid__mul(L * q, q), sizeof(msid_cplx));
+    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0;
+    if (H) {
+        ps->hist = (msid_cplx *)msid__lay(&y, msid__mul(H, L * q), sizeof(msid_cplx));
+        ps->hflag = (uint8_t *)msid__lay(&y, H, 1);
+        ps->hdrop = (uint8_t *)msid__lay(&y, H, 1);
+        ps->hpval = (double *)msid__lay(&y, H, sizeof(double));
+        ps->hidx = (uint32_t *)msid__lay(&y, H, sizeof(uint32_t));
+    }
+    return y.size;
+}
+
 size_t msid_pstats_mem_size(const msid_pstats_cfg *c)
 {
     if (!c || c->n_lines == 0 || c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS) return 0;
-    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
-    size_t s = msid__chunk(L * q, sizeof(msid_cplx));
-    s = msid__add(s, msid__chunk(msid__mul(L * q, q), sizeof(msid_cplx)));
-    if (H) {
-        s = msid__add(s, msid__chunk(msid__mul(H, L * q), sizeof(msid_cplx)));
-        s = msid__add(s, msid__chunk(H, 1));
-        s = msid__add(s, msid__chunk(H, 1));
-        s = msid__add(s, msid__chunk(H, sizeof(double)));
-        s = msid__add(s, msid__chunk(H, sizeof(uint32_t)));
-    }
-    return s;
+    msid_pstats tmp;
+    return layout(&tmp, c, 0);
 }
 
 static void clear_stats(msid_pstats *ps)
@@ -49,26 +58,15 @@ msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *me
         c->transient != MSID_TRANSIENT_DROP) return MSID_E_ARG;
     if (c->transient != MSID_TRANSIENT_OFF && c->max_periods < 3) return MSID_E_ARG;
     if (c->alpha != 0.0 && !(c->alpha > 0.0 && c->alpha < 1.0)) return MSID_E_ARG;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, msid_pstats_mem_size(c));
+    const msid_status st = msid__mem_check(mem, len, msid_pstats_mem_size(c));
     if (st != MSID_OK) return st;
-    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
+    (void)layout(ps, c, mem);
     ps->n_lines = c->n_lines;
     ps->n_channels = c->n_channels;
     ps->skip_periods = c->skip_periods;
     ps->max_periods = c->max_periods;
     ps->transient = c->transient;
     ps->alpha = c->alpha != 0.0 ? c->alpha : 0.01;
-    ps->mean = (msid_cplx *)msid__take(&a, L * q * sizeof(msid_cplx));
-    ps->m2 = (msid_cplx *)msid__take(&a, L * q * q * sizeof(msid_cplx));
-    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0;
-    if (H) {
-        ps->hist = (msid_cplx *)msid__take(&a, H * L * q * sizeof(msid_cplx));
-        ps->hflag = (uint8_t *)msid__take(&a, H);
-        ps->hdrop = (uint8_t *)msid__take(&a, H);
-        ps->hpval = (double *)msid__take(&a, H * sizeof(double));
-        ps->hidx = (uint32_t *)msid__take(&a, H * sizeof(uint32_t));
-    }
     msid_pstats_reset(ps);
     return MSID_OK;
 }
