@@ -51,6 +51,11 @@ static size_t layout(msid_linedft *d, const msid_linedft_cfg *c, msid_dft_path p
         d->idx = (uint32_t *)msid__lay(&y, L, sizeof(uint32_t));
         d->acc = (msid_cplx *)msid__lay(&y, L * C, sizeof(msid_cplx));
     }
+    d->acc2 = 0; d->accf2 = 0;
+    if (c->spread && path == MSID_DFT_STREAM_F32)   /* spread: the pending period's sums */
+        d->accf2 = (float *)msid__lay(&y, 2u * L * C, sizeof(float));
+    else if (c->spread && path == MSID_DFT_STREAM)
+        d->acc2 = (msid_cplx *)msid__lay(&y, L * C, sizeof(msid_cplx));
     return y.size;
 }
 
@@ -61,6 +66,7 @@ size_t msid_linedft_mem_size(const msid_linedft_cfg *c)
     if (c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS || c->n_lines == 0) return 0;
     if (c->path != MSID_DFT_AUTO && c->path != MSID_DFT_STREAM && c->path != MSID_DFT_FFT &&
         c->path != MSID_DFT_STREAM_F32) return 0;
+    if (c->spread && resolve_path(c) == MSID_DFT_FFT) return 0;
     msid_linedft tmp;
     return layout(&tmp, c, resolve_path(c), 0);
 }
@@ -89,6 +95,7 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
     for (uint32_t l = 0; l < c->n_lines; ++l)
         if ((uint64_t)c->bins[l] * 2u > c->period) return MSID_E_LINE_RANGE;
     const msid_dft_path path = resolve_path(c);
+    if (c->spread && path == MSID_DFT_FFT) return MSID_E_ARG;
     if (path == MSID_DFT_FFT) {
         if (!c->fft || !c->fft->r2c || c->fft->period != c->period) return MSID_E_BACKEND;
     } else {
@@ -113,6 +120,12 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
     }
     for (size_t l = 0; l < L; ++l) d->bins[l] = c->bins[l];
     for (size_t k = 0; k < L * C; ++k) d->out[k].re = d->out[k].im = 0.0;
+    d->spread = c->spread ? 1 : 0;
+    d->pending = 0;
+    d->pend_line = 0;
+    d->pend_flags = 0;
+    if (d->acc2) for (size_t k = 0; k < L * C; ++k) d->acc2[k].re = d->acc2[k].im = 0.0;
+    if (d->accf2) for (size_t k = 0; k < 2u * L * C; ++k) d->accf2[k] = 0.0f;
     d->ready = 0;
     d->out_flags = 0;
     d->periods = 0;
@@ -382,9 +395,57 @@ static void stream_f32(msid_linedft *d, const double *x, uint32_t n)
     }
 }
 
+/* Spread period end, O(1): the completed sums become the pending period and the
+ * free (zeroed) second set accumulates the next one. The twiddle indices are
+ * already 0: each advanced by b*P = 0 mod P over the period. */
+static void swap_period(msid_linedft *d)
+{
+    if (d->path == MSID_DFT_STREAM_F32) {
+        float *t = d->accf; d->accf = d->accf2; d->accf2 = t;
+    } else {
+        msid_cplx *t = d->acc; d->acc = d->acc2; d->acc2 = t;
+    }
+    d->pending = 1;
+    d->pend_line = 0;
+    d->pend_flags = d->flags;
+    d->periods++;
+    d->pos = 0;
+    d->flags = 0;
+}
+
+size_t msid_linedft_settle(msid_linedft *d, size_t n_lines)
+{
+    if (!d->pending || d->ready) return 0;
+    const size_t C = d->n_channels, l0 = d->pend_line;
+    const size_t l1 = n_lines < d->n_lines - l0 ? l0 + n_lines : d->n_lines;
+    uint32_t fl = d->pend_flags;
+    for (size_t k = l0 * C; k < l1 * C; ++k) {
+        if (d->path == MSID_DFT_STREAM_F32) {
+            d->out[k].re = (double)d->accf2[2u * k];
+            d->out[k].im = (double)d->accf2[2u * k + 1u];
+            d->accf2[2u * k] = d->accf2[2u * k + 1u] = 0.0f;
+        } else {
+            d->out[k] = d->acc2[k];
+            d->acc2[k].re = d->acc2[k].im = 0.0;
+        }
+        if (!msid__finite(d->out[k].re) || !msid__finite(d->out[k].im)) fl |= MSID_PERIOD_NONFINITE;
+    }
+    d->pend_flags = fl;
+    d->pend_line = (uint32_t)l1;
+    if (l1 == d->n_lines) {
+        d->pending = 0;
+        d->out_flags = fl;
+        d->ready = 1;
+    }
+    return l1 - l0;
+}
+
+int msid_linedft_pending(const msid_linedft *d) { return d->pending; }
+
 static void finish_period(msid_linedft *d)
 {
     const size_t L = d->n_lines, C = d->n_channels, P = d->period;
+    if (d->spread) { swap_period(d); return; }
     if (d->path == MSID_DFT_FFT) {
         for (size_t c = 0; c < C; ++c) {
             msid_status st = d->fft->r2c(d->fft->ctx, d->buf + c * P, d->fout);
@@ -408,10 +469,23 @@ static void finish_period(msid_linedft *d)
     clear_period(d);
 }
 
+/* Samples of n that may be taken now. Without spreading none while a completed
+ * period waits for release. Spread: the period may not complete while another is
+ * pending or ready; the pending one is settled here if `out` is free. */
+static uint32_t room_for(msid_linedft *d, size_t n)
+{
+    uint32_t room = d->period - d->pos;
+    if (!d->spread) return d->ready ? 0u : room;
+    if (n >= room && d->pending) (void)msid_linedft_settle(d, d->n_lines);
+    if (d->pending || d->ready) room--;
+    return room;
+}
+
 size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
 {
-    if (d->ready || n == 0) return 0;
-    const uint32_t room = d->period - d->pos;
+    if (n == 0) return 0;
+    const uint32_t room = room_for(d, n);
+    if (room == 0) return 0;
     const uint32_t take = n < room ? (uint32_t)n : room;
     const uint32_t C = d->n_channels;
     if (d->path == MSID_DFT_FFT) {
@@ -449,8 +523,9 @@ size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
 
 size_t msid_linedft_push_gap(msid_linedft *d, size_t n)
 {
-    if (d->ready || n == 0) return 0;
-    const uint32_t room = d->period - d->pos;
+    if (n == 0) return 0;
+    const uint32_t room = room_for(d, n);
+    if (room == 0) return 0;
     const uint32_t take = n < room ? (uint32_t)n : room;
     d->flags |= MSID_PERIOD_GAP;
     if (d->path == MSID_DFT_FFT) {
@@ -475,6 +550,12 @@ msid_status msid_linedft_error(const msid_linedft *d) { return d->err; }
 
 void msid_linedft_reset(msid_linedft *d)
 {
+    if (d->pending) {   /* drop the pending period: its sums are cleared as settling would */
+        const size_t n = (size_t)d->n_lines * d->n_channels;
+        if (d->acc2) for (size_t k = 0; k < n; ++k) d->acc2[k].re = d->acc2[k].im = 0.0;
+        if (d->accf2) for (size_t k = 0; k < 2u * n; ++k) d->accf2[k] = 0.0f;
+        d->pending = 0;
+    }
     d->ready = 0;
     d->out_flags = 0;
     d->periods = 0;

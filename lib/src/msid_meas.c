@@ -14,6 +14,7 @@ static void sub_cfgs(const msid_meas_cfg *c, const uint32_t *bins, msid_linedft_
     dc->twiddle = c->twiddle;
     dc->path = c->path;
     dc->fft = c->fft;
+    dc->spread = c->spread ? 1 : 0;
     pc->n_lines = (uint32_t)nbins(c);
     pc->n_channels = c->n_inputs + c->n_outputs;
     pc->skip_periods = c->skip_periods;
@@ -37,6 +38,8 @@ static size_t layout(msid_meas *ms, meas_chunks *k, const msid_meas_cfg *c, void
     msid_linedft_cfg dc;
     msid_pstats_cfg pc;
     sub_cfgs(c, &dummy, &dc, &pc);
+    k->bins = k->sorted = 0;
+    k->dft = k->ps = 0;
     k->dft_size = msid_linedft_mem_size(&dc);
     k->ps_size = msid_pstats_mem_size(&pc);
     if (k->dft_size == 0 || k->ps_size == 0) return 0;
@@ -109,6 +112,11 @@ msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *c, void *mem, siz
     ms->n_detect = c->n_detect;
     ms->current = -1;
     ms->err = MSID_OK;
+    ms->spread = c->spread ? 1 : 0;
+    ms->spread_rate = (uint32_t)((2u * nb + c->period - 1u) / c->period);
+    ms->pend = 0;
+    ms->pend_unit = 0;
+    ms->pend_use = 0;
     return MSID_OK;
 }
 
@@ -133,6 +141,49 @@ static msid_status drain(msid_meas *ms)
     return st;
 }
 
+/* Spread mode: up to `units` units of the deferred period-end work, in order:
+ * settle the spectra line by line (linedft), then count the period and update
+ * its statistics line by line (pstats). */
+static msid_status spread_work(msid_meas *ms, size_t units)
+{
+    if (!ms->pend && msid_linedft_pending(&ms->dft)) { ms->pend = 1; ms->pend_unit = 0; }
+    if (!ms->pend) return MSID_OK;
+    const uint32_t nb = ms->n_lines + ms->n_detect;
+    msid_pstats *ps = &ms->ps[ms->current];
+    msid_status st = MSID_OK;
+    while (units && ms->pend) {
+        if (ms->pend_unit < nb) {
+            const size_t k = msid_linedft_settle(&ms->dft, units);
+            ms->pend_unit += (uint32_t)k;
+            units -= k;
+            if (ms->pend_unit < nb) break;
+            st = msid_pstats_add_begin(ps, msid_linedft_flags(&ms->dft), &ms->pend_use);
+            if (st != MSID_OK || !ms->pend_use) ms->pend_unit = 2u * nb;
+        } else {
+            const uint32_t l0 = ms->pend_unit - nb;
+            const uint32_t k = units < nb - l0 ? (uint32_t)units : nb - l0;
+            msid_pstats_add_lines(ps, msid_linedft_spectra(&ms->dft), l0, l0 + k);
+            ms->pend_unit += k;
+            units -= k;
+        }
+        if (ms->pend_unit == 2u * nb) {
+            msid_linedft_release(&ms->dft);
+            ms->pend = 0;
+            if (msid_linedft_pending(&ms->dft)) { ms->pend = 1; ms->pend_unit = 0; }
+        }
+        if (st != MSID_OK) return st;
+    }
+    return MSID_OK;
+}
+
+msid_status msid_meas_flush(msid_meas *ms)
+{
+    if (!ms->spread || ms->current < 0) return MSID_OK;
+    msid_status st = spread_work(ms, SIZE_MAX);
+    if (st != MSID_OK && ms->err == MSID_OK) ms->err = st;
+    return ms->err;
+}
+
 msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n)
 {
     if (ms->current < 0) return MSID_E_STATE;
@@ -140,11 +191,25 @@ msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n)
     if (n && !rows) return MSID_E_NULL;
     const size_t C = (size_t)ms->n_inputs + ms->n_outputs;
     while (n) {
-        const size_t k = msid_linedft_push(&ms->dft, rows, n);
-        rows += k * C;
-        n -= k;
-        ms->samples[ms->current] += k;
-        msid_status st = drain(ms);
+        msid_status st = MSID_OK;
+        size_t k;
+        if (ms->spread) {
+            /* the deferred work of these samples first; all of it before a sample that ends a period */
+            const size_t room = ms->period - ms->dft.pos, want = n < room ? n : room;
+            st = spread_work(ms, want == room ? SIZE_MAX : want * ms->spread_rate);
+            if (st == MSID_OK) {
+                k = msid_linedft_push(&ms->dft, rows, want);
+                rows += k * C;
+                n -= k;
+                ms->samples[ms->current] += k;
+            }
+        } else {
+            k = msid_linedft_push(&ms->dft, rows, n);
+            rows += k * C;
+            n -= k;
+            ms->samples[ms->current] += k;
+            st = drain(ms);
+        }
         if (st != MSID_OK) { ms->err = st; return st; }
     }
     return MSID_OK;
@@ -156,6 +221,10 @@ msid_status msid_meas_push_gap(msid_meas *ms, size_t n)
     if (ms->err != MSID_OK) return ms->err;
     const size_t P = ms->period;
     while (n) {
+        if (ms->spread) {   /* gaps are not per-sample work: finish any deferred period now */
+            msid_status st = msid_meas_flush(ms);
+            if (st != MSID_OK) return st;
+        }
         if (ms->dft.pos == 0 && !msid_linedft_ready(&ms->dft) && n >= P) {
             /* whole missing periods: each is offered and rejected as a gap, counted in O(1), so the
                cost of a gap does not grow with its length (counters saturate) */
@@ -173,7 +242,7 @@ msid_status msid_meas_push_gap(msid_meas *ms, size_t n)
         const size_t k = msid_linedft_push_gap(&ms->dft, n);
         n -= k;
         ms->samples[ms->current] += k;
-        msid_status st = drain(ms);
+        msid_status st = ms->spread ? msid_meas_flush(ms) : drain(ms);
         if (st != MSID_OK) { ms->err = st; return st; }
     }
     return MSID_OK;
@@ -189,6 +258,7 @@ msid_status msid_meas_mark_gap(msid_meas *ms)
 msid_status msid_meas_end(msid_meas *ms, uint64_t *leftover)
 {
     if (ms->current < 0) return MSID_E_STATE;
+    (void)msid_meas_flush(ms);   /* an error is sticky: the next push reports it, as without spreading */
     const uint32_t e = (uint32_t)ms->current;
     const uint64_t left = ms->dft.pos;
     ms->leftover[e] += left;

@@ -71,15 +71,16 @@ msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *me
     return MSID_OK;
 }
 
-/* Welford update of mean and the Hermitian scatter; the upper triangle is
- * computed and mirrored, so m2 is exactly Hermitian. */
-static void welford(msid_pstats *ps, const msid_cplx *z)
+/* Welford update (Pintelon 2002 eqs. 25, 32 in running form) of mean and the
+ * Hermitian scatter of lines [l0, l1) with period z; ps->K already counts z.
+ * The upper triangle is computed and mirrored, so m2 is exactly Hermitian.
+ * Lines are independent, so updating them in any split gives the same bits. */
+static void welford_lines(msid_pstats *ps, const msid_cplx *z, size_t l0, size_t l1)
 {
-    const size_t L = ps->n_lines, q = ps->n_channels;
-    ps->K++;
+    const size_t q = ps->n_channels;
     const double K = (double)ps->K, invK = 1.0 / K, f = (K - 1.0) / K;
     msid_cplx dl[MSID_MAX_CHANNELS];
-    for (size_t l = 0; l < L; ++l) {
+    for (size_t l = l0; l < l1; ++l) {
         msid_cplx *mu = ps->mean + l * q;
         msid_cplx *M = ps->m2 + l * q * q;
         const msid_cplx *zl = z + l * q;
@@ -102,26 +103,51 @@ static void welford(msid_pstats *ps, const msid_cplx *z)
     }
 }
 
-msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
+static void welford(msid_pstats *ps, const msid_cplx *z)
 {
+    ps->K++;
+    welford_lines(ps, z, 0, ps->n_lines);
+}
+
+msid_status msid_pstats_add_begin(msid_pstats *ps, uint32_t flags, int *use)
+{
+    *use = 0;
     ps->cnt.offered++;
     if (flags & MSID_PERIOD_GAP) { ps->cnt.gap++; return MSID_OK; }
     if (flags & MSID_PERIOD_NONFINITE) { ps->cnt.nonfinite++; return MSID_OK; }
     if (ps->seg_skipped < ps->skip_periods) { ps->seg_skipped++; ps->cnt.skipped++; return MSID_OK; }
     if (ps->max_periods) {
         if (ps->nhist >= ps->max_periods) { ps->cnt.offered--; return MSID_E_CAPACITY; }
-        const size_t n = (size_t)ps->n_lines * ps->n_channels;
-        msid_cplx *dst = ps->hist + (size_t)ps->nhist * n;
-        for (size_t k = 0; k < n; ++k) dst[k] = z[k];
         ps->hflag[ps->nhist] = 0;
         ps->hdrop[ps->nhist] = 0;
         ps->hpval[ps->nhist] = NAN;
         ps->hidx[ps->nhist] = ps->cnt.offered - 1u;
         ps->nhist++;
     }
-    welford(ps, z);
+    ps->K++;
     ps->cnt.used = ps->K;
+    *use = 1;
     return MSID_OK;
+}
+
+void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uint32_t l1)
+{
+    if (l1 > ps->n_lines) l1 = ps->n_lines;
+    if (l0 >= l1) return;
+    const size_t q = ps->n_channels;
+    if (ps->max_periods) {
+        msid_cplx *dst = ps->hist + ((size_t)(ps->nhist - 1u) * ps->n_lines + l0) * q;
+        for (size_t k = 0; k < (size_t)(l1 - l0) * q; ++k) dst[k] = z[(size_t)l0 * q + k];
+    }
+    welford_lines(ps, z, l0, l1);
+}
+
+msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
+{
+    int use;
+    const msid_status st = msid_pstats_add_begin(ps, flags, &use);
+    if (use) msid_pstats_add_lines(ps, z, 0, ps->n_lines);
+    return st;
 }
 
 /* Upper tail of Gamma(n, 1) at S for integer n >= 1:
