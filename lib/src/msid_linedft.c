@@ -331,68 +331,92 @@ static void f32_one_line(const float *tw, uint32_t P, uint32_t k, uint32_t *idx,
     for (uint32_t s = 0; s < ns; ++s) *idx = step(*idx, k, P);
 }
 
-static void stream_f32(msid_linedft *d, const double *x, uint32_t n)
+/* One float sample row (the per-sample interrupt). */
+static void f32_sample(msid_linedft *d, const float *xf)
 {
     const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
     const float *tw = d->twf;
+    float *a = d->accf;
+    for (uint32_t l = 0; l < L; ++l, a += 2u * C) {
+        const uint32_t i = d->idx[l];
+        const float wr = tw[2u * i], wi = tw[2u * i + 1u];
+        for (uint32_t c = 0; c < C; ++c) {
+            const float re = a[2u * c] + xf[c] * wr, im = a[2u * c + 1u] + xf[c] * wi;
+            a[2u * c] = re;
+            a[2u * c + 1u] = im;
+        }
+        d->idx[l] = step(i, d->bins[l], P);
+    }
+}
+
+/* ns float sample rows: two lines and a channel pair per pass. */
+static void f32_block(msid_linedft *d, const float *xf, uint32_t ns)
+{
+    const uint32_t P = d->period, C = d->n_channels, L = d->n_lines;
+    const float *tw = d->twf;
+    uint32_t l = 0;
+    for (; l + 2u <= L; l += 2u) {
+        const uint32_t k0 = d->bins[l], k1 = d->bins[l + 1u];
+        float *a0 = d->accf + 2u * (size_t)l * C, *a1 = a0 + 2u * C;
+        uint32_t c = 0;
+        for (; c + 2u <= C; c += 2u) {
+            uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
+            float r00 = a0[2u * c], q00 = a0[2u * c + 1u], r01 = a0[2u * c + 2u], q01 = a0[2u * c + 3u];
+            float r10 = a1[2u * c], q10 = a1[2u * c + 1u], r11 = a1[2u * c + 2u], q11 = a1[2u * c + 3u];
+            const float *row = xf + c;
+            for (uint32_t s = 0; s < ns; ++s, row += C) {
+                const float v0 = row[0], v1 = row[1];
+                const float c0 = tw[2u * i0], s0f = tw[2u * i0 + 1u], c1 = tw[2u * i1], s1f = tw[2u * i1 + 1u];
+                r00 += v0 * c0; q00 += v0 * s0f; r01 += v1 * c0; q01 += v1 * s0f;
+                r10 += v0 * c1; q10 += v0 * s1f; r11 += v1 * c1; q11 += v1 * s1f;
+                i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+            }
+            a0[2u * c] = r00; a0[2u * c + 1u] = q00; a0[2u * c + 2u] = r01; a0[2u * c + 3u] = q01;
+            a1[2u * c] = r10; a1[2u * c + 1u] = q10; a1[2u * c + 2u] = r11; a1[2u * c + 3u] = q11;
+        }
+        if (c < C) {   /* odd channel count: the last channel of both lines */
+            uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
+            float r0 = a0[2u * c], q0 = a0[2u * c + 1u], r1 = a1[2u * c], q1 = a1[2u * c + 1u];
+            const float *row = xf + c;
+            for (uint32_t s = 0; s < ns; ++s, row += C) {
+                const float v = row[0];
+                r0 += v * tw[2u * i0]; q0 += v * tw[2u * i0 + 1u];
+                r1 += v * tw[2u * i1]; q1 += v * tw[2u * i1 + 1u];
+                i0 = step(i0, k0, P); i1 = step(i1, k1, P);
+            }
+            a0[2u * c] = r0; a0[2u * c + 1u] = q0; a1[2u * c] = r1; a1[2u * c + 1u] = q1;
+        }
+        for (uint32_t s = 0; s < ns; ++s) {
+            d->idx[l] = step(d->idx[l], k0, P);
+            d->idx[l + 1u] = step(d->idx[l + 1u], k1, P);
+        }
+    }
+    if (l < L) f32_one_line(tw, P, d->bins[l], &d->idx[l], d->accf + 2u * (size_t)l * C, C, xf, ns);
+}
+
+/* Double sample rows: each rounded to float once, F32_BLOCK rows at a time. */
+static void stream_f32(msid_linedft *d, const double *x, uint32_t n)
+{
+    const uint32_t C = d->n_channels;
     float xf[F32_BLOCK * MSID_MAX_CHANNELS];
     if (n == 1u) {   /* one sample per call: no blocking overhead */
         for (uint32_t c = 0; c < C; ++c) xf[c] = (float)x[c];
-        float *a = d->accf;
-        for (uint32_t l = 0; l < L; ++l, a += 2u * C) {
-            const uint32_t i = d->idx[l];
-            const float wr = tw[2u * i], wi = tw[2u * i + 1u];
-            for (uint32_t c = 0; c < C; ++c) {
-                const float re = a[2u * c] + xf[c] * wr, im = a[2u * c + 1u] + xf[c] * wi;
-                a[2u * c] = re;
-                a[2u * c + 1u] = im;
-            }
-            d->idx[l] = step(i, d->bins[l], P);
-        }
+        f32_sample(d, xf);
         return;
     }
     for (uint32_t s0 = 0; s0 < n; s0 += F32_BLOCK) {
         const uint32_t ns = (n - s0) < F32_BLOCK ? (n - s0) : F32_BLOCK;
         for (uint32_t k = 0; k < ns * C; ++k) xf[k] = (float)x[(size_t)s0 * C + k];
-        uint32_t l = 0;
-        for (; l + 2u <= L; l += 2u) {
-            const uint32_t k0 = d->bins[l], k1 = d->bins[l + 1u];
-            float *a0 = d->accf + 2u * (size_t)l * C, *a1 = a0 + 2u * C;
-            uint32_t c = 0;
-            for (; c + 2u <= C; c += 2u) {
-                uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
-                float r00 = a0[2u * c], q00 = a0[2u * c + 1u], r01 = a0[2u * c + 2u], q01 = a0[2u * c + 3u];
-                float r10 = a1[2u * c], q10 = a1[2u * c + 1u], r11 = a1[2u * c + 2u], q11 = a1[2u * c + 3u];
-                const float *row = xf + c;
-                for (uint32_t s = 0; s < ns; ++s, row += C) {
-                    const float v0 = row[0], v1 = row[1];
-                    const float c0 = tw[2u * i0], s0f = tw[2u * i0 + 1u], c1 = tw[2u * i1], s1f = tw[2u * i1 + 1u];
-                    r00 += v0 * c0; q00 += v0 * s0f; r01 += v1 * c0; q01 += v1 * s0f;
-                    r10 += v0 * c1; q10 += v0 * s1f; r11 += v1 * c1; q11 += v1 * s1f;
-                    i0 = step(i0, k0, P); i1 = step(i1, k1, P);
-                }
-                a0[2u * c] = r00; a0[2u * c + 1u] = q00; a0[2u * c + 2u] = r01; a0[2u * c + 3u] = q01;
-                a1[2u * c] = r10; a1[2u * c + 1u] = q10; a1[2u * c + 2u] = r11; a1[2u * c + 3u] = q11;
-            }
-            if (c < C) {   /* odd channel count: the last channel of both lines */
-                uint32_t i0 = d->idx[l], i1 = d->idx[l + 1u];
-                float r0 = a0[2u * c], q0 = a0[2u * c + 1u], r1 = a1[2u * c], q1 = a1[2u * c + 1u];
-                const float *row = xf + c;
-                for (uint32_t s = 0; s < ns; ++s, row += C) {
-                    const float v = row[0];
-                    r0 += v * tw[2u * i0]; q0 += v * tw[2u * i0 + 1u];
-                    r1 += v * tw[2u * i1]; q1 += v * tw[2u * i1 + 1u];
-                    i0 = step(i0, k0, P); i1 = step(i1, k1, P);
-                }
-                a0[2u * c] = r0; a0[2u * c + 1u] = q0; a1[2u * c] = r1; a1[2u * c + 1u] = q1;
-            }
-            for (uint32_t s = 0; s < ns; ++s) {
-                d->idx[l] = step(d->idx[l], k0, P);
-                d->idx[l + 1u] = step(d->idx[l + 1u], k1, P);
-            }
-        }
-        if (l < L) f32_one_line(tw, P, d->bins[l], &d->idx[l], d->accf + 2u * (size_t)l * C, C, xf, ns);
+        f32_block(d, xf, ns);
     }
+}
+
+/* Float sample rows (msid_linedft_push_f32): no conversion at all. */
+static void stream_f32_in(msid_linedft *d, const float *x, uint32_t n)
+{
+    if (n == 1u) { f32_sample(d, x); return; }
+    for (uint32_t s0 = 0; s0 < n; s0 += F32_BLOCK)
+        f32_block(d, x + (size_t)s0 * d->n_channels, (n - s0) < F32_BLOCK ? (n - s0) : F32_BLOCK);
 }
 
 /* Spread period end, O(1): the completed sums become the pending period and the
@@ -481,7 +505,8 @@ static uint32_t room_for(msid_linedft *d, size_t n)
     return room;
 }
 
-size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
+/* Push of double rows x, or (STREAM_F32 only) float rows xf. */
+static size_t push_rows(msid_linedft *d, const double *x, const float *xf, size_t n)
 {
     if (n == 0) return 0;
     const uint32_t room = room_for(d, n);
@@ -510,7 +535,8 @@ size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
             for (uint32_t s = 0; s < take; ++s, src += C) d0[s] = src[0];
         }
     } else if (d->path == MSID_DFT_STREAM_F32) {
-        stream_f32(d, x, take);
+        if (xf) stream_f32_in(d, xf, take);
+        else stream_f32(d, x, take);
     } else if (take == 1u) {
         stream_one(d, x);
     } else {
@@ -519,6 +545,25 @@ size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n)
     d->pos += take;
     if (d->pos == d->period) finish_period(d);
     return take;
+}
+
+size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n) { return push_rows(d, x, 0, n); }
+
+size_t msid_linedft_push_f32(msid_linedft *d, const float *x, size_t n)
+{
+    if (d->path == MSID_DFT_STREAM_F32) return push_rows(d, 0, x, n);
+    /* double paths: float to double is exact, F32_BLOCK rows at a time */
+    const size_t C = d->n_channels;
+    double buf[F32_BLOCK * MSID_MAX_CHANNELS];
+    size_t done = 0;
+    while (done < n) {
+        const size_t k = n - done < F32_BLOCK ? n - done : F32_BLOCK;
+        for (size_t j = 0; j < k * C; ++j) buf[j] = (double)x[done * C + j];
+        const size_t t = push_rows(d, buf, 0, k);
+        done += t;
+        if (t < k) break;
+    }
+    return done;
 }
 
 size_t msid_linedft_push_gap(msid_linedft *d, size_t n)

@@ -184,28 +184,35 @@ msid_status msid_meas_flush(msid_meas *ms)
     return ms->err;
 }
 
-msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n)
+/* Rows of doubles x, or of floats xf. */
+static size_t push_dft(msid_meas *ms, const double *x, const float *xf, size_t off, size_t n)
+{
+    return xf ? msid_linedft_push_f32(&ms->dft, xf + off, n) : msid_linedft_push(&ms->dft, x + off, n);
+}
+
+static msid_status push_rows(msid_meas *ms, const double *x, const float *xf, size_t n)
 {
     if (ms->current < 0) return MSID_E_STATE;
     if (ms->err != MSID_OK) return ms->err;
-    if (n && !rows) return MSID_E_NULL;
+    if (n && !x && !xf) return MSID_E_NULL;
     const size_t C = (size_t)ms->n_inputs + ms->n_outputs;
+    size_t off = 0;
     while (n) {
         msid_status st = MSID_OK;
         size_t k;
         if (ms->spread) {
             /* the deferred work of these samples first; all of it before a sample that ends a period */
             const size_t room = ms->period - ms->dft.pos, want = n < room ? n : room;
-            st = spread_work(ms, want == room ? SIZE_MAX : want * ms->spread_rate);
+            if (ms->pend || ms->dft.pending) st = spread_work(ms, want == room ? SIZE_MAX : want * ms->spread_rate);
             if (st == MSID_OK) {
-                k = msid_linedft_push(&ms->dft, rows, want);
-                rows += k * C;
+                k = push_dft(ms, x, xf, off, want);
+                off += k * C;
                 n -= k;
                 ms->samples[ms->current] += k;
             }
         } else {
-            k = msid_linedft_push(&ms->dft, rows, n);
-            rows += k * C;
+            k = push_dft(ms, x, xf, off, n);
+            off += k * C;
             n -= k;
             ms->samples[ms->current] += k;
             st = drain(ms);
@@ -214,6 +221,10 @@ msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n)
     }
     return MSID_OK;
 }
+
+msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n) { return push_rows(ms, rows, 0, n); }
+
+msid_status msid_meas_push_f32(msid_meas *ms, const float *rows, size_t n) { return push_rows(ms, 0, rows, n); }
 
 msid_status msid_meas_push_gap(msid_meas *ms, size_t n)
 {

@@ -105,6 +105,18 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *cfg, void
 size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n);
 
 /**
+ * @brief Push up to n samples given as float (rows of C floats), for firmware
+ *        whose ADC data are float or integer: with ::MSID_DFT_STREAM_F32 no
+ *        conversion happens per sample (on a Cortex-M4F the double-to-float
+ *        conversion is a library call). The result is the same bits as
+ *        ::msid_linedft_push of the same values as double, on every path
+ *        (float to double is exact, and the float path rounds each double
+ *        sample to float, which gives the float back).
+ * @return samples consumed, as ::msid_linedft_push.
+ */
+size_t msid_linedft_push_f32(msid_linedft *d, const float *x, size_t n);
+
+/**
  * @brief Advance over n missing samples (data lost upstream); every period they
  *        touch is flagged ::MSID_PERIOD_GAP. Stops at the end of the current period.
  * @return samples skipped (0 if a completed period is waiting).

@@ -92,6 +92,14 @@ msid_status msid_meas_begin(msid_meas *ms, uint32_t e);
  */
 msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n);
 
+/**
+ * @brief Push n sample rows of nu+ny floats (see ::msid_linedft_push_f32): with
+ *        path ::MSID_DFT_STREAM_F32 no per-sample conversion; the same bits as
+ *        ::msid_meas_push of the same values as double.
+ * @return as ::msid_meas_push.
+ */
+msid_status msid_meas_push_f32(msid_meas *ms, const float *rows, size_t n);
+
 /** @brief Declare n missing samples: alignment is kept and the periods they touch are discarded. */
 msid_status msid_meas_push_gap(msid_meas *ms, size_t n);
 
