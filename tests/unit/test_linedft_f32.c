@@ -209,6 +209,19 @@ static void test_f32_blocks_bit_identical(void **state)
  * so the documented accuracy of the float path is the one tested above, and it holds here against a
  * long-double DFT of the float data: |X - X_exact| <= (P + 3) 2^-24 sum |x|. Changing one float
  * sample by 1e-3 changes the spectra (negative control; a one-ulp change may vanish in a float sum). */
+/* n float samples offset + N(0, 1) (ADC-like data, already float) and the same values as double. */
+static void float_samples(size_t n, uint64_t seed, double offset, float **xf, double **x)
+{
+    *xf = (float *)malloc(sizeof(float) * n);
+    *x = (double *)malloc(sizeof(double) * n);
+    msid_rng r;
+    msid_rng_seed(&r, seed);
+    for (size_t k = 0; k < n; ++k) {
+        (*xf)[k] = (float)(offset + msid_rng_normal(&r));
+        (*x)[k] = (double)(*xf)[k];
+    }
+}
+
 static void test_f32_float_samples(void **state)
 {
     (void)state;
@@ -216,14 +229,9 @@ static void test_f32_float_samples(void **state)
     msid_twiddle tw;
     void *mt = tsim_alloc(msid_twiddle_mem_size(P_));
     UT_STATUS(msid_twiddle_init(&tw, P_, mt, msid_twiddle_mem_size(P_)), MSID_OK);
-    float *xf = (float *)malloc(sizeof(float) * K * P_ * C);
-    double *x = (double *)malloc(sizeof(double) * K * P_ * C);
-    msid_rng r;
-    msid_rng_seed(&r, 17u);
-    for (uint32_t k = 0; k < K * P_ * C; ++k) {
-        xf[k] = (float)(2.0 + msid_rng_normal(&r));   /* ADC-like: an offset and noise, already float */
-        x[k] = (double)xf[k];
-    }
+    float *xf;
+    double *x;
+    float_samples((size_t)K * P_ * C, 17u, 2.0, &xf, &x);
     msid_cplx *a = (msid_cplx *)malloc(sizeof(msid_cplx) * K * L * C), *b = (msid_cplx *)malloc(sizeof(msid_cplx) * K * L * C);
     for (int path = 0; path < 2; ++path)
         for (int blocks = 0; blocks < 2; ++blocks) {
@@ -273,11 +281,9 @@ static void test_f32_meas_float_samples(void **state)
     msid_twiddle tw;
     void *mt = tsim_alloc(msid_twiddle_mem_size(P_));
     UT_STATUS(msid_twiddle_init(&tw, P_, mt, msid_twiddle_mem_size(P_)), MSID_OK);
-    float *xf = (float *)malloc(sizeof(float) * K * P_ * C);
-    double *x = (double *)malloc(sizeof(double) * K * P_ * C);
-    msid_rng r;
-    msid_rng_seed(&r, 21u);
-    for (uint32_t k = 0; k < K * P_ * C; ++k) { xf[k] = (float)msid_rng_normal(&r); x[k] = (double)xf[k]; }
+    float *xf;
+    double *x;
+    float_samples((size_t)K * P_ * C, 21u, 0.0, &xf, &x);
     msid_meas_cfg mc;
     memset(&mc, 0, sizeof mc);
     mc.period = P_; mc.n_inputs = 1; mc.n_outputs = 2; mc.n_experiments = 1; mc.n_lines = 3; mc.bins = bins;
