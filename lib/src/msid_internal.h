@@ -7,6 +7,15 @@
 #include "msid/msid_types.h"
 #include "msid/msid_status.h"
 
+/* A static helper that must be inlined into each caller (the per-sample push
+ * paths: a call with its argument dispatch costs tens of instructions per
+ * sample on a Cortex-M). */
+#if defined(__GNUC__)
+#define MSID__ALWAYS_INLINE static inline __attribute__((always_inline))
+#else
+#define MSID__ALWAYS_INLINE static inline
+#endif
+
 /* Round a byte count up to the memory alignment. */
 static inline size_t msid__round(size_t n)
 {

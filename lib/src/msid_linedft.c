@@ -506,7 +506,7 @@ static uint32_t room_for(msid_linedft *d, size_t n)
 }
 
 /* Push of double rows x, or (STREAM_F32 only) float rows xf. */
-static size_t push_rows(msid_linedft *d, const double *x, const float *xf, size_t n)
+MSID__ALWAYS_INLINE size_t push_rows(msid_linedft *d, const double *x, const float *xf, size_t n)
 {
     if (n == 0) return 0;
     const uint32_t room = room_for(d, n);

@@ -185,12 +185,12 @@ msid_status msid_meas_flush(msid_meas *ms)
 }
 
 /* Rows of doubles x, or of floats xf. */
-static size_t push_dft(msid_meas *ms, const double *x, const float *xf, size_t off, size_t n)
+MSID__ALWAYS_INLINE size_t push_dft(msid_meas *ms, const double *x, const float *xf, size_t off, size_t n)
 {
     return xf ? msid_linedft_push_f32(&ms->dft, xf + off, n) : msid_linedft_push(&ms->dft, x + off, n);
 }
 
-static msid_status push_rows(msid_meas *ms, const double *x, const float *xf, size_t n)
+MSID__ALWAYS_INLINE msid_status push_rows(msid_meas *ms, const double *x, const float *xf, size_t n)
 {
     if (ms->current < 0) return MSID_E_STATE;
     if (ms->err != MSID_OK) return ms->err;

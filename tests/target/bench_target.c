@@ -39,7 +39,7 @@ static void *take(size_t n)
 
 static uint32_t insn(uint64_t ticks) { return (uint32_t)(ticks * (1000000000u / BOARD_TICK_HZ)); }
 
-typedef struct { uint32_t nu, ny, L, m; int table; const char *name; uint32_t block; int f32; int spread; } bcase;
+typedef struct { uint32_t nu, ny, L, m; int table; const char *name; uint32_t block; int f32; int spread; int f32in; } bcase;
 
 static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 push only */
 {
@@ -74,26 +74,47 @@ static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 pu
 
     const uint32_t C = c->nu + c->ny, B = c->block ? c->block : 1u;
     static double rows[16 * 8];
+    static float rowsf[16 * 8];   /* f32in: float samples, as an ADC driver would store them */
     double *row = rows;
     uint64_t worst = 0;
     board_ticks_start();
     const uint64_t t0 = board_ticks();
-    for (uint32_t s = 0; s < SAMPLES; s += B) {
-        /* B samples per call: as a DMA half-buffer would deliver them */
-        for (uint32_t k = 0; k < B; ++k) {
-            double *r = rows + k * C;
-            if (what != 2) msid_gen_next(&g, r);
-            for (uint32_t i = 0; i < c->ny; ++i) r[c->nu + i] = r[i % c->nu];   /* "ADC" */
+    if (!c->f32in) {
+        for (uint32_t s = 0; s < SAMPLES; s += B) {
+            /* B samples per call: as a DMA half-buffer would deliver them */
+            for (uint32_t k = 0; k < B; ++k) {
+                double *r = rows + k * C;
+                if (what != 2) msid_gen_next(&g, r);
+                for (uint32_t i = 0; i < c->ny; ++i) r[c->nu + i] = r[i % c->nu];   /* "ADC" */
+            }
+            if (what != 1) msid_meas_push(&ms, rows, B);
         }
-        if (what != 1) msid_meas_push(&ms, rows, B);
+    } else {   /* float samples, as an ADC driver would store them */
+        for (uint32_t s = 0; s < SAMPLES; s += B) {
+            for (uint32_t k = 0; k < B; ++k) {
+                float *rf = rowsf + k * C;
+                if (what != 2) {
+                    msid_gen_next(&g, rows);
+                    rf[0] = (float)rows[0];   /* the excitation, once (a DAC takes an integer anyway) */
+                }
+                for (uint32_t i = 0; i < c->ny; ++i) rf[c->nu + i] = rf[i % c->nu];   /* "ADC" */
+            }
+            if (what != 1) msid_meas_push_f32(&ms, rowsf, B);
+        }
     }
     const uint64_t total = board_ticks() - t0;
     /* per-sample maximum (period ends included), 40-instruction resolution */
     for (uint32_t s = 0; s < 2u * P; ++s) {
         const uint64_t a = board_ticks();
         if (what != 2) msid_gen_next(&g, row);
-        for (uint32_t i = 0; i < c->ny; ++i) row[c->nu + i] = row[i % c->nu];
-        if (what != 1) msid_meas_push(&ms, row, 1u);
+        if (c->f32in) {
+            if (what != 2) rowsf[0] = (float)row[0];
+            for (uint32_t i = 0; i < c->ny; ++i) rowsf[c->nu + i] = rowsf[i % c->nu];
+            if (what != 1) msid_meas_push_f32(&ms, rowsf, 1u);
+        } else {
+            for (uint32_t i = 0; i < c->ny; ++i) row[c->nu + i] = row[i % c->nu];
+            if (what != 1) msid_meas_push(&ms, row, 1u);
+        }
         const uint64_t b = board_ticks() - a;
         if (b > worst) worst = b;
     }
@@ -121,6 +142,9 @@ int main(void)
         /* period end spread over the next period (msid_meas_cfg.spread): bounded per-sample maximum */
         {1, 1, 1, 1, 1, "siso1", 1, 0, 1}, {1, 1, 50, 1, 1, "siso50", 1, 0, 1}, {2, 2, 50, 2, 1, "mimo2x2_50", 1, 0, 1},
         {1, 1, 50, 1, 1, "siso50", 16, 0, 1}, {1, 1, 50, 1, 1, "siso50_f32", 1, 1, 1},
+        /* float samples in (msid_meas_push_f32), float path: no double-to-float conversion per sample */
+        {1, 1, 1, 1, 1, "siso1_f32in", 1, 1, 0, 1}, {1, 1, 50, 1, 1, "siso50_f32in", 1, 1, 0, 1},
+        {1, 1, 1, 1, 1, "siso1_f32in", 16, 1, 0, 1}, {1, 1, 50, 1, 1, "siso50_f32in", 16, 1, 0, 1},
     };
     printf("# msid bench target: %s, P=%u, %u samples per case\n",
 #if defined(__ARM_FP) && (__ARM_FP & 8)
