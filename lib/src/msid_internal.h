@@ -74,13 +74,10 @@ static inline msid__layout msid__layout_begin(void *base)
     return y;
 }
 
-/* Next chunk of n elements of sz bytes: its address (NULL when only sizing). */
-static inline void *msid__lay(msid__layout *y, size_t n, size_t sz)
-{
-    void *p = y->base ? (void *)(y->base + y->size) : (void *)0;
-    y->size = msid__add(y->size, msid__chunk(n, sz));
-    return p;
-}
+/* Next chunk of n elements of sz bytes: its address (NULL when only sizing).
+ * Out of line (msid_layout.c): the saturating size arithmetic is the same for
+ * every chunk, and one copy keeps the layout routines small in flash. */
+void *msid__lay(msid__layout *y, size_t n, size_t sz);
 
 /* In-place heapsort of n uint32 values (no recursion, no allocation). */
 static inline void msid__sift(uint32_t *a, size_t i, size_t n)
