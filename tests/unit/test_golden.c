@@ -52,13 +52,13 @@ static uint64_t design_hash(const msid_design_cfg *c, msid_status want)
         gh(&g, d->cond, L * sizeof(double));
         gh(&g, &d->cond_max, sizeof(double));
         gh(&g, d->crest, m * nu * sizeof(double));
-        tsim_design_free(&t);
     } else {
         const msid_design_diag_t dg = msid_design_diag(&t.d);
         gh(&g, &dg.line_a, sizeof dg.line_a);
         gh(&g, &dg.line_b, sizeof dg.line_b);
         gh(&g, &dg.bin, sizeof dg.bin);
     }
+    tsim_design_free(&t);
     return g.h;
 }
 
