@@ -11,6 +11,45 @@
 
 static size_t cond_work_doubles(uint32_t nu) { return 4u * nu * nu + 2u * nu; }
 
+/* Scratch chunks of msid_design_init that are not members of the design. */
+typedef struct design_scratch {
+    uint8_t *bitmap;    /* [P/16 + 8] bins taken (P/2 + 1 bits, with room) */
+    uint32_t *idx;      /* [L] running twiddle index (direct crest factors) */
+    msid_cplx *lm;      /* [m*nu] one line's input matrix */
+    double *work;       /* [cond_work_doubles(nu)] singular values */
+    double *fx, *fre;   /* MSID_CREST_FFT: [P] DFT input, [P/2 + 1] real parts of the first transform */
+    msid_cplx *fX;      /* MSID_CREST_FFT: [P/2 + 1] DFT output */
+} design_scratch;
+
+/* The one memory layout (see msid__layout): the design's arrays, then its
+ * scratch. Returns 0 for an unknown crest mode. */
+static size_t layout(msid_design *d, design_scratch *w, const msid_design_cfg *c, void *mem)
+{
+    const size_t L = c->n_lines, nu = c->n_inputs, m = c->n_experiments;
+    msid__layout y = msid__layout_begin(mem);
+    d->bins = (uint32_t *)msid__lay(&y, L, sizeof(uint32_t));
+    d->folded = (uint8_t *)msid__lay(&y, L, 1);
+    d->omega = (double *)msid__lay(&y, L, sizeof(double));
+    d->amp = (double *)msid__lay(&y, nu * L, sizeof(double));
+    d->phase = (double *)msid__lay(&y, nu * L, sizeof(double));
+    d->coef = (msid_cplx *)msid__lay(&y, m * nu * L, sizeof(msid_cplx));
+    d->cond = (double *)msid__lay(&y, L, sizeof(double));
+    d->crest = (double *)msid__lay(&y, m * nu, sizeof(double));
+    w->bitmap = (uint8_t *)msid__lay(&y, c->period / 16u + 8u, 1);
+    w->idx = (uint32_t *)msid__lay(&y, L, sizeof(uint32_t));
+    w->lm = (msid_cplx *)msid__lay(&y, m * nu, sizeof(msid_cplx));
+    w->work = (double *)msid__lay(&y, cond_work_doubles(c->n_inputs), sizeof(double));
+    w->fx = 0; w->fre = 0; w->fX = 0;
+    if (c->crest == MSID_CREST_FFT) {
+        w->fx = (double *)msid__lay(&y, c->period, sizeof(double));
+        w->fX = (msid_cplx *)msid__lay(&y, c->period / 2u + 1u, sizeof(msid_cplx));
+        w->fre = (double *)msid__lay(&y, c->period / 2u + 1u, sizeof(double));
+    } else if (c->crest != MSID_CREST_DIRECT && c->crest != MSID_CREST_NONE) {
+        return 0;
+    }
+    return y.size;
+}
+
 size_t msid_design_mem_size(const msid_design_cfg *c)
 {
     if (!c) return 0;
@@ -18,28 +57,9 @@ size_t msid_design_mem_size(const msid_design_cfg *c)
     if (c->n_lines == 0 || c->n_lines > c->period) return 0;
     if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS) return 0;
     if (c->n_experiments == 0 || c->n_experiments > MSID_MAX_EXPERIMENTS) return 0;
-    const size_t L = c->n_lines, nu = c->n_inputs, m = c->n_experiments;
-    size_t s = 0;
-    s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));           /* bins */
-    s = msid__add(s, msid__chunk(L, 1));                          /* folded */
-    s = msid__add(s, msid__chunk(L, sizeof(double)));             /* omega */
-    s = msid__add(s, msid__chunk(nu * L, sizeof(double)));        /* amp */
-    s = msid__add(s, msid__chunk(nu * L, sizeof(double)));        /* phase */
-    s = msid__add(s, msid__chunk(m * nu * L, sizeof(msid_cplx))); /* coef */
-    s = msid__add(s, msid__chunk(L, sizeof(double)));             /* cond */
-    s = msid__add(s, msid__chunk(m * nu, sizeof(double)));        /* crest */
-    s = msid__add(s, msid__chunk(c->period / 16u + 8u, 1));       /* bin bitmap */
-    s = msid__add(s, msid__chunk(L, sizeof(uint32_t)));           /* running index */
-    s = msid__add(s, msid__chunk(m * nu, sizeof(msid_cplx)));     /* line matrix */
-    s = msid__add(s, msid__chunk(cond_work_doubles(c->n_inputs), sizeof(double)));
-    if (c->crest == MSID_CREST_FFT) {   /* DFT input, output and the first transform's real parts */
-        s = msid__add(s, msid__chunk(c->period, sizeof(double)));
-        s = msid__add(s, msid__chunk(c->period / 2u + 1u, sizeof(msid_cplx)));
-        s = msid__add(s, msid__chunk(c->period / 2u + 1u, sizeof(double)));
-    } else if (c->crest != MSID_CREST_DIRECT && c->crest != MSID_CREST_NONE) {
-        return 0;
-    }
-    return s;
+    msid_design tmp;
+    design_scratch w;
+    return layout(&tmp, &w, c, 0);
 }
 
 static msid_status fail(msid_design *d, msid_status st, int32_t a, int32_t b, int64_t bin)
@@ -114,12 +134,9 @@ static msid_status crest_fft(msid_design *d, const msid_fft_backend *fft, double
     return MSID_OK;
 }
 
-msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem, size_t len)
+/* Step: the configuration alone (before any memory is touched). */
+static msid_status check_cfg(msid_design *d, const msid_design_cfg *c)
 {
-    if (!d) return MSID_E_NULL;
-    d->diag.line_a = d->diag.line_b = -1;
-    d->diag.bin = -1;
-    if (!c) return MSID_E_NULL;
     if (c->period < MSID_MIN_PERIOD || c->period > MSID_MAX_PERIOD) return MSID_E_PERIOD;
     if (c->n_lines == 0) return MSID_E_NO_LINES;
     if (c->n_inputs == 0 || c->n_inputs > MSID_MAX_INPUTS ||
@@ -136,86 +153,71 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
     if (c->n_lines > c->period / 2u + 1u) return fail(d, MSID_E_LINE_DUP, -1, -1, -1);
     if (c->crest == MSID_CREST_FFT && (!c->fft || !c->fft->r2c)) return MSID_E_NULL;
     if (c->crest == MSID_CREST_FFT && c->fft->period != c->period) return MSID_E_BACKEND;
+    return MSID_OK;
+}
 
-    const size_t need = msid_design_mem_size(c);
-    if (need == 0) return MSID_E_DIMS;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, need);
-    if (st != MSID_OK) return st;
-
-    const uint32_t P = c->period, L = c->n_lines, nu = c->n_inputs, m = c->n_experiments;
-    d->period = P; d->n_lines = L; d->n_inputs = nu; d->n_experiments = m;
-    d->phase_mode = c->phase_mode; d->pattern = c->pattern; d->seed = c->seed;
-    d->bins = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
-    d->folded = (uint8_t *)msid__take(&a, L);
-    d->omega = (double *)msid__take(&a, L * sizeof(double));
-    d->amp = (double *)msid__take(&a, (size_t)nu * L * sizeof(double));
-    d->phase = (double *)msid__take(&a, (size_t)nu * L * sizeof(double));
-    d->coef = (msid_cplx *)msid__take(&a, (size_t)m * nu * L * sizeof(msid_cplx));
-    d->cond = (double *)msid__take(&a, L * sizeof(double));
-    d->crest = (double *)msid__take(&a, (size_t)m * nu * sizeof(double));
-    uint8_t *bitmap = (uint8_t *)msid__take(&a, P / 16u + 8u);
-    uint32_t *idx = (uint32_t *)msid__take(&a, L * sizeof(uint32_t));
-    msid_cplx *lm = (msid_cplx *)msid__take(&a, (size_t)m * nu * sizeof(msid_cplx));
-    double *work = (double *)msid__take(&a, cond_work_doubles(nu) * sizeof(double));
-    double *fx = 0, *fre = 0;
-    msid_cplx *fX = 0;
-    if (c->crest == MSID_CREST_FFT) {
-        fx = (double *)msid__take(&a, (size_t)P * sizeof(double));
-        fX = (msid_cplx *)msid__take(&a, (size_t)(P / 2u + 1u) * sizeof(msid_cplx));
-        fre = (double *)msid__take(&a, (size_t)(P / 2u + 1u) * sizeof(double));
-    }
-    for (uint32_t k = 0; k < P / 16u + 8u; ++k) bitmap[k] = 0;
-
-    /* ---- line frequencies and the aliasing map ---- */
-    if (c->bins) {
-        d->is_ct = 0;
-        d->sample_time = 0.0;
-        for (uint32_t l = 0; l < L; ++l) {
-            const uint32_t b = c->bins[l];
-            if ((uint64_t)b * 2u >= P) return fail(d, MSID_E_LINE_RANGE, (int32_t)l, -1, b);
-            if (bit_get(bitmap, b)) {
-                int32_t first = -1;
-                for (uint32_t j = 0; j < l; ++j) if (c->bins[j] == b) { first = (int32_t)j; break; }
-                return fail(d, MSID_E_LINE_DUP, first, (int32_t)l, b);
-            }
-            bit_set(bitmap, b);
-            d->bins[l] = b;
-            d->folded[l] = 0;
-            d->omega[l] = TWO_PI * (double)b / (double)P;
+/* Step: discrete-time lines, each bin in [0, P/2) once. */
+static msid_status dt_lines(msid_design *d, const msid_design_cfg *c, uint8_t *bitmap)
+{
+    const uint32_t P = d->period;
+    d->is_ct = 0;
+    d->sample_time = 0.0;
+    for (uint32_t l = 0; l < d->n_lines; ++l) {
+        const uint32_t b = c->bins[l];
+        if ((uint64_t)b * 2u >= P) return fail(d, MSID_E_LINE_RANGE, (int32_t)l, -1, b);
+        if (bit_get(bitmap, b)) {
+            int32_t first = -1;
+            for (uint32_t j = 0; j < l; ++j) if (c->bins[j] == b) { first = (int32_t)j; break; }
+            return fail(d, MSID_E_LINE_DUP, first, (int32_t)l, b);
         }
-    } else {
-        const double h = c->sample_time;
-        if (!msid__finite(h) || !(h > 0.0)) return MSID_E_SAMPLE_TIME;
-        d->is_ct = 1;
-        d->sample_time = h;
-        const double tol = c->ct_tol > 0.0 ? c->ct_tol : 1e-6;
-        const double span = (double)P * h;           /* P*h seconds */
-        for (uint32_t l = 0; l < L; ++l) {
-            const double w = c->omega[l];
-            if (!msid__finite(w) || w < 0.0) return fail(d, MSID_E_ARG, (int32_t)l, -1, -1);
-            const double cyc = w * span / TWO_PI;     /* cycles of line l in P*h */
-            const double r = floor(cyc + 0.5);
-            if (fabs(cyc - r) > tol || r > 9.0e15) return fail(d, MSID_E_CT_NOT_PERIODIC, (int32_t)l, -1, -1);
-            uint32_t b = (uint32_t)((uint64_t)r % P);
-            uint8_t fold = 0;
-            if (w != 0.0 && b == 0u) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, 0);
-            if ((uint64_t)b * 2u == P) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, b);
-            if ((uint64_t)b * 2u > P) { b = P - b; fold = 1; }
-            if (bit_get(bitmap, b)) {
-                int32_t first = -1;
-                for (uint32_t j = 0; j < l; ++j) if (d->bins[j] == b) { first = (int32_t)j; break; }
-                return fail(d, MSID_E_ALIAS_COLLISION, first, (int32_t)l, b);
-            }
-            bit_set(bitmap, b);
-            d->bins[l] = b;
-            d->folded[l] = fold;
-            d->omega[l] = w;
-        }
+        bit_set(bitmap, b);
+        d->bins[l] = b;
+        d->folded[l] = 0;
+        d->omega[l] = TWO_PI * (double)b / (double)P;
     }
+    return MSID_OK;
+}
 
-    /* ---- amplitudes ---- */
-    for (uint32_t i = 0; i < nu; ++i) {
+/* Step: continuous-time lines and the aliasing map (González et al. 2025, Assumptions 1-2, eqs. 2-5):
+ * omega P h / (2 pi) must be an integer r; the line sits at bin r mod P, folded to P - b above P/2. */
+static msid_status ct_lines(msid_design *d, const msid_design_cfg *c, uint8_t *bitmap)
+{
+    const uint32_t P = d->period;
+    const double h = c->sample_time;
+    if (!msid__finite(h) || !(h > 0.0)) return MSID_E_SAMPLE_TIME;
+    d->is_ct = 1;
+    d->sample_time = h;
+    const double tol = c->ct_tol > 0.0 ? c->ct_tol : 1e-6;
+    const double span = (double)P * h;           /* P*h seconds */
+    for (uint32_t l = 0; l < d->n_lines; ++l) {
+        const double w = c->omega[l];
+        if (!msid__finite(w) || w < 0.0) return fail(d, MSID_E_ARG, (int32_t)l, -1, -1);
+        const double cyc = w * span / TWO_PI;     /* cycles of line l in P*h */
+        const double r = floor(cyc + 0.5);
+        if (fabs(cyc - r) > tol || r > 9.0e15) return fail(d, MSID_E_CT_NOT_PERIODIC, (int32_t)l, -1, -1);
+        uint32_t b = (uint32_t)((uint64_t)r % P);
+        uint8_t fold = 0;
+        if (w != 0.0 && b == 0u) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, 0);
+        if ((uint64_t)b * 2u == P) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, b);
+        if ((uint64_t)b * 2u > P) { b = P - b; fold = 1; }
+        if (bit_get(bitmap, b)) {
+            int32_t first = -1;
+            for (uint32_t j = 0; j < l; ++j) if (d->bins[j] == b) { first = (int32_t)j; break; }
+            return fail(d, MSID_E_ALIAS_COLLISION, first, (int32_t)l, b);
+        }
+        bit_set(bitmap, b);
+        d->bins[l] = b;
+        d->folded[l] = fold;
+        d->omega[l] = w;
+    }
+    return MSID_OK;
+}
+
+/* Step: amplitudes A_{i,l} > 0 (all 1 without a table). */
+static msid_status amplitudes(msid_design *d, const msid_design_cfg *c)
+{
+    const uint32_t L = d->n_lines;
+    for (uint32_t i = 0; i < d->n_inputs; ++i) {
         for (uint32_t l = 0; l < L; ++l) {
             double A = 1.0;
             if (c->amplitudes) A = c->amp_per_input ? c->amplitudes[(size_t)i * L + l] : c->amplitudes[l];
@@ -223,11 +225,16 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
             d->amp[(size_t)i * L + l] = A;
         }
     }
+    return MSID_OK;
+}
 
-    /* ---- base phases, in turns ---- */
+/* Step: base phases in turns (random, Schroeder or the user's); DC has none. */
+static msid_status base_phases(msid_design *d, const msid_design_cfg *c)
+{
+    const uint32_t L = d->n_lines;
     msid_rng rng;
     msid_rng_seed(&rng, c->seed);
-    for (uint32_t i = 0; i < nu; ++i) {
+    for (uint32_t i = 0; i < d->n_inputs; ++i) {
         double *ph = d->phase + (size_t)i * L;
         const double *A = d->amp + (size_t)i * L;
         if (c->phase_mode == MSID_PHASE_RANDOM) {
@@ -251,16 +258,21 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
         }
         for (uint32_t l = 0; l < L; ++l) if (d->bins[l] == 0u) ph[l] = 0.0;   /* DC has no phase */
     }
+    return MSID_OK;
+}
 
-    /* ---- coefficients c_{e,i,l} = A e^{j2pi(phi + tau_ie)} (conjugated if folded) ---- */
+/* Step: coefficients c_{e,i,l} = A e^{j2pi(phi + tau_ie)} (conjugated if folded; eq. 2). */
+static void coefficients(msid_design *d)
+{
+    const uint32_t L = d->n_lines, nu = d->n_inputs, m = d->n_experiments;
     for (uint32_t e = 0; e < m; ++e) {
         for (uint32_t i = 0; i < nu; ++i) {
-            const double tau = pattern_turns(c->pattern, i, e, m);
+            const double tau = pattern_turns(d->pattern, i, e, m);
             for (uint32_t l = 0; l < L; ++l) {
                 const double A = d->amp[(size_t)i * L + l];
                 double cr, ci;
                 if (d->bins[l] == 0u) {
-                    cr = dc_pattern(c->pattern, i, e, m);   /* DC: a real orthogonal pattern */
+                    cr = dc_pattern(d->pattern, i, e, m);   /* DC: a real orthogonal pattern */
                     ci = 0.0;
                 } else {
                     msid_cis_turns(d->phase[(size_t)i * L + l] + tau, &cr, &ci);
@@ -270,8 +282,12 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
             }
         }
     }
+}
 
-    /* ---- condition number of each line's input matrix (Assumption 1) ---- */
+/* Step: condition number of each line's input matrix (Assumption 1). */
+static msid_status line_conditions(msid_design *d, msid_cplx *lm, double *work)
+{
+    const uint32_t L = d->n_lines, nu = d->n_inputs, m = d->n_experiments;
     d->cond_max = 0.0;
     for (uint32_t l = 0; l < L; ++l) {
         /* U^H is m x nu: row e, column i holds conj(c_{e,i,l}). */
@@ -285,15 +301,13 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
         if (cond > d->cond_max) d->cond_max = cond;
         if (!(smin > 1e-12 * smax)) return fail(d, MSID_E_SINGULAR, (int32_t)l, -1, d->bins[l]);
     }
+    return MSID_OK;
+}
 
-    /* ---- crest factors ---- */
-    if (c->crest == MSID_CREST_NONE) {
-        for (size_t k = 0; k < (size_t)m * nu; ++k) d->crest[k] = NAN;
-        return MSID_OK;
-    }
-    if (c->crest == MSID_CREST_FFT) return crest_fft(d, c->fft, fx, fX, fre);
-    /* direct synthesis of the exact generated samples */
-    const msid_cplx *w = c->twiddle->w;
+/* Step: crest factors by direct synthesis of the exact generated samples, O(m nu P L). */
+static void crest_direct(msid_design *d, const msid_cplx *w, uint32_t *idx)
+{
+    const uint32_t P = d->period, L = d->n_lines, nu = d->n_inputs, m = d->n_experiments;
     for (uint32_t e = 0; e < m; ++e) {
         for (uint32_t i = 0; i < nu; ++i) {
             const msid_cplx *cf = d->coef + ((size_t)e * nu + i) * L;
@@ -314,6 +328,40 @@ msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem
             d->crest[(size_t)e * nu + i] = rms > 0.0 ? peak / rms : HUGE_VAL;
         }
     }
+}
+
+msid_status msid_design_init(msid_design *d, const msid_design_cfg *c, void *mem, size_t len)
+{
+    if (!d) return MSID_E_NULL;
+    d->diag.line_a = d->diag.line_b = -1;
+    d->diag.bin = -1;
+    if (!c) return MSID_E_NULL;
+    msid_status st = check_cfg(d, c);
+    if (st != MSID_OK) return st;
+    const size_t need = msid_design_mem_size(c);
+    if (need == 0) return MSID_E_DIMS;
+    st = msid__mem_check(mem, len, need);
+    if (st != MSID_OK) return st;
+    design_scratch w;
+    (void)layout(d, &w, c, mem);
+    d->period = c->period; d->n_lines = c->n_lines; d->n_inputs = c->n_inputs;
+    d->n_experiments = c->n_experiments;
+    d->phase_mode = c->phase_mode; d->pattern = c->pattern; d->seed = c->seed;
+    for (uint32_t k = 0; k < c->period / 16u + 8u; ++k) w.bitmap[k] = 0;
+
+    st = c->bins ? dt_lines(d, c, w.bitmap) : ct_lines(d, c, w.bitmap);
+    if (st == MSID_OK) st = amplitudes(d, c);
+    if (st == MSID_OK) st = base_phases(d, c);
+    if (st != MSID_OK) return st;
+    coefficients(d);
+    st = line_conditions(d, w.lm, w.work);
+    if (st != MSID_OK) return st;
+    if (c->crest == MSID_CREST_NONE) {
+        for (size_t k = 0; k < (size_t)d->n_experiments * d->n_inputs; ++k) d->crest[k] = NAN;
+        return MSID_OK;
+    }
+    if (c->crest == MSID_CREST_FFT) return crest_fft(d, c->fft, w.fx, w.fX, w.fre);
+    crest_direct(d, c->twiddle->w, w.idx);
     return MSID_OK;
 }
 

@@ -3,12 +3,25 @@
 #include "msid/msid_gen.h"
 #include "msid_internal.h"
 
+/* The one memory layout (see msid__layout): the waveform table, or the twiddle index per line. */
+static size_t layout(msid_gen *g, const msid_gen_cfg *c, void *mem)
+{
+    const msid_design *d = c->design;
+    msid__layout y = msid__layout_begin(mem);
+    g->wave = 0;
+    g->idx = 0;
+    if (c->waveform_table)
+        g->wave = (double *)msid__lay(&y, (size_t)d->period * d->n_inputs, sizeof(double));
+    else
+        g->idx = (uint32_t *)msid__lay(&y, d->n_lines, sizeof(uint32_t));
+    return y.size;
+}
+
 size_t msid_gen_mem_size(const msid_gen_cfg *c)
 {
     if (!c || !c->design) return 0;
-    const msid_design *d = c->design;
-    if (c->waveform_table) return msid__chunk((size_t)d->period * d->n_inputs, sizeof(double));
-    return msid__chunk(d->n_lines, sizeof(uint32_t));
+    msid_gen tmp;
+    return layout(&tmp, c, 0);
 }
 
 static void fill_idx(msid_gen *g)
@@ -24,19 +37,16 @@ msid_status msid_gen_init(msid_gen *g, const msid_gen_cfg *c, void *mem, size_t 
     const msid_design *d = c->design;
     if (c->experiment >= d->n_experiments) return MSID_E_ARG;
     if (c->twiddle->period != d->period) return MSID_E_PERIOD;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, msid_gen_mem_size(c));
+    const msid_status st = msid__mem_check(mem, len, msid_gen_mem_size(c));
     if (st != MSID_OK) return st;
+    (void)layout(g, c, mem);
     g->design = d;
     g->twiddle = c->twiddle;
     g->experiment = c->experiment;
     g->pos = 0;
     g->count = 0;
-    g->wave = 0;
-    g->idx = 0;
     const uint32_t P = d->period, L = d->n_lines, nu = d->n_inputs;
     if (c->waveform_table) {
-        g->wave = (double *)msid__take(&a, (size_t)P * nu * sizeof(double));
         const msid_cplx *w = c->twiddle->w;
         for (size_t k = 0; k < (size_t)P * nu; ++k) g->wave[k] = 0.0;
         /* Line-outer, sample-inner: for each sample the terms are still added
@@ -55,7 +65,6 @@ msid_status msid_gen_init(msid_gen *g, const msid_gen_cfg *c, void *mem, size_t 
             }
         }
     } else {
-        g->idx = (uint32_t *)msid__take(&a, (size_t)L * sizeof(uint32_t));
         fill_idx(g);
     }
     return MSID_OK;

@@ -7,36 +7,28 @@
 #include "msid/msid_types.h"
 #include "msid/msid_status.h"
 
+/* A static helper that must be inlined into each caller (the per-sample push
+ * paths: a call with its argument dispatch costs tens of instructions per
+ * sample on a Cortex-M). */
+#if defined(__GNUC__)
+#define MSID__ALWAYS_INLINE static inline __attribute__((always_inline))
+#else
+#define MSID__ALWAYS_INLINE static inline
+#endif
+
 /* Round a byte count up to the memory alignment. */
 static inline size_t msid__round(size_t n)
 {
     return (n + (MSID_MEM_ALIGN - 1u)) & ~(size_t)(MSID_MEM_ALIGN - 1u);
 }
 
-/* Bump placement of chunks inside caller memory: never allocates. */
-typedef struct msid__arena {
-    unsigned char *p;
-    size_t left;
-} msid__arena;
-
-static inline msid_status msid__arena_open(msid__arena *a, void *mem, size_t len, size_t need)
+/* Caller memory handed to an _init: present, aligned, at least `need` bytes. */
+static inline msid_status msid__mem_check(const void *mem, size_t len, size_t need)
 {
     if (!mem) return MSID_E_NULL;
     if (((uintptr_t)mem & (MSID_MEM_ALIGN - 1u)) != 0u) return MSID_E_MEM_ALIGN;
     if (len < need) return MSID_E_MEM_SIZE;
-    a->p = (unsigned char *)mem;
-    a->left = len;
     return MSID_OK;
-}
-
-/* Carve n bytes (rounded); the caller has checked the total with _mem_size. */
-static inline void *msid__take(msid__arena *a, size_t n)
-{
-    size_t r = msid__round(n);
-    void *q = a->p;
-    a->p += r;
-    a->left -= r;
-    return q;
 }
 
 static inline int msid__finite(double x)
@@ -63,6 +55,29 @@ static inline size_t msid__chunk(size_t n, size_t sz)
     size_t b = msid__mul(n, sz);
     return b == SIZE_MAX ? SIZE_MAX : msid__round(b);
 }
+
+/* Memory layout of an object. Each object has ONE layout routine that walks
+ * its chunks in order with msid__lay; _mem_size runs it without memory (base
+ * NULL: only the rounded sizes are summed, saturating at SIZE_MAX) and _init
+ * runs it on the caller's block (after msid__mem_check against _mem_size) to
+ * place the chunks, so the size and the placement cannot drift apart. */
+typedef struct msid__layout {
+    unsigned char *base;   /* caller memory, or NULL to size only */
+    size_t size;           /* bytes laid out so far (each chunk rounded to MSID_MEM_ALIGN) */
+} msid__layout;
+
+static inline msid__layout msid__layout_begin(void *base)
+{
+    msid__layout y;
+    y.base = (unsigned char *)base;
+    y.size = 0;
+    return y;
+}
+
+/* Next chunk of n elements of sz bytes: its address (NULL when only sizing).
+ * Out of line (msid_layout.c): the saturating size arithmetic is the same for
+ * every chunk, and one copy keeps the layout routines small in flash. */
+void *msid__lay(msid__layout *y, size_t n, size_t sz);
 
 /* In-place heapsort of n uint32 values (no recursion, no allocation). */
 static inline void msid__sift(uint32_t *a, size_t i, size_t n)

@@ -4,19 +4,28 @@
 #include "msid_internal.h"
 #include "msid_cmat.h"
 
+/* The one memory layout (see msid__layout): matrices (one spare element so that a
+ * static gain, n = 0, still gets valid pointers), state, next state, workspace. */
+static size_t layout(msid_plant *p, const msid_plant_cfg *c, void *mem)
+{
+    const size_t n = c->n_states, nu = c->n_inputs, ny = c->n_outputs;
+    msid__layout y = msid__layout_begin(mem);
+    p->A = (double *)msid__lay(&y, n * n + 1, sizeof(double));
+    p->B = (double *)msid__lay(&y, n * nu + 1, sizeof(double));
+    p->C = (double *)msid__lay(&y, ny * n + 1, sizeof(double));
+    p->D = (double *)msid__lay(&y, ny * nu, sizeof(double));
+    p->x = (double *)msid__lay(&y, n + 1, sizeof(double));
+    p->xn = (double *)msid__lay(&y, n + 1, sizeof(double));
+    p->work = (msid_cplx *)msid__lay(&y, n * (n + nu) + 1, sizeof(msid_cplx));
+    return y.size;
+}
+
 size_t msid_plant_mem_size(const msid_plant_cfg *c)
 {
     if (!c || c->n_states > MSID_MAX_STATES || c->n_inputs == 0 || c->n_inputs > MSID_MAX_CHANNELS ||
         c->n_outputs == 0 || c->n_outputs > MSID_MAX_CHANNELS) return 0;
-    const size_t n = c->n_states, nu = c->n_inputs, ny = c->n_outputs;
-    size_t s = msid__chunk(n * n + 1, sizeof(double));
-    s += msid__chunk(n * nu + 1, sizeof(double));
-    s += msid__chunk(ny * n + 1, sizeof(double));
-    s += msid__chunk(ny * nu, sizeof(double));
-    s += msid__chunk(n + 1, sizeof(double));
-    s += msid__chunk(n + 1, sizeof(double));
-    s += msid__chunk(n * (n + nu) + 1, sizeof(msid_cplx));
-    return s;
+    msid_plant tmp;
+    return layout(&tmp, c, 0);
 }
 
 msid_status msid_plant_init(msid_plant *p, const msid_plant_cfg *c, void *mem, size_t len)
@@ -26,17 +35,10 @@ msid_status msid_plant_init(msid_plant *p, const msid_plant_cfg *c, void *mem, s
         c->n_outputs == 0 || c->n_outputs > MSID_MAX_CHANNELS) return MSID_E_DIMS;
     const size_t n = c->n_states, nu = c->n_inputs, ny = c->n_outputs;
     if (n && (!c->A || !c->B || !c->C)) return MSID_E_NULL;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, msid_plant_mem_size(c));
+    const msid_status st = msid__mem_check(mem, len, msid_plant_mem_size(c));
     if (st != MSID_OK) return st;
+    (void)layout(p, c, mem);
     p->n = (uint32_t)n; p->nu = (uint32_t)nu; p->ny = (uint32_t)ny;
-    p->A = (double *)msid__take(&a, (n * n + 1) * sizeof(double));
-    p->B = (double *)msid__take(&a, (n * nu + 1) * sizeof(double));
-    p->C = (double *)msid__take(&a, (ny * n + 1) * sizeof(double));
-    p->D = (double *)msid__take(&a, ny * nu * sizeof(double));
-    p->x = (double *)msid__take(&a, (n + 1) * sizeof(double));
-    p->xn = (double *)msid__take(&a, (n + 1) * sizeof(double));
-    p->work = (msid_cplx *)msid__take(&a, (n * (n + nu) + 1) * sizeof(msid_cplx));
     for (size_t k = 0; k < n * n; ++k) p->A[k] = c->A[k];
     for (size_t k = 0; k < n * nu; ++k) p->B[k] = c->B[k];
     for (size_t k = 0; k < ny * n; ++k) p->C[k] = c->C[k];

@@ -6,20 +6,29 @@
 #include "msid_cmat.h"
 #include <math.h>
 
+/* The one memory layout (see msid__layout): mean, scatter, then the period history. */
+static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
+{
+    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
+    msid__layout y = msid__layout_begin(mem);
+    ps->mean = (msid_cplx *)msid__lay(&y, L * q, sizeof(msid_cplx));
+    ps->m2 = (msid_cplx *)msid__lay(&y, msid__mul(L * q, q), sizeof(msid_cplx));
+    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0;
+    if (H) {
+        ps->hist = (msid_cplx *)msid__lay(&y, msid__mul(H, L * q), sizeof(msid_cplx));
+        ps->hflag = (uint8_t *)msid__lay(&y, H, 1);
+        ps->hdrop = (uint8_t *)msid__lay(&y, H, 1);
+        ps->hpval = (double *)msid__lay(&y, H, sizeof(double));
+        ps->hidx = (uint32_t *)msid__lay(&y, H, sizeof(uint32_t));
+    }
+    return y.size;
+}
+
 size_t msid_pstats_mem_size(const msid_pstats_cfg *c)
 {
     if (!c || c->n_lines == 0 || c->n_channels == 0 || c->n_channels > MSID_MAX_CHANNELS) return 0;
-    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
-    size_t s = msid__chunk(L * q, sizeof(msid_cplx));
-    s = msid__add(s, msid__chunk(msid__mul(L * q, q), sizeof(msid_cplx)));
-    if (H) {
-        s = msid__add(s, msid__chunk(msid__mul(H, L * q), sizeof(msid_cplx)));
-        s = msid__add(s, msid__chunk(H, 1));
-        s = msid__add(s, msid__chunk(H, 1));
-        s = msid__add(s, msid__chunk(H, sizeof(double)));
-        s = msid__add(s, msid__chunk(H, sizeof(uint32_t)));
-    }
-    return s;
+    msid_pstats tmp;
+    return layout(&tmp, c, 0);
 }
 
 static void clear_stats(msid_pstats *ps)
@@ -49,39 +58,29 @@ msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *me
         c->transient != MSID_TRANSIENT_DROP) return MSID_E_ARG;
     if (c->transient != MSID_TRANSIENT_OFF && c->max_periods < 3) return MSID_E_ARG;
     if (c->alpha != 0.0 && !(c->alpha > 0.0 && c->alpha < 1.0)) return MSID_E_ARG;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, msid_pstats_mem_size(c));
+    const msid_status st = msid__mem_check(mem, len, msid_pstats_mem_size(c));
     if (st != MSID_OK) return st;
-    const size_t L = c->n_lines, q = c->n_channels, H = c->max_periods;
+    (void)layout(ps, c, mem);
     ps->n_lines = c->n_lines;
     ps->n_channels = c->n_channels;
     ps->skip_periods = c->skip_periods;
     ps->max_periods = c->max_periods;
     ps->transient = c->transient;
     ps->alpha = c->alpha != 0.0 ? c->alpha : 0.01;
-    ps->mean = (msid_cplx *)msid__take(&a, L * q * sizeof(msid_cplx));
-    ps->m2 = (msid_cplx *)msid__take(&a, L * q * q * sizeof(msid_cplx));
-    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0;
-    if (H) {
-        ps->hist = (msid_cplx *)msid__take(&a, H * L * q * sizeof(msid_cplx));
-        ps->hflag = (uint8_t *)msid__take(&a, H);
-        ps->hdrop = (uint8_t *)msid__take(&a, H);
-        ps->hpval = (double *)msid__take(&a, H * sizeof(double));
-        ps->hidx = (uint32_t *)msid__take(&a, H * sizeof(uint32_t));
-    }
     msid_pstats_reset(ps);
     return MSID_OK;
 }
 
-/* Welford update of mean and the Hermitian scatter; the upper triangle is
- * computed and mirrored, so m2 is exactly Hermitian. */
-static void welford(msid_pstats *ps, const msid_cplx *z)
+/* Welford update (Pintelon 2002 eqs. 25, 32 in running form) of mean and the
+ * Hermitian scatter of lines [l0, l1) with period z; ps->K already counts z.
+ * The upper triangle is computed and mirrored, so m2 is exactly Hermitian.
+ * Lines are independent, so updating them in any split gives the same bits. */
+static void welford_lines(msid_pstats *ps, const msid_cplx *z, size_t l0, size_t l1)
 {
-    const size_t L = ps->n_lines, q = ps->n_channels;
-    ps->K++;
+    const size_t q = ps->n_channels;
     const double K = (double)ps->K, invK = 1.0 / K, f = (K - 1.0) / K;
     msid_cplx dl[MSID_MAX_CHANNELS];
-    for (size_t l = 0; l < L; ++l) {
+    for (size_t l = l0; l < l1; ++l) {
         msid_cplx *mu = ps->mean + l * q;
         msid_cplx *M = ps->m2 + l * q * q;
         const msid_cplx *zl = z + l * q;
@@ -104,26 +103,51 @@ static void welford(msid_pstats *ps, const msid_cplx *z)
     }
 }
 
-msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
+static void welford(msid_pstats *ps, const msid_cplx *z)
 {
+    ps->K++;
+    welford_lines(ps, z, 0, ps->n_lines);
+}
+
+msid_status msid_pstats_add_begin(msid_pstats *ps, uint32_t flags, int *use)
+{
+    *use = 0;
     ps->cnt.offered++;
     if (flags & MSID_PERIOD_GAP) { ps->cnt.gap++; return MSID_OK; }
     if (flags & MSID_PERIOD_NONFINITE) { ps->cnt.nonfinite++; return MSID_OK; }
     if (ps->seg_skipped < ps->skip_periods) { ps->seg_skipped++; ps->cnt.skipped++; return MSID_OK; }
     if (ps->max_periods) {
         if (ps->nhist >= ps->max_periods) { ps->cnt.offered--; return MSID_E_CAPACITY; }
-        const size_t n = (size_t)ps->n_lines * ps->n_channels;
-        msid_cplx *dst = ps->hist + (size_t)ps->nhist * n;
-        for (size_t k = 0; k < n; ++k) dst[k] = z[k];
         ps->hflag[ps->nhist] = 0;
         ps->hdrop[ps->nhist] = 0;
         ps->hpval[ps->nhist] = NAN;
         ps->hidx[ps->nhist] = ps->cnt.offered - 1u;
         ps->nhist++;
     }
-    welford(ps, z);
+    ps->K++;
     ps->cnt.used = ps->K;
+    *use = 1;
     return MSID_OK;
+}
+
+void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uint32_t l1)
+{
+    if (l1 > ps->n_lines) l1 = ps->n_lines;
+    if (l0 >= l1) return;
+    const size_t q = ps->n_channels;
+    if (ps->max_periods) {
+        msid_cplx *dst = ps->hist + ((size_t)(ps->nhist - 1u) * ps->n_lines + l0) * q;
+        for (size_t k = 0; k < (size_t)(l1 - l0) * q; ++k) dst[k] = z[(size_t)l0 * q + k];
+    }
+    welford_lines(ps, z, l0, l1);
+}
+
+msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
+{
+    int use;
+    const msid_status st = msid_pstats_add_begin(ps, flags, &use);
+    if (use) msid_pstats_add_lines(ps, z, 0, ps->n_lines);
+    return st;
 }
 
 /* Upper tail of Gamma(n, 1) at S for integer n >= 1:

@@ -3,10 +3,19 @@
 #include "msid/msid_dmath.h"
 #include "msid_internal.h"
 
+/* The one memory layout (see msid__layout): the table. */
+static size_t layout(msid_cplx **w, uint32_t period, void *mem)
+{
+    msid__layout y = msid__layout_begin(mem);
+    *w = (msid_cplx *)msid__lay(&y, period, sizeof(msid_cplx));
+    return y.size;
+}
+
 size_t msid_twiddle_mem_size(uint32_t period)
 {
     if (period < MSID_MIN_PERIOD || period > MSID_MAX_PERIOD) return 0;
-    return msid__chunk(period, sizeof(msid_cplx));
+    msid_cplx *w;
+    return layout(&w, period, 0);
 }
 
 msid_status msid_twiddle_init(msid_twiddle *tw, uint32_t period, void *mem, size_t len)
@@ -14,10 +23,10 @@ msid_status msid_twiddle_init(msid_twiddle *tw, uint32_t period, void *mem, size
     if (!tw) return MSID_E_NULL;
     const size_t need = msid_twiddle_mem_size(period);
     if (need == 0) return MSID_E_PERIOD;
-    msid__arena a;
-    msid_status st = msid__arena_open(&a, mem, len, need);
+    const msid_status st = msid__mem_check(mem, len, need);
     if (st != MSID_OK) return st;
-    msid_cplx *w = (msid_cplx *)msid__take(&a, (size_t)period * sizeof(msid_cplx));
+    msid_cplx *w;
+    (void)layout(&w, period, mem);
     for (uint32_t n = 0; 2u * (uint64_t)n <= period; ++n) {
         double c, s;
         /* n/P rounded once (IEEE division); n/P = k/8 is exact, so the

@@ -11,7 +11,9 @@
  * (block=16, a DMA half-buffer; the cost printed is still per sample): msid_gen_next (waveform-table mode, O(1), or on-the-fly mode,
  * O(L)) writes u; y is copied from u (stands for the ADC read); msid_meas_push
  * of that one row runs the streaming line DFT and, at each period end, the
- * period statistics (Welford update, Pintelon 2002 eqs. 12-13).
+ * period statistics (Welford update, Pintelon 2002 eqs. 12-13); with spread=1
+ * (msid_meas_cfg.spread) that period-end work is done one line per sample
+ * during the next period instead, and max_insn shows the bounded maximum.
  * The msid_*_mem_size() of every object of each configuration is printed too.
  * Output: one "case ..." line per case, key=value fields, parsed by msid bench target. */
 #include <stdint.h>
@@ -37,7 +39,7 @@ static void *take(size_t n)
 
 static uint32_t insn(uint64_t ticks) { return (uint32_t)(ticks * (1000000000u / BOARD_TICK_HZ)); }
 
-typedef struct { uint32_t nu, ny, L, m; int table; const char *name; uint32_t block; int f32; } bcase;
+typedef struct { uint32_t nu, ny, L, m; int table; const char *name; uint32_t block; int f32; int spread; int f32in; } bcase;
 
 static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 push only */
 {
@@ -62,6 +64,7 @@ static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 pu
     memset(&mc, 0, sizeof mc);
     mc.period = P; mc.n_inputs = c->nu; mc.n_outputs = c->ny; mc.n_experiments = c->m;
     mc.n_lines = c->L; mc.bins = bins; mc.twiddle = &tw; mc.path = c->f32 ? MSID_DFT_STREAM_F32 : MSID_DFT_STREAM;
+    mc.spread = c->spread;
     msid_meas ms;
     const size_t nm = msid_meas_mem_size(&mc);
     if (msid_meas_init(&ms, &mc, take(nm), nm) != MSID_OK) return 1;
@@ -71,34 +74,55 @@ static int run(const bcase *c, int what)   /* what: 0 gen+push, 1 gen only, 2 pu
 
     const uint32_t C = c->nu + c->ny, B = c->block ? c->block : 1u;
     static double rows[16 * 8];
+    static float rowsf[16 * 8];   /* f32in: float samples, as an ADC driver would store them */
     double *row = rows;
     uint64_t worst = 0;
     board_ticks_start();
     const uint64_t t0 = board_ticks();
-    for (uint32_t s = 0; s < SAMPLES; s += B) {
-        /* B samples per call: as a DMA half-buffer would deliver them */
-        for (uint32_t k = 0; k < B; ++k) {
-            double *r = rows + k * C;
-            if (what != 2) msid_gen_next(&g, r);
-            for (uint32_t i = 0; i < c->ny; ++i) r[c->nu + i] = r[i % c->nu];   /* "ADC" */
+    if (!c->f32in) {
+        for (uint32_t s = 0; s < SAMPLES; s += B) {
+            /* B samples per call: as a DMA half-buffer would deliver them */
+            for (uint32_t k = 0; k < B; ++k) {
+                double *r = rows + k * C;
+                if (what != 2) msid_gen_next(&g, r);
+                for (uint32_t i = 0; i < c->ny; ++i) r[c->nu + i] = r[i % c->nu];   /* "ADC" */
+            }
+            if (what != 1) msid_meas_push(&ms, rows, B);
         }
-        if (what != 1) msid_meas_push(&ms, rows, B);
+    } else {   /* float samples, as an ADC driver would store them */
+        for (uint32_t s = 0; s < SAMPLES; s += B) {
+            for (uint32_t k = 0; k < B; ++k) {
+                float *rf = rowsf + k * C;
+                if (what != 2) {
+                    msid_gen_next(&g, rows);
+                    rf[0] = (float)rows[0];   /* the excitation, once (a DAC takes an integer anyway) */
+                }
+                for (uint32_t i = 0; i < c->ny; ++i) rf[c->nu + i] = rf[i % c->nu];   /* "ADC" */
+            }
+            if (what != 1) msid_meas_push_f32(&ms, rowsf, B);
+        }
     }
     const uint64_t total = board_ticks() - t0;
     /* per-sample maximum (period ends included), 40-instruction resolution */
     for (uint32_t s = 0; s < 2u * P; ++s) {
         const uint64_t a = board_ticks();
         if (what != 2) msid_gen_next(&g, row);
-        for (uint32_t i = 0; i < c->ny; ++i) row[c->nu + i] = row[i % c->nu];
-        if (what != 1) msid_meas_push(&ms, row, 1u);
+        if (c->f32in) {
+            if (what != 2) rowsf[0] = (float)row[0];
+            for (uint32_t i = 0; i < c->ny; ++i) rowsf[c->nu + i] = rowsf[i % c->nu];
+            if (what != 1) msid_meas_push_f32(&ms, rowsf, 1u);
+        } else {
+            for (uint32_t i = 0; i < c->ny; ++i) row[c->nu + i] = row[i % c->nu];
+            if (what != 1) msid_meas_push(&ms, row, 1u);
+        }
         const uint64_t b = board_ticks() - a;
         if (b > worst) worst = b;
     }
     const double mean = (double)insn(total) / SAMPLES;
     static const char *const what_s[3] = {"gen+push", "gen", "push"};
-    printf("case name=%s block=%u work=%s nu=%u ny=%u m=%u lines=%u channels=%u gen=%s insn_per_sample=%.1f max_insn=%u "
+    printf("case name=%s spread=%d block=%u work=%s nu=%u ny=%u m=%u lines=%u channels=%u gen=%s insn_per_sample=%.1f max_insn=%u "
            "mem_twiddle=%u mem_design=%u mem_gen=%u mem_meas=%u mem_frf=%u struct_bytes=%u\n",
-           c->name, (unsigned)B, what_s[what], (unsigned)c->nu, (unsigned)c->ny, (unsigned)c->m, (unsigned)c->L, (unsigned)C,
+           c->name, c->spread, (unsigned)B, what_s[what], (unsigned)c->nu, (unsigned)c->ny, (unsigned)c->m, (unsigned)c->L, (unsigned)C,
            c->table ? "table" : "onthefly", mean, (unsigned)insn(worst), (unsigned)ntw, (unsigned)nd, (unsigned)ng,
            (unsigned)nm, (unsigned)nf,
            (unsigned)(sizeof(msid_twiddle) + sizeof(msid_design) + sizeof(msid_gen) + sizeof(msid_meas) +
@@ -115,6 +139,12 @@ int main(void)
         {1, 1, 1, 1, 1, "siso1_f32", 1, 1}, {1, 1, 50, 1, 1, "siso50_f32", 1, 1},
         {1, 1, 1, 1, 1, "siso1_f32", 16, 1}, {1, 1, 50, 1, 1, "siso50_f32", 16, 1},
         {2, 2, 50, 2, 1, "mimo2x2_50_f32", 16, 1},
+        /* period end spread over the next period (msid_meas_cfg.spread): bounded per-sample maximum */
+        {1, 1, 1, 1, 1, "siso1", 1, 0, 1}, {1, 1, 50, 1, 1, "siso50", 1, 0, 1}, {2, 2, 50, 2, 1, "mimo2x2_50", 1, 0, 1},
+        {1, 1, 50, 1, 1, "siso50", 16, 0, 1}, {1, 1, 50, 1, 1, "siso50_f32", 1, 1, 1},
+        /* float samples in (msid_meas_push_f32), float path: no double-to-float conversion per sample */
+        {1, 1, 1, 1, 1, "siso1_f32in", 1, 1, 0, 1}, {1, 1, 50, 1, 1, "siso50_f32in", 1, 1, 0, 1},
+        {1, 1, 1, 1, 1, "siso1_f32in", 16, 1, 0, 1}, {1, 1, 50, 1, 1, "siso50_f32in", 16, 1, 0, 1},
     };
     printf("# msid bench target: %s, P=%u, %u samples per case\n",
 #if defined(__ARM_FP) && (__ARM_FP & 8)

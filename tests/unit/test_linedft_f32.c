@@ -154,6 +154,32 @@ static void test_f32_frf_close_to_double(void **state)
 
 /* As on the double path, the spectra do not depend on how samples are split
  * into pushes (the float kernel converts and blocks samples internally). */
+/* Push K periods of rows (doubles x, or floats xf) into a fresh line DFT of `path`, one sample per
+ * call (blocks = 0) or in uneven blocks, and collect the spectra of every period into out [K*L*C]. */
+static void run_periods(const msid_twiddle *tw, const uint32_t *bins, uint32_t L, uint32_t C, uint32_t K,
+                        msid_dft_path path, const double *x, const float *xf, int blocks, msid_cplx *out)
+{
+    msid_linedft_cfg c = {P_, C, L, bins, tw, path, NULL};
+    const size_t n = msid_linedft_mem_size(&c);
+    void *m = tsim_alloc(n);
+    msid_linedft d;
+    UT_STATUS(msid_linedft_init(&d, &c, m, n), MSID_OK);
+    size_t done = 0, blk = 1, per = 0;
+    while (done < (size_t)K * P_) {
+        size_t want = blocks ? blk : 1u;
+        if (want > K * P_ - done) want = K * P_ - done;
+        done += xf ? msid_linedft_push_f32(&d, xf + done * C, want) : msid_linedft_push(&d, x + done * C, want);
+        blk = blk * 7 % 61 + 1;
+        if (msid_linedft_ready(&d)) {
+            memcpy(out + per * L * C, msid_linedft_spectra(&d), sizeof(msid_cplx) * L * C);
+            msid_linedft_release(&d);
+            per++;
+        }
+    }
+    UT_CHECK(per == K, "periods %u", (unsigned)per);
+    tsim_free(m);
+}
+
 static void test_f32_blocks_bit_identical(void **state)
 {
     (void)state;
@@ -168,31 +194,119 @@ static void test_f32_blocks_bit_identical(void **state)
     for (uint32_t k = 0; k < K * P_ * C; ++k) x[k] = msid_rng_normal(&r);
     msid_cplx *out[2];
     for (int mode = 0; mode < 2; ++mode) {
-        msid_linedft_cfg c = {P_, C, 5, bins, &tw, MSID_DFT_STREAM_F32, NULL};
-        const size_t n = msid_linedft_mem_size(&c);
-        void *m = tsim_alloc(n);
-        msid_linedft d;
-        UT_STATUS(msid_linedft_init(&d, &c, m, n), MSID_OK);
         out[mode] = (msid_cplx *)malloc(sizeof(msid_cplx) * K * 5 * C);
-        size_t done = 0, blk = 1, per = 0;
-        while (done < (size_t)K * P_) {
-            const size_t want = mode == 0 ? 1 : blk;
-            const size_t got = msid_linedft_push(&d, x + done * C, want < K * P_ - done ? want : K * P_ - done);
-            done += got;
-            blk = blk * 7 % 61 + 1;
-            if (msid_linedft_ready(&d)) {
-                memcpy(out[mode] + per * 5 * C, msid_linedft_spectra(&d), sizeof(msid_cplx) * 5 * C);
-                msid_linedft_release(&d);
-                per++;
-            }
-        }
-        UT_CHECK(per == K, "periods %u", (unsigned)per);
-        tsim_free(m);
+        run_periods(&tw, bins, 5, C, K, MSID_DFT_STREAM_F32, x, NULL, mode, out[mode]);
     }
     assert_memory_equal(out[0], out[1], sizeof(msid_cplx) * K * 5 * C);
     free(out[0]);
     free(out[1]);
     free(x);
+    tsim_free(mt);
+}
+
+/* Float samples in (msid_linedft_push_f32, msid_meas_push_f32): the same bits as pushing the same
+ * values as double, on the float and the double streaming path, one sample per call or in blocks;
+ * so the documented accuracy of the float path is the one tested above, and it holds here against a
+ * long-double DFT of the float data: |X - X_exact| <= (P + 3) 2^-24 sum |x|. Changing one float
+ * sample by 1e-3 changes the spectra (negative control; a one-ulp change may vanish in a float sum). */
+/* n float samples offset + N(0, 1) (ADC-like data, already float) and the same values as double. */
+static void float_samples(size_t n, uint64_t seed, double offset, float **xf, double **x)
+{
+    *xf = (float *)malloc(sizeof(float) * n);
+    *x = (double *)malloc(sizeof(double) * n);
+    msid_rng r;
+    msid_rng_seed(&r, seed);
+    for (size_t k = 0; k < n; ++k) {
+        (*xf)[k] = (float)(offset + msid_rng_normal(&r));
+        (*x)[k] = (double)(*xf)[k];
+    }
+}
+
+static void test_f32_float_samples(void **state)
+{
+    (void)state;
+    const uint32_t bins[3] = {1, 40, 499}, C = 2, K = 3, L = 3;
+    msid_twiddle tw;
+    void *mt = tsim_alloc(msid_twiddle_mem_size(P_));
+    UT_STATUS(msid_twiddle_init(&tw, P_, mt, msid_twiddle_mem_size(P_)), MSID_OK);
+    float *xf;
+    double *x;
+    float_samples((size_t)K * P_ * C, 17u, 2.0, &xf, &x);
+    msid_cplx *a = (msid_cplx *)malloc(sizeof(msid_cplx) * K * L * C), *b = (msid_cplx *)malloc(sizeof(msid_cplx) * K * L * C);
+    for (int path = 0; path < 2; ++path)
+        for (int blocks = 0; blocks < 2; ++blocks) {
+            const msid_dft_path p = path ? MSID_DFT_STREAM : MSID_DFT_STREAM_F32;
+            run_periods(&tw, bins, L, C, K, p, x, NULL, blocks, a);
+            run_periods(&tw, bins, L, C, K, p, NULL, xf, !blocks, b);
+            UT_CHECK(memcmp(a, b, sizeof(msid_cplx) * K * L * C) == 0, "path %d blocks %d: float push differs", path,
+                     blocks);
+        }
+    /* accuracy of the float path on float data (b holds it: path F32, blocks) */
+    run_periods(&tw, bins, L, C, K, MSID_DFT_STREAM_F32, NULL, xf, 1, b);
+    long double *twl = ut_tw_table(P_);
+    double worst = 0.0;
+    for (uint32_t k = 0; k < K; ++k)
+        for (uint32_t c = 0; c < C; ++c) {
+            double sa = 0.0;
+            for (uint32_t n = 0; n < P_; ++n) sa += fabs(x[((size_t)k * P_ + n) * C + c]);
+            const double bound = (P_ + 3.0) / 16777216.0 * sa;
+            for (uint32_t l = 0; l < L; ++l) {
+                long double re, im;
+                ut_dft_ld(x + (size_t)k * P_ * C + c, C, P_, bins[l], twl, &re, &im);
+                const msid_cplx z = b[((size_t)k * L + l) * C + c];
+                const double e = fmax(fabs(z.re - (double)re), fabs(z.im - (double)im));
+                UT_CHECK(e <= bound, "period %u line %u channel %u: error %g > bound %g", (unsigned)k, (unsigned)l,
+                         (unsigned)c, e, bound);
+                worst = fmax(worst, e / bound);
+            }
+        }
+    print_message("float samples, float path: worst error %.4f of the bound\n", worst);
+    /* negative control */
+    xf[5 * C + 1] += 1e-3f;
+    run_periods(&tw, bins, L, C, K, MSID_DFT_STREAM_F32, NULL, xf, 1, a);
+    UT_CHECK(memcmp(a, b, sizeof(msid_cplx) * K * L * C) != 0, "%s", "a change of a float sample went unseen");
+    free(twl);
+    free(a);
+    free(b);
+    free(x);
+    free(xf);
+    tsim_free(mt);
+}
+
+/* msid_meas_push_f32 with the period end spread: the statistics equal msid_meas_push's. */
+static void test_f32_meas_float_samples(void **state)
+{
+    (void)state;
+    const uint32_t bins[4] = {1, 3, 40, 499}, K = 4, C = 3;
+    msid_twiddle tw;
+    void *mt = tsim_alloc(msid_twiddle_mem_size(P_));
+    UT_STATUS(msid_twiddle_init(&tw, P_, mt, msid_twiddle_mem_size(P_)), MSID_OK);
+    float *xf;
+    double *x;
+    float_samples((size_t)K * P_ * C, 21u, 0.0, &xf, &x);
+    msid_meas_cfg mc;
+    memset(&mc, 0, sizeof mc);
+    mc.period = P_; mc.n_inputs = 1; mc.n_outputs = 2; mc.n_experiments = 1; mc.n_lines = 3; mc.bins = bins;
+    mc.n_detect = 1; mc.detect_bins = bins + 3; mc.twiddle = &tw; mc.path = MSID_DFT_STREAM_F32; mc.spread = 1;
+    const size_t n = msid_meas_mem_size(&mc);
+    void *m1 = tsim_alloc(n), *m2 = tsim_alloc(n);
+    msid_meas a, b;
+    UT_STATUS(msid_meas_init(&a, &mc, m1, n), MSID_OK);
+    UT_STATUS(msid_meas_init(&b, &mc, m2, n), MSID_OK);
+    UT_STATUS(msid_meas_begin(&a, 0), MSID_OK);
+    UT_STATUS(msid_meas_begin(&b, 0), MSID_OK);
+    for (uint32_t s = 0; s < K * P_; ++s) UT_STATUS(msid_meas_push(&a, x + (size_t)s * C, 1), MSID_OK);
+    for (uint32_t s = 0; s < K * P_; s += 16) UT_STATUS(msid_meas_push_f32(&b, xf + (size_t)s * C, 16), MSID_OK);
+    UT_STATUS(msid_meas_end(&a, NULL), MSID_OK);
+    UT_STATUS(msid_meas_end(&b, NULL), MSID_OK);
+    const msid_pstats *pa = msid_meas_stats(&a, 0), *pb = msid_meas_stats(&b, 0);
+    UT_CHECK(pa->K == K && pb->K == K, "K %u %u", (unsigned)pa->K, (unsigned)pb->K);
+    assert_memory_equal(pa->mean, pb->mean, sizeof(msid_cplx) * 4 * C);
+    assert_memory_equal(pa->m2, pb->m2, sizeof(msid_cplx) * 4 * C * C);
+    tsim_free(m1);
+    tsim_free(m2);
+    free(x);
+    free(xf);
     tsim_free(mt);
 }
 
@@ -222,6 +336,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_f32_config),
         cmocka_unit_test(test_f32_blocks_bit_identical),
+        cmocka_unit_test(test_f32_float_samples),
+        cmocka_unit_test(test_f32_meas_float_samples),
         cmocka_unit_test(test_f32_error_bound_1e6_samples),
         cmocka_unit_test(test_f32_frf_close_to_double),
     };

@@ -75,27 +75,42 @@ int bench_target(int argc, char **argv)
             continue;
         }
         std::printf("\n%s (%s)\n", c[0], c[1]);
-        std::printf("  %-11s %5s %-9s %-9s %5s %3s %12s %10s %10s %10s\n", "case", "block", "work", "gen", "lines", "C",
-                    "insn/sample", "max insn", "mem_meas", "mem_frf");
+        std::printf("  %-11s %6s %5s %-9s %-9s %5s %3s %12s %10s %10s %10s\n", "case", "spread", "block", "work", "gen",
+                    "lines", "C", "insn/sample", "max insn", "mem_meas", "mem_frf");
         double push1 = 0, push50 = 0, gp1 = 0, bpush1 = 0, bpush50 = 0, bgp1 = 0;
         double fpush1 = 0, fpush50 = 0, fgp1 = 0, fbpush1 = 0, fbpush50 = 0, fbgp1 = 0;
+        // per-sample maximum of generation + estimation, one sample per call: [case][spread]
+        double mx50[2] = {0, 0}, mxm[2] = {0, 0}, mx1[2] = {0, 0}, mean50[2] = {0, 0};
+        double ipush1[2] = {0, 0}, ipush50[2] = {0, 0}, igp1[2] = {0, 0};   // float samples in: [block 1, block 16]
         size_t pos = 0;
         while ((pos = out.find("case ", pos)) != std::string::npos) {
             const std::string line = out.substr(pos - 1, out.find('\n', pos) - pos + 1);
             pos += 5;
             const std::string name = field(line, "name"), work = field(line, "work");
             const double ips = std::atof(field(line, "insn_per_sample").c_str());
-            const std::string block = field(line, "block");
-            std::printf("  %-11s %5s %-9s %-9s %5s %3s %12.1f %10s %10s %10s\n", name.c_str(), block.c_str(), work.c_str(),
+            const std::string block = field(line, "block"), spread = field(line, "spread");
+            std::printf("  %-11s %6s %5s %-9s %-9s %5s %3s %12.1f %10s %10s %10s\n", name.c_str(), spread.c_str(),
+                        block.c_str(), work.c_str(),
                         field(line, "gen").c_str(), field(line, "lines").c_str(), field(line, "channels").c_str(), ips,
                         field(line, "max_insn").c_str(), field(line, "mem_meas").c_str(), field(line, "mem_frf").c_str());
             const bool b1 = block == "1";
+            const int sp = spread == "1" ? 1 : 0;
+            if (b1 && work == "gen+push") {
+                const double mxi = std::atof(field(line, "max_insn").c_str());
+                if (name == "siso50") { mx50[sp] = mxi; mean50[sp] = ips; }
+                if (name == "mimo2x2_50") mxm[sp] = mxi;
+                if (name == "siso1") mx1[sp] = mxi;
+            }
+            if (sp) continue;   // the slopes below are of the unspread cases
             if (name == "siso1" && work == "push") (b1 ? push1 : bpush1) = ips;
             if (name == "siso1" && work == "gen+push") (b1 ? gp1 : bgp1) = ips;
             if (name == "siso50" && work == "push") (b1 ? push50 : bpush50) = ips;
             if (name == "siso1_f32" && work == "push") (b1 ? fpush1 : fbpush1) = ips;
             if (name == "siso1_f32" && work == "gen+push") (b1 ? fgp1 : fbgp1) = ips;
             if (name == "siso50_f32" && work == "push") (b1 ? fpush50 : fbpush50) = ips;
+            if (name == "siso1_f32in" && work == "push") ipush1[b1 ? 0 : 1] = ips;
+            if (name == "siso50_f32in" && work == "push") ipush50[b1 ? 0 : 1] = ips;
+            if (name == "siso1_f32in" && work == "gen+push") igp1[b1 ? 0 : 1] = ips;
         }
         std::printf("  one-line SISO, generation + estimation: %.1f instructions per sample (SFRA: 103 cycles)\n", gp1);
         std::printf("  per extra line*channel (SISO 1 -> 50 lines, 2 channels): %.1f instructions (goal <= 10 on the M7)\n",
@@ -104,6 +119,14 @@ int bench_target(int argc, char **argv)
                     bgp1, (bpush50 - bpush1) / (49.0 * 2.0));
         std::printf("  float32 path (MSID_DFT_STREAM_F32): one-line SISO %.1f (blocks of 16: %.1f), per extra line*channel "
                     "%.1f (blocks: %.1f)\n", fgp1, fbgp1, (fpush50 - fpush1) / 98.0, (fbpush50 - fbpush1) / 98.0);
+        std::printf("  float samples in (msid_meas_push_f32, float path): one-line SISO %.1f (blocks of 16: %.1f), per "
+                    "extra line*channel %.1f (blocks: %.1f)\n", igp1[0], igp1[1], (ipush50[0] - ipush1[0]) / 98.0,
+                    (ipush50[1] - ipush1[1]) / 98.0);
+        std::printf("  max per sample (period end included), one sample per call, without -> with spread period end\n"
+                    "  (msid_meas_cfg.spread): SISO 1 line %.0f -> %.0f, SISO 50 lines %.0f -> %.0f (%.1fx less; mean %.1f -> "
+                    "%.1f), 2x2 50 lines %.0f -> %.0f (%.1fx less)\n",
+                    mx1[0], mx1[1], mx50[0], mx50[1], mx50[1] > 0 ? mx50[0] / mx50[1] : 0.0, mean50[0], mean50[1], mxm[0],
+                    mxm[1], mxm[1] > 0 ? mxm[0] / mxm[1] : 0.0);
     }
     // flash and RAM per object, from the linker map of the bare-metal example (it links what a firmware needs)
     for (auto &c : cpus) {
@@ -119,7 +142,7 @@ int bench_target(int argc, char **argv)
 
 // ---------------- msid bench wcet ----------------
 
-struct Wcase { uint32_t P, nu, ny, m, L; const char *name; };
+struct Wcase { uint32_t P, nu, ny, m, L; const char *name; int spread; };
 
 double now_ns()
 {
@@ -135,7 +158,8 @@ int bench_wcet(int argc, char **argv)
         if (!std::strcmp(argv[i], "--help")) {
             std::puts("usage: msid bench wcet [--samples N]   (default 1e7, at least 1e5)\n"
                       "Per-sample time of msid_gen_next + msid_meas_push(1 row) on the host, each sample timed with\n"
-                      "CLOCK_MONOTONIC: median, p99, p99.9, max, and the max of period-end samples separately.");
+                      "CLOCK_MONOTONIC: median, p99, p99.9, max, and the max of period-end samples separately;\n"
+                      "the \"spread\" cases defer the period-end work over the next period (msid_meas_cfg.spread).");
             return 0;
         }
         if (!std::strcmp(argv[i], "--samples") && i + 1 < argc) { N = std::strtoull(argv[++i], nullptr, 10); continue; }
@@ -144,8 +168,9 @@ int bench_wcet(int argc, char **argv)
     if (N < 100000ull) throw UsageError("msid bench wcet: --samples must be at least 100000");
     std::printf("msid bench wcet  (msid %s, %llu samples per case, per-sample times in ns incl. ~20 ns clock read)\n",
                 MSID_VERSION, (unsigned long long)N);
-    const Wcase cases[] = {{1000, 1, 1, 1, 1, "SISO 1 line"}, {1000, 1, 1, 1, 50, "SISO 50 lines"},
-                           {1000, 2, 2, 2, 50, "2x2 m=2 50 lines"}};
+    const Wcase cases[] = {{1000, 1, 1, 1, 1, "SISO 1 line", 0},       {1000, 1, 1, 1, 50, "SISO 50 lines", 0},
+                           {1000, 2, 2, 2, 50, "2x2 m=2 50 lines", 0},  {1000, 1, 1, 1, 50, "SISO 50 spread", 1},
+                           {1000, 2, 2, 2, 50, "2x2 50 spread", 1}};
     for (const Wcase &c : cases) {
         std::vector<uint32_t> bins(c.L);
         for (uint32_t l = 0; l < c.L; ++l) bins[l] = 1 + 2 * l;
@@ -169,6 +194,7 @@ int bench_wcet(int argc, char **argv)
         msid_meas_cfg mc{};
         mc.period = c.P; mc.n_inputs = c.nu; mc.n_outputs = c.ny; mc.n_experiments = c.m; mc.n_lines = c.L;
         mc.bins = bins.data(); mc.twiddle = &tw; mc.path = MSID_DFT_STREAM;
+        mc.spread = c.spread;   // "spread": period-end work one line per sample over the next period
         msid_meas ms;
         n = msid_meas_mem_size(&mc);
         void *m4 = mem(n);

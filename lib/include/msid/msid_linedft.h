@@ -12,7 +12,8 @@
  *  - FFT: buffers one period per channel and runs one real FFT per channel
  *    through a ::msid_fft_backend; cheaper when many lines are wanted.
  * ::MSID_DFT_AUTO picks the cheaper one from (P, L, C) only, so the choice is
- * deterministic. Results are bit-identical whatever block sizes are pushed.
+ * deterministic. Results are bit-identical whatever block sizes are pushed,
+ * and with the period end spread over the next period or not (cfg.spread).
  */
 #ifndef MSID_LINEDFT_H
 #define MSID_LINEDFT_H
@@ -50,6 +51,8 @@ typedef struct msid_linedft_cfg {
     const msid_twiddle *twiddle;  /**< table of period P (must outlive the object) */
     msid_dft_path path;           /**< path request */
     const msid_fft_backend *fft;  /**< backend for the FFT path, or NULL */
+    int spread;                   /**< 1: spread period end (streaming paths only, see ::msid_linedft_settle);
+                                       costs a second set of accumulators (L*C complex, or 2*L*C floats) */
 } msid_linedft_cfg;
 
 /** Line DFT instance (caller-owned). */
@@ -72,6 +75,12 @@ typedef struct msid_linedft {
     msid_status err;              /**< sticky backend error */
     float *accf;                  /**< [2*L*C] running sums re, im (STREAM_F32) */
     float *twf;                   /**< [2*P] twiddles re, im in single precision (STREAM_F32) */
+    int spread;                   /**< 1: period end deferred to ::msid_linedft_settle */
+    int pending;                  /**< spread: a completed period waits in acc2/accf2 to be settled */
+    uint32_t pend_line;           /**< spread: lines of the pending period settled into `out` so far */
+    uint32_t pend_flags;          /**< spread: flags of the pending period */
+    msid_cplx *acc2;              /**< [L*C] spread (STREAM): sums of the pending period, zero when free */
+    float *accf2;                 /**< [2*L*C] spread (STREAM_F32): sums of the pending period, zero when free */
 } msid_linedft;
 
 /** @brief Path AUTO would choose for these dimensions (STREAM without a backend). */
@@ -82,7 +91,7 @@ size_t msid_linedft_mem_size(const msid_linedft_cfg *cfg);
 
 /**
  * @brief Initialise at the start of a period.
- * @return MSID_OK, MSID_E_NULL, MSID_E_PERIOD, MSID_E_DIMS, MSID_E_NO_LINES,
+ * @return MSID_OK, MSID_E_NULL, MSID_E_PERIOD, MSID_E_DIMS, MSID_E_NO_LINES, MSID_E_ARG (spread with the FFT path),
  *         MSID_E_LINE_RANGE, MSID_E_BACKEND (FFT requested without a matching backend),
  *         MSID_E_MEM_ALIGN or MSID_E_MEM_SIZE.
  */
@@ -94,6 +103,18 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *cfg, void
  * @return samples consumed (0 if a completed period is waiting for ::msid_linedft_release).
  */
 size_t msid_linedft_push(msid_linedft *d, const double *x, size_t n);
+
+/**
+ * @brief Push up to n samples given as float (rows of C floats), for firmware
+ *        whose ADC data are float or integer: with ::MSID_DFT_STREAM_F32 no
+ *        conversion happens per sample (on a Cortex-M4F the double-to-float
+ *        conversion is a library call). The result is the same bits as
+ *        ::msid_linedft_push of the same values as double, on every path
+ *        (float to double is exact, and the float path rounds each double
+ *        sample to float, which gives the float back).
+ * @return samples consumed, as ::msid_linedft_push.
+ */
+size_t msid_linedft_push_f32(msid_linedft *d, const float *x, size_t n);
 
 /**
  * @brief Advance over n missing samples (data lost upstream); every period they
@@ -119,6 +140,27 @@ void msid_linedft_release(msid_linedft *d);
 
 /** @brief Drop any partial period and restart at sample 0 of a period. */
 void msid_linedft_reset(msid_linedft *d);
+
+/**
+ * @brief Spread period end (cfg.spread = 1): settle up to n_lines lines of the pending period.
+ *
+ * Without spreading, the sample that completes a period also copies the
+ * spectra of all L lines and checks them, O(L*C) at once. With spreading, that
+ * sample only swaps two sets of accumulators, O(1); the completed period is
+ * *pending* and each call here converts, checks and clears n_lines of its
+ * lines into `out`; after the last line the period is ready
+ * (::msid_linedft_ready) exactly as without spreading, bit for bit. A firmware
+ * with a per-sample budget calls it with 1 line per sample during the next
+ * period (::msid_meas does this itself with msid_meas_cfg.spread). The next
+ * period cannot complete while one is pending or ready: ::msid_linedft_push
+ * then settles the pending lines itself if `out` is free, else it stops one
+ * sample short of the period end.
+ * @return lines settled by this call (0 if none is pending).
+ */
+size_t msid_linedft_settle(msid_linedft *d, size_t n_lines);
+
+/** @brief 1 while a completed period waits to be settled (spread mode). */
+int msid_linedft_pending(const msid_linedft *d);
 
 /** @brief Sticky error from the FFT backend (MSID_OK if none). */
 msid_status msid_linedft_error(const msid_linedft *d);

@@ -8,6 +8,17 @@
  * FRF is then solved with ::msid_frf_compute on ::msid_meas_stats.
  * Missing samples are declared with ::msid_meas_push_gap (keeps alignment)
  * or ::msid_meas_mark_gap; every period they touch is discarded and counted.
+ *
+ * Per-sample time. Without spreading, the sample that completes a period also
+ * copies its spectra and updates the period statistics, O(L*C + L*C^2), many
+ * times the cost of an ordinary sample. With cfg.spread = 1 that sample only
+ * swaps two sets of accumulators, and the 2 (L + D) units of deferred work
+ * (settle one line of the spectra, update one line's statistics) are done by
+ * the samples of the next period, ceil(2 (L + D) / P) units per sample pushed
+ * (1 whenever L + D <= P/2), so the per-sample maximum is an ordinary sample
+ * plus one line.
+ * The statistics are the same bits whatever the block sizes; they are
+ * complete after ::msid_meas_end (or ::msid_meas_flush), not in between.
  */
 #ifndef MSID_MEAS_H
 #define MSID_MEAS_H
@@ -36,6 +47,11 @@ typedef struct msid_meas_cfg {
     uint32_t max_periods;          /**< per-experiment history for the transient test (0: none) */
     msid_transient_mode transient; /**< transient test mode */
     double alpha;                  /**< transient test level per experiment (0: 0.01) */
+    int spread;                    /**< 1: bounded per-sample time. The period-end work (spectra
+                                        copy, O(L*C), and period statistics, O(L*C^2)) is spread
+                                        over the first samples of the next period, one line per
+                                        sample; results are bit-identical. Streaming paths only
+                                        (not FFT); memory: one more set of accumulators */
 } msid_meas_cfg;
 
 /** Instance (caller-owned). */
@@ -47,13 +63,19 @@ typedef struct msid_meas {
     uint64_t *leftover;            /**< [m] samples of incomplete periods discarded at end */
     uint64_t *samples;             /**< [m] samples pushed (including gaps) */
     msid_status err;               /**< first error (sticky) */
+    int spread;                    /**< cfg.spread */
+    uint32_t spread_rate;          /**< spread: units of deferred work per sample, ceil(2 (L + D) / P) */
+    int pend;                      /**< spread: a completed period is being processed */
+    uint32_t pend_unit;            /**< spread: units done; unit u < L+D settles line u of the spectra,
+                                        unit L+D+l updates the statistics of line l */
+    int pend_use;                  /**< spread: the statistics use the pending period */
 } msid_meas;
 
 /** @brief Bytes of working memory; 0 if cfg is invalid. */
 size_t msid_meas_mem_size(const msid_meas_cfg *cfg);
 
 /**
- * @brief Initialise. @return MSID_OK or an error of the sub-objects, MSID_E_EXPERIMENTS,
+ * @brief Initialise. @return MSID_OK or an error of the sub-objects (MSID_E_ARG: spread with the FFT path), MSID_E_EXPERIMENTS,
  *        MSID_E_LINE_RANGE (excited bin >= P/2), MSID_E_LINE_DUP (a bin excited twice or also a detection bin).
  */
 msid_status msid_meas_init(msid_meas *ms, const msid_meas_cfg *cfg, void *mem, size_t len);
@@ -70,8 +92,23 @@ msid_status msid_meas_begin(msid_meas *ms, uint32_t e);
  */
 msid_status msid_meas_push(msid_meas *ms, const double *rows, size_t n);
 
+/**
+ * @brief Push n sample rows of nu+ny floats (see ::msid_linedft_push_f32): with
+ *        path ::MSID_DFT_STREAM_F32 no per-sample conversion; the same bits as
+ *        ::msid_meas_push of the same values as double.
+ * @return as ::msid_meas_push.
+ */
+msid_status msid_meas_push_f32(msid_meas *ms, const float *rows, size_t n);
+
 /** @brief Declare n missing samples: alignment is kept and the periods they touch are discarded. */
 msid_status msid_meas_push_gap(msid_meas *ms, size_t n);
+
+/**
+ * @brief Spread mode: finish the deferred work of the last completed period now
+ *        (no-op otherwise); ::msid_meas_end does it itself.
+ * @return MSID_OK or the error the statistics gave (MSID_E_CAPACITY, MSID_E_BACKEND).
+ */
+msid_status msid_meas_flush(msid_meas *ms);
 
 /** @brief Discard the current period (for example after a bus error). */
 msid_status msid_meas_mark_gap(msid_meas *ms);

@@ -102,6 +102,21 @@ void msid_pstats_new_segment(msid_pstats *ps);
 msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags);
 
 /**
+ * @brief Spread form of ::msid_pstats_add, first part, O(1): counts the period
+ *        and decides whether it is used (*use = 1: then K already counts it and
+ *        its lines must follow through ::msid_pstats_add_lines before anything
+ *        reads the statistics). Same return values as ::msid_pstats_add.
+ */
+msid_status msid_pstats_add_begin(msid_pstats *ps, uint32_t flags, int *use);
+
+/**
+ * @brief Spread form of ::msid_pstats_add, second part: history copy and Welford
+ *        update of lines [l0, l1) of the period begun last, O((l1 - l0) q^2).
+ *        Lines are independent: any split into ranges gives the bits of ::msid_pstats_add.
+ */
+void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uint32_t l1);
+
+/**
  * @brief Run the transient test on the stored periods (no-op when mode is OFF).
  *
  * For period p among K kept, line l and channel c, with leave-one-out mean and
