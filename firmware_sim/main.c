@@ -45,6 +45,8 @@ static const char *USAGE =
     "  --baud N              RTU baud rate (default 115200)   --unit N  unit id (default 1)\n"
     "  --no-baud-emulation   RTU: reply at once (default: after the frames' wire time at --baud)\n"
     "  --ring N              ring capacity in samples (default: as many as the register map holds)\n"
+    "  --est-mem BYTES       working memory for on-device estimation (msid-modbus/1 extension estimate/1,\n"
+    "                        requested by `msid modbus measure --on-device`; default 1 MiB)\n"
     "  --delay-every K:MS    answer every K-th request MS ms late\n"
     "  --exception-every K[:CODE]  answer every K-th request with exception CODE (default 6, busy)\n"
     "  --corrupt-every K     RTU: send every K-th reply with a bad CRC\n"
@@ -165,6 +167,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--baud")) o->baud = (uint32_t)num_u(a, v);
         else if (!strcmp(a, "--unit")) o->unit = (uint32_t)num_u(a, v);
         else if (!strcmp(a, "--ring")) o->ring = (uint32_t)num_u(a, v);
+        else if (!strcmp(a, "--est-mem")) o->est_mem = num_u(a, v);
         else if (!strcmp(a, "--delay-every")) kv(a, v, &o->delay_every, &o->delay_ms, UINT64_MAX);
         else if (!strcmp(a, "--exception-every")) kv(a, v, &o->exc_every, &o->exc_code, 6);
         else if (!strcmp(a, "--corrupt-every")) o->corrupt_every = num_u(a, v);

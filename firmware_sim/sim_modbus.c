@@ -4,6 +4,7 @@
  * modbus_mapping_t over static arrays). See docs/modbus-registers.md. */
 #define _GNU_SOURCE
 #include "sim_modbus.h"
+#include "sim_estimate.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -15,6 +16,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "msid_daq/msid_mb_est.h"
 #include "msid_daq/msid_mb_proto.h"
 
 #define MAX_CLIENTS 8
@@ -24,7 +26,7 @@
    over the arrays) and the run. The device's state is the sim_device it points to. */
 typedef struct sim_mb {
     sim_device *d;
-    uint16_t hr[MSID_MB_HR_COUNT];
+    uint16_t hr[MSID_MB_HR_EXT_COUNT];   /* msid-modbus/1 and the estimate/1 extension (140..146) */
     uint16_t ir[65536];
     uint8_t served[65536];               /* ring slot read by the host since it was written */
     modbus_mapping_t map;
@@ -44,6 +46,10 @@ typedef struct sim_mb {
     } mc;
     struct { uint32_t e; uint64_t a, b; } ranges[MAX_RANGES];   /* overwritten unread: [a, b) of experiment e */
     int n_ranges;
+    /* on-device estimation (extension estimate/1, msid_mb_est.h), latched at COMMIT */
+    uint32_t est_mode, est_state, est_addr, est_regs, est_solved;
+    msid_mb_est_layout est_lo;
+    sim_est est;
 } sim_mb;
 
 static void die(const char *what, const char *detail)
@@ -116,6 +122,58 @@ static void update_header(sim_mb *m)
     h.experiments = m->d->configured ? m->d->des.n_experiments : 0;
     h.periods = m->d->configured ? m->d->cfg.periods : 0;
     msid_mb_header_encode(m->ir, &h);
+    uint16_t *x = m->ir;
+    x[MSID_MB_IR_EXT] = MSID_MB_EXT_ESTIMATE;
+    x[MSID_MB_IR_EST_VERSION] = MSID_MB_EST_VERSION;
+    x[MSID_MB_IR_EST_MODE] = (uint16_t)m->est_mode;
+    x[MSID_MB_IR_EST_STATE] = (uint16_t)m->est_state;
+    x[MSID_MB_IR_EST_STATUS] = (uint16_t)m->est.status;
+    x[MSID_MB_IR_EST_BAD] = (uint16_t)(m->est.bad + 1);
+    msid_mb_put_u32(x + MSID_MB_IR_EST_NEED, m->est.need > 0xFFFFFFFFu ? 0xFFFFFFFFu : (uint32_t)m->est.need);
+    msid_mb_put_u32(x + MSID_MB_IR_EST_HAVE, m->est.have > 0xFFFFFFFFu ? 0xFFFFFFFFu : (uint32_t)m->est.have);
+    x[MSID_MB_IR_EST_ADDR] = (uint16_t)m->est_addr;
+    msid_mb_put_u32(x + MSID_MB_IR_EST_REGS, m->est_regs);
+    msid_mb_put_u32(x + MSID_MB_IR_EST_PERIODS, (uint32_t)m->est.periods);
+    x[MSID_MB_IR_EST_SOLVED] = (uint16_t)m->est_solved;
+}
+
+/* Estimation settings latched at COMMIT (holding registers 140..146; MODE is cleared so a
+   host that knows nothing of the extension later gets a plain device). 0 or an
+   MSID_CAN_ERR_* code; a design the device cannot estimate leaves the stream usable and
+   reports EST_STATE error with its msid_status (and EST_NEED/EST_HAVE for memory). */
+static uint32_t latch_estimation(sim_mb *m)
+{
+    const uint32_t mode = m->hr[MSID_MB_HR_EST_MODE], tr = m->hr[MSID_MB_HR_EST_TRANSIENT];
+    const double alpha = msid_mb_get_f64(m->hr + MSID_MB_HR_EST_ALPHA);
+    m->hr[MSID_MB_HR_EST_MODE] = MSID_MB_EST_OFF;
+    memset(&m->est, 0, sizeof m->est);
+    m->est.bad = -1;
+    m->est_mode = m->est_state = m->est_addr = m->est_regs = 0;
+    if (mode == MSID_MB_EST_OFF) return 0;
+    if (mode > MSID_MB_EST_STREAM || tr > MSID_TRANSIENT_DROP || !(alpha >= 0 && alpha < 1)) return MSID_CAN_ERR_CFG;
+    m->est_mode = mode;
+    m->est_state = MSID_MB_EST_STATE_ERROR;
+    const msid_design *des = &m->d->des;
+    if (msid_mb_est_layout_init(&m->est_lo, m->d->pd.nu, m->d->pd.ny, des->n_experiments, des->n_lines) != 0) {
+        m->est.status = MSID_E_DIMS;
+        return 0;
+    }
+    m->est_regs = msid_mb_est_regs(&m->est_lo);
+    /* the result block: after the header when there is no ring, else at the top of the map (the ring shrinks) */
+    const uint32_t room = 65536u - MSID_MB_RING_ADDR;
+    if (mode == MSID_MB_EST_ONLY) {
+        if (m->est_regs > room) { m->est.status = MSID_E_DIMS; return 0; }
+        m->est_addr = MSID_MB_RING_ADDR;
+        m->R = 0;
+    } else {
+        if (m->est_regs + m->W > room) { m->est.status = MSID_E_DIMS; return 0; }
+        m->est_addr = 65536u - m->est_regs;
+        const uint32_t fit = (m->est_addr - MSID_MB_RING_ADDR) / m->W;
+        if (fit < m->R) m->R = fit;
+    }
+    sim_est_cfg ec = {m->hr[MSID_MB_HR_EST_SKIP], (msid_transient_mode)tr, alpha, m->d->cfg.periods};
+    if (sim_est_setup(&m->est, m->d, &ec) == MSID_OK) m->est_state = MSID_MB_EST_STATE_ACCUMULATING;
+    return 0;
 }
 
 static void fail_state(sim_mb *m, uint32_t err, uint32_t detail)
@@ -151,10 +209,28 @@ static void apply_records(sim_mb *m)
             m->W = msid_mb_sample_regs(m->enc, m->d->pd.nu + m->d->pd.ny);
             m->R = msid_mb_ring_samples(m->W);
             if (m->d->o.ring && m->d->o.ring < m->R) m->R = m->d->o.ring;
+            if (latch_estimation(m)) { m->d->configured = 0; fail_state(m, MSID_CAN_ERR_CFG, 0); return; }
             m->mstate = MSID_MB_STATE_CONFIGURED;
             m->merr = m->mdetail = 0;
         }
     }
+}
+
+/* SOLVE: the FRF from every experiment's statistics into the result block. */
+static void solve(sim_mb *m)
+{
+    if (m->est_state != MSID_MB_EST_STATE_ACCUMULATING && m->est_state != MSID_MB_EST_STATE_READY) {
+        if (m->est_state == MSID_MB_EST_STATE_OFF) { m->est_state = MSID_MB_EST_STATE_ERROR; m->est.status = MSID_E_STATE; }
+        return;
+    }
+    if (m->mstate == MSID_MB_STATE_RUNNING) { m->est_state = MSID_MB_EST_STATE_ERROR; m->est.status = MSID_E_STATE; return; }
+    if (m->est_state == MSID_MB_EST_STATE_ACCUMULATING) {
+        const msid_status st = sim_est_solve(&m->est);
+        if (st) m->est.status = st;
+        msid_mb_est_encode(m->ir + m->est_addr, &m->est_lo, &m->est.ms, st ? NULL : &m->est.f);
+        m->est_state = st ? MSID_MB_EST_STATE_ERROR : MSID_MB_EST_STATE_READY;
+    }
+    m->est_solved++;
 }
 
 static void execute(sim_mb *m)
@@ -172,12 +248,16 @@ static void execute(sim_mb *m)
         m->restart_done = m->drop_done = m->stall_done = 0;
         m->stall_force = 0;
         memset(m->served, 0, sizeof m->served);
+        if (m->est_state == MSID_MB_EST_STATE_ACCUMULATING) sim_est_begin(&m->est, e);
         m->mstate = MSID_MB_STATE_RUNNING;
         m->merr = m->mdetail = 0;
     } else if (cmd == MSID_MB_CMD_STOP) {
         if (m->mstate == MSID_MB_STATE_RUNNING) m->mstate = MSID_MB_STATE_CONFIGURED;
+    } else if (cmd == MSID_MB_CMD_SOLVE) {
+        solve(m);
     } else if (cmd == MSID_MB_CMD_RESET) {
         m->d->configured = 0;
+        m->est_mode = m->est_state = 0;
         msid_can_config_reset(&m->d->cfg);
         m->mstate = MSID_MB_STATE_IDLE;
         m->merr = m->mdetail = 0;
@@ -185,11 +265,43 @@ static void execute(sim_mb *m)
 }
 
 /* ---- sample production ------------------------------------------------------ */
+/* On-device estimation: the row as the host would decode it from the link (the codes). */
+static void estimate(sim_mb *m, const uint16_t *codes)
+{
+    if (!m->est.on || m->d->n_sample >= m->d->n_total) return;
+    const uint32_t C = m->d->pd.nu + m->d->pd.ny, vr = msid_mb_value_regs(m->enc);
+    double row[MSID_MAX_CHANNELS];
+    for (uint32_t c = 0; c < C; ++c)
+        row[c] = msid_mb_decode_value(codes + c * vr, m->enc, m->word_order, (double)m->d->cfg.scale);
+    sim_est_push(&m->est, row);
+    if (m->d->n_sample + 1 == m->d->n_total) sim_est_end(&m->est);
+    if (!m->est.on && m->est_state == MSID_MB_EST_STATE_ACCUMULATING) m->est_state = MSID_MB_EST_STATE_ERROR;
+}
+
+static void sample_done(sim_mb *m)
+{
+    m->w++;
+    m->d->n_sample++;
+    m->mc.samples++;
+    if (m->d->n_sample >= m->d->n_total && !m->d->o.never_done) {
+        m->mstate = MSID_MB_STATE_DONE;
+        m->mc.experiments_done++;
+        sim_write_atomic(m->d->o.report, report_body, m);
+    }
+}
+
 static void write_sample(sim_mb *m)
 {
     const uint32_t C = m->d->pd.nu + m->d->pd.ny, vr = msid_mb_value_regs(m->enc);
     double row[MSID_MAX_CHANNELS];
     sim_row(m->d, row);
+    if (m->R == 0) {   /* on-device estimation only: no ring, the codes go to the estimator */
+        uint16_t s[2 * MSID_MAX_CHANNELS];
+        for (uint32_t c = 0; c < C; ++c) msid_mb_encode_value(s + c * vr, row[c], m->enc, m->word_order, (double)m->d->cfg.scale);
+        estimate(m, s);
+        sample_done(m);
+        return;
+    }
     const uint32_t slot = (uint32_t)(m->w % m->R);
     if (m->w >= m->R && !m->served[slot]) {
         const uint64_t lost = m->w - m->R;
@@ -202,14 +314,8 @@ static void write_sample(sim_mb *m)
     s[0] = (uint16_t)m->w;
     for (uint32_t c = 0; c < C; ++c) msid_mb_encode_value(s + 1 + c * vr, row[c], m->enc, m->word_order, (double)m->d->cfg.scale);
     m->served[slot] = 0;
-    m->w++;
-    m->d->n_sample++;
-    m->mc.samples++;
-    if (m->d->n_sample >= m->d->n_total && !m->d->o.never_done) {
-        m->mstate = MSID_MB_STATE_DONE;
-        m->mc.experiments_done++;
-        sim_write_atomic(m->d->o.report, report_body, m);
-    }
+    estimate(m, s + 1);
+    sample_done(m);
 }
 
 static void drop_connection(sim_mb *m)
@@ -239,6 +345,7 @@ static double produce(sim_mb *m)
             m->mc.restarts++;
             m->s0 = m->w;
             sim_restart_segment(m->d);
+            sim_est_begin(&m->est, m->mexp);   /* a new segment: its skip periods apply again */
         }
         if (m->d->o.drop_exp == here && !m->drop_done && m->d->n_sample == m->d->o.drop_at) { m->drop_done = 1; drop_connection(m); }
         if (m->d->o.stall_exp == here && !m->stall_done && m->d->n_sample == m->d->o.stall_at) {
@@ -253,7 +360,7 @@ static double produce(sim_mb *m)
         } else if (m->d->cfg.rate_hz) {
             const double due = run_time(m) * m->d->cfg.rate_hz;
             if ((double)m->w >= due) return ((double)m->w + 1 - due) / m->d->cfg.rate_hz;
-        } else if (m->w >= m->R && !m->served[m->w % m->R]) {
+        } else if (m->R && m->w >= m->R && !m->served[m->w % m->R]) {
             return -1;
         }
         write_sample(m);
@@ -276,7 +383,7 @@ static uint16_t crc16(const uint8_t *p, size_t n)
 static int send_corrupt(sim_mb *m, const uint8_t *q, int hl, uint32_t addr, uint32_t cnt)
 {
     const uint16_t *src = q[hl] == 4 ? m->ir : m->hr;
-    const uint32_t lim = q[hl] == 4 ? 65536u : MSID_MB_HR_COUNT;
+    const uint32_t lim = q[hl] == 4 ? 65536u : MSID_MB_HR_EXT_COUNT;
     if (cnt == 0 || cnt > 125 || addr + cnt > lim) return 0;
     uint8_t f[260];
     size_t n = 0;
@@ -342,7 +449,7 @@ static void serve(sim_mb *m, const uint8_t *q, int len)
 
 static void open_server(sim_mb *m)
 {
-    m->map.nb_registers = MSID_MB_HR_COUNT;
+    m->map.nb_registers = MSID_MB_HR_EXT_COUNT;
     m->map.tab_registers = m->hr;
     m->map.nb_input_registers = 65536;
     m->map.tab_input_registers = m->ir;
