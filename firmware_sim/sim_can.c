@@ -10,7 +10,10 @@
 #include <string.h>
 #include <time.h>
 
+#include "msid_daq/msid_can_est.h"
+#include "msid_daq/msid_mb_est.h"
 #include "msid_daq/msid_socketcan.h"
+#include "sim_estimate.h"
 
 /* Counters of what the simulator did (written to the report). */
 typedef struct sim_counts {
@@ -34,6 +37,12 @@ typedef struct sim_can {
     msid_can_frame held;             /* reorder: frame held back */
     int have_held;
     double last_host_frame;
+    /* on-device estimation (extension estimate/1, msid_can_est.h) */
+    uint32_t est_mode, est_state;
+    double est_alpha;
+    sim_est est;
+    msid_mb_est_layout est_lo;
+    uint16_t est_block[65536];           /* the result block, encoded as the Modbus extension's */
 } sim_can;
 
 static void die(const char *m)
@@ -129,6 +138,7 @@ static int start(sim_can *c, uint32_t e, uint32_t periods)
     c->busoff_done = c->restart_done = 0;
     c->busoff_left = 0;
     c->state = MSID_CAN_STATE_RUNNING;
+    if (c->est.on) sim_est_begin(&c->est, e);
     send_state(c, MSID_CAN_STATE_RUNNING, e, 0, (uint32_t)c->d->n_total);
     return 0;
 }
@@ -136,6 +146,89 @@ static int start(sim_can *c, uint32_t e, uint32_t periods)
 static void flush_held(sim_can *c)
 {
     if (c->have_held) { tx(c, &c->held); c->have_held = 0; }
+}
+
+/* ---- on-device estimation (msid-can/1 extension estimate/1) ---------------- */
+static void est_off(sim_can *c)
+{
+    memset(&c->est, 0, sizeof c->est);
+    c->est.bad = -1;
+    c->est_mode = c->est_state = MSID_CAN_EST_STATE_OFF;
+}
+
+static void send_est_state(sim_can *c)
+{
+    uint8_t d[8];
+    msid_can_est_encode_state(d, c->est_state, c->est_mode, (uint32_t)c->est.status, (uint32_t)(c->est.bad + 1));
+    tx8(c, MSID_CAN_ID_EST, d);
+    const uint32_t v[3][2] = {{MSID_CAN_EST_MUX_NEED, (uint32_t)c->est.need}, {MSID_CAN_EST_MUX_HAVE, (uint32_t)c->est.have},
+                              {MSID_CAN_EST_MUX_PERIODS, (uint32_t)c->est.periods}};
+    for (int i = 0; i < 3; ++i) {
+        msid_can_est_encode_u32(d, v[i][0], v[i][1]);
+        tx8(c, MSID_CAN_ID_EST, d);
+    }
+}
+
+static void handle_est(sim_can *c, const uint8_t *d)
+{
+    if (c->state == MSID_CAN_STATE_RUNNING) return;   /* ignored while running, like CFG */
+    switch (d[0]) {
+    case MSID_CAN_EST_CMD_ALPHA: {
+        uint64_t b;
+        memcpy(&b, &c->est_alpha, sizeof b);
+        const uint64_t w = msid_can_get_u32(d + 4);
+        b = d[1] ? (b & 0xFFFFFFFFull) | w << 32 : (b & ~0xFFFFFFFFull) | w;
+        memcpy(&c->est_alpha, &b, sizeof b);
+        return;
+    }
+    case MSID_CAN_EST_CMD_SETUP: {
+        est_off(c);
+        const uint32_t mode = d[1], tr = d[2];
+        if (!c->d->configured) c->est.status = MSID_E_STATE;
+        else if (mode < MSID_MB_EST_ONLY || mode > MSID_MB_EST_STREAM || tr > MSID_TRANSIENT_DROP ||
+                 !(c->est_alpha >= 0 && c->est_alpha < 1))
+            c->est.status = MSID_E_ARG;
+        else if (msid_mb_est_layout_init(&c->est_lo, c->d->pd.nu, c->d->pd.ny, c->d->des.n_experiments, c->d->des.n_lines) ||
+                 msid_mb_est_regs(&c->est_lo) > 65536u || c->est_lo.doubles >= (1u << 24))
+            c->est.status = MSID_E_DIMS;
+        else {
+            const sim_est_cfg ec = {(uint32_t)d[4] | (uint32_t)d[5] << 8, (msid_transient_mode)tr, c->est_alpha, c->d->cfg.periods};
+            sim_est_setup(&c->est, c->d, &ec);
+        }
+        c->est_mode = c->est.on ? mode : 0;
+        c->est_state = c->est.on ? MSID_CAN_EST_STATE_ACCUMULATING : MSID_CAN_EST_STATE_ERROR;
+        send_est_state(c);
+        return;
+    }
+    case MSID_CAN_EST_CMD_SOLVE: {
+        if (c->est_state == MSID_CAN_EST_STATE_ACCUMULATING) {
+            const msid_status st = sim_est_solve(&c->est);
+            if (st) c->est.status = st;
+            c->est_state = st ? MSID_CAN_EST_STATE_ERROR : MSID_CAN_EST_STATE_READY;
+            if (!st) msid_mb_est_encode(c->est_block, &c->est_lo, &c->est.ms, &c->est.f);
+        } else if (c->est_state == MSID_CAN_EST_STATE_OFF) {
+            c->est_state = MSID_CAN_EST_STATE_ERROR;
+            c->est.status = MSID_E_STATE;
+        }
+        send_est_state(c);
+        if (c->est_state != MSID_CAN_EST_STATE_READY) return;
+        uint8_t f[8], g[8];
+        msid_can_est_encode_u32(f, MSID_CAN_EST_MUX_SIZE, c->est_lo.doubles);
+        tx8(c, MSID_CAN_ID_EST, f);
+        for (uint32_t k = 0; k < c->est_lo.doubles; ++k) {
+            msid_can_est_encode_value(f, g, k, msid_mb_est_value(c->est_block, k));
+            tx8(c, MSID_CAN_ID_EST, f);
+            tx8(c, MSID_CAN_ID_EST, g);
+        }
+        send_est_state(c);   /* the end of the block */
+        return;
+    }
+    case MSID_CAN_EST_CMD_QUERY:
+        send_est_state(c);
+        return;
+    default:
+        return;
+    }
 }
 
 static void handle_host_frame(sim_can *c, const msid_can_frame *f)
@@ -153,12 +246,14 @@ static void handle_host_frame(sim_can *c, const msid_can_frame *f)
             uint32_t ms = 0, err;
             if (c->d->cfg.fd && !c->can.fd_frames) { c->d->configured = 0; err = MSID_CAN_ERR_CFG; }   /* FD on a classic-only bus */
             else err = sim_configure(c->d, &ms);
+            est_off(c);
             c->state = err ? MSID_CAN_STATE_ERROR : MSID_CAN_STATE_CONFIGURED;
             send_info(c);
             send_state(c, (uint32_t)c->state, 0, err, ms);
         }
         return;
     }
+    if (f->id == c->d->o.base + MSID_CAN_ID_EST_CTRL && f->len == 8) { handle_est(c, f->data); return; }
     if (f->id != c->d->o.base + MSID_CAN_ID_CTRL || f->len != 8) return;
     const uint8_t *d = f->data;
     if (d[2] != c->d->o.version) {
@@ -182,6 +277,7 @@ static void handle_host_frame(sim_can *c, const msid_can_frame *f)
         break;
     case MSID_CAN_CMD_RESET:
         flush_held(c);
+        est_off(c);
         c->d->configured = 0;
         msid_can_config_reset(&c->d->cfg);
         c->state = MSID_CAN_STATE_IDLE;
@@ -257,6 +353,7 @@ static void produce_sample(sim_can *c)
     sim_row(c->d, row);
     const uint32_t flags = (c->d->n_sample % P == 0 ? MSID_CAN_PSTART : 0u) | (c->d->n_sample == 0 ? MSID_CAN_SEGSTART : 0u);
     const uint32_t chunks = msid_can_chunks(C, c->d->cfg.encoding, c->d->cfg.fd);
+    double codes[MSID_MAX_CHANNELS];   /* the row as a host decodes it: what the device estimates on */
     for (uint32_t k = 0; k < chunks; ++k) {
         msid_can_frame f;
         memset(&f, 0, sizeof f);
@@ -265,7 +362,13 @@ static void produce_sample(sim_can *c)
         f.flags = c->d->cfg.fd ? (MSID_CANF_FD | MSID_CANF_BRS) : 0;
         msid_can_encode_sample(f.data, c->d->cfg.encoding, c->d->cfg.fd, k, (uint32_t)c->d->n_sample, (uint32_t)c->running_exp, flags, row,
                                C, (double)c->d->cfg.scale);
-        send_sample_frame(c, &f);
+        if (c->est.on) msid_can_decode_values(f.data, c->d->cfg.encoding, c->d->cfg.fd, k, codes, C, (double)c->d->cfg.scale);
+        if (c->est_mode != MSID_MB_EST_ONLY) send_sample_frame(c, &f);
+    }
+    if (c->est.on && c->d->n_sample < c->d->n_total) {
+        sim_est_push(&c->est, codes);
+        if (c->d->n_sample + 1 == c->d->n_total) sim_est_end(&c->est);
+        if (!c->est.on) c->est_state = MSID_CAN_EST_STATE_ERROR;
     }
     if (c->busoff_left && --c->busoff_left == 0) send_error_frame(c, 0x100u, 0, 0);   /* CAN_ERR_RESTARTED */
     c->cnt.samples++;
@@ -284,6 +387,7 @@ static void run_step(sim_can *c)
         send_state(c, MSID_CAN_STATE_BOOT, (uint32_t)e, 0, 0);
         send_state(c, MSID_CAN_STATE_RUNNING, (uint32_t)e, 0, (uint32_t)c->d->n_total);
         sim_restart_segment(c->d);
+        sim_est_begin(&c->est, (uint32_t)e);   /* a new segment: its skip periods apply again */
         clock_gettime(CLOCK_MONOTONIC, &c->d->t_start);
     }
     if (c->d->o.busoff_exp == e && !c->busoff_done && c->d->n_sample == c->d->o.busoff_at) {
@@ -313,15 +417,19 @@ int sim_can_main(sim_device *d)
     sim_can *c = &ctx;
     memset(c, 0, sizeof *c);
     c->d = d;
+    est_off(c);
+    c->est_alpha = 0.01;
     c->state = MSID_CAN_STATE_BOOT;
     c->running_exp = -1;
     msid_socketcan_cfg sc;
     memset(&sc, 0, sizeof sc);
     sc.iface = d->o.iface;
     sc.fd_frames = 1;
-    sc.n_filters = 1;
-    sc.filter_id[0] = d->o.base;                    /* CTRL and CFG only */
+    sc.n_filters = 2;
+    sc.filter_id[0] = d->o.base;                    /* CTRL and CFG */
     sc.filter_mask[0] = 0x7FEu | MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG;
+    sc.filter_id[1] = d->o.base + MSID_CAN_ID_EST_CTRL;   /* and EST_CTRL (extension estimate/1) */
+    sc.filter_mask[1] = 0x7FFu | MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG;
     sc.rcvbuf = d->o.rcvbuf;
     int r = msid_socketcan_open(&c->can, &sc);
     if (r == -MSID_DAQ_E_NOFD) { sc.fd_frames = 0; r = msid_socketcan_open(&c->can, &sc); }
