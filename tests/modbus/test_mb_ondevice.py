@@ -63,6 +63,17 @@ def test_stream_check_bit_identical(design, tmp_path, codes):
     assert dev["acquisition"]["device_periods"] == sum(e["periods_used"] for e in host["experiments"]) == 2 * (K - 1)
 
 
+def test_stream_check_with_a_device_restart(design, tmp_path):
+    """A watchdog restart in experiment 2: device and host both open a new segment (its skip period
+    applies again) and still agree bit for bit."""
+    with c.Sim(tmp_path, "--seed", 21, "--restart-at", "1:700") as sim:
+        r = ondevice(tmp_path, sim, design, "--stream-check", tmp_path / "host.json")
+    host = json.loads((tmp_path / "host.json").read_text())
+    assert host["acquisition"]["device_restarts"] == 1 and same_estimates(r.doc, host)
+    e = r.doc["experiments"][1]
+    assert (e["samples"], e["periods_skipped"], e["periods_used"]) == (700 + K * P, 2, 8)
+
+
 def test_estimate_only_equals_stream_and_covers_truth(design, tmp_path):
     docs = {}
     for name, seed, extra in (("dev", 5, ["--on-device"]), ("host", 5, ["--dft", "stream"]), ("other", 6, ["--dft", "stream"])):
