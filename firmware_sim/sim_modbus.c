@@ -491,6 +491,7 @@ int sim_modbus_main(sim_device *d)
     memset(m, 0, sizeof *m);
     m->d = d;
     m->listen_fd = -1;
+    m->est.bad = -1;
     signal(SIGPIPE, SIG_IGN);
     open_server(m);
     uint8_t q[MODBUS_MAX_ADU_LENGTH];
