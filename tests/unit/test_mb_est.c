@@ -1,6 +1,7 @@
-/* msid-modbus/1 extension estimate/1 (daq/msid_mb_est): float64 registers bit for bit in the
-   documented word order, the result block layout, and the device-side encoder against the
-   msid_meas + msid_frf it reads (decoded values identical to the core's, bit for bit). */
+/* Extension estimate/1 (daq/msid_mb_est, daq/msid_can_est): float64 registers bit for bit in the
+   documented word order, the result block layout, the device-side encoder against the
+   msid_meas + msid_frf it reads (decoded values identical to the core's, bit for bit), and the
+   CAN double-word frames. */
 #define _GNU_SOURCE
 #include <math.h>
 #include <setjmp.h>
@@ -12,6 +13,7 @@
 #include <cmocka.h>
 
 #include "msid/msid.h"
+#include "msid_daq/msid_can_est.h"
 #include "msid_daq/msid_mb_est.h"
 
 static void test_f64_registers(void **st)
@@ -127,12 +129,43 @@ static void test_encode_matches_core(void **st)
     free(mtw);
 }
 
+/* msid-can/1 extension: a double as two EST frames (any order), collected bit for bit; other frames ignored. */
+static void test_can_value_frames(void **st)
+{
+    (void)st;
+    enum { N = 5 };
+    const double v[N] = {M_PI, -0.0, NAN, 1e-310, -7.25};
+    double got[N];
+    uint8_t have[N] = {0};
+    memset(got, 0, sizeof got);
+    for (uint32_t k = 0; k < N; ++k) {
+        uint8_t lo[8], hi[8];
+        msid_can_est_encode_value(lo, hi, k, v[k]);
+        assert_int_equal(lo[0], MSID_CAN_EST_MUX_LO);
+        assert_int_equal(hi[0], MSID_CAN_EST_MUX_HI);
+        assert_int_equal(lo[1] | lo[2] << 8 | lo[3] << 16, k);
+        /* high word first for odd k: the order of the pair does not matter */
+        assert_int_equal(msid_can_est_collect(k % 2 ? hi : lo, got, have, N), 1);
+        assert_int_equal(msid_can_est_collect(k % 2 ? lo : hi, got, have, N), 1);
+    }
+    assert_memory_equal(got, v, sizeof v);
+    for (uint32_t k = 0; k < N; ++k) assert_int_equal(have[k], 3);
+    uint8_t f[8], g[8];
+    msid_can_est_encode_value(f, g, N, 1.0);                 /* index beyond the block */
+    assert_int_equal(msid_can_est_collect(f, got, have, N), 0);
+    msid_can_est_encode_state(f, MSID_CAN_EST_STATE_ERROR, 1, MSID_E_MEM_SIZE, 0);   /* not a value */
+    assert_int_equal(msid_can_est_collect(f, got, have, N), 0);
+    assert_int_equal(f[4] | f[5] << 8, MSID_E_MEM_SIZE);
+    assert_int_equal(f[3], MSID_CAN_EST_VERSION);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_f64_registers),
         cmocka_unit_test(test_layout),
         cmocka_unit_test(test_encode_matches_core),
+        cmocka_unit_test(test_can_value_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
