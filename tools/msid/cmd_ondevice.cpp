@@ -105,12 +105,29 @@ std::string est_failure(const std::vector<uint16_t> &x, const FrfRequest &rq)
     return s;
 }
 
+// A value of the device's block that must be finite (a device is never trusted: nothing
+// non-finite reaches the file, no count sizes anything unchecked).
+double finite(const uint16_t *regs, uint32_t k)
+{
+    const double v = msid_mb_est_value(regs, k);
+    if (!std::isfinite(v)) throw Error(fmt("the device's result block holds a non-finite value at double %u", k));
+    return v;
+}
+
+uint64_t count(const uint16_t *regs, uint32_t k)
+{
+    const double v = msid_mb_est_value(regs, k);
+    if (!(v >= 0 && v <= 9007199254740992.0 && v == std::floor(v)))   // 2^53: exact in a double
+        throw Error(fmt("the device's result block holds %g at double %u where a count belongs", v, k));
+    return (uint64_t)v;
+}
+
 Json cplx_matrix(const uint16_t *regs, uint32_t k, size_t rows, size_t cols)
 {
     std::vector<msid_cplx> v(rows * cols);
     for (size_t i = 0; i < v.size(); ++i) {
-        v[i].re = msid_mb_est_value(regs, k + 2 * (uint32_t)i);
-        v[i].im = msid_mb_est_value(regs, k + 2 * (uint32_t)i + 1);
+        v[i].re = finite(regs, k + 2 * (uint32_t)i);
+        v[i].im = finite(regs, k + 2 * (uint32_t)i + 1);
     }
     return cmat_json(v.data(), rows, cols);
 }
@@ -126,7 +143,7 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
     Json exps = Json::array();
     uint64_t used = 0, rejected = 0;
     for (uint32_t e = 0; e < m; ++e) {
-        auto X = [&](uint32_t k) { return msid_mb_est_value(r, e * MSID_MB_EST_X_COUNT + k); };
+        auto X = [&](uint32_t k) { return (double)count(r, e * MSID_MB_EST_X_COUNT + k); };
         Json je;
         je["source"] = fmt("modbus:%s experiment %u (on device)", name.c_str(), e + 1);
         je["samples"] = (uint64_t)X(MSID_MB_EST_X_SAMPLES);
@@ -139,7 +156,7 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
         Json flagged = Json::array(), dropped = Json::array();
         for (uint32_t k = 0; k < MSID_MB_EST_FLAG_MAX; ++k) {
             const double v = X(MSID_MB_EST_X_PERIODS + k);
-            if (!(v >= 4)) continue;
+            if (v < 4) continue;
             const auto num = (uint64_t)(v / 4), st = (uint64_t)v % 4;
             flagged.push_back(num);
             if (st == 2) dropped.push_back(num);
@@ -150,7 +167,7 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
             je["transient_flagged_count"] = (uint64_t)X(MSID_MB_EST_X_FLAGGED);   // the lists hold the first ones
         je["drift_tested"] = X(MSID_MB_EST_X_DRIFT_TESTED) != 0;
         je["drift"] = X(MSID_MB_EST_X_DRIFT) != 0;
-        je["drift_p_value"] = finite_or_null(X(MSID_MB_EST_X_DRIFT_P));
+        je["drift_p_value"] = finite_or_null(msid_mb_est_value(r, e * MSID_MB_EST_X_COUNT + MSID_MB_EST_X_DRIFT_P));
         je["leftover_samples"] = (uint64_t)X(MSID_MB_EST_X_LEFTOVER);
         exps.push_back(je);
         used += (uint64_t)X(MSID_MB_EST_X_USED);
@@ -168,14 +185,14 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
         Json e = line_position(rq, l);
         e["G"] = cplx_matrix(r, b + lo.G, ny, nu);
         e["cov"] = cplx_matrix(r, b + lo.cov, g, g);
-        e["dof"] = msid_mb_est_value(r, b + lo.dof);
+        e["dof"] = finite(r, b + lo.dof);
         e["cov_known_input"] = cplx_matrix(r, b + lo.cov_ki, g, g);
-        e["dof_known_input"] = msid_mb_est_value(r, b + lo.dof_ki);
+        e["dof_known_input"] = finite(r, b + lo.dof_ki);
         e["noise_cov"] = cplx_matrix(r, b + lo.lnoise, ny, ny);
         Json snr = Json::array();
         for (uint32_t i = 0; i < ny; ++i) snr.push_back(finite_or_null(msid_mb_est_value(r, b + lo.snr + i)));
         e["snr"] = snr;
-        e["cond"] = msid_mb_est_value(r, b + lo.cond);
+        e["cond"] = finite(r, b + lo.cond);
         e["input_snr"] = finite_or_null(msid_mb_est_value(r, b + lo.usnr));
         lines.push_back(e);
     }
