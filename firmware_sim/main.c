@@ -56,6 +56,7 @@ static const char *USAGE =
     "  --never-done          (adversarial) write samples past K P and never report DONE\n"
     "  --answer-twice        (adversarial) send every reply twice\n"
     "  --index-back-at E:N   (adversarial) from sample N of experiment E report a write index 16 samples back\n"
+    "  --bad-result          (adversarial) a NaN in the on-device result block\n"
     "  --restart-at E:N, --seed, --noise-*, --plant, --truth, --report, --idle-exit: as for CAN\n";
 
 static uint64_t num_u(const char *opt, const char *v)
@@ -140,6 +141,7 @@ int main(int argc, char **argv)
         if (!strcmp(a, "--no-baud-emulation")) { o->emulate_baud = 0; continue; }
         if (!strcmp(a, "--never-done")) { o->never_done = 1; continue; }
         if (!strcmp(a, "--answer-twice")) { o->answer_twice = 1; continue; }
+        if (!strcmp(a, "--bad-result")) { o->bad_result = 1; continue; }
         if (i + 1 >= argc) { fprintf(stderr, "msid-devsim: error: unknown option or missing value: %s\n%s", a, USAGE); return 2; }
         const char *v = argv[++i];
         if (!strcmp(a, "--iface")) o->iface = v;

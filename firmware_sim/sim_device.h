@@ -45,6 +45,7 @@ typedef struct sim_opts {
     int never_done;                  /**< Modbus: keep writing past K P samples and never report DONE */
     int answer_twice;                /**< Modbus: send every reply twice */
     int back_exp; uint64_t back_at;  /**< Modbus: from sample N of experiment E report a write index 16 samples back */
+    int bad_result;                  /**< Modbus: publish a NaN in the on-device result block (line 1, G[0][0]) */
     /* on-device estimation (sim_estimate.c) */
     uint64_t est_mem;                /**< bytes the device gives the estimator (0: the default) */
 } sim_opts;

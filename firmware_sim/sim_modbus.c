@@ -8,6 +8,7 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
+#include <math.h>
 #include <modbus/modbus.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -228,6 +229,8 @@ static void solve(sim_mb *m)
         const msid_status st = sim_est_solve(&m->est);
         if (st) m->est.status = st;
         msid_mb_est_encode(m->ir + m->est_addr, &m->est_lo, &m->est.ms, st ? NULL : &m->est.f);
+        if (m->d->o.bad_result)   /* adversarial: the host must not write it */
+            msid_mb_put_f64(m->ir + m->est_addr + 4u * (m->est_lo.lines + m->est_lo.G), NAN);
         m->est_state = st ? MSID_MB_EST_STATE_ERROR : MSID_MB_EST_STATE_READY;
     }
     m->est_solved++;

@@ -117,6 +117,13 @@ def test_estimator_memory_too_small(design, tmp_path):
     assert need > 4096
 
 
+def test_non_finite_result_is_refused(design, tmp_path):
+    """An adversarial device publishes a NaN in line 1's G: one message, no file."""
+    with c.Sim(tmp_path, "--seed", 1, "--bad-result") as sim:
+        r = ondevice(tmp_path, sim, design, out="frf.json", ok=False)
+    c.fails(tmp_path, r, 1, "non-finite value")
+
+
 def test_bad_options(design, tmp_path):
     with c.Sim(tmp_path, "--seed", 1) as sim:
         r = ondevice(tmp_path, sim, design, "--detect-lines", "40", out="frf.json", ok=False)
