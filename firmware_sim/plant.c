@@ -1,7 +1,7 @@
 /* Plant definitions of the simulator: the built-in plant, a small text file
  * format, and the exact frequency response (complex Gaussian elimination). */
 #define _GNU_SOURCE
-#include "devsim.h"
+#include "sim_plant.h"
 
 #include <math.h>
 #include <stdio.h>

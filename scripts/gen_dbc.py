@@ -12,11 +12,12 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 HDR = ROOT / "daq" / "include" / "msid_daq" / "msid_can_proto.h"
+EST_HDR = ROOT / "daq" / "include" / "msid_daq" / "msid_can_est.h"   # extension estimate/1
 OUT = ROOT / "daq" / "can" / "msid.dbc"
 
 
 def constants():
-    text = HDR.read_text()
+    text = HDR.read_text() + EST_HDR.read_text()
     c = {}
     for name, val in re.findall(r"#define\s+(MSID_CAN_\w+)\s+\(?(0x[0-9A-Fa-f]+|\d+)u?\)?", text):
         c[name] = int(val, 0)
@@ -66,6 +67,25 @@ def generate(base):
     vals.append(f"VAL_ {st} state " + " ".join(f'{v} "{n}"' for v, n in states) + " ;")
     errs = sorted((v, k[len("MSID_CAN_ERR_"):].lower()) for k, v in c.items() if k.startswith("MSID_CAN_ERR_"))
     vals.append(f"VAL_ {st} error " + " ".join(f'{v} "{n}"' for v, n in errs) + " ;")
+    # extension estimate/1 (msid_can_est.h): EST_CTRL host -> device, EST device -> host
+    ectl = base + c["MSID_CAN_ID_EST_CTRL"]
+    L += [f"BO_ {ectl} MSID_EST_CTRL: 8 HOST", sig("command", 0, 8, mux="M", recv="DEVICE"),
+          sig("mode", 8, 8, mux="m1", recv="DEVICE"), sig("transient", 16, 8, mux="m1", recv="DEVICE"),
+          sig("skip_periods", 32, 16, mux="m1", recv="DEVICE"),
+          sig("word", 8, 8, mux="m2", recv="DEVICE"), sig("alpha_word", 32, 32, mux="m2", recv="DEVICE"), ""]
+    ecmds = sorted((v, k[len("MSID_CAN_EST_CMD_"):].lower()) for k, v in c.items() if k.startswith("MSID_CAN_EST_CMD_"))
+    vals.append(f"VAL_ {ectl} command " + " ".join(f'{v} "{n}"' for v, n in ecmds) + " ;")
+    est = base + c["MSID_CAN_ID_EST"]
+    L += [f"BO_ {est} MSID_EST: 8 DEVICE", sig("mux", 0, 8, mux="M"),
+          sig("est_state", 8, 8, mux="m0"), sig("mode", 16, 8, mux="m0"), sig("ext_version", 24, 8, mux="m0"),
+          sig("status", 32, 16, mux="m0"), sig("bad", 48, 16, mux="m0"),
+          sig("need_bytes", 32, 32, mux="m1"), sig("have_bytes", 32, 32, mux="m2"),
+          sig("doubles", 32, 32, mux="m3"), sig("periods", 32, 32, mux="m4"),
+          sig("index", 8, 24, mux=f"m{c['MSID_CAN_EST_MUX_LO']}"), sig("low_word", 32, 32, mux=f"m{c['MSID_CAN_EST_MUX_LO']}"),
+          sig("index", 8, 24, mux=f"m{c['MSID_CAN_EST_MUX_HI']}"), sig("high_word", 32, 32, mux=f"m{c['MSID_CAN_EST_MUX_HI']}"),
+          ""]
+    estates = sorted((v, k[len("MSID_CAN_EST_STATE_"):].lower()) for k, v in c.items() if k.startswith("MSID_CAN_EST_STATE_"))
+    vals.append(f"VAL_ {est} est_state " + " ".join(f'{v} "{n}"' for v, n in estates) + " ;")
     fmts = [("S16", "MSID_CAN_ID_S16", 16, 8, 2, 16), ("F32", "MSID_CAN_ID_F32", 32, 8, 1, 32),
             ("FD_S16", "MSID_CAN_ID_FD_S16", 2, 64, 30, 16), ("FD_F32", "MSID_CAN_ID_FD_F32", 3, 64, 15, 32)]
     for tag, key, chunks, length, per, bits in fmts:

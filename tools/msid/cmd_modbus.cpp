@@ -42,7 +42,10 @@ static const char *HELP =
     "  --retries N             attempts after the first (default 5; backoff 20 ms doubling, reconnect on timeout)\n"
     "  --max-regs N            registers per read, 1..125 (default 125)\n"
     "  --timeout S             give up when no new sample arrives this long (default 10)\n"
-    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,.., --dft auto|stream|fft: as in msid frf\n"
+    "  --on-device             the device estimates (msid-modbus/1 extension estimate/1): no sample stream, the\n"
+    "                          host reads each line's G, covariances and dof; --stream-check FILE: the device also\n"
+    "                          streams, FILE gets the host's FRF and both must agree bit for bit\n";
 
 static double secs_since(const timespec &t0)
 {
@@ -171,10 +174,11 @@ static Json acquisition_json(const Link &L, const msid_mb_client &cl, const msid
 
 static int cmd_measure(int argc, char **argv)
 {
+    for (int i = 3; i < argc; ++i) if (!std::strcmp(argv[i], "--on-device")) return cmd_modbus_ondevice(argc, argv);
     Args a(argc, argv, 3,
            {"tcp", "rtu", "baud", "parity", "data-bits", "stop-bits", "unit", "design", "periods", "rate", "encoding",
             "word-order", "scale", "response-timeout", "byte-timeout", "retries", "max-regs", "timeout",
-            "skip-periods", "transient", "alpha", "detect-lines", "output"},
+            "skip-periods", "transient", "alpha", "detect-lines", "dft", "output"},
            {});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     const std::string out = a.require("output");

@@ -75,6 +75,13 @@ void parse_estimate_options(const Args &a, FrfRequest &rq)
         rq.alpha = parse_double(a.get("alpha"), "--alpha");
         if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
     }
+    if (a.has("dft")) {   // line DFT path, for commands that list --dft (a device estimates on the stream path)
+        const std::string dp = a.get("dft");
+        if (dp == "auto") rq.path = MSID_DFT_AUTO;
+        else if (dp == "stream") rq.path = MSID_DFT_STREAM;
+        else if (dp == "fft") rq.path = MSID_DFT_FFT;
+        else throw UsageError("--dft must be auto, stream or fft (got '" + dp + "')");
+    }
 }
 
 void request_from_core_design(FrfRequest &rq, const msid_design &d)
