@@ -322,7 +322,7 @@ int cmd_modbus_ondevice(int argc, char **argv)
         if (msid_mb_upload(&dev.cl, enc, wo, reinterpret_cast<const uint8_t(*)[8]>(rec.data()), nf) < 0)
             throw Error(fmt("design upload to %s failed: %s", dev.name.c_str(), dev.cl.err));
         if (h.state == MSID_MB_STATE_ERROR)
-            throw Error(fmt("the device refused the configuration: %s%s", device_error(h.error),
+            throw Error(fmt("the device refused the configuration: %s%s", msid_can_device_error_name(h.error),
                             h.error == MSID_CAN_ERR_DESIGN ? (std::string(" (") + msid_strerror((msid_status)h.detail) + ")").c_str() : ""));
         if (h.state != MSID_MB_STATE_CONFIGURED) throw Error(fmt("the device did not confirm the configuration (state %u)", h.state));
         if (h.crc != crc) throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", h.crc, crc));
@@ -333,7 +333,7 @@ int cmd_modbus_ondevice(int argc, char **argv)
             if (msid_mb_command(&dev.cl, MSID_MB_CMD_START, e, sf.periods) < 0)
                 throw Error(fmt("experiment %u on %s: %s", e + 1, dev.name.c_str(), dev.cl.err));
             if (h.state == MSID_MB_STATE_ERROR)
-                throw Error(fmt("experiment %u on %s: the device refused START: %s", e + 1, dev.name.c_str(), device_error(h.error)));
+                throw Error(fmt("experiment %u on %s: the device refused START: %s", e + 1, dev.name.c_str(), msid_can_device_error_name(h.error)));
             timespec last;
             clock_gettime(CLOCK_MONOTONIC, &last);
             uint32_t wi = h.write_index;
@@ -342,7 +342,7 @@ int cmd_modbus_ondevice(int argc, char **argv)
                 if (msid_mb_read_header(&dev.cl) < 0)
                     throw Error(fmt("experiment %u on %s: %s", e + 1, dev.name.c_str(), dev.cl.err));
                 if (h.state == MSID_MB_STATE_ERROR)
-                    throw Error(fmt("experiment %u on %s: %s", e + 1, dev.name.c_str(), device_error(h.error)));
+                    throw Error(fmt("experiment %u on %s: %s", e + 1, dev.name.c_str(), msid_can_device_error_name(h.error)));
                 if (h.state != MSID_MB_STATE_RUNNING && h.state != MSID_MB_STATE_DONE)
                     throw Error(fmt("experiment %u on %s: the device left the run (state %u)", e + 1, dev.name.c_str(), h.state));
                 if (h.write_index != wi) {
