@@ -301,6 +301,11 @@ CissimResult cissim_fit(const std::vector<IspResult> &isp, const CissimOptions &
     m.C = O.topRows(ny);
     const MatR Oup = O.topRows(ny * (nbar - 1)), Odn = O.bottomRows(ny * (nbar - 1));
     m.A = Oup.completeOrthogonalDecomposition().solve(Odn);
+    if (o.stable && !ss_stable(m)) {
+        m.B = MatR::Zero(n, nu);
+        m.D = MatR::Zero(ny, nu);
+        res.reflected = ss_reflect_unstable(m);
+    }
     cissim_BD(m, isp, o.estimate_D);
     return res;
 }

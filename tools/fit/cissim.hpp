@@ -61,6 +61,9 @@ struct CissimOptions {
     // The published Alg. 4 (false) takes it as a multiple of I, true for the full set of lines but
     // not for a reduced set in a band, where it biases A and C for a finite record.
     bool weighted = true;
+    // Assumption 1 (A Schur): reflect poles of A-hat outside the unit circle into it (1/conj p) before
+    // Alg. 5, as `subspace --stable`. A spurious unstable pole outside the band is otherwise possible.
+    bool stable = true;
 };
 
 struct CissimResult {
@@ -70,6 +73,7 @@ struct CissimResult {
     std::vector<double> sv;       // singular values of R22 (Alg. 4 step 4)
     size_t lines = 0;             // q per experiment
     size_t real_columns = 0;      // columns of the stacked real ISP matrices (all experiments)
+    int reflected = 0;            // poles reflected into the unit circle (options.stable)
 };
 
 // Alg. 4 + 5 on the ISP results of one or more experiments (same period and lines).

@@ -457,6 +457,8 @@ void bench_process(const std::string &dir)
 static int bench_fit(int argc, char **argv)
 {
     for (int i = 3; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--cissim")) return cmd_bench_cissim(argc, argv);
+    for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) {
             std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"
                        "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"

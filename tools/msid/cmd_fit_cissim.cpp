@@ -38,6 +38,7 @@ static const char *CISSIM_HELP =
     "  --lags M         correlation lags of the noise covariance (default max(ceil(n^2/ny^2) + 1, N^(1/3)), <= 50)\n"
     "  --unweighted     the published Alg. 4 (no whitening of R22 by the noise of the block rows; biased\n"
     "                   for a reduced set of lines in a band at finite N)\n"
+    "  --allow-unstable keep poles of A outside the unit circle (default: reflected, Assumption 1)\n"
     "  --no-covariance  skip Sigma_ww, Sigma_vv, Sigma_tt (section 4.3, Alg. 6-7)\n";
 
 bool cissim_requested(int argc, char **argv)
@@ -56,7 +57,7 @@ int cmd_fit_cissim(int argc, char **argv)
     Args a(argc, argv, 2,
            {"method", "period", "lines", "order", "block-rows", "max-order", "skip-periods", "isp", "lags", "columns",
             "output"},
-           {"reduced", "no-d", "no-covariance", "unweighted"}, {"experiment"});
+           {"reduced", "no-d", "no-covariance", "unweighted", "allow-unstable"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
     const uint32_t P = parse_u32(a.require("period"), "--period");
@@ -78,6 +79,7 @@ int cmd_fit_cissim(int argc, char **argv)
     if (a.has("block-rows")) o.block_rows = (int)parse_u32(a.get("block-rows"), "--block-rows");
     o.estimate_D = !a.has("no-d");
     o.weighted = !a.has("unweighted");
+    o.stable = !a.has("allow-unstable");
     const uint32_t skip = a.has("skip-periods") ? parse_u32(a.get("skip-periods"), "--skip-periods") : 1;
     const std::string im = a.get("isp", "auto");
     IspMethod method = IspMethod::Auto;
@@ -153,7 +155,7 @@ int cmd_fit_cissim(int argc, char **argv)
         {
             Json sj;
             sj["stable"] = ss_stable(ss);
-            sj["enforced"] = false;
+            sj["enforced"] = o.stable;
             double worst = 0;
             Eigen::EigenSolver<MatR> es(ss.A, false);
             for (Eigen::Index k = 0; k < ss.A.rows(); ++k) worst = std::max(worst, std::abs(es.eigenvalues()(k)));
@@ -166,6 +168,7 @@ int cmd_fit_cissim(int argc, char **argv)
         cj["singular_values"] = res.sv;
         cj["lines_per_experiment"] = res.lines;
         cj["real_columns"] = res.real_columns;
+        cj["reflected_poles"] = res.reflected;
         // noise covariance (section 4.3) on the full set, from the first experiment's residuals
         NoiseCov nc;
         bool have_nc = false;

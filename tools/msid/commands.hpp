@@ -18,6 +18,7 @@ int cmd_fit_scan(int argc, char **argv);
 // cmd_fit_cissim.cpp: msid fit --method cissim (time records, You et al. 2023)
 bool cissim_requested(int argc, char **argv);
 int cmd_fit_cissim(int argc, char **argv);
+int cmd_bench_cissim(int argc, char **argv);   // msid bench fit --cissim
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
