@@ -325,17 +325,7 @@ static void y2_trend(void **state)
     for (uint32_t K : Ks) {
         CovErrors acc;
         for (int rep = 0; rep < R; ++rep) {
-            msid_rng r;
-            msid_rng_seed(&r, 600 + 17 * rep);
-            const CissimRecord rec = y2_record(T, K + 1, r);
-            std::vector<uint32_t> full;
-            for (uint32_t b = 0; b < T / 2; ++b) full.push_back(b);
-            CissimOptions o;
-            o.order = 2;
-            const SSModel m = cissim_fit({cissim_isp(rec.rows.data(), rec.n_rows, 1, 2, T, full, 1)}, o).model;
-            const int M = std::max(5, std::min(50, (int)std::lround(std::cbrt((double)K * T))));
-            const NoiseCov nc = cissim_noise_cov(m, cissim_correlations(rec.rows.data(), rec.n_rows, 1, 2, T, 1, M));
-            const CovErrors e = y2_errors(m, nc);
+            const CovErrors e = y2_run(T, K, 600 + 17 * (uint64_t)rep);
             acc.w += e.w / R, acc.v += e.v / R, acc.tau += e.tau / R, acc.r += e.r / R;
         }
         std::printf("Y2: N = %6u: eta_w %.4f, eta_v %.4f, eta_tau %.4f, eta_r (r = 10) %.4f  (mean of %d runs)\n", K * T,

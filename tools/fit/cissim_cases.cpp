@@ -7,6 +7,7 @@ extern "C" {
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -175,6 +176,23 @@ CovErrors y2_errors(const SSModel &est, const NoiseCov &nc, int r)
     const auto Xe = model_correlations(est, nc.Sigma_ww, nc.Sigma_vv, r);
     for (int j = 0; j <= r; ++j) e.r += (Xe[(size_t)j] - Xt[(size_t)j]).norm() / Xt[(size_t)j].norm();
     return e;
+}
+
+CovErrors y2_run(uint32_t T, uint32_t K, uint64_t seed, double *seconds)
+{
+    msid_rng r;
+    msid_rng_seed(&r, seed);
+    const CissimRecord rec = y2_record(T, K + 1, r);
+    std::vector<uint32_t> full;
+    for (uint32_t b = 0; 2 * b < T; ++b) full.push_back(b);
+    CissimOptions o;
+    o.order = 2;
+    const auto t0 = std::chrono::steady_clock::now();
+    const SSModel m = cissim_fit({cissim_isp(rec.rows.data(), rec.n_rows, 1, 2, T, full, 1)}, o).model;
+    const int M = std::max(5, std::min(50, (int)std::lround(std::cbrt((double)K * T))));
+    const NoiseCov nc = cissim_noise_cov(m, cissim_correlations(rec.rows.data(), rec.n_rows, 1, 2, T, 1, M));
+    if (seconds) *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return y2_errors(m, nc);
 }
 
 namespace {

@@ -40,6 +40,9 @@ struct CovErrors {
     double w = 0, v = 0, tau = 0, r = 0;
 };
 CovErrors y2_errors(const SSModel &est, const NoiseCov &nc, int r = 10);
+// One Y2 estimate: a record of K + 1 periods (the first skipped), order 2 on the full set,
+// M = clamp(round(N^(1/3)), 5, 50) lags; `seconds` gets the estimation time (ISP to covariances).
+CovErrors y2_run(uint32_t T, uint32_t K, uint64_t seed, double *seconds = nullptr);
 // Xi_rr^j implied by (A, C, Sigma_ww, Sigma_vv) through (23)-(24).
 std::vector<MatR> model_correlations(const SSModel &m, const MatR &Sww, const MatR &Svv, int lags);
 
