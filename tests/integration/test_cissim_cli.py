@@ -72,3 +72,37 @@ def test_cissim_bad_input(tmp_path):
     bad(tmp_path, "--period", T, "--lines", "5,6", "--reduced", "--experiment", e, "--order", 4,
         want="do not identify order 4")
     bad(tmp_path, "--period", T, "--lines", "250", "--experiment", e, want="not below P/2")
+
+
+def test_cissim_noise_covariance_y2(tmp_path):
+    """Case Y2 through the CLI (1 input, 2 outputs, strongly detectable): Sigma_vv and Sigma_tt
+    within 20% of the truth at N = 60 000, the basis-free ones; Sigma_ww is basis dependent."""
+    rng = np.random.default_rng(7)
+    T2, K = 600, 101
+    A = np.diag([0.8, 0.2])
+    Bv = np.array([1.0, 1.0])
+    C = np.array([[1.0, 0.0], [1.0, 1.0]])
+    sw, sv, st = np.array([2.30e-3, 0.16e-3]), np.array([2.30e-3, 3.64e-3]), 0.11e-3
+    u1 = rng.standard_normal(T2)
+    N = T2 * K
+    u = np.tile(u1, K)
+    w = rng.standard_normal((N, 2)) * np.sqrt(sw)
+    x = np.zeros(2)
+    X = np.zeros((N, 2))
+    for k in range(N):
+        X[k] = x
+        x = A @ x + Bv * u[k] + w[k]
+    y = X @ C.T + rng.standard_normal((N, 2)) * np.sqrt(sv)
+    um = u + rng.standard_normal(N) * np.sqrt(st)
+    p = tmp_path / "y2.npy"
+    np.save(p, np.c_[um, y])
+    out = tmp_path / "y2.json"
+    run_ok("fit", "--method", "cissim", "--period", T2, "--lines", "1:299", "--experiment", p,
+           "--columns", "u1=1,y1=2,y2=3", "--order", 2, "-o", out)
+    nc = load_json(out)["noise_covariance"]
+    assert nc["strongly_detectable"] is True and nc["nominal"] is False
+    Svv = np.array(nc["Sigma_vv"])
+    Stt = np.array(nc["Sigma_tt"])
+    assert np.linalg.norm(Svv - np.diag(sv)) / np.linalg.norm(np.diag(sv)) < 0.2
+    assert abs(Stt[0, 0] - st) / st < 0.2
+    assert np.all(np.linalg.eigvalsh(np.array(nc["Sigma_ww"])) > -1e-12)
