@@ -266,7 +266,8 @@ CissimResult cissim_fit(const std::vector<IspResult> &isp, const CissimOptions &
         MatR Cn = MatR::Zero(nY, nY);
         for (const auto &r : isp)
             for (uint32_t b : r.bins) {
-                const double th = 2.0 * M_PI * (double)b / T, c = b == 0 ? 0.5 : 1.0;
+                // E|P_r|^2 = 4 Sigma_v / (K T) per phasor: whitened noise singular values ~ 1
+                const double th = 2.0 * M_PI * (double)b / T, c = (b == 0 ? 0.5 : 1.0) * 4.0 / ((double)r.periods * T);
                 for (int j = 0; j < nbar; ++j)
                     for (int k = 0; k < nbar; ++k)
                         Cn.block((Eigen::Index)j * ny, (Eigen::Index)k * ny, ny, ny) += c * std::cos((j - k) * th) * Sv;
@@ -281,6 +282,14 @@ CissimResult cissim_fit(const std::vector<IspResult> &isp, const CissimOptions &
     const VecR sv = svd.singularValues();
     res.sv.assign(sv.data(), sv.data() + sv.size());
     int n = o.order;
+    if (n <= 0 && Lw.size()) {
+        // whitened: the noise singular values are ~1 (Marchenko-Pastur edge 1 + sqrt(nY / s)); the order
+        // is the count above 1 + 4 sqrt(nY / (s - nU)) when some singular value is below (a noise floor)
+        const double tau = 1.0 + 4.0 * std::sqrt((double)nY / std::max<double>(1.0, (double)(s - nU)));
+        int above = 0;
+        for (Eigen::Index k = 0; k < sv.size(); ++k) above += sv(k) > tau;
+        if (above < (int)sv.size() && above >= 1) n = std::min(above, o.max_order);
+    }
     if (n <= 0) {
         // Remark 3: the rank of R22 by its largest singular-value gap among 1..max_order
         double best = -1;
