@@ -459,6 +459,8 @@ static int bench_fit(int argc, char **argv)
     for (int i = 3; i + 1 < argc; ++i)   // --only multi: cmd_bench_multi.cpp
         if (!std::strcmp(argv[i], "--only") && !std::strcmp(argv[i + 1], "multi")) return cmd_bench_fit_multi(argc, argv);
     for (int i = 3; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--cissim")) return cmd_bench_cissim(argc, argv);
+    for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) {
             std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"
                        "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"

@@ -230,6 +230,7 @@ static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC
 int cmd_fit(int argc, char **argv)
 {
     if (fit_method_is(argc, argv, "multi")) return cmd_fit_multi(argc, argv);   // cmd_fit_multi.cpp
+    if (cissim_requested(argc, argv)) return cmd_fit_cissim(argc, argv);
     for (int i = 2; i < argc; ++i)
         if (!std::strcmp(argv[i], "--help")) { std::fputs(FIT_HELP, stdout); return 0; }
     if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)

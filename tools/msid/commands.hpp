@@ -16,6 +16,10 @@ int cmd_modes(int argc, char **argv);
 // cmd_fit_modal.cpp: --order auto|a:b scan, modal parameters of a model document
 bool fit_order_is_scan(int argc, char **argv);
 int cmd_fit_scan(int argc, char **argv);
+// cmd_fit_cissim.cpp: msid fit --method cissim (time records, You et al. 2023)
+bool cissim_requested(int argc, char **argv);
+int cmd_fit_cissim(int argc, char **argv);
+int cmd_bench_cissim(int argc, char **argv);   // msid bench fit --cissim
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);

@@ -22,6 +22,7 @@
 #include "msid_meas.h"
 #include "msid_frf.h"
 #include "msid_plant.h"
+#include "msid_cissim.h"
 
 /** Library version string. */
 #define MSID_VERSION "0.1.0"

@@ -1,0 +1,225 @@
+// Discrete-cISSIM noise covariance (You et al. 2023 section 4.3): residual
+// correlations (Alg. 6, eq. 32-33), Xi_zz by autocovariance least squares (35)
+// under the PSD constraints of (36) with a small ADMM solver, covariances (Alg. 7).
+#include "cissim.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <unsupported/Eigen/FFT>
+#include <algorithm>
+#include <cmath>
+
+namespace msidfit {
+
+// Residuals of the full frequency set: every sample minus the mean of its phase over the K
+// periods used (the LS fit of all T periodic components, Assumption 6). Column-major N x C.
+static MatR residuals(const double *rows, size_t n_rows, uint32_t C, uint32_t T, uint32_t skip, uint64_t &K)
+{
+    const uint64_t total = n_rows / T;
+    if (total < skip + 2)
+        throw FitError("the noise covariance needs at least 2 whole periods after the skipped ones (the record has " +
+                       std::to_string(total) + " of " + std::to_string(T) + " samples)");
+    K = total - skip;
+    const size_t N = (size_t)K * T;
+    const double *base = rows + (size_t)skip * T * C;
+    MatR mean = MatR::Zero(T, C);
+    for (size_t k = 0; k < N; ++k)
+        for (uint32_t j = 0; j < C; ++j) mean(k % T, j) += base[k * C + j];
+    mean /= (double)K;
+    MatR r(N, C);
+    for (size_t k = 0; k < N; ++k)
+        for (uint32_t j = 0; j < C; ++j) r(k, j) = base[k * C + j] - mean(k % T, j);
+    return r;
+}
+
+static size_t fast_len(size_t n)
+{
+    for (size_t L = n;; ++L) {
+        size_t x = L;
+        for (size_t f : {2, 3, 5})
+            while (x % f == 0) x /= f;
+        if (x == 1) return L;
+    }
+}
+
+Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
+                                 uint32_t skip, int M)
+{
+    const uint32_t C = nu + ny;
+    Correlations c;
+    const MatR r = residuals(rows, n_rows, C, T, skip, c.periods);
+    const size_t N = (size_t)r.rows();
+    c.n = N;
+    if (M < 1 || (size_t)M >= N) throw FitError("the number of correlation lags must be in [1, N)");
+    // Alg. 6: spectra of the residuals (zero padded to L >= N + M so that the products give the
+    // linear correlations of (32), not circular ones), cross-spectra, inverse transforms
+    const size_t L = fast_len(N + (size_t)M);
+    Eigen::FFT<double> fft;
+    std::vector<std::vector<cd>> X(C);
+    std::vector<double> x(L, 0.0);
+    for (uint32_t j = 0; j < C; ++j) {
+        for (size_t k = 0; k < N; ++k) x[k] = r(k, j);
+        fft.fwd(X[j], x);
+    }
+    c.Xi_rr.assign((size_t)M, MatR::Zero(ny, ny));
+    std::vector<cd> S(L);
+    std::vector<cd> s;
+    for (uint32_t i = 0; i < ny; ++i)
+        for (uint32_t j = i; j < ny; ++j) {
+            const auto &a = X[nu + i], &b = X[nu + j];
+            for (size_t f = 0; f < L; ++f) S[f] = a[f] * std::conj(b[f]);
+            fft.inv(s, S);   // s[l] = sum_k r_i(k + l) r_j(k); s[L - l] = sum_k r_j(k + l) r_i(k)
+            for (int l = 0; l < M; ++l) {
+                c.Xi_rr[(size_t)l](i, j) = s[(size_t)l].real() / (double)(N - (size_t)l);
+                c.Xi_rr[(size_t)l](j, i) = s[(L - (size_t)l) % L].real() / (double)(N - (size_t)l);
+            }
+        }
+    // eq. (33) by Parseval: sum_k tau_i tau_j = (1/L) sum_f T_i conj(T_j)
+    c.Xi_tt = MatR(nu, nu);
+    for (uint32_t i = 0; i < nu; ++i)
+        for (uint32_t j = 0; j < nu; ++j) {
+            cd acc = 0;
+            for (size_t f = 0; f < L; ++f) acc += X[i][f] * std::conj(X[j][f]);
+            c.Xi_tt(i, j) = acc.real() / (double)L / (double)N;
+        }
+    return c;
+}
+
+Correlations cissim_correlations_time(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
+                                      uint32_t skip, int M)
+{
+    const uint32_t C = nu + ny;
+    Correlations c;
+    const MatR r = residuals(rows, n_rows, C, T, skip, c.periods);
+    const size_t N = (size_t)r.rows();
+    c.n = N;
+    if (M < 1 || (size_t)M >= N) throw FitError("the number of correlation lags must be in [1, N)");
+    c.Xi_rr.assign((size_t)M, MatR::Zero(ny, ny));
+    for (int l = 0; l < M; ++l) {
+        MatR acc = MatR::Zero(ny, ny);
+        for (size_t k = 0; k + (size_t)l < N; ++k)
+            acc += r.row(k + (size_t)l).tail(ny).transpose() * r.row(k).tail(ny);   // (32)
+        c.Xi_rr[(size_t)l] = acc / (double)(N - (size_t)l);
+    }
+    c.Xi_tt = r.leftCols(nu).transpose() * r.leftCols(nu) / (double)N;   // (33)
+    return c;
+}
+
+static MatR psd_part(const MatR &X)
+{
+    const MatR S = 0.5 * (X + X.transpose());
+    Eigen::SelfAdjointEigenSolver<MatR> es(S);
+    return es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+}
+
+VecR lmi_least_squares(const LmiLs &p, int &iterations, double &primal_residual, int max_iter, double tol)
+{
+    // rho from the scales of the two parts (the data are often ~1e-3 and the constraints ~1)
+    double gsc = 0;
+    for (const auto &G : p.G) gsc += G.squaredNorm();
+    const double rho = std::max(p.F.squaredNorm(), 1e-300) / std::max(gsc, 1e-300);
+    MatR Q = 2.0 * p.F.transpose() * p.F;
+    for (const auto &G : p.G) Q += rho * G.transpose() * G;
+    const Eigen::LDLT<MatR> ldlt(Q);
+    const VecR Ftg = 2.0 * p.F.transpose() * p.g;
+    const size_t k = p.G.size();
+    std::vector<VecR> Z(k), U(k);
+    VecR x = ldlt.solve(Ftg);
+    for (size_t i = 0; i < k; ++i) {
+        Z[i] = p.G[i] * x + p.h[i];
+        U[i] = VecR::Zero(Z[i].size());
+    }
+    double scale = 0;
+    for (size_t i = 0; i < k; ++i) scale = std::max(scale, (p.G[i] * x + p.h[i]).norm());
+    scale = std::max(scale, 1e-300);
+    iterations = 0;
+    primal_residual = 0;
+    for (int it = 0; it < max_iter; ++it) {
+        VecR rhs = Ftg;
+        for (size_t i = 0; i < k; ++i) rhs += rho * p.G[i].transpose() * (Z[i] - p.h[i] - U[i]);
+        x = ldlt.solve(rhs);
+        double pr = 0, du = 0;
+        for (size_t i = 0; i < k; ++i) {
+            const VecR v = p.G[i] * x + p.h[i];
+            const Eigen::Index d = (Eigen::Index)std::lround(std::sqrt((double)v.size()));
+            const VecR zo = Z[i];
+            const MatR P = psd_part(Eigen::Map<const MatR>(VecR(v + U[i]).data(), d, d));
+            Z[i] = Eigen::Map<const VecR>(P.data(), P.size());
+            U[i] += v - Z[i];
+            pr = std::max(pr, (v - Z[i]).norm());
+            du = std::max(du, (Z[i] - zo).norm());
+        }
+        iterations = it + 1;
+        primal_residual = pr;
+        if (pr < tol * scale && du < tol * scale) break;
+    }
+    return x;
+}
+
+NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &cr)
+{
+    NoiseCov out;
+    const Eigen::Index n = m.A.rows(), ny = m.C.rows();
+    const int M = (int)cr.Xi_rr.size();
+    out.lags = M;
+    if (M < 2) throw FitError("the covariance needs at least 2 correlation lags");
+    // dof correction of the periodic-mean projection
+    const double kc = cr.periods > 1 ? (double)cr.periods / (double)(cr.periods - 1) : 1.0;
+    std::vector<MatR> Xi(cr.Xi_rr);
+    for (auto &X : Xi) X *= kc;
+    // Assumption 7 (strong detectability)
+    Eigen::FullPivLU<MatR> luA(m.A), luC(m.C);
+    const bool nonsingular = luA.rank() == n;
+    const bool fullcol = luC.rank() == n;
+    out.detectable = nonsingular && fullcol;
+    if (!out.detectable)
+        out.note = std::string("strong detectability (Assumption 7) fails: ") +
+                   (!fullcol ? "C has rank " + std::to_string(luC.rank()) + " < n = " + std::to_string(n) : "A is singular") +
+                   "; (35) is underdetermined, Sigma_ww and Sigma_vv are a nominal solution that reproduces the output "
+                   "correlations (Remark 5), not the true covariances; Sigma_tt is unaffected";
+    // unknowns: vech(Xi_zz), basis E_a symmetric
+    const Eigen::Index nx = n * (n + 1) / 2;
+    std::vector<MatR> E;
+    for (Eigen::Index j = 0; j < n; ++j)
+        for (Eigen::Index i = j; i < n; ++i) {
+            MatR e = MatR::Zero(n, n);
+            e(i, j) = e(j, i) = 1.0;
+            E.push_back(e);
+        }
+    LmiLs p;
+    const Eigen::Index pp = ny * ny;
+    p.F = MatR::Zero((M - 1) * pp, nx);
+    p.g = VecR((M - 1) * pp);
+    MatR CAl = m.C;
+    for (int l = 1; l < M; ++l) {
+        CAl = CAl * m.A;   // C A^l: eq. (34) vec(Xi_rr^l) = (C kron C A^l) vec(Xi_zz)
+        for (Eigen::Index a = 0; a < nx; ++a) {
+            const MatR v = CAl * E[(size_t)a] * m.C.transpose();
+            p.F.block((l - 1) * pp, a, pp, 1) = Eigen::Map<const VecR>(v.data(), pp);
+        }
+        p.g.segment((l - 1) * pp, pp) = Eigen::Map<const VecR>(Xi[(size_t)l].data(), pp);
+    }
+    // (36): Xi >= 0, Xi - A Xi A^T >= 0, Xi_rr^0 - C Xi C^T >= 0
+    MatR G1(n * n, nx), G2(n * n, nx), G3(pp, nx);
+    for (Eigen::Index a = 0; a < nx; ++a) {
+        const MatR &e = E[(size_t)a];
+        const MatR e2 = e - m.A * e * m.A.transpose(), e3 = -(m.C * e * m.C.transpose());
+        G1.col(a) = Eigen::Map<const VecR>(e.data(), n * n);
+        G2.col(a) = Eigen::Map<const VecR>(e2.data(), n * n);
+        G3.col(a) = Eigen::Map<const VecR>(e3.data(), pp);
+    }
+    const MatR X0 = 0.5 * (Xi[0] + Xi[0].transpose());
+    p.G = {G1, G2, G3};
+    p.h = {VecR::Zero(n * n), VecR::Zero(n * n), Eigen::Map<const VecR>(X0.data(), pp)};
+    const VecR x = lmi_least_squares(p, out.iterations, out.primal_residual);
+    MatR Xz = MatR::Zero(n, n);
+    for (Eigen::Index a = 0; a < nx; ++a) Xz += x(a) * E[(size_t)a];
+    out.Xi_zz = Xz;
+    out.fit_residual = p.g.norm() > 0 ? (p.F * x - p.g).norm() / p.g.norm() : 0.0;
+    out.Sigma_ww = Xz - m.A * Xz * m.A.transpose();
+    out.Sigma_vv = X0 - m.C * Xz * m.C.transpose();
+    out.Sigma_tt = cr.Xi_tt * kc;
+    return out;
+}
+
+}  // namespace msidfit
