@@ -83,8 +83,26 @@ struct MbLink {
     ~MbLink() { if (open) m.tr.be->close(m.tr.ctx); }
 };
 
+// Registers per second the link carries: RTU from the baud rate and framing, TCP measured with
+// 0.1 s of full reads of the ring (sizes the poll batches; reported as link_reg_rate).
+static double link_reg_rate(const DeviceUri &dev, msid_mb_client &cl, uint32_t max_regs)
+{
+    if (dev.kind == DeviceUri::MODBUS_RTU)
+        return msid_mb_rtu_reg_rate(dev.baud, 1u + dev.data_bits + (dev.parity != 'N') + dev.stop_bits, max_regs);
+    std::vector<uint16_t> buf(max_regs);
+    const double t0 = now_s();
+    uint64_t regs = 0;
+    double el = 0;
+    while ((el = now_s() - t0) < 0.1) {
+        if (msid_mb_call(&cl, MSID_MB_READ_INPUT, MSID_MB_RING_ADDR, max_regs, buf.data()) < 0)
+            throw Error(std::string("measuring the link: ") + cl.err);
+        regs += max_regs;
+    }
+    return (double)regs / el;
+}
+
 static Json acquisition_json(const DeviceUri &dev, const msid_mb_client &cl, const msid_mb_acq &q,
-                             const StreamFmt &sf, uint32_t crc, double stream_s)
+                             const StreamFmt &sf, uint32_t crc, double lrate, double stream_s)
 {
     const msid_mb_link_counters &k = cl.cnt;
     Json j;
@@ -94,6 +112,9 @@ static Json acquisition_json(const DeviceUri &dev, const msid_mb_client &cl, con
     j["unit"] = dev.unit;
     j["protocol"] = fmt("msid-modbus/%u", MSID_MB_PROTO_VERSION);
     j["encoding"] = msid_mb_encoding_name(MSID_MB_ENC_S16);
+    j["word_order"] = msid_mb_word_order_name(0);
+    j["link_reg_rate"] = lrate;
+    j["link_reg_rate_measured"] = dev.kind == DeviceUri::MODBUS_TCP;
     j["scale"] = (double)sf.scale;
     j["rate_hz"] = sf.rate;
     j["config_crc"] = crc;
@@ -155,14 +176,11 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
     const uint32_t nu = h.nu, ny = h.ny, m = d.n_experiments, C = nu + ny, max_regs = 125;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS || C > MSID_MAX_CHANNELS) throw Error(fmt("the device reports %u outputs", ny));
     const uint32_t W = msid_mb_sample_regs(MSID_MB_ENC_S16, C);
-    if (dev.kind == DeviceUri::MODBUS_RTU && P.sf.rate > 0) {
-        const uint32_t bits = 1u + dev.data_bits + (dev.parity != 'N') + dev.stop_bits;
-        const double lrate = msid_mb_rtu_reg_rate(dev.baud, bits, max_regs);
-        if ((double)P.sf.rate * W > 0.8 * lrate)
-            throw Error(fmt("the link cannot carry %u channels at %u Hz: %.0f registers/s but %s carries about %.0f "
-                            "registers/s at %u baud (80%% is usable); lower --rate",
-                            C, P.sf.rate, (double)P.sf.rate * W, where.c_str(), lrate, dev.baud));
-    }
+    const double lrate = link_reg_rate(dev, cl, max_regs);
+    if (P.sf.rate > 0 && (double)P.sf.rate * W > 0.8 * lrate)
+        throw Error(fmt("the link cannot carry %u channels at %u Hz: %.0f registers/s but %s carries about %.0f "
+                        "registers/s (80%% is usable); lower --rate",
+                        C, P.sf.rate, (double)P.sf.rate * W, where.c_str(), lrate));
 
     // 2. upload the design as parameters (param_upload.hpp)
     auto cfg = config_from_design(*P.D, P.sf);
@@ -182,7 +200,8 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
     msid_mb_acq_cfg qc{};
     qc.client = &cl;
     qc.max_regs = max_regs;
-    qc.batch = dev.kind == DeviceUri::MODBUS_TCP ? 16 : 1;
+    const double per_poll = lrate * 0.02 / max_regs;   // about 20 ms of link time per poll
+    qc.batch = per_poll < 1 ? 1u : per_poll > 64 ? 64u : (uint32_t)per_poll;
     qc.n_inputs = nu;
     qc.n_outputs = ny;
     qc.encoding = MSID_MB_ENC_S16;
@@ -288,7 +307,8 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
         for (uint32_t e = 0; e < m; ++e) periods += msid_pstats_get_counts(msid_meas_stats(ms, e)).offered;
         throw Error(fmt("%s after %llu complete period(s): %s, and the FRF needs at least 2 of every experiment "
                         "(%u): nothing written",
-                        why.c_str(), (unsigned long long)periods, short_of.c_str(), m));
+                        why.c_str(), (unsigned long long)periods, short_of.c_str(), m),
+                    128 + measure_stop_signal());
     }
     std::vector<std::string> notes;
     if (q.cnt.overrun_samples)
@@ -303,7 +323,7 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
     if (stopped) notes.push_back(why + ": the FRF uses the complete periods acquired before the stop");
     MeasureResult R;
     R.o = job.finish(src, notes);
-    R.o.doc["acquisition"] = acquisition_json(dev, cl, q, P.sf, crc, stream_s);
+    R.o.doc["acquisition"] = acquisition_json(dev, cl, q, P.sf, crc, lrate, stream_s);
     R.complete = !stopped;
     mark_completeness(R.o.doc, R.complete, done, m, why);
     R.summary = fmt("%zu lines, %u x %u, %u of %u experiment(s) over %s, %llu samples, %llu missing, %llu periods used, "

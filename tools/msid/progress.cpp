@@ -52,6 +52,11 @@ void Progress::update(const ProgressState &s)
         std::fprintf(out_, "\r%s\033[K", format(s).c_str());
         live_ = true;
     } else if (event) {
+        // every acquired period is an event of its own, also when one poll brought several
+        ProgressState k = s;
+        const bool same = have_last_ && s.exp == last_.exp;
+        for (k.periods = same && s.periods > last_.periods ? last_.periods + 1 : s.periods; k.periods < s.periods; ++k.periods)
+            std::fprintf(out_, "msid measure: %s\n", format(k).c_str());
         std::fprintf(out_, "msid measure: %s\n", format(s).c_str());
     }
     std::fflush(out_);
