@@ -99,6 +99,21 @@ def test_measure_tcp_writes_covering_frf_and_model(tmp_path):
     assert frf_equal(mine, json.loads((peer / "frf.json").read_text()))
 
 
+def test_measure_rtu_uri(tmp_path):
+    """modbus-rtu:///dev/pts/N?baud=115200 on a socat pty pair (the simulator emulates the wire time):
+    the FRF covers the truth and records the RTU link."""
+    out = tmp_path / "out"
+    with Sim(tmp_path, "--seed", 3, rtu=True) as sim:
+        r = run("measure", "--device", f"modbus-rtu://{sim.pty.host}?baud=115200&parity=N&unit=1", "--period", 64,
+                "--lines", "1:2:30", "--amplitudes", 0.2, "--periods", 4, "--skip-periods", 1, "--no-plots", "-o", out)
+        assert r.returncode == 0, r.stderr
+        truth = sim.truth()
+    doc = json.loads((out / "frf.json").read_text())
+    validate_frf(doc)
+    assert doc["acquisition"]["transport"] == "modbus-rtu" and doc["acquisition"]["endpoint"] == sim.pty.host
+    check_coverage(doc, truth)
+
+
 def test_measure_sigint_keeps_complete_periods(tmp_path):
     """SIGINT after 5 periods of experiment 2 (seen in the progress output): exit 130, frf.json written
     with "complete": false, experiment 2 holds exactly the complete periods it acquired (at least the 5
