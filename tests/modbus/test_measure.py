@@ -182,6 +182,9 @@ def test_bad_options_and_unreachable_device(tmp_path):
         (["--device", "modbus-tcp://127.0.0.1:1", "--design", tmp_path / "none.json"], 1, "none.json"),
         # nothing listens on port 1 of the loopback: connection refused, after the retries
         (["--device", "modbus-tcp://127.0.0.1:1", *DESIGN], 1, "modbus-tcp://127.0.0.1:1"),
+        # can:// with no device (no AF_CAN here, or no vcan0, or no simulator on it): the design file written
+        # for msid can measure is removed again
+        (["--device", "can://vcan0", "--inputs", 2, *DESIGN, "--timeout", 1], 1, ""),
     ]:
         r = run("measure", *args, "-o", out)
         assert r.returncode == code, (args, r.stderr)
