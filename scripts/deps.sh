@@ -20,6 +20,14 @@ APT_PKGS+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
 APT_PKGS+=(libmodbus-dev socat)
 # Hardening (tests/fuzz, the sanitizer build): Debian's clang with libFuzzer, ASan and UBSan runtimes.
 APT_PKGS+=(clang libclang-rt-dev)
+# `scripts/deps.sh demo` (./bootstrap.sh demo): only what msid and msid-devsim need to build, and the plots.
+DEMO_ONLY=0
+if [ "${1:-}" = demo ]; then
+  DEMO_ONLY=1
+  APT_PKGS=(build-essential cmake pkg-config libfftw3-dev libmatio-dev zlib1g-dev nlohmann-json3-dev libeigen3-dev
+            libmodbus-dev python3 python3-pip)
+  PY_MODS=(numpy matplotlib)
+fi
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else
   echo "deps: need root (or sudo) to run: $*" >&2; return 1; fi; }
@@ -54,6 +62,7 @@ if [ -n "$need" ]; then
 fi
 need=$(py_missing)
 [ -z "$need" ] || { echo "deps: python modules still missing: $need" >&2; exit 1; }
+[ "$DEMO_ONLY" = 0 ] || exit 0
 
 # python-can and cantools (PyPI names) for the interpreter that runs the tests (tests/vcan).
 can_missing() { local out=(); python3 -c "import can" 2>/dev/null || out+=(python-can)

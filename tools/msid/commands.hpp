@@ -7,6 +7,7 @@ int cmd_excite(int argc, char **argv);
 int cmd_frf(int argc, char **argv);
 int cmd_frf_est(int argc, char **argv);   // --method lpm | etfe
 int cmd_demo(int argc, char **argv);
+int cmd_measure_uri(int argc, char **argv);   // cmd_measure.cpp: msid measure --device URI
 int cmd_bench(int argc, char **argv);
 int cmd_bench_lpm(int argc, char **argv);   // msid bench lpm
 int cmd_fit(int argc, char **argv);

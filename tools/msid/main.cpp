@@ -11,6 +11,7 @@ static const char *USAGE =
     "usage: msid <command> [options]\n"
     "\n"
     "commands:\n"
+    "  measure  measure a device (modbus-tcp://, modbus-rtu://, can://): FRF, model, plots in one directory\n"
     "  excite   design a multisine (msid-design/1) and optionally write its input samples as CSV\n"
     "  frf      estimate the MIMO FRF and its covariance from experiment CSVs (msid-frf/1);\n"
     "           --method lpm|etfe for records that are not steady-state multisines\n"
@@ -41,6 +42,7 @@ int main(int argc, char **argv)
     try {
         if (cmd == "excite") return msidcli::cmd_excite(argc, argv);
         if (cmd == "frf") return msidcli::cmd_frf(argc, argv);
+        if (cmd == "measure") return msidcli::cmd_measure_uri(argc, argv);
         if (cmd == "demo") return msidcli::cmd_demo(argc, argv);
         if (cmd == "bench") return msidcli::cmd_bench(argc, argv);
         if (cmd == "fit") return msidcli::cmd_fit(argc, argv);

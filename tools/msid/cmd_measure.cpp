@@ -1,0 +1,219 @@
+// msid measure: the main command. One device URI, one output directory: configure the device,
+// run every experiment with live progress, write OUTDIR/frf.json (and design.json), optionally
+// fit OUTDIR/model.json, and plot (bode.png, bode.svg, report.html) through the Python package.
+// Ctrl-C keeps every complete period. docs/measure.md.
+#include "commands.hpp"
+#include "frf_io.hpp"
+#include "measure.hpp"
+#include "measure_outputs.hpp"
+
+#include <csignal>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace msidcli {
+
+static const char *HELP =
+    "usage: msid measure --device URI (--design design.json | --period P --lines L [design options])\n"
+    "                    [--periods K] [--skip-periods K] [--rate HZ] [--fs HZ]\n"
+    "                    [--fit subspace|ml [--order n|auto]] [--no-plots] [--quiet] -o OUTDIR\n"
+    "\n"
+    "Configure the device, run every experiment, and write OUTDIR/frf.json (msid-frf/1 with its\n"
+    "covariance, \"complete\" and an `acquisition` block), OUTDIR/design.json, with --fit\n"
+    "OUTDIR/model.json (msid fit), and the Bode plots OUTDIR/bode.png, bode.svg and report.html\n"
+    "(Python package msid: tools/python). Progress goes to stderr: one rewritten line on a terminal,\n"
+    "one line per event otherwise. Ctrl-C stops cleanly: the FRF of the complete periods is written\n"
+    "marked \"complete\": false (exit status 130). Every file is written atomically.\n"
+    "\n"
+    "  --device URI      modbus-tcp://HOST[:PORT][?unit=N]               (port 502 by default)\n"
+    "                    modbus-rtu:///dev/ttyX?baud=N[&parity=N|E|O&unit=N&data-bits=8&stop-bits=1]\n"
+    "                    can://IFACE[?fd=1&base=0x200]                   (SocketCAN, msid-can/1)\n"
+    "  --design FILE     msid-design/1 (msid excite), or design options:\n"
+    "  --period P --lines L1,a:b,...  [--amplitudes A] [--seed S] [--phases random|schroeder]\n"
+    "                    [--inputs NU (default: the device's; required for can://)] [--experiments M]\n"
+    "  --periods K       periods per experiment (default: the design's, else 8)\n"
+    "  --skip-periods K  leading periods left out (transient); --transient flag|drop|off, --alpha A,\n"
+    "                    --detect-lines B,..: as in msid frf\n"
+    "  --rate HZ         device sample rate (0: as fast as the link carries, default); sets fs\n"
+    "  --fs HZ           sample rate for the frequency axis of an unpaced device (--rate 0)\n"
+    "  --scale S         value of one int16 step (default 0.001)\n"
+    "  --timeout S       give up when no new sample arrives this long (default 10)\n"
+    "  --fit M           subspace or ml: fit OUTDIR/model.json (msid fit --method M)\n"
+    "  --order n|auto    model order (default auto: stabilisation diagram, docs/fitting.md)\n"
+    "  --no-plots        skip the plots and report\n"
+    "  --quiet           no progress\n";
+
+static const std::vector<std::string> MEASURE_KEYS = {
+    "device", "design", "period", "lines", "amplitudes", "seed", "phases", "inputs", "experiments", "periods",
+    "skip-periods", "transient", "alpha", "detect-lines", "rate", "fs", "scale", "timeout", "fit", "order", "output"};
+
+const std::vector<std::string> &measure_keys() { return MEASURE_KEYS; }
+
+// The design: from a file, or from options with the device's inputs unless --inputs is given.
+static std::unique_ptr<Design> design_from_options(const Args &a, uint32_t device_inputs)
+{
+    DesignParams p;
+    p.period = parse_u32(a.require("period"), "--period");
+    p.bins = parse_uint_list(a.require("lines"), "--lines");
+    p.n_inputs = a.has("inputs") ? parse_u32(a.get("inputs"), "--inputs") : device_inputs;
+    p.n_experiments = a.has("experiments") ? parse_u32(a.get("experiments"), "--experiments") : p.n_inputs;
+    if (a.has("amplitudes")) {
+        p.amplitudes = parse_double_list(a.get("amplitudes"), "--amplitudes");
+        if (p.amplitudes.size() == 1) p.amplitudes.assign(p.bins.size(), p.amplitudes[0]);
+    }
+    const std::string ph = a.get("phases", "random");
+    if (ph == "random") p.phase_mode = MSID_PHASE_RANDOM;
+    else if (ph == "schroeder") p.phase_mode = MSID_PHASE_SCHROEDER;
+    else throw UsageError("--phases must be random or schroeder (got '" + ph + "')");
+    p.seed = a.has("seed") ? parse_u64(a.get("seed"), "--seed") : 1;
+    p.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : 8;
+    return build_design(p);
+}
+
+static void check_outdir(const std::string &dir)
+{
+    struct stat st;
+    if (::stat(dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+        throw UsageError("-o '" + dir + "' exists and is not a directory");
+}
+
+// CAN: the existing `msid can measure` over a temporary design file (no live progress yet).
+static MeasureResult measure_can(const DeviceUri &dev, const Args &a, const std::string &outdir)
+{
+    std::unique_ptr<Design> D = a.has("design") ? read_design_file(a.get("design")) : design_from_options(a, 0);
+    const std::string dfile = outdir + "/design.json";
+    write_json_file(dfile, design_to_json(*D));
+    const std::string frf = outdir + "/frf.json";
+    std::vector<std::string> args = {"msid", "can", "measure", "--iface", dev.iface, "--base", std::to_string(dev.base),
+                                     "--design", dfile, "-o", frf};
+    if (dev.fd) args.push_back("--fd");
+    for (const char *k : {"periods", "skip-periods", "transient", "alpha", "detect-lines", "rate", "scale", "timeout"})
+        if (a.has(k)) { args.push_back(std::string("--") + k); args.push_back(a.get(k)); }
+    std::vector<char *> av;
+    for (auto &s : args) av.push_back(&s[0]);
+    const int rc = cmd_can((int)av.size(), av.data());
+    if (rc != 0) throw Error(fmt("msid can measure failed (exit status %d)", rc), rc);
+    MeasureResult R;
+    R.o.doc = read_json_file(frf);
+    mark_completeness(R.o.doc, true, R.o.doc["n_experiments"].get<uint32_t>(), R.o.doc["n_experiments"].get<uint32_t>(),
+                      "");
+    R.summary = fmt("%zu lines over %s", R.o.doc["lines"].size(), dev.name().c_str());
+    R.D = std::move(D);
+    return R;
+}
+
+MeasureRun run_measure(const MeasureOptions &opt, Progress &pg)
+{
+    const Args &a = *opt.args;
+    MeasureRun run;
+    const std::string &outdir = opt.outdir;
+    if (opt.dev.kind == DeviceUri::CAN) {
+        const bool made = ::mkdir(outdir.c_str(), 0755) == 0;
+        try {
+            run.m = measure_can(opt.dev, a, outdir);
+        } catch (...) {
+            ::unlink((outdir + "/design.json").c_str());
+            if (made) ::rmdir(outdir.c_str());
+            throw;
+        }
+    } else {
+        std::unique_ptr<Design> file_design;
+        if (a.has("design")) file_design = read_design_file(a.get("design"));
+        auto plan = [&](uint32_t nu, MeasurePlan &P) {
+            P.D = file_design ? std::move(file_design) : design_from_options(a, nu);
+            parse_measure_options(a, *P.D, P.sf, P.rq);
+            if (a.has("fs")) {
+                if (P.sf.rate) throw UsageError("--fs is for an unpaced device; --rate already sets the sample rate");
+                P.rq.fs = parse_double(a.get("fs"), "--fs");
+                if (!(P.rq.fs > 0)) throw UsageError("--fs must be positive");
+            }
+            if (a.has("timeout")) {
+                P.timeout = parse_double(a.get("timeout"), "--timeout");
+                if (!(P.timeout > 0)) throw UsageError("--timeout must be positive");
+            }
+        };
+        {
+            StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
+            run.m = measure_modbus(opt.dev, plan, pg);
+        }
+        if (::mkdir(outdir.c_str(), 0755) != 0 && errno != EEXIST)
+            throw Error("cannot create directory '" + outdir + "': " + std::strerror(errno));
+        clear_previous_outputs(outdir);
+        write_json_file(outdir + "/design.json", design_to_json(*run.m.D));
+        write_json_file(outdir + "/frf.json", run.m.o.doc);
+    }
+    run.frf = outdir + "/frf.json";
+    for (const auto &n : run.m.o.notes) std::fprintf(stderr, "msid measure: note: %s\n", n.c_str());
+    if (!opt.fit.empty()) {
+        run.model = outdir + "/model.json";
+        run.fit_error = fit_model(run.frf, run.model, opt.fit, opt.order, opt.quiet_fit);
+        if (!run.fit_error.empty()) run.model.clear();
+    }
+    if (opt.plots) run.plot_note = make_plots(outdir, run.frf, run.model);
+    return run;
+}
+
+MeasureOptions parse_measure_command(const Args &a)
+{
+    MeasureOptions o;
+    o.args = &a;
+    o.outdir = a.require("output");
+    o.dev = parse_device_uri(a.require("device"));
+    if (a.has("design") && (a.has("period") || a.has("lines")))
+        throw UsageError("give either --design FILE or --period/--lines, not both");
+    if (!a.has("design") && !(a.has("period") && a.has("lines")))
+        throw UsageError("give --design FILE, or --period P and --lines L to design the excitation");
+    if (a.has("design")) {
+        for (const char *k : {"amplitudes", "seed", "phases", "inputs", "experiments"})
+            if (a.has(k)) throw UsageError(std::string("--") + k + " is a design option: it does not go with --design");
+        read_design_file(a.get("design"));   // a bad file fails before the device is touched
+    } else if (o.dev.kind == DeviceUri::CAN && !a.has("inputs")) {
+        throw UsageError("can:// needs --inputs NU with design options (the CAN session reads the device later)");
+    } else if (a.has("inputs")) {
+        design_from_options(a, 1);            // bad design options fail before the device is touched
+    }
+    if (o.dev.kind == DeviceUri::CAN && a.has("fs")) throw UsageError("--fs is not supported with can:// (use --rate)");
+    if (a.has("order") && !a.has("fit")) throw UsageError("--order goes with --fit");
+    if (a.has("fit")) {
+        o.fit = a.get("fit");
+        if (o.fit != "subspace" && o.fit != "ml") throw UsageError("--fit must be subspace or ml (got '" + o.fit + "')");
+        o.order = a.get("order", "auto");
+        if (o.order != "auto") {
+            const uint32_t n = parse_u32(o.order, "--order");
+            if (n < 1 || n > 200) throw UsageError("--order must be 1..200 or auto");
+        }
+    }
+    o.plots = !a.has("no-plots");
+    check_outdir(o.outdir);
+    return o;
+}
+
+int cmd_measure_uri(int argc, char **argv)
+{
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) { std::fputs(HELP, stdout); return 0; }
+    Args a(argc, argv, 2, measure_keys(), {"no-plots", "quiet"});
+    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
+    MeasureOptions opt = parse_measure_command(a);
+    Progress pg(stderr, is_terminal(stderr), a.has("quiet"));
+    MeasureRun run = run_measure(opt, pg);
+    std::printf("wrote %s: %s\n", run.frf.c_str(), run.m.summary.c_str());
+    if (!run.model.empty()) std::printf("wrote %s\n", run.model.c_str());
+    if (!run.plot_note.empty()) std::printf("%s\n", run.plot_note.c_str());
+    if (!run.fit_error.empty()) {
+        std::fprintf(stderr, "msid measure: error: the fit failed (the FRF is kept): %s\n", run.fit_error.c_str());
+        return 1;
+    }
+    if (!run.m.complete) {
+        std::fprintf(stderr, "msid measure: interrupted: %s is the FRF of the complete periods (\"complete\": false)\n",
+                     run.frf.c_str());
+        return 128 + (measure_stop_signal() ? measure_stop_signal() : SIGINT);
+    }
+    return 0;
+}
+
+}  // namespace msidcli

@@ -1,0 +1,32 @@
+// Device addresses of `msid measure --device URI` (docs/measure.md):
+//   modbus-tcp://HOST[:PORT][?unit=N]                      Modbus TCP, port 502 by default
+//   modbus-rtu:///dev/ttyX[?baud=N&parity=N|E|O&unit=N&data-bits=7|8&stop-bits=1|2]   Modbus RTU
+//   can://IFACE[?fd=0|1&base=ID]                           SocketCAN (msid-can/1)
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace msidcli {
+
+struct DeviceUri {
+    enum Kind { MODBUS_TCP, MODBUS_RTU, CAN } kind = MODBUS_TCP;
+    std::string text;          // as given
+    std::string host;          // TCP: address (IPv6 without brackets)
+    uint32_t port = 502;       // TCP
+    std::string device;        // RTU: serial device path
+    uint32_t baud = 115200;    // RTU
+    char parity = 'N';         // RTU
+    uint32_t data_bits = 8, stop_bits = 1;
+    uint32_t unit = 1;         // Modbus unit (slave) id
+    std::string iface;         // CAN interface
+    bool fd = false;           // CAN FD sample frames
+    uint32_t base = 0x200;     // CAN base identifier
+    bool is_modbus() const { return kind != CAN; }
+    // "tcp:HOST:PORT", "rtu:/dev/ttyX", "can:IFACE": the short name used in messages and sources
+    std::string name() const;
+};
+
+// Parse and check a device URI; every problem is one UsageError naming the URI and the part at fault.
+DeviceUri parse_device_uri(const std::string &uri);
+
+}  // namespace msidcli
