@@ -25,40 +25,44 @@ static msid_status check_cfg(const msid_cissim_cfg *cfg)
     return MSID_OK;
 }
 
+/* The one memory layout (msid__layout): bins, phases, the period sum, the running mean. */
+static size_t layout(msid_cissim *cs, const msid_cissim_cfg *cfg, void *mem)
+{
+    const size_t s = (size_t)rows_of(cfg->bins, cfg->n_lines) * cfg->n_channels;
+    msid__layout y = msid__layout_begin(mem);
+    cs->bins = (uint32_t *)msid__lay(&y, cfg->n_lines, sizeof(uint32_t));
+    cs->phase = (uint32_t *)msid__lay(&y, cfg->n_lines, sizeof(uint32_t));
+    cs->acc = (double *)msid__lay(&y, s, sizeof(double));
+    cs->est = (double *)msid__lay(&y, s, sizeof(double));
+    return y.size;
+}
+
 size_t msid_cissim_mem_size(const msid_cissim_cfg *cfg)
 {
-    size_t s, n;
+    msid_cissim tmp;
+    size_t n;
     if (check_cfg(cfg) != MSID_OK) return 0;
-    s = (size_t)rows_of(cfg->bins, cfg->n_lines) * cfg->n_channels;
-    n = msid__chunk(cfg->n_lines, sizeof(uint32_t));
-    n = msid__add(n, msid__chunk(cfg->n_lines, sizeof(uint32_t)));
-    n = msid__add(n, msid__chunk(s, sizeof(double)));
-    n = msid__add(n, msid__chunk(s, sizeof(double)));
+    n = layout(&tmp, cfg, 0);
     return n == SIZE_MAX ? 0 : n;
 }
 
 msid_status msid_cissim_init(msid_cissim *cs, const msid_cissim_cfg *cfg, void *mem, size_t len)
 {
-    msid__arena a;
     msid_status st;
-    size_t need, s, i;
+    size_t s, i;
     uint32_t l;
     if (!cs) return MSID_E_NULL;
     st = check_cfg(cfg);
     if (st != MSID_OK) return st;
-    need = msid_cissim_mem_size(cfg);
-    st = msid__arena_open(&a, mem, len, need);
+    st = msid__mem_check(mem, len, msid_cissim_mem_size(cfg));
     if (st != MSID_OK) return st;
+    (void)layout(cs, cfg, mem);
     cs->period = cfg->period;
     cs->n_lines = cfg->n_lines;
     cs->n_channels = cfg->n_channels;
     cs->n_rows = rows_of(cfg->bins, cfg->n_lines);
     cs->tw = cfg->twiddle;
     s = (size_t)cs->n_rows * cs->n_channels;
-    cs->bins = (uint32_t *)msid__take(&a, cfg->n_lines * sizeof(uint32_t));
-    cs->phase = (uint32_t *)msid__take(&a, cfg->n_lines * sizeof(uint32_t));
-    cs->acc = (double *)msid__take(&a, s * sizeof(double));
-    cs->est = (double *)msid__take(&a, s * sizeof(double));
     for (l = 0; l < cfg->n_lines; ++l) {
         cs->bins[l] = cfg->bins[l];
         cs->phase[l] = 0u;

@@ -184,13 +184,13 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
 
     // 2. upload the design as parameters (param_upload.hpp)
     auto cfg = config_from_design(*P.D, P.sf);
-    const size_t nf = msid_can_config_frames(cfg.get(), nullptr, 0);
+    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
     std::vector<uint8_t> rec(nf * 8);
-    msid_can_config_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(rec.data()), nf);
     const uint32_t crc = msid_can_get_u32(&rec[(nf - 1) * 8 + 4]);
     if (msid_mb_upload(&cl, MSID_MB_ENC_S16, 0, reinterpret_cast<const uint8_t(*)[8]>(rec.data()), nf) < 0)
         throw Error(fmt("design upload to %s failed: %s", where.c_str(), cl.err));
-    if (cl.h.state == MSID_MB_STATE_ERROR) throw Error(fmt("the device refused the configuration: %s", device_error(cl.h.error)));
+    if (cl.h.state == MSID_MB_STATE_ERROR) throw Error(fmt("the device refused the configuration: %s", msid_can_device_error_name(cl.h.error)));
     if (cl.h.state != MSID_MB_STATE_CONFIGURED)
         throw Error(fmt("the device did not confirm the configuration (state %u)", cl.h.state));
     if (cl.h.crc != crc) throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", cl.h.crc, crc));
@@ -211,7 +211,7 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
     qc.period = d.period;
     Mem mq(msid_mb_acq_mem_size(&qc));
     msid_mb_acq q;
-    check(msid_mb_acq_init(&q, &qc, mq.p, mq.n), "Modbus adapter setup");
+    check(msid_daq_core_status(msid_mb_acq_init(&q, &qc, mq.p, mq.n)), "Modbus adapter setup");
 
     const uint64_t per_exp = (uint64_t)P.sf.periods * d.period, total = per_exp * m;
     const double t_start = now_s();
@@ -262,9 +262,10 @@ MeasureResult measure_modbus(const DeviceUri &dev, const PlanFn &plan, Progress 
                 throw Error(fmt("experiment %u on %s: the device did not stop after the design's samples: %s", e + 1,
                                 where.c_str(), cl.err));
             if (r == 1) { ++done; break; }
-            if (r == -MSID_DAQ_E_ARG && q.st.err == MSID_E_CAPACITY)
+            // the core's refusal travels in the daq status (msid_daq.h: one error space)
+            if (msid_daq_core_status(r) == MSID_E_CAPACITY)
                 throw Error("more periods arrived than the measurement holds (device restarted too often?)");
-            if (r == -MSID_DAQ_E_ARG) check(q.st.err, "measurement");
+            if (msid_daq_core_status(r) != MSID_OK) check(msid_daq_core_status(r), "measurement");
             if (r < 0 && measure_stop_requested()) continue;   // a request cut short by the signal
             if (r < 0) throw Error(fmt("experiment %u on %s: %s", e + 1, where.c_str(), cl.err));
             if (prog) {
