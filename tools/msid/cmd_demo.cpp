@@ -43,13 +43,11 @@ struct DemoPlant {
 
 int cmd_demo(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2, {"out", "seed", "periods"}, {"quiet"});
+    Args a(argc, argv, 2, HELP, {"out", "seed", "periods"}, {"quiet"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     const std::string dir = a.get("out", "msid-demo");
-    const uint64_t seed = a.has("seed") ? parse_u64(a.get("seed"), "--seed") : 2026;
-    const uint32_t K = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : 8;
+    const uint64_t seed = a.u64("seed", 2026);
+    const uint32_t K = a.u32("periods", 8);
     if (K < 3) throw UsageError("--periods must be at least 3 (one is skipped as transient)");
     const bool quiet = a.has("quiet");
     const double fs = 1000.0;

@@ -33,6 +33,9 @@ int main(int argc, char **argv)
         return argc < 2 ? 2 : 0;
     }
     const std::string cmd = argv[1];
+    // -h is --help everywhere, also for the handlers that look for "--help" themselves
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "-h")) argv[i] = const_cast<char *>("--help");
     // A file size limit (ulimit -f) must end a run with an error, not SIGXFSZ: then write() fails with
     // EFBIG and the temporary file is removed (issue 15 #10: out.json.tmp.PID was left behind).
     std::signal(SIGXFSZ, SIG_IGN);
@@ -53,6 +56,9 @@ int main(int argc, char **argv)
         }
         std::fprintf(stderr, "msid: error: unknown command '%s' (try msid --help)\n", cmd.c_str());
         return 2;
+    } catch (const msidcli::HelpRequest &h) {
+        std::fputs(h.text, stdout);
+        return 0;
     } catch (const msidcli::Error &e) {
         std::fprintf(stderr, "msid %s: error: %s\n", cmd.c_str(), e.what());
         return e.code;
