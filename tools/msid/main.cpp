@@ -21,10 +21,10 @@ static const char *USAGE =
     "  compare  relative H2 and Hinf distance between two models\n"
     "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
     "  modbus   measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device\n"
-    "  bench    benchmarks: `msid bench frf`, `msid bench fit`, `msid bench lpm`, `msid bench target`, `msid bench wcet`\n"
+    "  bench    benchmarks against peers: frf, fit, lpm, io, can, modbus, target, wcet (`msid bench --help`)\n"
     "  version  print the version\n"
     "\n"
-    "`msid <command> --help` shows the options of a command. See README.md and docs/.\n";
+    "`msid <command> --help` (or -h) shows the options of a command. See README.md and docs/.\n";
 
 int main(int argc, char **argv)
 {
