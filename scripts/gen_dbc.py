@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Generate daq/can/msid.dbc, the DBC description of msid-can/1, from the
 constants of daq/include/msid_daq/msid_can_proto.h (read from the header, so
-the two cannot drift). `--check` fails if the file in the tree differs.
+the two cannot drift). `--check` fails if the file differs; `-o FILE` writes (or
+checks) FILE instead of daq/can/msid.dbc, e.g. a DBC with another `--base` id.
 
-usage: gen_dbc.py [--check] [--base 0x200]
+usage: gen_dbc.py [--check] [--base 0x200] [-o FILE]
 """
 import argparse
 import re
@@ -121,20 +122,29 @@ def generate(base):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--check", action="store_true")
-    ap.add_argument("--base", default="0x200")
+    ap = argparse.ArgumentParser(description="Generate the DBC of msid-can/1 from the protocol header.")
+    ap.add_argument("--check", action="store_true", help="fail if the file differs from the generated text")
+    ap.add_argument("--base", default="0x200", help="base CAN id of the device (default 0x200)")
+    ap.add_argument("-o", "--output", type=Path, default=OUT, help=f"the DBC file (default {OUT.relative_to(ROOT)})")
     a = ap.parse_args()
-    text = generate(int(a.base, 0))
+    try:
+        base = int(a.base, 0)
+    except ValueError:
+        ap.error(f"--base: '{a.base}' is not an integer (e.g. 0x200)")
+    text = generate(base)
+    out = a.output
     if a.check:
-        if not OUT.exists() or OUT.read_text() != text:
-            print(f"{OUT} is out of date: run scripts/gen_dbc.py", file=sys.stderr)
+        if not out.exists() or out.read_text() != text:
+            print(f"{out} is out of date: run scripts/gen_dbc.py", file=sys.stderr)
             sys.exit(1)
-        print("msid.dbc is current")
+        print(f"{out.name} is current")
         return
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(text)
-    print(f"wrote {OUT}")
+    if not out.parent.is_dir():
+        ap.error(f"-o {out}: directory {out.parent} does not exist")
+    tmp = out.with_name(out.name + ".tmp")   # whole file or nothing
+    tmp.write_text(text)
+    tmp.replace(out)
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

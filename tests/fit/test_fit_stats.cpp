@@ -30,6 +30,9 @@ extern "C" {
 }
 
 using namespace msidfit;
+using msidest::direct_frf;   // the direct estimator lives with the estimators (tools/est)
+using msidest::DirectRecord;
+using msidest::DirectResult;
 
 // ---------------- ml against the Cramer-Rao bound ----------------
 

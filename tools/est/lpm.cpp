@@ -179,18 +179,18 @@ struct Worker {
             for (unsigned e = 0; e < m; ++e)
                 for (size_t q = 0; q < nseq; ++q) {
                     const cd *x = &seq[((size_t)e * nseq + q) * span + (w0 - lo)];
-                    cd *S = &mom[((size_t)e * nseq + q) * na];
+                    cd *Sm = &mom[((size_t)e * nseq + q) * na];
                     const unsigned nq = naq[q];
                     if (!slide) {
-                        moments(x, wts, na, n, nq, S);
+                        moments(x, wts, na, n, nq, Sm);
                         continue;
                     }
                     const cd pout = x[-1], pin = x[n - 1];   // p(k-1-W) left, p(k+W) entered
-                    for (unsigned b = 0; b < nq; ++b) dl[b] = S[b] - vout[b] * pout + vin[b] * pin;
+                    for (unsigned b = 0; b < nq; ++b) dl[b] = Sm[b] - vout[b] * pout + vin[b] * pin;
                     for (unsigned a = 0; a < nq; ++a) {
                         cd v = 0;
                         for (unsigned b = 0; b <= a; ++b) v += bino[(size_t)a * na + b] * dl[b];
-                        S[a] = v;
+                        Sm[a] = v;
                     }
                 }
             for (unsigned e = 0; e < m; ++e) {

@@ -1,27 +1,9 @@
 #include "frf_data.hpp"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <fstream>
-#include "json_util.hpp"
-#include <sstream>
 
 namespace msidfit {
-
-Json read_json(const std::string &path)
-{
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw FitError("cannot open '" + path + "': " + std::strerror(errno));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    try {
-        return Json::parse(ss.str());
-    } catch (const Json::parse_error &e) {
-        throw FitError("'" + path + "' is not valid JSON: " + e.what());
-    }
-}
 
 cd line_point(const Line &l, Domain d)
 {
@@ -30,104 +12,6 @@ cd line_point(const Line &l, Domain d)
 }
 
 static std::string where(const std::string &file, const std::string &what) { return "'" + file + "': " + what; }
-
-static const Json &need(const Json &o, const char *key, const std::string &file, const std::string &ctx = "")
-{
-    if (!o.is_object()) throw FitError(where(file, (ctx.empty() ? "" : ctx + ": ") + "expected an object"));
-    auto it = o.find(key);
-    if (it == o.end()) throw FitError(where(file, "missing '" + (ctx.empty() ? "" : ctx + ".") + key + "'"));
-    return *it;
-}
-
-static double num(const Json &v, const std::string &file, const std::string &what)
-{
-    if (!v.is_number()) throw FitError(where(file, what + " must be a number"));
-    const double x = v.get<double>();
-    if (!std::isfinite(x)) throw FitError(where(file, what + " is not finite"));
-    return x;
-}
-
-static uint32_t uint(const Json &v, const std::string &file, const std::string &what)
-{
-    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 0xFFFFFFFFll)
-        throw FitError(where(file, what + " must be a non-negative 32-bit integer"));
-    return (uint32_t)v.get<int64_t>();
-}
-
-static MatC cmat(const Json &v, size_t rows, size_t cols, const std::string &file, const std::string &what)
-{
-    if (!v.is_object() || !v.contains("re") || !v.contains("im"))
-        throw FitError(where(file, what + " must be {\"re\": [[...]], \"im\": [[...]]}"));
-    const Json &re = v["re"], &im = v["im"];
-    if (!re.is_array() || !im.is_array() || re.size() != rows || im.size() != rows)
-        throw FitError(where(file, what + " must have " + std::to_string(rows) + " rows"));
-    MatC M(rows, cols);
-    for (size_t r = 0; r < rows; ++r) {
-        if (!re[r].is_array() || !im[r].is_array() || re[r].size() != cols || im[r].size() != cols)
-            throw FitError(where(file, what + " must have " + std::to_string(cols) + " columns"));
-        for (size_t c = 0; c < cols; ++c)
-            M(r, c) = cd(num(re[r][c], file, what), num(im[r][c], file, what));
-    }
-    return M;
-}
-
-FrfData read_frf(const std::string &path)
-{
-    const Json j = read_json(path);
-    const Json &fm = need(j, "format", path);
-    if (!fm.is_string() || fm.get<std::string>() != "msid-frf/1")
-        throw FitError(where(path, "format is " + fm.dump() + ", expected \"msid-frf/1\""));
-    FrfData f;
-    f.path = path;
-    f.P = uint(need(j, "period_samples", path), path, "'period_samples'");
-    f.nu = uint(need(j, "n_inputs", path), path, "'n_inputs'");
-    f.ny = uint(need(j, "n_outputs", path), path, "'n_outputs'");
-    f.m = uint(need(j, "n_experiments", path), path, "'n_experiments'");
-    if (f.nu == 0 || f.ny == 0 || f.nu > 16 || f.ny > 16) throw FitError(where(path, "n_inputs/n_outputs out of range"));
-    if (f.m == 0 || f.m > 64) throw FitError(where(path, "'n_experiments' must be 1..64"));
-    const Json &dom = need(j, "domain", path);
-    if (dom == "ct") f.domain = Domain::CT;
-    else if (dom == "dt") f.domain = Domain::DT;
-    else throw FitError(where(path, "'domain' must be \"dt\" or \"ct\""));
-    if (j.contains("sample_time")) {
-        f.h = num(j["sample_time"], path, "'sample_time'");
-        if (!(f.h > 0)) throw FitError(where(path, "'sample_time' must be positive"));
-    }
-    if (f.domain == Domain::CT && f.h <= 0) throw FitError(where(path, "a continuous-time file needs 'sample_time'"));
-    if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
-    if (j.contains("nonlinear_distortion") && j["nonlinear_distortion"].is_object() &&
-        j["nonlinear_distortion"].contains("realisations") && j["nonlinear_distortion"]["realisations"].is_number_integer())
-        f.realisations = (uint32_t)std::max<int64_t>(1, j["nonlinear_distortion"]["realisations"].get<int64_t>());
-    const size_t g = f.g();
-    f.noise_time = cmat(need(j, "noise_cov", path), f.ny, f.ny, path, "'noise_cov'");
-    const Json &lines = need(j, "lines", path);
-    if (!lines.is_array() || lines.empty()) throw FitError(where(path, "'lines' must be a non-empty array"));
-    for (size_t k = 0; k < lines.size(); ++k) {
-        const Json &e = lines[k];
-        const std::string ctx = "lines[" + std::to_string(k) + "]";
-        Line l;
-        l.bin = uint(need(e, "bin", path, ctx), path, ctx + ".bin");
-        l.freq = num(need(e, "freq", path, ctx), path, ctx + ".freq");
-        if (e.contains("omega")) l.omega = num(e["omega"], path, ctx + ".omega");
-        else if (f.h > 0) l.omega = 2.0 * M_PI * l.freq / f.h;
-        else l.omega = 2.0 * M_PI * l.freq;
-        l.real = e.contains("real") && e["real"].is_boolean() && e["real"].get<bool>();
-        l.G = cmat(need(e, "G", path, ctx), f.ny, f.nu, path, ctx + ".G");
-        if (e.contains("cov")) {
-            l.cov = cmat(e["cov"], g, g, path, ctx + ".cov");
-            l.dof = num(need(e, "dof", path, ctx), path, ctx + ".dof");
-            if (!(l.dof >= 1)) throw FitError(where(path, ctx + ".dof must be at least 1"));
-        }
-        if (e.contains("cov_known_input")) {
-            l.cov_ki = cmat(e["cov_known_input"], g, g, path, ctx + ".cov_known_input");
-            l.dof_ki = e.contains("dof_known_input") ? num(e["dof_known_input"], path, ctx + ".dof_known_input") : l.dof;
-            if (!(l.dof_ki >= 1)) throw FitError(where(path, ctx + ".dof_known_input must be at least 1"));
-        }
-        if (e.contains("noise_cov")) l.noise = cmat(e["noise_cov"], f.ny, f.ny, path, ctx + ".noise_cov");
-        f.lines.push_back(std::move(l));
-    }
-    return f;
-}
 
 std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noise_var)
 {

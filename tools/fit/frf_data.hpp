@@ -1,12 +1,12 @@
-// Reading msid-frf/1 files for the fitting tools.
+// Weighting msid-frf/1 data for the fits (the file is read by tools/frffile).
 #pragma once
 #include "fit_types.hpp"
 
 namespace msidfit {
 
 // Read and validate (format, shapes, finiteness). Throws FitError naming the
-// file and the offending entry.
-FrfData read_frf(const std::string &path);
+// file and the offending entry. The one reader of the format.
+using msidfrf::read_frf;
 
 // Which covariance weights a fit.
 enum class Weight { Cov, KnownInput, None };

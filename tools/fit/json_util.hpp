@@ -6,5 +6,5 @@
 namespace msidfit {
 using Json = nlohmann::ordered_json;
 // Parse `path`; throws FitError ("cannot open ...", "... is not valid JSON: ...").
-Json read_json(const std::string &path);
+using msidfrf::read_json;
 }  // namespace msidfit

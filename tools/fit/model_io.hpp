@@ -25,8 +25,3 @@ struct ModelFile {
 ModelFile read_model(const std::string &path);
 
 }  // namespace msidfit
-
-namespace msidfit {
-// The same {"re", "im"} object for a complex matrix, as msid-frf/1 uses.
-inline Json cmat_json_c(const MatC &M) { return cmat_json(M); }
-}  // namespace msidfit

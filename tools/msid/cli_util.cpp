@@ -15,6 +15,25 @@ namespace msidcli {
 Args::Args(int argc, char **argv, int first, const std::vector<std::string> &valued,
            const std::vector<std::string> &flags, const std::vector<std::string> &repeatable)
 {
+    parse(argc, argv, first, valued, flags, repeatable);
+}
+
+Args::Args(int argc, char **argv, int first, const char *help, const std::vector<std::string> &valued,
+           const std::vector<std::string> &flags, const std::vector<std::string> &repeatable)
+{
+    help_if_asked(argc, argv, first, help);
+    parse(argc, argv, first, valued, flags, repeatable);
+}
+
+void help_if_asked(int argc, char **argv, int first, const char *help)
+{
+    for (int i = first; i < argc; ++i)
+        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) throw HelpRequest{help};
+}
+
+void Args::parse(int argc, char **argv, int first, const std::vector<std::string> &valued,
+                 const std::vector<std::string> &flags, const std::vector<std::string> &repeatable)
+{
     auto in = [](const std::vector<std::string> &v, const std::string &k) {
         for (auto &x : v) if (x == k) return true;
         return false;
@@ -68,6 +87,26 @@ std::string Args::require(const std::string &k) const
 {
     if (!has(k)) throw UsageError(k == "output" ? "missing -o <file>" : "missing --" + k);
     return get(k);
+}
+
+uint32_t Args::u32(const std::string &k, uint32_t def) const { return has(k) ? parse_u32(get(k), "--" + k) : def; }
+uint64_t Args::u64(const std::string &k, uint64_t def) const { return has(k) ? parse_u64(get(k), "--" + k) : def; }
+double Args::f64(const std::string &k, double def) const { return has(k) ? parse_double(get(k), "--" + k) : def; }
+
+uint32_t Args::u32(const std::string &k, uint32_t def, uint32_t lo, uint32_t hi) const
+{
+    const uint32_t v = u32(k, def);
+    if (v < lo || v > hi) throw UsageError(fmt("--%s must be %u..%u", k.c_str(), lo, hi));
+    return v;
+}
+
+uint32_t parse_enum(const std::string &v, const std::string &what, const std::vector<std::string> &names)
+{
+    for (size_t i = 0; i < names.size(); ++i)
+        if (v == names[i]) return (uint32_t)i;
+    std::string all;
+    for (size_t i = 0; i < names.size(); ++i) all += (i ? (i + 1 == names.size() ? " or " : ", ") : "") + names[i];
+    throw UsageError(what + " must be " + all + " (got '" + v + "')");
 }
 
 static std::string trim(const std::string &s)
@@ -209,15 +248,14 @@ std::string fmt(const char *f, ...)
 }
 
 int dispatch_subcommand(int argc, char **argv, const char *group, const char *help,
-                        const std::vector<Subcommand> &subs)
+                        const std::vector<Subcommand> &subs, bool sub_help)
 {
     const std::string sub = argc > 2 ? argv[2] : "";
     if (sub.empty() || sub == "--help" || sub == "-h") {
         std::fputs(help, sub.empty() ? stderr : stdout);
         return sub.empty() ? 2 : 0;
     }
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(help, stdout); return 0; }
+    if (!sub_help) help_if_asked(argc, argv, 3, help);
     std::string names;
     for (const Subcommand &s : subs) {
         if (sub == s.name) return s.run(argc, argv);

@@ -10,6 +10,7 @@ extern "C" {
 #include <fftw3.h>
 
 #include "frf_io.hpp"
+#include "frf_file.hpp"
 #include "lmfd_fit.hpp"
 #include "poleres.hpp"
 #include "model_io.hpp"
@@ -173,25 +174,42 @@ static const char *HELP =
     "--measure plans FFTW with FFTW_MEASURE (default FFTW_ESTIMATE, as `msid frf`).\n";
 
 static int bench_fit(int argc, char **argv);
+static int bench_frf(int argc, char **argv);
+
+static const char *BENCH_HELP =
+    "usage: msid bench <name> [options]   (msid bench <name> --help: the options of one)\n"
+    "\n"
+    "  frf     the FRF job (line DFT, period statistics, LS FRF) on both paths against FFTW and NumPy\n"
+    "  fit     subspace, lmfd and ml fits against NumPy and scikit-rf vector fitting\n"
+    "  lpm     the local polynomial method against its NumPy peer\n"
+    "  io      reading experiment files (CSV, .npy, .mat) against pandas / NumPy / SciPy\n"
+    "  can     the highest lossless CAN sample rate over vcan (Debian kernel under qemu)\n"
+    "  modbus  the highest lossless sample rate x channels over Modbus from msid-devsim\n"
+    "  target  instructions per sample of the core on a Cortex-M (qemu)\n"
+    "  wcet    per-sample time of generation + streaming estimation on the host\n"
+    "\n"
+    "Results with date and machine go to docs/benchmarks.md.\n";
 
 int cmd_bench(int argc, char **argv)
 {
-    if (argc >= 3 && !std::strcmp(argv[2], "fit")) return bench_fit(argc, argv);
-    if (argc >= 3 && !std::strcmp(argv[2], "lpm")) return cmd_bench_lpm(argc, argv);
-    if (argc >= 3 && !std::strcmp(argv[2], "can")) return cmd_bench_can(argc, argv);
-    if (argc >= 3 && !std::strcmp(argv[2], "modbus")) return cmd_bench_modbus(argc, argv);
-    if (argc >= 3 && (!std::strcmp(argv[2], "target") || !std::strcmp(argv[2], "wcet"))) return cmd_bench_target(argc, argv);
-    if (argc >= 3 && !std::strcmp(argv[2], "io")) return cmd_bench_io(argc, argv);
-    if (argc < 3 || std::strcmp(argv[2], "frf") != 0) {
-        if (argc >= 3 && !std::strcmp(argv[2], "--help")) { std::fputs(HELP, stdout); return 0; }
-        throw UsageError("usage: msid bench frf|fit|lpm|io|can|modbus|target|wcet [options] (see msid bench <name> --help)");
-    }
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 3, {"min-seconds", "only"}, {"quick", "no-peer", "measure"});
-    const uint32_t only = a.has("only") ? parse_u32(a.get("only"), "--only") : 0;
+    return dispatch_subcommand(argc, argv, "bench", BENCH_HELP,
+                               {{"frf", bench_frf},
+                                {"fit", bench_fit},
+                                {"lpm", cmd_bench_lpm},
+                                {"io", cmd_bench_io},
+                                {"can", cmd_bench_can},
+                                {"modbus", cmd_bench_modbus},
+                                {"target", cmd_bench_target},
+                                {"wcet", cmd_bench_target}},
+                               true);
+}
+
+static int bench_frf(int argc, char **argv)
+{
+    Args a(argc, argv, 3, HELP, {"min-seconds", "only"}, {"quick", "no-peer", "measure"});
+    const uint32_t only = a.u32("only", 0);
     if (only > 3) throw UsageError("--only takes 1, 2 or 3");
-    double min_s = a.has("min-seconds") ? parse_double(a.get("min-seconds"), "--min-seconds") : 1.0;
+    double min_s = a.f64("min-seconds", 1.0);
     if (a.has("quick")) min_s = 0.1;
     const msid_fftw_effort effort = a.has("measure") ? MSID_FFTW_MEASURE : MSID_FFTW_ESTIMATE;
     const Config cfgs[] = {
@@ -205,7 +223,6 @@ int cmd_bench(int argc, char **argv)
     std::printf("job: %s periods per experiment; times are the best of repeated runs (>= %.2g s each)\n\n", "8", min_s);
     std::printf("%-30s %-7s %11s %11s %13s %11s %9s %9s\n", "config", "path", "job [ms]", "ns/sample", "ns/line.ch.s",
                 "FFTW/per", "x FFTW", "x numpy");
-    int worst_fail = 0;
     for (const Config &c : cfgs) {
         if (only && &c != &cfgs[only - 1]) continue;
         Job job(c, effort);
@@ -252,7 +269,6 @@ int cmd_bench(int argc, char **argv)
                         t_peer / samples * 1e9, "", "", "", "1.0", note.c_str());
         else if (!a.has("no-peer"))
             std::printf("%-30s numpy peer unavailable: %s\n", "", note.c_str());
-        (void)worst_fail;
     }
     std::printf("\ncolumns: job = whole FRF job for all experiments; ns/sample per sample row (all channels);\n"
                 "ns/line.ch.s = job / (samples x lines x channels); FFTW/per = FFTW's own r2c transforms of one\n"
@@ -304,16 +320,15 @@ Json frf_doc(msid_rng &r, const SSModel &m, int L, double snr_db, int M)
         pw += G[l].squaredNorm() / (g * L);
     }
     const double s2 = pw * std::pow(10.0, -snr_db / 10.0);
-    Json doc;
-    doc["format"] = "msid-frf/1";
-    doc["period_samples"] = P;
-    doc["n_inputs"] = nu;
-    doc["n_outputs"] = ny;
-    doc["n_experiments"] = nu;
-    doc["domain"] = "dt";
+    msidfrf::Header hd;
+    hd.period = (uint32_t)P;
+    hd.nu = (uint32_t)nu;
+    hd.ny = (uint32_t)ny;
+    hd.m = (uint32_t)nu;
+    Json doc = msidfrf::header(hd);
     doc["periods_used"] = M;
     doc["periods_rejected"] = 0;
-    doc["noise_cov"] = cmat_json(MatC::Identity(ny, ny) * (s2 / P));
+    doc["noise_cov"] = msidfrf::cmat(MatC(MatC::Identity(ny, ny) * (s2 / P)));
     doc["experiments"] = Json::array();
     Json lines = Json::array();
     for (int l = 0; l < L; ++l) {
@@ -328,16 +343,14 @@ Json frf_doc(msid_rng &r, const SSModel &m, int L, double snr_db, int M)
         MatC S = MatC::Zero(g, g);
         for (int k = 0; k < M; ++k) S += (x[k] - mean) * (x[k] - mean).adjoint();
         S /= (double)(M - 1) * M;
-        Json e;
-        e["bin"] = l + 1;
-        e["freq"] = (double)(l + 1) / P;
-        e["G"] = cmat_json(Eigen::Map<const MatC>(mean.data(), ny, nu));
-        e["cov"] = cmat_json(S);
-        e["dof"] = M - 1;
-        e["cov_known_input"] = cmat_json(S);
-        e["dof_known_input"] = M - 1;
-        e["snr"] = Json::array();
-        lines.push_back(e);
+        msidfrf::Position pos;
+        pos.bin = (uint32_t)(l + 1);
+        pos.period = (uint32_t)P;
+        msidfrf::LineStats st;
+        st.G = Eigen::Map<const MatC>(mean.data(), ny, nu);
+        st.cov = S;
+        st.dof = M - 1;   // cov_known_input: the same
+        lines.push_back(msidfrf::line(msidfrf::position(pos), st));
     }
     doc["lines"] = lines;
     return doc;
@@ -460,22 +473,19 @@ static int bench_fit(int argc, char **argv)
         if (!std::strcmp(argv[i], "--only") && !std::strcmp(argv[i + 1], "multi")) return cmd_bench_fit_multi(argc, argv);
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--cissim")) return cmd_bench_cissim(argc, argv);
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"
-                       "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"
-                       "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
-                       "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
-                       "error against the true system) over N random systems (default 50); 3: the simulated\n"
-                       "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
-                       "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n", stdout);
-            return 0;
-        }
-    Args a(argc, argv, 3, {"systems", "min-seconds", "only"}, {"no-peer"});
-    const uint32_t only = a.has("only") ? parse_u32(a.get("only"), "--only") : 0;
+    static const char *HELP_FIT =
+        "usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"
+        "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"
+        "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
+        "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
+        "error against the true system) over N random systems (default 50); 3: the simulated\n"
+        "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
+        "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n";
+    Args a(argc, argv, 3, HELP_FIT, {"systems", "min-seconds", "only"}, {"no-peer"});
+    const uint32_t only = a.u32("only", 0);
     if (only > 4) throw UsageError("--only takes 1 (SISO), 2 (2x2), 3 (structures) or 4 (whole process)");
-    const int NS = a.has("systems") ? (int)parse_u32(a.get("systems"), "--systems") : 50;
-    const double min_s = a.has("min-seconds") ? parse_double(a.get("min-seconds"), "--min-seconds") : 0.5;
+    const int NS = (int)a.u32("systems", 50);
+    const double min_s = a.f64("min-seconds", 0.5);
     if (NS < 1) throw UsageError("--systems must be at least 1");
     char tmpl[] = "/tmp/msid-bench-fit-XXXXXX";
     if (!mkdtemp(tmpl)) throw Error("cannot create a temporary directory");

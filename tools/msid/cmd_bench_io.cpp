@@ -123,10 +123,8 @@ static const char *HELP_IO =
 
 int cmd_bench_io(int argc, char **argv)
 {
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP_IO, stdout); return 0; }
-    Args a(argc, argv, 3, {"min-seconds", "keep"}, {"no-peer"});
-    const double min_s = a.has("min-seconds") ? parse_double(a.get("min-seconds"), "--min-seconds") : 2.0;
+    Args a(argc, argv, 3, HELP_IO, {"min-seconds", "keep"}, {"no-peer"});
+    const double min_s = a.f64("min-seconds", 2.0);
     const uint32_t P = 4096, K = 64, L = 200, m = 2;
     const size_t n = (size_t)P * K, C = 4;
     std::string dir;
@@ -210,11 +208,13 @@ int cmd_bench_io(int argc, char **argv)
         const double tw = out.empty() ? -1 : json_num(out, fmts[k].name);
         const double tc = out.empty() ? -1 : json_num(out, (std::string(fmts[k].name) + "_cpu").c_str());
         auto ms = [](double t) { return t > 0 ? fmt("%9.1f ms", 1e3 * t) : std::string("        -   "); };
-        auto x = [](double a, double b) { return a > 0 && b > 0 ? fmt("%8.2f", a / b) : std::string("       -"); };
+        auto ratio = [](double num, double den) {
+            return num > 0 && den > 0 ? fmt("%8.2f", num / den) : std::string("       -");
+        };
         std::printf("%-5s %12s %12s %s %12s %12s %s %7s/%-4s   %s\n", fmts[k].name, ms(t_msid[k].wall).c_str(),
-                    ms(tw).c_str(), x(tw, t_msid[k].wall).c_str(), ms(t_msid[k].cpu).c_str(), ms(tc).c_str(),
-                    x(tc, t_msid[k].cpu).c_str(), x(csv_wall, t_msid[k].wall).c_str() + 3,
-                    x(csv_cpu, t_msid[k].cpu).c_str() + 4, peer_name[k]);
+                    ms(tw).c_str(), ratio(tw, t_msid[k].wall).c_str(), ms(t_msid[k].cpu).c_str(), ms(tc).c_str(),
+                    ratio(tc, t_msid[k].cpu).c_str(), ratio(csv_wall, t_msid[k].wall).c_str() + 3,
+                    ratio(csv_cpu, t_msid[k].cpu).c_str() + 4, peer_name[k]);
     }
     if (!out.empty()) {
         const size_t v = out.find('{');

@@ -26,18 +26,14 @@ static double seconds_now()
 
 int cmd_bench_lpm(int argc, char **argv)
 {
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench lpm [--samples N] [--runs K] [--no-peer]\n"
-                       "Times `msid frf --method lpm` without file I/O (FFTW spectra + local LS at every bin,\n"
-                       "R = 2, default window) on a simulated 2x2 record of N samples (default 10^6), best of K\n"
-                       "runs (default 3) with 1 and 2 threads, and the NumPy peer on the same samples.\n",
-                       stdout);
-            return 0;
-        }
-    Args a(argc, argv, 3, {"samples", "runs"}, {"no-peer"});
-    const size_t N = a.has("samples") ? parse_u64(a.get("samples"), "--samples") : 1000000;
-    const unsigned runs = a.has("runs") ? parse_u32(a.get("runs"), "--runs") : 3;
+    static const char *HELP =
+        "usage: msid bench lpm [--samples N] [--runs K] [--no-peer]\n"
+        "Times `msid frf --method lpm` without file I/O (FFTW spectra + local LS at every bin,\n"
+        "R = 2, default window) on a simulated 2x2 record of N samples (default 10^6), best of K\n"
+        "runs (default 3) with 1 and 2 threads, and the NumPy peer on the same samples.\n";
+    Args a(argc, argv, 3, HELP, {"samples", "runs"}, {"no-peer"});
+    const size_t N = a.u64("samples", 1000000);
+    const unsigned runs = a.u32("runs", 3);
     if (N < 64 || runs < 1) throw UsageError("--samples must be >= 64 and --runs >= 1");
     const unsigned nu = 2, ny = 2, C = nu + ny;
     // 2x2 plant of second-order sections (pole radius 0.95), white inputs, white output noise

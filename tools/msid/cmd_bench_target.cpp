@@ -40,17 +40,14 @@ std::string field(const std::string &line, const std::string &key)
 
 int bench_target(int argc, char **argv)
 {
-    for (int i = 3; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--help")) {
-            std::puts("usage: msid bench target\n"
-                      "Runs build/target/<cpu>/bench_target.elf on qemu-system-arm -icount shift=0 (one instruction\n"
-                      "= 1 ns of virtual time, read with SysTick at 25 MHz: 40-instruction resolution for maxima)\n"
-                      "and prints instructions per sample of generation + streaming estimation, the per-line*channel\n"
-                      "slope, msid_*_mem_size of the standard configurations and the flash of each lib/ object.");
-            return 0;
-        }
-        throw UsageError(std::string("msid bench target: unknown option ") + argv[i]);
-    }
+    static const char *HELP =
+        "usage: msid bench target\n"
+        "Runs build/target/<cpu>/bench_target.elf on qemu-system-arm -icount shift=0 (one instruction\n"
+        "= 1 ns of virtual time, read with SysTick at 25 MHz: 40-instruction resolution for maxima)\n"
+        "and prints instructions per sample of generation + streaming estimation, the per-line*channel\n"
+        "slope, msid_*_mem_size of the standard configurations and the flash of each lib/ object.\n";
+    const Args a(argc, argv, 3, HELP, {}, {});
+    if (!a.positional().empty()) throw UsageError("msid bench target: unexpected argument " + a.positional()[0]);
     const std::string bdir = MSID_BINARY_DIR;
     std::printf("msid bench target  (msid %s; instructions counted by qemu -icount, not cycles)\n", MSID_VERSION);
     int rc = 0;
@@ -153,18 +150,14 @@ double now_ns()
 
 int bench_wcet(int argc, char **argv)
 {
-    uint64_t N = 10000000ull;
-    for (int i = 3; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--help")) {
-            std::puts("usage: msid bench wcet [--samples N]   (default 1e7, at least 1e5)\n"
-                      "Per-sample time of msid_gen_next + msid_meas_push(1 row) on the host, each sample timed with\n"
-                      "CLOCK_MONOTONIC: median, p99, p99.9, max, and the max of period-end samples separately;\n"
-                      "the \"spread\" cases defer the period-end work over the next period (msid_meas_cfg.spread).");
-            return 0;
-        }
-        if (!std::strcmp(argv[i], "--samples") && i + 1 < argc) { N = std::strtoull(argv[++i], nullptr, 10); continue; }
-        throw UsageError(std::string("msid bench wcet: unknown option ") + argv[i]);
-    }
+    static const char *HELP =
+        "usage: msid bench wcet [--samples N]   (default 1e7, at least 1e5)\n"
+        "Per-sample time of msid_gen_next + msid_meas_push(1 row) on the host, each sample timed with\n"
+        "CLOCK_MONOTONIC: median, p99, p99.9, max, and the max of period-end samples separately;\n"
+        "the \"spread\" cases defer the period-end work over the next period (msid_meas_cfg.spread).\n";
+    const Args a(argc, argv, 3, HELP, {"samples"}, {});
+    if (!a.positional().empty()) throw UsageError("msid bench wcet: unexpected argument " + a.positional()[0]);
+    const uint64_t N = a.u64("samples", 10000000ull);
     if (N < 100000ull) throw UsageError("msid bench wcet: --samples must be at least 100000");
     std::printf("msid bench wcet  (msid %s, %llu samples per case, per-sample times in ns incl. ~20 ns clock read)\n",
                 MSID_VERSION, (unsigned long long)N);
@@ -219,8 +212,8 @@ int bench_wcet(int argc, char **argv)
             }
             if (s + 1 == N / 10) mx_first = mx;
         }
-        auto q = [](const std::vector<uint64_t> &h, uint64_t n, double f) {
-            const uint64_t want = (uint64_t)(f * (double)n);
+        auto q = [](const std::vector<uint64_t> &h, uint64_t total, double f) {
+            const uint64_t want = (uint64_t)(f * (double)total);
             uint64_t acc = 0;
             for (size_t i = 0; i < h.size(); ++i) if ((acc += h[i]) > want) return (double)i;
             return (double)h.size();

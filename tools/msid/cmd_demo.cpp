@@ -149,14 +149,12 @@ static void interrupted_check()
 
 int cmd_demo(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2, {"out", "seed", "periods", "order"}, {"quiet", "no-plots"});
+    Args a(argc, argv, 2, HELP, {"out", "seed", "periods", "order"}, {"quiet", "no-plots"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     DemoArgs o;
     o.dir = a.get("out", o.dir);
-    if (a.has("seed")) o.seed = parse_u64(a.get("seed"), "--seed");
-    if (a.has("periods")) o.K = parse_u32(a.get("periods"), "--periods");
+    o.seed = a.u64("seed", o.seed);
+    o.K = a.u32("periods", o.K);
     if (o.K < 3) throw UsageError("--periods must be at least 3 (one is skipped as transient)");
     o.order = a.get("order", o.order);
     o.quiet = a.has("quiet");

@@ -30,9 +30,7 @@ static const char *HELP =
 
 int cmd_excite(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2,
+    Args a(argc, argv, 2, HELP,
            {"period", "lines", "omega", "sample-time", "amplitudes", "phases", "seed", "inputs", "experiments",
             "pattern", "periods", "output", "csv"},
            {});
@@ -50,23 +48,19 @@ int cmd_excite(int argc, char **argv)
         p.sample_time = parse_double(a.require("sample-time"), "--sample-time");
         L = p.omega.size();
     }
-    p.n_inputs = a.has("inputs") ? parse_u32(a.get("inputs"), "--inputs") : 1;
-    p.n_experiments = a.has("experiments") ? parse_u32(a.get("experiments"), "--experiments") : p.n_inputs;
+    p.n_inputs = a.u32("inputs", 1);
+    p.n_experiments = a.u32("experiments", p.n_inputs);
     if (a.has("amplitudes")) {
         p.amplitudes = parse_double_list(a.get("amplitudes"), "--amplitudes");
         if (p.amplitudes.size() == 1) p.amplitudes.assign(L, p.amplitudes[0]);
         p.amp_per_input = p.amplitudes.size() == (size_t)p.n_inputs * L && p.n_inputs > 1;
     }
-    const std::string ph = a.get("phases", "random");
-    if (ph == "random") p.phase_mode = MSID_PHASE_RANDOM;
-    else if (ph == "schroeder") p.phase_mode = MSID_PHASE_SCHROEDER;
-    else throw UsageError("--phases must be random or schroeder (got '" + ph + "')");
-    p.seed = a.has("seed") ? parse_u64(a.get("seed"), "--seed") : 1;
-    const std::string pat = a.get("pattern", "dft");
-    if (pat == "dft") p.pattern = MSID_PATTERN_DFT;
-    else if (pat == "hadamard") p.pattern = MSID_PATTERN_HADAMARD;
-    else throw UsageError("--pattern must be dft or hadamard (got '" + pat + "')");
-    p.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : 8;
+    p.phase_mode = a.enum_<msid_phase_mode>("phases", MSID_PHASE_RANDOM,
+                                            {{"random", MSID_PHASE_RANDOM}, {"schroeder", MSID_PHASE_SCHROEDER}});
+    p.seed = a.u64("seed", 1);
+    p.pattern = a.enum_<msid_pattern>("pattern", MSID_PATTERN_DFT,
+                                      {{"dft", MSID_PATTERN_DFT}, {"hadamard", MSID_PATTERN_HADAMARD}});
+    p.periods = a.u32("periods", 8);
     if (p.periods == 0) throw UsageError("--periods must be at least 1");
     const std::string out = a.require("output");
 

@@ -43,25 +43,17 @@ static const char *FIT_HELP =
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n";
 
+// --domain dt|ct (default: the file's domain); a CT model needs the file's sample time.
 static Domain parse_domain(const Args &a, const FrfData &f)
 {
-    if (!a.has("domain")) return f.domain;
-    const std::string d = a.get("domain");
-    if (d == "dt") return Domain::DT;
-    if (d == "ct") {
-        if (f.h <= 0) throw Error("a continuous-time model needs the sample time of the FRF file (give --fs to msid frf)");
-        return Domain::CT;
-    }
-    throw UsageError("--domain must be dt or ct (got '" + d + "')");
+    const Domain d = a.enum_<Domain>("domain", f.domain, {{"dt", Domain::DT}, {"ct", Domain::CT}});
+    if (d == Domain::CT && f.h <= 0)
+        throw Error("a continuous-time model needs the sample time of the FRF file (give --fs to msid frf)");
+    return d;
 }
 
-static Weight parse_weight(const std::string &w)
-{
-    if (w == "cov") return Weight::Cov;
-    if (w == "known-input") return Weight::KnownInput;
-    if (w == "none") return Weight::None;
-    throw UsageError("--weight must be cov, known-input or none (got '" + w + "')");
-}
+static const std::vector<std::pair<std::string, Weight>> WEIGHTS = {
+    {"cov", Weight::Cov}, {"known-input", Weight::KnownInput}, {"none", Weight::None}};
 
 static double min_dof(const std::vector<WeightedLine> &w)
 {
@@ -152,11 +144,8 @@ static Feedthrough parse_feedthrough(const Args &a)
         if (a.has("feedthrough") && a.get("feedthrough") != "no") throw UsageError("--no-d contradicts --feedthrough " + a.get("feedthrough"));
         return Feedthrough::No;
     }
-    const std::string v = a.get("feedthrough", "auto");
-    if (v == "auto") return Feedthrough::Auto;
-    if (v == "yes") return Feedthrough::Yes;
-    if (v == "no") return Feedthrough::No;
-    throw UsageError("--feedthrough must be auto, yes or no (got '" + v + "')");
+    return a.enum_<Feedthrough>("feedthrough", Feedthrough::Auto,
+                                {{"auto", Feedthrough::Auto}, {"yes", Feedthrough::Yes}, {"no", Feedthrough::No}});
 }
 
 static Json feedthrough_json(Feedthrough ft, bool included, double p)
@@ -172,9 +161,7 @@ static Json feedthrough_json(Feedthrough ft, bool included, double p)
 // (full-rank residue matrices would multiply the state order by the number of inputs).
 static bool use_poles(const Args &a, Domain d, size_t nu)
 {
-    const std::string p = a.get("param", d == Domain::DT && nu > 1 ? "lmfd" : "poles");
-    if (p != "poles" && p != "lmfd") throw UsageError("--param must be poles or lmfd (got '" + p + "')");
-    return p == "poles";
+    return a.enum_index("param", d == Domain::DT && nu > 1 ? "lmfd" : "poles", {"poles", "lmfd"}) == 0;
 }
 
 // The weighted fits invert sample covariances: B, D of subspace need M >= 4 periods (Pintelon 2002
@@ -231,23 +218,21 @@ int cmd_fit(int argc, char **argv)
 {
     if (fit_method_is(argc, argv, "multi")) return cmd_fit_multi(argc, argv);   // cmd_fit_multi.cpp
     if (cissim_requested(argc, argv)) return cmd_fit_cissim(argc, argv);
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(FIT_HELP, stdout); return 0; }
+    help_if_asked(argc, argv, 2, FIT_HELP);
     if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)
-    Args a(argc, argv, 2,
+    Args a(argc, argv, 2, FIT_HELP,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
             "feedthrough", "param", "output"},
            {"stable", "no-d"}, {"pin"});
     if (a.positional().size() != 1) throw UsageError("give exactly one msid-frf/1 file");
     const std::string out = a.require("output");
     const std::string method = a.require("method");
-    if (method != "subspace" && method != "lmfd" && method != "ml")
-        throw UsageError("--method must be subspace, lmfd or ml (got '" + method + "')");
+    parse_enum(method, "--method", {"subspace", "lmfd", "ml"});
     try {
         const FrfData f = read_frf(a.positional()[0]);
         const Domain d = parse_domain(a, f);
-        const Weight wt = parse_weight(a.get("weight", "cov"));
-        const double noise_var = a.has("noise-var") ? parse_double(a.get("noise-var"), "--noise-var") : 0.0;
+        const Weight wt = a.enum_<Weight>("weight", Weight::Cov, WEIGHTS);
+        const double noise_var = a.f64("noise-var", 0.0);
         if (a.has("noise-var") && !(noise_var > 0)) throw UsageError("--noise-var must be positive");
         const auto w = weigh(f, d, wt, noise_var);
         const bool known = noise_var > 0;
@@ -290,9 +275,9 @@ int cmd_fit(int argc, char **argv)
         };
         if (method == "subspace") {
             SubspaceOptions o;
-            o.order = a.has("order") ? (int)parse_u32(a.get("order"), "--order") : 0;
+            o.order = (int)a.u32("order", 0);
             if (a.has("order") && o.order == 0) throw UsageError("--order must be positive");
-            o.r = a.has("r") ? (int)parse_u32(a.get("r"), "--r") : 0;
+            o.r = (int)a.u32("r", 0);
             o.stable = a.has("stable");
             o.estimate_D = ft != Feedthrough::No;
             o.feedthrough_auto = ft == Feedthrough::Auto;
@@ -324,7 +309,7 @@ int cmd_fit(int argc, char **argv)
             po.feedthrough = ft;
             po.stable = a.has("stable");
             po.known_noise = known;
-            if (a.has("max-iter")) po.max_iter = (int)parse_u32(a.get("max-iter"), "--max-iter");
+            po.max_iter = (int)a.u32("max-iter", (uint32_t)po.max_iter);
             const PrResult r = pr_ml_fit(f, d, w, weighted, po);
             ss = pr_to_ss(r.model);
             settings["param"] = "poles";
@@ -356,8 +341,8 @@ int cmd_fit(int argc, char **argv)
             bool auto_nn = false;
             if (a.has("nd") || a.has("nn")) {
                 if (a.has("order")) throw UsageError("give --order or --nd/--nn, not both");
-                s.nD = a.has("nd") ? (int)parse_u32(a.get("nd"), "--nd") : 1;
-                s.nN = a.has("nn") ? (int)parse_u32(a.get("nn"), "--nn") : (d == Domain::CT ? s.nD - 1 : s.nD);
+                s.nD = (int)a.u32("nd", 1);
+                s.nN = a.has("nn") ? (int)a.u32("nn", 0) : (d == Domain::CT ? s.nD - 1 : s.nD);
             } else if (a.has("order")) {
                 const uint32_t n = parse_u32(a.get("order"), "--order");
                 if (n == 0 || n % ny) throw UsageError("--order must be a positive multiple of the number of outputs for an LMFD");
@@ -377,9 +362,9 @@ int cmd_fit(int argc, char **argv)
             settings["pins"] = pins;
             if (method == "ml") settings["param"] = "lmfd";
             MlOptions mo;
-            if (a.has("max-iter")) mo.max_iter = (int)parse_u32(a.get("max-iter"), "--max-iter");
-            if (a.has("delta")) mo.delta = parse_double(a.get("delta"), "--delta");
-            if (a.has("beta")) mo.beta = parse_double(a.get("beta"), "--beta");
+            mo.max_iter = (int)a.u32("max-iter", (uint32_t)mo.max_iter);
+            mo.delta = a.f64("delta", mo.delta);
+            mo.beta = a.f64("beta", mo.beta);
             if (!(mo.delta > 0 && mo.delta <= 1) || !(mo.beta > 0 && mo.beta < 1))
                 throw UsageError("--delta must be in (0, 1] and --beta in (0, 1)");
             LmfdModel lm;
@@ -512,9 +497,7 @@ static const char *VAL_HELP =
 
 int cmd_validate(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(VAL_HELP, stdout); return 0; }
-    Args a(argc, argv, 2, {"weight", "output"}, {});
+    Args a(argc, argv, 2, VAL_HELP, {"weight", "output"}, {});
     if (a.positional().size() != 2) throw UsageError("give a model file and an FRF file");
     try {
         const ModelFile mf = read_model(a.positional()[0]);
@@ -525,8 +508,8 @@ int cmd_validate(int argc, char **argv)
                            std::to_string(f.ny));
         // The verdict comes from the FRF covariance whatever weighting the fit used (a --weight none
         // fit is validated with the covariance: unit weights would make the verdict depend on the units).
+        Weight wt = a.enum_<Weight>("weight", mf.weight == "known-input" ? Weight::KnownInput : Weight::Cov, WEIGHTS);
         std::string wname = a.has("weight") ? a.get("weight") : (mf.weight == "known-input" ? "known-input" : "cov");
-        Weight wt = parse_weight(wname);
         std::vector<WeightedLine> w;
         try {
             w = weigh(f, mf.domain, wt);
@@ -593,13 +576,9 @@ int cmd_validate(int argc, char **argv)
 
 int cmd_compare(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid compare model.json reference.json [-o out.json]\n"
-                       "Relative H2 and Hinf distance ||model - reference|| / ||reference||.\n", stdout);
-            return 0;
-        }
-    Args a(argc, argv, 2, {"output"}, {});
+    static const char *HELP = "usage: msid compare model.json reference.json [-o out.json]\n"
+                              "Relative H2 and Hinf distance ||model - reference|| / ||reference||.\n";
+    Args a(argc, argv, 2, HELP, {"output"}, {});
     if (a.positional().size() != 2) throw UsageError("give two model files (the second is the reference)");
     try {
         const ModelFile m1 = read_model(a.positional()[0]), m2 = read_model(a.positional()[1]);

@@ -175,16 +175,12 @@ int cmd_fit_scan(int argc, char **argv)
 
 int cmd_modes(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid modes model.json [-o modes.json]\n"
-                       "Natural frequencies, damping ratios and residues of every pole pair of an msid-model/1 file,\n"
-                       "with standard deviations from its parameter covariance (delta method; ml and unique lmfd\n"
-                       "models). DT poles are mapped to CT by ln(z)/h.\n",
-                       stdout);
-            return 0;
-        }
-    Args a(argc, argv, 2, {"output"}, {});
+    static const char *HELP =
+        "usage: msid modes model.json [-o modes.json]\n"
+        "Natural frequencies, damping ratios and residues of every pole pair of an msid-model/1 file,\n"
+        "with standard deviations from its parameter covariance (delta method; ml and unique lmfd\n"
+        "models). DT poles are mapped to CT by ln(z)/h.\n";
+    Args a(argc, argv, 2, HELP, {"output"}, {});
     if (a.positional().size() != 1) throw UsageError("give one msid-model/1 file");
     try {
         const Json j = read_json(a.positional()[0]);

@@ -48,9 +48,7 @@ int cmd_frf(int argc, char **argv)
         if ((!std::strcmp(argv[i], "--method") && i + 1 < argc && std::strcmp(argv[i + 1], "periodic")) ||
             (!std::strncmp(argv[i], "--method=", 9) && std::strcmp(argv[i] + 9, "periodic")))
             return cmd_frf_est(argc, argv);
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2,
+    Args a(argc, argv, 2, HELP,
            {"design", "period", "lines", "skip-periods", "fs", "detect-lines", "transient", "alpha", "dft", "block",
             "output", "method", "columns", "realisations"},
            {"direct"}, {"experiment"});
@@ -64,26 +62,21 @@ int cmd_frf(int argc, char **argv)
         request_from_design(rq, *D);
     } else {
         if (!a.has("period") || !a.has("lines")) throw UsageError("give --design, or both --period and --lines");
-        if (a.get("period") != "auto") rq.period = parse_u32(a.get("period"), "--period");
+        if (a.get("period") != "auto") rq.period = a.u32("period", 0);
         if (a.get("lines") != "auto") rq.bins = parse_uint_list(a.get("lines"), "--lines");
     }
     const bool auto_period = !D && a.get("period") == "auto", auto_lines = !D && a.get("lines") == "auto";
     if ((auto_period || auto_lines) && a.has("direct")) throw UsageError("--direct needs --design (no auto period/lines)");
     if (a.has("fs")) {
-        rq.fs = parse_double(a.get("fs"), "--fs");
+        rq.fs = a.f64("fs", 0.0);
         if (!(rq.fs > 0)) throw UsageError("--fs must be positive");
         if (D && D->is_ct()) throw UsageError("--fs does not apply to a continuous-time design (it has a sample time)");
     }
     parse_estimate_options(a, rq);
-    const std::string dp = a.get("dft", "auto");
-    if (dp == "auto") rq.path = MSID_DFT_AUTO;
-    else if (dp == "stream") rq.path = MSID_DFT_STREAM;
-    else if (dp == "fft") rq.path = MSID_DFT_FFT;
-    else throw UsageError("--dft must be auto, stream or fft (got '" + dp + "')");
-    if (a.has("block")) {
-        rq.block = parse_u64(a.get("block"), "--block");
-        if (rq.block == 0) throw UsageError("--block must be positive");
-    }
+    rq.path = a.enum_<msid_dft_path>("dft", MSID_DFT_AUTO,
+                                     {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});
+    rq.block = a.u64("block", 0);
+    if (a.has("block") && rq.block == 0) throw UsageError("--block must be positive");
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
@@ -108,7 +101,7 @@ int cmd_frf(int argc, char **argv)
         for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
             if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
     }
-    const uint32_t R = a.has("realisations") ? parse_u32(a.get("realisations"), "--realisations") : 1;
+    const uint32_t R = a.u32("realisations", 1);
     if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
     FrfOutcome o = a.has("direct") ? run_frf_direct(rq, *D, recs)
                    : a.has("realisations") ? run_frf_realisations(rq, recs, R)   // BLA + noise/distortion split

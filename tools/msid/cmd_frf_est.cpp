@@ -2,6 +2,7 @@
 #include "commands.hpp"
 #include "frf_io.hpp"
 #include "pipeline.hpp"
+#include "frf_file.hpp"
 
 #include "etfe.hpp"
 #include "lpm.hpp"
@@ -103,18 +104,16 @@ std::vector<double> out_snr(const msidest::Spectra &S, size_t k, const std::comp
 Json experiments_json(const std::vector<Record> &recs, size_t period)
 {
     Json ex = Json::array();
-    for (const auto &r : recs)
-        ex.push_back({{"source", r.path},
-                      {"samples", r.n_rows},
-                      {"periods_total", r.n_rows / period},
-                      {"periods_skipped", 0},
-                      {"periods_used", r.n_rows / period},
-                      {"periods_gap", 0},
-                      {"periods_nonfinite", 0},
-                      {"transient_tested", false},
-                      {"transient_flagged", Json::array()},
-                      {"transient_dropped", Json::array()},
-                      {"leftover_samples", r.n_rows % period}});
+    for (const auto &r : recs) {
+        msidfrf::Experiment x;
+        x.source = r.path;
+        x.samples = r.n_rows;
+        x.periods_total = r.n_rows / period;
+        x.periods_used = r.n_rows / period;
+        x.transient_tested = false;
+        x.leftover_samples = r.n_rows % period;
+        ex.push_back(msidfrf::experiment(x));
+    }
     return ex;
 }
 
@@ -122,9 +121,7 @@ Json experiments_json(const std::vector<Record> &recs, size_t period)
 
 int cmd_frf_est(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(HELP_EST, stdout); return 0; }
-    Args a(argc, argv, 2, {"method", "order", "window", "band", "fs", "period", "delta", "gstar", "threads", "output"},
+    Args a(argc, argv, 2, HELP_EST, {"method", "order", "window", "band", "fs", "period", "delta", "gstar", "threads", "output"},
            {}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string method = a.get("method");
@@ -135,17 +132,12 @@ int cmd_frf_est(int argc, char **argv)
         if (is_lpm && a.has(k)) throw UsageError(std::string("--") + k + " applies to --method etfe only");
     const std::string out = a.require("output");
     FrfRequest rq;
-    if (a.has("fs")) {
-        rq.fs = parse_double(a.get("fs"), "--fs");
-        if (!(rq.fs > 0)) throw UsageError("--fs must be positive");
-    }
+    rq.fs = a.f64("fs", 0.0);
+    if (a.has("fs") && !(rq.fs > 0)) throw UsageError("--fs must be positive");
     const Band band = parse_band(a, rq.fs);
     const double fscale = rq.fs > 0 ? rq.fs : 1.0;
     unsigned threads = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
-    if (a.has("threads")) {
-        threads = parse_u32(a.get("threads"), "--threads");
-        if (threads == 0 || threads > 64) throw UsageError("--threads must be 1..64");
-    }
+    threads = a.u32("threads", threads, 1, 64);
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     std::vector<Record> recs;
@@ -168,14 +160,9 @@ int cmd_frf_est(int argc, char **argv)
     try {
         if (is_lpm) {
             msidest::LpmConfig c;
-            if (a.has("order")) {
-                c.order = parse_u32(a.get("order"), "--order");
-                if (c.order > 8) throw UsageError("--order must be 0..8");
-            }
-            if (a.has("window")) {
-                c.window = parse_u32(a.get("window"), "--window");
-                if (c.window == 0) throw UsageError("--window must be at least 1");
-            }
+            c.order = a.u32("order", c.order, 0, 8);
+            c.window = a.u32("window", c.window);
+            if (a.has("window") && c.window == 0) throw UsageError("--window must be at least 1");
             c.threads = threads;
             const size_t Kmax = N >= 3 ? (N - 1) / 2 : 0;
             if (band.given)
@@ -203,15 +190,11 @@ int cmd_frf_est(int argc, char **argv)
         } else if (method == "etfe") {
             if (!a.has("period")) throw UsageError("--method etfe needs --period M (samples per input period)");
             msidest::EtfeConfig c;
-            c.M = parse_u32(a.get("period"), "--period");
-            if (a.has("delta")) {
-                c.delta = parse_double(a.get("delta"), "--delta");
-                if (!(c.delta > 0 && c.delta < 1)) throw UsageError("--delta must be in (0, 1)");
-            }
-            if (a.has("gstar")) {
-                c.gstar = parse_double(a.get("gstar"), "--gstar");
-                if (!(c.gstar >= 0)) throw UsageError("--gstar must be >= 0");
-            }
+            c.M = a.u32("period", 0);
+            c.delta = a.f64("delta", c.delta);
+            if (!(c.delta > 0 && c.delta < 1)) throw UsageError("--delta must be in (0, 1)");
+            c.gstar = a.f64("gstar", c.gstar);
+            if (!(c.gstar >= 0)) throw UsageError("--gstar must be >= 0");
             msidest::check_periodic_input(views, nu, c.M);
             c.du_max = msidest::max_input_norm(views, nu);
             const size_t lmax = (c.M - 1) / 2;
@@ -254,7 +237,7 @@ int cmd_frf_est(int argc, char **argv)
     doc["periods_used"] = 0;
     for (const auto &e : doc["experiments"]) doc["periods_used"] = doc["periods_used"].get<uint64_t>() + e["periods_used"].get<uint64_t>();
     doc["periods_rejected"] = 0;
-    doc["vec_convention"] = "vec stacks columns: G[i][j] has index i + n_outputs*j";
+    doc["vec_convention"] = msidfrf::VEC_CONVENTION;
     doc["lines"] = lines;
     write_json_file(out, doc);
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %u experiment(s), %zu samples each (%s)\n",

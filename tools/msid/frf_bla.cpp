@@ -17,27 +17,14 @@ namespace msidcli {
 using msidfit::MatC;
 using msidfit::cd;
 
+// A matrix of a document this job built (shape from the document itself).
 static MatC jcmat(const Json &v)
 {
-    const Json &re = v.at("re"), &im = v.at("im");
-    MatC M((Eigen::Index)re.size(), re.empty() ? 0 : (Eigen::Index)re[0].size());
-    for (Eigen::Index r = 0; r < M.rows(); ++r)
-        for (Eigen::Index c = 0; c < M.cols(); ++c)
-            M(r, c) = cd(re[(size_t)r][(size_t)c].get<double>(), im[(size_t)r][(size_t)c].get<double>());
-    return M;
+    const Json &re = v.at("re");
+    return msidfrf::parse_cmat(v, re.size(), re.empty() ? 0 : re[0].size(), "FRF", "matrix");
 }
 
-static Json cjson(const MatC &M)
-{
-    Json re = Json::array(), im = Json::array();
-    for (Eigen::Index r = 0; r < M.rows(); ++r) {
-        Json a = Json::array(), b = Json::array();
-        for (Eigen::Index c = 0; c < M.cols(); ++c) { a.push_back(M(r, c).real()); b.push_back(M(r, c).imag()); }
-        re.push_back(a);
-        im.push_back(b);
-    }
-    return Json{{"re", re}, {"im", im}};
-}
+static Json cjson(const MatC &M) { return msidfrf::cmat(M); }
 
 static std::vector<double> vvec(const msidfit::VecR &v) { return std::vector<double>(v.data(), v.data() + v.size()); }
 

@@ -1,4 +1,4 @@
-// msid-frf/1 and other JSON documents on disk.
+// JSON documents on disk; msid-frf/1 parts of the host estimators over tools/frffile.
 #pragma once
 #include "design_io.hpp"
 #include <complex>

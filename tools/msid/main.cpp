@@ -24,10 +24,10 @@ static const char *USAGE =
     "  modbus   measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device\n"
     "  plot     Bode plot of an FRF file with 95% regions, model overlay and residuals (PNG/SVG/PDF)\n"
     "  export   an FRF file as CSV or MATLAB .mat (idfrd shape) with standard deviations\n"
-    "  bench    benchmarks: `msid bench frf`, `msid bench fit`, `msid bench lpm`, `msid bench target`, `msid bench wcet`\n"
+    "  bench    benchmarks against peers: frf, fit, lpm, io, can, modbus, target, wcet (`msid bench --help`)\n"
     "  version  print the version\n"
     "\n"
-    "`msid <command> --help` shows the options of a command. See README.md and docs/.\n";
+    "`msid <command> --help` (or -h) shows the options of a command. See README.md and docs/.\n";
 
 int main(int argc, char **argv)
 {
@@ -36,6 +36,9 @@ int main(int argc, char **argv)
         return argc < 2 ? 2 : 0;
     }
     const std::string cmd = argv[1];
+    // -h is --help everywhere, also for the handlers that look for "--help" themselves
+    for (int i = 2; i < argc; ++i)
+        if (!std::strcmp(argv[i], "-h")) argv[i] = const_cast<char *>("--help");
     // A file size limit (ulimit -f) must end a run with an error, not SIGXFSZ: then write() fails with
     // EFBIG and the temporary file is removed (issue 15 #10: out.json.tmp.PID was left behind).
     std::signal(SIGXFSZ, SIG_IGN);
@@ -59,6 +62,9 @@ int main(int argc, char **argv)
         }
         std::fprintf(stderr, "msid: error: unknown command '%s' (try msid --help)\n", cmd.c_str());
         return 2;
+    } catch (const msidcli::HelpRequest &h) {
+        std::fputs(h.text, stdout);
+        return 0;
     } catch (const msidcli::Error &e) {
         std::fprintf(stderr, "msid %s: error: %s\n", cmd.c_str(), e.what());
         return e.code;

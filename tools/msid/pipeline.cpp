@@ -1,4 +1,5 @@
 #include "pipeline.hpp"
+#include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
@@ -8,52 +9,44 @@ extern "C" {
 namespace msidcli {
 
 
+static_assert(sizeof(std::complex<double>) == sizeof(msid_cplx), "msid_cplx is {re, im}");
+
+// A row-major rows x cols msid_cplx array of the core as a matrix for the msid-frf/1 writer.
+static msidfrf::MatC cmat_of(const msid_cplx *a, size_t rows, size_t cols)
+{
+    return msidfrf::from_row_major(reinterpret_cast<const std::complex<double> *>(a), rows, cols);
+}
+
 Json cmat_json(const msid_cplx *a, size_t rows, size_t cols)
 {
-    Json re = Json::array(), im = Json::array();
-    for (size_t r = 0; r < rows; ++r) {
-        Json rr = Json::array(), ri = Json::array();
-        for (size_t c = 0; c < cols; ++c) {
-            rr.push_back(a[r * cols + c].re);
-            ri.push_back(a[r * cols + c].im);
-        }
-        re.push_back(rr);
-        im.push_back(ri);
-    }
-    return Json{{"re", re}, {"im", im}};
+    return msidfrf::cmat(reinterpret_cast<const std::complex<double> *>(a), rows, cols);
 }
 
 Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
 {
-    Json doc;
-    doc["format"] = "msid-frf/1";
-    doc["generator"] = std::string("msid ") + MSID_VERSION;
-    doc["period_samples"] = rq.period;
-    doc["n_inputs"] = nu;
-    doc["n_outputs"] = ny;
-    doc["n_experiments"] = m;
-    const bool ct = !rq.omega.empty();
-    doc["domain"] = ct ? "ct" : "dt";
-    if (ct || rq.fs > 0) doc["sample_time"] = ct ? rq.sample_time : 1.0 / rq.fs;
-    if (rq.fs > 0) doc["fs_hz"] = rq.fs;
-    return doc;
+    msidfrf::Header h;
+    h.period = rq.period;
+    h.nu = nu;
+    h.ny = ny;
+    h.m = m;
+    h.ct = !rq.omega.empty();
+    h.sample_time = rq.sample_time;
+    h.fs = rq.fs;
+    return msidfrf::header(h);
 }
 
 Json line_position(const FrfRequest &rq, size_t l)
 {
-    Json e;
-    const uint32_t b = rq.bins[l];
-    e["bin"] = b;
-    e["freq"] = (double)b / rq.period;
-    if (!rq.omega.empty()) {
-        e["omega"] = rq.omega[l];
-        e["folded"] = rq.folded[l] != 0;
-        e["freq_hz"] = rq.omega[l] / (2 * M_PI);
-    } else if (rq.fs > 0) {
-        e["freq_hz"] = (double)b / rq.period * rq.fs;
+    msidfrf::Position p;
+    p.bin = rq.bins[l];
+    p.period = rq.period;
+    p.ct = !rq.omega.empty();
+    if (p.ct) {
+        p.omega = rq.omega[l];
+        p.folded = rq.folded[l] != 0;
     }
-    if (b == 0) e["real"] = true;
-    return e;
+    p.fs = rq.fs;
+    return msidfrf::position(p);
 }
 
 void request_from_design(FrfRequest &rq, const Design &D)
@@ -64,24 +57,16 @@ void request_from_design(FrfRequest &rq, const Design &D)
 
 void parse_estimate_options(const Args &a, FrfRequest &rq)
 {
-    if (a.has("skip-periods")) rq.skip = parse_u32(a.get("skip-periods"), "--skip-periods");
+    rq.skip = a.u32("skip-periods", rq.skip);
     if (a.has("detect-lines")) rq.detect = parse_uint_list(a.get("detect-lines"), "--detect-lines");
-    const std::string tr = a.get("transient", "flag");
-    if (tr == "flag") rq.transient = MSID_TRANSIENT_FLAG;
-    else if (tr == "drop") rq.transient = MSID_TRANSIENT_DROP;
-    else if (tr == "off") rq.transient = MSID_TRANSIENT_OFF;
-    else throw UsageError("--transient must be flag, drop or off (got '" + tr + "')");
-    if (a.has("alpha")) {
-        rq.alpha = parse_double(a.get("alpha"), "--alpha");
-        if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
-    }
-    if (a.has("dft")) {   // line DFT path, for commands that list --dft (a device estimates on the stream path)
-        const std::string dp = a.get("dft");
-        if (dp == "auto") rq.path = MSID_DFT_AUTO;
-        else if (dp == "stream") rq.path = MSID_DFT_STREAM;
-        else if (dp == "fft") rq.path = MSID_DFT_FFT;
-        else throw UsageError("--dft must be auto, stream or fft (got '" + dp + "')");
-    }
+    rq.transient = a.enum_<msid_transient_mode>(
+        "transient", MSID_TRANSIENT_FLAG,
+        {{"flag", MSID_TRANSIENT_FLAG}, {"drop", MSID_TRANSIENT_DROP}, {"off", MSID_TRANSIENT_OFF}});
+    rq.alpha = a.f64("alpha", rq.alpha);
+    if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
+    // line DFT path, for commands that list --dft (a device estimates on the stream path)
+    rq.path = a.enum_<msid_dft_path>("dft", rq.path,
+                                     {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});
 }
 
 void request_from_core_design(FrfRequest &rq, const msid_design &d)
@@ -258,7 +243,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         const ExpSource &r = src[e];
         ps[e] = msid_meas_stats(&ms, e);
         const msid_pstats_counts c = msid_pstats_get_counts(ps[e]);
-        Json flagged = Json::array(), dropped = Json::array(), pvals = Json::array();
+        std::vector<uint32_t> flagged, dropped;
         const double dp = msid_pstats_drift_pvalue(ps[e]);
         std::string flagged_list;
         for (uint32_t k = 0; k < msid_pstats_history(ps[e]); ++k) {
@@ -283,22 +268,23 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                                     r.source.c_str(), msid_pstats_history(ps[e]) - msid_pstats_history(ps[e]) / 2,
                                     msid_pstats_history(ps[e]), dp, flagged_list.empty() ? "" : "; periods ",
                                     flagged_list.empty() ? "" : (flagged_list + " depart most from the mean").c_str()));
-        Json je;
-        je["source"] = r.source;
-        je["samples"] = r.samples;
-        je["periods_total"] = r.periods_total;
-        je["periods_skipped"] = c.skipped;
-        je["periods_used"] = c.used;
-        je["periods_gap"] = c.gap;
-        je["periods_nonfinite"] = c.nonfinite;
-        je["transient_tested"] = c.tested != 0;
-        je["transient_flagged"] = flagged;
-        je["transient_dropped"] = dropped;
-        je["drift_tested"] = c.drift_tested != 0;
-        je["drift"] = c.drift != 0;
-        if (std::isfinite(dp)) je["drift_p_value"] = dp; else je["drift_p_value"] = nullptr;
-        je["leftover_samples"] = r.leftover;
-        exps.push_back(je);
+        msidfrf::Experiment x;
+        x.source = r.source;
+        x.samples = r.samples;
+        x.periods_total = r.periods_total;
+        x.periods_skipped = c.skipped;
+        x.periods_used = c.used;
+        x.periods_gap = c.gap;
+        x.periods_nonfinite = c.nonfinite;
+        x.transient_tested = c.tested != 0;
+        x.transient_flagged = flagged;
+        x.transient_dropped = dropped;
+        x.drift_block = true;
+        x.drift_tested = c.drift_tested != 0;
+        x.drift = c.drift != 0;
+        x.drift_p_value = dp;
+        x.leftover_samples = r.leftover;
+        exps.push_back(msidfrf::experiment(x));
         used += c.used;
         rejected += c.gap + c.nonfinite + c.transient_dropped;
         if (c.used < 2)
@@ -339,47 +325,31 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     doc["periods_used"] = used;
     doc["periods_rejected"] = rejected;
     doc["dft_path"] = out.dft_path;
-    doc["vec_convention"] = "vec stacks columns: G[i][j] has index i + n_outputs*j";
+    doc["vec_convention"] = msidfrf::VEC_CONVENTION;
     doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
     doc["experiments"] = exps;
     Json lines = Json::array();
     for (uint32_t l = 0; l < L; ++l) {
-        Json e = line_position(rq, l);
-        e["G"] = cmat_json(msid_frf_G(&f, l), ny, nu);
-        e["cov"] = cmat_json(msid_frf_cov(&f, l), g, g);
-        e["dof"] = msid_frf_dof(&f, l);
-        e["cov_known_input"] = cmat_json(msid_frf_cov_known_input(&f, l), g, g);
-        e["dof_known_input"] = msid_frf_dof_known_input(&f, l);
-        e["noise_cov"] = cmat_json(msid_frf_noise_cov(&f, l), ny, ny);
-        Json snr = Json::array();
-        for (uint32_t i = 0; i < ny; ++i) {
-            const double s = msid_frf_snr_db(&f, l)[i];
-            if (std::isfinite(s)) snr.push_back(s); else snr.push_back(nullptr);
-        }
-        e["snr"] = snr;
-        e["cond"] = msid_frf_cond(&f, l);
-        const double us = msid_frf_input_snr_db(&f, l);
-        if (std::isfinite(us)) e["input_snr"] = us; else e["input_snr"] = nullptr;
-        lines.push_back(e);
+        msidfrf::LineStats s;
+        s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
+        s.cov = cmat_of(msid_frf_cov(&f, l), g, g);
+        s.dof = msid_frf_dof(&f, l);
+        s.cov_ki = cmat_of(msid_frf_cov_known_input(&f, l), g, g);
+        s.dof_ki = msid_frf_dof_known_input(&f, l);
+        s.noise = cmat_of(msid_frf_noise_cov(&f, l), ny, ny);
+        s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
+        s.cond = msid_frf_cond(&f, l);
+        s.input_snr = msid_frf_input_snr_db(&f, l);
+        lines.push_back(msidfrf::line(line_position(rq, l), s));
     }
     doc["lines"] = lines;
     if (Ld) {
         Json dl = Json::array();
-        for (uint32_t d = 0; d < Ld; ++d) {
-            Json e;
-            e["bin"] = rq.detect[d];
-            e["freq"] = (double)rq.detect[d] / P;
-            if (rq.fs > 0) e["freq_hz"] = (double)rq.detect[d] / P * rq.fs;
-            e["Y_mean"] = cmat_json(msid_frf_detect_mean(&f, d), m, ny);
-            Json v = Json::array(), p = Json::array();
-            for (uint32_t i = 0; i < ny; ++i) {
-                v.push_back(msid_frf_detect_var(&f, d)[i]);
-                p.push_back(msid_frf_detect_pvalue(&f, d)[i]);
-            }
-            e["noise_var"] = v;
-            e["p_value"] = p;
-            dl.push_back(e);
-        }
+        for (uint32_t d = 0; d < Ld; ++d)
+            dl.push_back(msidfrf::detection_line(rq.detect[d], P, rq.fs, cmat_of(msid_frf_detect_mean(&f, d), m, ny),
+                                                 std::vector<double>(msid_frf_detect_var(&f, d), msid_frf_detect_var(&f, d) + ny),
+                                                 std::vector<double>(msid_frf_detect_pvalue(&f, d),
+                                                                     msid_frf_detect_pvalue(&f, d) + ny)));
         doc["detection_lines"] = dl;
     }
     out.doc = std::move(doc);

@@ -75,7 +75,8 @@ private:
 FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vector<Record> &recs);
 
 // The msid-frf/1 header fields (format .. fs_hz) and a line's position fields
-// (bin, freq, omega, folded, freq_hz, real): shared by every FRF writer.
+// (bin, freq, omega, folded, freq_hz, real) of a request: msidfrf::header() and
+// msidfrf::position() (tools/frffile, the one writer of the format).
 Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m);
 Json line_position(const FrfRequest &rq, size_t l);
 

@@ -1,8 +1,8 @@
 // msid frf --direct: the direct time-domain LS FRF (González et al. 2025,
-// eqs. 19-23, Theorem 2) written as msid-frf/1 through the shared writer parts.
+// eqs. 19-23, Theorem 2; tools/est/direct.cpp) written as msid-frf/1 by tools/frffile.
 #include "pipeline.hpp"
 #include "direct.hpp"
-#include "model_io.hpp"
+#include "frf_file.hpp"
 
 #include <cmath>
 
@@ -19,41 +19,37 @@ FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vect
     if (d.n_inputs != nu) throw Error(fmt("the design has %u inputs but the files have %u input columns", d.n_inputs, nu));
     if (d.n_experiments != m)
         throw Error(fmt("the design has %u experiments but %u experiment files are given", d.n_experiments, m));
-    std::vector<msidfit::DirectRecord> dr;
+    std::vector<msidest::DirectRecord> dr;
     for (const auto &r : recs) {
         if (r.n_rows <= rq.skip * (size_t)d.period)
             throw Error(fmt("'%s': %zu samples, nothing left after skipping %u periods", r.path.c_str(), r.n_rows, rq.skip));
-        msidfit::DirectRecord x;
+        msidest::DirectRecord x;
         x.rows = r.data() + (size_t)rq.skip * d.period * (nu + ny);
         x.n = r.n_rows - (size_t)rq.skip * d.period;
         x.stride = nu + ny;
         x.y_col = nu;
         dr.push_back(x);
     }
-    msidfit::DirectResult res;
+    msidest::DirectResult res;
     try {
-        res = msidfit::direct_frf(d, D.tw, dr, ny);
-    } catch (const msidfit::FitError &e) {
+        res = msidest::direct_frf(d, D.tw, dr, ny);
+    } catch (const msidest::EstError &e) {
         throw Error(e.what());
     }
-    const size_t g = (size_t)nu * ny, L = d.n_lines;
+    const size_t L = d.n_lines;
     Json doc = frf_header(rq, nu, ny, m);
     uint64_t whole = 0;
     Json exps = Json::array();
     for (uint32_t e = 0; e < m; ++e) {
-        Json je;
-        je["source"] = recs[e].path;
-        je["samples"] = recs[e].n_rows;
-        je["periods_total"] = recs[e].n_rows / d.period;
-        je["periods_skipped"] = rq.skip;
-        je["periods_used"] = dr[e].n / d.period;
-        je["periods_gap"] = 0;
-        je["periods_nonfinite"] = 0;
-        je["transient_flagged"] = Json::array();
-        je["transient_dropped"] = Json::array();
-        je["leftover_samples"] = 0;   // the direct method uses every sample
+        msidfrf::Experiment x;
+        x.source = recs[e].path;
+        x.samples = recs[e].n_rows;
+        x.periods_total = recs[e].n_rows / d.period;
+        x.periods_skipped = rq.skip;
+        x.periods_used = dr[e].n / d.period;
+        x.leftover_samples = 0;   // the direct method uses every sample
         whole += dr[e].n / d.period;
-        exps.push_back(je);
+        exps.push_back(msidfrf::experiment(x));
     }
     doc["periods_used"] = whole;
     doc["periods_rejected"] = 0;
@@ -61,36 +57,30 @@ FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vect
     doc["whole_periods"] = res.whole_periods;
     doc["lines_correlated"] = !res.whole_periods;
     doc["dof_real"] = res.dof_real;
-    doc["vec_convention"] = "vec stacks columns: G[i][j] has index i + n_outputs*j";
-    msidfit::MatC sig = res.sigma.cast<std::complex<double>>();
-    doc["noise_cov"] = msidfit::cmat_json_c(sig);
+    doc["vec_convention"] = msidfrf::VEC_CONVENTION;
+    doc["noise_cov"] = msidfrf::cmat(res.sigma.cast<std::complex<double>>());
     doc["experiments"] = exps;
+    const msidfrf::MatC nz = (res.sigma * (double)d.period).cast<std::complex<double>>();
     Json lines = Json::array();
     for (size_t l = 0; l < L; ++l) {
         const auto &dl = res.lines[l];
-        Json e = line_position(rq, l);
-        e["G"] = msidfit::cmat_json_c(dl.G);
-        e["cov"] = msidfit::cmat_json_c(dl.cov);
-        e["dof"] = 0.5 * res.dof_real;
-        e["cov_known_input"] = msidfit::cmat_json_c(dl.cov);
-        e["dof_known_input"] = 0.5 * res.dof_real;
-        e["pcov"] = msidfit::cmat_json_c(dl.pcov);
-        msidfit::MatC nz = (res.sigma * (double)d.period).cast<std::complex<double>>();
-        e["noise_cov"] = msidfit::cmat_json_c(nz);
-        Json snr = Json::array();
+        msidfrf::LineStats s;
+        s.G = dl.G;
+        s.cov = dl.cov;
+        s.dof = 0.5 * res.dof_real;
+        s.pcov = dl.pcov;
+        s.noise = nz;
         for (uint32_t i = 0; i < ny; ++i) {
-            double s = 0, v = 0;
+            double sg = 0, v = 0;
             for (uint32_t j = 0; j < nu; ++j) {
-                s += std::norm(dl.G(i, j));
+                sg += std::norm(dl.G(i, j));
                 v += dl.cov(i + ny * j, i + ny * j).real();
             }
-            if (v > 0) snr.push_back(10 * std::log10(s / v)); else snr.push_back(nullptr);
+            s.snr.push_back(v > 0 ? 10 * std::log10(sg / v) : NAN);
         }
-        e["snr"] = snr;
-        e["cond"] = msid_design_cond(&d, (uint32_t)l);
-        e["input_snr"] = nullptr;
-        lines.push_back(e);
-        (void)g;
+        s.cond = msid_design_cond(&d, (uint32_t)l);
+        s.input_snr = NAN;
+        lines.push_back(msidfrf::line(line_position(rq, l), s));
     }
     doc["lines"] = lines;
     if (!res.whole_periods)

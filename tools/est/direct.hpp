@@ -2,13 +2,18 @@
 // Theorem 2) for multisine records that are not whole periods (leakage) and
 // for continuous-time multisines sampled slower than Nyquist.
 #pragma once
-#include "fit_types.hpp"
+#include "spectra.hpp"
+
+#include <Eigen/Dense>
 
 extern "C" {
 #include "msid/msid.h"
 }
 
-namespace msidfit {
+namespace msidest {
+
+using MatC = Eigen::MatrixXcd;
+using MatR = Eigen::MatrixXd;
 
 struct DirectRecord {
     const double *rows = nullptr;   // n x stride, outputs at columns y_col .. y_col+ny-1
@@ -33,7 +38,7 @@ struct DirectResult {
 
 // y_e(k) = sum_l Re{ G(l) c_{e,l} e^{j 2 pi b_l k / P} } + v(k): the input is the design's
 // exact multisine (known input), one regressor pair (Re G, Im G) per line and input.
-// Throws FitError for too few samples or a singular regression (naming the line).
+// Throws EstError for too few samples or a singular regression (naming the line).
 DirectResult direct_frf(const msid_design &d, const msid_twiddle &tw, const std::vector<DirectRecord> &recs, size_t ny);
 
-}  // namespace msidfit
+}  // namespace msidest

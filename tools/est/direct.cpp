@@ -2,12 +2,12 @@
 
 #include <cmath>
 
-namespace msidfit {
+namespace msidest {
 
 DirectResult direct_frf(const msid_design &d, const msid_twiddle &tw, const std::vector<DirectRecord> &recs, size_t ny)
 {
     const uint32_t P = d.period, L = d.n_lines, nu = d.n_inputs;
-    if (recs.size() != d.n_experiments) throw FitError("one record per design experiment is needed");
+    if (recs.size() != d.n_experiments) throw EstError("one record per design experiment is needed");
     // parameter columns: per line and input, (Re G, Im G); DC lines only Re G
     std::vector<Eigen::Index> col0(L);
     Eigen::Index p = 0;
@@ -16,7 +16,7 @@ DirectResult direct_frf(const msid_design &d, const msid_twiddle &tw, const std:
     DirectResult res;
     for (const auto &r : recs) { N += (Eigen::Index)r.n; if (r.n % P) res.whole_periods = false; }
     if (N <= p)
-        throw FitError("the direct LS FRF needs more samples (" + std::to_string(N) + ") than regressors (" + std::to_string(p) + ")");
+        throw EstError("the direct LS FRF needs more samples (" + std::to_string(N) + ") than regressors (" + std::to_string(p) + ")");
     MatR X(N, p), Y(N, (Eigen::Index)ny);
     Eigen::Index row = 0;
     for (uint32_t e = 0; e < recs.size(); ++e) {
@@ -50,7 +50,7 @@ DirectResult direct_frf(const msid_design &d, const msid_twiddle &tw, const std:
         const Eigen::Index bad = perm(std::max<Eigen::Index>(qr.rank(), 0) < p ? qr.rank() : p - 1);
         uint32_t lb = 0;
         for (uint32_t l = 0; l < L; ++l) if (col0[l] <= bad) lb = l;
-        throw FitError("the direct regression is singular at line " + std::to_string(lb + 1) + " (bin " +
+        throw EstError("the direct regression is singular at line " + std::to_string(lb + 1) + " (bin " +
                        std::to_string(d.bins[lb]) + "): the record does not separate it from the other lines");
     }
     const MatR beta = qr.solve(Y);                   // p x ny
@@ -100,4 +100,4 @@ DirectResult direct_frf(const msid_design &d, const msid_twiddle &tw, const std:
     return res;
 }
 
-}  // namespace msidfit
+}  // namespace msidest

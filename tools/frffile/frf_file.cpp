@@ -1,0 +1,247 @@
+#include "frf_file.hpp"
+
+extern "C" {
+#include "msid/msid.h"
+}
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace msidfrf {
+
+const char *const VEC_CONVENTION = "vec stacks columns: G[i][j] has index i + n_outputs*j";
+
+// ---------------- reading ----------------
+
+Json read_json(const std::string &path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    try {
+        return Json::parse(ss.str());
+    } catch (const Json::parse_error &e) {
+        throw Error("'" + path + "' is not valid JSON: " + e.what());
+    }
+}
+
+static std::string where(const std::string &file, const std::string &what) { return "'" + file + "': " + what; }
+
+static const Json &need(const Json &o, const char *key, const std::string &file, const std::string &ctx = "")
+{
+    if (!o.is_object()) throw Error(where(file, (ctx.empty() ? "" : ctx + ": ") + "expected an object"));
+    auto it = o.find(key);
+    if (it == o.end()) throw Error(where(file, "missing '" + (ctx.empty() ? "" : ctx + ".") + key + "'"));
+    return *it;
+}
+
+static double num(const Json &v, const std::string &file, const std::string &what)
+{
+    if (!v.is_number()) throw Error(where(file, what + " must be a number"));
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) throw Error(where(file, what + " is not finite"));
+    return x;
+}
+
+static uint32_t uint(const Json &v, const std::string &file, const std::string &what)
+{
+    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 0xFFFFFFFFll)
+        throw Error(where(file, what + " must be a non-negative 32-bit integer"));
+    return (uint32_t)v.get<int64_t>();
+}
+
+MatC parse_cmat(const Json &v, size_t rows, size_t cols, const std::string &file, const std::string &what)
+{
+    if (!v.is_object() || !v.contains("re") || !v.contains("im"))
+        throw Error(where(file, what + " must be {\"re\": [[...]], \"im\": [[...]]}"));
+    const Json &re = v["re"], &im = v["im"];
+    if (!re.is_array() || !im.is_array() || re.size() != rows || im.size() != rows)
+        throw Error(where(file, what + " must have " + std::to_string(rows) + " rows"));
+    MatC M((Eigen::Index)rows, (Eigen::Index)cols);
+    for (size_t r = 0; r < rows; ++r) {
+        if (!re[r].is_array() || !im[r].is_array() || re[r].size() != cols || im[r].size() != cols)
+            throw Error(where(file, what + " must have " + std::to_string(cols) + " columns"));
+        for (size_t c = 0; c < cols; ++c)
+            M((Eigen::Index)r, (Eigen::Index)c) = cd(num(re[r][c], file, what), num(im[r][c], file, what));
+    }
+    return M;
+}
+
+FrfData read_frf(const std::string &path)
+{
+    const Json j = read_json(path);
+    const Json &fm = need(j, "format", path);
+    if (!fm.is_string() || fm.get<std::string>() != "msid-frf/1")
+        throw Error(where(path, "format is " + fm.dump() + ", expected \"msid-frf/1\""));
+    FrfData f;
+    f.path = path;
+    f.P = uint(need(j, "period_samples", path), path, "'period_samples'");
+    f.nu = uint(need(j, "n_inputs", path), path, "'n_inputs'");
+    f.ny = uint(need(j, "n_outputs", path), path, "'n_outputs'");
+    f.m = uint(need(j, "n_experiments", path), path, "'n_experiments'");
+    if (f.nu == 0 || f.ny == 0 || f.nu > 16 || f.ny > 16) throw Error(where(path, "n_inputs/n_outputs out of range"));
+    if (f.m == 0 || f.m > 64) throw Error(where(path, "'n_experiments' must be 1..64"));
+    const Json &dom = need(j, "domain", path);
+    if (dom == "ct") f.domain = Domain::CT;
+    else if (dom == "dt") f.domain = Domain::DT;
+    else throw Error(where(path, "'domain' must be \"dt\" or \"ct\""));
+    if (j.contains("sample_time")) {
+        f.h = num(j["sample_time"], path, "'sample_time'");
+        if (!(f.h > 0)) throw Error(where(path, "'sample_time' must be positive"));
+    }
+    if (f.domain == Domain::CT && f.h <= 0) throw Error(where(path, "a continuous-time file needs 'sample_time'"));
+    if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
+    if (j.contains("nonlinear_distortion") && j["nonlinear_distortion"].is_object() &&
+        j["nonlinear_distortion"].contains("realisations") && j["nonlinear_distortion"]["realisations"].is_number_integer())
+        f.realisations = (uint32_t)std::max<int64_t>(1, j["nonlinear_distortion"]["realisations"].get<int64_t>());
+    const size_t g = f.g();
+    f.noise_time = parse_cmat(need(j, "noise_cov", path), f.ny, f.ny, path, "'noise_cov'");
+    const Json &lines = need(j, "lines", path);
+    if (!lines.is_array() || lines.empty()) throw Error(where(path, "'lines' must be a non-empty array"));
+    for (size_t k = 0; k < lines.size(); ++k) {
+        const Json &e = lines[k];
+        const std::string ctx = "lines[" + std::to_string(k) + "]";
+        Line l;
+        l.bin = uint(need(e, "bin", path, ctx), path, ctx + ".bin");
+        l.freq = num(need(e, "freq", path, ctx), path, ctx + ".freq");
+        if (e.contains("omega")) l.omega = num(e["omega"], path, ctx + ".omega");
+        else if (f.h > 0) l.omega = 2.0 * M_PI * l.freq / f.h;
+        else l.omega = 2.0 * M_PI * l.freq;
+        l.real = e.contains("real") && e["real"].is_boolean() && e["real"].get<bool>();
+        l.G = parse_cmat(need(e, "G", path, ctx), f.ny, f.nu, path, ctx + ".G");
+        if (e.contains("cov")) {
+            l.cov = parse_cmat(e["cov"], g, g, path, ctx + ".cov");
+            l.dof = num(need(e, "dof", path, ctx), path, ctx + ".dof");
+            if (!(l.dof >= 1)) throw Error(where(path, ctx + ".dof must be at least 1"));
+        }
+        if (e.contains("cov_known_input")) {
+            l.cov_ki = parse_cmat(e["cov_known_input"], g, g, path, ctx + ".cov_known_input");
+            l.dof_ki = e.contains("dof_known_input") ? num(e["dof_known_input"], path, ctx + ".dof_known_input") : l.dof;
+            if (!(l.dof_ki >= 1)) throw Error(where(path, ctx + ".dof_known_input must be at least 1"));
+        }
+        if (e.contains("noise_cov")) l.noise = parse_cmat(e["noise_cov"], f.ny, f.ny, path, ctx + ".noise_cov");
+        f.lines.push_back(std::move(l));
+    }
+    return f;
+}
+
+// ---------------- writing ----------------
+
+Json header(const Header &h)
+{
+    Json doc;
+    doc["format"] = "msid-frf/1";
+    doc["generator"] = std::string("msid ") + MSID_VERSION;
+    doc["period_samples"] = h.period;
+    doc["n_inputs"] = h.nu;
+    doc["n_outputs"] = h.ny;
+    doc["n_experiments"] = h.m;
+    doc["domain"] = h.ct ? "ct" : "dt";
+    if (h.ct || h.fs > 0) doc["sample_time"] = h.ct ? h.sample_time : 1.0 / h.fs;
+    if (h.fs > 0) doc["fs_hz"] = h.fs;
+    return doc;
+}
+
+Json position(const Position &p)
+{
+    Json e;
+    e["bin"] = p.bin;
+    e["freq"] = (double)p.bin / p.period;
+    if (p.ct) {
+        e["omega"] = p.omega;
+        e["folded"] = p.folded;
+        e["freq_hz"] = p.omega / (2 * M_PI);
+    } else if (p.fs > 0) {
+        e["freq_hz"] = (double)p.bin / p.period * p.fs;
+    }
+    if (p.bin == 0) e["real"] = true;
+    return e;
+}
+
+Json cmat(const cd *a, size_t rows, size_t cols)
+{
+    Json re = Json::array(), im = Json::array();
+    for (size_t r = 0; r < rows; ++r) {
+        Json rr = Json::array(), ri = Json::array();
+        for (size_t c = 0; c < cols; ++c) {
+            rr.push_back(a[r * cols + c].real());
+            ri.push_back(a[r * cols + c].imag());
+        }
+        re.push_back(rr);
+        im.push_back(ri);
+    }
+    return Json{{"re", re}, {"im", im}};
+}
+
+Json cmat(const MatC &M)
+{
+    const Eigen::Matrix<cd, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> R = M;
+    return cmat(R.data(), (size_t)R.rows(), (size_t)R.cols());
+}
+
+MatC from_row_major(const cd *a, size_t rows, size_t cols)
+{
+    using RowMajor = Eigen::Matrix<cd, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    return Eigen::Map<const RowMajor>(a, (Eigen::Index)rows, (Eigen::Index)cols);
+}
+
+Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+
+Json line(Json e, const LineStats &s)
+{
+    e["G"] = cmat(s.G);
+    e["cov"] = cmat(s.cov);
+    e["dof"] = s.dof;
+    e["cov_known_input"] = s.cov_ki.size() ? cmat(s.cov_ki) : e["cov"];
+    e["dof_known_input"] = s.cov_ki.size() ? s.dof_ki : s.dof;
+    if (s.pcov.size()) e["pcov"] = cmat(s.pcov);
+    if (s.noise.size()) e["noise_cov"] = cmat(s.noise);
+    Json snr = Json::array();
+    for (double v : s.snr) snr.push_back(finite_or_null(v));
+    e["snr"] = snr;
+    if (s.cond) e["cond"] = *s.cond;
+    if (s.input_snr) e["input_snr"] = finite_or_null(*s.input_snr);
+    return e;
+}
+
+Json experiment(const Experiment &x)
+{
+    Json je;
+    je["source"] = x.source;
+    je["samples"] = x.samples;
+    je["periods_total"] = x.periods_total;
+    je["periods_skipped"] = x.periods_skipped;
+    je["periods_used"] = x.periods_used;
+    je["periods_gap"] = x.periods_gap;
+    je["periods_nonfinite"] = x.periods_nonfinite;
+    if (x.transient_tested) je["transient_tested"] = *x.transient_tested;
+    je["transient_flagged"] = x.transient_flagged;
+    je["transient_dropped"] = x.transient_dropped;
+    if (x.drift_block) {
+        je["drift_tested"] = x.drift_tested;
+        je["drift"] = x.drift;
+        je["drift_p_value"] = finite_or_null(x.drift_p_value);
+    }
+    je["leftover_samples"] = x.leftover_samples;
+    return je;
+}
+
+Json detection_line(uint32_t bin, uint32_t period, double fs, const MatC &Y_mean, const std::vector<double> &noise_var,
+                    const std::vector<double> &p_value)
+{
+    Json e;
+    e["bin"] = bin;
+    e["freq"] = (double)bin / period;
+    if (fs > 0) e["freq_hz"] = (double)bin / period * fs;
+    e["Y_mean"] = cmat(Y_mean);
+    e["noise_var"] = noise_var;
+    e["p_value"] = p_value;
+    return e;
+}
+
+}  // namespace msidfrf
