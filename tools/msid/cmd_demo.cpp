@@ -255,7 +255,7 @@ int cmd_demo(int argc, char **argv)
                         bd = std::fabs(m["fn"].get<double>() - f0);
                         best = &m;
                     }
-            auto num = [](const Json &m, const char *k) { return m.contains(k) && m[k].is_number() ? m[k].get<double>() : NAN; };
+            auto num = [](const Json &m, const char *key) { return m.contains(key) && m[key].is_number() ? m[key].get<double>() : NAN; };
             if (best)
                 std::printf("  %-6d %12.4f %11.4f +- %-6.2g %10.4f %11.4f +- %-6.2g\n", k + 1, f0, num(*best, "fn"),
                             num(*best, "sd_fn"), z0, num(*best, "zeta"), num(*best, "sd_zeta"));
