@@ -151,20 +151,16 @@ void compare(const char *title, int NS, uint32_t T, uint32_t K, double snr, cons
 
 int cmd_bench_cissim(int argc, char **argv)
 {
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench fit --cissim [--systems N] [--quick]\n"
-                       "Discrete-cISSIM (You et al. 2023): case Y1 (Table 3: N random 4th-order SISO systems, default\n"
-                       "100, periodic chirp 0 -> 0.4 pi, T = 3000, N = 720000, 30 dB) for cissim full / reduced against\n"
-                       "subspace and ml on the core FRF of the same samples; the speed of the authors' reference size\n"
-                       "(24 periods of 3000 samples, 1200 lines); 50 sparse lines at 20 dB on lightly damped systems;\n"
-                       "the covariance errors of case Y2 at N = 24k, 60k, 240k. --quick: 10 systems, fewer runs.\n",
-                       stdout);
-            return 0;
-        }
-    Args a(argc, argv, 3, {"systems"}, {"cissim", "quick"});
+    static const char *HELP =
+        "usage: msid bench fit --cissim [--systems N] [--quick]\n"
+        "Discrete-cISSIM (You et al. 2023): case Y1 (Table 3: N random 4th-order SISO systems, default\n"
+        "100, periodic chirp 0 -> 0.4 pi, T = 3000, N = 720000, 30 dB) for cissim full / reduced against\n"
+        "subspace and ml on the core FRF of the same samples; the speed of the authors' reference size\n"
+        "(24 periods of 3000 samples, 1200 lines); 50 sparse lines at 20 dB on lightly damped systems;\n"
+        "the covariance errors of case Y2 at N = 24k, 60k, 240k. --quick: 10 systems, fewer runs.\n";
+    Args a(argc, argv, 3, HELP, {"systems"}, {"cissim", "quick"});
     const bool quick = a.has("quick");
-    const int NS = a.has("systems") ? (int)parse_u32(a.get("systems"), "--systems") : quick ? 10 : 100;
+    const int NS = (int)a.u32("systems", quick ? 10 : 100);
     if (NS < 1) throw UsageError("--systems must be at least 1");
     std::printf("msid bench fit --cissim  (msid %s)\nmachine: %s\n\n", MSID_VERSION, bench_machine().c_str());
     const uint32_t T = 3000;

@@ -26,18 +26,15 @@ static double specnorm(const MatR &A) { return Eigen::JacobiSVD<MatR>(A).singula
 
 int cmd_bench_fit_multi(int argc, char **argv)
 {
-    for (int i = 3; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench fit --only multi [--runs K] [--no-peer]\n"
-                       "Case M1 (Markovsky & Pintelon §VII): CT order 6, 2 pi {80,130,200} rad/s, damping {0.15,0.1,0.2},\n"
-                       "ts = 1e-3, SNR 100 (rms amplitude ratio), ring-downs of 60..120 samples with random initial\n"
-                       "conditions. 1: rms parameter error against N = 1..50 (K runs each, default 200), slope of\n"
-                       "log error on log N; 2: empirical covariance against the Cramer-Rao bound (fixed initial\n"
-                       "conditions); 3: time per fit against the SciPy peer (initial conditions as parameters).\n", stdout);
-            return 0;
-        }
-    Args a(argc, argv, 3, {"only", "runs"}, {"no-peer"});
-    const int K = a.has("runs") ? (int)parse_u32(a.get("runs"), "--runs") : 200;
+    static const char *HELP =
+        "usage: msid bench fit --only multi [--runs K] [--no-peer]\n"
+        "Case M1 (Markovsky & Pintelon §VII): CT order 6, 2 pi {80,130,200} rad/s, damping {0.15,0.1,0.2},\n"
+        "ts = 1e-3, SNR 100 (rms amplitude ratio), ring-downs of 60..120 samples with random initial\n"
+        "conditions. 1: rms parameter error against N = 1..50 (K runs each, default 200), slope of\n"
+        "log error on log N; 2: empirical covariance against the Cramer-Rao bound (fixed initial\n"
+        "conditions); 3: time per fit against the SciPy peer (initial conditions as parameters).\n";
+    Args a(argc, argv, 3, HELP, {"only", "runs"}, {"no-peer"});
+    const int K = (int)a.u32("runs", 200);
     if (K < 10) throw UsageError("--runs must be at least 10");
     std::printf("msid bench fit --only multi  (msid %s, Eigen %d.%d.%d)\nmachine: %s\n\n", MSID_VERSION, EIGEN_WORLD_VERSION,
                 EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION, bench_machine().c_str());

@@ -234,7 +234,7 @@ static uint32_t parse_base(const Args &a)
 
 static uint32_t parse_window(const Args &a)
 {
-    const uint32_t w = a.has("window") ? parse_u32(a.get("window"), "--window") : 16;
+    const uint32_t w = a.u32("window", 16);
     if (w < 1 || w > MSID_CAN_MAX_WINDOW) throw UsageError(fmt("--window must be 1..%u", MSID_CAN_MAX_WINDOW));
     return w;
 }
@@ -280,11 +280,11 @@ static int cmd_measure(int argc, char **argv)
     else throw UsageError("--encoding must be int16 or float32 (got '" + enc + "')");
     FrfRequest rq;
     parse_measure_options(a, *D, sf, rq);
-    const double bitrate = a.has("bitrate") ? parse_double(a.get("bitrate"), "--bitrate") : 0;
-    const double dbitrate = a.has("data-bitrate") ? parse_double(a.get("data-bitrate"), "--data-bitrate") : bitrate;
+    const double bitrate = a.f64("bitrate", 0);
+    const double dbitrate = a.f64("data-bitrate", bitrate);
     if (bitrate < 0 || dbitrate < 0) throw UsageError("--bitrate must be >= 0");
     const int rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
-    const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
+    const double timeout = a.f64("timeout", 10.0);
     if (!(timeout > 0 && timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
     const msid_design &d = D->d;
 
@@ -492,21 +492,15 @@ static int cmd_replay(int argc, char **argv)
 // msid bench can: boot the vcan VM and run tests/vcan/bench_can.py in it.
 int cmd_bench_can(int argc, char **argv)
 {
-    bool quick = false;
-    std::string results;
-    for (int i = 3; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench can [--quick] [--results DIR]\n"
-                       "Boots Debian's kernel under qemu with vcan (tests/vcan/vm.py) and measures the highest\n"
-                       "sustained sample rate with zero loss for 4 channels on classic CAN and 16 on CAN FD,\n"
-                       "beside cangen -> candump frames/s on the same vcan. See docs/benchmarks.md.\n",
-                       stdout);
-            return 0;
-        }
-        if (!std::strcmp(argv[i], "--quick")) quick = true;
-        else if (!std::strcmp(argv[i], "--results") && i + 1 < argc) results = argv[++i];
-        else throw UsageError(std::string("msid bench can: unknown option ") + argv[i]);
-    }
+    static const char *BENCH_HELP =
+        "usage: msid bench can [--quick] [--results DIR]\n"
+        "Boots Debian's kernel under qemu with vcan (tests/vcan/vm.py) and measures the highest\n"
+        "sustained sample rate with zero loss for 4 channels on classic CAN and 16 on CAN FD,\n"
+        "beside cangen -> candump frames/s on the same vcan. See docs/benchmarks.md.\n";
+    const Args a(argc, argv, 3, BENCH_HELP, {"results"}, {"quick"});
+    if (!a.positional().empty()) throw UsageError("msid bench can: unexpected argument " + a.positional()[0]);
+    const bool quick = a.has("quick");
+    const std::string results = a.get("results");
     const std::string src = MSID_SOURCE_DIR;
     std::vector<std::string> args = {"python3", src + "/tests/vcan/vm.py"};
     if (!results.empty()) { args.push_back("--results"); args.push_back(results); }

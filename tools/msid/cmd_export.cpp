@@ -154,9 +154,7 @@ void write_mat(const Exported &e, const std::string &tmp)
 
 int cmd_export(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2, {"csv", "mat"}, {"known-input"});
+    Args a(argc, argv, 2, HELP, {"csv", "mat"}, {"known-input"});
     if (a.positional().size() != 1) throw UsageError("give one FRF file (msid export frf.json --csv out.csv | --mat out.mat)");
     if (a.has("csv") == a.has("mat")) throw UsageError("give exactly one of --csv out.csv and --mat out.mat");
     Exported e;

@@ -52,9 +52,7 @@ bool cissim_requested(int argc, char **argv)
 
 int cmd_fit_cissim(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(CISSIM_HELP, stdout); return 0; }
-    Args a(argc, argv, 2,
+    Args a(argc, argv, 2, CISSIM_HELP,
            {"method", "period", "lines", "order", "block-rows", "max-order", "skip-periods", "isp", "lags", "columns",
             "output"},
            {"reduced", "no-d", "no-covariance", "unweighted", "allow-unstable"}, {"experiment"});
@@ -80,7 +78,7 @@ int cmd_fit_cissim(int argc, char **argv)
     o.estimate_D = !a.has("no-d");
     o.weighted = !a.has("unweighted");
     o.stable = !a.has("allow-unstable");
-    const uint32_t skip = a.has("skip-periods") ? parse_u32(a.get("skip-periods"), "--skip-periods") : 1;
+    const uint32_t skip = a.u32("skip-periods", 1);
     const std::string im = a.get("isp", "auto");
     IspMethod method = IspMethod::Auto;
     if (im == "direct") method = IspMethod::Direct;

@@ -87,9 +87,7 @@ static double rel_spec(const MatR &A, const MatR &B)
 
 int cmd_fit_multi(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help")) { std::fputs(MULTI_HELP, stdout); return 0; }
-    Args a(argc, argv, 2, {"method", "order", "columns", "fs", "feedthrough", "start", "max-iter", "output"}, {},
+    Args a(argc, argv, 2, MULTI_HELP, {"method", "order", "columns", "fs", "feedthrough", "start", "max-iter", "output"}, {},
            {"experiment"});
     if (!a.positional().empty())
         throw UsageError("--method multi takes its records with --experiment FILE (got '" + a.positional()[0] + "')");

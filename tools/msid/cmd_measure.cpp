@@ -59,8 +59,8 @@ static std::unique_ptr<Design> design_from_options(const Args &a, uint32_t devic
     DesignParams p;
     p.period = parse_u32(a.require("period"), "--period");
     p.bins = parse_uint_list(a.require("lines"), "--lines");
-    p.n_inputs = a.has("inputs") ? parse_u32(a.get("inputs"), "--inputs") : device_inputs;
-    p.n_experiments = a.has("experiments") ? parse_u32(a.get("experiments"), "--experiments") : p.n_inputs;
+    p.n_inputs = a.u32("inputs", device_inputs);
+    p.n_experiments = a.u32("experiments", p.n_inputs);
     if (a.has("amplitudes")) {
         p.amplitudes = parse_double_list(a.get("amplitudes"), "--amplitudes");
         if (p.amplitudes.size() == 1) p.amplitudes.assign(p.bins.size(), p.amplitudes[0]);
@@ -69,8 +69,8 @@ static std::unique_ptr<Design> design_from_options(const Args &a, uint32_t devic
     if (ph == "random") p.phase_mode = MSID_PHASE_RANDOM;
     else if (ph == "schroeder") p.phase_mode = MSID_PHASE_SCHROEDER;
     else throw UsageError("--phases must be random or schroeder (got '" + ph + "')");
-    p.seed = a.has("seed") ? parse_u64(a.get("seed"), "--seed") : 1;
-    p.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : 8;
+    p.seed = a.u64("seed", 1);
+    p.periods = a.u32("periods", 8);
     return build_design(p);
 }
 
@@ -194,9 +194,7 @@ MeasureOptions parse_measure_command(const Args &a)
 
 int cmd_measure_uri(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2, measure_keys(), {"no-plots", "quiet"});
+    Args a(argc, argv, 2, HELP, measure_keys(), {"no-plots", "quiet"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     MeasureOptions opt = parse_measure_command(a);
     Progress pg(stderr, is_terminal(stderr), a.has("quiet"));

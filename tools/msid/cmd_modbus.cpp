@@ -61,16 +61,6 @@ struct Link {
     ~Link() { if (open) msid_mb_close(&m.tr); }
 };
 
-static uint32_t parse_enum(const Args &a, const char *key, const char *def, const std::vector<std::string> &names)
-{
-    const std::string v = a.get(key, def);
-    for (size_t i = 0; i < names.size(); ++i)
-        if (v == names[i]) return (uint32_t)i;
-    std::string all;
-    for (size_t i = 0; i < names.size(); ++i) all += (i ? (i + 1 == names.size() ? " or " : ", ") : "") + names[i];
-    throw UsageError(fmt("--%s must be %s (got '%s')", key, all.c_str(), v.c_str()));
-}
-
 static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms)
 {
     msid_modbus_cfg c{};
@@ -93,12 +83,12 @@ static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms
     } else {
         c.rtu = 1;
         c.device = device.c_str();
-        const uint32_t baud = a.has("baud") ? parse_u32(a.get("baud"), "--baud") : 115200;
+        const uint32_t baud = a.u32("baud", 115200);
         if (baud < 300 || baud > 4000000) throw UsageError("--baud must be 300..4000000");
         c.baud = (int)baud;
-        c.parity = "NEO"[parse_enum(a, "parity", "N", {"N", "E", "O"})];
-        c.data_bits = 8 - (int)parse_enum(a, "data-bits", "8", {"8", "7"});
-        c.stop_bits = 1 + (int)parse_enum(a, "stop-bits", "1", {"1", "2"});
+        c.parity = "NEO"[a.enum_index("parity", "N", {"N", "E", "O"})];
+        c.data_bits = 8 - (int)a.enum_index("data-bits", "8", {"8", "7"});
+        c.stop_bits = 1 + (int)a.enum_index("stop-bits", "1", {"1", "2"});
         if (c.unit < 1 || c.unit > 247) throw UsageError("--unit must be 1..247 on RTU");
         L.name = "rtu:" + a.get("rtu");
     }
@@ -183,20 +173,20 @@ static int cmd_measure(int argc, char **argv)
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     const std::string out = a.require("output");
     auto D = read_design_file(a.require("design"));
-    const uint32_t enc = parse_enum(a, "encoding", "int16", {"int16", "int32", "float32"});
-    const uint32_t wo = parse_enum(a, "word-order", "ABCD", {"ABCD", "CDAB", "BADC", "DCBA"});
+    const uint32_t enc = a.enum_index("encoding", "int16", {"int16", "int32", "float32"});
+    const uint32_t wo = a.enum_index("word-order", "ABCD", {"ABCD", "CDAB", "BADC", "DCBA"});
     StreamFmt sf;
     FrfRequest rq;
     parse_measure_options(a, *D, sf, rq);
-    const uint32_t resp_ms = a.has("response-timeout") ? parse_u32(a.get("response-timeout"), "--response-timeout") : 200;
-    const uint32_t byte_ms = a.has("byte-timeout") ? parse_u32(a.get("byte-timeout"), "--byte-timeout") : 50;
+    const uint32_t resp_ms = a.u32("response-timeout", 200);
+    const uint32_t byte_ms = a.u32("byte-timeout", 50);
     if (resp_ms < 1 || resp_ms > 60000 || byte_ms < 1 || byte_ms > 60000)
         throw UsageError("--response-timeout and --byte-timeout must be 1..60000 ms");
-    const uint32_t retries = a.has("retries") ? parse_u32(a.get("retries"), "--retries") : 5;
+    const uint32_t retries = a.u32("retries", 5);
     if (retries < 1 || retries > 100) throw UsageError("--retries must be 1..100");
-    const uint32_t max_regs = a.has("max-regs") ? parse_u32(a.get("max-regs"), "--max-regs") : MSID_MB_MAX_READ;
+    const uint32_t max_regs = a.u32("max-regs", MSID_MB_MAX_READ);
     if (max_regs < 1 || max_regs > MSID_MB_MAX_READ) throw UsageError(fmt("--max-regs must be 1..%u", MSID_MB_MAX_READ));
-    const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
+    const double timeout = a.f64("timeout", 10.0);
     if (!(timeout > 0 && timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
     const msid_design &d = D->d;
     auto cfg = config_from_design(*D, sf);
@@ -306,20 +296,16 @@ static int cmd_measure(int argc, char **argv)
 // msid bench modbus: tests/modbus/bench_modbus.py with this build's binaries.
 int cmd_bench_modbus(int argc, char **argv)
 {
+    static const char *BENCH_HELP =
+        "usage: msid bench modbus [--quick]\n"
+        "The highest sustained sample rate x channels with zero loss from msid-devsim to\n"
+        "`msid modbus measure` over Modbus TCP on 127.0.0.1 and over RTU at 115200 baud on a\n"
+        "socat pty pair (the simulator emulates the line's wire time), beside each link's\n"
+        "theoretical register rate. See docs/benchmarks.md.\n";
+    const Args a(argc, argv, 3, BENCH_HELP, {}, {"quick"});
+    if (!a.positional().empty()) throw UsageError("msid bench modbus: unexpected argument " + a.positional()[0]);
     std::vector<std::string> pass;
-    for (int i = 3; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--help")) {
-            std::fputs("usage: msid bench modbus [--quick]\n"
-                       "The highest sustained sample rate x channels with zero loss from msid-devsim to\n"
-                       "`msid modbus measure` over Modbus TCP on 127.0.0.1 and over RTU at 115200 baud on a\n"
-                       "socat pty pair (the simulator emulates the line's wire time), beside each link's\n"
-                       "theoretical register rate. See docs/benchmarks.md.\n",
-                       stdout);
-            return 0;
-        }
-        if (std::strcmp(argv[i], "--quick")) throw UsageError(std::string("msid bench modbus: unknown option ") + argv[i]);
-        pass.push_back(argv[i]);
-    }
+    if (a.has("quick")) pass.push_back("--quick");
     std::vector<std::string> args = {"python3", std::string(MSID_SOURCE_DIR) + "/tests/modbus/bench_modbus.py"};
     args.insert(args.end(), pass.begin(), pass.end());
     return exec_with_build(args);

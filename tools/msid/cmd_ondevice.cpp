@@ -257,11 +257,11 @@ int cmd_modbus_ondevice(int argc, char **argv)
     StreamFmt sf;
     FrfRequest rq;
     parse_measure_options(a, *D, sf, rq);
-    const uint32_t resp_ms = a.has("response-timeout") ? parse_u32(a.get("response-timeout"), "--response-timeout") : 200;
+    const uint32_t resp_ms = a.u32("response-timeout", 200);
     if (resp_ms < 1 || resp_ms > 60000) throw UsageError("--response-timeout must be 1..60000 ms");
-    const uint32_t retries = a.has("retries") ? parse_u32(a.get("retries"), "--retries") : 5;
+    const uint32_t retries = a.u32("retries", 5);
     if (retries < 1 || retries > 100) throw UsageError("--retries must be 1..100");
-    const double timeout = a.has("timeout") ? parse_double(a.get("timeout"), "--timeout") : 10.0;
+    const double timeout = a.f64("timeout", 10.0);
     if (!(timeout > 0)) throw UsageError("--timeout must be positive");
     const bool check_stream = a.has("stream-check");
     const std::string host_file = a.get("stream-check");

@@ -139,9 +139,7 @@ int call_python_module(const std::string &module, const std::vector<std::string>
 
 int cmd_plot(int argc, char **argv)
 {
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) { std::fputs(HELP, stdout); return 0; }
-    Args a(argc, argv, 2, {"model", "output", "level"}, {"known-input"});
+    Args a(argc, argv, 2, HELP, {"model", "output", "level"}, {"known-input"});
     if (a.positional().size() != 1) throw UsageError("give one FRF file (msid plot frf.json -o bode.png)");
     const std::string out = a.get("output");
     if (out.empty()) throw UsageError("give the output file with -o bode.png|bode.svg|bode.pdf");

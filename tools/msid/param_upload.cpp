@@ -84,7 +84,7 @@ void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfReq
         if (!(s > 0 && s < 1e30)) throw UsageError("--scale must be positive");
         sf.scale = (float)s;
     }
-    sf.periods = a.has("periods") ? parse_u32(a.get("periods"), "--periods") : (D.params.periods ? D.params.periods : 8);
+    sf.periods = a.u32("periods", (D.params.periods ? D.params.periods : 8));
     if (sf.periods < 2 || sf.periods > MSID_PARAMS_MAX_PERIODS)
         throw UsageError(fmt("--periods must be 2..%u", MSID_PARAMS_MAX_PERIODS));
     if (a.has("rate")) {
