@@ -219,6 +219,8 @@ static void online_equals_offline(void **state)
     void *mp = (void *)(((uintptr_t)cm.data() + 63) & ~(uintptr_t)63);
     msid_cissim cs;
     assert_int_equal(msid_cissim_init(&cs, &cfg, mp, need - 1), MSID_E_MEM_SIZE);
+    // a misaligned block is named as such, before any size or later error (issue 13)
+    assert_int_equal(msid_cissim_init(&cs, &cfg, (char *)mp + 8, need), MSID_E_MEM_ALIGN);
     assert_int_equal(msid_cissim_init(&cs, &cfg, mp, need), MSID_OK);
     double worst = 0;
     for (uint32_t k = 1; k <= K; ++k) {

@@ -5,6 +5,8 @@
 #            msid and msid-devsim run, and the installed msid finds its Python package (share/msid/python).
 #   nomodbus SRC WORK: a configure without libmodbus visible to pkg-config builds the daq library and the
 #            device simulator without any libmodbus symbol, and both name the option when Modbus is asked for.
+#   nocan    SRC WORK: -DMSID_WITH_CAN=OFF builds the daq library (Modbus kept) and the device simulator
+#            without the SocketCAN transport, and the simulator names the option when CAN is asked for.
 set -euo pipefail
 mode=$1
 fail() { echo "install test: $*" >&2; exit 1; }
@@ -64,5 +66,27 @@ nomodbus)
   [ $rc -ne 0 ] && [[ "$out" == *"built without Modbus"* ]] || fail "msid-devsim --modbus-tcp: '$out' (exit $rc)"
   echo "install test: CAN-only build ok"
   ;;
-*) fail "usage: run.sh install BUILD WORK | nomodbus SRC WORK" ;;
+nocan)
+  src=$2 work=$3
+  rm -rf "$work" && mkdir -p "$work"
+  cmake -S "$src" -B "$work/b" -DCMAKE_BUILD_TYPE=Release -DMSID_WITH_CAN=OFF -DMSID_WITH_MODBUS=ON \
+      -DMSID_BUILD_TOOLS=OFF -DMSID_BUILD_TESTS=OFF ${CMAKE_C_COMPILER_LAUNCHER:+-DCMAKE_C_COMPILER_LAUNCHER=$CMAKE_C_COMPILER_LAUNCHER} \
+      > "$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure with MSID_WITH_CAN=OFF failed"; }
+  cmake --build "$work/b" --target msid_daq msid_devsim -j2 > "$work/build.log" 2>&1 ||
+    { tail -30 "$work/build.log"; fail "build with MSID_WITH_CAN=OFF failed"; }
+  lib=$(find "$work/b" -name libmsid_daq.a | head -1)
+  nm "$lib" > "$work/nm.txt" 2>/dev/null
+  # the SocketCAN transport (the only user of ioctl/SIOCGIFINDEX) is left out; its entry point is the stub
+  ! grep -q ' U ioctl' "$work/nm.txt" || fail "libmsid_daq.a still holds the SocketCAN transport"
+  grep -q ' T msid_socketcan_open' "$work/nm.txt" || fail "the SocketCAN entry point (stub) is missing"
+  grep -q ' T msid_modbus_open' "$work/nm.txt" || fail "the Modbus transport is missing"
+  grep -q ' T msid_candump_parse' "$work/nm.txt" || fail "the candump reader is missing (it needs no SocketCAN)"
+  dev=$(find "$work/b" -name msid-devsim -type f | head -1)
+  set +e
+  out=$("$dev" --iface vcan0 2>&1); rc=$?
+  set -e
+  [ $rc -ne 0 ] && [[ "$out" == *"without SocketCAN"* ]] || fail "msid-devsim --iface vcan0: '$out' (exit $rc)"
+  echo "install test: Modbus-only build ok"
+  ;;
+*) fail "usage: run.sh install BUILD WORK | nomodbus SRC WORK | nocan SRC WORK" ;;
 esac
