@@ -45,9 +45,10 @@ static const char *HELP =
     "  --timeout S         give up when the device is silent this long (default 10)\n"
     "  --log FILE          also record every frame as a candump .log\n"
     "  --quiet             no progress (stderr: one rewritten line on a terminal, else one line per event)\n"
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n"
+    "\n"
     "measure runs the CAN session of `msid measure --device can://IF` (docs/measure.md): Ctrl-C (SIGINT or\n"
-    "SIGTERM) stops cleanly, -o gets the FRF of the complete periods marked \"complete\": false, exit 130.\n"
-    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+    "SIGTERM) stops cleanly, -o gets the FRF of the complete periods marked \"complete\": false, exit 130.\n";
 
 static std::string hex(uint32_t v) { return fmt("0x%X", v); }
 

@@ -42,15 +42,15 @@ def test_sigint_keeps_complete_periods(tmp_path, form):
     """SIGINT after 5 periods of experiment 2 seen in the progress: exit 130, the FRF of the complete
     periods marked "complete": false with the counts, valid and covering the truth; the same for
     `msid measure --device can://` and `msid can measure` (one session). The device is paced (1 kHz,
-    32 ms periods), so the run is still going when the signal lands."""
-    opts = ["--periods", "60", "--skip-periods", "1", "--rate", "1000"]
+    32 ms periods, 40 per experiment), so the run is still going when the signal lands."""
+    opts = ["--periods", "40", "--skip-periods", "1", "--rate", "1000"]
     with c.Sim(tmp_path, "--seed", 6):
         if form == "measure":
             frf = tmp_path / "out" / "frf.json"
             cmd = [c.MSID, "measure", "--device", "can://vcan0", "--period", "32", "--lines", "1:2:15",
                    "--amplitudes", "0.2", "--experiments", "2", *opts, "--no-plots", "-o", str(tmp_path / "out")]
         else:
-            design = c.excite(tmp_path, period=32, lines="1:2:15", amp=0.2, periods=60, seed=1)
+            design = c.excite(tmp_path, period=32, lines="1:2:15", amp=0.2, periods=40, seed=1)
             frf = tmp_path / "frf.json"
             cmd = [c.MSID, "can", "measure", "--iface", "vcan0", "--design", str(design), "--rcvbuf", str(4 << 20),
                    *opts, "-o", str(frf)]
@@ -58,7 +58,7 @@ def test_sigint_keeps_complete_periods(tmp_path, form):
         seen = []
         for line in p.stderr:
             seen.append(line)
-            if "experiment 2/2: 5/60 periods acquired" in line:
+            if "experiment 2/2: 5/40 periods acquired" in line:
                 p.send_signal(signal.SIGINT)
                 break
         rest = p.stderr.read()
@@ -67,13 +67,13 @@ def test_sigint_keeps_complete_periods(tmp_path, form):
     assert p.returncode == 130, "".join(seen[-3:]) + rest
     assert "interrupted" in rest
     prefix = "msid measure" if form == "measure" else "msid can"
-    assert all(f"{prefix}: experiment 1/2: {k}/60 periods acquired" in "".join(seen) for k in range(1, 61))
+    assert all(f"{prefix}: experiment 1/2: {k}/40 periods acquired" in "".join(seen) for k in range(1, 41))
     doc = json.loads(frf.read_text())
     assert doc["complete"] is False and doc["experiments_completed"] == 1 and doc["experiments_planned"] == 2
     assert "signal 2" in doc["incomplete_reason"]
     e1, e2 = doc["experiments"]
-    assert e1["periods_total"] == 60 and e1["periods_used"] == 59
-    assert 5 <= e2["periods_total"] < 60
+    assert e1["periods_total"] == 40 and e1["periods_used"] == 39
+    assert 5 <= e2["periods_total"] < 40
     assert e2["periods_total"] == e2["samples"] // 32   # every complete period kept, the partial one left out
     assert e2["periods_used"] == e2["periods_total"] - 1
     # 15 lines x 2 outputs: the count inside is Bin(30, 0.95); 80% is below its 1e-3 quantile
