@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from mblib import DEVSIM, MSID, Sim, check_coverage, excite, frf_equal, run
+from mblib import DEVSIM, MSID, Sim, check_coverage, excite, frf_equal, interrupt_after, run
 
 SRC = Path(__file__).resolve().parents[2]
 SCHEMAS = SRC / "docs" / "schemas"
@@ -112,21 +112,6 @@ def test_measure_rtu_uri(tmp_path):
     validate_frf(doc)
     assert doc["acquisition"]["transport"] == "modbus-rtu" and doc["acquisition"]["endpoint"] == sim.pty.host
     check_coverage(doc, truth)
-
-
-def interrupt_after(cmd, needle):
-    """Run cmd, read its progress (stderr, one line per event) until a line holds `needle`, then
-    SIGINT. Returns (process after exit, lines seen, the rest of stderr)."""
-    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    seen = []
-    for line in p.stderr:
-        seen.append(line)
-        if needle in line:
-            p.send_signal(signal.SIGINT)
-            break
-    rest = p.stderr.read()
-    p.wait(120)
-    return p, seen, rest
 
 
 @pytest.mark.parametrize("form", ["measure", "modbus"])

@@ -79,6 +79,22 @@ class Sim:
         return json.loads(self.truth_path.read_text())
 
 
+def interrupt_after(cmd, needle, timeout=120):
+    """Run cmd, read its progress (stderr, one line per event without a terminal) until a line holds
+    `needle`, then SIGINT: a stop after a given period, not after a sleep. Returns (the exited process,
+    the lines seen, the rest of stderr)."""
+    p = subprocess.Popen([str(a) for a in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = []
+    for line in p.stderr:
+        seen.append(line)
+        if needle in line:
+            p.send_signal(signal.SIGINT)
+            break
+    rest = p.stderr.read()
+    p.wait(timeout)
+    return p, seen, rest
+
+
 def excite(tmp, period=256, lines="1:120", amp=0.1, periods=8, seed=11, inputs=2, experiments=2, name="design.json"):
     p = Path(tmp) / name
     run_ok("excite", "--period", period, "--lines", lines, "--inputs", inputs, "--experiments", experiments,

@@ -3,8 +3,6 @@
 a terminal, and SIGINT keeps every complete period. Real SocketCAN, the real simulator; no timing
 assertions: the signal is sent after a period is seen in the progress output."""
 import json
-import signal
-import subprocess
 
 import pytest
 
@@ -54,15 +52,7 @@ def test_sigint_keeps_complete_periods(tmp_path, form):
             frf = tmp_path / "frf.json"
             cmd = [c.MSID, "can", "measure", "--iface", "vcan0", "--design", str(design), "--rcvbuf", str(4 << 20),
                    *opts, "-o", str(frf)]
-        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        seen = []
-        for line in p.stderr:
-            seen.append(line)
-            if "experiment 2/2: 5/40 periods acquired" in line:
-                p.send_signal(signal.SIGINT)
-                break
-        rest = p.stderr.read()
-        p.wait(120)
+        p, seen, rest = c.interrupt_after(cmd, "experiment 2/2: 5/40 periods acquired")
     truth = json.loads((tmp_path / "truth.json").read_text())
     assert p.returncode == 130, "".join(seen[-3:]) + rest
     assert "interrupted" in rest
