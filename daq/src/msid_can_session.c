@@ -216,6 +216,16 @@ int msid_can_session_upload(msid_can_session *s, const uint8_t (*rec)[8], size_t
 /* Frames that are not STATUS frames: the device is streaming (or the bus is talking). */
 static uint64_t activity(const msid_can_decoder *d) { return d->cnt.frames - d->cnt.status_frames; }
 
+/* The caller asked to stop: close the experiment in the decoder where it stands, STOP the device. */
+static int stop_run(msid_can_session *s, uint32_t e)
+{
+    const msid_status st = msid_can_decoder_abort(s->dec);
+    if (st != MSID_OK) return core_refused(s, st);
+    (void)send_ctrl(s, MSID_CAN_CMD_STOP, e, 0);   /* best effort: the device may be gone */
+    snprintf(s->err, sizeof s->err, "experiment %u stopped at the caller's request", e + 1);
+    return -MSID_DAQ_E_STOPPED;
+}
+
 int msid_can_session_run(msid_can_session *s, uint32_t e, uint32_t periods)
 {
     if (!s || !s->dec) return -MSID_DAQ_E_ARG;
@@ -227,6 +237,7 @@ int msid_can_session_run(msid_can_session *s, uint32_t e, uint32_t periods)
     int querying = 0;   /* a recovery QUERY is outstanding since the last activity */
     while (d->cnt.experiments_done == done_before) {
         const int k = pump(s, 100);
+        if (s->cfg.on_poll && s->cfg.on_poll(s->cfg.poll_user)) return stop_run(s, e);
         if (k < 0) return k;
         const uint64_t t = now_ms();
         if (k > 0 && d->dev.have_state && d->dev.state == MSID_CAN_STATE_ERROR) {

@@ -23,6 +23,7 @@ const char *msid_daq_strerror(msid_daq_status s)
     case MSID_DAQ_E_DEVICE: return "the device reported an error";
     case MSID_DAQ_E_PROTOCOL: return "the device does not follow the protocol";
     case MSID_DAQ_E_HOOK: return "the frame hook failed";
+    case MSID_DAQ_E_STOPPED: return "stopped at the caller's request";
     default: return "unknown daq status";
     }
 }

@@ -452,6 +452,22 @@ static uint64_t now_ns(void)
     return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
 }
 
+/* The caller asked to stop: close the experiment where it stands (complete periods kept), STOP the device. */
+static int stop_run(msid_mb_acq *a, uint32_t e, uint64_t t0)
+{
+    a->cnt.stream_ns += now_ns() - t0;
+    if (a->open) {
+        msid_stream_end(&a->st);
+        a->open = 0;
+    }
+    if (a->st.err != MSID_OK) return core_refused(a);
+    char why[sizeof a->cl->err];
+    memcpy(why, a->cl->err, sizeof why);
+    (void)msid_mb_command(a->cl, MSID_MB_CMD_STOP, e, 0);   /* best effort: the device may be gone */
+    memcpy(a->cl->err, why, sizeof why);
+    return -MSID_DAQ_E_STOPPED;
+}
+
 int msid_mb_acq_run(msid_mb_acq *a, uint32_t e, uint32_t periods, uint32_t silence_ms, uint32_t idle_us)
 {
     int rc = msid_mb_acq_start(a, e, periods);
@@ -473,6 +489,7 @@ int msid_mb_acq_run(msid_mb_acq *a, uint32_t e, uint32_t periods, uint32_t silen
             }
             return 0;
         }
+        if (a->cfg.on_poll && a->cfg.on_poll(a->cfg.user)) return stop_run(a, e, t0);
         if (rc < 0) return rc;
         const uint64_t t = now_ns();
         if (prog) {

@@ -12,7 +12,7 @@ from pathlib import Path
 SRC = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(SRC / "tests" / "vcan" / "in_vm"))
 import canlib  # noqa: E402  (coverage check, F law, binomial interval, lines_equal)
-from canlib import check_coverage, cplx, fails, lines_equal, run, run_ok  # noqa: E402,F401
+from canlib import check_coverage, cplx, fails, interrupt_after, lines_equal, run, run_ok  # noqa: E402,F401
 
 MSID = os.environ.get("MSID_BIN", "")
 DEVSIM = os.environ.get("MSID_DEVSIM", "")

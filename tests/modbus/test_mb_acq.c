@@ -305,6 +305,44 @@ static void never_done_is_closed_and_stopped(void **st)
     close_device(&s);
 }
 
+/* The caller's on_poll asks to stop in the third period: the run returns -MSID_DAQ_E_STOPPED with the
+   experiment closed, every complete period kept, the partial one left over, and the device stopped. */
+static uint32_t g_polls;
+static int stop_in_third_period(void *user)
+{
+    const msid_mb_acq *q = user;
+    g_polls++;
+    return q->st.cnt.samples > 2 * P;
+}
+
+static void poll_hook_stops_and_keeps_complete_periods(void **st)
+{
+    (void)st;
+    sim s;
+    open_device(&s);
+    const size_t n = params(NU);
+    assert_int_equal(msid_mb_configure(&H.cl, MSID_MB_ENC_F32, MSID_MB_ABCD, (const uint8_t(*)[8])REC, n), 0);
+    assert_int_equal(acq_setup(4 * K, 1), 0);
+    g_polls = 0;
+    H.q.cfg.on_poll = stop_in_third_period;
+    H.q.cfg.user = &H.q;
+    assert_int_equal(acquire(0), -MSID_DAQ_E_STOPPED);
+    assert_true(g_polls >= 1);
+    assert_int_equal(H.q.open, 0);
+    const uint64_t got = H.ms.samples[0];
+    const msid_pstats_counts c = msid_pstats_get_counts(msid_meas_stats(&H.ms, 0));
+    assert_true(got > 2 * P && got < (uint64_t)K * P);
+    assert_int_equal(c.offered, got / P);                 /* every complete period */
+    assert_int_equal(msid_meas_leftover(&H.ms, 0), got % P);   /* the partial one left over, counted */
+    assert_int_equal(msid_mb_read_header(&H.cl), 0);
+    assert_int_not_equal(H.cl.h.state, MSID_MB_STATE_RUNNING);   /* the STOP was obeyed */
+    /* negative control: the same run without the hook ends normally with all K periods */
+    H.q.cfg.on_poll = NULL;
+    assert_int_equal(acquire(1), 0);
+    assert_int_equal(msid_pstats_get_counts(msid_meas_stats(&H.ms, 1)).offered, K);
+    close_device(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -312,6 +350,7 @@ int main(void)
         cmocka_unit_test(device_errors_are_decoded),
         cmocka_unit_test(core_refusal_carries_the_core_status),
         cmocka_unit_test(never_done_is_closed_and_stopped),
+        cmocka_unit_test(poll_hook_stops_and_keeps_complete_periods),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -42,6 +42,7 @@ typedef struct dev {
     uint32_t pending;
     uint32_t state, exp, n_sent;
     uint64_t host_frames;
+    uint32_t stops;           /* STOP commands received */
 } dev;
 static dev D;
 
@@ -133,6 +134,9 @@ static void device_rx(dev *d, const msid_can_frame *f)
         run_experiment(d, e, msid_can_get_u32(f->data + 4));
         return;
     }
+    case MSID_CAN_CMD_STOP:
+        d->stops++;
+        return;
     default:
         return;
     }
@@ -393,6 +397,43 @@ static void failing_hook_stops_the_session(void **st)
     assert_int_equal(msid_can_session_identify(&S, 2000), -MSID_DAQ_E_HOOK);
 }
 
+/* The caller's on_poll asks to stop once a period and a bit arrived: -MSID_DAQ_E_STOPPED, the experiment
+   closed in the decoder, every complete period kept, the device sent STOP. */
+static uint32_t g_polls;
+static int stop_after_a_period(void *user)
+{
+    const host *h = user;
+    g_polls++;
+    return h->dec.cnt.samples > P;
+}
+
+static void poll_hook_stops_the_experiment(void **st)
+{
+    (void)st;
+    reset_all();
+    assert_int_equal(msid_can_session_identify(&S, 2000), 0);
+    attach(2, 2 * K);
+    const size_t n = params();
+    assert_int_equal(msid_can_session_upload(&S, (const uint8_t(*)[8])REC, n), 0);
+    g_polls = 0;
+    S.cfg.on_poll = stop_after_a_period;
+    S.cfg.poll_user = &H;
+    assert_int_equal(msid_can_session_run(&S, 0, K), -MSID_DAQ_E_STOPPED);
+    assert_true(g_polls >= 1);
+    assert_int_equal(H.dec.open, 0);
+    assert_int_equal(D.stops, 1);
+    const uint64_t got = H.ms.samples[0];
+    assert_true(got > P && got < (uint64_t)K * P);
+    assert_int_equal(msid_pstats_get_counts(msid_meas_stats(&H.ms, 0)).offered, got / P);
+    assert_int_equal(msid_meas_leftover(&H.ms, 0), got % P);
+    /* negative control: without the hook the next experiment runs to its DONE (the scripted device queued
+       all of experiment 1 at START; a real one stops sending: its queue is dropped here) */
+    D.head = D.tail;
+    S.cfg.on_poll = NULL;
+    assert_int_equal(msid_can_session_run(&S, 1, K), 0);
+    assert_int_equal(msid_pstats_get_counts(msid_meas_stats(&H.ms, 1)).offered, K);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -402,6 +443,7 @@ int main(void)
         cmocka_unit_test(identify_failures),
         cmocka_unit_test(core_refusal_carries_the_core_status),
         cmocka_unit_test(failing_hook_stops_the_session),
+        cmocka_unit_test(poll_hook_stops_the_experiment),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

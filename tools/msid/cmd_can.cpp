@@ -2,8 +2,7 @@
 // replay a candump log through the same decoder (bit-identical FRF).
 #include "commands.hpp"
 #include "frf_io.hpp"
-#include "param_upload.hpp"
-#include "pipeline.hpp"
+#include "measure.hpp"
 
 extern "C" {
 #include "msid_daq/msid_can_decoder.h"
@@ -45,7 +44,11 @@ static const char *HELP =
     "  --rcvbuf BYTES      socket receive buffer (above net.core.rmem_max needs CAP_NET_ADMIN)\n"
     "  --timeout S         give up when the device is silent this long (default 10)\n"
     "  --log FILE          also record every frame as a candump .log\n"
-    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+    "  --quiet             no progress (stderr: one rewritten line on a terminal, else one line per event)\n"
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n"
+    "\n"
+    "measure runs the CAN session of `msid measure --device can://IF` (docs/measure.md): Ctrl-C (SIGINT or\n"
+    "SIGTERM) stops cleanly, -o gets the FRF of the complete periods marked \"complete\": false, exit 130.\n";
 
 static std::string hex(uint32_t v) { return fmt("0x%X", v); }
 
@@ -262,97 +265,111 @@ static int log_hook(void *user, const msid_can_frame *f)
     throw Error(s.err);
 }
 
-static int cmd_measure(int argc, char **argv)
+CanLink can_link_from_uri(const DeviceUri &dev)
 {
-    Args a(argc, argv, 3,
-           {"iface", "base", "design", "periods", "rate", "encoding", "scale", "bitrate", "data-bitrate", "window",
-            "rcvbuf", "timeout", "log", "skip-periods", "transient", "alpha", "detect-lines", "output"},
-           {"fd"});
-    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
-    const std::string out = a.require("output"), iface = a.require("iface");
-    const uint32_t base = parse_base(a), window = parse_window(a);
-    auto D = read_design_file(a.require("design"));
-    StreamFmt sf;
-    sf.fd = a.has("fd") ? 1 : 0;
-    const std::string enc = a.get("encoding", "int16");
-    if (enc == "int16") sf.encoding = MSID_CAN_ENC_S16;
-    else if (enc == "float32") sf.encoding = MSID_CAN_ENC_F32;
-    else throw UsageError("--encoding must be int16 or float32 (got '" + enc + "')");
-    FrfRequest rq;
-    parse_measure_options(a, *D, sf, rq);
-    const double bitrate = a.f64("bitrate", 0);
-    const double dbitrate = a.f64("data-bitrate", bitrate);
-    if (bitrate < 0 || dbitrate < 0) throw UsageError("--bitrate must be >= 0");
-    const int rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
-    const double timeout = a.f64("timeout", 10.0);
-    if (!(timeout > 0 && timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
-    const msid_design &d = D->d;
+    CanLink l;
+    l.iface = dev.iface;
+    l.base = dev.base;
+    l.fd = dev.fd;
+    return l;
+}
 
-    auto cfg = config_from_design(*D, sf);
-    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
-    std::vector<uint8_t> cf(nf * 8);
-    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
+// The session as the shared loop of `msid measure` sees it: msid_can_session_run, tick() after every batch.
+struct CanRunner : ExperimentRunner {
+    msid_can_session &s;
+    const Acq &acq;
+    const std::function<bool()> *tick = nullptr;
+    CanRunner(msid_can_session &s_, const Acq &a) : s(s_), acq(a) {}
+    static int on_poll(void *u) { return (*static_cast<CanRunner *>(u)->tick)() ? 1 : 0; }
+    bool run(uint32_t e, uint32_t periods, const std::function<bool()> &t) override
+    {
+        tick = &t;
+        s.cfg.on_poll = on_poll;
+        s.cfg.poll_user = this;
+        const int rc = msid_can_session_run(&s, e, periods);
+        if (rc == -MSID_DAQ_E_STOPPED) return false;
+        if (rc < 0) session_failed(acq, s, rc);
+        return true;
+    }
+    uint64_t samples() const override { return acq.dec.cnt.samples; }
+    uint64_t lost() const override { return acq.dec.cnt.samples_lost; }
+    uint64_t link_errors() const override { return acq.dec.cnt.error_frames; }
+};
 
-    // open the transport
+// The CAN session of `msid measure` and `msid can measure` (measure.hpp): open the socket, identify
+// the device, plan, upload with flow control, every experiment through the shared loop, the FRF.
+MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Progress &pg)
+{
+    const std::string &iface = l.iface;
     msid_socketcan sc;
     msid_socketcan_cfg scc{};
     scc.iface = iface.c_str();
-    scc.fd_frames = sf.fd;
+    scc.fd_frames = l.fd ? 1 : 0;
     scc.n_filters = 1;
-    scc.filter_id[0] = base;   // the device's 128 identifiers
+    scc.filter_id[0] = l.base;   // the device's 128 identifiers
     scc.filter_mask[0] = 0x780u | MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG;
     scc.err_frames = 1;
-    scc.rcvbuf = rcvbuf;
+    scc.rcvbuf = l.rcvbuf;
     const int r = msid_socketcan_open(&sc, &scc);
     if (r < 0) throw Error(sc.err);
     struct Closer { msid_socketcan &s; ~Closer() { msid_can_close(&s.tr); } } closer{sc};
 
     Acq acq;
     acq.iface = iface;
-    if (a.has("log")) acq.open_log(a.get("log"));
+    if (!l.log.empty()) acq.open_log(l.log);
 
     // the session: who is there?
     auto s = std::make_unique<msid_can_session>();
     msid_can_session_cfg ssc{};
     ssc.tr = &sc.tr;
-    ssc.base = base;
-    ssc.silence_ms = (uint32_t)std::ceil(timeout * 1000.0);
+    ssc.base = l.base;
     ssc.on_frame = log_hook;
     ssc.user = &acq;
     if (msid_can_session_init(s.get(), &ssc) < 0) throw Error("CAN session setup");
     int rc = msid_can_session_identify(s.get(), 2000);
     if (rc == -MSID_DAQ_E_TIMEOUT)
-        throw Error(fmt("no msid-can device answered at base %s on %s within 2 s", hex(base).c_str(), iface.c_str()));
+        throw Error(fmt("no msid-can device answered at base %s on %s within 2 s", hex(l.base).c_str(), iface.c_str()));
     if (rc == -MSID_DAQ_E_PROTOCOL)
         throw Error(fmt("protocol version mismatch: the device on %s speaks msid-can/%u, this host msid-can/%u",
                         iface.c_str(), s->dev.version, MSID_CAN_PROTO_VERSION));
     if (rc < 0) session_failed(acq, *s, rc);
     const msid_can_device &dev = s->dev;
+    MeasurePlan P;
+    plan(dev.nu, P);
+    P.sf.fd = l.fd ? 1 : 0;
+    P.sf.encoding = l.encoding;
+    s->cfg.silence_ms = (uint32_t)std::ceil(P.timeout * 1000.0);
+    s->cfg.query_ms = s->cfg.silence_ms / 4 ? s->cfg.silence_ms / 4 : 1;
+    const msid_design &d = P.D->d;
     if (dev.nu != d.n_inputs)
         throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs));
     const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("the device reports %u outputs", ny));
-    const uint32_t chunks = msid_can_chunks(C, sf.encoding, sf.fd);
-    if (bitrate > 0 && sf.rate > 0) {
-        const double tf = can_frame_seconds(sf.fd, bitrate, dbitrate > 0 ? dbitrate : bitrate);
-        const double rate = sf.rate, load = rate * chunks * tf;
+    const uint32_t chunks = msid_can_chunks(C, P.sf.encoding, P.sf.fd);
+    if (l.bitrate > 0 && P.sf.rate > 0) {
+        const double tf = can_frame_seconds(P.sf.fd, l.bitrate, l.data_bitrate > 0 ? l.data_bitrate : l.bitrate);
+        const double rate = P.sf.rate, load = rate * chunks * tf;
         if (load > 1.0)
             throw Error(fmt("the bus cannot carry %u channels at %g Hz: %u %s frame(s) per sample, %.0f frames/s, "
                             "need %.2f times the bus capacity at %g bit/s (worst-case bit stuffing); lower --rate%s",
-                            C, rate, chunks, sf.fd ? "CAN FD" : "classic", rate * chunks, load, bitrate,
-                            sf.fd ? "" : ", or use --fd"));
+                            C, rate, chunks, P.sf.fd ? "CAN FD" : "classic", rate * chunks, load, l.bitrate,
+                            P.sf.fd ? "" : ", or use --fd"));
     }
 
     // the estimation job and its decoder, then the design upload as parameters
-    acq.init(rq, nu, ny, m, sf.periods, base, *cfg, window, 4 * sf.periods + 8);
+    auto cfg = config_from_design(*P.D, P.sf);
+    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
+    std::vector<uint8_t> cf(nf * 8);
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
+    acq.init(P.rq, nu, ny, m, P.sf.periods, l.base, *cfg, l.window, 4 * P.sf.periods + 8);
     if ((rc = msid_can_session_attach(s.get(), &acq.dec)) < 0) session_failed(acq, *s, rc);
     rc = msid_can_session_upload(s.get(), reinterpret_cast<const uint8_t(*)[8]>(cf.data()), nf);
     if (rc < 0) session_failed(acq, *s, rc);
     const uint32_t crc = s->crc;
 
-    // run the experiments
-    for (uint32_t e = 0; e < m; ++e)
-        if ((rc = msid_can_session_run(s.get(), e, sf.periods)) < 0) session_failed(acq, *s, rc);
+    // run the experiments through the shared loop (progress, Ctrl-C)
+    CanRunner runner(*s, acq);
+    const LoopResult lr = run_experiments(runner, acq.job->meas(), P, pg);
     msid_can_link_stats ls;
     msid_can_get_stats(&sc.tr, &ls);
     auto notes = loss_notes(acq.dec, ls);
@@ -362,21 +379,58 @@ static int cmd_measure(int argc, char **argv)
     if (s->cnt.early_dropped)
         notes.push_back(fmt("%llu frame(s) before the upload were not decoded (more than %u)",
                             (unsigned long long)s->cnt.early_dropped, MSID_CAN_SESSION_EARLY));
-    FrfOutcome o = acq.job->finish(sources(acq, m, d.period), notes);
-    Json aj = acquisition_json(acq, ls, "socketcan", base, *cfg, crc);
+    MeasureResult R = finish_measure(*acq.job, P, lr, "can:" + iface, notes);
+    Json aj = acquisition_json(acq, ls, "socketcan", l.base, *cfg, crc);
     aj["queries"] = s->cnt.queries;
     aj["done_recovered"] = s->cnt.done_recovered;
-    o.doc["acquisition"] = aj;
-    write_json_file(out, o.doc);
+    R.o.doc["acquisition"] = aj;
     acq.close_log();
-    for (const auto &n : o.notes) std::fprintf(stderr, "msid can: note: %s\n", n.c_str());
-    std::printf("wrote %s: %zu lines, %u x %u, %u experiment(s) over %s (%s), %llu samples, %llu missing, "
-                "%llu periods used, %llu rejected\n",
-                out.c_str(), rq.bins.size(), ny, nu, m, iface.c_str(), fmt_name(*cfg).c_str(),
-                (unsigned long long)acq.dec.cnt.samples, (unsigned long long)acq.dec.cnt.samples_lost,
-                (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
-                (unsigned long long)o.doc["periods_rejected"].get<uint64_t>());
-    return 0;
+    R.summary = fmt("%zu lines, %u x %u, %u%s experiment(s) over %s (%s), %llu samples, %llu missing, "
+                    "%llu periods used, %llu rejected%s",
+                    P.rq.bins.size(), ny, nu, lr.done, R.complete ? "" : fmt(" of %u", m).c_str(), iface.c_str(),
+                    fmt_name(*cfg).c_str(), (unsigned long long)acq.dec.cnt.samples,
+                    (unsigned long long)acq.dec.cnt.samples_lost,
+                    (unsigned long long)R.o.doc["periods_used"].get<uint64_t>(),
+                    (unsigned long long)R.o.doc["periods_rejected"].get<uint64_t>(),
+                    R.complete ? "" : " (INCOMPLETE: stopped)");
+    R.D = std::move(P.D);
+    return R;
+}
+
+// Options -> the CAN session of `msid measure` (the same code, progress and Ctrl-C handling).
+static int cmd_measure(int argc, char **argv)
+{
+    Args a(argc, argv, 3,
+           {"iface", "base", "design", "periods", "rate", "encoding", "scale", "bitrate", "data-bitrate", "window",
+            "rcvbuf", "timeout", "log", "skip-periods", "transient", "alpha", "detect-lines", "output"},
+           {"fd", "quiet"});
+    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
+    const std::string out = a.require("output");
+    CanLink l;
+    l.iface = a.require("iface");
+    l.base = parse_base(a);
+    l.window = parse_window(a);
+    MeasurePlan plan;
+    plan.D = read_design_file(a.require("design"));
+    l.fd = a.has("fd");
+    plan.sf.fd = l.fd ? 1 : 0;
+    const std::string enc = a.get("encoding", "int16");
+    if (enc == "int16") l.encoding = MSID_CAN_ENC_S16;
+    else if (enc == "float32") l.encoding = MSID_CAN_ENC_F32;
+    else throw UsageError("--encoding must be int16 or float32 (got '" + enc + "')");
+    plan.sf.encoding = l.encoding;
+    parse_measure_options(a, *plan.D, plan.sf, plan.rq);
+    l.bitrate = a.f64("bitrate", 0);
+    l.data_bitrate = a.f64("data-bitrate", l.bitrate);
+    if (l.bitrate < 0 || l.data_bitrate < 0) throw UsageError("--bitrate must be >= 0");
+    l.rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
+    plan.timeout = a.f64("timeout", 10.0);
+    if (!(plan.timeout > 0 && plan.timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
+    l.log = a.get("log");
+    Progress pg(stderr, is_terminal(stderr), a.has("quiet"), "msid can");
+    StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
+    MeasureResult R = measure_can(l, [&](uint32_t, MeasurePlan &P) { P = std::move(plan); }, pg);
+    return write_measure_result(R, out, "can");
 }
 
 // ---- replay ------------------------------------------------------------------

@@ -34,7 +34,7 @@ static const char *HELP =
     "                    can://IFACE[?fd=1&base=0x200]                   (SocketCAN, msid-can/1)\n"
     "  --design FILE     msid-design/1 (msid excite), or design options:\n"
     "  --period P --lines L1,a:b,...  [--amplitudes A] [--seed S] [--phases random|schroeder]\n"
-    "                    [--inputs NU (default: the device's; required for can://)] [--experiments M]\n"
+    "                    [--inputs NU (default: the device's)] [--experiments M]\n"
     "  --periods K       periods per experiment (default: the design's, else 8)\n"
     "  --skip-periods K  leading periods left out (transient); --transient flag|drop|off, --alpha A,\n"
     "                    --detect-lines B,..: as in msid frf\n"
@@ -81,71 +81,37 @@ static void check_outdir(const std::string &dir)
         throw UsageError("-o '" + dir + "' exists and is not a directory");
 }
 
-// CAN: the existing `msid can measure` over a temporary design file (no live progress yet).
-static MeasureResult measure_can(const DeviceUri &dev, const Args &a, const std::string &outdir)
-{
-    std::unique_ptr<Design> D = a.has("design") ? read_design_file(a.get("design")) : design_from_options(a, 0);
-    const std::string dfile = outdir + "/design.json";
-    write_json_file(dfile, design_to_json(*D));
-    const std::string frf = outdir + "/frf.json";
-    std::vector<std::string> args = {"msid", "can", "measure", "--iface", dev.iface, "--base", std::to_string(dev.base),
-                                     "--design", dfile, "-o", frf};
-    if (dev.fd) args.push_back("--fd");
-    for (const char *k : {"periods", "skip-periods", "transient", "alpha", "detect-lines", "rate", "scale", "timeout"})
-        if (a.has(k)) { args.push_back(std::string("--") + k); args.push_back(a.get(k)); }
-    std::vector<char *> av;
-    for (auto &s : args) av.push_back(&s[0]);
-    const int rc = cmd_can((int)av.size(), av.data());
-    if (rc != 0) throw Error(fmt("msid can measure failed (exit status %d)", rc), rc);
-    MeasureResult R;
-    R.o.doc = read_json_file(frf);
-    mark_completeness(R.o.doc, true, R.o.doc["n_experiments"].get<uint32_t>(), R.o.doc["n_experiments"].get<uint32_t>(),
-                      "");
-    R.summary = fmt("%zu lines over %s", R.o.doc["lines"].size(), dev.name().c_str());
-    R.D = std::move(D);
-    return R;
-}
-
 MeasureRun run_measure(const MeasureOptions &opt, Progress &pg)
 {
     const Args &a = *opt.args;
     MeasureRun run;
     const std::string &outdir = opt.outdir;
-    if (opt.dev.kind == DeviceUri::CAN) {
-        const bool made = ::mkdir(outdir.c_str(), 0755) == 0;
-        try {
-            run.m = measure_can(opt.dev, a, outdir);
-        } catch (...) {
-            ::unlink((outdir + "/design.json").c_str());
-            if (made) ::rmdir(outdir.c_str());
-            throw;
+    std::unique_ptr<Design> file_design;
+    if (a.has("design")) file_design = read_design_file(a.get("design"));
+    auto plan = [&](uint32_t nu, MeasurePlan &P) {
+        P.D = file_design ? std::move(file_design) : design_from_options(a, nu);
+        if (opt.dev.kind == DeviceUri::CAN) P.sf.fd = opt.dev.fd ? 1 : 0;
+        parse_measure_options(a, *P.D, P.sf, P.rq);
+        if (a.has("fs")) {
+            if (P.sf.rate) throw UsageError("--fs is for an unpaced device; --rate already sets the sample rate");
+            P.rq.fs = parse_double(a.get("fs"), "--fs");
+            if (!(P.rq.fs > 0)) throw UsageError("--fs must be positive");
         }
-    } else {
-        std::unique_ptr<Design> file_design;
-        if (a.has("design")) file_design = read_design_file(a.get("design"));
-        auto plan = [&](uint32_t nu, MeasurePlan &P) {
-            P.D = file_design ? std::move(file_design) : design_from_options(a, nu);
-            parse_measure_options(a, *P.D, P.sf, P.rq);
-            if (a.has("fs")) {
-                if (P.sf.rate) throw UsageError("--fs is for an unpaced device; --rate already sets the sample rate");
-                P.rq.fs = parse_double(a.get("fs"), "--fs");
-                if (!(P.rq.fs > 0)) throw UsageError("--fs must be positive");
-            }
-            if (a.has("timeout")) {
-                P.timeout = parse_double(a.get("timeout"), "--timeout");
-                if (!(P.timeout > 0)) throw UsageError("--timeout must be positive");
-            }
-        };
-        {
-            StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
-            run.m = measure_modbus(opt.dev, plan, pg);
+        if (a.has("timeout")) {
+            P.timeout = parse_double(a.get("timeout"), "--timeout");
+            if (!(P.timeout > 0)) throw UsageError("--timeout must be positive");
         }
-        if (::mkdir(outdir.c_str(), 0755) != 0 && errno != EEXIST)
-            throw Error("cannot create directory '" + outdir + "': " + std::strerror(errno));
-        clear_previous_outputs(outdir);
-        write_json_file(outdir + "/design.json", design_to_json(*run.m.D));
-        write_json_file(outdir + "/frf.json", run.m.o.doc);
+    };
+    {
+        StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
+        run.m = opt.dev.kind == DeviceUri::CAN ? measure_can(can_link_from_uri(opt.dev), plan, pg)
+                                               : measure_modbus(modbus_link_from_uri(opt.dev), plan, pg);
     }
+    if (::mkdir(outdir.c_str(), 0755) != 0 && errno != EEXIST)
+        throw Error("cannot create directory '" + outdir + "': " + std::strerror(errno));
+    clear_previous_outputs(outdir);
+    write_json_file(outdir + "/design.json", design_to_json(*run.m.D));
+    write_json_file(outdir + "/frf.json", run.m.o.doc);
     run.frf = outdir + "/frf.json";
     for (const auto &n : run.m.o.notes) std::fprintf(stderr, "msid measure: note: %s\n", n.c_str());
     if (!opt.fit.empty()) {
@@ -171,12 +137,9 @@ MeasureOptions parse_measure_command(const Args &a)
         for (const char *k : {"amplitudes", "seed", "phases", "inputs", "experiments"})
             if (a.has(k)) throw UsageError(std::string("--") + k + " is a design option: it does not go with --design");
         read_design_file(a.get("design"));   // a bad file fails before the device is touched
-    } else if (o.dev.kind == DeviceUri::CAN && !a.has("inputs")) {
-        throw UsageError("can:// needs --inputs NU with design options (the CAN session reads the device later)");
     } else if (a.has("inputs")) {
         design_from_options(a, 1);            // bad design options fail before the device is touched
     }
-    if (o.dev.kind == DeviceUri::CAN && a.has("fs")) throw UsageError("--fs is not supported with can:// (use --rate)");
     if (a.has("order") && !a.has("fit")) throw UsageError("--order goes with --fit");
     if (a.has("fit")) {
         o.fit = a.get("fit");

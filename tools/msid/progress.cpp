@@ -22,7 +22,8 @@ bool is_terminal(FILE *f)
     return isatty(fileno(f)) && !(term && !std::strcmp(term, "dumb"));
 }
 
-Progress::Progress(FILE *out, bool tty, bool quiet) : out_(out), tty_(tty), quiet_(quiet) {}
+Progress::Progress(FILE *out, bool tty, bool quiet, std::string prefix)
+    : out_(out), prefix_(std::move(prefix)), tty_(tty), quiet_(quiet) {}
 
 Progress::~Progress() { done(); }
 
@@ -56,8 +57,8 @@ void Progress::update(const ProgressState &s)
         ProgressState k = s;
         const bool same = have_last_ && s.exp == last_.exp;
         for (k.periods = same && s.periods > last_.periods ? last_.periods + 1 : s.periods; k.periods < s.periods; ++k.periods)
-            std::fprintf(out_, "msid measure: %s\n", format(k).c_str());
-        std::fprintf(out_, "msid measure: %s\n", format(s).c_str());
+            std::fprintf(out_, "%s: %s\n", prefix_.c_str(), format(k).c_str());
+        std::fprintf(out_, "%s: %s\n", prefix_.c_str(), format(s).c_str());
     }
     std::fflush(out_);
     last_ = s;
@@ -68,7 +69,7 @@ void Progress::note(const std::string &msg)
 {
     if (quiet_) return;
     done();
-    std::fprintf(out_, "msid measure: %s\n", msg.c_str());
+    std::fprintf(out_, "%s: %s\n", prefix_.c_str(), msg.c_str());
     std::fflush(out_);
 }
 

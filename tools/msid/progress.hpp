@@ -24,8 +24,9 @@ struct ProgressState {
 
 class Progress {
 public:
-    // out: where to write; tty: rewrite one line (else one line per event); quiet: nothing at all.
-    Progress(FILE *out, bool tty, bool quiet = false);
+    // out: where to write; tty: rewrite one line (else one line per event); quiet: nothing at all;
+    // prefix: the command naming each line ("msid measure", "msid can", "msid modbus").
+    Progress(FILE *out, bool tty, bool quiet = false, std::string prefix = "msid measure");
     ~Progress();
     // A new state: redrawn on a terminal (rate-limited), a line when an event happened otherwise.
     void update(const ProgressState &s);
@@ -37,6 +38,7 @@ public:
 
 private:
     FILE *out_;
+    std::string prefix_;
     bool tty_, quiet_, live_ = false;
     double last_draw_ = -1;
     ProgressState last_{};

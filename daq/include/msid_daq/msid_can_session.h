@@ -64,6 +64,10 @@ typedef struct msid_can_session_cfg {
     uint32_t upload_block;       /**< CFG frames between flow-control QUERYs (default 16) */
     msid_can_frame_hook on_frame;/**< NULL: none */
     void *user;                  /**< passed to on_frame */
+    /** ::msid_can_session_run calls it after every receive batch or wait (at most 100 ms apart; NULL: none),
+        e.g. to draw progress; a non-zero return stops the experiment: see ::msid_can_session_run. */
+    int (*on_poll)(void *poll_user);
+    void *poll_user;             /**< passed to on_poll */
 } msid_can_session_cfg;
 
 /** Counters of the session (cumulative). */
@@ -115,7 +119,10 @@ int msid_can_session_upload(msid_can_session *s, const uint8_t (*rec)[8], size_t
 /**
  * @brief Run experiment e (K = periods): START, then decode until the experiment is closed by the
  *        device's DONE (or by the answer to a recovery QUERY).
- * @return 0; -MSID_DAQ_E_DEVICE (the device reported an error), -MSID_DAQ_E_TIMEOUT (silent for
+ *        When the configured on_poll returns non-zero the experiment is closed in the decoder where it
+ *        stands (::msid_can_decoder_abort: every complete period is kept, the partial last one is discarded
+ *        and counted) and the device is sent STOP (best effort).
+ * @return 0; -MSID_DAQ_E_STOPPED (on_poll asked), -MSID_DAQ_E_DEVICE (the device reported an error), -MSID_DAQ_E_TIMEOUT (silent for
  *         silence_ms), the core status of a decoder refusal (e.g. ::msid_daq_core(MSID_E_CAPACITY): more
  *         periods than the measurement holds), or a transport/hook error. s->err says what.
  */

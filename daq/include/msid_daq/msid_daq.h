@@ -43,6 +43,7 @@ typedef enum msid_daq_status {
     MSID_DAQ_E_DEVICE,      /**< the device reported an error or refused the configuration (the object's err names it) */
     MSID_DAQ_E_PROTOCOL,    /**< the device does not follow the protocol (version, CRC, counts; the object's err) */
     MSID_DAQ_E_HOOK,        /**< the caller's frame hook failed (e.g. a log that cannot be written) */
+    MSID_DAQ_E_STOPPED,     /**< the caller's poll hook asked to stop (e.g. Ctrl-C): complete periods are kept */
     MSID_DAQ_E_COUNT_
 } msid_daq_status;
 

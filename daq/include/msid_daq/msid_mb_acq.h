@@ -68,6 +68,10 @@ typedef struct msid_mb_acq_cfg {
                                      design's P and K P, a segment ends after K P samples whether or not the
                                      device reports DONE, and a write index that steps back or a DONE before
                                      K P samples is a protocol error: the device's counts never size the work. */
+    /** ::msid_mb_acq_run calls it after every poll (NULL: none), e.g. to draw progress; a non-zero return
+        stops the experiment: see ::msid_mb_acq_run. */
+    int (*on_poll)(void *user);
+    void *user;                 /**< passed to on_poll */
 } msid_mb_acq_cfg;
 
 /** Counters of the poller (cumulative). */
@@ -175,10 +179,14 @@ int msid_mb_acq_poll(msid_mb_acq *a, int *progressed);
 /**
  * @brief Run experiment e (K = periods) to its end: START, then poll (sleeping idle_us between polls that
  *        brought nothing) until the experiment is complete; a device that keeps reporting RUNNING after
- *        the design's K P samples is sent STOP.
+ *        the design's K P samples is sent STOP. After every poll the configured on_poll is called; when it
+ *        returns non-zero the experiment is closed in the stream where it stands (every complete period is
+ *        kept, the partial last one is discarded and counted), the device is sent STOP (best effort: it may
+ *        be gone) and the call returns -MSID_DAQ_E_STOPPED (or the core's status if the close was refused).
+ *        A request that failed while a stop was requested (a signal cut it short) counts as the stop.
  * @param silence_ms give up when no new sample arrived this long
- * @return 0; -MSID_DAQ_E_TIMEOUT (no new sample), -MSID_DAQ_E_BADDATA (replies that did not match their
- *         requests, or a protocol error), -MSID_DAQ_E_DEVICE, a core status (::msid_daq_core, e.g.
+ * @return 0; -MSID_DAQ_E_STOPPED (on_poll asked), -MSID_DAQ_E_TIMEOUT (no new sample), -MSID_DAQ_E_BADDATA
+ *         (replies that did not match their requests, or a protocol error), -MSID_DAQ_E_DEVICE, a core status (::msid_daq_core, e.g.
  *         MSID_E_CAPACITY) or a transport error. The client's err says what.
  */
 int msid_mb_acq_run(msid_mb_acq *a, uint32_t e, uint32_t periods, uint32_t silence_ms, uint32_t idle_us);
