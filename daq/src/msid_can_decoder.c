@@ -55,7 +55,7 @@ size_t msid_can_decoder_mem_size(const msid_can_decoder_cfg *c)
 /* The decimal an int16 step uploaded as float32 stands for (0.001f -> 0.001): the DBC, and so cantools,
  * scale by that decimal; decoding with it makes every sample agree bit for bit (issue 13). The shortest
  * %.{1..9}g that reads back as the same float32; a step that is not a float32 value is kept. */
-static double step_decimal(double s)
+double msid_can_step_decimal(double s)
 {
     const float f = (float)s;
     if ((double)f != s) return s;
@@ -82,7 +82,7 @@ msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cf
     d->cfg = *c;
     d->cfg.window = win(c);
     d->cfg.block = blk(c);
-    d->cfg.scale = step_decimal(c->scale);
+    d->cfg.scale = msid_can_step_decimal(c->scale);
     d->C = c->n_inputs + c->n_outputs;
     d->chunks = msid_can_chunks(d->C, c->encoding, c->fd);
     d->per = msid_can_chunk_channels(c->encoding, c->fd);

@@ -45,7 +45,10 @@ static const char *HELP =
     "  --rcvbuf BYTES      socket receive buffer (above net.core.rmem_max needs CAP_NET_ADMIN)\n"
     "  --timeout S         give up when the device is silent this long (default 10)\n"
     "  --log FILE          also record every frame as a candump .log\n"
-    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n"
+    "  --on-device         the device estimates (msid-can/1 extension estimate/1): no sample frames, the host\n"
+    "                      reads each line's G, covariances and dof; --stream-check FILE: the device also\n"
+    "                      streams, FILE gets the host's FRF and both must agree bit for bit\n";
 
 static std::string hex(uint32_t v) { return fmt("0x%X", v); }
 
@@ -264,6 +267,7 @@ static int log_hook(void *user, const msid_can_frame *f)
 
 static int cmd_measure(int argc, char **argv)
 {
+    for (int i = 3; i < argc; ++i) if (!std::strcmp(argv[i], "--on-device")) return cmd_can_ondevice(argc, argv);
     Args a(argc, argv, 3,
            {"iface", "base", "design", "periods", "rate", "encoding", "scale", "bitrate", "data-bitrate", "window",
             "rcvbuf", "timeout", "log", "skip-periods", "transient", "alpha", "detect-lines", "output"},

@@ -2,6 +2,7 @@
 // (docs/modbus-registers.md) through the shared FRF job; msid bench modbus.
 #include "commands.hpp"
 #include "frf_io.hpp"
+#include "modbus_link.hpp"
 #include "param_upload.hpp"
 #include "pipeline.hpp"
 
@@ -54,14 +55,7 @@ static double secs_since(const timespec &t0)
     return (double)(t.tv_sec - t0.tv_sec) + 1e-9 * (double)(t.tv_nsec - t0.tv_nsec);
 }
 
-struct Link {
-    msid_modbus m{};
-    bool open = false;
-    std::string name;       // "tcp:127.0.0.1:1502" / "rtu:/dev/pts/3"
-    ~Link() { if (open) msid_mb_close(&m.tr); }
-};
-
-static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms)
+void open_modbus_link(const Args &a, ModbusLink &L, uint32_t resp_ms, uint32_t byte_ms)
 {
     msid_modbus_cfg c{};
     c.response_timeout_ms = resp_ms;
@@ -97,7 +91,7 @@ static void open_link(const Args &a, Link &L, uint32_t resp_ms, uint32_t byte_ms
 }
 
 // Register rate of the link: RTU from baud and framing, TCP measured with full reads.
-static double link_reg_rate(const Args &a, const Link &L, msid_mb_client &cl, uint32_t max_regs, bool &measured)
+static double link_reg_rate(const Args &a, const ModbusLink &L, msid_mb_client &cl, uint32_t max_regs, bool &measured)
 {
     measured = !a.has("rtu");
     if (!measured) {
@@ -118,7 +112,7 @@ static double link_reg_rate(const Args &a, const Link &L, msid_mb_client &cl, ui
     return (double)regs / el;
 }
 
-static Json acquisition_json(const Link &L, const msid_mb_client &cl, const msid_mb_acq &q, uint32_t unit,
+static Json acquisition_json(const ModbusLink &L, const msid_mb_client &cl, const msid_mb_acq &q, uint32_t unit,
                              uint32_t enc, uint32_t wo, double scale, uint32_t rate, uint32_t crc, double lrate,
                              bool measured, double stream_s)
 {
@@ -197,8 +191,8 @@ static int cmd_measure(int argc, char **argv)
     const uint32_t crc = msid_can_get_u32(&rec[(nf - 1) * 8 + 4]);
 
     // open the transport; the client session: who is there?
-    Link L;
-    open_link(a, L, resp_ms, byte_ms);
+    ModbusLink L;
+    open_modbus_link(a, L, resp_ms, byte_ms);
     msid_mb_client cl;
     msid_mb_client_init(&cl, &L.m.tr, retries, 20);
     int rc = msid_mb_identify(&cl);
