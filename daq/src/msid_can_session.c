@@ -104,7 +104,10 @@ static int take(msid_can_session *s, const msid_can_frame *f)
         if (msid_can_device_update(&s->dev, f->data) == MSID_CAN_ST_STATE) state_seen(s);
     } else if (f->id == s->cfg.base + MSID_CAN_ID_EST && classic8) {
         est_frame(s, f->data);
-    } else if (!(f->id & MSID_CAN_ERR_FLAG)) {
+    } else if (f->id & MSID_CAN_ERR_FLAG) {
+        s->cnt.error_frames++;
+        s->bus = msid_can_bus_state_after(s->bus, f);
+    } else {
         s->progress++;
     }
     if (s->dec) {

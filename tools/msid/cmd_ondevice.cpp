@@ -584,6 +584,18 @@ int cmd_can_ondevice(int argc, char **argv)
     acq["solves"] = s->cnt.est_solves;
     acq["frames_sent"] = s->cnt.frames_sent;
     acq["queries"] = s->cnt.queries;
+    msid_can_link_stats ls;
+    msid_can_get_stats(&sc.tr, &ls);
+    const msid_can_counters none{};
+    const msid_can_counters &k = host ? host->dec.cnt : none;   // the sample stream's (none when estimating only)
+    acq["frames_missing"] = k.frames_missing;
+    acq["duplicates"] = k.duplicates;
+    acq["reordered"] = k.reordered;
+    acq["malformed"] = k.malformed;
+    acq["error_frames"] = s->cnt.error_frames;
+    acq["bus_state"] = msid_can_bus_state_name(s->bus);
+    acq["kernel_drops"] = ls.kernel_drops;
+    acq["send_retries"] = ls.send_retries;
     Json hdoc;
     std::string why;
     if (host) {

@@ -150,6 +150,9 @@ int msid_can_device_update(msid_can_device *v, const uint8_t *data);
  */
 double msid_can_step_decimal(double step);
 
+/** @brief The bus state after frame f: an error frame's bus-off, restarted, passive, warning or active class; any other frame leaves s. */
+msid_can_bus_state msid_can_bus_state_after(msid_can_bus_state s, const msid_can_frame *f);
+
 /** @brief Name of a bus state ("active", "warning", "passive", "bus-off", "restarted"). */
 const char *msid_can_bus_state_name(msid_can_bus_state s);
 

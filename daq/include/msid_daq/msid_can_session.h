@@ -84,6 +84,7 @@ typedef struct msid_can_session_counters {
     uint64_t early_dropped;      /**< frames before attach beyond MSID_CAN_SESSION_EARLY (not decoded) */
     uint64_t est_solves;         /**< SOLVE requests sent (more than one: values of the block were lost and asked again) */
     uint64_t est_frames;         /**< EST frames received */
+    uint64_t error_frames;       /**< error frames received */
 } msid_can_session_counters;
 
 /** The session (caller-owned). */
@@ -101,6 +102,7 @@ typedef struct msid_can_session {
     uint32_t done_exp;           /**< experiment of the last of them */
     uint64_t progress;           /**< without a decoder: new sample counts in STATE RUNNING, and non-status frames */
     uint32_t last_count;
+    msid_can_bus_state bus;      /**< bus state from the error frames received (the decoder's too when attached) */
     uint32_t n_early;
     msid_can_frame early[MSID_CAN_SESSION_EARLY];
     msid_can_frame rx[64];       /**< receive batch */
