@@ -20,13 +20,13 @@ import pytest
 
 import canlib as c
 
-P, K = 256, 8
+P, K = 128, 5   # the stream checks' design: small, since every sample also crosses the emulated bus
 LINE_KEYS = ("G", "cov", "dof", "cov_known_input", "dof_known_input", "noise_cov", "snr", "cond", "input_snr")
 
 
 @pytest.fixture(scope="module")
 def design(tmp_path_factory):
-    return c.excite(tmp_path_factory.mktemp("design"), lines="1:30")
+    return c.excite(tmp_path_factory.mktemp("design"), period=P, lines="1:2:40", periods=K)
 
 
 def ondevice(tmp, design, *extra, out="frf.json", ok=True):
@@ -66,9 +66,10 @@ def test_stream_check_bit_identical(design, tmp_path):
 
 
 def test_stream_check_detects_lost_samples(design, tmp_path):
-    """Negative control of the bit-for-bit check: the device drops every 2000th sample frame (512
-    frames a period), so the host rejects the periods they touch while the device estimates on all."""
-    with c.Sim(tmp_path, "--seed", 21, "--drop-every", 2000):
+    """Negative control of the bit-for-bit check: the device drops every 1000th sample frame (one in
+    each experiment of 5 x 256 frames), so the host rejects the period it touches while the device
+    estimates on all of them."""
+    with c.Sim(tmp_path, "--seed", 21, "--drop-every", 1000):
         r = ondevice(tmp_path, design, "--stream-check", tmp_path / "host.json", ok=False)
     c.fails(tmp_path, r, 1, "differs from the host's estimate", "were lost on the way to the host")
     host = json.loads((tmp_path / "host.json").read_text())   # the host's FRF is kept for inspection
@@ -78,7 +79,7 @@ def test_stream_check_detects_lost_samples(design, tmp_path):
 def test_rate_beyond_the_bus(tmp_path):
     """The issue's demo: 4 channels at 50 kHz need 100 000 classic frames/s; a 1 Mbit/s bus carries
     about 7 400 (135 bits each, worst-case stuffing)."""
-    design = c.excite(tmp_path, lines="1:60", periods=6)
+    design = c.excite(tmp_path, period=256, lines="1:60", periods=6)
     with c.Sim(tmp_path, "--seed", 8) as sim:
         refused = c.measure(tmp_path, design, "--rate", 50000, "--bitrate", 1000000, ok=False)
         c.fails(tmp_path, refused, 1, "the bus cannot carry 4 channels at 50000 Hz")
@@ -86,8 +87,8 @@ def test_rate_beyond_the_bus(tmp_path):
         truth = sim.truth()
     report = sim.report()
     assert dev["fs_hz"] == 50000 and dev["acquisition"]["estimate_mode"] == "estimate"
-    assert dev["acquisition"]["samples"] == 2 * 6 * P
-    assert report["sample_frames"] == 0 and report["samples"] == 2 * 6 * P   # not one sample frame on the bus
+    assert dev["acquisition"]["samples"] == 2 * 6 * 256
+    assert report["sample_frames"] == 0 and report["samples"] == 2 * 6 * 256   # not one sample frame on the bus
     assert "sample_frames" not in dev["acquisition"]   # no decoder: nothing but status and EST frames
     inside, n = c.check_coverage(dev, truth)
     print(f"50 kHz x 4 channels over classic CAN at 1 Mbit/s, on device: {inside}/{n} rows inside their 95% region")
