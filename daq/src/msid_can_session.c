@@ -388,10 +388,13 @@ int msid_can_session_est_solve(msid_can_session *s, double *vals, uint8_t *got, 
     s->est_vals = vals;
     s->est_got = got;
     s->est_n = n;
-    uint32_t missing = n;
+    /* a host that reads slower than the device sends (a virtual bus) loses part of the burst: ask again
+       while every answer brings values that were missing, at most MSID_CAN_EST_SOLVES times */
+    uint32_t missing = n, before = n + 1;
     int r = 0;
-    for (int attempt = 0; attempt < 3 && missing; ++attempt) {
+    for (uint32_t attempt = 0; attempt < MSID_CAN_EST_SOLVES && missing && missing < before; ++attempt) {
         if ((r = solve_once(s, n)) < 0) break;
+        before = missing;
         missing = 0;
         for (uint32_t k = 0; k < n; ++k) missing += got[k] != 3;
     }

@@ -53,6 +53,9 @@
 extern "C" {
 #endif
 
+/** Most SOLVE requests of one ::msid_can_session_est_solve (values lost on the way are asked for again). */
+#define MSID_CAN_EST_SOLVES 32u
+
 /** Frames kept from before ::msid_can_session_attach (more are counted in early_dropped, not decoded). */
 #define MSID_CAN_SESSION_EARLY 256u
 
@@ -161,11 +164,13 @@ int msid_can_session_est_setup(msid_can_session *s, uint32_t mode, uint32_t tran
 
 /**
  * @brief SOLVE, then collect the result block of n doubles (layout msid_mb_est.h) into vals, bit for bit.
- *        Values lost on the way are asked for again (SOLVE once more: the device resends its block),
- *        twice at most.
+ *        Values lost on the way (a host reading slower than a virtual bus delivers) are asked for again:
+ *        SOLVE once more (a ready device resends its block) as long as every answer brings values that
+ *        were missing, MSID_CAN_EST_SOLVES times at most.
  * @param got n bytes of scratch (bit 0 low, bit 1 high word seen)
  * @return 0; -MSID_DAQ_E_DEVICE (the estimate failed: s->est.status, s->est.bad1); -MSID_DAQ_E_PROTOCOL
- *         (a block of another size than n, or values still missing); -MSID_DAQ_E_TIMEOUT; or a
+ *         (a block of another size than n, or values still missing after an answer that brought none);
+ *         -MSID_DAQ_E_TIMEOUT; or a
  *         transport/hook/core error. s->err says what.
  */
 int msid_can_session_est_solve(msid_can_session *s, double *vals, uint8_t *got, uint32_t n);
