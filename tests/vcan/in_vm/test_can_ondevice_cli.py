@@ -4,7 +4,7 @@ produces and sends the result block as EST frames; the host writes msid-frf/1 fr
 
 - Same samples, bit for bit: the device estimates AND streams (--stream-check); the host's FRF from
   the stream (the ordinary decoder and FRF job, streaming DFT path) and the device's FRF are compared
-  here field by field (not only by the CLI), for int16 codes (float32 codes decode without a step). Negative control: a device
+  here field by field (not only by the CLI), for int16 and float32 codes. Negative control: a device
   that drops sample frames makes the host's estimate differ, and the check refuses it.
 - The issue's demo: 4 channels at 50 kHz over classic CAN at 1 Mbit/s (100 000 frames/s, 13.5 times
   the bus): `msid can measure` refuses it with the bus-capacity message, `--on-device` measures it
@@ -46,16 +46,18 @@ def same_estimates(a, b):
     return True
 
 
-def test_stream_check_bit_identical(design, tmp_path):
+@pytest.mark.parametrize("codes", [[], ["--encoding", "float32"]], ids=["int16", "float32"])
+def test_stream_check_bit_identical(design, tmp_path, codes):
     """int16 codes: the device decodes them with the host decoder's step (0.001f stands for 0.001)."""
     import jsonschema
     schema = json.loads((c.SRC / "docs" / "schemas" / "msid-frf-1.schema.json").read_text())
     with c.Sim(tmp_path, "--seed", 21):
-        r = ondevice(tmp_path, design, "--stream-check", tmp_path / "host.json")
+        r = ondevice(tmp_path, design, *codes, "--stream-check", tmp_path / "host.json")
     dev, host = r.doc, json.loads((tmp_path / "host.json").read_text())
     jsonschema.Draft202012Validator(schema).validate(dev)
     a = dev["acquisition"]
     assert a["on_device"] and a["estimate_mode"] == "estimate+stream" and a["extension"] == "estimate/1"
+    assert a["frame_format"] == ("classic/float32" if codes else "classic/int16")
     assert "bit-identical" in a["stream_check"] and a["transport"] == "socketcan"
     assert host["dft_path"] == "stream" and host["acquisition"]["samples_lost"] == 0 and a["frames_missing"] == 0
     assert same_estimates(dev, host)
