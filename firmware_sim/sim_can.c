@@ -10,6 +10,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "msid_daq/msid_can_decoder.h"
 #include "msid_daq/msid_can_est.h"
 #include "msid_daq/msid_mb_est.h"
 #include "msid_daq/msid_socketcan.h"
@@ -39,7 +40,7 @@ typedef struct sim_can {
     double last_host_frame;
     /* on-device estimation (extension estimate/1, msid_can_est.h) */
     uint32_t est_mode, est_state;
-    double est_alpha;
+    double est_alpha, est_scale;        /* est_scale: the int16 step a host decodes with */
     sim_est est;
     msid_mb_est_layout est_lo;
     uint16_t est_block[65536];           /* the result block, encoded as the Modbus extension's */
@@ -194,6 +195,7 @@ static void handle_est(sim_can *c, const uint8_t *d)
         else {
             const sim_est_cfg ec = {(uint32_t)d[4] | (uint32_t)d[5] << 8, (msid_transient_mode)tr, c->est_alpha, c->d->cfg.periods};
             sim_est_setup(&c->est, c->d, &ec);
+            c->est_scale = msid_can_step_decimal((double)c->d->cfg.scale);
         }
         c->est_mode = c->est.on ? mode : 0;
         c->est_state = c->est.on ? MSID_CAN_EST_STATE_ACCUMULATING : MSID_CAN_EST_STATE_ERROR;
@@ -362,7 +364,8 @@ static void produce_sample(sim_can *c)
         f.flags = c->d->cfg.fd ? (MSID_CANF_FD | MSID_CANF_BRS) : 0;
         msid_can_encode_sample(f.data, c->d->cfg.encoding, c->d->cfg.fd, k, (uint32_t)c->d->n_sample, (uint32_t)c->running_exp, flags, row,
                                C, (double)c->d->cfg.scale);
-        if (c->est.on) msid_can_decode_values(f.data, c->d->cfg.encoding, c->d->cfg.fd, k, codes, C, (double)c->d->cfg.scale);
+        if (c->est.on)   /* with the host decoder's int16 step (msid_can_step_decimal): the same doubles */
+            msid_can_decode_values(f.data, c->d->cfg.encoding, c->d->cfg.fd, k, codes, C, c->est_scale);
         if (c->est_mode != MSID_MB_EST_ONLY) send_sample_frame(c, &f);
     }
     if (c->est.on && c->d->n_sample < c->d->n_total) {

@@ -55,7 +55,7 @@ size_t msid_can_decoder_mem_size(const msid_can_decoder_cfg *c)
 /* The decimal an int16 step uploaded as float32 stands for (0.001f -> 0.001): the DBC, and so cantools,
  * scale by that decimal; decoding with it makes every sample agree bit for bit (issue 13). The shortest
  * %.{1..9}g that reads back as the same float32; a step that is not a float32 value is kept. */
-static double step_decimal(double s)
+double msid_can_step_decimal(double s)
 {
     const float f = (float)s;
     if ((double)f != s) return s;
@@ -82,7 +82,7 @@ msid_status msid_can_decoder_init(msid_can_decoder *d, const msid_can_decoder_cf
     d->cfg = *c;
     d->cfg.window = win(c);
     d->cfg.block = blk(c);
-    d->cfg.scale = step_decimal(c->scale);
+    d->cfg.scale = msid_can_step_decimal(c->scale);
     d->C = c->n_inputs + c->n_outputs;
     d->chunks = msid_can_chunks(d->C, c->encoding, c->fd);
     d->per = msid_can_chunk_channels(c->encoding, c->fd);
@@ -258,19 +258,35 @@ static void on_status(msid_can_decoder *d, const msid_can_frame *f)
     }
 }
 
+msid_can_bus_state msid_can_bus_state_after(msid_can_bus_state s, const msid_can_frame *f)
+{
+    const uint32_t cls = f->id & 0x1FFFFFFFu;
+    const uint8_t ctrl = f->len > 1 ? f->data[1] : 0;
+    if (!(f->id & MSID_CAN_ERR_FLAG)) return s;
+    if (cls & E_BUSOFF) s = MSID_CAN_BUS_OFF;
+    if (cls & E_RESTARTED) s = MSID_CAN_BUS_RESTARTED;
+    if (cls & E_CRTL) {
+        if (ctrl & (E_CRTL_RX_PASSIVE | E_CRTL_TX_PASSIVE)) s = MSID_CAN_BUS_PASSIVE;
+        else if (ctrl & (E_CRTL_RX_WARNING | E_CRTL_TX_WARNING)) s = MSID_CAN_BUS_WARNING;
+        if (ctrl & E_CRTL_ACTIVE) s = MSID_CAN_BUS_ACTIVE;
+    }
+    return s;
+}
+
 static void on_error(msid_can_decoder *d, const msid_can_frame *f)
 {
     d->cnt.error_frames++;
+    d->bus = msid_can_bus_state_after(d->bus, f);
     const uint32_t cls = f->id & 0x1FFFFFFFu;
     const uint8_t ctrl = f->len > 1 ? f->data[1] : 0;
     int lost = 0, counted = 0;
-    if (cls & E_BUSOFF) { d->bus = MSID_CAN_BUS_OFF; d->cnt.err_bus_off++; lost = 1; counted = 1; }
-    if (cls & E_RESTARTED) { d->bus = MSID_CAN_BUS_RESTARTED; d->cnt.err_restarted++; counted = 1; }
+    if (cls & E_BUSOFF) { d->cnt.err_bus_off++; lost = 1; counted = 1; }
+    if (cls & E_RESTARTED) { d->cnt.err_restarted++; counted = 1; }
     if (cls & E_CRTL) {
         if (ctrl & (E_CRTL_RX_OVERFLOW | E_CRTL_TX_OVERFLOW)) { d->cnt.err_ctrl_overflow++; lost = 1; counted = 1; }
-        if (ctrl & (E_CRTL_RX_PASSIVE | E_CRTL_TX_PASSIVE)) { d->bus = MSID_CAN_BUS_PASSIVE; d->cnt.err_passive++; counted = 1; }
-        else if (ctrl & (E_CRTL_RX_WARNING | E_CRTL_TX_WARNING)) { d->bus = MSID_CAN_BUS_WARNING; d->cnt.err_warning++; counted = 1; }
-        if (ctrl & E_CRTL_ACTIVE) { d->bus = MSID_CAN_BUS_ACTIVE; counted = 1; }
+        if (ctrl & (E_CRTL_RX_PASSIVE | E_CRTL_TX_PASSIVE)) { d->cnt.err_passive++; counted = 1; }
+        else if (ctrl & (E_CRTL_RX_WARNING | E_CRTL_TX_WARNING)) { d->cnt.err_warning++; counted = 1; }
+        if (ctrl & E_CRTL_ACTIVE) counted = 1;
     }
     if (cls & E_PROT) { d->cnt.err_protocol++; counted = 1; }
     if (cls & E_ACK) { d->cnt.err_ack++; counted = 1; }

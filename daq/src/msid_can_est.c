@@ -53,3 +53,28 @@ int msid_can_est_collect(const uint8_t d[8], double *vals, uint8_t *have, uint32
     have[k] |= (uint8_t)(1u << w);
     return 1;
 }
+
+int msid_can_est_update(msid_can_est_view *v, const uint8_t d[8])
+{
+    const uint32_t w = msid_can_get_u32(d + 4);
+    switch (d[0]) {
+    case MSID_CAN_EST_MUX_STATE:
+        v->states++;
+        v->state = d[1];
+        v->mode = d[2];
+        v->version = d[3];
+        v->status = (uint32_t)d[4] | (uint32_t)d[5] << 8;
+        v->bad1 = (uint32_t)d[6] | (uint32_t)d[7] << 8;
+        break;
+    case MSID_CAN_EST_MUX_NEED: v->need = w; break;
+    case MSID_CAN_EST_MUX_HAVE: v->have = w; break;
+    case MSID_CAN_EST_MUX_SIZE: v->size = w; break;
+    case MSID_CAN_EST_MUX_PERIODS:
+        v->periods = w;
+        v->answers++;
+        break;
+    default:
+        return -1;
+    }
+    return d[0];
+}

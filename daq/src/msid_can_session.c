@@ -2,6 +2,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "msid_daq/msid_can_session.h"
 
+#include "msid/msid_status.h"
+
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -72,13 +74,42 @@ static int core_refused(msid_can_session *s, msid_status st)
     return msid_daq_core(st);
 }
 
-/* A received frame: hook, device status, then the decoder (or the early buffer before attach). */
+/* A device STATE: DONE closes an experiment without a decoder, a new sample count is progress. */
+static void state_seen(msid_can_session *s)
+{
+    const msid_can_device *v = &s->dev;
+    if (v->state == MSID_CAN_STATE_DONE) {
+        s->dones++;
+        s->done_exp = v->experiment;
+    } else if (v->state == MSID_CAN_STATE_RUNNING && v->value != s->last_count) {
+        s->progress++;
+        s->last_count = v->value;
+    }
+}
+
+/* An EST frame (extension estimate/1): the estimator's state, or a value of the block being collected. */
+static void est_frame(msid_can_session *s, const uint8_t *d)
+{
+    s->cnt.est_frames++;
+    if (msid_can_est_update(&s->est, d) < 0 && s->est_vals) msid_can_est_collect(d, s->est_vals, s->est_got, s->est_n);
+}
+
+/* A received frame: hook, device status or estimator, then the decoder (or the early buffer before attach). */
 static int take(msid_can_session *s, const msid_can_frame *f)
 {
     int r = hook(s, f);
     if (r < 0) return r;
-    if (f->id == s->cfg.base + MSID_CAN_ID_STATUS && f->len == 8 && !(f->flags & MSID_CANF_FD))
-        msid_can_device_update(&s->dev, f->data);
+    const int classic8 = f->len == 8 && !(f->flags & MSID_CANF_FD);
+    if (f->id == s->cfg.base + MSID_CAN_ID_STATUS && classic8) {
+        if (msid_can_device_update(&s->dev, f->data) == MSID_CAN_ST_STATE) state_seen(s);
+    } else if (f->id == s->cfg.base + MSID_CAN_ID_EST && classic8) {
+        est_frame(s, f->data);
+    } else if (f->id & MSID_CAN_ERR_FLAG) {
+        s->cnt.error_frames++;
+        s->bus = msid_can_bus_state_after(s->bus, f);
+    } else {
+        s->progress++;
+    }
     if (s->dec) {
         const msid_status st = msid_can_decoder_feed(s->dec, f);
         return st == MSID_OK ? 0 : core_refused(s, st);
@@ -104,14 +135,18 @@ static int pump(msid_can_session *s, int wait_ms)
     return k;
 }
 
-enum { WAIT_INFO, WAIT_STATE, WAIT_CONFIRM };
+enum { WAIT_INFO, WAIT_STATE, WAIT_CONFIRM, WAIT_EST_ANSWER, WAIT_EST_BLOCK };
 
 static int waited(const msid_can_session *s, int what)
 {
     const msid_can_device *v = &s->dev;
+    const msid_can_est_view *x = &s->est;
     switch (what) {
     case WAIT_INFO: return v->have_info;
     case WAIT_STATE: return v->have_state;
+    case WAIT_EST_ANSWER: return x->answers > 0;   /* counters reset by the request */
+    /* SOLVE: STATE (not ready: the end), or STATE, SIZE, the values, STATE */
+    case WAIT_EST_BLOCK: return x->states >= 2 || (x->states == 1 && x->state != MSID_CAN_EST_STATE_READY);
     default: return v->have_state && (v->state == MSID_CAN_STATE_CONFIGURED || v->state == MSID_CAN_STATE_ERROR);
     }
 }
@@ -213,8 +248,15 @@ int msid_can_session_upload(msid_can_session *s, const uint8_t (*rec)[8], size_t
     return 0;
 }
 
-/* Frames that are not STATUS frames: the device is streaming (or the bus is talking). */
-static uint64_t activity(const msid_can_decoder *d) { return d->cnt.frames - d->cnt.status_frames; }
+/* With a decoder: frames that are not STATUS frames (the device is streaming, or the bus is talking).
+   Without one (estimate only): new sample counts in the device's STATE answers, and other frames. */
+static uint64_t activity(const msid_can_session *s)
+{
+    return s->dec ? s->dec->cnt.frames - s->dec->cnt.status_frames : s->progress;
+}
+
+/* Experiments closed: by the decoder, or (estimate only) the device's STATE DONE frames. */
+static uint64_t closed(const msid_can_session *s) { return s->dec ? s->dec->cnt.experiments_done : s->dones; }
 
 /* The caller asked to stop: close the experiment in the decoder where it stands, STOP the device. */
 static int stop_run(msid_can_session *s, uint32_t e)
@@ -228,30 +270,31 @@ static int stop_run(msid_can_session *s, uint32_t e)
 
 int msid_can_session_run(msid_can_session *s, uint32_t e, uint32_t periods)
 {
-    if (!s || !s->dec) return -MSID_DAQ_E_ARG;
+    if (!s) return -MSID_DAQ_E_ARG;
     msid_can_decoder *d = s->dec;
-    const uint64_t done_before = d->cnt.experiments_done;
+    const msid_can_device *v = d ? &d->dev : &s->dev;
+    const uint64_t done_before = closed(s);
     int r = send_ctrl(s, MSID_CAN_CMD_START, e, periods);
     if (r < 0) return r;
-    uint64_t last = now_ms(), last_query = 0, seen = activity(d);
+    uint64_t last = now_ms(), last_query = 0, seen = activity(s);
     int querying = 0;   /* a recovery QUERY is outstanding since the last activity */
-    while (d->cnt.experiments_done == done_before) {
+    for (;;) {
         const int k = pump(s, 100);
         if (s->cfg.on_poll && s->cfg.on_poll(s->cfg.poll_user)) return stop_run(s, e);
         if (k < 0) return k;
         const uint64_t t = now_ms();
-        if (k > 0 && d->dev.have_state && d->dev.state == MSID_CAN_STATE_ERROR) {
+        if (k > 0 && v->have_state && v->state == MSID_CAN_STATE_ERROR) {
             snprintf(s->err, sizeof s->err, "the device reported an error during experiment %u: %s", e + 1,
-                     msid_can_device_error_name(d->dev.error));
+                     msid_can_device_error_name(v->error));
             return -MSID_DAQ_E_DEVICE;
         }
-        if (activity(d) != seen) {
-            seen = activity(d);
+        if (activity(s) != seen) {
+            seen = activity(s);
             last = t;
             querying = 0;
         }
-        if (d->cnt.experiments_done != done_before) {
-            if (querying) s->cnt.done_recovered++;
+        if (closed(s) != done_before && (d || s->done_exp == e)) {
+            if (querying && d) s->cnt.done_recovered++;
             break;
         }
         if (t - last > s->cfg.silence_ms) {
@@ -266,6 +309,114 @@ int msid_can_session_run(msid_can_session *s, uint32_t e, uint32_t periods)
             last_query = t;
             querying = 1;
         }
+    }
+    return 0;
+}
+
+/* ---- on-device estimation (extension estimate/1) ---------------------------- */
+
+static int send_est(msid_can_session *s, const uint8_t *d) { return send8(s, MSID_CAN_ID_EST_CTRL, d); }
+
+/* The device's estimator refused or failed: -MSID_DAQ_E_DEVICE with its status in s->err. */
+static int est_failed(msid_can_session *s, const char *what)
+{
+    const msid_can_est_view *x = &s->est;
+    const int n = snprintf(s->err, sizeof s->err, "%s: %s (msid_status %u)", what, msid_strerror((msid_status)x->status),
+                           x->status);
+    if (x->status == MSID_E_MEM_SIZE && n > 0 && (size_t)n < sizeof s->err)
+        snprintf(s->err + n, sizeof s->err - (size_t)n, ": its estimator needs %u bytes of working memory, it has %u",
+                 x->need, x->have);
+    return -MSID_DAQ_E_DEVICE;
+}
+
+int msid_can_session_est_setup(msid_can_session *s, uint32_t mode, uint32_t transient, uint32_t skip, double alpha)
+{
+    if (!s || mode < 1 || mode > 2 || transient > 2 || skip > 0xFFFFu || !(alpha >= 0 && alpha < 1)) return -MSID_DAQ_E_ARG;
+    uint64_t b;
+    memcpy(&b, &alpha, sizeof b);
+    uint8_t d[8];
+    int r;
+    for (uint32_t w = 0; w < 2; ++w) {   /* the transient test's level, a double in two words */
+        memset(d, 0, sizeof d);
+        d[0] = MSID_CAN_EST_CMD_ALPHA;
+        d[1] = (uint8_t)w;
+        msid_can_put_u32(d + 4, (uint32_t)(b >> (32 * w)));
+        if ((r = send_est(s, d)) < 0) return r;
+    }
+    memset(d, 0, sizeof d);
+    d[0] = MSID_CAN_EST_CMD_SETUP;
+    d[1] = (uint8_t)mode;
+    d[2] = (uint8_t)transient;
+    d[4] = (uint8_t)skip;
+    d[5] = (uint8_t)(skip >> 8);
+    memset(&s->est, 0, sizeof s->est);
+    if ((r = send_est(s, d)) < 0) return r;
+    if ((r = wait_for(s, WAIT_EST_ANSWER, s->cfg.reply_timeout_ms)) < 0) return r;
+    if (r == 0 || s->est.states == 0) {
+        snprintf(s->err, sizeof s->err, "the device at base 0x%X does not estimate on board (no answer to the "
+                 "estimate/%u SETUP within %g s: msid-can/1 without the extension)", s->cfg.base, MSID_CAN_EST_VERSION,
+                 (double)s->cfg.reply_timeout_ms / 1000.0);
+        return -MSID_DAQ_E_PROTOCOL;
+    }
+    if (s->est.version != MSID_CAN_EST_VERSION) {
+        snprintf(s->err, sizeof s->err, "the device speaks extension estimate/%u, this host estimate/%u",
+                 s->est.version, MSID_CAN_EST_VERSION);
+        return -MSID_DAQ_E_PROTOCOL;
+    }
+    if (s->est.state != MSID_CAN_EST_STATE_ACCUMULATING) return est_failed(s, "the device cannot estimate on board");
+    return 0;
+}
+
+/* One SOLVE and the device's answer; values go into s->est_vals. 0 ready, or < 0. */
+static int solve_once(msid_can_session *s, uint32_t n)
+{
+    uint8_t d[8] = {MSID_CAN_EST_CMD_SOLVE, 0, 0, 0, 0, 0, 0, 0};
+    s->est.states = 0;
+    s->est.size = 0;
+    s->cnt.est_solves++;
+    int r = send_est(s, d);
+    if (r < 0) return r;
+    /* the block is 2 n frames: a millisecond per value on top of the reply time */
+    if ((r = wait_for(s, WAIT_EST_BLOCK, s->cfg.reply_timeout_ms + n)) < 0) return r;
+    if (r == 0 && s->est.states == 0) {
+        snprintf(s->err, sizeof s->err, "the device did not answer SOLVE within %g s",
+                 (double)(s->cfg.reply_timeout_ms + n) / 1000.0);
+        return -MSID_DAQ_E_TIMEOUT;
+    }
+    if (s->est.state != MSID_CAN_EST_STATE_READY) return est_failed(s, "the device's estimate failed");
+    if (s->est.size != n && s->est.size != 0) {   /* 0: the SIZE frame was lost (the values are counted) */
+        snprintf(s->err, sizeof s->err, "the device's result block holds %u doubles, the design's holds %u",
+                 s->est.size, n);
+        return -MSID_DAQ_E_PROTOCOL;
+    }
+    return 0;
+}
+
+int msid_can_session_est_solve(msid_can_session *s, double *vals, uint8_t *got, uint32_t n)
+{
+    if (!s || !vals || !got || n == 0) return -MSID_DAQ_E_ARG;
+    memset(got, 0, n);
+    s->est_vals = vals;
+    s->est_got = got;
+    s->est_n = n;
+    /* a host that reads slower than the device sends (a virtual bus) loses part of the burst: ask again
+       while every answer brings values that were missing, at most MSID_CAN_EST_SOLVES times */
+    uint32_t missing = n, before = n + 1;
+    int r = 0;
+    for (uint32_t attempt = 0; attempt < MSID_CAN_EST_SOLVES && missing && missing < before; ++attempt) {
+        if ((r = solve_once(s, n)) < 0) break;
+        before = missing;
+        missing = 0;
+        for (uint32_t k = 0; k < n; ++k) missing += got[k] != 3;
+    }
+    s->est_vals = NULL;
+    s->est_got = NULL;
+    s->est_n = 0;
+    if (r < 0) return r;
+    if (missing) {
+        snprintf(s->err, sizeof s->err, "%u of the %u values of the device's result block were lost, after %llu "
+                 "SOLVE requests", missing, n, (unsigned long long)s->cnt.est_solves);
+        return -MSID_DAQ_E_PROTOCOL;
     }
     return 0;
 }

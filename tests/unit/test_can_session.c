@@ -6,7 +6,11 @@
  * waits for the device's answer), the DONE loop, a lost DONE recovered by QUERY (and, as the negative
  * control, a device that ignores the QUERY fails as silent), device errors decoded by name, a refused
  * design with the core's reason, a version mismatch, no device, a core refusal carried as the core's
- * status, and a failing frame hook. */
+ * status, and a failing frame hook. On-device estimation (extension estimate/1) as a readout of the same
+ * session: SETUP and its answer, experiments closed by the device's DONE without a decoder, the result
+ * block collected bit for bit (values lost on the way asked for again while answers bring new values;
+ * as the negative control, a device that always loses the same ones fails), and the device's refusals
+ * (memory too small with both byte counts, a failed solve with its line, no extension, another size). */
 #define _POSIX_C_SOURCE 200809L
 #include <setjmp.h>
 #include <stdarg.h>
@@ -19,6 +23,7 @@
 #include <time.h>
 
 #include "msid/msid.h"
+#include "msid_daq/msid_can_est.h"
 #include "msid_daq/msid_can_session.h"
 #include "msid_daq/msid_params.h"
 
@@ -43,6 +48,15 @@ typedef struct dev {
     uint32_t state, exp, n_sent;
     uint64_t host_frames;
     uint32_t stops;           /* STOP commands received */
+    /* extension estimate/1 */
+    int est;                  /* 1: the device has it */
+    uint32_t est_mode;        /* 1: estimate only (no sample frames) */
+    uint32_t est_refuse;      /* msid_status SETUP answers with (0: accumulating) */
+    uint32_t solve_fail, solve_bad1;   /* msid_status SOLVE answers with, bad line + 1 */
+    uint32_t est_n;           /* doubles in the result block */
+    int lose;                 /* SOLVE answers that lose every 7th value (-1: all of them) */
+    int lose_shift;           /* 1: answer i loses the values k % 7 == (3 + i) % 7 (others each time) */
+    uint32_t solves;
 } dev;
 static dev D;
 
@@ -83,7 +97,7 @@ static void run_experiment(dev *d, uint32_t e, uint32_t periods)
     d->running = 1;
     d->exp = e;
     put_state(d, MSID_CAN_STATE_RUNNING, e, 0, 0);
-    for (uint32_t n = 0; n < periods * P; ++n) {
+    for (uint32_t n = 0; n < periods * P && d->est_mode != 1; ++n) {
         double r[2];
         row_of(n, r);
         for (uint32_t k = 0; k < msid_can_chunks(2, MSID_CAN_ENC_F32, 0); ++k) {
@@ -99,10 +113,52 @@ static void run_experiment(dev *d, uint32_t e, uint32_t periods)
     if (!d->drop_done) put_state(d, MSID_CAN_STATE_DONE, e, 0, d->n_sent);
 }
 
+/* Value k of the scripted result block: exact binary fractions, negative ones and a subnormal. */
+static double est_value(uint32_t k) { return k == 5 ? 4.9e-324 : 0.25 * (double)k - 3.0; }
+
+static void put_est_state(dev *d, uint32_t state, uint32_t status, uint32_t bad1)
+{
+    uint8_t b[8];
+    msid_can_est_encode_state(b, state, d->est_mode, status, bad1);
+    put(d, MSID_CAN_ID_EST, b, 8);
+}
+
+static void est_rx(dev *d, const uint8_t *c)
+{
+    uint8_t b[8], h[8];
+    if (c[0] == MSID_CAN_EST_CMD_SETUP) {
+        d->est_mode = d->est_refuse ? 0 : c[1];
+        put_est_state(d, d->est_refuse ? MSID_CAN_EST_STATE_ERROR : MSID_CAN_EST_STATE_ACCUMULATING, d->est_refuse, 0);
+        const uint32_t v[3][2] = {{MSID_CAN_EST_MUX_NEED, 5000}, {MSID_CAN_EST_MUX_HAVE, 4096}, {MSID_CAN_EST_MUX_PERIODS, 0}};
+        for (int i = 0; i < 3; ++i) {
+            msid_can_est_encode_u32(b, v[i][0], v[i][1]);
+            put(d, MSID_CAN_ID_EST, b, 8);
+        }
+    } else if (c[0] == MSID_CAN_EST_CMD_SOLVE) {
+        d->solves++;
+        if (d->solve_fail) { put_est_state(d, MSID_CAN_EST_STATE_ERROR, d->solve_fail, d->solve_bad1); return; }
+        put_est_state(d, MSID_CAN_EST_STATE_READY, 0, 0);
+        msid_can_est_encode_u32(b, MSID_CAN_EST_MUX_SIZE, d->est_n);
+        put(d, MSID_CAN_ID_EST, b, 8);
+        const int lose = d->lose < 0 || d->solves <= (uint32_t)d->lose;
+        for (uint32_t k = 0; k < d->est_n; ++k) {
+            msid_can_est_encode_value(b, h, k, est_value(k));
+            if (lose && k % 7 == (d->lose_shift ? (3 + d->solves) % 7 : 3)) continue;
+            put(d, MSID_CAN_ID_EST, b, 8);
+            put(d, MSID_CAN_ID_EST, h, 8);
+        }
+        put_est_state(d, MSID_CAN_EST_STATE_READY, 0, 0);
+    }
+}
+
 static void device_rx(dev *d, const msid_can_frame *f)
 {
     d->host_frames++;
     if (!d->present) return;
+    if (f->id == BASE + MSID_CAN_ID_EST_CTRL) {
+        if (d->est) est_rx(d, f->data);   /* a device without the extension ignores the identifier */
+        return;
+    }
     if (f->id == BASE + MSID_CAN_ID_CFG) {
         d->pending++;
         if (d->pending > d->max_pending) d->max_pending = d->pending;
@@ -367,7 +423,7 @@ static void identify_failures(void **st)
     c.tr = &H.tr;
     c.base = 0x201;
     assert_int_equal(msid_can_session_init(&S, &c), -MSID_DAQ_E_ARG);
-    assert_int_equal(msid_can_session_run(&S, 0, K), -MSID_DAQ_E_ARG);
+    assert_int_equal(msid_can_session_run(NULL, 0, K), -MSID_DAQ_E_ARG);
 }
 
 static void core_refusal_carries_the_core_status(void **st)
@@ -434,6 +490,85 @@ static void poll_hook_stops_the_experiment(void **st)
     assert_int_equal(msid_pstats_get_counts(msid_meas_stats(&H.ms, 1)).offered, K);
 }
 
+/* Identify and upload, no decoder (estimate only). */
+static void est_device(void)
+{
+    reset_all();
+    D.est = 1;
+    D.est_n = 50;
+    assert_int_equal(msid_can_session_identify(&S, 2000), 0);
+    const size_t n = params();
+    assert_int_equal(msid_can_session_upload(&S, (const uint8_t(*)[8])REC, n), 0);
+}
+
+static void est_only_session(void **st)
+{
+    (void)st;
+    est_device();
+    D.lose = 1;   /* the first SOLVE's answer loses every 7th value */
+    assert_int_equal(msid_can_session_est_setup(&S, 1, 1, 1, 0.01), 0);
+    assert_int_equal(S.est.state, MSID_CAN_EST_STATE_ACCUMULATING);
+    assert_int_equal(S.est.version, MSID_CAN_EST_VERSION);
+    assert_int_equal(S.est.need, 5000);
+    for (uint32_t e = 0; e < 2; ++e) assert_int_equal(msid_can_session_run(&S, e, K), 0);   /* closed by DONE */
+    assert_int_equal(S.dones, 2);
+    assert_int_equal(S.cnt.done_recovered, 0);
+    double v[50];
+    uint8_t got[50];
+    assert_int_equal(msid_can_session_est_solve(&S, v, got, 50), 0);
+    assert_int_equal(S.cnt.est_solves, 2);   /* the lost values were asked for again */
+    for (uint32_t k = 0; k < 50; ++k) assert_memory_equal(&v[k], &(double){est_value(k)}, sizeof(double));
+    /* a device losing other values on each of the first 5 answers: asked again while answers bring new values */
+    D.lose = 5;
+    D.solves = 0;
+    D.lose_shift = 1;
+    S.cnt.est_solves = 0;
+    memset(v, 0, sizeof v);
+    assert_int_equal(msid_can_session_est_solve(&S, v, got, 50), 0);
+    assert_int_equal(S.cnt.est_solves, 2);   /* the second answer lost other values than the first */
+    for (uint32_t k = 0; k < 50; ++k) assert_memory_equal(&v[k], &(double){est_value(k)}, sizeof(double));
+    /* negative control: a device that loses the same values on every answer fails once an answer brings none */
+    D.lose = -1;
+    D.lose_shift = 0;
+    S.cnt.est_solves = 0;
+    assert_int_equal(msid_can_session_est_solve(&S, v, got, 50), -MSID_DAQ_E_PROTOCOL);
+    assert_int_equal(S.cnt.est_solves, 2);
+    assert_non_null(strstr(S.err, "7 of the 50 values"));
+}
+
+static void est_refusals(void **st)
+{
+    (void)st;
+    /* the estimator's memory is too small: the status and both byte counts */
+    est_device();
+    D.est_refuse = MSID_E_MEM_SIZE;
+    assert_int_equal(msid_can_session_est_setup(&S, 1, 0, 0, 0.01), -MSID_DAQ_E_DEVICE);
+    assert_int_equal(S.est.status, MSID_E_MEM_SIZE);
+    assert_non_null(strstr(S.err, "msid_status 2"));
+    assert_non_null(strstr(S.err, "needs 5000 bytes of working memory, it has 4096"));
+    /* a failed solve: its status and line */
+    est_device();
+    D.solve_fail = MSID_E_SINGULAR;
+    D.solve_bad1 = 2;
+    assert_int_equal(msid_can_session_est_setup(&S, 1, 0, 0, 0.01), 0);
+    double v[50];
+    uint8_t got[50];
+    assert_int_equal(msid_can_session_est_solve(&S, v, got, 50), -MSID_DAQ_E_DEVICE);
+    assert_int_equal(S.est.status, MSID_E_SINGULAR);
+    assert_int_equal(S.est.bad1, 2);
+    /* a block of another size than the design's */
+    est_device();
+    assert_int_equal(msid_can_session_est_setup(&S, 1, 0, 0, 0.01), 0);
+    assert_int_equal(msid_can_session_est_solve(&S, v, got, 49), -MSID_DAQ_E_PROTOCOL);
+    assert_non_null(strstr(S.err, "holds 50 doubles, the design's holds 49"));
+    /* a device without the extension does not answer SETUP */
+    est_device();
+    D.est = 0;
+    assert_int_equal(msid_can_session_est_setup(&S, 1, 0, 0, 0.01), -MSID_DAQ_E_PROTOCOL);
+    assert_non_null(strstr(S.err, "does not estimate on board"));
+    assert_int_equal(msid_can_session_est_setup(&S, 3, 0, 0, 0.01), -MSID_DAQ_E_ARG);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -444,6 +579,8 @@ int main(void)
         cmocka_unit_test(core_refusal_carries_the_core_status),
         cmocka_unit_test(failing_hook_stops_the_session),
         cmocka_unit_test(poll_hook_stops_the_experiment),
+        cmocka_unit_test(est_only_session),
+        cmocka_unit_test(est_refusals),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

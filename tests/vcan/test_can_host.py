@@ -157,3 +157,23 @@ def test_replay_upload_asking_for_absurd_periods(tmp_path):
     assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "no complete design upload" in r.stderr
     assert not (tmp_path / "f.json").exists()
+
+
+def test_on_device_bad_options_and_no_bus(design, tmp_path):
+    """`msid can measure --on-device`: options refused before the bus is opened (exit 2), and a missing
+    interface or SocketCAN as for the streaming host (exit 1); one message, no file."""
+    out = tmp_path / "f.json"
+    base = ["can", "measure", "--on-device", "--iface", "msidnone0", "--design", design, "-o", out]
+    for extra, msg in ((["--detect-lines", 4], "--detect-lines is not available with --on-device"),
+                       (["--stream-check", tmp_path / "h.json", "--bitrate", 500000], "--stream-check streams every sample"),
+                       (["--stream-check", out], "different files"),
+                       (["--base", "0x7FF"], "--base must be a multiple of 0x80"),
+                       (["--skip-periods", 70000], "--skip-periods")):
+        r = c.run(*base, *extra)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and msg in r.stderr, (extra, r.stderr)
+    r = c.run(*base)
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "msidnone0" in r.stderr or "SocketCAN" in r.stderr, r.stderr
+    assert not out.exists() and not (tmp_path / "h.json").exists()
+    r = c.run("can", "measure", "--help")
+    assert r.returncode == 0 and "--on-device" in r.stdout

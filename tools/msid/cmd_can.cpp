@@ -46,6 +46,9 @@ static const char *HELP =
     "  --log FILE          also record every frame as a candump .log\n"
     "  --quiet             no progress (stderr: one rewritten line on a terminal, else one line per event)\n"
     "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n"
+    "  --on-device         the device estimates (msid-can/1 extension estimate/1): no sample frames, the host\n"
+    "                      reads each line's G, covariances and dof; --stream-check FILE: the device also\n"
+    "                      streams, FILE gets the host's FRF and both must agree bit for bit\n"
     "\n"
     "measure runs the CAN session of `msid measure --device can://IF` (docs/measure.md): Ctrl-C (SIGINT or\n"
     "SIGTERM) stops cleanly, -o gets the FRF of the complete periods marked \"complete\": false, exit 130.\n";
@@ -400,6 +403,7 @@ MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Progress &pg)
 // Options -> the CAN session of `msid measure` (the same code, progress and Ctrl-C handling).
 static int cmd_measure(int argc, char **argv)
 {
+    for (int i = 3; i < argc; ++i) if (!std::strcmp(argv[i], "--on-device")) return cmd_can_ondevice(argc, argv);
     Args a(argc, argv, 3,
            {"iface", "base", "design", "periods", "rate", "encoding", "scale", "bitrate", "data-bitrate", "window",
             "rcvbuf", "timeout", "log", "skip-periods", "transient", "alpha", "detect-lines", "output"},

@@ -47,8 +47,8 @@ static const char *HELP =
     "                          host reads each line's G, covariances and dof; --stream-check FILE: the device also\n"
     "                          streams, FILE gets the host's FRF and both must agree bit for bit\n";
 
-// The link options of `msid modbus measure` (checked before anything is opened).
-static ModbusLink link_options(const Args &a)
+// The link options of `msid modbus measure` and its --on-device form (checked before anything is opened).
+ModbusLink modbus_link_options(const Args &a)
 {
     ModbusLink l;
     l.response_ms = a.u32("response-timeout", 200);
@@ -103,7 +103,7 @@ static int cmd_measure(int argc, char **argv)
     parse_measure_options(a, *plan.D, plan.sf, plan.rq);
     plan.timeout = a.f64("timeout", 10.0);
     if (!(plan.timeout > 0 && plan.timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
-    const ModbusLink link = link_options(a);
+    const ModbusLink link = modbus_link_options(a);
     Progress pg(stderr, is_terminal(stderr), a.has("quiet"), "msid modbus");
     StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
     MeasureResult R = measure_modbus(link, [&](uint32_t, MeasurePlan &P) { P = std::move(plan); }, pg);

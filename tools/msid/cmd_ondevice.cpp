@@ -1,22 +1,28 @@
-// msid modbus measure --on-device: the device estimates (msid-modbus/1 extension estimate/1,
-// daq/include/msid_daq/msid_mb_est.h, docs/modbus-registers.md "On-device estimation"); the host
-// uploads the design and the estimator settings, runs the experiments, sends SOLVE, reads each
-// line's G, covariances and dof bit for bit (float64 registers) and writes msid-frf/1.
-// --stream-check FILE: the device also streams its samples; the host estimates from them with the
-// ordinary `msid modbus measure` (FILE) and checks that both FRFs agree bit for bit.
+// On-device estimation (extension estimate/1 of msid-modbus/1 and msid-can/1): the device runs
+// msid_meas + msid_frf on its own samples and publishes each line's G, covariances and dof bit for bit
+// (the result block of daq/include/msid_daq/msid_mb_est.h, as doubles); the host uploads the design and
+// the estimator settings, runs the experiments, asks for the block and writes msid-frf/1.
+//  - `msid modbus measure --on-device`: float64 registers (docs/modbus-registers.md "On-device estimation");
+//  - `msid can measure --on-device`: EST frames through the CAN session (msid_can_session_est_setup/solve,
+//    docs/can-protocol.md "On-device estimation").
+// --stream-check FILE: the device also streams its samples; the host estimates from them on the same
+// (streaming) DFT path, writes that FRF to FILE and checks that both agree bit for bit.
 #include "commands.hpp"
 #include "frf_io.hpp"
+#include "measure.hpp"
 #include "param_upload.hpp"
 #include "pipeline.hpp"
 
 extern "C" {
+#include "msid_daq/msid_can_session.h"
 #include "msid_daq/msid_mb_acq.h"
 #include "msid_daq/msid_mb_est.h"
-#include "msid_daq/msid_modbus.h"
+#include "msid_daq/msid_socketcan.h"
 }
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <unistd.h>
@@ -32,49 +38,19 @@ double secs_since(const timespec &t0)
     return (double)(t.tv_sec - t0.tv_sec) + 1e-9 * (double)(t.tv_nsec - t0.tv_nsec);
 }
 
-// One device connection (TCP or RTU 8N1) with a retrying client.
+// One device connection (the link of `msid modbus measure`) with a retrying client.
 struct Device {
-    msid_modbus mb{};
+    MbLink link;
     msid_mb_client cl{};
-    bool open = false;
     std::string name;
-    ~Device() { close(); }
-    void close()
-    {
-        if (open) msid_mb_close(&mb.tr);
-        open = false;
-    }
+    void close() { link.close(); }
     void connect(const Args &a, uint32_t resp_ms, uint32_t retries)
     {
-        msid_modbus_cfg c{};
-        c.response_timeout_ms = resp_ms;
-        c.byte_timeout_ms = 50;
-        c.unit = a.has("unit") ? (int)parse_u32(a.get("unit"), "--unit") : 1;
-        std::string host;
-        const std::string dev = a.get("rtu");
-        if (a.has("tcp") == a.has("rtu")) throw UsageError("give one of --tcp HOST:PORT and --rtu DEVICE");
-        if (a.has("tcp")) {
-            const std::string v = a.get("tcp");
-            const size_t colon = v.rfind(':');
-            if (colon == std::string::npos || colon == 0) throw UsageError("--tcp wants HOST:PORT (got '" + v + "')");
-            host = v.substr(0, colon);
-            const uint32_t port = parse_u32(v.substr(colon + 1), "--tcp port");
-            if (port == 0 || port > 65535) throw UsageError("--tcp port must be 1..65535");
-            c.host = host.c_str();
-            c.port = (int)port;
-            name = "tcp:" + v;
-        } else {
-            c.rtu = 1;
-            c.device = dev.c_str();
-            c.baud = a.has("baud") ? (int)parse_u32(a.get("baud"), "--baud") : 115200;
-            c.parity = 'N';
-            c.data_bits = 8;
-            c.stop_bits = 1;
-            name = "rtu:" + dev;
-        }
-        if (msid_modbus_open(&mb, &c) < 0) throw Error(mb.err);
-        open = true;
-        msid_mb_client_init(&cl, &mb.tr, retries, 20);
+        ModbusLink l = modbus_link_options(a);
+        l.response_ms = resp_ms;
+        open_modbus_link(l, link);
+        name = l.name;
+        msid_mb_client_init(&cl, &link.m.tr, retries, 20);
     }
     // The extension's header (input registers 40..55).
     std::vector<uint16_t> ext()
@@ -87,55 +63,68 @@ struct Device {
     }
 };
 
-// "the device cannot estimate on board: ..." from the extension's header.
-std::string est_failure(const std::vector<uint16_t> &x, const FrfRequest &rq)
+// The estimator's failure as the device reported it (both links): "<msid_strerror> (msid_status N)", the
+// byte counts of MSID_E_MEM_SIZE, the line (and its bin) or experiment it concerns.
+struct EstStatus {
+    uint32_t status = 0, need = 0, have = 0, bad = 0;   // bad: line or experiment + 1 (0: none)
+};
+
+std::string est_failure(const EstStatus &x, const FrfRequest &rq, const char *dims_what)
 {
-    const auto st = (msid_status)x[MSID_MB_IR_EST_STATUS];
+    const auto st = (msid_status)x.status;
     std::string s = fmt("%s (msid_status %u)", msid_strerror(st), (unsigned)st);
-    if (st == MSID_E_MEM_SIZE && msid_mb_get_u32(&x[MSID_MB_IR_EST_NEED]))
-        s += fmt(": its estimator needs %u bytes of working memory, it has %u", msid_mb_get_u32(&x[MSID_MB_IR_EST_NEED]),
-                 msid_mb_get_u32(&x[MSID_MB_IR_EST_HAVE]));
+    if (st == MSID_E_MEM_SIZE && x.need)
+        s += fmt(": its estimator needs %u bytes of working memory, it has %u", x.need, x.have);
     else if (st == MSID_E_DIMS)
-        s += ": the result block of this design does not fit the device's register map";
-    const uint32_t bad = x[MSID_MB_IR_EST_BAD];
-    if (bad && (st == MSID_E_SINGULAR || st == MSID_E_RANGE) && bad <= rq.bins.size())
-        s += fmt(" at line %u (bin %u)", bad, rq.bins[bad - 1]);
-    else if (bad && st == MSID_E_FEW_PERIODS)
-        s += fmt(" in experiment %u", bad);
+        s += fmt(": the result block of this design does not fit the device's %s", dims_what);
+    if (x.bad && (st == MSID_E_SINGULAR || st == MSID_E_RANGE) && x.bad <= rq.bins.size())
+        s += fmt(" at line %u (bin %u)", x.bad, rq.bins[x.bad - 1]);
+    else if (x.bad && st == MSID_E_FEW_PERIODS)
+        s += fmt(" in experiment %u", x.bad);
     return s;
+}
+
+EstStatus mb_est_status(const std::vector<uint16_t> &x)
+{
+    EstStatus e;
+    e.status = x[MSID_MB_IR_EST_STATUS];
+    e.need = msid_mb_get_u32(&x[MSID_MB_IR_EST_NEED]);
+    e.have = msid_mb_get_u32(&x[MSID_MB_IR_EST_HAVE]);
+    e.bad = x[MSID_MB_IR_EST_BAD];
+    return e;
 }
 
 // A value of the device's block that must be finite (a device is never trusted: nothing
 // non-finite reaches the file, no count sizes anything unchecked).
-double finite(const uint16_t *regs, uint32_t k)
+double finite(const double *r, uint32_t k)
 {
-    const double v = msid_mb_est_value(regs, k);
-    if (!std::isfinite(v)) throw Error(fmt("the device's result block holds a non-finite value at double %u", k));
-    return v;
+    if (!std::isfinite(r[k])) throw Error(fmt("the device's result block holds a non-finite value at double %u", k));
+    return r[k];
 }
 
-uint64_t count(const uint16_t *regs, uint32_t k)
+uint64_t count(const double *r, uint32_t k)
 {
-    const double v = msid_mb_est_value(regs, k);
+    const double v = r[k];
     if (!(v >= 0 && v <= 9007199254740992.0 && v == std::floor(v)))   // 2^53: exact in a double
         throw Error(fmt("the device's result block holds %g at double %u where a count belongs", v, k));
     return (uint64_t)v;
 }
 
-Json cplx_matrix(const uint16_t *regs, uint32_t k, size_t rows, size_t cols)
+Json cplx_matrix(const double *r, uint32_t k, size_t rows, size_t cols)
 {
     std::vector<msid_cplx> v(rows * cols);
     for (size_t i = 0; i < v.size(); ++i) {
-        v[i].re = finite(regs, k + 2 * (uint32_t)i);
-        v[i].im = finite(regs, k + 2 * (uint32_t)i + 1);
+        v[i].re = finite(r, k + 2 * (uint32_t)i);
+        v[i].im = finite(r, k + 2 * (uint32_t)i + 1);
     }
     return cmat_json(v.data(), rows, cols);
 }
 
 Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
-// The msid-frf/1 document from the device's result block (fields as FrfJob::finish writes them).
-Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16_t *r, const std::string &name)
+// The msid-frf/1 document from the device's result block (fields as FrfJob::finish writes them);
+// `where` names the device ("modbus:tcp:127.0.0.1:1502", "can:vcan0").
+Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const double *r, const std::string &where)
 {
     const uint32_t nu = lo.nu, ny = lo.ny, m = lo.m;
     const size_t g = (size_t)nu * ny;
@@ -145,7 +134,7 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
     for (uint32_t e = 0; e < m; ++e) {
         auto X = [&](uint32_t k) { return (double)count(r, e * MSID_MB_EST_X_COUNT + k); };
         Json je;
-        je["source"] = fmt("modbus:%s experiment %u (on device)", name.c_str(), e + 1);
+        je["source"] = fmt("%s experiment %u (on device)", where.c_str(), e + 1);
         je["samples"] = (uint64_t)X(MSID_MB_EST_X_SAMPLES);
         je["periods_total"] = (uint64_t)X(MSID_MB_EST_X_OFFERED);
         je["periods_skipped"] = (uint64_t)X(MSID_MB_EST_X_SKIPPED);
@@ -167,7 +156,7 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
             je["transient_flagged_count"] = (uint64_t)X(MSID_MB_EST_X_FLAGGED);   // the lists hold the first ones
         je["drift_tested"] = X(MSID_MB_EST_X_DRIFT_TESTED) != 0;
         je["drift"] = X(MSID_MB_EST_X_DRIFT) != 0;
-        je["drift_p_value"] = finite_or_null(msid_mb_est_value(r, e * MSID_MB_EST_X_COUNT + MSID_MB_EST_X_DRIFT_P));
+        je["drift_p_value"] = finite_or_null(r[e * MSID_MB_EST_X_COUNT + MSID_MB_EST_X_DRIFT_P]);
         je["leftover_samples"] = (uint64_t)X(MSID_MB_EST_X_LEFTOVER);
         exps.push_back(je);
         used += (uint64_t)X(MSID_MB_EST_X_USED);
@@ -190,10 +179,10 @@ Json device_doc(const FrfRequest &rq, const msid_mb_est_layout &lo, const uint16
         e["dof_known_input"] = finite(r, b + lo.dof_ki);
         e["noise_cov"] = cplx_matrix(r, b + lo.lnoise, ny, ny);
         Json snr = Json::array();
-        for (uint32_t i = 0; i < ny; ++i) snr.push_back(finite_or_null(msid_mb_est_value(r, b + lo.snr + i)));
+        for (uint32_t i = 0; i < ny; ++i) snr.push_back(finite_or_null(r[b + lo.snr + i]));
         e["snr"] = snr;
         e["cond"] = finite(r, b + lo.cond);
-        e["input_snr"] = finite_or_null(msid_mb_est_value(r, b + lo.usnr));
+        e["input_snr"] = finite_or_null(r[b + lo.usnr]);
         lines.push_back(e);
     }
     doc["lines"] = lines;
@@ -233,39 +222,86 @@ std::string first_difference(const Json &dev, const Json &host)
     return "";
 }
 
+// The options both links share: no detection lines, --stream-check FILE apart from -o.
+void check_ondevice_options(const Args &a, const std::string &out, FrfRequest &rq)
+{
+    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
+    if (a.has("detect-lines")) throw UsageError("--detect-lines is not available with --on-device (the device solves the excited lines only)");
+    if (rq.skip > 0xFFFFu) throw UsageError("--skip-periods must be below 65536 with --on-device");
+    if (a.has("stream-check") && a.get("stream-check") == out) throw UsageError("--stream-check and -o must name different files");
+    rq.path = MSID_DFT_STREAM;   // the device's line DFT path (the host's, for --stream-check)
+}
+
+// The `acquisition` fields of both links, in one shape; each link adds its own counters.
+Json ondevice_acq(const std::string &transport, const std::string &protocol, bool stream, const StreamFmt &sf,
+                  uint32_t crc, uint32_t device_periods, double secs)
+{
+    Json j;
+    j["transport"] = transport;
+    j["protocol"] = protocol;
+    j["extension"] = "estimate/1";
+    j["on_device"] = true;
+    j["estimate_mode"] = stream ? "estimate+stream" : "estimate";
+    j["scale"] = (double)sf.scale;
+    j["rate_hz"] = sf.rate;
+    j["config_crc"] = crc;
+    j["device_periods"] = device_periods;
+    j["samples_lost"] = 0;
+    j["seconds"] = secs;
+    return j;
+}
+
+// Both links' end: every experiment kept 2 periods, the device's FRF equals the host's from the
+// streamed samples (host: nullptr without --stream-check), then the file and one line on stdout.
+void finish_ondevice(Json &doc, Json acq, const std::string &out, const Json *host, const std::string &host_file,
+                     const std::string &what, const std::string &why = "")
+{
+    uint64_t samples = 0;
+    for (const auto &e : doc["experiments"]) {
+        if (e["periods_used"].get<uint64_t>() < 2)
+            throw Error(fmt("'%s': only %llu usable period(s): at least 2 are needed", e["source"].get<std::string>().c_str(),
+                            (unsigned long long)e["periods_used"].get<uint64_t>()));
+        samples += e["samples"].get<uint64_t>();
+    }
+    acq["samples"] = samples;   // the device's samples: it holds every one (none crossed the link without --stream-check)
+    doc["acquisition"] = acq;
+    if (host) {
+        const std::string diff = first_difference(doc, *host);
+        if (!diff.empty())
+            throw Error(fmt("the device's FRF differs from the host's estimate from the streamed samples (%s): %s%s",
+                            host_file.c_str(), diff.c_str(), why.c_str()));
+        doc["acquisition"]["stream_check"] = "bit-identical to " + host_file;
+    }
+    write_json_file(out, doc);
+    std::printf("wrote %s: %zu lines, %u x %u, %zu experiment(s) estimated on the device %s%s\n", out.c_str(),
+                doc["lines"].size(), doc["n_outputs"].get<uint32_t>(), doc["n_inputs"].get<uint32_t>(),
+                doc["experiments"].size(), what.c_str(),
+                host ? fmt("; bit for bit equal to the host's FRF from the streamed samples (%s)", host_file.c_str()).c_str() : "");
+}
+
 }  // namespace
 
 int cmd_modbus_ondevice(int argc, char **argv)
 {
     Args a(argc, argv, 3,
-           {"tcp", "rtu", "baud", "unit", "design", "periods", "rate", "encoding", "word-order", "scale",
-            "response-timeout", "retries", "timeout", "skip-periods", "transient", "alpha", "detect-lines",
-            "stream-check", "output"},
+           {"tcp", "rtu", "baud", "parity", "data-bits", "stop-bits", "unit", "design", "periods", "rate", "encoding",
+            "word-order", "scale", "response-timeout", "byte-timeout", "retries", "timeout", "skip-periods",
+            "transient", "alpha", "detect-lines", "stream-check", "output"},
            {"on-device"});
-    if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
-    if (a.has("detect-lines")) throw UsageError("--detect-lines is not available with --on-device (the device solves the excited lines only)");
     const std::string out = a.require("output");
     auto D = read_design_file(a.require("design"));
-    static const std::vector<std::string> encs = {"int16", "int32", "float32"}, orders = {"ABCD", "CDAB", "BADC", "DCBA"};
-    auto pick = [&](const char *key, const char *def, const std::vector<std::string> &names) {
-        const std::string v = a.get(key, def);
-        for (size_t i = 0; i < names.size(); ++i)
-            if (v == names[i]) return (uint32_t)i;
-        throw UsageError(fmt("--%s: unknown value '%s'", key, v.c_str()));
-    };
-    const uint32_t enc = pick("encoding", "int16", encs), wo = pick("word-order", "ABCD", orders);
+    const uint32_t enc = a.enum_index("encoding", "int16", {"int16", "int32", "float32"});
+    const uint32_t wo = a.enum_index("word-order", "ABCD", {"ABCD", "CDAB", "BADC", "DCBA"});
     StreamFmt sf;
     FrfRequest rq;
     parse_measure_options(a, *D, sf, rq);
-    const uint32_t resp_ms = a.u32("response-timeout", 200);
-    if (resp_ms < 1 || resp_ms > 60000) throw UsageError("--response-timeout must be 1..60000 ms");
-    const uint32_t retries = a.u32("retries", 5);
-    if (retries < 1 || retries > 100) throw UsageError("--retries must be 1..100");
+    check_ondevice_options(a, out, rq);
+    const uint32_t resp_ms = a.u32("response-timeout", 200, 1, 60000);
+    const uint32_t retries = a.u32("retries", 5, 1, 100);
     const double timeout = a.f64("timeout", 10.0);
     if (!(timeout > 0)) throw UsageError("--timeout must be positive");
     const bool check_stream = a.has("stream-check");
     const std::string host_file = a.get("stream-check");
-    if (check_stream && host_file == out) throw UsageError("--stream-check and -o must name different files");
     const msid_design &d = D->d;
     const uint32_t m = d.n_experiments;
 
@@ -293,13 +329,11 @@ int cmd_modbus_ondevice(int argc, char **argv)
     hr[MSID_MB_HR_EST_SKIP - MSID_MB_HR_EST_MODE] = (uint16_t)rq.skip;
     hr[MSID_MB_HR_EST_TRANSIENT - MSID_MB_HR_EST_MODE] = (uint16_t)rq.transient;
     msid_mb_put_f64(hr + (MSID_MB_HR_EST_ALPHA - MSID_MB_HR_EST_MODE), rq.alpha);
-    if (rq.skip > 0xFFFFu) throw UsageError("--skip-periods must be below 65536 with --on-device");
     if (msid_mb_call(&dev.cl, MSID_MB_WRITE_HOLDING, MSID_MB_HR_EST_MODE, MSID_MB_HR_EXT_COUNT - MSID_MB_HR_EST_MODE, hr) < 0)
         throw Error(fmt("writing the estimator settings to %s: %s", dev.name.c_str(), dev.cl.err));
 
     timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    uint64_t samples = 0;
     uint32_t crc = 0;
     if (check_stream) {
         // 3a. the ordinary host measurement from the streamed samples (it uploads and runs every experiment)
@@ -328,7 +362,7 @@ int cmd_modbus_ondevice(int argc, char **argv)
         if (h.crc != crc) throw Error(fmt("the device confirmed configuration CRC %08X, the host sent %08X", h.crc, crc));
         x = dev.ext();
         if (x[MSID_MB_IR_EST_STATE] != MSID_MB_EST_STATE_ACCUMULATING)
-            throw Error("the device cannot estimate on board: " + est_failure(x, rq));
+            throw Error("the device cannot estimate on board: " + est_failure(mb_est_status(x), rq, "register map"));
         for (uint32_t e = 0; e < m; ++e) {
             if (msid_mb_command(&dev.cl, MSID_MB_CMD_START, e, sf.periods) < 0)
                 throw Error(fmt("experiment %u on %s: %s", e + 1, dev.name.c_str(), dev.cl.err));
@@ -353,7 +387,6 @@ int cmd_modbus_ondevice(int argc, char **argv)
                                     dev.name.c_str(), timeout, e + 1));
                 }
             }
-            samples += h.write_index;
         }
     }
 
@@ -362,7 +395,7 @@ int cmd_modbus_ondevice(int argc, char **argv)
         throw Error(fmt("SOLVE on %s: %s", dev.name.c_str(), dev.cl.err));
     x = dev.ext();
     if (x[MSID_MB_IR_EST_STATE] != MSID_MB_EST_STATE_READY)
-        throw Error("the device's estimate failed: " + est_failure(x, rq));
+        throw Error("the device's estimate failed: " + est_failure(mb_est_status(x), rq, "register map"));
     msid_mb_est_layout lo;
     if (msid_mb_est_layout_init(&lo, nu, ny, m, (uint32_t)rq.bins.size()) != 0) throw Error("FRF dimensions out of range");
     const uint32_t addr = x[MSID_MB_IR_EST_ADDR], regs = msid_mb_get_u32(&x[MSID_MB_IR_EST_REGS]);
@@ -376,34 +409,19 @@ int cmd_modbus_ondevice(int argc, char **argv)
             throw Error(fmt("reading the result block from %s: %s", dev.name.c_str(), dev.cl.err));
     }
     const double secs = secs_since(t0);
-    Json doc = device_doc(rq, lo, block.data(), dev.name);
-    if (check_stream) {
-        samples = 0;
-        for (const auto &e : doc["experiments"]) samples += e["samples"].get<uint64_t>();
-    }
-    for (const auto &e : doc["experiments"])
-        if (e["periods_used"].get<uint64_t>() < 2)
-            throw Error(fmt("'%s': only %llu usable period(s): at least 2 are needed", e["source"].get<std::string>().c_str(),
-                            (unsigned long long)e["periods_used"].get<uint64_t>()));
-    Json acq;
-    acq["transport"] = std::string("modbus-") + dev.cl.tr->be->name;
+    std::vector<double> vals(lo.doubles);
+    for (uint32_t k = 0; k < lo.doubles; ++k) vals[k] = msid_mb_est_value(block.data(), k);
+    Json doc = device_doc(rq, lo, vals.data(), "modbus:" + dev.name);
+    Json acq = ondevice_acq(std::string("modbus-") + msid_mb_backend_name(dev.cl.tr),
+                            fmt("msid-modbus/%u", MSID_MB_PROTO_VERSION), check_stream, sf, crc,
+                            msid_mb_get_u32(&x[MSID_MB_IR_EST_PERIODS]), secs);
     acq["endpoint"] = dev.name.substr(4);
-    acq["protocol"] = fmt("msid-modbus/%u", MSID_MB_PROTO_VERSION);
-    acq["extension"] = fmt("estimate/%u", MSID_MB_EST_VERSION);
-    acq["on_device"] = true;
-    acq["estimate_mode"] = check_stream ? "estimate+stream" : "estimate";
     acq["encoding"] = msid_mb_encoding_name(enc);
     acq["word_order"] = msid_mb_word_order_name(wo);
-    acq["scale"] = (double)sf.scale;
-    acq["rate_hz"] = sf.rate;
-    acq["config_crc"] = crc;
     acq["result_registers"] = regs;
-    acq["device_periods"] = msid_mb_get_u32(&x[MSID_MB_IR_EST_PERIODS]);
     acq["requests"] = dev.cl.cnt.requests;
     acq["registers_read"] = dev.cl.cnt.registers_read;
     acq["retries"] = dev.cl.cnt.retries;
-    acq["samples"] = samples;            // the device's samples: it holds every one, none crossed the link
-    acq["samples_lost"] = 0;
     acq["overrun_samples"] = 0;
     acq["device_overruns"] = 0;
     acq["timeouts"] = dev.cl.cnt.timeouts;
@@ -412,21 +430,187 @@ int cmd_modbus_ondevice(int argc, char **argv)
     acq["reconnects"] = dev.cl.cnt.reconnects;
     acq["link_reg_rate"] = 0;
     acq["link_reg_rate_from"] = "not measured (on-device estimation: the samples do not cross the link)";
-    acq["seconds"] = secs;
-    doc["acquisition"] = acq;
+    const Json host = check_stream ? read_json_file(host_file) : Json();
+    finish_ondevice(doc, acq, out, check_stream ? &host : nullptr, host_file,
+                    fmt("on %s (%u result registers)", dev.name.c_str(), regs));
+    return 0;
+}
 
-    if (check_stream) {
-        const Json host = read_json_file(host_file);
-        const std::string diff = first_difference(doc, host);
-        if (!diff.empty())
-            throw Error(fmt("the device's FRF differs from the host's estimate from the streamed samples (%s): %s",
-                            host_file.c_str(), diff.c_str()));
-        doc["acquisition"]["stream_check"] = "bit-identical to " + host_file;
+
+// ---- msid can measure --on-device ------------------------------------------------
+
+namespace {
+
+// --base: a multiple of 0x80 up to 0x780, decimal or 0x hex (as `msid can measure`).
+uint32_t can_base(const Args &a)
+{
+    const std::string v = a.get("base", "0x200");
+    char *end = nullptr;
+    const unsigned long b = std::strtoul(v.c_str(), &end, 0);
+    if (v.empty() || *end || v[0] == '-' || b % 0x80 || b > 0x780)
+        throw UsageError("--base must be a multiple of 0x80 up to 0x780 (got '" + v + "')");
+    return (uint32_t)b;
+}
+
+// --stream-check over CAN: the ordinary host estimate (FrfJob) fed by a decoder attached to the session.
+struct CanStream {
+    std::unique_ptr<FrfJob> job;
+    Mem mem;
+    msid_can_decoder dec{};
+    CanStream(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, const StreamFmt &sf, const msid_params &c,
+              uint32_t base, uint32_t window)
+        : job(std::make_unique<FrfJob>(rq, nu, ny, m, sf.periods, 4 * sf.periods + 8))
+    {
+        msid_can_decoder_cfg dc{};
+        dc.base = base, dc.n_inputs = nu, dc.n_outputs = ny, dc.window = window, dc.meas = job->meas();
+        dc.encoding = c.encoding, dc.fd = c.fd, dc.scale = (double)c.scale, dc.period = c.period;
+        dc.samples_total = (uint64_t)sf.periods * c.period;
+        mem = Mem(msid_can_decoder_mem_size(&dc));
+        check(msid_can_decoder_init(&dec, &dc, mem.p, mem.n), "decoder setup");
     }
-    write_json_file(out, doc);
-    std::printf("wrote %s: %zu lines, %u x %u, %u experiment(s) estimated on the device on %s (%u result registers)%s\n",
-                out.c_str(), rq.bins.size(), ny, nu, m, dev.name.c_str(), regs,
-                check_stream ? fmt("; bit for bit equal to the host's FRF from the streamed samples (%s)", host_file.c_str()).c_str() : "");
+    // The host's msid-frf/1 from the streamed samples.
+    Json doc(const std::string &iface, uint32_t m)
+    {
+        const msid_meas *ms = job->meas();
+        std::vector<ExpSource> src;
+        for (uint32_t e = 0; e < m; ++e)
+            src.push_back({fmt("can:%s experiment %u", iface.c_str(), e + 1), ms->samples[e],
+                           msid_pstats_get_counts(msid_meas_stats(ms, e)).offered, msid_meas_leftover(ms, e)});
+        FrfOutcome o = job->finish(src);
+        const msid_can_counters &k = dec.cnt;
+        o.doc["acquisition"] = {{"transport", "socketcan"}, {"interface", iface}, {"frames", k.frames},
+                                {"sample_frames", k.sample_frames}, {"samples", k.samples},
+                                {"samples_lost", k.samples_lost}, {"gap_events", k.gap_events}};
+        return o.doc;
+    }
+};
+
+// A failed session step: one message (the session's, or the core's reason a decoder refused).
+[[noreturn]] void can_failed(const msid_can_session &s, int rc)
+{
+    const msid_status st = msid_daq_core_status(rc);
+    if (st != MSID_OK && st != MSID_E_CAPACITY) check(st, "decoder");
+    throw Error(s.err);
+}
+
+EstStatus can_est_status(const msid_can_est_view &x) { return {x.status, x.need, x.have, x.bad1}; }
+
+}  // namespace
+
+int cmd_can_ondevice(int argc, char **argv)
+{
+    Args a(argc, argv, 3,
+           {"iface", "base", "design", "periods", "rate", "encoding", "scale", "bitrate", "data-bitrate", "window",
+            "rcvbuf", "timeout", "skip-periods", "transient", "alpha", "detect-lines", "stream-check", "output"},
+           {"fd", "on-device"});
+    const std::string out = a.require("output"), iface = a.require("iface");
+    const uint32_t base = can_base(a), window = a.u32("window", 16, 1, MSID_CAN_MAX_WINDOW);
+    auto D = read_design_file(a.require("design"));
+    StreamFmt sf;
+    sf.fd = a.has("fd") ? 1 : 0;
+    sf.encoding = a.enum_index("encoding", "int16", {"int16", "float32"}) ? MSID_CAN_ENC_F32 : MSID_CAN_ENC_S16;
+    FrfRequest rq;
+    parse_measure_options(a, *D, sf, rq);
+    check_ondevice_options(a, out, rq);
+    const bool check_stream = a.has("stream-check");
+    const std::string host_file = a.get("stream-check");
+    // --bitrate bounds a sample stream; estimating on the device no sample crosses the bus. The stream check
+    // streams every sample on a bus `msid can measure --bitrate` would judge: it runs on a virtual bus.
+    if (check_stream && (a.has("bitrate") || a.has("data-bitrate")))
+        throw UsageError("--stream-check streams every sample: run it on a virtual bus (without --bitrate)");
+    if (a.f64("bitrate", 0) < 0 || a.f64("data-bitrate", 0) < 0) throw UsageError("--bitrate must be >= 0");
+    const double timeout = a.f64("timeout", 10.0);
+    if (!(timeout > 0 && timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
+    const int rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
+    const uint32_t m = D->d.n_experiments;
+    auto cfg = config_from_design(*D, sf);
+    std::vector<uint8_t> cf(msid_params_frames(cfg.get(), nullptr, 0) * 8);
+    const size_t nf = cf.size() / 8;
+    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
+
+    // 1. the bus (the device's 128 identifiers and error frames) and the session: who is there?
+    msid_socketcan sc;
+    msid_socketcan_cfg scc{};
+    scc.iface = iface.c_str(), scc.fd_frames = sf.fd, scc.err_frames = 1, scc.rcvbuf = rcvbuf;
+    scc.n_filters = 1, scc.filter_id[0] = base, scc.filter_mask[0] = 0x780u | MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG;
+    if (msid_socketcan_open(&sc, &scc) < 0) throw Error(sc.err);
+    struct Closer { msid_socketcan &s; ~Closer() { msid_can_close(&s.tr); } } closer{sc};
+    auto s = std::make_unique<msid_can_session>();
+    msid_can_session_cfg ssc{};
+    ssc.tr = &sc.tr, ssc.base = base, ssc.silence_ms = (uint32_t)std::ceil(timeout * 1000.0);
+    if (msid_can_session_init(s.get(), &ssc) < 0) throw Error("CAN session setup");
+    timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    int rc = msid_can_session_identify(s.get(), 2000);
+    if (rc < 0) throw Error(fmt("%s (on %s)", s->err, iface.c_str()));
+    const uint32_t nu = s->dev.nu, ny = s->dev.ny;
+    if (nu != D->d.n_inputs) throw Error(fmt("the device has %u input(s) but the design has %u", nu, D->d.n_inputs));
+    if (ny == 0 || ny > MSID_MAX_OUTPUTS || nu + ny > MSID_MAX_CHANNELS) throw Error(fmt("the device reports %u outputs", ny));
+    msid_mb_est_layout lo;
+    if (msid_mb_est_layout_init(&lo, nu, ny, m, (uint32_t)rq.bins.size()) != 0) throw Error("FRF dimensions out of range");
+
+    // 2. with --stream-check the host's estimate from the streamed samples; the design; the device's estimator
+    std::unique_ptr<CanStream> host;
+    if (check_stream) {
+        host = std::make_unique<CanStream>(rq, nu, ny, m, sf, *cfg, base, window);
+        if ((rc = msid_can_session_attach(s.get(), &host->dec)) < 0) can_failed(*s, rc);
+    }
+    if ((rc = msid_can_session_upload(s.get(), reinterpret_cast<const uint8_t(*)[8]>(cf.data()), nf)) < 0)
+        can_failed(*s, rc);
+    rc = msid_can_session_est_setup(s.get(), check_stream ? MSID_MB_EST_STREAM : MSID_MB_EST_ONLY, (uint32_t)rq.transient,
+                                    rq.skip, rq.alpha);
+    if (rc == -MSID_DAQ_E_PROTOCOL) throw Error(fmt("%s on %s; measure without --on-device", s->err, iface.c_str()));
+    if (rc == -MSID_DAQ_E_DEVICE)
+        throw Error("the device cannot estimate on board: " + est_failure(can_est_status(s->est), rq, "24-bit value index"));
+    if (rc < 0) can_failed(*s, rc);
+
+    // 3. the experiments (the device produces and estimates at its own pace), SOLVE and the result block
+    for (uint32_t e = 0; e < m; ++e)
+        if ((rc = msid_can_session_run(s.get(), e, sf.periods)) < 0) can_failed(*s, rc);
+    std::vector<double> vals(lo.doubles);
+    std::vector<uint8_t> got(lo.doubles);
+    rc = msid_can_session_est_solve(s.get(), vals.data(), got.data(), lo.doubles);
+    if (rc == -MSID_DAQ_E_DEVICE)
+        throw Error("the device's estimate failed: " + est_failure(can_est_status(s->est), rq, "24-bit value index"));
+    if (rc < 0) can_failed(*s, rc);
+    const double secs = secs_since(t0);
+
+    Json doc = device_doc(rq, lo, vals.data(), "can:" + iface);
+    Json acq = ondevice_acq("socketcan", fmt("msid-can/%u", MSID_CAN_PROTO_VERSION), check_stream, sf, s->crc,
+                            s->est.periods, secs);
+    acq["interface"] = iface;
+    acq["base_id"] = base;
+    acq["frame_format"] = std::string(sf.fd ? "fd" : "classic") + "/" + (sf.encoding ? "float32" : "int16");
+    acq["result_doubles"] = lo.doubles;
+    acq["est_frames"] = s->cnt.est_frames;
+    acq["solves"] = s->cnt.est_solves;
+    acq["frames_sent"] = s->cnt.frames_sent;
+    acq["queries"] = s->cnt.queries;
+    msid_can_link_stats ls;
+    msid_can_get_stats(&sc.tr, &ls);
+    const msid_can_counters none{};
+    const msid_can_counters &k = host ? host->dec.cnt : none;   // the sample stream's (none when estimating only)
+    acq["frames_missing"] = k.frames_missing;
+    acq["duplicates"] = k.duplicates;
+    acq["reordered"] = k.reordered;
+    acq["malformed"] = k.malformed;
+    acq["error_frames"] = s->cnt.error_frames;
+    acq["bus_state"] = msid_can_bus_state_name(s->bus);
+    acq["kernel_drops"] = ls.kernel_drops;
+    acq["send_retries"] = ls.send_retries;
+    Json hdoc;
+    std::string why;
+    if (host) {
+        hdoc = host->doc(iface, m);
+        write_json_file(host_file, hdoc);
+        acq["sample_frames"] = host->dec.cnt.sample_frames;
+        if (host->dec.cnt.samples_lost)
+            why = fmt(" (%llu streamed sample(s) were lost on the way to the host: raise --rcvbuf)",
+                      (unsigned long long)host->dec.cnt.samples_lost);
+    }
+    finish_ondevice(doc, acq, out, host ? &hdoc : nullptr, host_file,
+                    fmt("on %s (%u result values in %llu EST frames)", iface.c_str(), lo.doubles,
+                        (unsigned long long)s->cnt.est_frames), why);
     return 0;
 }
 

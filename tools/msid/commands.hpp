@@ -26,6 +26,7 @@ int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_modbus_ondevice(int argc, char **argv);   // msid modbus measure --on-device (cmd_ondevice.cpp)
+int cmd_can_ondevice(int argc, char **argv);      // msid can measure --on-device (cmd_ondevice.cpp)
 int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
 int cmd_bench_io(int argc, char **argv);
 int cmd_plot(int argc, char **argv);     // cmd_plot.cpp: wraps python3 -m msid.plot

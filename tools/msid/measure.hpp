@@ -9,6 +9,10 @@
 #include "pipeline.hpp"
 #include "progress.hpp"
 
+extern "C" {
+#include "msid_daq/msid_modbus.h"
+}
+
 #include <csignal>
 #include <functional>
 
@@ -45,6 +49,22 @@ struct ModbusLink {
     uint32_t encoding = 0, word_order = 0;   // MSID_MB_ENC_S16, ABCD
 };
 ModbusLink modbus_link_from_uri(const DeviceUri &dev);
+// The options --tcp/--rtu, --baud, --parity, --data-bits, --stop-bits, --unit, timeouts, --retries,
+// --max-regs, --encoding, --word-order of `msid modbus measure` (cmd_modbus.cpp; also --on-device).
+ModbusLink modbus_link_options(const Args &a);
+// An open Modbus connection (closed by its destructor).
+struct MbLink {
+    msid_modbus m{};
+    bool open = false;
+    ~MbLink() { close(); }
+    void close()
+    {
+        if (open) msid_mb_close(&m.tr);
+        open = false;
+    }
+};
+// Open L to l (measure_modbus.cpp). Throws Error naming the link when it cannot connect.
+void open_modbus_link(const ModbusLink &l, MbLink &L);
 
 // A CAN link: from a device URI or from the options of `msid can measure` (cmd_can.cpp).
 struct CanLink {

@@ -39,13 +39,7 @@ static double secs_since(const timespec &t0)
     return (double)(t.tv_sec - t0.tv_sec) + 1e-9 * (double)(t.tv_nsec - t0.tv_nsec);
 }
 
-struct MbLink {
-    msid_modbus m{};
-    bool open = false;
-    ~MbLink() { if (open) msid_mb_close(&m.tr); }
-};
-
-static void open_link(const ModbusLink &l, MbLink &L)
+void open_modbus_link(const ModbusLink &l, MbLink &L)
 {
     msid_modbus_cfg c{};
     c.response_timeout_ms = (int)l.response_ms;
@@ -164,7 +158,7 @@ struct MbRunner : ExperimentRunner {
 MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Progress &pg)
 {
     MbLink L;
-    open_link(l, L);
+    open_modbus_link(l, L);
     msid_mb_client cl;
     msid_mb_client_init(&cl, &L.m.tr, l.retries, 20);
 

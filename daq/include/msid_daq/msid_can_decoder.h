@@ -142,6 +142,17 @@ msid_status msid_can_decoder_abort(msid_can_decoder *d);
  */
 int msid_can_device_update(msid_can_device *v, const uint8_t *data);
 
+/**
+ * @brief The int16 step a host decodes with: the decimal an int16 step uploaded as float32 stands for
+ *        (0.001f -> 0.001; the shortest %.{1..9}g that reads back as the same float32; a step that is
+ *        not a float32 value is kept). A device that estimates on its int16 codes decodes them with it
+ *        too, so both see the same doubles (on-device estimation, msid_can_est.h).
+ */
+double msid_can_step_decimal(double step);
+
+/** @brief The bus state after frame f: an error frame's bus-off, restarted, passive, warning or active class; any other frame leaves s. */
+msid_can_bus_state msid_can_bus_state_after(msid_can_bus_state s, const msid_can_frame *f);
+
 /** @brief Name of a bus state ("active", "warning", "passive", "bus-off", "restarted"). */
 const char *msid_can_bus_state_name(msid_can_bus_state s);
 

@@ -71,6 +71,27 @@ void msid_can_est_encode_value(uint8_t lo[8], uint8_t hi[8], uint32_t index, dou
  */
 int msid_can_est_collect(const uint8_t d[8], double *vals, uint8_t *have, uint32_t n);
 
+/** Host side: what the device last said in its EST frames (STATE, NEED, HAVE, SIZE, PERIODS). */
+typedef struct msid_can_est_view {
+    uint32_t states;              /**< EST STATE frames seen (a counter: a caller compares before and after a request) */
+    uint32_t answers;             /**< EST PERIODS frames seen (the last frame of the answer to SETUP and QUERY) */
+    uint32_t state;               /**< MSID_CAN_EST_STATE_* of the last STATE */
+    uint32_t mode;                /**< 0 off, 1 estimate only, 2 estimate and stream */
+    uint32_t version;             /**< extension version (MSID_CAN_EST_VERSION) */
+    uint32_t status;              /**< msid_status of a failure (0: none) */
+    uint32_t bad1;                /**< bad line (singular, range) or experiment (few periods) + 1; 0: none */
+    uint32_t need, have;          /**< working memory: bytes the estimator needs / the device has for it */
+    uint32_t size;                /**< doubles in the result block (SIZE) */
+    uint32_t periods;             /**< periods in the statistics, all experiments */
+} msid_can_est_view;
+
+/**
+ * @brief Host side: apply an EST frame's payload to *v (STATE, NEED, HAVE, SIZE, PERIODS; values are
+ *        left to ::msid_can_est_collect).
+ * @return the multiplexer (MSID_CAN_EST_MUX_*) or -1 for one it does not know (v unchanged).
+ */
+int msid_can_est_update(msid_can_est_view *v, const uint8_t d[8]);
+
 #ifdef __cplusplus
 }
 #endif

@@ -22,6 +22,14 @@
  *     would have. Only when nothing but replies to queries arrives for
  *     silence_ms does the run fail as a silent device.
  *
+ * On-device estimation (extension estimate/1, msid_can_est.h) is a readout of
+ * the same session: after the upload, ::msid_can_session_est_setup switches
+ * the device's estimator on (estimate only: no decoder is attached and no
+ * sample frame is expected, the experiments are closed by the device's DONE
+ * and their progress is the sample count of its STATE answers; or estimate and
+ * stream, with a decoder as above); after the experiments,
+ * ::msid_can_session_est_solve collects the result block bit for bit.
+ *
  * Every frame sent (flagged MSID_CANF_TX) and received passes, in order,
  * through the optional frame hook (a candump log). Errors follow the daq
  * error space (msid_daq.h): 0 or a negative code; device errors are decoded
@@ -36,6 +44,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "msid_can_decoder.h"
+#include "msid_can_est.h"
 #include "msid_can_proto.h"
 #include "msid_can_transport.h"
 #include "msid_daq.h"
@@ -43,6 +52,9 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/** Most SOLVE requests of one ::msid_can_session_est_solve (values lost on the way are asked for again). */
+#define MSID_CAN_EST_SOLVES 32u
 
 /** Frames kept from before ::msid_can_session_attach (more are counted in early_dropped, not decoded). */
 #define MSID_CAN_SESSION_EARLY 256u
@@ -77,6 +89,9 @@ typedef struct msid_can_session_counters {
     uint64_t recovery_queries;   /**< QUERYs sent because an experiment went quiet */
     uint64_t done_recovered;     /**< experiments closed by the answer to such a QUERY (their DONE frame was lost) */
     uint64_t early_dropped;      /**< frames before attach beyond MSID_CAN_SESSION_EARLY (not decoded) */
+    uint64_t est_solves;         /**< SOLVE requests sent (more than one: values of the block were lost and asked again) */
+    uint64_t est_frames;         /**< EST frames received */
+    uint64_t error_frames;       /**< error frames received */
 } msid_can_session_counters;
 
 /** The session (caller-owned). */
@@ -86,6 +101,15 @@ typedef struct msid_can_session {
     msid_can_decoder *dec;       /**< attached decoder (NULL before ::msid_can_session_attach) */
     uint32_t crc;                /**< CRC-32 of the uploaded parameter set (the COMMIT value) */
     msid_can_session_counters cnt;
+    msid_can_est_view est;       /**< the device's estimator, as its EST frames last said */
+    double *est_vals;            /**< result block being collected (::msid_can_session_est_solve) */
+    uint8_t *est_got;
+    uint32_t est_n;
+    uint64_t dones;              /**< STATE DONE frames received (without a decoder: what closes an experiment) */
+    uint32_t done_exp;           /**< experiment of the last of them */
+    uint64_t progress;           /**< without a decoder: new sample counts in STATE RUNNING, and non-status frames */
+    uint32_t last_count;
+    msid_can_bus_state bus;      /**< bus state from the error frames received (the decoder's too when attached) */
     uint32_t n_early;
     msid_can_frame early[MSID_CAN_SESSION_EARLY];
     msid_can_frame rx[64];       /**< receive batch */
@@ -118,7 +142,9 @@ int msid_can_session_upload(msid_can_session *s, const uint8_t (*rec)[8], size_t
 
 /**
  * @brief Run experiment e (K = periods): START, then decode until the experiment is closed by the
- *        device's DONE (or by the answer to a recovery QUERY).
+ *        device's DONE (or by the answer to a recovery QUERY). Without an attached decoder (on-device
+ *        estimation, estimate only) the device's STATE DONE of experiment e closes it, and a recovery
+ *        QUERY whose answer reports a new sample count is progress.
  *        When the configured on_poll returns non-zero the experiment is closed in the decoder where it
  *        stands (::msid_can_decoder_abort: every complete period is kept, the partial last one is discarded
  *        and counted) and the device is sent STOP (best effort).
@@ -127,6 +153,34 @@ int msid_can_session_upload(msid_can_session *s, const uint8_t (*rec)[8], size_t
  *         periods than the measurement holds), or a transport/hook error. s->err says what.
  */
 int msid_can_session_run(msid_can_session *s, uint32_t e, uint32_t periods);
+
+/**
+ * @brief Switch the device's estimator on (after the upload, before the first START): ALPHA (two
+ *        words) and SETUP, then the device's answer STATE, NEED, HAVE, PERIODS (s->est).
+ * @param mode 1 estimate only (no sample frames), 2 estimate and stream
+ * @param transient 0 off, 1 flag, 2 drop (msid_transient_mode)
+ * @param skip periods skipped at the start of every experiment (at most 65535)
+ * @param alpha level of the transient test, in [0, 1)
+ * @return 0 (the estimator is accumulating); -MSID_DAQ_E_PROTOCOL (no EST answer within
+ *         reply_timeout_ms: a device without the extension, or another extension version);
+ *         -MSID_DAQ_E_DEVICE (the device refused: s->est.status holds the msid_status, s->est.need
+ *         and s->est.have the byte counts of MSID_E_MEM_SIZE); -MSID_DAQ_E_ARG; or a transport/hook error.
+ *         s->err says what.
+ */
+int msid_can_session_est_setup(msid_can_session *s, uint32_t mode, uint32_t transient, uint32_t skip, double alpha);
+
+/**
+ * @brief SOLVE, then collect the result block of n doubles (layout msid_mb_est.h) into vals, bit for bit.
+ *        Values lost on the way (a host reading slower than a virtual bus delivers) are asked for again:
+ *        SOLVE once more (a ready device resends its block) as long as every answer brings values that
+ *        were missing, MSID_CAN_EST_SOLVES times at most.
+ * @param got n bytes of scratch (bit 0 low, bit 1 high word seen)
+ * @return 0; -MSID_DAQ_E_DEVICE (the estimate failed: s->est.status, s->est.bad1); -MSID_DAQ_E_PROTOCOL
+ *         (a block of another size than n, or values still missing after an answer that brought none);
+ *         -MSID_DAQ_E_TIMEOUT; or a
+ *         transport/hook/core error. s->err says what.
+ */
+int msid_can_session_est_solve(msid_can_session *s, double *vals, uint8_t *got, uint32_t n);
 
 #ifdef __cplusplus
 }
