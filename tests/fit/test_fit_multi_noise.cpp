@@ -170,12 +170,56 @@ static void test_coloured_coverage(void **)
     assert_true(mse_g < mse_w);
 }
 
+static void test_validate_records(void **)
+{
+    M1Case c;
+    msid_rng r;
+    msid_rng_seed(&r, 90);
+    const int N = 5, K = 200;
+    const VecR a0 = c.alpha();
+    // a wrong model: the 130 Hz mode 1% higher
+    M1Case cw = c;
+    cw.fn[1] *= 1.01;
+    const VecR aw = cw.alpha();
+    const VecR car = ar2(0.8, 2 * M_PI * 0.13);
+    int rej_cost = 0, rej_white = 0, rej_wrong = 0, rej_col_white = 0, rej_col_ar = 0, rej_col_ar_cost = 0;
+    for (int k = 0; k < K; ++k) {
+        const MultiData d = m1_data(c, r, N);
+        const double sd = multi_noise_sd(d.clean, 100.0);
+        const auto y = multi_add_noise(d.clean, r, sd);
+        const MultiCheck t = multi_check(y, a0, {}, 1, VecR(), sd * sd, 1e12, 10);
+        rej_cost += t.p_cost < 0.05;
+        rej_white += t.p_white < 0.05;
+        rej_wrong += multi_check(y, aw, {}, 1, VecR(), sd * sd, 1e12, 10).p_cost < 0.05;
+        if (k < 100) {
+            const auto yc = add_ar_noise(d.clean, r, car, sd);
+            rej_col_white += multi_check(yc, a0, {}, 1, VecR(), sd * sd, 1e12, 10).p_white < 0.05;
+            const double se2 = sd * sd / multi_ar_autocov(car, 0)(0);   // innovations variance
+            const MultiCheck tc = multi_check(yc, a0, {}, 1, car, se2, 1e12, 10);
+            rej_col_ar += tc.p_white < 0.05;
+            rej_col_ar_cost += tc.p_cost < 0.05;
+        }
+    }
+    std::printf("validation on fresh M1 records (N = %d, %d runs), rejection rates at 5%%: true model cost %.3f, "
+                "whiteness %.3f; AR noise with the AR model: cost %.3f, whiteness %.3f; negative controls: 130 Hz "
+                "mode 1%% off (cost) %.3f, AR noise validated as white (whiteness) %.3f\n",
+                N, K, (double)rej_cost / K, (double)rej_white / K, rej_col_ar_cost / 100.0, rej_col_ar / 100.0,
+                (double)rej_wrong / K, rej_col_white / 100.0);
+    // binomial sd at 5%: 1.5% (200 runs), 2.2% (100 runs)
+    assert_true(rej_cost >= 3 && rej_cost <= 20);
+    assert_true(rej_white >= 3 && rej_white <= 20);
+    assert_true(rej_col_ar <= 12 && rej_col_ar_cost <= 12);
+    assert_true((double)rej_wrong / K > 0.8);
+    assert_true(rej_col_white > 80);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_whitening_exact),
         cmocka_unit_test(test_order_selection),
         cmocka_unit_test(test_coloured_coverage),
+        cmocka_unit_test(test_validate_records),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }
