@@ -26,27 +26,6 @@ using namespace msidfit;
 // AR(2) noise c(q^-1) v = e with poles r e^{+-j w0}, started in its stationary state (burn-in)
 static VecR ar2(double r, double w0) { VecR c(2); c << -2 * r * std::cos(w0), r * r; return c; }
 
-static std::vector<MultiRecord> add_ar_noise(const std::vector<MultiRecord> &clean, msid_rng &rng, const VecR &c, double sd)
-{
-    // innovations variance so that var v = sd^2
-    const double r0 = multi_ar_autocov(c, 0)(0);
-    const double se = sd / std::sqrt(r0);
-    std::vector<MultiRecord> out = clean;
-    const int p = (int)c.size();
-    for (auto &rec : out)
-        for (Eigen::Index j = 0; j < rec.y.cols(); ++j) {
-            const Eigen::Index T = rec.y.rows(), B = 300;
-            VecR v = VecR::Zero(T + B);
-            for (Eigen::Index t = 0; t < T + B; ++t) {
-                double acc = se * msid_rng_normal(&rng);
-                for (int k = 1; k <= p && t - k >= 0; ++k) acc -= c(k - 1) * v(t - k);
-                v(t) = acc;
-            }
-            rec.y.col(j) += v.tail(T);
-        }
-    return out;
-}
-
 static void test_whitening_exact(void **)
 {
     const VecR c = ar2(0.8, 2 * M_PI * 0.13);
@@ -149,7 +128,7 @@ static void test_coloured_coverage(void **)
     const VecR a0 = c.alpha();
     for (int k = 0; k < K; ++k) {
         const MultiData d = m1_data(c, r, N);
-        const auto y = add_ar_noise(d.clean, r, car, multi_noise_sd(d.clean, 100.0));
+        const auto y = multi_add_ar_noise(d.clean, r, car, multi_noise_sd(d.clean, 100.0));
         const MultiResult fw = multi_fit(y, ow), fg = multi_fit(y, og), fe = multi_fit(y, oe);
         in_w += covered(fw, c);
         in_g += covered(fg, c);
@@ -192,7 +171,7 @@ static void test_validate_records(void **)
         rej_white += t.p_white < 0.05;
         rej_wrong += multi_check(y, aw, {}, 1, VecR(), sd * sd, 1e12, 10).p_cost < 0.05;
         if (k < 100) {
-            const auto yc = add_ar_noise(d.clean, r, car, sd);
+            const auto yc = multi_add_ar_noise(d.clean, r, car, sd);
             rej_col_white += multi_check(yc, a0, {}, 1, VecR(), sd * sd, 1e12, 10).p_white < 0.05;
             const double se2 = sd * sd / multi_ar_autocov(car, 0)(0);   // innovations variance
             const MultiCheck tc = multi_check(yc, a0, {}, 1, car, se2, 1e12, 10);
