@@ -192,6 +192,55 @@ static void test_validate_records(void **)
     assert_true(rej_col_white > 80);
 }
 
+// noisy inputs: the errors-in-variables estimator against the output-error one (negative control)
+static void test_eiv(void **)
+{
+    static const double CHI2_95_8 = 15.507;
+    IoCase c;
+    msid_rng r;
+    msid_rng_seed(&r, 100);
+    const int N = 10, K = 100;
+    const MultiData d = io_data(c, r, N);
+    VecR th0(8);
+    th0.head(4) = c.alpha();
+    for (int k = 0; k < 4; ++k) th0(4 + k) = c.beta()[(size_t)k](0, 0);
+    const double sd = multi_noise_sd(d.clean, 20.0);
+    MultiOptions o;
+    o.order = 4;
+    // lambda = 0: the EIV cost is the output-error cost with the initial conditions projected out
+    {
+        const auto y = multi_add_noise(d.clean, r, sd);
+        const MultiResult f = multi_fit(y, o);
+        const double ce = multi_eiv_cost(y, f.theta, 4, 1, 0.0);
+        std::printf("EIV cost at lambda = 0: %.12g, output-error cost %.12g\n", ce, f.cost);
+        assert_true(std::abs(ce - f.cost) < 1e-9 * f.cost);
+    }
+    int in_eiv = 0, in_oe = 0, marg = 0;
+    double b_eiv = 0, b_oe = 0;
+    VecR mean_eiv = VecR::Zero(8), mean_oe = VecR::Zero(8);
+    for (int k = 0; k < K; ++k) {
+        auto y = multi_add_noise(d.clean, r, sd);
+        for (auto &rec : y)
+            for (Eigen::Index t = 0; t < rec.u.rows(); ++t) rec.u(t, 0) += sd * msid_rng_normal(&r);   // sigma_u = sigma_y
+        const MultiEivResult fe = multi_fit_eiv(y, o, 1.0);
+        const VecR e = fe.theta - th0, eo = fe.oe_theta - th0;
+        in_eiv += e.dot(fe.cov.ldlt().solve(e)) < CHI2_95_8;
+        for (int i = 0; i < 8; ++i) marg += std::abs(e(i)) < 1.96 * std::sqrt(fe.cov(i, i));
+        const MultiResult fo = multi_fit(y, o);
+        in_oe += eo.dot(fo.cov.ldlt().solve(eo)) < CHI2_95_8;
+        mean_eiv += e / K;
+        mean_oe += eo / K;
+    }
+    b_eiv = mean_eiv.norm();
+    b_oe = mean_oe.norm();
+    std::printf("noisy inputs (I/O case, %d records, sigma_u = sigma_y, 26 dB on y), %d runs: joint 95%% region covers "
+                "%.3f (EIV), marginal %.3f; output-error fit (negative control) %.3f; |mean error| EIV %.3g, OE %.3g\n",
+                N, K, (double)in_eiv / K, marg / (8.0 * K), (double)in_oe / K, b_eiv, b_oe);
+    assert_true((double)in_eiv / K > 0.9 && (double)in_eiv / K < 0.99);
+    assert_true((double)in_oe / K < 0.85);
+    assert_true(b_eiv < b_oe);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -199,6 +248,7 @@ int main(void)
         cmocka_unit_test(test_order_selection),
         cmocka_unit_test(test_coloured_coverage),
         cmocka_unit_test(test_validate_records),
+        cmocka_unit_test(test_eiv),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

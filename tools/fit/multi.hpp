@@ -186,6 +186,24 @@ MultiOrderSelection multi_select_order(const std::vector<MultiRecord> &recs, con
 // Singular values of [H_1 ... H_N] (block Hankel of every record, Lr block rows), descending.
 VecR multi_hankel_sv(const std::vector<MultiRecord> &recs, int Lr);
 
+// ---------------- noisy inputs (errors-in-variables, multi_eiv.cpp) ----------------
+// One output, white noise on the inputs and the output with a known ratio lambda = sigma_u / sigma_y:
+// the true inputs and every record's initial conditions are eliminated (the distance of the data to
+// the model's trajectories, e^T (A D^2 A^T)^-1 e with e the equation error, see multi_eiv.cpp);
+// Levenberg-Marquardt over theta = (alpha, beta) from the output-error fit, finite-difference
+// Jacobian; cov = s2 (J^T J)^-1 (Gauss-Newton), s2 = cost / (sum_i (T_i - n) - q) estimates sigma_y^2.
+struct MultiEivResult {
+    VecR alpha, theta, oe_theta;     // oe_theta: the output-error start (biased under input noise)
+    std::vector<std::string> names;
+    MatR cov;
+    double cost = 0, s2 = 0, dof = 0, lambda = 0;
+    int iterations = 0;
+    bool converged = false;
+};
+MultiEivResult multi_fit_eiv(const std::vector<MultiRecord> &recs, const MultiOptions &o, double lambda);
+// The cost at theta (for the tests: lambda = 0 gives the output-error cost of multi_evaluate).
+double multi_eiv_cost(const std::vector<MultiRecord> &recs, const VecR &theta, int n, int d0, double lambda);
+
 // ---------------- validation on records (multi_order.cpp) ----------------
 // A fixed model (alpha, beta, noise AR c) on records: each record's initial conditions are
 // re-estimated (they are not part of the model), the rest is fixed. Returns the whitened
