@@ -246,3 +246,39 @@ def test_coloured_noise_cli(tmp_path):
     refused(tmp_path, ["--order", "6", "--noise-record", noise, *exp_args(files)], ["--noise-ar-order"], code=2)
     refused(tmp_path, ["--order", "6", "--noise-ar", "0.5", "--noise-ar-order", "2", *exp_args(files)], ["either"], code=2)
     refused(tmp_path, ["--order", "0:x", *exp_args(files)], ["--order"], code=2)
+
+
+def test_noisy_inputs_cli(tmp_path):
+    """--input-noise-ratio: white noise on u and y (sigma_u = sigma_y), errors-in-variables estimate."""
+    rng = np.random.default_rng(31)
+    p = [0.9 * np.exp(0.5j), 0.8 * np.exp(1.4j)]
+    alpha = np.real(np.poly([p[0], np.conj(p[0]), p[1], np.conj(p[1])]))[1:]
+    beta = np.array([1.0, -0.5, 0.3, 0.2])
+    A = np.zeros((4, 4))
+    A[:, 0] = -alpha
+    A[:3, 1:] = np.eye(3)
+    files = []
+    sd = 0.15
+    for i in range(10):
+        T = int(rng.integers(60, 200))
+        x = 3 * rng.standard_normal(4)
+        u = rng.standard_normal(T)
+        y = np.empty(T)
+        for t in range(T):
+            y[t] = x[0]
+            x = A @ x + beta * u[t]
+        f = tmp_path / f"e{i}.csv"
+        write_csv(f, [u + sd * rng.standard_normal(T), y + sd * rng.standard_normal(T)], ["u1", "y1"])
+        files.append(f)
+    out = tmp_path / "eiv.json"
+    run_ok("fit", "--method", "multi", "--order", "4", "--input-noise-ratio", "1", *exp_args(files), "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    assert doc["multi"]["errors_in_variables"]["input_noise_ratio"] == 1.0
+    th = np.array(doc["parameters"]["values"])
+    cov = np.array(doc["parameters"]["cov"])
+    e = th - np.concatenate([alpha, beta])
+    assert e @ np.linalg.solve(cov, e) < 26.1   # chi2(8) 99.9%
+    assert abs(np.sqrt(doc["multi"]["noise_variance"]) - sd) < 0.2 * sd
+    ring = m1_files(tmp_path, n=2)
+    refused(tmp_path, ["--order", "6", "--input-noise-ratio", "1", *exp_args(ring)], ["input columns"], code=2)

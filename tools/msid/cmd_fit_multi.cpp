@@ -24,7 +24,7 @@ static const char *MULTI_HELP =
     "usage: msid fit --method multi --experiment r1.csv --experiment r2.csv ... --order n|auto|a:b -o model.json\n"
     "                [--columns u1=NAME,y1=NAME,...] [--fs HZ] [--feedthrough no|yes] [--start auto|kung|prony|sm]\n"
     "                [--max-iter N] [--order-rule mdl|aic] [--noise-ar c1,...,cp | --noise-ar-order p\n"
-    "                [--noise-record noise.csv ...]]\n"
+    "                [--noise-record noise.csv ...]] [--input-noise-ratio R]\n"
     "\n"
     "Maximum likelihood from N records of any lengths (Markovsky & Pintelon): each record's initial\n"
     "conditions are eliminated by least squares (variable projection), the n poles shared by all records\n"
@@ -38,6 +38,8 @@ static const char *MULTI_HELP =
     "                   ML cost in the weighted norm ||W (y - yhat)||, W the exact whitening factor\n"
     "  --noise-ar-order p   estimate the AR(p) noise: from --noise-record files (noise-only records, same\n"
     "                   columns) by Yule-Walker, else from the residuals of the unweighted fit (two-stage GLS)\n"
+    "  --input-noise-ratio R  noisy inputs (errors-in-variables, one output): white noise on u and y with\n"
+    "                   sigma_u = R sigma_y; the true inputs are eliminated with the initial conditions\n"
     "  --columns        map file columns to u1.., y1.. as in msid frf (u may be left out: free responses)\n"
     "  --fs HZ          sample rate: modes in Hz and rad/s (else cycles and rad per sample)\n"
     "  --feedthrough    yes: b has a direct term b_0 (default no)\n"
@@ -146,7 +148,7 @@ int cmd_fit_multi(int argc, char **argv)
 {
     Args a(argc, argv, 2, MULTI_HELP,
            {"method", "order", "columns", "fs", "feedthrough", "start", "max-iter", "output", "order-rule", "noise-ar",
-            "noise-ar-order"},
+            "noise-ar-order", "input-noise-ratio"},
            {}, {"experiment", "noise-record"});
     if (!a.positional().empty())
         throw UsageError("--method multi takes its records with --experiment FILE (got '" + a.positional()[0] + "')");
@@ -183,6 +185,13 @@ int cmd_fit_multi(int argc, char **argv)
         } catch (const FitError &e) {
             throw UsageError(std::string("--noise-ar: ") + e.what());
         }
+    }
+    double eiv_ratio = 0;
+    if (a.has("input-noise-ratio")) {
+        eiv_ratio = parse_double(a.get("input-noise-ratio"), "--input-noise-ratio");
+        if (!(eiv_ratio >= 0) || !std::isfinite(eiv_ratio)) throw UsageError("--input-noise-ratio must be a finite number >= 0");
+        if (a.has("noise-ar") || a.has("noise-ar-order"))
+            throw UsageError("--input-noise-ratio (noisy inputs) takes white noise: leave out --noise-ar / --noise-ar-order");
     }
     if (a.has("noise-ar-order")) {
         o.noise_ar_order = (int)parse_u32(a.get("noise-ar-order"), "--noise-ar-order");
@@ -232,6 +241,8 @@ int cmd_fit_multi(int argc, char **argv)
     } else if (o.noise_ar_order > 0) {
         noise_source = fmt("estimated from the residuals (two-stage, Yule-Walker AR(%d))", o.noise_ar_order);
     }
+    if (a.has("input-noise-ratio") && (nu == 0 || ny != 1))
+        throw UsageError("--input-noise-ratio needs input columns and one output (noisy inputs, one output)");
     if (nu == 0 && o.feedthrough) throw UsageError("--feedthrough yes needs input columns: free responses have no inputs");
     if (nu == 0 && o.start == "sm") throw UsageError("--start sm needs input columns; free responses use kung or prony");
     if (nu > 0 && o.start == "kung") throw UsageError("--start kung needs free responses (records without input columns)");
@@ -242,7 +253,22 @@ int cmd_fit_multi(int argc, char **argv)
             sel = multi_select_order(recs, o, orders, rule, true);
             o.order = sel.chosen;
         }
-        const MultiResult r = scan ? sel.best : multi_fit(recs, o);
+        MultiResult r = scan ? sel.best : multi_fit(recs, o);
+        const bool eiv = a.has("input-noise-ratio");
+        if (eiv) {   // noisy inputs: the errors-in-variables estimate replaces the output-error one (multi_eiv.cpp)
+            const MultiEivResult e = multi_fit_eiv(recs, o, eiv_ratio);
+            r.alpha = e.alpha;
+            r.theta = e.theta;
+            for (int k = 0; k < r.nu; ++k)
+                for (int d = 0; d < r.nb; ++d) r.beta[(size_t)d](0, k) = e.theta(r.n + k * r.nb + d);
+            r.cov = e.cov;
+            r.cost = e.cost;
+            r.s2 = e.s2;
+            r.dof = e.dof;
+            r.iterations = e.iterations;
+            r.converged = e.converged;
+            r.modes = multi_modes(r.alpha, r.cov.topLeftCorner(r.n, r.n), o.h);
+        }
         // the model as an LMFD with D(q^-1) = a(q^-1) I and N_d = beta_d, realised in observer form
         LmfdModel lm;
         lm.domain = Domain::DT;
@@ -270,6 +296,7 @@ int cmd_fit_multi(int argc, char **argv)
         settings["start"] = o.start;
         settings["max_iter"] = o.max_iter;
         settings["weight"] = r.noise_ar.size() ? "noise-ar" : "none";
+        if (eiv) settings["input_noise_ratio"] = eiv_ratio;
         if (scan) settings["order_range"] = ord;
         if (a.has("columns")) settings["columns"] = a.get("columns");
         doc["settings"] = settings;
@@ -301,7 +328,8 @@ int cmd_fit_multi(int argc, char **argv)
         mj["modes"] = modes_block(r, o.h);
         Json recj = Json::array();
         for (size_t i = 0; i < files.size(); ++i)
-            recj.push_back(Json{{"file", files[i]}, {"samples", lengths[i]}, {"initial_conditions", rmat_json(r.x0[i])}});
+            recj.push_back(Json{{"file", files[i]}, {"samples", lengths[i]},
+                                {"initial_conditions", eiv ? Json(nullptr) : rmat_json(r.x0[i])}});
         mj["records"] = recj;
         mj["initial_conditions_convention"] = "per record ny x n: the model output's pre-initial values yhat(-1) .. yhat(-n)";
         mj["cost"] = r.cost;
@@ -353,7 +381,16 @@ int cmd_fit_multi(int argc, char **argv)
         // the Cramer-Rao bound at the estimate, computed by the independent route of multi_crb()
         const long P = (long)r.theta.size() + (long)recs.size() * ny * r.n;
         Json crb;
-        if (P <= 1500 && r.cov_rank == (int)r.theta.size()) {
+        if (eiv) {
+            crb["cov"] = nullptr;
+            crb["note"] = "not computed for noisy inputs (the bound of multi_crb is the output-error one)";
+            Json ej;
+            ej["input_noise_ratio"] = eiv_ratio;
+            ej["model"] = "white noise on the inputs and the output, sigma_u = ratio * sigma_y; true inputs and initial "
+                          "conditions eliminated (errors-in-variables ML); noise_variance estimates sigma_y^2";
+            ej["cost"] = r.cost;
+            mj["errors_in_variables"] = ej;
+        } else if (P <= 1500 && r.cov_rank == (int)r.theta.size()) {
             std::vector<MatR> us;
             for (const auto &x : recs) us.push_back(x.u);
             const MatR C = multi_crb(r.alpha, r.beta, r.d0, us, r.x0, (int)ny, r.s2, r.noise_ar);
