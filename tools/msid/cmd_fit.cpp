@@ -21,10 +21,10 @@ using namespace msidfit;
 
 static const char *FIT_HELP =
     "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
-    "       msid fit --method multi --experiment r1.csv ... --order n|auto -o model.json   (time records)\n"
     "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
+    "       msid fit --method multi --experiment r1.csv ... --order n|auto -o model.json   (time records)\n"
     "\n"
     "  subspace  frequency-domain subspace (McKelvey; Pintelon 2002 Alg. 1, CT by the bilinear map,\n"
     "            Alg. 2.1) weighted by the FRF covariance; block rows r in {1.5n, 2n, 3n, 4n}, the one with the\n"
