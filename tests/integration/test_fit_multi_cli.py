@@ -149,3 +149,136 @@ def test_two_channel_ringdowns(tmp_path):
     for m, fn, z in zip(doc["multi"]["modes"], FN, ZETA):
         assert abs(m["fn_hz"] - fn) < 4 * m["sd_fn_hz"], (m, fn)
         assert abs(m["zeta"] - z) < 4 * m["sd_zeta"], (m, z)
+
+
+def ar_noise(rng, c, n, sd):
+    """Stationary AR noise c(q^-1) v = e scaled to standard deviation sd (burn-in 500 samples)."""
+    v = np.zeros(n + 500)
+    e = rng.standard_normal(n + 500)
+    for t in range(n + 500):
+        v[t] = e[t] - sum(c[k] * v[t - k - 1] for k in range(len(c)) if t - k - 1 >= 0)
+    v = v[500:]
+    return v * sd / np.sqrt(np.mean(v ** 2))
+
+
+def test_order_auto_modes_validate(tmp_path):
+    """--order auto picks 6 on M1 ring-downs; msid modes reads the free-response model; msid validate
+    checks it on fresh records (consistent) and refuses an FRF for it."""
+    files = m1_files(tmp_path, n=6, seed=11)
+    fresh_dir = tmp_path / "fresh"
+    fresh_dir.mkdir()
+    fresh = m1_files(fresh_dir, n=6, seed=12)
+    out = tmp_path / "auto.json"
+    r = run_ok("fit", "--method", "multi", "--order", "auto", "--fs", "1000", *exp_args(files), "-o", out)
+    assert "<- chosen" in r.stdout
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    sel = doc["multi"]["order_selection"]
+    assert sel["chosen"] == 6 and sel["rule"] == "mdl" and doc["multi"]["alpha"].__len__() == 6
+    assert [row["order"] for row in sel["rows"]] == list(range(1, 13))
+    assert sel["hankel_gap_order"] == 6
+    # msid modes on the free-response model: frequencies and damping with sd
+    mo = tmp_path / "modes.json"
+    r = run_ok("modes", out, "-o", mo)
+    assert "+-" in r.stdout
+    m = load_json(mo)
+    assert m["format"] == "msid-modes/1" and len(m["modes"]) == 3
+    for x, fn, z in zip(m["modes"], FN, ZETA):
+        assert abs(x["fn"] - fn) < 4 * x["sd_fn"] and abs(x["zeta"] - z) < 4 * x["sd_zeta"]
+    # validate on fresh records: consistent; on its own records: only whiteness counts
+    rep = tmp_path / "rep.json"
+    r = run_ok("validate", out, *exp_args(fresh), "-o", rep)
+    assert "verdict: consistent" in r.stdout
+    v = load_json(rep)
+    assert v["kind"] == "records" and not v["own_records"] and v["p_value_cost"] > 0.025 and v["p_value_whiteness"] > 0.025
+    assert v["dof"] == sum(np.loadtxt(f, skiprows=1).size - 6 for f in fresh)
+    r = run_ok("validate", out, *exp_args(files))
+    assert "own records" in r.stdout
+    # a wrong model (order 4 forced) fails validation on fresh records
+    bad = tmp_path / "o4.json"
+    run_ok("fit", "--method", "multi", "--order", "4", "--fs", "1000", *exp_args(files), "-o", bad)
+    r = run_ok("validate", bad, *exp_args(fresh))
+    assert "NOT consistent" in r.stdout
+    # an FRF cannot validate a free-response model: one message, non-zero exit
+    r = run("validate", out, tmp_path / "none.json")
+    assert r.returncode != 0 and "--experiment" in r.stderr and r.stderr.strip().count("\n") == 0
+
+
+def test_coloured_noise_cli(tmp_path):
+    """AR(2) noise: --noise-ar given, estimated from the residuals, and from noise-only records."""
+    rng = np.random.default_rng(21)
+    c = np.array([-2 * 0.8 * np.cos(2 * np.pi * 0.13), 0.64])
+    ys = [ringdown(rng, int(rng.integers(80, 121))) for _ in range(8)]
+    sd = np.sqrt(np.mean(np.concatenate(ys) ** 2)) / 100.0
+    files = []
+    for i, y in enumerate(ys):
+        f = tmp_path / f"r{i}.csv"
+        write_csv(f, [y + ar_noise(rng, c, y.size, sd)], ["y1"])
+        files.append(f)
+    noise = tmp_path / "noise.csv"
+    write_csv(noise, [ar_noise(rng, c, 4000, sd)], ["y1"])
+    given = tmp_path / "given.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", "--noise-ar", f"{c[0]:.17g},{c[1]:.17g}",
+           *exp_args(files), "-o", given)
+    doc = load_json(given)
+    validate(doc, "msid-model-1")
+    assert doc["settings"]["weight"] == "noise-ar" and np.allclose(doc["multi"]["noise"]["ar"], c)
+    for m, fn, z in zip(doc["multi"]["modes"], FN, ZETA):
+        assert abs(m["fn_hz"] - fn) < 4 * m["sd_fn_hz"] and abs(m["zeta"] - z) < 4 * m["sd_zeta"]
+    assert doc["multi"]["cramer_rao"]["rel_diff_cov"] < 0.05
+    est = tmp_path / "est.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", "--noise-ar-order", "2", *exp_args(files), "-o", est)
+    assert np.abs(np.array(load_json(est)["multi"]["noise"]["ar"]) - c).max() < 0.15
+    rec = tmp_path / "rec.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", "--noise-ar-order", "2", "--noise-record", noise,
+           *exp_args(files), "-o", rec)
+    d = load_json(rec)["multi"]["noise"]
+    assert np.abs(np.array(d["ar"]) - c).max() < 0.05 and "noise record" in d["source"]
+    # validation with the noise model: white residuals; the white-noise fit's residuals are not
+    r = run_ok("validate", given, *exp_args(files))
+    assert "verdict: consistent" in r.stdout
+    white = tmp_path / "white.json"
+    run_ok("fit", "--method", "multi", "--order", "6", "--fs", "1000", *exp_args(files), "-o", white)
+    r = run_ok("validate", white, *exp_args(files))
+    assert "NOT consistent" in r.stdout
+    # refusals: a non-stationary AR model, --noise-record without an order, both noise options
+    refused(tmp_path, ["--order", "6", "--noise-ar", "0,1.5", *exp_args(files)], ["stationary"], code=2)
+    refused(tmp_path, ["--order", "6", "--noise-record", noise, *exp_args(files)], ["--noise-ar-order"], code=2)
+    refused(tmp_path, ["--order", "6", "--noise-ar", "0.5", "--noise-ar-order", "2", *exp_args(files)], ["either"], code=2)
+    refused(tmp_path, ["--order", "0:x", *exp_args(files)], ["--order"], code=2)
+
+
+def test_noisy_inputs_cli(tmp_path):
+    """--input-noise-ratio: white noise on u and y (sigma_u = sigma_y), errors-in-variables estimate."""
+    rng = np.random.default_rng(31)
+    p = [0.9 * np.exp(0.5j), 0.8 * np.exp(1.4j)]
+    alpha = np.real(np.poly([p[0], np.conj(p[0]), p[1], np.conj(p[1])]))[1:]
+    beta = np.array([1.0, -0.5, 0.3, 0.2])
+    A = np.zeros((4, 4))
+    A[:, 0] = -alpha
+    A[:3, 1:] = np.eye(3)
+    files = []
+    sd = 0.15
+    for i in range(10):
+        T = int(rng.integers(60, 200))
+        x = 3 * rng.standard_normal(4)
+        u = rng.standard_normal(T)
+        y = np.empty(T)
+        for t in range(T):
+            y[t] = x[0]
+            x = A @ x + beta * u[t]
+        f = tmp_path / f"e{i}.csv"
+        write_csv(f, [u + sd * rng.standard_normal(T), y + sd * rng.standard_normal(T)], ["u1", "y1"])
+        files.append(f)
+    out = tmp_path / "eiv.json"
+    run_ok("fit", "--method", "multi", "--order", "4", "--input-noise-ratio", "1", *exp_args(files), "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    assert doc["multi"]["errors_in_variables"]["input_noise_ratio"] == 1.0
+    th = np.array(doc["parameters"]["values"])
+    cov = np.array(doc["parameters"]["cov"])
+    e = th - np.concatenate([alpha, beta])
+    assert e @ np.linalg.solve(cov, e) < 26.1   # chi2(8) 99.9%
+    assert abs(np.sqrt(doc["multi"]["noise_variance"]) - sd) < 0.2 * sd
+    ring = m1_files(tmp_path, n=2)
+    refused(tmp_path, ["--order", "6", "--input-noise-ratio", "1", *exp_args(ring)], ["input columns"], code=2)

@@ -60,7 +60,8 @@ ModelFile read_model(const std::string &path)
     m.domain = j["domain"] == "ct" ? Domain::CT : Domain::DT;
     if (j.contains("sample_time") && j["sample_time"].is_number()) m.h = j["sample_time"].get<double>();
     const int64_t n = ival(j, "order", path), nu = ival(j, "n_inputs", path), ny = ival(j, "n_outputs", path);
-    if (nu < 1 || ny < 1 || nu > 16 || ny > 16 || n > 400) throw FitError("'" + path + "': dimensions out of range");
+    // n_inputs 0: a free-response model (msid fit --method multi on ring-downs): B and D have no columns
+    if (nu < 0 || ny < 1 || nu > 16 || ny > 16 || n > 400) throw FitError("'" + path + "': dimensions out of range");
     m.ss.domain = m.domain;
     m.ss.h = m.h;
     for (const char *k : {"A", "B", "C", "D"})

@@ -31,6 +31,7 @@ void ar_filter(const VecR &alpha, const double *g, const double *pre, double *ou
 struct Layout {
     int n = 0, nu = 0, ny = 0, d0 = 1, nb = 0;
     bool elim = true;
+    const MultiNoise *W = nullptr;               // coloured noise: whitening factor (nullptr: white)
     int p() const { return nu * nb; }            // beta entries per output
     int q() const { return n + ny * p(); }        // theta entries
 };
@@ -45,6 +46,17 @@ Layout layout_of(const std::vector<MultiRecord> &recs, const MultiOptions &o)
     L.nb = L.nu > 0 ? L.n - L.d0 + 1 : 0;
     L.elim = o.eliminate_ic;
     return L;
+}
+
+// M <- W M column by column (the whitening factor of the noise model, multi_noise.cpp)
+void whiten(const Layout &L, Eigen::Ref<MatR> M)
+{
+    if (!L.W || L.W->white()) return;
+    VecR tmp(M.rows());
+    for (Eigen::Index j = 0; j < M.cols(); ++j) {
+        L.W->apply(M.col(j).data(), tmp.data(), M.rows());
+        M.col(j) = tmp;
+    }
 }
 
 // Everything at one alpha: the linear parameters by least squares with the initial
@@ -64,7 +76,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
     Eigen::Index S = 0;
     for (const auto &r : recs) S += r.y.rows();
     std::vector<Eigen::HouseholderQR<MatR>> qx(recs.size());
-    std::vector<MatR> Q(recs.size()), F(recs.size()), Xs(recs.size());
+    std::vector<MatR> Q(recs.size()), F(recs.size()), Xs(recs.size()), Fw(recs.size()), Yw(recs.size());
     MatR Ft(S, p), Yt(S, ny);
     Eigen::Index off = 0;
     for (size_t i = 0; i < recs.size(); ++i) {
@@ -79,7 +91,12 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
                 for (Eigen::Index t = 0; t < T; ++t) col(t) = t >= d ? v(t - d) : 0.0;
             }
         }
-        MatR Fp = F[i], Yp = recs[i].y;
+        // coloured noise: the weighted norm ||W .|| (multi.hpp), everything whitened before the projections
+        Fw[i] = F[i];
+        Yw[i] = recs[i].y;
+        whiten(L, Fw[i]);
+        whiten(L, Yw[i]);
+        MatR Fp = Fw[i], Yp = Yw[i];
         if (L.elim) {
             // free-response basis: pre-initial values e_k (§VI: the columns of P_T(theta) up to a change of basis)
             MatR X(T, n);
@@ -88,8 +105,9 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
                 e(k) = 1.0;
                 ar_filter(alpha, nullptr, e.data(), X.col(k).data(), T);
             }
-            qx[i].compute(X);
             Xs[i] = X;
+            whiten(L, X);
+            qx[i].compute(X);
             Q[i] = qx[i].householderQ() * MatR::Identity(T, n);
             Fp -= Q[i] * (Q[i].transpose() * Fp);
             Yp -= Q[i] * (Q[i].transpose() * Yp);
@@ -114,7 +132,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
     e.c.resize(recs.size());
     for (size_t i = 0; i < recs.size(); ++i) {
         if (L.elim)
-            e.c[i] = qx[i].solve(MatR(recs[i].y - F[i] * e.beta));
+            e.c[i] = qx[i].solve(MatR(Yw[i] - Fw[i] * e.beta));
         else
             e.c[i] = MatR::Zero(n, ny);
     }
@@ -138,6 +156,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
                 for (Eigen::Index t = 0; t < T; ++t) g(t) = -ext(n + t - m);
                 ar_filter(alpha, g.data(), nullptr, D.col(m - 1).data() + off, T);
             }
+            whiten(L, D.middleRows(off, T));
             if (L.elim) D.middleRows(off, T) -= Q[i] * (Q[i].transpose() * D.middleRows(off, T));
             off += T;
         }
@@ -335,8 +354,9 @@ MatR multi_simulate(const VecR &alpha, const std::vector<MatR> &beta, int d0, co
 }
 
 MatR multi_crb(const VecR &alpha, const std::vector<MatR> &beta, int d0, const std::vector<MatR> &u,
-               const std::vector<MatR> &x0, int ny, double s2)
+               const std::vector<MatR> &x0, int ny, double s2, const VecR &noise_ar)
 {
+    const MultiNoise W = multi_noise_from_ar(noise_ar);
     const int n = (int)alpha.size();
     const int nu = u.empty() ? 0 : (int)u[0].cols(), nb = (int)beta.size(), p = nu * nb, q = n + ny * p;
     const int nic = ny * n, P = q + (int)u.size() * nic;
@@ -377,6 +397,14 @@ MatR multi_crb(const VecR &alpha, const std::vector<MatR> &beta, int d0, const s
             unpack(thm, am, bm);
             const MatR yp = multi_simulate(ap, bp, d0, u[i], xp, ny), ym = multi_simulate(am, bm, d0, u[i], xm, ny);
             J.col(c) = Eigen::Map<const VecR>(MatR((yp - ym) / (2 * h)).data(), T * ny);
+        }
+        if (!W.white()) {   // Fisher information J^T Sigma^-1 J / s2 = (W J)^T (W J) / s2
+            VecR tmp(T);
+            for (Eigen::Index c = 0; c < J.cols(); ++c)
+                for (int j = 0; j < ny; ++j) {
+                    W.apply(J.col(c).data() + j * T, tmp.data(), T);
+                    J.col(c).segment(j * T, T) = tmp;
+                }
         }
         const MatR JtJ = J.transpose() * J / s2;
         const int o = q + (int)i * nic;
@@ -479,6 +507,11 @@ MultiResult result_at(const std::vector<MultiRecord> &recs, const Layout &L, con
     r.cov = r.s2 * es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
     r.grad_norm = (e.Ja.transpose() * residual_vec(e.R)).norm();
     r.modes = multi_modes(alpha, r.cov.topLeftCorner(L.n, L.n), o.h);
+    if (L.W && !L.W->white()) {
+        r.noise_ar = L.W->c;
+        r.noise_source = "given";
+        for (const auto &rc : recs) r.logdet += (double)L.ny * L.W->logdet(rc.y.rows());
+    }
     return r;
 }
 
@@ -488,13 +521,19 @@ MultiResult multi_evaluate(const std::vector<MultiRecord> &recs, const VecR &alp
 {
     check_records(recs, o);
     if (alpha.size() != o.order) throw FitError("alpha has the wrong length");
-    return result_at(recs, layout_of(recs, o), alpha, o);
+    const MultiNoise W = multi_noise_from_ar(o.noise_ar);
+    Layout L = layout_of(recs, o);
+    L.W = &W;
+    return result_at(recs, L, alpha, o);
 }
 
-MultiResult multi_fit(const std::vector<MultiRecord> &recs, const MultiOptions &o)
+namespace {
+
+// One fit with a fixed noise model W (nullptr: white); extra: a further start value (may be empty).
+MultiResult fit_core(const std::vector<MultiRecord> &recs, const MultiOptions &o, const MultiNoise *W, const VecR &extra)
 {
-    check_records(recs, o);
-    const Layout L = layout_of(recs, o);
+    Layout L = layout_of(recs, o);
+    L.W = W;
     // start values (Kung on the stacked Hankel matrix for free responses; Prony / ARX; SM)
     std::vector<std::pair<std::string, VecR>> cand;
     const std::string st = o.start;
@@ -508,6 +547,7 @@ MultiResult multi_fit(const std::vector<MultiRecord> &recs, const MultiOptions &
         if (st != "sm") cand.emplace_back("prony", pr);
     }
     if ((st == "auto" && L.nu > 0) || st == "sm") cand.emplace_back("sm", multi_start_sm(recs, L.n, L.d0, pr, 5));
+    if (extra.size() == L.n) cand.emplace_back("previous", extra);
     std::vector<MultiStart> starts;
     VecR a;
     double V = INFINITY;
@@ -556,6 +596,31 @@ MultiResult multi_fit(const std::vector<MultiRecord> &recs, const MultiOptions &
     res.starts = starts;
     res.best_start = best;
     return res;
+}
+
+}  // namespace
+
+MultiResult multi_fit(const std::vector<MultiRecord> &recs, const MultiOptions &o)
+{
+    check_records(recs, o);
+    if (o.noise_ar.size() > 0) {
+        const MultiNoise W = multi_noise_from_ar(o.noise_ar);
+        return fit_core(recs, o, &W, VecR());
+    }
+    MultiResult r = fit_core(recs, o, nullptr, VecR());
+    if (o.noise_ar_order <= 0) return r;
+    // two-stage GLS: AR(p) by Yule-Walker on the raw residuals y - yhat of the previous fit
+    // (initial conditions eliminated: the residuals are the noise up to n ny dimensions per record), refit
+    for (int pass = 0; pass < 2; ++pass) {
+        std::vector<MatR> res;
+        for (size_t i = 0; i < recs.size(); ++i)
+            res.push_back(recs[i].y - multi_simulate(r.alpha, r.beta, r.d0, recs[i].u.rows() ? recs[i].u : MatR(recs[i].y.rows(), 0),
+                                                     r.x0[i], r.ny));
+        const MultiNoise W = multi_noise_from_ar(multi_ar_yule_walker(res, o.noise_ar_order));
+        r = fit_core(recs, o, &W, r.alpha);
+    }
+    r.noise_source = "estimated from residuals";
+    return r;
 }
 
 }  // namespace msidfit

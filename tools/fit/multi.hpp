@@ -56,6 +56,11 @@ struct MultiOptions {
     // start values: "auto" (every applicable start, LM from the one of least cost),
     // "kung" (autonomous only), "prony", "sm" (Steiglitz-McBride after Prony)
     std::string start = "auto";
+    // coloured output noise (multi_noise.cpp): the AR polynomial c_1..c_p of c(q^-1) v = e, known
+    VecR noise_ar;
+    // > 0 with noise_ar empty: estimate AR(noise_ar_order) by Yule-Walker from the residuals of the
+    // unweighted fit, refit weighted, re-estimate from the new residuals and refit (two-stage GLS)
+    int noise_ar_order = 0;
 };
 
 // One pole (pair) with derived modal quantities and delta-method standard deviations.
@@ -91,6 +96,9 @@ struct MultiResult {
     std::vector<MultiStart> starts;
     std::string best_start;
     std::vector<MultiMode> modes;     // sorted by natural frequency
+    VecR noise_ar;                    // the noise AR polynomial used (empty: white); s2 is then the innovations variance
+    std::string noise_source = "white";   // "white", "given", "estimated from residuals"
+    double logdet = 0.0;              // ny sum_i ln det Sigma_i of the normalised noise covariance
 };
 
 // Check the records (same channel counts, finite samples, enough samples for the
@@ -116,11 +124,101 @@ MatR multi_simulate(const VecR &alpha, const std::vector<MatR> &beta, int d0, co
 // Cramer-Rao bound of theta = (alpha, beta) for records with the given inputs and
 // true pre-initial values, noise variance s2: the full Fisher matrix over theta and
 // every record's initial conditions from central differences of multi_simulate(),
-// inverted; the theta block is returned. Independent of the estimator's projections.
+// inverted; the theta block is returned. noise_ar: AR noise with innovations variance s2. Independent of the estimator's projections.
 MatR multi_crb(const VecR &alpha, const std::vector<MatR> &beta, int d0, const std::vector<MatR> &u,
-               const std::vector<MatR> &x0, int ny, double s2);
+               const std::vector<MatR> &x0, int ny, double s2, const VecR &noise_ar = VecR());
 
 // Characteristic coefficients alpha_1..alpha_n of prod_k (1 - z_k q^-1) (complex poles in conjugate pairs).
 VecR multi_alpha_from_poles(const std::vector<cd> &z);
+
+// ---------------- coloured noise (multi_noise.cpp) ----------------
+// Stationary AR(p) output noise c(q^-1) v(t) = e(t), c = 1 + c_1 q^-1 + ... + c_p q^-p, e white
+// with variance s^2, the same polynomial for every output and record (outputs independent).
+// The ML cost with a noise covariance s^2 Sigma_i per record is sum_i || W_i (y^i - yhat^i) ||^2 with
+// Sigma_i^-1 = W_i^T W_i (the weighted 2-norm of the paper's ref. [10]; with the initial conditions
+// and numerator still eliminated by least squares, now in the W-weighted norm). W_i is the exact
+// innovations (Cholesky) factor of the Toeplitz covariance: Levinson-Durbin predictors of order
+// t < p for the first p samples, c itself after, each scaled by its prediction error variance.
+struct MultiNoise {
+    VecR c;                   // c_1..c_p (empty: white noise, W = I)
+    std::vector<VecR> pred;   // pred[k]: order-k predictor coefficients (length k), k = 0..p
+    VecR P;                   // prediction error variances P_0..P_p of the normalised process (P_p = 1)
+    bool white() const { return c.size() == 0; }
+    // out = W x for one channel of T samples (out != x)
+    void apply(const double *x, double *out, Eigen::Index T) const;
+    // log det Sigma for T samples (sum_t ln P_min(t,p))
+    double logdet(Eigen::Index T) const;
+};
+
+// The whitening factor of c (throws FitError when c(z) has roots on or outside the unit circle).
+MultiNoise multi_noise_from_ar(const VecR &c);
+// Autocovariance r(0..L) of the normalised AR model (innovations variance 1).
+VecR multi_ar_autocov(const VecR &c, int L);
+// Yule-Walker AR(p) from several zero-mean sequences (columns of the matrices; pooled biased
+// autocovariance, Levinson-Durbin): noise-only records, or the residuals of a fit.
+VecR multi_ar_yule_walker(const std::vector<MatR> &x, int p);
+
+// ---------------- order selection (multi_order.cpp) ----------------
+// -2 log L concentrated over s^2: S ln(V / S) + ny sum_i ln det Sigma_i, S = sum_i ny T_i.
+// Free parameters k = n + ny nu nb + N ny n (the initial conditions of every record are
+// parameters of the likelihood: they count, although they are eliminated analytically).
+// AIC = -2 log L + 2 k, MDL (= BIC) = -2 log L + k ln S.
+struct MultiOrderRow {
+    int order = 0;
+    bool ok = false;
+    std::string error;
+    bool converged = false;
+    double cost = 0, s2 = 0, k = 0, m2logl = 0, aic = 0, mdl = 0;
+};
+struct MultiOrderSelection {
+    std::vector<MultiOrderRow> rows;
+    int chosen = -1;
+    std::string rule;         // "mdl" or "aic"
+    VecR hankel_sv;           // singular values of the stacked block Hankel matrix (descending)
+    int hankel_gap_order = 0; // order of the largest ratio sv_k / sv_k+1 within the range
+    MultiResult best;         // the fit at the chosen order
+};
+// Fit every order (o.order ignored) and pick the least criterion. count_ic = false drops the
+// N ny n initial conditions from k: the WRONG count, kept as the negative control of the tests.
+MultiOrderSelection multi_select_order(const std::vector<MultiRecord> &recs, const MultiOptions &o,
+                                       const std::vector<int> &orders, const std::string &rule = "mdl",
+                                       bool count_ic = true);
+// Singular values of [H_1 ... H_N] (block Hankel of every record, Lr block rows), descending.
+VecR multi_hankel_sv(const std::vector<MultiRecord> &recs, int Lr);
+
+// ---------------- noisy inputs (errors-in-variables, multi_eiv.cpp) ----------------
+// One output, white noise on the inputs and the output with a known ratio lambda = sigma_u / sigma_y:
+// the true inputs and every record's initial conditions are eliminated (the distance of the data to
+// the model's trajectories, e^T (A D^2 A^T)^-1 e with e the equation error, see multi_eiv.cpp);
+// Levenberg-Marquardt over theta = (alpha, beta) from the output-error fit, finite-difference
+// Jacobian; cov = s2 (J^T J)^-1 (Gauss-Newton), s2 = cost / (sum_i (T_i - n) - q) estimates sigma_y^2.
+struct MultiEivResult {
+    VecR alpha, theta, oe_theta;     // oe_theta: the output-error start (biased under input noise)
+    std::vector<std::string> names;
+    MatR cov;
+    double cost = 0, s2 = 0, dof = 0, lambda = 0;
+    int iterations = 0;
+    bool converged = false;
+};
+MultiEivResult multi_fit_eiv(const std::vector<MultiRecord> &recs, const MultiOptions &o, double lambda);
+// The cost at theta (for the tests: lambda = 0 gives the output-error cost of multi_evaluate).
+double multi_eiv_cost(const std::vector<MultiRecord> &recs, const VecR &theta, int n, int d0, double lambda);
+
+// ---------------- validation on records (multi_order.cpp) ----------------
+// A fixed model (alpha, beta, noise AR c) on records: each record's initial conditions are
+// re-estimated (they are not part of the model), the rest is fixed. Returns the whitened
+// residuals and two tests: the cost against its law under the model (V / s2_model against
+// chi2(dof) / dof ... F(dof, dof_model)), and whiteness (pooled residual autocorrelation at lags
+// 1..m, Ljung-Box Q against chi2(m)).
+struct MultiCheck {
+    double cost = 0, dof = 0, s2 = 0;       // whitened cost, S - N ny n, cost / dof
+    double f_stat = NAN, p_cost = NAN;      // (s2 / s2_model) against F(dof, dof_model), upper tail
+    int lags = 0;
+    VecR rho;                               // residual autocorrelation at lags 1..m
+    double q_lb = 0, p_white = NAN;         // Ljung-Box statistic and its p-value
+    std::vector<MatR> residuals;            // per record, whitened
+};
+MultiCheck multi_check(const std::vector<MultiRecord> &recs, const VecR &alpha, const std::vector<MatR> &beta, int d0,
+                       const VecR &noise_c, double s2_model, double dof_model, int lags);
 
 }  // namespace msidfit

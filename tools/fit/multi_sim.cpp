@@ -80,6 +80,25 @@ std::vector<MultiRecord> multi_add_noise(const std::vector<MultiRecord> &clean, 
     return out;
 }
 
+std::vector<MultiRecord> multi_add_ar_noise(const std::vector<MultiRecord> &clean, msid_rng &rng, const VecR &c, double sd)
+{
+    const double se = sd / std::sqrt(multi_ar_autocov(c, 0)(0));   // innovations sd for var v = sd^2
+    std::vector<MultiRecord> out = clean;
+    const int p = (int)c.size();
+    for (auto &rec : out)
+        for (Eigen::Index j = 0; j < rec.y.cols(); ++j) {
+            const Eigen::Index T = rec.y.rows(), B = 300;
+            VecR v = VecR::Zero(T + B);
+            for (Eigen::Index t = 0; t < T + B; ++t) {
+                double acc = se * msid_rng_normal(&rng);
+                for (int k = 1; k <= p && t - k >= 0; ++k) acc -= c(k - 1) * v(t - k);
+                v(t) = acc;
+            }
+            rec.y.col(j) += v.tail(T);
+        }
+    return out;
+}
+
 VecR IoCase::alpha() const
 {
     const cd z1 = std::polar(0.9, 0.5), z2 = std::polar(0.8, 1.4);

@@ -42,6 +42,8 @@ MultiData m1_data(const M1Case &c, msid_rng &r, int N);
 double multi_noise_sd(const std::vector<MultiRecord> &clean, double snr);
 // clean + N(0, sd^2) on the outputs (inputs exact).
 std::vector<MultiRecord> multi_add_noise(const std::vector<MultiRecord> &clean, msid_rng &r, double sd);
+// clean + stationary AR noise c(q^-1) v = e on the outputs, var v = sd^2 (300 samples of burn-in per record).
+std::vector<MultiRecord> multi_add_ar_noise(const std::vector<MultiRecord> &clean, msid_rng &r, const VecR &c, double sd);
 
 // The input-output case: DT SISO order 4 (poles 0.9 e^{+-0.5j}, 0.8 e^{+-1.4j}), strictly proper
 // numerator beta_{1..4}, white-noise input, random initial state, lengths T_i in [Tmin, Tmax].

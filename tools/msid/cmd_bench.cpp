@@ -480,7 +480,8 @@ static int bench_fit(int argc, char **argv)
         "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
         "error against the true system) over N random systems (default 50); 3: the simulated\n"
         "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
-        "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n";
+        "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n"
+        "Without --only it also runs `msid bench fit --only multi --runs 50` (case M1, multiple experiments).\n";
     Args a(argc, argv, 3, HELP_FIT, {"systems", "min-seconds", "only"}, {"no-peer"});
     const uint32_t only = a.u32("only", 0);
     if (only > 4) throw UsageError("--only takes 1 (SISO), 2 (2x2), 3 (structures) or 4 (whole process)");
@@ -593,6 +594,14 @@ static int bench_fit(int argc, char **argv)
     }
     if ((!only || only == 3) && !a.has("no-peer")) bench_structures(dir, min_s);
     if (!only || only == 4) bench_process(dir);
+    if (!only) {   // the multiple-experiment ML on case M1 (cmd_bench_multi.cpp), 50 runs per N
+        std::vector<std::string> mv = {"msid", "bench", "fit", "--only", "multi", "--runs", "50"};
+        if (a.has("no-peer")) mv.push_back("--no-peer");
+        std::vector<char *> mp;
+        for (auto &x : mv) mp.push_back(&x[0]);
+        std::printf("\n");
+        cmd_bench_fit_multi((int)mp.size(), mp.data());
+    }
     std::string rm = "rm -rf '" + dir + "'";
     if (std::system(rm.c_str()) != 0) std::fprintf(stderr, "msid bench: note: could not remove %s\n", dir.c_str());
     return 0;

@@ -24,6 +24,7 @@ static const char *FIT_HELP =
     "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
+    "       msid fit --method multi --experiment r1.csv ... --order n|auto -o model.json   (time records)\n"
     "\n"
     "  subspace  frequency-domain subspace (McKelvey; Pintelon 2002 Alg. 1, CT by the bilinear map,\n"
     "            Alg. 2.1) weighted by the FRF covariance; block rows r in {1.5n, 2n, 3n, 4n}, the one with the\n"
@@ -35,6 +36,8 @@ static const char *FIT_HELP =
     "            --param lmfd: LMFD from subspace (default) or Sanathanan-Koerner, with bounds (45)-(46);\n"
     "            parameter covariance (pseudo-inverse Fisher information with its rank). When the iterations\n"
     "            run out the best iterate is written marked \"converged\": false and the exit status is 3\n"
+    "  multi     time records of any lengths (ring-downs, free decays, transients), every record's initial\n"
+    "            conditions eliminated (Markovsky & Pintelon): msid fit --method multi --help\n"
     "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
     "  --stable  subspace: reflect unstable poles; ml (poles): constrained to stable poles\n"
     "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
@@ -492,15 +495,21 @@ int cmd_fit(int argc, char **argv)
 
 static const char *VAL_HELP =
     "usage: msid validate model.json frf.json [--weight cov|known-input|none] [-o report.json]\n"
+    "       msid validate multi-model.json --experiment r1.csv ... [--lags M] [-o report.json]\n"
     "The weighted residual cost of the model on the FRF data against its expectation, with a p-value,\n"
-    "per-line normalised residuals, and a verdict at 5%.\n";
+    "per-line normalised residuals, and a verdict at 5%. Models of --method multi (free responses too)\n"
+    "are validated on time records: residual whiteness and cost (msid validate --experiment x --help).\n";
 
 int cmd_validate(int argc, char **argv)
 {
+    if (validate_on_records(argc, argv)) return cmd_validate_multi(argc, argv);   // time records (cmd_fit_multi.cpp)
     Args a(argc, argv, 2, VAL_HELP, {"weight", "output"}, {});
     if (a.positional().size() != 2) throw UsageError("give a model file and an FRF file");
     try {
         const ModelFile mf = read_model(a.positional()[0]);
+        if (mf.ss.B.cols() == 0)
+            throw FitError("'" + mf.path + "' is a free-response model (no inputs, from msid fit --method multi): it has no "
+                           "FRF; validate it on time records with --experiment FILE");
         const FrfData f = read_frf(a.positional()[1]);
         if (mf.ss.B.cols() != (Eigen::Index)f.nu || mf.ss.C.rows() != (Eigen::Index)f.ny)
             throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +

@@ -186,6 +186,8 @@ int cmd_modes(int argc, char **argv)
         const Json j = read_json(a.positional()[0]);
         if (!j.is_object() || j.value("format", "") != "msid-model/1")
             throw FitError("'" + a.positional()[0] + "': not an msid-model/1 file");
+        if (j.value("method", "") == "multi")   // poles shared by records, no FRF residues (cmd_fit_multi.cpp)
+            return cmd_modes_multi(j, a.positional()[0], a.has("output") ? a.get("output") : std::string());
         const ModalReport r = modal_report(j);
         std::fputs(modal_text(r).c_str(), stdout);
         if (a.has("output")) {

@@ -41,6 +41,8 @@ int call_python_module(const std::string &module, const std::vector<std::string>
 bool fit_method_is(int argc, char **argv, const char *method);
 int cmd_fit_multi(int argc, char **argv);
 int cmd_bench_fit_multi(int argc, char **argv);   // msid bench fit --only multi (cmd_bench_multi.cpp)
+bool validate_on_records(int argc, char **argv);   // msid validate model.json --experiment ... (cmd_fit_multi.cpp)
+int cmd_validate_multi(int argc, char **argv);
 }  // namespace msidcli
 #include <string>
 #include <vector>
@@ -52,4 +54,5 @@ int exec_with_build(std::vector<std::string> args);
 // The machine line of the benchmarks (CPU, cores, kernel) and the directory of the Python peers.
 std::string bench_machine();
 std::string bench_python_dir();
+int cmd_modes_multi(const nlohmann::ordered_json &doc, const std::string &path, const std::string &out);   // msid modes of a multi model (cmd_fit_multi.cpp)
 }  // namespace msidcli
