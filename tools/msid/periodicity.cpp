@@ -358,16 +358,22 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
         P = (uint32_t)std::min<size_t>(t, MSID_MAX_PERIOD);
     }
     double eta = 1.0;
-    if (P) {   // refine by the exact non-periodic fraction around the peak
-        uint32_t bestP = P;
+    // Refine by the exact non-periodic fraction around the peak. A peak at a fraction of the
+    // period (lines all multiples of 3 repeat almost every P/3 samples) is followed to its
+    // multiples 2 P0, 3 P0, ... until one repeats (eta at most 0.1) or N/2 is reached.
+    const uint32_t P0 = P;
+    for (uint32_t mult = 1; P0 && (size_t)P0 * mult * 2 <= r.n_rows + 4; ++mult) {
+        uint32_t bestP = 0;
+        double best = 1.0;
         for (int d = -2; d <= 2; ++d) {
-            const int64_t Q = (int64_t)P + d;
-            if (Q < (int64_t)MSID_MIN_PERIOD || (size_t)Q * 2 > r.n_rows) continue;
+            const int64_t Q = (int64_t)P0 * mult + d;
+            if (Q < (int64_t)MSID_MIN_PERIOD || Q > (int64_t)MSID_MAX_PERIOD || (size_t)Q * 2 > r.n_rows) continue;
             const size_t K = r.n_rows / (size_t)Q;
             const double e = nonperiodic_fraction(r, (uint32_t)Q, 0, K);
-            if (e < eta) { eta = e; bestP = (uint32_t)Q; }
+            if (e < best) { best = e; bestP = (uint32_t)Q; }
         }
-        P = bestP;
+        if (bestP && (mult == 1 || best < 0.5 * eta)) { eta = best; P = bestP; }   // clearly better only
+        if (eta <= 0.1 || mult >= 16) break;
     }
     // A non-periodic input gives E eta = (K-1)/K over K repetitions (1/2 for K = 2, where the best of
     // many candidate lags falls below 1/2 by chance): the threshold, 0.5 (K-1)/K, scales with it.
