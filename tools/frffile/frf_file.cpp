@@ -168,17 +168,27 @@ Json position(const Position &p)
 
 Json cmat(const cd *a, size_t rows, size_t cols)
 {
+    // arrays sized once, rows moved in (no reallocation, no deep copies)
     Json re = Json::array(), im = Json::array();
+    auto &vre = re.get_ref<Json::array_t &>(), &vim = im.get_ref<Json::array_t &>();
+    vre.reserve(rows);
+    vim.reserve(rows);
     for (size_t r = 0; r < rows; ++r) {
         Json rr = Json::array(), ri = Json::array();
+        auto &xr = rr.get_ref<Json::array_t &>(), &xi = ri.get_ref<Json::array_t &>();
+        xr.reserve(cols);
+        xi.reserve(cols);
         for (size_t c = 0; c < cols; ++c) {
-            rr.push_back(a[r * cols + c].real());
-            ri.push_back(a[r * cols + c].imag());
+            xr.emplace_back(a[r * cols + c].real());
+            xi.emplace_back(a[r * cols + c].imag());
         }
-        re.push_back(rr);
-        im.push_back(ri);
+        vre.push_back(std::move(rr));
+        vim.push_back(std::move(ri));
     }
-    return Json{{"re", re}, {"im", im}};
+    Json o = Json::object();
+    o["re"] = std::move(re);
+    o["im"] = std::move(im);
+    return o;
 }
 
 Json cmat(const MatC &M)
