@@ -225,7 +225,8 @@ void check_periodic_lines(const msid_pstats *const *ps, uint32_t m, uint32_t nu,
                              m2[(size_t)j * q + j].re, K);
         }
         evidence_finish(ev, num, den);
-        if (ev.tested == 0 || ev.eta <= NONPERIODIC_FRACTION || ev.periodic()) continue;
+        // (a non-finite eta: data beyond double range, which the FRF itself reports)
+        if (ev.tested == 0 || !(ev.eta > NONPERIODIC_FRACTION) || ev.periodic()) continue;
         // With a history: does the strongest line rotate coherently from period to period?
         std::string why;
         const size_t H = s->nhist, n = (size_t)s->n_lines * q;
