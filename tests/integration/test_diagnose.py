@@ -190,7 +190,8 @@ def test_noisy_input_is_periodic():
     excited lines shows the periodic component (docs/statistics.md, "Input
     periodicity"): no refusal in 20 records at 0 dB and 20 at -10 dB, and the
     FRF is written (32 periods: the core's own rule wants >= 10 dB input SNR
-    of the period mean at every line). Negative control: a white-noise input of the same power
+    of the period mean at every line); --period auto and --lines auto find
+    the period and exactly the excited bins (3 records at each SNR). Negative control: a white-noise input of the same power
     (not periodic) is refused in 20 of 20 records (chance of a wrong "periodic"
     verdict < 1e-6 per record)."""
     import tempfile
@@ -211,6 +212,10 @@ def test_noisy_input_is_periodic():
                 refused = "the input is not periodic" in r.stderr
                 fired[key] += refused
                 assert refused or (r.returncode == 0 and out.exists()), r.stderr
+                if key != "noise" and seed < 3:   # --period auto / --lines auto find them through the noise
+                    ra, outa = _frf(Path(d), f, period="auto", lines="auto")
+                    assert ra.returncode == 0 and f"--period auto: period {P} samples" in ra.stdout, ra.stderr
+                    assert [l["bin"] for l in h.load_json(outa)["lines"]] == BINS
     print(f"refused as non-periodic: {fired[0]}/20 at 0 dB input SNR, {fired[-10]}/20 at -10 dB, "
           f"{fired['noise']}/20 white-noise inputs")
     assert fired[0] == 0 and fired[-10] == 0 and fired["noise"] == 20

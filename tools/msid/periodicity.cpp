@@ -124,7 +124,9 @@ static void evidence_add(PeriodicEvidence &ev, double &num, double &den, double 
     den += scatter + kmean2;
     const double n = (double)(K - 1);
     const double F = scatter > 0 ? kmean2 / (scatter / n) : HUGE_VAL;
-    if (f2_tail(F, n) < PERIODIC_BIN_ALPHA) ++ev.shown;
+    const double pv = f2_tail(F, n);
+    if (pv < PERIODIC_BIN_ALPHA) ++ev.shown;
+    ev.min_p = std::min(ev.min_p, pv);
 }
 
 static void evidence_finish(PeriodicEvidence &ev, double num, double den)
@@ -375,6 +377,21 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
         }
         if (bestP && (mult == 1 || best < 0.5 * eta)) { eta = best; P = bestP; }   // clearly better only
         if (eta <= 0.1 || mult >= 16) break;
+    }
+    // A noisy input repeats at every multiple of its period with about the same autocorrelation,
+    // so the peak may sit at a multiple k P. The smallest divisor P/k whose noise-normalised
+    // non-periodic share eta K/(K-1) (K repetitions) is no larger than the peak's (within three
+    // relative standard errors, 3/sqrt(N)) is the period: a divisor that is no period adds the
+    // signal's mismatch.
+    if (P && eta > 0.1) {
+        auto norm = [&](uint32_t Q, double e) { const double K = (double)(r.n_rows / Q); return e * K / (K - 1); };
+        const double ref = norm(P, eta);
+        for (uint32_t k = 16; k >= 2; --k) {
+            if (P % k || P / k < MSID_MIN_PERIOD) continue;
+            const uint32_t Q = P / k;
+            const double e = nonperiodic_fraction(r, Q, 0, r.n_rows / Q);
+            if (norm(Q, e) <= ref * (1 + 3 / std::sqrt((double)r.n_rows)) + 1e-12) { P = Q; eta = e; break; }
+        }
     }
     // A non-periodic input gives E eta = (K-1)/K over K repetitions (1/2 for K = 2, where the best of
     // many candidate lags falls below 1/2 by chance): the threshold, 0.5 (K-1)/K, scales with it.

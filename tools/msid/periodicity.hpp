@@ -26,7 +26,9 @@ constexpr double LINES_AUTO_ALPHA = 0.01;
 // noise of any colour, bins taken one by one); a bin "shows" a periodic
 // component at level PERIODIC_BIN_ALPHA, and the input is called periodic when
 // more bins show one than chance explains: P(Binomial(tested, PERIODIC_BIN_ALPHA)
-// >= shown) < PERIODIC_EVIDENCE (docs/statistics.md, "Input periodicity").
+// >= shown) < PERIODIC_EVIDENCE, or one bin's tail is below PERIODIC_EVIDENCE /
+// tested (Bonferroni; a few strong lines among many bins) (docs/statistics.md,
+// "Input periodicity").
 constexpr double PERIODIC_BIN_ALPHA = 0.01;
 constexpr double PERIODIC_EVIDENCE = 1e-6;
 
@@ -35,7 +37,11 @@ struct PeriodicEvidence {
     size_t shown = 0;      // of those, with a significant period mean
     double p_value = 1.0;  // P(Binomial(tested, PERIODIC_BIN_ALPHA) >= shown)
     double eta = 0.0;      // share of the power at those bins that changes from period to period
-    bool periodic() const { return tested > 0 && p_value < PERIODIC_EVIDENCE; }
+    double min_p = 1.0;    // smallest per-bin tail: one strong line is evidence too (Bonferroni)
+    bool periodic() const
+    {
+        return tested > 0 && (p_value < PERIODIC_EVIDENCE || min_p * (double)tested < PERIODIC_EVIDENCE);
+    }
 };
 
 // P(X >= k) for X ~ Binomial(n, a).
