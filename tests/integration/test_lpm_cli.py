@@ -200,3 +200,22 @@ def test_etfe_input_not_periodic(tmp_path):
 def test_unknown_method(tmp_path):
     p, _ = _siso(tmp_path, N=512)
     _fails(tmp_path, ["frf", "--method", "magic", "--experiment", p], "--method must be periodic, lpm or etfe")
+
+
+def test_lpm_on_periodic_input_points_at_periodic_estimator(tmp_path):
+    """A periodic multisine (P = 256, 8 periods, lines 3..40 step 3) has no input
+    power between its lines, so the LPM's local input matrix is singular: the one
+    message names the period and the periodic estimator (drop --method lpm).
+    Negative control: the singular two-input record above (random, not periodic)
+    keeps the LPM's own message (test_singular_local_input)."""
+    P, K = 256, 8
+    rng = np.random.default_rng(3)
+    n = np.arange(P)
+    per = sum(np.cos(2 * np.pi * b * n / P + rng.uniform(0, 2 * np.pi)) for b in range(3, 41, 3))
+    u = np.tile(per, K)
+    y = lfilter(B, A, u) + 0.01 * rng.standard_normal(u.size)
+    h.write_csv(tmp_path / "ms.csv", h.experiment_columns(u[:, None], y[:, None]))
+    _fails(tmp_path, ["frf", "--method", "lpm", "--experiment", tmp_path / "ms.csv"],
+           f"the input is periodic with period {P} samples ({K} whole periods)")
+    r = h.run("frf", "--method", "lpm", "--experiment", tmp_path / "ms.csv", "-o", tmp_path / "x.json")
+    assert "use the default periodic estimator (drop --method lpm)" in r.stderr.lower(), r.stderr

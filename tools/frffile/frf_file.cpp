@@ -1,10 +1,13 @@
 #include "frf_file.hpp"
+#include "frf_text.hpp"
 
 extern "C" {
 #include "msid/msid.h"
 }
 
 #include <algorithm>
+#include <charconv>
+#include <cstdio>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -165,17 +168,27 @@ Json position(const Position &p)
 
 Json cmat(const cd *a, size_t rows, size_t cols)
 {
+    // arrays sized once, rows moved in (no reallocation, no deep copies)
     Json re = Json::array(), im = Json::array();
+    auto &vre = re.get_ref<Json::array_t &>(), &vim = im.get_ref<Json::array_t &>();
+    vre.reserve(rows);
+    vim.reserve(rows);
     for (size_t r = 0; r < rows; ++r) {
         Json rr = Json::array(), ri = Json::array();
+        auto &xr = rr.get_ref<Json::array_t &>(), &xi = ri.get_ref<Json::array_t &>();
+        xr.reserve(cols);
+        xi.reserve(cols);
         for (size_t c = 0; c < cols; ++c) {
-            rr.push_back(a[r * cols + c].real());
-            ri.push_back(a[r * cols + c].imag());
+            xr.emplace_back(a[r * cols + c].real());
+            xi.emplace_back(a[r * cols + c].imag());
         }
-        re.push_back(rr);
-        im.push_back(ri);
+        vre.push_back(std::move(rr));
+        vim.push_back(std::move(ri));
     }
-    return Json{{"re", re}, {"im", im}};
+    Json o = Json::object();
+    o["re"] = std::move(re);
+    o["im"] = std::move(im);
+    return o;
 }
 
 Json cmat(const MatC &M)
@@ -243,5 +256,154 @@ Json detection_line(uint32_t bin, uint32_t period, double fs, const MatC &Y_mean
     e["p_value"] = p_value;
     return e;
 }
+
+}  // namespace msidfrf
+
+// ---------------- text ----------------
+
+namespace msidfrf {
+
+char *format_double(double v, char *buf)
+{
+    char *p = buf;
+    if (std::signbit(v)) { *p++ = '-'; v = -v; }
+    if (v == 0) { std::memcpy(p, "0.0", 3); return p + 3; }
+    // shortest round-trip digits d[.ddd]e[+-]x from std::to_chars, then nlohmann's layout
+    // (detail::format_buffer with min_exp = -4, max_exp = 15)
+    char s[40];
+    const auto r = std::to_chars(s, s + sizeof s, v, std::chars_format::scientific);
+    char dig[24];
+    int k = 0;
+    const char *q = s;
+    for (; q < r.ptr && *q != 'e'; ++q)
+        if (*q != '.') dig[k++] = *q;
+    int e10 = 0;
+    std::from_chars(q + 1 + (q[1] == '+'), r.ptr, e10);
+    const int n = e10 + 1;   // position of the decimal point after the first n digits
+    if (k <= n && n <= 15) {   // integer: digits, zeros, ".0"
+        std::memcpy(p, dig, (size_t)k);
+        std::memset(p + k, '0', (size_t)(n - k));
+        p += n;
+        *p++ = '.';
+        *p++ = '0';
+        return p;
+    }
+    if (0 < n && n <= 15) {   // 12.34
+        std::memcpy(p, dig, (size_t)n);
+        p[n] = '.';
+        std::memcpy(p + n + 1, dig + n, (size_t)(k - n));
+        return p + k + 1;
+    }
+    if (-4 < n && n <= 0) {   // 0.00123
+        *p++ = '0';
+        *p++ = '.';
+        std::memset(p, '0', (size_t)-n);
+        p += -n;
+        std::memcpy(p, dig, (size_t)k);
+        return p + k;
+    }
+    *p++ = dig[0];
+    if (k > 1) {
+        *p++ = '.';
+        std::memcpy(p, dig + 1, (size_t)(k - 1));
+        p += k - 1;
+    }
+    *p++ = 'e';
+    int x = n - 1;
+    *p++ = x < 0 ? '-' : '+';
+    if (x < 0) x = -x;
+    if (x < 10) { *p++ = '0'; *p++ = (char)('0' + x); }
+    else if (x < 100) { *p++ = (char)('0' + x / 10); *p++ = (char)('0' + x % 10); }
+    else { *p++ = (char)('0' + x / 100); *p++ = (char)('0' + x / 10 % 10); *p++ = (char)('0' + x % 10); }
+    return p;
+}
+
+static void dump_string(const std::string &s, std::string &out)
+{
+    out += '"';
+    size_t a = 0;
+    for (size_t i = 0; i < s.size(); ++i) {
+        const unsigned char c = (unsigned char)s[i];
+        if (c >= 0x20 && c != '"' && c != '\\') continue;
+        out.append(s, a, i - a);
+        a = i + 1;
+        switch (c) {
+        case '"': out += "\\\""; break;
+        case '\\': out += "\\\\"; break;
+        case '\b': out += "\\b"; break;
+        case '\f': out += "\\f"; break;
+        case '\n': out += "\\n"; break;
+        case '\r': out += "\\r"; break;
+        case '\t': out += "\\t"; break;
+        default: {
+            char u[8];
+            std::snprintf(u, sizeof u, "\\u%04x", c);
+            out += u;
+        }
+        }
+    }
+    out.append(s, a, std::string::npos);
+    out += '"';
+}
+
+static void dump_at(const Json &v, int indent, int level, std::string &out)
+{
+    char buf[48];
+    switch (v.type()) {
+    case Json::value_t::object: {
+        if (v.empty()) { out += "{}"; return; }
+        out += "{\n";
+        size_t i = 0;
+        for (auto it = v.begin(); it != v.end(); ++it, ++i) {
+            if (i) out += ",\n";
+            out.append((size_t)(indent * (level + 1)), ' ');
+            dump_string(it.key(), out);
+            out += ": ";
+            dump_at(it.value(), indent, level + 1, out);
+        }
+        out += '\n';
+        out.append((size_t)(indent * level), ' ');
+        out += '}';
+        return;
+    }
+    case Json::value_t::array: {
+        if (v.empty()) { out += "[]"; return; }
+        out += "[\n";
+        size_t i = 0;
+        for (const auto &e : v) {
+            if (i++) out += ",\n";
+            out.append((size_t)(indent * (level + 1)), ' ');
+            dump_at(e, indent, level + 1, out);
+        }
+        out += '\n';
+        out.append((size_t)(indent * level), ' ');
+        out += ']';
+        return;
+    }
+    case Json::value_t::string: dump_string(v.get_ref<const std::string &>(), out); return;
+    case Json::value_t::boolean: out += v.get<bool>() ? "true" : "false"; return;
+    case Json::value_t::number_integer: {
+        const auto r = std::to_chars(buf, buf + sizeof buf, v.get<int64_t>());
+        out.append(buf, r.ptr);
+        return;
+    }
+    case Json::value_t::number_unsigned: {
+        const auto r = std::to_chars(buf, buf + sizeof buf, v.get<uint64_t>());
+        out.append(buf, r.ptr);
+        return;
+    }
+    case Json::value_t::number_float: {
+        const double x = v.get<double>();
+        if (!std::isfinite(x)) throw NonFinite();
+        out.append(buf, format_double(x, buf));
+        return;
+    }
+    case Json::value_t::null:
+    case Json::value_t::discarded:
+    default: out += "null"; return;
+    }
+}
+
+void dump(const Json &doc, int indent, std::string &out) { dump_at(doc, indent, 0, out); }
 
 }  // namespace msidfrf

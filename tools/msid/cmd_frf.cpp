@@ -91,6 +91,7 @@ int cmd_frf(int argc, char **argv)
     }
     if (!a.has("direct") && rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD)
         check_periodic_inputs(rq.period, rq.skip, rq.bins, recs);
+    rq.inputs_checked = !a.has("direct");
     if (auto_lines) {
         std::string rep;
         rq.bins = find_lines(recs, rq.period, rq.skip, rep);

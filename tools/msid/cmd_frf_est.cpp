@@ -1,6 +1,7 @@
 // msid frf --method lpm|etfe: FRFs from arbitrary records (tools/est) -> msid-frf/1.
 #include "commands.hpp"
 #include "frf_io.hpp"
+#include "periodicity.hpp"
 #include "pipeline.hpp"
 #include "frf_file.hpp"
 
@@ -35,8 +36,9 @@ static const char *HELP_EST =
     "  --band F1:F2     lines in [F1, F2]: Hz with --fs, else cycles/sample (default: all, DC excluded;\n"
     "                   long records give N/2 lines, each with its covariance: narrow the band)\n"
     "  --threads T      split the bins over T threads (default: up to 2); results do not depend on T\n"
-    "  --experiment     CSV with header u1..u<nu>, y1..y<ny>; lpm: any m >= 1 records of equal length;\n"
-    "                   etfe: m >= nu records\n";
+    "  --experiment     record (CSV with header u1..u<nu>, y1..y<ny>, .npy/.npz, .mat); lpm: any m >= 1\n"
+    "                   records of equal length; etfe: m >= nu records\n"
+    "  --columns        map named columns to u1.., y1.. (as for the periodic estimator)\n";
 
 namespace {
 
@@ -117,11 +119,30 @@ Json experiments_json(const std::vector<Record> &recs, size_t period)
     return ex;
 }
 
+// A singular local input matrix of the LPM: a periodic input (power on its
+// excited lines only, none between them) is the usual cause; say so and point
+// at the periodic estimator, else pass the LPM's message on.
+std::string lpm_singular_cause(const std::vector<Record> &recs, const std::string &what)
+{
+    std::string rep;
+    uint32_t P = 0;
+    try {
+        P = find_period(recs, rep);
+    } catch (const Error &) {
+        return what;
+    }
+    if (P == 0 || recs[0].n_rows / P < 2) return what;
+    return fmt("'%s': the input is periodic with period %u samples (%zu whole periods): its power sits on the "
+               "excited lines of that period and none lies between them, so the LPM cannot fit G there (%s). Use the "
+               "default periodic estimator (drop --method lpm): msid frf --period %u --lines auto --experiment ...",
+               recs[0].path.c_str(), P, recs[0].n_rows / P, what.c_str(), P);
+}
+
 }  // namespace
 
 int cmd_frf_est(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP_EST, {"method", "order", "window", "band", "fs", "period", "delta", "gstar", "threads", "output"},
+    Args a(argc, argv, 2, HELP_EST, {"method", "order", "window", "band", "fs", "period", "delta", "gstar", "threads", "output", "columns"},
            {}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string method = a.get("method");
@@ -141,7 +162,8 @@ int cmd_frf_est(int argc, char **argv)
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     std::vector<Record> recs;
-    for (const auto &p : a.all("experiment")) recs.push_back(read_record_csv(p));
+    const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
+    for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols));
     const unsigned nu = recs[0].nu, ny = recs[0].ny, m = (unsigned)recs.size();
     std::vector<msidest::RecordView> views;
     for (const auto &r : recs) {
@@ -230,6 +252,7 @@ int cmd_frf_est(int argc, char **argv)
             throw UsageError("--method must be periodic, lpm or etfe (got '" + method + "')");
         }
     } catch (const msidest::EstError &e) {
+        if (is_lpm && std::strstr(e.what(), "local input matrix is singular")) throw Error(lpm_singular_cause(recs, e.what()));
         throw Error(e.what());
     }
     for (auto &x : noise_mean) x /= (double)nlines * (double)N;
@@ -238,7 +261,7 @@ int cmd_frf_est(int argc, char **argv)
     for (const auto &e : doc["experiments"]) doc["periods_used"] = doc["periods_used"].get<uint64_t>() + e["periods_used"].get<uint64_t>();
     doc["periods_rejected"] = 0;
     doc["vec_convention"] = msidfrf::VEC_CONVENTION;
-    doc["lines"] = lines;
+    doc["lines"] = std::move(lines);
     write_json_file(out, doc);
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %u experiment(s), %zu samples each (%s)\n",
                 out.c_str(), nlines, ny, nu, m, N, method.c_str());

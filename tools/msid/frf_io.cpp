@@ -1,5 +1,6 @@
 #include "frf_io.hpp"
 #include "frf_file.hpp"
+#include "frf_text.hpp"
 #include "pipeline.hpp"
 
 #include <cmath>
@@ -26,11 +27,15 @@ static std::string nonfinite_at(const Json &j, const std::string &at)
 void write_json_file(const std::string &path, const Json &doc)
 {
     // A result is never written with a silent null for NaN/Inf (it would fail the schema): one message, no file.
-    const std::string bad = nonfinite_at(doc, "");
-    if (!bad.empty())
-        throw Error("'" + path + "' not written: the result is not finite at " + bad +
+    // The text is nlohmann's dump(1) layout with std::to_chars' shortest round-trip numbers (msidfrf::dump).
+    std::string s;
+    s.reserve(1 << 16);
+    try {
+        msidfrf::dump(doc, 1, s);
+    } catch (const msidfrf::NonFinite &) {
+        throw Error("'" + path + "' not written: the result is not finite at " + nonfinite_at(doc, "") +
                     " (inputs beyond double precision's range, e.g. data scaled near 1e150 or a sample rate near 0)");
-    std::string s = doc.dump(1);
+    }
     s += '\n';
     write_file_atomic(path, s);
 }

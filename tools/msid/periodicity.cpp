@@ -95,6 +95,46 @@ double nonperiodic_fraction(const Record &r, uint32_t P, size_t first, size_t co
     return nonperiodic_fraction_at(r, P, first * P, count);
 }
 
+double binomial_tail(size_t n, size_t k, double a)
+{
+    if (k == 0) return 1.0;
+    if (k > n) return 0.0;
+    // sum_{i >= k} C(n, i) a^i (1-a)^(n-i), terms in log space from i = k upwards
+    const double la = std::log(a), lb = std::log1p(-a);
+    double lt = std::lgamma((double)n + 1) - std::lgamma((double)k + 1) - std::lgamma((double)(n - k) + 1) +
+                (double)k * la + (double)(n - k) * lb;
+    double sum = 0;
+    for (size_t i = k; i <= n; ++i) {
+        sum += std::exp(lt);
+        if (i < n) lt += std::log((double)(n - i) / (double)(i + 1)) + la - lb;
+        if (lt < -745) break;
+    }
+    return std::min(1.0, sum);
+}
+
+// Tail of F(2, 2n): P(F > f) = (1 + f/n)^-n.
+static double f2_tail(double f, double n) { return std::isinf(f) ? 0.0 : std::exp(-n * std::log1p(f / n)); }
+
+// Adds one (bin, channel) pair: K |mean|^2 and the scatter sum |z - mean|^2 over K periods.
+static void evidence_add(PeriodicEvidence &ev, double &num, double &den, double kmean2, double scatter, size_t K)
+{
+    if (!(kmean2 > 0) && !(scatter > 0)) return;   // silent channel at this bin
+    ++ev.tested;
+    num += scatter;
+    den += scatter + kmean2;
+    const double n = (double)(K - 1);
+    const double F = scatter > 0 ? kmean2 / (scatter / n) : HUGE_VAL;
+    const double pv = f2_tail(F, n);
+    if (pv < PERIODIC_BIN_ALPHA) ++ev.shown;
+    ev.min_p = std::min(ev.min_p, pv);
+}
+
+static void evidence_finish(PeriodicEvidence &ev, double num, double den)
+{
+    ev.eta = den > 0 ? num / den : 0.0;
+    ev.p_value = binomial_tail(ev.tested, ev.shown, PERIODIC_BIN_ALPHA);
+}
+
 // The best period near P (|P' - P| <= 2) on the checking window (starting at
 // the same sample, skip * P), or 0 if none is better than eta.
 static uint32_t better_neighbour(const Record &r, uint32_t P, uint32_t skip, double eta, double &eta_best)
@@ -146,6 +186,90 @@ static std::string wrong_period_symptoms(const Record &r, uint32_t P, uint32_t s
     return out;
 }
 
+PeriodicEvidence periodic_evidence(const Record &r, uint32_t P, size_t first, size_t count,
+                                   const std::vector<uint32_t> &bins)
+{
+    PeriodicEvidence ev;
+    if (count < 2 || P < 4) return ev;
+    R2c f((int)P);
+    const size_t M = (P + 1) / 2 - 1;
+    double num = 0, den = 0;
+    for (uint32_t j = 0; j < r.nu; ++j) {
+        const auto s = period_spectra(r, P, first, count, j, f);
+        auto one = [&](size_t k) {   // bin k in 1..M
+            std::complex<double> mu = 0;
+            for (size_t p = 0; p < count; ++p) mu += s[p][k - 1];
+            mu /= (double)count;
+            double ss = 0;
+            for (size_t p = 0; p < count; ++p) ss += std::norm(s[p][k - 1] - mu);
+            evidence_add(ev, num, den, (double)count * std::norm(mu), ss, count);
+        };
+        if (bins.empty()) for (size_t k = 1; k <= M; ++k) one(k);
+        else for (uint32_t b : bins) if (b >= 1 && b <= M) one(b);
+    }
+    evidence_finish(ev, num, den);
+    return ev;
+}
+
+void check_periodic_lines(const msid_pstats *const *ps, uint32_t m, uint32_t nu, uint32_t P,
+                          const std::vector<uint32_t> &bins, const std::vector<std::string> &sources)
+{
+    for (uint32_t e = 0; e < m; ++e) {
+        const msid_pstats *s = ps[e];
+        const size_t K = s->K, q = s->n_channels;
+        if (K < 2) continue;   // finish() says so
+        PeriodicEvidence ev;
+        double num = 0, den = 0;
+        for (uint32_t l = 0; l < s->n_lines; ++l) {
+            const msid_cplx *mu = msid_pstats_mean(s, l), *m2 = msid_pstats_scatter(s, l);
+            for (uint32_t j = 0; j < nu; ++j)
+                evidence_add(ev, num, den, (double)K * (mu[j].re * mu[j].re + mu[j].im * mu[j].im),
+                             m2[(size_t)j * q + j].re, K);
+        }
+        evidence_finish(ev, num, den);
+        // (a non-finite eta: data beyond double range, which the FRF itself reports)
+        if (ev.tested == 0 || !(ev.eta > NONPERIODIC_FRACTION) || ev.periodic()) continue;
+        // With a history: does the strongest line rotate coherently from period to period?
+        std::string why;
+        const size_t H = s->nhist, n = (size_t)s->n_lines * q;
+        if (H >= 3) {
+            uint32_t lb = 0, jb = 0;
+            double best = -1;
+            for (uint32_t l = 0; l < s->n_lines; ++l)
+                for (uint32_t j = 0; j < nu; ++j) {
+                    double pw = 0;
+                    for (size_t p = 0; p < H; ++p) {
+                        const msid_cplx z = s->hist[p * n + (size_t)l * q + j];
+                        pw += z.re * z.re + z.im * z.im;
+                    }
+                    if (pw > best) { best = pw; lb = l; jb = j; }
+                }
+            std::complex<double> acc = 0;
+            double mag = 0;
+            for (size_t p = 0; p + 1 < H; ++p) {
+                const msid_cplx a = s->hist[p * n + (size_t)lb * q + jb], b = s->hist[(p + 1) * n + (size_t)lb * q + jb];
+                const std::complex<double> za(a.re, a.im), zb(b.re, b.im);
+                acc += zb * std::conj(za);
+                mag += std::abs(za) * std::abs(zb);
+            }
+            const double coh = mag > 0 ? std::abs(acc) / mag : 0.0;
+            if (coh > 0.9)
+                why = fmt("; the input phase at bin %u turns by %.1f degrees per period, coherently (%.2f): the period "
+                          "does not match the input (wrong period, or the generator's and the acquisition's sample "
+                          "clocks differ)",
+                          bins.at(lb), std::arg(acc) * 180.0 / M_PI, coh);
+        }
+        throw Error(fmt("'%s': the input is not periodic with period %u: at its %zu excited line/input pairs %.0f%% of "
+                        "the input power changes from period to period over %zu periods, and only %zu pairs show a "
+                        "period mean beyond its standard error (chance alone gives %.1f; p = %.2g)%s",
+                        sources.at(e).c_str(), P, ev.tested, 100 * ev.eta, K, ev.shown,
+                        PERIODIC_BIN_ALPHA * (double)ev.tested, ev.p_value,
+                        why.empty() ? ". For a sweep, chirp, noise or operating data use msid frf --method lpm on the "
+                                      "recorded samples"
+                                    : (why + ". Check the period of the excitation and the sample rates").c_str()));
+    }
+}
+
 void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &recs)
 {
     for (const Record &r : recs) {
@@ -155,6 +279,13 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
         double eta_n;
         uint32_t Q = eta > 1e-9 ? better_neighbour(r, P, skip, eta, eta_n) : 0;
         if (Q && !(eta_n < 0.5 * eta)) Q = 0;
+        // A noisy input (errors-in-variables, input SNR at or below 0 dB) changes mostly by its noise:
+        // periodic when its period mean is stable within its standard error at enough bins.
+        PeriodicEvidence ev;
+        if (!Q && eta > NONPERIODIC_FRACTION) {
+            ev = periodic_evidence(r, P, skip, K, bins);
+            if (ev.periodic()) continue;
+        }
         if (!Q && eta > NONPERIODIC_FRACTION) {   // far off? search the whole record
             std::vector<Record> one{r};
             std::string rep;
@@ -176,10 +307,13 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
                             wrong_period_symptoms(r, P, skip, bins).c_str(), Q));
         if (eta > NONPERIODIC_FRACTION)
             throw Error(fmt("'%s': the input is not periodic with period %u: %.0f%% of its power changes from period to "
-                            "period (its spectrum differs between periods; a periodic input with noise changes only by "
-                            "the noise), and it repeats with no other period either. For a sweep, chirp, noise or "
-                            "operating data use --method lpm (any excitation)",
-                            r.path.c_str(), P, 100 * eta));
+                            "period (its spectrum differs between periods), %zu of %zu %s show a period mean beyond "
+                            "its standard error (chance alone gives %.1f; a periodic input with noise shows many), and "
+                            "it repeats with no other period either. For a sweep, chirp, noise or operating data use "
+                            "--method lpm (any excitation)",
+                            r.path.c_str(), P, 100 * eta, ev.shown, ev.tested,
+                            bins.empty() ? "bin/input pairs" : "excited line/input pairs",
+                            PERIODIC_BIN_ALPHA * (double)ev.tested));
     }
 }
 
@@ -227,26 +361,56 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
         P = (uint32_t)std::min<size_t>(t, MSID_MAX_PERIOD);
     }
     double eta = 1.0;
-    if (P) {   // refine by the exact non-periodic fraction around the peak
-        uint32_t bestP = P;
+    // Refine by the exact non-periodic fraction around the peak. A peak at a fraction of the
+    // period (lines all multiples of 3 repeat almost every P/3 samples) is followed to its
+    // multiples 2 P0, 3 P0, ... until one repeats (eta at most 0.1) or N/2 is reached.
+    const uint32_t P0 = P;
+    for (uint32_t mult = 1; P0 && (size_t)P0 * mult * 2 <= r.n_rows + 4; ++mult) {
+        uint32_t bestP = 0;
+        double best = 1.0;
         for (int d = -2; d <= 2; ++d) {
-            const int64_t Q = (int64_t)P + d;
-            if (Q < (int64_t)MSID_MIN_PERIOD || (size_t)Q * 2 > r.n_rows) continue;
+            const int64_t Q = (int64_t)P0 * mult + d;
+            if (Q < (int64_t)MSID_MIN_PERIOD || Q > (int64_t)MSID_MAX_PERIOD || (size_t)Q * 2 > r.n_rows) continue;
             const size_t K = r.n_rows / (size_t)Q;
             const double e = nonperiodic_fraction(r, (uint32_t)Q, 0, K);
-            if (e < eta) { eta = e; bestP = (uint32_t)Q; }
+            if (e < best) { best = e; bestP = (uint32_t)Q; }
         }
-        P = bestP;
+        if (bestP && (mult == 1 || best < 0.5 * eta)) { eta = best; P = bestP; }   // clearly better only
+        if (eta <= 0.1 || mult >= 16) break;
     }
-    if (!P || eta > NONPERIODIC_FRACTION)
+    // A noisy input repeats at every multiple of its period with about the same autocorrelation,
+    // so the peak may sit at a multiple k P. The smallest divisor P/k whose noise-normalised
+    // non-periodic share eta K/(K-1) (K repetitions) is no larger than the peak's (within three
+    // relative standard errors, 3/sqrt(N)) is the period: a divisor that is no period adds the
+    // signal's mismatch.
+    if (P && eta > 0.1) {
+        auto norm = [&](uint32_t Q, double e) { const double K = (double)(r.n_rows / Q); return e * K / (K - 1); };
+        const double ref = norm(P, eta);
+        for (uint32_t k = 16; k >= 2; --k) {
+            if (P % k || P / k < MSID_MIN_PERIOD) continue;
+            const uint32_t Q = P / k;
+            const double e = nonperiodic_fraction(r, Q, 0, r.n_rows / Q);
+            if (norm(Q, e) <= ref * (1 + 3 / std::sqrt((double)r.n_rows)) + 1e-12) { P = Q; eta = e; break; }
+        }
+    }
+    // A non-periodic input gives E eta = (K-1)/K over K repetitions (1/2 for K = 2, where the best of
+    // many candidate lags falls below 1/2 by chance): the threshold, 0.5 (K-1)/K, scales with it.
+    const double level = P ? NONPERIODIC_FRACTION * (double)(r.n_rows / P - 1) / (double)(r.n_rows / P) : 0.0;
+    bool noisy = false;
+    if (P && eta > level) {   // a noisy periodic input: its period mean stands out of the noise
+        const size_t K = std::min<size_t>(r.n_rows / P, window_periods(r, P, 0));
+        noisy = periodic_evidence(r, P, 0, K, {}).periodic();
+    }
+    if (!P || (eta > level && !noisy))
         throw Error(fmt("'%s': the input does not repeat: no period with at least 2 repetitions leaves less than %.0f%% "
-                        "of the input power changing from period to period%s. Give --period, or for a sweep, chirp, "
-                        "noise or operating data use --method lpm",
-                        r.path.c_str(), 100 * NONPERIODIC_FRACTION,
+                        "of the input power changing from period to period (half of what a non-periodic input "
+                        "gives)%s. Give --period, or for a sweep, chirp, noise or operating data use --method lpm",
+                        r.path.c_str(), 100 * (P ? level : NONPERIODIC_FRACTION),
                         P ? fmt(" (best: %u samples, %.0f%% changing)", P, 100 * eta).c_str() : ""));
     report = fmt("period %u samples (found from the input's repetition: %.2g%% of the input power changes from "
-                 "period to period, %zu whole periods in '%s')",
-                 P, 100 * eta, r.n_rows / P, r.path.c_str());
+                 "period to period%s, %zu whole periods in '%s')",
+                 P, 100 * eta, noisy ? ", mostly noise: its period mean stands out of it" : "", r.n_rows / P,
+                 r.path.c_str());
     return P;
 }
 

@@ -8,6 +8,10 @@
 #include <string>
 #include <vector>
 
+extern "C" {
+#include "msid/msid_pstats.h"
+}
+
 namespace msidcli {
 
 // A record is called not periodic with period P when more than this fraction
@@ -15,6 +19,49 @@ namespace msidcli {
 constexpr double NONPERIODIC_FRACTION = 0.5;
 // Family-wise false-alarm probability of --lines auto (all bins of a record).
 constexpr double LINES_AUTO_ALPHA = 0.01;
+
+// A noisy periodic input is still periodic: its period mean is stable within
+// its standard error. Per (bin, input channel) F = K |mean U|^2 / s^2 over K
+// periods is F(2, 2(K-1)) when the bin holds no periodic component (Gaussian
+// noise of any colour, bins taken one by one); a bin "shows" a periodic
+// component at level PERIODIC_BIN_ALPHA, and the input is called periodic when
+// more bins show one than chance explains: P(Binomial(tested, PERIODIC_BIN_ALPHA)
+// >= shown) < PERIODIC_EVIDENCE, or one bin's tail is below PERIODIC_EVIDENCE /
+// tested (Bonferroni; a few strong lines among many bins) (docs/statistics.md,
+// "Input periodicity").
+constexpr double PERIODIC_BIN_ALPHA = 0.01;
+constexpr double PERIODIC_EVIDENCE = 1e-6;
+
+struct PeriodicEvidence {
+    size_t tested = 0;     // (bin, input channel) pairs with power
+    size_t shown = 0;      // of those, with a significant period mean
+    double p_value = 1.0;  // P(Binomial(tested, PERIODIC_BIN_ALPHA) >= shown)
+    double eta = 0.0;      // share of the power at those bins that changes from period to period
+    double min_p = 1.0;    // smallest per-bin tail: one strong line is evidence too (Bonferroni)
+    bool periodic() const
+    {
+        return tested > 0 && (p_value < PERIODIC_EVIDENCE || min_p * (double)tested < PERIODIC_EVIDENCE);
+    }
+};
+
+// P(X >= k) for X ~ Binomial(n, a).
+double binomial_tail(size_t n, size_t k, double a);
+
+// The evidence over periods first .. first+count-1 (count >= 2) of r at `bins`
+// (empty: every bin 1 .. ceil(P/2)-1).
+PeriodicEvidence periodic_evidence(const Record &r, uint32_t P, size_t first, size_t count,
+                                   const std::vector<uint32_t> &bins);
+
+// The same check where only the core's period statistics exist (the FRF job of
+// every host path: files, msid measure, msid modbus|can measure): `ps[e]` of
+// experiment e, nu inputs first among its channels, `bins` its lines. Throws one
+// Error naming the source when an experiment's input is not periodic with period P
+// at its lines (most of its power there changes from period to period and no
+// more lines show a stable period mean than chance explains); with a period
+// history a coherent phase rotation from period to period is named as a wrong
+// period or a sample-clock mismatch.
+void check_periodic_lines(const msid_pstats *const *ps, uint32_t m, uint32_t nu, uint32_t P,
+                          const std::vector<uint32_t> &bins, const std::vector<std::string> &sources);
 
 // Fraction of the inputs' (AC) power that is not periodic with period P, over
 // periods first .. first+count-1 (count >= 2) of r:
@@ -24,7 +71,8 @@ constexpr double LINES_AUTO_ALPHA = 0.01;
 double nonperiodic_fraction(const Record &r, uint32_t P, size_t first, size_t count);
 
 // Before the periodic FRF: throws one Error when an experiment's input is not
-// periodic with period P (pointing at --method lpm) or repeats with another
+// periodic with period P (most of its power changes from period to period and
+// periodic_evidence() finds no stable period mean: pointing at --method lpm) or repeats with another
 // period (naming it, with the leakage and the phase drift that period P
 // causes). `bins` (may be empty) are the excited lines, for the leakage figure.
 void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins,

@@ -1,5 +1,6 @@
 #include "pipeline.hpp"
 #include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
+#include "periodicity.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
@@ -149,6 +150,9 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         if (K > 0xFFFFFFu) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
         if (K > maxK) maxK = (uint32_t)K;
     }
+    // The input diagnostics on the samples (non-periodic input, wrong period; docs/statistics.md
+    // "Input periodicity"), for every caller of the periodic job on records.
+    if (!rq.inputs_checked) check_periodic_inputs(P, rq.skip, rq.bins, recs);
     FrfJob job(rq, nu, ny, m, maxK, maxK);
     msid_meas &ms = *job.meas();
     const size_t C = nu + ny;
@@ -292,6 +296,13 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                             r.source.c_str(), c.used, c.skipped, c.gap + c.nonfinite + c.transient_dropped));
     }
 
+    // Every source (files, msid measure, msid modbus|can measure): is the input periodic at the
+    // lines? Said before the FRF, whose singular-line message would hide the cause.
+    {
+        std::vector<std::string> names;
+        for (const auto &r : src) names.push_back(r.source);
+        check_periodic_lines(ps.data(), m, nu, P, rq.bins, names);
+    }
     msid_frf_cfg fc{};
     fc.period = P;
     fc.n_inputs = nu;
@@ -342,7 +353,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         s.input_snr = msid_frf_input_snr_db(&f, l);
         lines.push_back(msidfrf::line(line_position(rq, l), s));
     }
-    doc["lines"] = lines;
+    doc["lines"] = std::move(lines);
     if (Ld) {
         Json dl = Json::array();
         for (uint32_t d = 0; d < Ld; ++d)
@@ -350,7 +361,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                                                  std::vector<double>(msid_frf_detect_var(&f, d), msid_frf_detect_var(&f, d) + ny),
                                                  std::vector<double>(msid_frf_detect_pvalue(&f, d),
                                                                      msid_frf_detect_pvalue(&f, d) + ny)));
-        doc["detection_lines"] = dl;
+        doc["detection_lines"] = std::move(dl);
     }
     out.doc = std::move(doc);
     return out;

@@ -20,6 +20,10 @@ struct FrfRequest {
     msid_dft_path path = MSID_DFT_AUTO;
     size_t block = 0;                    // rows per push (0: whole record)
     const Design *design = nullptr;      // optional
+    // check_periodic_inputs() (periodicity.hpp) already ran on the records (msid frf runs it
+    // before --lines auto); else run_frf() runs it. FrfJob::finish() always runs
+    // check_periodic_lines() on the core's period statistics (every host path).
+    bool inputs_checked = false;
 };
 
 struct FrfOutcome {
