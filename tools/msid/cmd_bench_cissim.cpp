@@ -177,12 +177,14 @@ void compare(const char *title, int NS, uint32_t T, uint32_t K, double snr, cons
 int cmd_bench_cissim(int argc, char **argv)
 {
     static const char *HELP =
-        "usage: msid bench fit --cissim [--systems N] [--quick]\n"
+        "usage: msid bench fit --cissim | --only cissim [--systems N] [--quick]\n"
         "Discrete-cISSIM (You et al. 2023): case Y1 (Table 3: N random 4th-order SISO systems, default\n"
         "100, periodic chirp 0 -> 0.4 pi, T = 3000, N = 720000, 30 dB) for cissim full / reduced against\n"
         "subspace and ml on the core FRF of the same samples; the speed of the authors' reference size\n"
         "(24 periods of 3000 samples, 1200 lines); 50 sparse lines at 20 dB on lightly damped systems;\n"
-        "the covariance errors of case Y2 at N = 24k, 60k, 240k. --quick: 10 systems, fewer runs.\n";
+        "the covariance errors of case Y2 at N = 24k, 60k, 240k. --quick: 10 systems, fewer runs.\n"
+        "Rows: the published (unweighted) Alg. 4, the weighted one, and the ML refinement (--refine ml);\n"
+        "times per system as wall and thread CPU time (the machine may be shared).\n";
     Args a(argc, argv, 3, HELP, {"systems", "only"}, {"cissim", "quick"});   // --only cissim (cmd_bench.cpp)
     const bool quick = a.has("quick");
     const int NS = (int)a.u32("systems", quick ? 10 : 100);
