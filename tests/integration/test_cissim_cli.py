@@ -218,3 +218,17 @@ def test_cissim_refined_with_covariance(tmp_path):
         assert c.shape == (1, 1) and c[0, 0] > 0
     r = run_ok("compare", out, tmp_path / "true.json")
     assert float(r.stdout.split("relative H2 distance ")[1].split(",")[0]) < 0.01
+
+
+def test_cissim_refined_few_periods_no_covariance(tmp_path):
+    """3 periods after the skipped one: the per-line weights have 2 dof, too few for the sample-ML factor;
+    the refined model is written, its FRF covariance is null and a note says why (no infinite numbers)."""
+    e = simulate(tmp_path, K=4)
+    out = tmp_path / "m.json"
+    r = run_ok("fit", "--method", "cissim", "--period", T, "--lines", "1:80", "--reduced", "--experiment", e,
+               "--order", 2, "-o", out)
+    assert "too few for an uncertainty" in r.stderr
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    assert all(ln["cov"] is None for ln in doc["frf"])
+    assert doc["cissim"]["refinement"]["cov_factor"] is None

@@ -109,7 +109,8 @@ struct CissimMlResult {
     double dof = 0;                    // real residual dof: real equations - rank of the Fisher information
     MatR cov;                          // covariance of vec [A; B; C; D] entries (pseudo-inverse: n^2 gauge directions)
     int cov_rank = 0;
-    double cov_factor = 1;             // sample-ML factor n / (n - ny - 1) for weights with n = K - 1 dof
+    double cov_factor = 1;             // sample-ML factor n / (n - ny - 1) for weights with n = K - 1 dof;
+                                       // infinite when K - 1 <= ny + 1: cov, Gcov are then not an uncertainty
     std::vector<uint32_t> bins;        // lines of G, Gcov
     std::vector<MatC> G;               // model FRF at the lines
     std::vector<MatR> Gcov;            // 2 ny nu x 2 ny nu real covariance of [Re vec G; Im vec G] per line

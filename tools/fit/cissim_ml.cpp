@@ -249,7 +249,7 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
     for (const auto &e : isp) kmin = std::min(kmin, (double)e.periods - 1.0);
     const double p = (double)m.C.rows();
     res.cov_factor = kmin > p + 1.0 ? kmin / (kmin - p - 1.0) : std::numeric_limits<double>::infinity();
-    res.cov *= res.cov_factor;
+    if (std::isfinite(res.cov_factor)) res.cov *= res.cov_factor;   // else: too few periods, no uncertainty (caller)
     res.dof = (double)r.size() - res.cov_rank;
     res.bins = isp[0].bins;
     for (uint32_t b : res.bins) {

@@ -197,6 +197,10 @@ int cmd_fit_cissim(int argc, char **argv)
         cj["lines_per_experiment"] = res.lines;
         cj["real_columns"] = res.real_columns;
         cj["reflected_poles"] = res.reflected;
+        if (do_refine && !std::isfinite(ml.cov_factor))
+            std::fprintf(stderr, "msid fit: note: %llu period(s) after the skipped ones are too few for an uncertainty "
+                                 "(the per-line weights need more than %u + 2): frf[].cov is null\n",
+                         (unsigned long long)isp[0].periods, ny);
         if (do_refine)
             cj["refinement"] = Json{{"method", "weighted output error (ML) on the ISP phasors at --lines, Levenberg-Marquardt"},
                                     {"cost_start", ml.cost_start},
@@ -205,7 +209,7 @@ int cmd_fit_cissim(int argc, char **argv)
                                     {"dof", ml.dof},
                                     {"iterations", ml.iterations},
                                     {"converged", ml.converged},
-                                    {"cov_factor", ml.cov_factor},
+                                    {"cov_factor", std::isfinite(ml.cov_factor) ? Json(ml.cov_factor) : Json(nullptr)},
                                     {"cov_rank", ml.cov_rank},
                                     {"cov_note", "FRF covariance from the Fisher information of the weighted output error "
                                                  "(weights: per-line sample covariance over the periods), sample-ML factor applied"}};
@@ -260,7 +264,7 @@ int cmd_fit_cissim(int argc, char **argv)
             e["omega"] = 2.0 * M_PI * lines[l] / P;
             e["G"] = cmat_json(G);
             e["cov"] = nullptr;
-            if (do_refine) {
+            if (do_refine && std::isfinite(ml.cov_factor)) {
                 // E[dg dg^H] = C_aa + C_bb + j (C_ba - C_ab) from the real [Re vec G; Im vec G] covariance
                 const MatR &Cr = ml.Gcov[l];
                 const Eigen::Index g = Cr.rows() / 2;
