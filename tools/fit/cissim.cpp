@@ -16,7 +16,12 @@ bool cissim_isp_auto_direct(size_t q, uint32_t period)
     return (double)q < 4.0 * std::log2((double)std::max<uint32_t>(period, 2));
 }
 
-// Sum of the K whole periods after `skip`: T x C (C = nu + ny), row-major like the record.
+// Sum of the K whole periods after `skip`: T x C (C = nu + ny), row-major like the record, and the
+// output noise covariance per sample from the spread over the periods (K >= 2):
+//   Sigma_v = (sum_k y_k y_k^T - (1/K) sum_n s_n s_n^T) / ((K - 1) T).
+// One streaming pass: per period s += r and, for the diagonal, q += r .* r on T C contiguous doubles
+// (vectorised, the accumulators stay in L2); cross products of different outputs (ny >= 2) in a second
+// pass with scalar accumulators. This pass is the O(N) part of Alg. 1 / 3 and dominates the time.
 static std::vector<double> period_sum(const double *rows, size_t n_rows, uint32_t C, uint32_t T, uint32_t skip,
                                       uint64_t &K, uint32_t nu, MatR &noise)
 {
@@ -25,30 +30,91 @@ static std::vector<double> period_sum(const double *rows, size_t n_rows, uint32_
         throw FitError("the record holds " + std::to_string(total) + " whole period(s) of " + std::to_string(T) +
                        " samples; skipping " + std::to_string(skip) + " leaves none");
     K = total - skip;
-    std::vector<double> s((size_t)T * C, 0.0);
-    const uint32_t ny = C - nu;
-    MatR syy = MatR::Zero(ny, ny);
+    const size_t TC = (size_t)T * C;
+    std::vector<double> s(TC, 0.0), q(TC, 0.0);
+    double *__restrict sp = s.data();
+    double *__restrict qp = q.data();
     for (uint64_t p = skip; p < total; ++p) {
-        const double *r = rows + (size_t)p * T * C;
-        for (size_t i = 0; i < (size_t)T * C; ++i) s[i] += r[i];
-        for (size_t k = 0; k < T; ++k)
-            for (uint32_t a = 0; a < ny; ++a)
-                for (uint32_t b = 0; b <= a; ++b) syy(a, b) += r[k * C + nu + a] * r[k * C + nu + b];
+        const double *__restrict r = rows + (size_t)p * TC;
+        for (size_t i = 0; i < TC; ++i) {
+            const double v = r[i];
+            sp[i] += v;
+            qp[i] += v * v;
+        }
     }
     noise.resize(0, 0);
-    if (K >= 2) {
-        // sum_k y y^T - (1/K) sum_n s_n s_n^T over N - T degrees of freedom
-        for (size_t k = 0; k < T; ++k)
-            for (uint32_t a = 0; a < ny; ++a)
-                for (uint32_t b = 0; b <= a; ++b) syy(a, b) -= s[k * C + nu + a] * s[k * C + nu + b] / (double)K;
-        noise = syy.selfadjointView<Eigen::Lower>();
-        noise /= (double)((K - 1) * T);
+    if (K < 2) return s;
+    const uint32_t ny = C - nu;
+    MatR syy = MatR::Zero(ny, ny);
+    for (uint32_t a = 0; a < ny; ++a) {
+        double d = 0;
+        for (size_t k = 0; k < T; ++k) d += qp[k * C + nu + a] - sp[k * C + nu + a] * sp[k * C + nu + a] / (double)K;
+        syy(a, a) = d;
+        for (uint32_t b = 0; b < a; ++b) {
+            double c = 0;
+            const double *r = rows + (size_t)skip * TC;
+            for (size_t k = 0; k < (size_t)K * T; ++k) c += r[k * C + nu + a] * r[k * C + nu + b];
+            for (size_t k = 0; k < T; ++k) c -= sp[k * C + nu + a] * sp[k * C + nu + b] / (double)K;
+            syy(a, b) = syy(b, a) = c;
+        }
     }
+    noise = syy / (double)((K - 1) * T);
     return s;
 }
 
+// Per-line sample covariance of the mean phasor over the periods (IspResult::line_cov): the phasors of
+// each period at the bins (direct products or one FFT per channel and period, as the ISP), then
+// S_l = sum_p (P_p - P)(P_p - P)^H / (K - 1) and S_l / K.
+static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint32_t skip, bool direct)
+{
+    const uint32_t T = r.period;
+    const uint64_t K = r.periods;
+    const size_t q = r.bins.size();
+    if (K < 2) return;
+    MatC mean(C, q);
+    mean.topRows(r.U.rows()) = r.U;
+    mean.bottomRows(r.Y.rows()) = r.Y;
+    r.line_cov.assign(q, MatC::Zero(C, C));
+    const double scale = 2.0 / T;
+    MatC P(C, q);
+    Eigen::FFT<double> fft;
+    std::vector<double> x(T), c, sn;
+    std::vector<cd> X;
+    if (direct) {
+        c.resize(T), sn.resize(T);
+        for (uint32_t n = 0; n < T; ++n) c[n] = std::cos(2.0 * M_PI * n / T), sn[n] = std::sin(2.0 * M_PI * n / T);
+    }
+    for (uint64_t p = skip; p < skip + K; ++p) {
+        const double *pr = rows + (size_t)p * T * C;
+        for (uint32_t j = 0; j < C; ++j) {
+            if (direct) {
+                for (size_t l = 0; l < q; ++l) {
+                    double re = 0, im = 0;
+                    uint64_t idx = 0;
+                    for (uint32_t n = 0; n < T; ++n) {
+                        re += pr[(size_t)n * C + j] * c[idx];
+                        im -= pr[(size_t)n * C + j] * sn[idx];
+                        idx += r.bins[l];
+                        if (idx >= T) idx -= T;
+                    }
+                    P(j, (Eigen::Index)l) = cd(re, im) * scale;
+                }
+            } else {
+                for (uint32_t n = 0; n < T; ++n) x[n] = pr[(size_t)n * C + j];
+                fft.fwd(X, x);
+                for (size_t l = 0; l < q; ++l) P(j, (Eigen::Index)l) = X[r.bins[l]] * scale;
+            }
+        }
+        for (size_t l = 0; l < q; ++l) {
+            const VecC d = P.col((Eigen::Index)l) - mean.col((Eigen::Index)l);
+            r.line_cov[l].noalias() += d * d.adjoint();
+        }
+    }
+    for (auto &S : r.line_cov) S /= (double)(K - 1) * (double)K;
+}
+
 IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
-                     const std::vector<uint32_t> &bins, uint32_t skip, IspMethod method)
+                     const std::vector<uint32_t> &bins, uint32_t skip, IspMethod method, bool line_cov)
 {
     if (T < 2) throw FitError("the period must be at least 2 samples");
     for (uint32_t b : bins)
@@ -100,6 +166,7 @@ IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny
     }
     r.U = P.topRows(nu);
     r.Y = P.bottomRows(ny);
+    if (line_cov) line_covariances(r, rows, C, skip, direct);
     return r;
 }
 
@@ -264,13 +331,15 @@ CissimResult cissim_fit(const std::vector<IspResult> &isp, const CissimOptions &
         Sv = kw > 0 ? MatR(Sv / kw) : MatR(MatR::Identity(ny, ny));
         Sv.diagonal().array() += 1e-12 * std::max(Sv.diagonal().maxCoeff(), 1e-300);
         MatR Cn = MatR::Zero(nY, nY);
+        std::vector<double> cosd((size_t)nbar);
         for (const auto &r : isp)
             for (uint32_t b : r.bins) {
                 // E|P_r|^2 = 4 Sigma_v / (K T) per phasor: whitened noise singular values ~ 1
                 const double th = 2.0 * M_PI * (double)b / T, c = (b == 0 ? 0.5 : 1.0) * 4.0 / ((double)r.periods * T);
+                for (int d = 0; d < nbar; ++d) cosd[(size_t)d] = c * std::cos(d * th);   // Toeplitz in j - k
                 for (int j = 0; j < nbar; ++j)
                     for (int k = 0; k < nbar; ++k)
-                        Cn.block((Eigen::Index)j * ny, (Eigen::Index)k * ny, ny, ny) += c * std::cos((j - k) * th) * Sv;
+                        Cn.block((Eigen::Index)j * ny, (Eigen::Index)k * ny, ny, ny) += cosd[(size_t)std::abs(j - k)] * Sv;
             }
         Eigen::LLT<MatR> llt(Cn);
         if (llt.info() == Eigen::Success) {

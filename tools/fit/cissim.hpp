@@ -38,13 +38,18 @@ struct IspResult {
     bool used_fft = false;
     MatR noise;                   // ny x ny output noise covariance per sample (period-to-period
                                   // variation, K >= 2; empty otherwise): the weighting of Alg. 4
+    // With line_cov (cissim_isp(.., line_cov = true), K >= 2): per line the (nu + ny) x (nu + ny)
+    // sample covariance of the mean phasor [U; Y] over the K periods, S_l / K with
+    // S_l = sum_p (P_p - P)(P_p - P)^H / (K - 1) (the FRF step's estimate, K - 1 complex dof).
+    std::vector<MatC> line_cov;
 };
 
 // rows: n_rows x (nu + ny), row-major [u_1..u_nu, y_1..y_ny] (the msid record layout).
 // Uses periods skip .. floor(n_rows / T) - 1. Throws FitError when fewer than
 // one whole period remains or a bin is out of [0, T/2).
 IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
-                     const std::vector<uint32_t> &bins, uint32_t skip_periods, IspMethod method = IspMethod::Auto);
+                     const std::vector<uint32_t> &bins, uint32_t skip_periods, IspMethod method = IspMethod::Auto,
+                     bool line_cov = false);
 // The Auto rule: direct multiplication when q (nu + ny) T < 4 T log2 T (nu + ny), i.e. q < 4 log2 T.
 bool cissim_isp_auto_direct(size_t q, uint32_t period);
 // The paper's real ISP matrix R^i (s x (nu + ny), columns in record order [u, y], rows [dc/sqrt2 |
@@ -83,6 +88,38 @@ CissimResult cissim_fit(const std::vector<IspResult> &isp, const CissimOptions &
 
 // Alg. 5 alone: B and D from A, C and the phasors (real least squares).
 void cissim_BD(SSModel &m, const std::vector<IspResult> &isp, bool estimate_D);
+
+// ---- ML refinement and uncertainty (cissim_ml.cpp; not in the paper) ----
+// Weighted output error on the ISP phasors, started from the cissim model:
+//   V(theta) = sum_e sum_l e_l^H W_l^-1 e_l,  e_l = Y_l - G(z_l, theta) U_l,  G = C (zI - A)^-1 B + D,
+//   W_l = [-G_l  I] S_l [-G_l  I]^H  (S_l: line_cov of the ISP, input noise included, at the start G),
+// minimised by Levenberg-Marquardt over all entries of (A, B, C, D) (the similarity freedom is left to
+// the damping: the FRF and its covariance do not depend on it). At the minimum V is the negative log
+// likelihood of the phasors (Gaussian, weights from the periods), so the estimate is the (sample) ML one.
+struct CissimMlOptions {
+    int max_iter = 100;
+    double tol = 1e-10;     // relative cost decrease that stops the iterations
+    int reweight = 1;       // times W_l is recomputed at the refined G and the iterations rerun
+};
+struct CissimMlResult {
+    SSModel model;
+    int iterations = 0;
+    bool converged = false;
+    double cost_start = 0, cost = 0;   // V at the cissim start and at the end (real DC terms weighted 1/2)
+    double dof = 0;                    // real residual dof: real equations - rank of the Fisher information
+    MatR cov;                          // covariance of vec [A; B; C; D] entries (pseudo-inverse: n^2 gauge directions)
+    int cov_rank = 0;
+    double cov_factor = 1;             // sample-ML factor n / (n - ny - 1) for weights with n = K - 1 dof;
+                                       // infinite when K - 1 <= ny + 1: cov, Gcov are then not an uncertainty
+    std::vector<uint32_t> bins;        // lines of G, Gcov
+    std::vector<MatC> G;               // model FRF at the lines
+    std::vector<MatR> Gcov;            // 2 ny nu x 2 ny nu real covariance of [Re vec G; Im vec G] per line
+};
+// Throws FitError when an experiment has no line_cov (K < 2 or cissim_isp(.., line_cov = false)).
+CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> &isp, const CissimMlOptions &o = {});
+// The FRF covariance (2 ny nu x 2 ny nu, [Re vec G; Im vec G]) at z of a model whose entries
+// vec [A; B; C; D] (column-major per matrix, in that order) have covariance `cov`.
+MatR cissim_frf_cov(const SSModel &m, const MatR &cov, cd z);
 
 // ---- noise covariance (section 4.3, cissim_cov.cpp) ----
 

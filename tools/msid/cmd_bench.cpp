@@ -473,6 +473,8 @@ static int bench_fit(int argc, char **argv)
         if (!std::strcmp(argv[i], "--only") && !std::strcmp(argv[i + 1], "multi")) return cmd_bench_fit_multi(argc, argv);
     for (int i = 3; i < argc; ++i)
         if (!std::strcmp(argv[i], "--cissim")) return cmd_bench_cissim(argc, argv);
+    for (int i = 3; i + 1 < argc; ++i)   // --only cissim: cmd_bench_cissim.cpp
+        if (!std::strcmp(argv[i], "--only") && !std::strcmp(argv[i + 1], "cissim")) return cmd_bench_cissim(argc, argv);
     static const char *HELP_FIT =
         "usage: msid bench fit [--systems N] [--min-seconds S] [--no-peer] [--only 1|2|3|4]\n"
         "Times subspace, lmfd and ml on SISO n=4 with 1000 lines and 2x2 n=8 with 500 lines\n"
@@ -481,7 +483,9 @@ static int bench_fit(int argc, char **argv)
         "error against the true system) over N random systems (default 50); 3: the simulated\n"
         "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
         "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n"
-        "Without --only it also runs `msid bench fit --only multi --runs 50` (case M1, multiple experiments).\n";
+        "Without --only it also runs `msid bench fit --only multi --runs 50` (case M1, multiple experiments)\n"
+        "and, last, the cissim benchmark with --quick and the same --systems. --only cissim (or --cissim):\n"
+        "discrete-cISSIM, `msid bench fit --cissim --help`.\n";
     Args a(argc, argv, 3, HELP_FIT, {"systems", "min-seconds", "only"}, {"no-peer"});
     const uint32_t only = a.u32("only", 0);
     if (only > 4) throw UsageError("--only takes 1 (SISO), 2 (2x2), 3 (structures) or 4 (whole process)");
@@ -604,6 +608,13 @@ static int bench_fit(int argc, char **argv)
     }
     std::string rm = "rm -rf '" + dir + "'";
     if (std::system(rm.c_str()) != 0) std::fprintf(stderr, "msid bench: note: could not remove %s\n", dir.c_str());
+    if (!only) {   // discrete-cISSIM on its own simulated records (cmd_bench_cissim.cpp)
+        std::string ns = std::to_string(NS);
+        char a0[] = "msid", a1[] = "bench", a2[] = "fit", a3[] = "--quick", a4[] = "--systems";
+        char *cargv[] = {a0, a1, a2, a3, a4, &ns[0], nullptr};
+        std::printf("\n");
+        cmd_bench_cissim(6, cargv);
+    }
     return 0;
 }
 

@@ -44,7 +44,9 @@ static const char *FIT_HELP =
     "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md)\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
-    "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n";
+    "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
+    "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
+    "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
 
 // --domain dt|ct (default: the file's domain); a CT model needs the file's sample time.
 static Domain parse_domain(const Args &a, const FrfData &f)

@@ -23,6 +23,7 @@ static const char *CISSIM_HELP =
     "usage: msid fit --method cissim --period P --lines L1,L2,... --experiment e.csv [--experiment e2.csv ...]\n"
     "                [--order n] [--reduced] [--block-rows NBAR] [--max-order N] [--skip-periods K]\n"
     "                [--isp auto|direct|fft] [--no-d] [--lags M] [--no-covariance] [--columns u1=..,y1=..]\n"
+    "                [--refine ml|none]\n"
     "                -o model.json\n"
     "\n"
     "Discrete-cISSIM (You, Huang, Zhang 2023) on periodic time records (the records of `msid frf`, whole\n"
@@ -39,7 +40,11 @@ static const char *CISSIM_HELP =
     "  --unweighted     the published Alg. 4 (no whitening of R22 by the noise of the block rows; biased\n"
     "                   for a reduced set of lines in a band at finite N)\n"
     "  --allow-unstable keep poles of A outside the unit circle (default: reflected, Assumption 1)\n"
-    "  --no-covariance  skip Sigma_ww, Sigma_vv, Sigma_tt (section 4.3, Alg. 6-7)\n";
+    "  --no-covariance  skip Sigma_ww, Sigma_vv, Sigma_tt (section 4.3, Alg. 6-7)\n"
+    "  --refine ml      (default) refine the cissim model by weighted output error (maximum likelihood) on the\n"
+    "                   same phasors, weights from the per-line sample covariance over the periods, and report\n"
+    "                   the covariance of the model FRF at --lines (frf[].cov); needs >= 2 periods after the\n"
+    "                   skipped ones and noise. --refine none: the paper's estimate alone (no FRF covariance)\n";
 
 bool cissim_requested(int argc, char **argv)
 {
@@ -54,7 +59,7 @@ int cmd_fit_cissim(int argc, char **argv)
 {
     Args a(argc, argv, 2, CISSIM_HELP,
            {"method", "period", "lines", "order", "block-rows", "max-order", "skip-periods", "isp", "lags", "columns",
-            "output"},
+            "output", "refine"},
            {"reduced", "no-d", "no-covariance", "unweighted", "allow-unstable"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
@@ -85,6 +90,9 @@ int cmd_fit_cissim(int argc, char **argv)
     else if (im == "fft") method = IspMethod::Fft;
     else if (im != "auto") throw UsageError("--isp must be auto, direct or fft (got '" + im + "')");
     const bool reduced = a.has("reduced");
+    const std::string refine = a.get("refine", "ml");
+    if (refine != "ml" && refine != "none") throw UsageError("--refine must be ml or none (got '" + refine + "')");
+    const bool do_refine = refine == "ml";
     std::vector<uint32_t> bins = lines;
     if (!reduced) {
         bins.clear();
@@ -115,9 +123,30 @@ int cmd_fit_cissim(int argc, char **argv)
     }
     try {
         std::vector<IspResult> isp;
-        for (const auto &r : recs) isp.push_back(cissim_isp(r.data(), r.n_rows, nu, ny, P, bins, skip, method));
+        for (const auto &r : recs) isp.push_back(cissim_isp(r.data(), r.n_rows, nu, ny, P, bins, skip, method, do_refine));
         const CissimResult res = cissim_fit(isp, o);
-        const SSModel &ss = res.model;
+        CissimMlResult ml;
+        if (do_refine) {
+            // the weighted output error uses the excited lines only (--lines), also for the full set
+            std::vector<IspResult> at_lines = isp;
+            std::vector<Eigen::Index> pick;
+            for (uint32_t b : lines) pick.push_back((Eigen::Index)(std::find(bins.begin(), bins.end(), b) - bins.begin()));
+            for (auto &r : at_lines) {
+                IspResult s2 = r;
+                s2.bins = lines;
+                s2.U.resize(nu, (Eigen::Index)pick.size());
+                s2.Y.resize(ny, (Eigen::Index)pick.size());
+                s2.line_cov.clear();
+                for (size_t l = 0; l < pick.size(); ++l) {
+                    s2.U.col((Eigen::Index)l) = r.U.col(pick[l]);
+                    s2.Y.col((Eigen::Index)l) = r.Y.col(pick[l]);
+                    if (!r.line_cov.empty()) s2.line_cov.push_back(r.line_cov[(size_t)pick[l]]);
+                }
+                r = s2;
+            }
+            ml = cissim_refine(res.model, at_lines);
+        }
+        const SSModel &ss = do_refine ? ml.model : res.model;
         const int n = res.order;
         Json doc;
         doc["format"] = "msid-model/1";
@@ -144,6 +173,7 @@ int cmd_fit_cissim(int argc, char **argv)
         for (const auto &r : isp) st["periods_used"].push_back(r.periods);
         st["estimate_D"] = o.estimate_D;
         st["weighted"] = o.weighted;
+        st["refine"] = refine;
         doc["settings"] = st;
         doc["A"] = rmat_json(ss.A);
         doc["B"] = rmat_json(ss.B);
@@ -167,6 +197,22 @@ int cmd_fit_cissim(int argc, char **argv)
         cj["lines_per_experiment"] = res.lines;
         cj["real_columns"] = res.real_columns;
         cj["reflected_poles"] = res.reflected;
+        if (do_refine && !std::isfinite(ml.cov_factor))
+            std::fprintf(stderr, "msid fit: note: %llu period(s) after the skipped ones are too few for an uncertainty "
+                                 "(the per-line weights need more than %u + 2): frf[].cov is null\n",
+                         (unsigned long long)isp[0].periods, ny);
+        if (do_refine)
+            cj["refinement"] = Json{{"method", "weighted output error (ML) on the ISP phasors at --lines, Levenberg-Marquardt"},
+                                    {"cost_start", ml.cost_start},
+                                    {"cost", ml.cost},
+                                    {"expected", 0.5 * ml.dof},
+                                    {"dof", ml.dof},
+                                    {"iterations", ml.iterations},
+                                    {"converged", ml.converged},
+                                    {"cov_factor", std::isfinite(ml.cov_factor) ? Json(ml.cov_factor) : Json(nullptr)},
+                                    {"cov_rank", ml.cov_rank},
+                                    {"cov_note", "FRF covariance from the Fisher information of the weighted output error "
+                                                 "(weights: per-line sample covariance over the periods), sample-ML factor applied"}};
         // noise covariance (section 4.3) on the full set, from the first experiment's residuals
         NoiseCov nc;
         bool have_nc = false;
@@ -218,6 +264,15 @@ int cmd_fit_cissim(int argc, char **argv)
             e["omega"] = 2.0 * M_PI * lines[l] / P;
             e["G"] = cmat_json(G);
             e["cov"] = nullptr;
+            if (do_refine && std::isfinite(ml.cov_factor)) {
+                // E[dg dg^H] = C_aa + C_bb + j (C_ba - C_ab) from the real [Re vec G; Im vec G] covariance
+                const MatR &Cr = ml.Gcov[l];
+                const Eigen::Index g = Cr.rows() / 2;
+                MatC Cc(g, g);
+                Cc.real() = Cr.topLeftCorner(g, g) + Cr.bottomRightCorner(g, g);
+                Cc.imag() = Cr.bottomLeftCorner(g, g) - Cr.topRightCorner(g, g);
+                e["cov"] = cmat_json(Cc);
+            }
             fr.push_back(e);
         }
         Json cost;
@@ -258,9 +313,11 @@ int cmd_fit_cissim(int argc, char **argv)
         doc["frf"] = fr;
         add_modes(doc, true);
         write_json_file(out, doc);
-        std::printf("wrote %s: cissim fit (%s set, %zu line(s), ISP by %s), order %d%s, block rows %d%s\n", out.c_str(),
+        std::printf("wrote %s: cissim fit (%s set, %zu line(s), ISP by %s), order %d%s, block rows %d%s%s\n", out.c_str(),
                     reduced ? "reduced" : "full", bins.size(), isp[0].used_fft ? "FFT" : "direct products", n,
-                    res.order_estimated ? " (estimated)" : "", res.block_rows, ss_stable(ss) ? "" : ", UNSTABLE");
+                    res.order_estimated ? " (estimated)" : "", res.block_rows,
+                    do_refine ? fmt(", ML refined (cost %.4g -> %.4g, expected %.4g)", ml.cost_start, ml.cost, 0.5 * ml.dof).c_str() : "",
+                    ss_stable(ss) ? "" : ", UNSTABLE");
         return 0;
     } catch (const FitError &e) {
         throw Error(e.what());

@@ -17,6 +17,7 @@ static const char *USAGE =
     "           --method lpm|etfe for records that are not steady-state multisines\n"
     "  demo     design, simulate a built-in 2x2 plant, estimate, and compare with the truth\n"
     "  fit      parametric models from an FRF file: --method subspace | lmfd | ml (msid-model/1)\n"
+    "           --method cissim: discrete-cISSIM straight from periodic time records (`msid fit --method cissim --help`)\n"
     "  modes    natural frequencies, damping ratios, residues of a model with standard deviations\n"
     "  validate a model against an FRF file: weighted residual cost, p-value, verdict\n"
     "  compare  relative H2 and Hinf distance between two models\n"

@@ -1,0 +1,263 @@
+// ML refinement of a discrete-cISSIM model and its uncertainty (cissim.hpp, docs/fitting.md "cissim").
+// Not in You et al. 2023: their Alg. 4 + 5 is a subspace estimate, consistent but not efficient; on few
+// lines near lightly damped poles it loses most of the information in the data. Here the cissim model
+// starts a weighted output-error (maximum likelihood) fit on the same ISP phasors:
+//   e_l = Y_l - G(z_l) U_l,  W_l = [-G_l I] S_l [-G_l I]^H,  V = sum e_l^H W_l^-1 e_l,
+// with S_l the sample covariance of the per-period phasors (the FRF step's estimate; exact finite-sample
+// distribution: K - 1 complex dof). Jacobian of G = C X B + D, X = (z I - A)^-1:
+//   dG/dA_ij = (C X)_:i (X B)_j: ,  dG/dB_ij = (C X)_:i e_j^T,  dG/dC_ij = e_i (X B)_j: ,  dG/dD_ij = e_i e_j^T.
+#include "cissim.hpp"
+#include "lmfd_fit.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+namespace msidfit {
+
+namespace {
+
+struct Dims {
+    Eigen::Index n, nu, ny, pA, pB, pC, pD, p;
+    explicit Dims(const SSModel &m)
+        : n(m.A.rows()), nu(m.B.cols()), ny(m.C.rows()), pA(n * n), pB(n * nu), pC(ny * n), pD(ny * nu),
+          p(pA + pB + pC + pD)
+    {
+    }
+};
+
+VecR pack(const SSModel &m)
+{
+    const Dims d(m);
+    VecR th(d.p);
+    th << Eigen::Map<const VecR>(m.A.data(), d.pA), Eigen::Map<const VecR>(m.B.data(), d.pB),
+        Eigen::Map<const VecR>(m.C.data(), d.pC), Eigen::Map<const VecR>(m.D.data(), d.pD);
+    return th;
+}
+
+SSModel unpack(const SSModel &like, const VecR &th)
+{
+    const Dims d(like);
+    SSModel m = like;
+    m.A = Eigen::Map<const MatR>(th.data(), d.n, d.n);
+    m.B = Eigen::Map<const MatR>(th.data() + d.pA, d.n, d.nu);
+    m.C = Eigen::Map<const MatR>(th.data() + d.pA + d.pB, d.ny, d.n);
+    m.D = Eigen::Map<const MatR>(th.data() + d.pA + d.pB + d.pC, d.ny, d.nu);
+    return m;
+}
+
+// Complex Jacobian of G(z) U (ny x p) or, with U empty, of vec G (ny nu x p), at one z.
+MatC jac_GU(const SSModel &m, cd z, const VecC *U, MatC &GU)
+{
+    const Dims d(m);
+    const MatC X = (z * MatC::Identity(d.n, d.n) - m.A.cast<cd>()).inverse();
+    const MatC CX = m.C.cast<cd>() * X, XB = X * m.B.cast<cd>();
+    const MatC G = CX * m.B.cast<cd>() + m.D.cast<cd>();
+    if (U) {
+        const VecC XBU = XB * *U;
+        GU = G * *U;
+        MatC J = MatC::Zero(d.ny, d.p);
+        for (Eigen::Index j = 0; j < d.n; ++j)
+            for (Eigen::Index i = 0; i < d.n; ++i) J.col(i + d.n * j) = CX.col(i) * XBU(j);
+        for (Eigen::Index j = 0; j < d.nu; ++j)
+            for (Eigen::Index i = 0; i < d.n; ++i) J.col(d.pA + i + d.n * j) = CX.col(i) * (*U)(j);
+        for (Eigen::Index j = 0; j < d.n; ++j)
+            for (Eigen::Index i = 0; i < d.ny; ++i) J(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
+        for (Eigen::Index j = 0; j < d.nu; ++j)
+            for (Eigen::Index i = 0; i < d.ny; ++i) J(i, d.pA + d.pB + d.pC + i + d.ny * j) = (*U)(j);
+        return J;
+    }
+    GU = G;
+    const Eigen::Index g = d.ny * d.nu;
+    MatC J = MatC::Zero(g, d.p);
+    for (Eigen::Index b = 0; b < d.nu; ++b)
+        for (Eigen::Index a = 0; a < d.ny; ++a) {
+            const Eigen::Index row = a + d.ny * b;
+            for (Eigen::Index j = 0; j < d.n; ++j)
+                for (Eigen::Index i = 0; i < d.n; ++i) J(row, i + d.n * j) = CX(a, i) * XB(j, b);
+            for (Eigen::Index i = 0; i < d.n; ++i) J(row, d.pA + i + d.n * b) = CX(a, i);
+            for (Eigen::Index j = 0; j < d.n; ++j) J(row, d.pA + d.pB + a + d.ny * j) = XB(j, b);
+            J(row, d.pA + d.pB + d.pC + row) = 1.0;
+        }
+    return J;
+}
+
+struct Term {
+    cd z;
+    bool dc;
+    VecC U, Y;
+    MatC Li;   // inverse Cholesky factor of W_l (ny x ny)
+};
+
+// W_l = [-G I] S [-G I]^H at the model's G; its inverse Cholesky factor.
+std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp)
+{
+    std::vector<Term> t;
+    const Eigen::Index ny = m.C.rows(), nu = m.B.cols();
+    for (const auto &r : isp) {
+        if (r.line_cov.size() != r.bins.size())
+            throw FitError("the ML refinement of cissim needs the per-line noise covariance of the phasors: at least 2 "
+                           "whole periods per experiment after the skipped ones");
+        for (size_t l = 0; l < r.bins.size(); ++l) {
+            Term tm;
+            tm.z = std::polar(1.0, 2.0 * M_PI * (double)r.bins[l] / r.period);
+            tm.dc = r.bins[l] == 0;
+            tm.U = r.U.col((Eigen::Index)l);
+            tm.Y = r.Y.col((Eigen::Index)l);
+            MatC M(ny, nu + ny);
+            M << -ss_eval(m, tm.z), MatC::Identity(ny, ny);
+            MatC W = M * r.line_cov[l] * M.adjoint();
+            W = 0.5 * (W + W.adjoint()).eval();
+            const double tr = W.diagonal().real().sum();
+            if (!(tr > 0) || !std::isfinite(tr))
+                throw FitError("the ML refinement of cissim: the output noise of line " + std::to_string(r.bins[l]) +
+                               " is zero or not finite (a noise-free record needs no refinement: use --refine none)");
+            Eigen::LLT<MatC> llt(W);
+            if (llt.info() != Eigen::Success)
+                throw FitError("the ML refinement of cissim: the noise covariance of line " + std::to_string(r.bins[l]) +
+                               " is singular (more outputs than periods - 1?)");
+            tm.Li = llt.matrixL().solve(MatC::Identity(ny, ny));
+            t.push_back(tm);
+        }
+    }
+    return t;
+}
+
+// Real residual r (components of variance 1/2 under the model) and optionally its Jacobian.
+void residual(const SSModel &m, const std::vector<Term> &terms, VecR &r, MatR *J)
+{
+    const Dims d(m);
+    Eigen::Index rows = 0;
+    for (const auto &t : terms) rows += t.dc ? d.ny : 2 * d.ny;
+    r.resize(rows);
+    if (J) J->resize(rows, d.p);
+    Eigen::Index row = 0;
+    MatC GU;
+    for (const auto &t : terms) {
+        const MatC Jc = jac_GU(m, t.z, &t.U, GU);
+        const VecC w = t.Li * (t.Y - GU.col(0));
+        const double s = t.dc ? std::sqrt(0.5) : 1.0;
+        r.segment(row, d.ny) = s * w.real();
+        if (J) J->middleRows(row, d.ny) = -s * (t.Li * Jc).real();
+        if (!t.dc) {
+            r.segment(row + d.ny, d.ny) = w.imag();
+            if (J) J->middleRows(row + d.ny, d.ny) = -(t.Li * Jc).imag();
+        }
+        row += t.dc ? d.ny : 2 * d.ny;
+    }
+}
+
+double max_pole(const MatR &A)
+{
+    Eigen::EigenSolver<MatR> es(A, false);
+    double w = 0;
+    for (Eigen::Index k = 0; k < A.rows(); ++k) w = std::max(w, std::abs(es.eigenvalues()(k)));
+    return w;
+}
+
+// Levenberg-Marquardt (Marquardt's diagonal scaling); steps that would make a stable model unstable
+// are refused like steps that raise the cost (Assumption 1).
+SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlOptions &o, int &iters, bool &conv,
+           double &cost)
+{
+    SSModel m = start;
+    const bool keep_stable = max_pole(m.A) < 1.0;
+    VecR r;
+    MatR J;
+    residual(m, terms, r, &J);
+    cost = r.squaredNorm();
+    double lambda = 1e-3;
+    conv = false;
+    for (int it = 0; it < o.max_iter; ++it) {
+        ++iters;
+        const VecR g = J.transpose() * r;
+        MatR H = J.transpose() * J;
+        const VecR dg = H.diagonal().cwiseMax(1e-300 * std::max(1.0, H.diagonal().maxCoeff()));
+        bool accepted = false;
+        for (int tries = 0; tries < 30; ++tries) {
+            MatR Hl = H;
+            Hl.diagonal() += lambda * dg;
+            const VecR step = -Hl.ldlt().solve(g);
+            const SSModel mt = unpack(m, pack(m) + step);
+            VecR rt;
+            bool ok = step.allFinite() && (!keep_stable || max_pole(mt.A) < 1.0);
+            if (ok) {
+                residual(mt, terms, rt, nullptr);
+                ok = rt.allFinite() && rt.squaredNorm() < cost;
+            }
+            if (ok) {
+                const double rel = (cost - rt.squaredNorm()) / std::max(cost, 1e-300);
+                m = mt;
+                cost = rt.squaredNorm();
+                residual(m, terms, r, &J);
+                lambda = std::max(lambda / 5.0, 1e-12);
+                accepted = true;
+                if (rel < o.tol) conv = true;
+                break;
+            }
+            lambda *= 10.0;
+            if (lambda > 1e12) break;
+        }
+        if (!accepted) {
+            conv = true;   // no descent step left: a (local) minimum to working precision
+            break;
+        }
+        if (conv) break;
+    }
+    return m;
+}
+
+}  // namespace
+
+MatR cissim_frf_cov(const SSModel &m, const MatR &cov, cd z)
+{
+    MatC G;
+    const MatC Jg = jac_GU(m, z, nullptr, G);
+    MatR Jr(2 * Jg.rows(), Jg.cols());
+    Jr << Jg.real(), Jg.imag();
+    return Jr * cov * Jr.transpose();
+}
+
+CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> &isp, const CissimMlOptions &o)
+{
+    if (isp.empty()) throw FitError("cissim refinement needs at least one experiment");
+    CissimMlResult res;
+    SSModel m = start;
+    m.domain = Domain::DT;
+    std::vector<Term> terms = make_terms(m, isp);
+    {
+        VecR r0;
+        residual(m, terms, r0, nullptr);
+        res.cost_start = r0.squaredNorm();
+    }
+    bool conv = false;
+    double cost = 0;
+    for (int pass = 0; pass <= std::max(0, o.reweight); ++pass) {
+        if (pass > 0) terms = make_terms(m, isp);   // W_l at the refined G (input noise enters through G)
+        m = lm(m, terms, o, res.iterations, conv, cost);
+    }
+    res.model = m;
+    res.converged = conv;
+    res.cost = cost;
+    VecR r;
+    MatR J;
+    residual(m, terms, r, &J);
+    res.cov = fisher_cov(J, res.cov_rank);
+    // sample-ML factor for weights with K - 1 complex dof (lmfd_fit.cpp, sample_ml_factor)
+    double kmin = 1e300;
+    for (const auto &e : isp) kmin = std::min(kmin, (double)e.periods - 1.0);
+    const double p = (double)m.C.rows();
+    res.cov_factor = kmin > p + 1.0 ? kmin / (kmin - p - 1.0) : std::numeric_limits<double>::infinity();
+    if (std::isfinite(res.cov_factor)) res.cov *= res.cov_factor;   // else: too few periods, no uncertainty (caller)
+    res.dof = (double)r.size() - res.cov_rank;
+    res.bins = isp[0].bins;
+    for (uint32_t b : res.bins) {
+        const cd z = std::polar(1.0, 2.0 * M_PI * (double)b / isp[0].period);
+        res.G.push_back(ss_eval(m, z));
+        res.Gcov.push_back(cissim_frf_cov(m, res.cov, z));
+    }
+    return res;
+}
+
+}  // namespace msidfit
