@@ -4,7 +4,9 @@
 (scikit-rf's VectorFitting, the independent peer) at the same order; feedthrough
 choice, stability, non-convergence, unit invariance of fit and validate, and the
 M >= 4 refusal for any number of outputs. Generator: tools/python/msid/structures.py."""
+import functools
 import json
+import os
 
 import numpy as np
 import pytest
@@ -13,6 +15,16 @@ import helpers as h
 from msid import structures as S
 
 SEED = 2          # dynamic range 65 dB (SISO), 77 dB (1x3), 78 dB (2x3)
+# The peer comparison in ctest: SISO and 2x3 (scikit-rf needs ~30 s on the 1x3 case, where the
+# padded 3x3 network converges slowly); MSID_FULL_STRUCTURES=1 adds 1x3. `msid bench fit --only 3`
+# compares all three cases (and a 10-mode SISO) side by side.
+KINDS = ["siso", "1x3", "2x3"] if os.environ.get("MSID_FULL_STRUCTURES") else ["siso", "2x3"]
+
+
+@functools.lru_cache(maxsize=None)
+def _vector_fit(path, n):
+    """scikit-rf once per (file, order) for the whole module."""
+    return S.vector_fit(path, n)[0]
 
 
 def _fit(tmp, frf, name, *args, ok=True):
@@ -35,12 +47,12 @@ def data(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("kind", ["siso", "1x3", "2x3"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_ml_and_subspace_against_vector_fitting(data, kind):
     D = data[kind]
     n = S.order(D["st"])                                      # 24: 12 modes
     assert 60 <= S.dynamic_range_db(D["G0"]) <= 80
-    Gvf, _ = S.vector_fit(D["path"], n)
+    Gvf = _vector_fit(D["path"], n)
     V_vf, e_vf = S.weighted_cost(D["G"], Gvf, D["C"]), S.rel_error(Gvf, D["G0"])
     _, ml = _fit(D["dir"], D["path"], f"ml-{kind}", "--method", "ml", "--order", n)
     h.validate(ml, "msid-model-1")
@@ -60,7 +72,8 @@ def test_ml_and_subspace_against_vector_fitting(data, kind):
     assert e_ml <= e_vf * 1.15, (e_ml, e_vf)
     # the covariance is usable by the modal step: full rank (identifiable pole-residue form)
     assert ml["parameters"]["cov_rank"] == len(ml["parameters"]["names"]) == ml["n_params"]
-    _, sub = _fit(D["dir"], D["path"], f"sub-{kind}", "--method", "subspace", "--order", n, "--stable")
+    # the default subspace model (no --stable: stable unless the data need unstable poles, refined)
+    _, sub = _fit(D["dir"], D["path"], f"sub-{kind}", "--method", "subspace", "--order", n)
     Gs = np.array([h.cplx(e["G"]) for e in sub["frf"]])
     V_sub = S.weighted_cost(D["G"], Gs, D["C"])
     print(f"{kind}: subspace V = {V_sub:.6g} ({V_sub / V_vf:.3g}x vector fitting), stable {sub['stable']}")
@@ -72,22 +85,40 @@ def test_negative_control_under_modelled(data):
     # the same comparison cannot pass vacuously: at order 12 (half the modes) ml's cost is far
     # above the order-24 vector fit, and validate says NOT consistent
     D = data["siso"]
-    Gvf, _ = S.vector_fit(D["path"], 24)
+    Gvf = _vector_fit(D["path"], 24)
     _, ml = _fit(D["dir"], D["path"], "ml-under", "--method", "ml", "--order", 12)
     assert ml["cost"]["value"] > 10 * S.weighted_cost(D["G"], Gvf, D["C"])
     r = h.run_ok("validate", D["dir"] / "ml-under.json", D["path"])
     assert "NOT consistent" in r.stdout
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 9 item 3): the subspace cost is not monotone in the order on this structure; "
-                                       "the r set {1.5n, 2n, 3n, 4n} does not make it so")
 def test_subspace_cost_does_not_rise_with_order(data):
+    # issue 9 item 3: on the same data a subspace model of order n costs no more than the one of
+    # order n - 2 (docs/fitting.md, "Subspace refinement"); the default model is stable (item 2)
     D = data["siso"]
-    costs = []
+    costs, raw = [], []
     for n in (16, 20, 24, 28, 32):
         _, m = _fit(D["dir"], D["path"], f"sub{n}", "--method", "subspace", "--order", n)
         costs.append(m["cost"]["value"])
+        raw.append(m["subspace"]["refine"]["cost_before"])
+        assert m["stable"] is True and m["stability"]["stable"] is True, (n, m["stability"])
+        assert m["cost"]["value"] <= m["subspace"]["refine"]["cost_before"] * (1 + 1e-12)
+    print("subspace cost per order 16..32:", costs, "before refinement:", raw)
     assert all(b <= a * (1 + 1e-9) for a, b in zip(costs, costs[1:])), costs
+    # at the true order (24) the refined model is at the noise level: within 30% of the expected cost
+    assert costs[2] < 1.3 * 260, costs
+
+
+def test_subspace_unconstrained_control(data):
+    # negative control: --allow-unstable --refine 0 is the bare r-scan estimate, which on this
+    # structure is unstable and not monotone in the order (the property above is not vacuous)
+    D = data["siso"]
+    c = {}
+    for n in (24, 28):
+        _, m = _fit(D["dir"], D["path"], f"raw{n}", "--method", "subspace", "--order", n, "--allow-unstable", "--refine", 0)
+        c[n] = m["cost"]["value"]
+        assert m["stability"]["enforced"] is False
+    assert c[28] > c[24], c
 
 
 def test_order_40_ml(data):

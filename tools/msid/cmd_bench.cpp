@@ -425,8 +425,10 @@ void bench_structures(const std::string &dir, double min_s)
                 num += std::norm(r.G[l].data()[ij] - g0);
                 den += std::norm(g0);
             }
-        SubspaceOptions so;
+        SubspaceOptions so;   // as `msid fit --method subspace` runs it: refined, stable unless the data need not
         so.order = n;
+        so.stable_auto = true;
+        so.refine_iter = 30;
         SubspaceResult sr;
         const double t_sub = best_time([&] { sr = fit_subspace(f, Domain::CT, w, true, so); }, 0.0);
         const std::string name = std::string(c["kind"].get<std::string>()) + " " + std::to_string(c["modes"].get<int>()) + " modes";
@@ -507,8 +509,10 @@ static int bench_fit(int argc, char **argv)
         }
         const FrfData f0 = read_frf(files[0]);
         const auto w0 = weigh(f0, Domain::DT, Weight::Cov);
-        SubspaceOptions so;
+        SubspaceOptions so;   // as `msid fit --method subspace` runs it (the ml start below too)
         so.order = c.n;
+        so.stable_auto = true;
+        so.refine_iter = 30;
         LmfdSpec ls;
         ls.nD = c.n / c.ny;
         ls.nN = ls.nD;
