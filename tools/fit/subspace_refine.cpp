@@ -208,38 +208,46 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
     if (!to_modal(m, L, th)) { out.note = "A is (nearly) defective: not refined"; return out; }
     if (stable && !stable_poles(L, th)) { out.note = "start unstable: not refined"; return out; }
     VecR r, rt;
-    MatR J;
+    MatR J, Jt;
     double V = residual(L, th, w, r, &J);
     out.cost_start = V;
     double lambda = 1e-3;
     int steps = 0;
+    const Eigen::Index np = L.size();
+    MatR JtJ(np, np);
     for (int it = 0; it < max_iter; ++it) {
-        const MatR JtJ = J.transpose() * J;
+        JtJ.setZero();
+        JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+        JtJ.triangularView<Eigen::StrictlyUpper>() = JtJ.transpose();
         const VecR Jtr = J.transpose() * r;
         VecR dg = JtJ.diagonal();
         const double dmax = dg.maxCoeff();
         for (Eigen::Index k = 0; k < dg.size(); ++k) dg(k) = std::max(dg(k), 1e-12 * dmax);
-        bool taken = false;
+        bool taken = false, done = false;
         for (int tries = 0; tries < 12; ++tries) {
             MatR H = JtJ;
             H.diagonal() += lambda * dg;
             const VecR step = -H.ldlt().solve(Jtr);
             const VecR tn = th + step;
             if (!step.allFinite() || (stable && !stable_poles(L, tn))) { lambda *= 10; continue; }
-            const double Vn = residual(L, tn, w, rt, nullptr);
+            // the Jacobian comes with the trial: most LM trials are accepted
+            const double Vn = residual(L, tn, w, rt, &Jt);
             if (std::isfinite(Vn) && Vn < V) {
-                const double rel = (V - Vn) / V;
+                // converged when a step gains less than 1e-6 of the cost (far below the
+                // statistical resolution of (35), whose spread is sqrt(2 dof))
+                done = (V - Vn) < 1e-6 * V;
                 th = tn;
-                V = residual(L, th, w, r, &J);
+                V = Vn;
+                r.swap(rt);
+                J.swap(Jt);
                 lambda = std::max(lambda / 10, 1e-12);
                 taken = true;
                 ++steps;
-                if (rel < 1e-7) it = max_iter;
                 break;
             }
             lambda *= 10;
         }
-        if (!taken) break;
+        if (!taken || done) break;
     }
     out.iterations = steps;
     SSModel mr = from_modal(L, th, m);

@@ -582,9 +582,12 @@ static int bench_fit(int argc, char **argv)
             }
         }
         std::printf("%s\n", c.name);
+        const SubspaceResult s0 = fit_subspace(f0, Domain::DT, w0, true, so);
         std::printf("  %-10s %10.3f ms   rel. H2 error vs truth: mean %.3g, median %.3g (%d systems)%s\n", "subspace",
                     t_sub * 1e3, mean(e_sub), median(e_sub), NS,
                     t_peer > 0 ? fmt("   %.1fx faster than the peer", t_peer / t_sub).c_str() : "");
+        std::printf("  %-10s   (system 1: r = %d, %d refinement steps, cost %.6g -> %.6g)\n", "", s0.r, s0.refine_steps,
+                    s0.cost_unrefined, s0.cost);
         std::printf("  %-10s %10.3f ms   (closed form, %d lines: fully/under-constrained)\n", "lmfd", t_lmfd * 1e3, Lfc);
         std::printf("  %-10s %10.3f ms   rel. H2 error vs truth: mean %.3g, median %.3g (subspace start + SK + LM)\n", "ml",
                     t_ml * 1e3, mean(e_ml), median(e_ml));
