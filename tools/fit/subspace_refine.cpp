@@ -256,7 +256,10 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
     const double Vbd = fit_BD(mr, w, estimate_D);
     if (Vbd < V) V = Vbd; else mr = from_modal(L, th, m);
     if (!estimate_D) mr.D = MatR::Zero(L.ny, L.nu);
-    if (V < out.cost_start) m = mr; else V = out.cost_start;
+    // the same evaluation of (35) for the start and the result (the modal transform costs round-off)
+    const double Vin = weighted_cost_ss(m, w), Vout = weighted_cost_ss(mr, w);
+    if (Vout < Vin) { m = mr; V = Vout; } else { V = Vin; }
+    out.cost_start = Vin;
     out.cost = V;
     out.refined = true;
     return out;
