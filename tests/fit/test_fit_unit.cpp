@@ -250,6 +250,41 @@ static void stability_enforced(void **)
     assert_int_equal(st.reflected, 2);
 }
 
+// Issue 9 items 2-3: the default of msid fit (stable_auto, refinement). Data of an unstable plant
+// keep their unstable poles (the LR test rejects the reflected model); the refinement never raises
+// the cost and, from a perturbed A, recovers the exact model (cost -> 0) with its poles kept stable.
+static void subspace_refine_and_auto_stability(void **)
+{
+    SSModel u = siso_dt();
+    u.A << 2.1, -1.1025, 1.0, 0.0;
+    const auto om = dt_grid(40);
+    FrfData f = exact_data(Domain::DT, 0, om, eval_all(u, om), 1e-6);
+    auto w = weigh(f, Domain::DT, Weight::Cov);
+    SubspaceOptions so;
+    so.order = 2;
+    so.stable_auto = true;
+    so.refine_iter = 30;
+    const SubspaceResult r = fit_subspace(f, Domain::DT, w, true, so);
+    std::printf("auto stability, unstable plant: stable %d, LR p %.3g, cost %.3g (r scan %.3g)\n", (int)ss_stable(r.model),
+                r.stable_lr_p, r.cost, r.cost_unrefined);
+    assert_false(ss_stable(r.model));
+    assert_true(r.stable_lr_p >= 0 && r.stable_lr_p < 0.01);
+    assert_true(r.cost <= r.cost_unrefined * (1 + 1e-9) + 1e-6);   // exact data: both at round-off (1e-10)
+
+    const SSModel t = mimo_dt();
+    FrfData f2 = exact_data(Domain::DT, 0, om, eval_all(t, om), 1e-6);
+    auto w2 = weigh(f2, Domain::DT, Weight::Cov);
+    SSModel m = t;
+    m.A *= 0.97;   // stable, off the truth
+    const double V0 = fit_BD(m, w2, true);
+    const SubspaceRefine rr = refine_subspace(m, w2, true, true, 60);
+    std::printf("refinement from a perturbed A: cost %.3g -> %.3g in %d steps\n", V0, rr.cost, rr.iterations);
+    assert_true(rr.refined && rr.cost <= V0);
+    assert_true(rr.cost < 1e-6 * V0);
+    assert_true(ss_stable(m));
+    assert_true(weighted_cost_ss(m, w2) == rr.cost);
+}
+
 static void distances(void **)
 {
     const SSModel a = mimo_dt();
@@ -328,6 +363,7 @@ int main()
         cmocka_unit_test(recover_ct_mimo),
         cmocka_unit_test(lmfd_realisation),
         cmocka_unit_test(stability_enforced),
+        cmocka_unit_test(subspace_refine_and_auto_stability),
         cmocka_unit_test(distances),
         cmocka_unit_test(errors),
     };

@@ -4,7 +4,9 @@
 (scikit-rf's VectorFitting, the independent peer) at the same order; feedthrough
 choice, stability, non-convergence, unit invariance of fit and validate, and the
 M >= 4 refusal for any number of outputs. Generator: tools/python/msid/structures.py."""
+import functools
 import json
+import os
 
 import numpy as np
 import pytest
@@ -13,6 +15,16 @@ import helpers as h
 from msid import structures as S
 
 SEED = 2          # dynamic range 65 dB (SISO), 77 dB (1x3), 78 dB (2x3)
+# The peer comparison in ctest: SISO and 2x3 (scikit-rf needs ~30 s on the 1x3 case, where the
+# padded 3x3 network converges slowly); MSID_FULL_STRUCTURES=1 adds 1x3. `msid bench fit --only 3`
+# compares all three cases (and a 10-mode SISO) side by side.
+KINDS = ["siso", "1x3", "2x3"] if os.environ.get("MSID_FULL_STRUCTURES") else ["siso", "2x3"]
+
+
+@functools.lru_cache(maxsize=None)
+def _vector_fit(path, n):
+    """scikit-rf once per (file, order) for the whole module."""
+    return S.vector_fit(path, n)[0]
 
 
 def _fit(tmp, frf, name, *args, ok=True):
@@ -35,12 +47,12 @@ def data(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("kind", ["siso", "1x3", "2x3"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_ml_and_subspace_against_vector_fitting(data, kind):
     D = data[kind]
     n = S.order(D["st"])                                      # 24: 12 modes
     assert 60 <= S.dynamic_range_db(D["G0"]) <= 80
-    Gvf, _ = S.vector_fit(D["path"], n)
+    Gvf = _vector_fit(D["path"], n)
     V_vf, e_vf = S.weighted_cost(D["G"], Gvf, D["C"]), S.rel_error(Gvf, D["G0"])
     _, ml = _fit(D["dir"], D["path"], f"ml-{kind}", "--method", "ml", "--order", n)
     h.validate(ml, "msid-model-1")
@@ -58,9 +70,17 @@ def test_ml_and_subspace_against_vector_fitting(data, kind):
     # efficiency factor sqrt(n/(n - ny - 1)) = 1.04-1.07 in std on this homoscedastic noise, which
     # unweighted vector fitting does not pay (measured 1.06-1.12): bound 1.15, not "no worse"
     assert e_ml <= e_vf * 1.15, (e_ml, e_vf)
+    # ... and the measured argument for that gap (issue 9 item 4, docs/fitting.md): with the true
+    # weights (white homoscedastic noise here, so --weight none) ml's error against the truth is
+    # vector fitting's (measured +0.3% SISO, -0.5% 2x3)
+    _, mlt = _fit(D["dir"], D["path"], f"mlt-{kind}", "--method", "ml", "--order", n, "--weight", "none")
+    e_mlt = S.rel_error(np.array([h.cplx(e["G"]) for e in mlt["frf"]]), D["G0"])
+    print(f"{kind}: ml with the true weights rel {e_mlt:.4g} (vector fitting {e_vf:.4g})")
+    assert e_mlt <= e_vf * 1.02, (e_mlt, e_vf)
     # the covariance is usable by the modal step: full rank (identifiable pole-residue form)
     assert ml["parameters"]["cov_rank"] == len(ml["parameters"]["names"]) == ml["n_params"]
-    _, sub = _fit(D["dir"], D["path"], f"sub-{kind}", "--method", "subspace", "--order", n, "--stable")
+    # the default subspace model (no --stable: stable unless the data need unstable poles, refined)
+    _, sub = _fit(D["dir"], D["path"], f"sub-{kind}", "--method", "subspace", "--order", n)
     Gs = np.array([h.cplx(e["G"]) for e in sub["frf"]])
     V_sub = S.weighted_cost(D["G"], Gs, D["C"])
     print(f"{kind}: subspace V = {V_sub:.6g} ({V_sub / V_vf:.3g}x vector fitting), stable {sub['stable']}")
@@ -72,22 +92,40 @@ def test_negative_control_under_modelled(data):
     # the same comparison cannot pass vacuously: at order 12 (half the modes) ml's cost is far
     # above the order-24 vector fit, and validate says NOT consistent
     D = data["siso"]
-    Gvf, _ = S.vector_fit(D["path"], 24)
+    Gvf = _vector_fit(D["path"], 24)
     _, ml = _fit(D["dir"], D["path"], "ml-under", "--method", "ml", "--order", 12)
     assert ml["cost"]["value"] > 10 * S.weighted_cost(D["G"], Gvf, D["C"])
     r = h.run_ok("validate", D["dir"] / "ml-under.json", D["path"])
     assert "NOT consistent" in r.stdout
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 9 item 3): the subspace cost is not monotone in the order on this structure; "
-                                       "the r set {1.5n, 2n, 3n, 4n} does not make it so")
 def test_subspace_cost_does_not_rise_with_order(data):
+    # issue 9 item 3: on the same data a subspace model of order n costs no more than the one of
+    # order n - 2 (docs/fitting.md, "Subspace refinement"); the default model is stable (item 2)
     D = data["siso"]
-    costs = []
+    costs, raw = [], []
     for n in (16, 20, 24, 28, 32):
         _, m = _fit(D["dir"], D["path"], f"sub{n}", "--method", "subspace", "--order", n)
         costs.append(m["cost"]["value"])
+        raw.append(m["subspace"]["refine"]["cost_before"])
+        assert m["stable"] is True and m["stability"]["stable"] is True, (n, m["stability"])
+        assert m["cost"]["value"] <= m["subspace"]["refine"]["cost_before"] * (1 + 1e-12)
+    print("subspace cost per order 16..32:", costs, "before refinement:", raw)
     assert all(b <= a * (1 + 1e-9) for a, b in zip(costs, costs[1:])), costs
+    # at the true order (24) the refined model is at the noise level: within 30% of the expected cost
+    assert costs[2] < 1.3 * 260, costs
+
+
+def test_subspace_unconstrained_control(data):
+    # negative control: --allow-unstable --refine 0 is the bare r-scan estimate, which on this
+    # structure is unstable and not monotone in the order (the property above is not vacuous)
+    D = data["siso"]
+    c = {}
+    for n in (24, 28):
+        _, m = _fit(D["dir"], D["path"], f"raw{n}", "--method", "subspace", "--order", n, "--allow-unstable", "--refine", 0)
+        c[n] = m["cost"]["value"]
+        assert m["stability"]["enforced"] is False
+    assert c[28] > c[24], c
 
 
 def test_order_40_ml(data):
@@ -179,3 +217,26 @@ def test_refusal_three_outputs_two_periods(tmp_path):
         assert r.returncode == 1 and len(lines) == 1, r.stderr
         assert "M >= 4" in lines[0] and "2 periods" in lines[0] and "singular weights" not in lines[0], lines[0]
         assert not (tmp_path / "o.json").exists()
+
+
+def test_pole_residue_modal_sd_monte_carlo(tmp_path):
+    # issue 9 item 5: ml's default (pole-residue) models carry delta-method sd of f_n and zeta;
+    # 100 runs of a 4-mode accelerance at 2% noise: reported sd match the spread (bound 25%: the
+    # sample sd of 100 runs scatters by ~7%; the 150-run study in docs/fitting.md measures 0.88-1.01)
+    st = S.structure("siso", 3, n_modes=4)
+    fn, zs, sfn, sz = [], [], [], []
+    R = 100
+    for r in range(R):
+        p = S.write(tmp_path / "mc.json", S.frf_doc(st, 1000 + r, periods=16, noise=0.02))
+        _, m = _fit(tmp_path, p, "mc", "--method", "ml", "--order", 8, "--feedthrough", "yes")
+        modes = sorted((x for x in m["modes"]["modes"] if not x["real_pole"]), key=lambda x: x["fn"])
+        assert len(modes) == 4 and "pole-residue" in m["modes"]["sd_source"]
+        fn.append([x["fn"] for x in modes]); zs.append([x["zeta"] for x in modes])
+        sfn.append([x["sd_fn"] for x in modes]); sz.append([x["sd_zeta"] for x in modes])
+    fn, zs, sfn, sz = map(np.array, (fn, zs, sfn, sz))
+    rf = fn.std(0, ddof=1) / np.sqrt((sfn ** 2).mean(0))
+    rz = zs.std(0, ddof=1) / np.sqrt((sz ** 2).mean(0))
+    print("empirical / reported sd: f_n", np.round(rf, 3), "zeta", np.round(rz, 3))
+    assert np.all(np.abs(rf - 1) < 0.25) and np.all(np.abs(rz - 1) < 0.25), (rf, rz)
+    # unbiased: the mean within 4 standard errors of the truth
+    assert np.all(np.abs(fn.mean(0) - st["f"]) < 4 * fn.std(0, ddof=1) / np.sqrt(R))

@@ -1,4 +1,5 @@
 #include "modal_io.hpp"
+#include "poleres.hpp"
 
 #include "model_io.hpp"
 
@@ -46,9 +47,53 @@ ModalReport modal_report(const Json &j)
     ss.D = jmat(j.at("D"), ny, nu);
     const bool lm = j.contains("lmfd") && j["lmfd"].is_object() && n > 0;
     const bool pars = j.contains("parameters") && j["parameters"].is_object() && j["parameters"].contains("cov");
+    const bool prf = j.contains("pole_residue") && j["pole_residue"].is_object() && n > 0;
+    if (prf && pars && nu == 1) {
+        // ml in pole-residue form (issue 9 item 5): the delta method through the same finite
+        // differences, on the realisation of the parameters (p_k, R_k, D) as pr_to_ss builds it
+        const Json &p = j["parameters"];
+        std::vector<std::string> names;
+        for (const auto &nm : p.at("names")) names.push_back(nm.get<std::string>());
+        const Eigen::Index np = (Eigen::Index)names.size();
+        VecR th(np);
+        for (Eigen::Index i = 0; i < np; ++i) th(i) = p.at("values").at((size_t)i).get<double>();
+        const MatR cov = jmat(p.at("cov"), np, np);
+        std::vector<int> pair;   // per pole: 1 = complex pair (p.re, p.im), 0 = real
+        bool hasD = false;
+        for (const auto &nm : names) {
+            if (nm[0] == 'p' && nm.find(".im") == std::string::npos) pair.push_back(nm.find(".re") != std::string::npos);
+            if (nm[0] == 'D') hasD = true;
+        }
+        const Eigen::Index g = ny * nu;
+        auto realise = [&, pair, hasD, g](const VecR &t) {
+            PoleResidueModel m;
+            m.domain = r.domain;
+            m.h = r.h;
+            Eigen::Index i = 0;
+            for (int pk : pair) {
+                m.poles.push_back(pk ? cd(t(i), t(i + 1)) : cd(t(i), 0.0));
+                i += pk ? 2 : 1;
+            }
+            for (int pk : pair) {
+                MatC R = MatC::Zero(ny, nu);
+                for (int part = 0; part < (pk ? 2 : 1); ++part)
+                    for (Eigen::Index ij = 0; ij < g; ++ij) R.data()[ij] += part ? cd(0.0, t(i++)) : cd(t(i++), 0.0);
+                m.R.push_back(R);
+            }
+            m.feedthrough = hasD;
+            m.D = hasD ? MatR(Eigen::Map<const MatR>(t.data() + i, ny, nu)) : MatR::Zero(ny, nu);
+            return pr_to_ss(m);
+        };
+        r.modes = modes_with_sd(realise, th, cov, r.h);
+        r.have_sd = true;
+        r.sd_source = "delta method from the parameter covariance (inverse Fisher information) of the pole-residue form";
+        return r;
+    }
     if (!lm || !pars) {
         r.modes = modes_of(ss, r.h);
         r.sd_source = n == 0 ? "none: the model has no poles"
+                      : prf && pars ? "none: pole-residue models with several inputs (each pole repeated per input in the "
+                                      "realisation); refit with --param lmfd for standard deviations"
                       : j.value("method", "") == "subspace"
                           ? "none: subspace gives no parameter covariance (refit with --method ml for standard deviations)"
                           : "none: the model file holds no parameter covariance";

@@ -436,6 +436,52 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
         res.feedthrough_p = chi2_sf((double)(ny * nu), std::max(0.0, 2.0 * (V0 - res.cost)));
         if (res.feedthrough_p >= 0.01) { res.model = m0; res.cost = V0; res.feedthrough = false; }
     }
+    if (o.refine_iter > 0 || o.stable_auto) {
+        res.cost_unrefined = res.cost;
+        const int it = std::max(0, o.refine_iter);
+        if (o.stable_auto && !o.stable && !ss_stable(res.model)) {
+            // the r scan left unstable poles: the unconstrained and the reflected (constrained) refinements
+            SSModel mu = res.model, ms = res.model;
+            const SubspaceRefine ru = refine_subspace(mu, w, res.feedthrough, false, it);
+            int k = ss_reflect_unstable(ms);
+            double Vs = fit_BD(ms, w, res.feedthrough);
+            SubspaceRefine rc = refine_subspace(ms, w, res.feedthrough, true, it);
+            if (rc.refined) Vs = rc.cost;
+            const double Vu = ru.refined ? ru.cost : res.cost;
+            if (!ss_stable(mu)) {
+                // second constrained start: the refined unconstrained model with its (by now small)
+                // unstable terms reflected
+                SSModel m2 = mu;
+                const int k2 = ss_reflect_unstable(m2);
+                double V2 = fit_BD(m2, w, res.feedthrough);
+                const SubspaceRefine r2 = refine_subspace(m2, w, res.feedthrough, true, it);
+                if (r2.refined) V2 = r2.cost;
+                if (V2 < Vs) { ms = m2; Vs = V2; k = k2; rc = r2; }
+            }
+            res.cost_unconstrained = Vu;
+            if (ss_stable(mu) && Vu <= Vs) {
+                res.model = mu;   // the unconstrained refinement moved the poles into the stable region
+                res.cost = Vu;
+                res.refine_steps = ru.iterations;
+            } else {
+                // stable unless the data need the unstable poles: 2 (Vs - Vu) ~ chi2(k) under a stable plant
+                res.stable_lr_p = weighted ? chi2_sf((double)k, std::max(0.0, 2.0 * (Vs - Vu))) : 1.0;
+                if (res.stable_lr_p >= 0.01) {
+                    res.model = ms;
+                    res.cost = Vs;
+                    res.reflected = k;
+                    res.refine_steps = rc.iterations;
+                } else {
+                    res.model = mu;
+                    res.cost = Vu;
+                    res.refine_steps = ru.iterations;
+                }
+            }
+        } else if (it > 0) {
+            const SubspaceRefine rr = refine_subspace(res.model, w, res.feedthrough, o.stable || o.stable_auto, it);
+            if (rr.refined) { res.cost = rr.cost; res.refine_steps = rr.iterations; }
+        }
+    }
     std::vector<int> order_idx;
     for (int i = 0; i < nr; ++i) if (std::isfinite(trials[(size_t)i].V)) order_idx.push_back(i);
     std::stable_sort(order_idx.begin(), order_idx.end(), [&](int a, int b) { return trials[(size_t)a].V < trials[(size_t)b].V; });

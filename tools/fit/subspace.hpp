@@ -10,7 +10,12 @@ namespace msidfit {
 struct SubspaceOptions {
     int order = 0;             // n; 0: choose from the singular values
     int r = 0;                 // block rows; 0: scan [1.5n, 6n] for the smallest cost (35)
-    bool stable = false;       // reflect unstable poles, then re-estimate B, D
+    bool stable = false;       // reflect unstable poles, then re-estimate B, D (and refine constrained)
+    // Stable unless the data need it (msid fit's default): unstable poles are reflected and the
+    // constrained model kept unless a likelihood-ratio test at 1% (one dof per reflected pole)
+    // says the unconstrained model fits significantly better.
+    bool stable_auto = false;
+    int refine_iter = 0;       // LM steps of refine_subspace after the r scan (msid fit: 30; 0: none)
     bool estimate_D = true;    // false: D = 0 (strictly proper)
     bool feedthrough_auto = false;   // with estimate_D: keep D only if a likelihood-ratio test at 1% needs it
     double wscale = 0.0;       // CT bilinear frequency scaling (0: geometric mean of the line frequencies)
@@ -26,6 +31,11 @@ struct SubspaceResult {
     int reflected = 0;
     bool feedthrough = true;                      // D estimated
     double feedthrough_p = -1;                    // p-value of the LR test of D = 0 (auto), -1 if not run
+    // refinement and stability (refine_iter > 0 or stable_auto)
+    int refine_steps = 0;
+    double cost_unrefined = -1;                   // cost of the best r-scan model before refinement
+    double cost_unconstrained = -1;               // stable_auto with unstable poles: the refined unconstrained cost
+    double stable_lr_p = -1;                      // p-value of the stability LR test, -1 if not run
     std::vector<SSModel> candidates;              // the best models of the r scan, best first (up to 3): ml starts
 };
 
@@ -40,6 +50,17 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
 // Weighted LS for B and D given A and C (Pintelon 2002 eq. 17, MIMO form), in place.
 // Returns the weighted cost (35) of the result.
 double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D);
+
+// Refinement of a model at its order: Levenberg-Marquardt on the weighted cost (35) in the real
+// modal realisation (subspace_refine.cpp). Never raises the cost; with `stable` every pole stays
+// stable. B, D finally by fit_BD. Leaves m unchanged if A is (nearly) defective.
+struct SubspaceRefine {
+    bool refined = false;
+    int iterations = 0;      // accepted steps
+    double cost_start = 0, cost = 0;
+    std::string note;
+};
+SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D, bool stable, int max_iter);
 
 // Weighted cost sum_l |Linv vec(G_l - G(x_l))|^2 (complex lines) + 1/2 |.|^2 (real lines):
 // the negative log-likelihood of eq. (40) up to a constant.

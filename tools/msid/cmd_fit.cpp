@@ -24,11 +24,14 @@ static const char *FIT_HELP =
     "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
+    "                [--allow-unstable] [--refine N]\n"
     "       msid fit --method multi --experiment r1.csv ... --order n|auto -o model.json   (time records)\n"
     "\n"
     "  subspace  frequency-domain subspace (McKelvey; Pintelon 2002 Alg. 1, CT by the bilinear map,\n"
     "            Alg. 2.1) weighted by the FRF covariance; block rows r in {1.5n, 2n, 3n, 4n}, the one with the\n"
-    "            smallest weighted cost (35); order from the singular values when --order is omitted\n"
+    "            smallest weighted cost (35), refined by up to --refine N (30) Levenberg-Marquardt steps on\n"
+    "            that cost (never raising it); stable unless the data need unstable poles (LR test at 1%,\n"
+    "            --allow-unstable: no constraint); order from the singular values when --order is omitted\n"
     "  lmfd      closed-form ML of a left matrix fraction D(p)^-1 N(p), fully or under-constrained\n"
     "            (Gonzalez et al. 2025 Thm 6): minimum-norm solution, kernel basis, --pin to fix entries\n"
     "  ml        weighted maximum likelihood (eq. 40): --param poles (default; dt with several inputs: lmfd)\n"
@@ -39,7 +42,7 @@ static const char *FIT_HELP =
     "  multi     time records of any lengths (ring-downs, free decays, transients), every record's initial\n"
     "            conditions eliminated (Markovsky & Pintelon): msid fit --method multi --help\n"
     "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
-    "  --stable  subspace: reflect unstable poles; ml (poles): constrained to stable poles\n"
+    "  --stable  subspace: reflect unstable poles whatever the test says; ml (poles): constrained to stable poles\n"
     "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
     "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md)\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
@@ -227,8 +230,8 @@ int cmd_fit(int argc, char **argv)
     if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)
     Args a(argc, argv, 2, FIT_HELP,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
-            "feedthrough", "param", "output"},
-           {"stable", "no-d"}, {"pin"});
+            "feedthrough", "param", "output", "refine"},
+           {"stable", "no-d", "allow-unstable"}, {"pin"});
     if (a.positional().size() != 1) throw UsageError("give exactly one msid-frf/1 file");
     const std::string out = a.require("output");
     const std::string method = a.require("method");
@@ -278,16 +281,24 @@ int cmd_fit(int argc, char **argv)
             grad_norm = r.grad_norm;
             iterations = r.iterations;
         };
+        bool enforced_stable = a.has("stable");
+        if (method != "subspace" && (a.has("allow-unstable") || a.has("refine")))
+            throw UsageError("--allow-unstable and --refine belong to --method subspace");
         if (method == "subspace") {
             SubspaceOptions o;
             o.order = (int)a.u32("order", 0);
             if (a.has("order") && o.order == 0) throw UsageError("--order must be positive");
             o.r = (int)a.u32("r", 0);
             o.stable = a.has("stable");
+            o.stable_auto = !a.has("allow-unstable");
+            if (o.stable && !o.stable_auto) throw UsageError("--stable contradicts --allow-unstable");
+            o.refine_iter = (int)a.u32("refine", 30);
             o.estimate_D = ft != Feedthrough::No;
             o.feedthrough_auto = ft == Feedthrough::Auto;
             const SubspaceResult r = fit_subspace(f, d, w, weighted, o);
             ss = r.model;
+            // auto: the constraint holds unless the LR test kept unstable poles the data need
+            enforced_stable = o.stable || (o.stable_auto && ss_stable(ss));
             V = r.cost;
             const int n = (int)ss.n();
             nparams = n * (int)(nu + ny) + (r.feedthrough ? (int)(nu * ny) : 0);
@@ -301,6 +312,14 @@ int cmd_fit(int argc, char **argv)
             for (auto &x : r.scan) sc.push_back(Json::array({x.first, x.second}));
             sub["r_scan"] = sc;
             sub["reflected_poles"] = r.reflected;
+            Json rf;
+            rf["max_steps"] = o.refine_iter;
+            rf["steps"] = r.refine_steps;
+            rf["cost_before"] = r.cost_unrefined >= 0 ? Json(r.cost_unrefined) : Json(nullptr);
+            sub["refine"] = rf;
+            sub["stable_mode"] = o.stable ? "yes" : o.stable_auto ? "auto" : "no";
+            sub["unconstrained_cost"] = r.cost_unconstrained >= 0 ? Json(r.cost_unconstrained) : Json(nullptr);
+            sub["stability_lr_p_value"] = r.stable_lr_p >= 0 ? Json(r.stable_lr_p) : Json(nullptr);
             extra["subspace"] = sub;
             extra["feedthrough"] = feedthrough_json(ft, r.feedthrough, r.feedthrough_p);
             for (const auto &l : w) Gm.push_back(ss_eval(ss, l.x));
@@ -454,7 +473,7 @@ int cmd_fit(int argc, char **argv)
         doc["C"] = rmat_json(ss.C);
         doc["D"] = rmat_json(ss.D);
         doc["stable"] = ss_stable(ss);
-        doc["stability"] = stability_json(ss, a.has("stable"));
+        doc["stability"] = stability_json(ss, enforced_stable);
         doc["n_params"] = nparams;
         for (auto it = extra.begin(); it != extra.end(); ++it) doc[it.key()] = it.value();
         const double dof = neq - nparams;
