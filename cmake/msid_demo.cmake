@@ -2,24 +2,20 @@
 # It builds msid and msid-devsim only (bootstrap.sh asks for those two targets, MSID_BUILD_TESTS=OFF) and
 # makes that build cheaper without touching what the normal build produces:
 #   - precompiled headers (Eigen, nlohmann-json, the standard headers) for the C++ libraries and msid;
-#   - the sources `msid demo` never runs (listed where their target is made: cissim, multi, the BLA,
-#     the LPM/ETFE/direct estimators, the bench, export and CAN commands) compiled at -O1: every command
-#     still works, those run slower than in the normal -O3 build.
-# With MSID_DEMO=OFF (the default, ./bootstrap.sh build|test, CI) both functions do nothing.
-option(MSID_DEMO "Quick build of what `msid demo` runs (./bootstrap.sh demo): PCH, -O1 for the rest" OFF)
+#   - the C++ host code (FRF file, fitting, estimators, the CLI) at -O1 instead of -O3: the Eigen-heavy
+#     fitting sources cost 40-100 s of CPU each at -O3, and what `msid demo` runs of them (an ml fit of
+#     order 4 on 2x2, 0.05 s at -O3) stays well under a second. Every command works; the fits and
+#     benches run slower than in the normal build. lib/, daq/ and the simulator (C) keep -O3.
+# With MSID_DEMO=OFF (the default, ./bootstrap.sh build|test, CI) msid_demo_quick does nothing.
+option(MSID_DEMO "Quick build of what `msid demo` runs (./bootstrap.sh demo): PCH, C++ host code at -O1" OFF)
 
-# msid_demo_pch(target): precompile the heavy headers of a C++ target (demo build only).
-function(msid_demo_pch target)
+# msid_demo_quick(target [NOPCH]): in the demo build, compile this C++ target at -O1, with precompiled
+# headers unless NOPCH (a one-source target gains nothing from them).
+function(msid_demo_quick target)
   if(MSID_DEMO)
-    target_precompile_headers(${target} PRIVATE <Eigen/Dense> <nlohmann/json.hpp> <complex> <string> <vector>)
-  endif()
-endfunction()
-
-# msid_demo_light(target src...): in the demo build, these sources of `target` (paths relative to the
-# current source directory) are compiled at -O1 and without the precompiled header (it was made at -O3).
-function(msid_demo_light target)
-  if(MSID_DEMO)
-    set_source_files_properties(${ARGN} TARGET_DIRECTORY ${target} PROPERTIES
-      COMPILE_OPTIONS "-O1" SKIP_PRECOMPILE_HEADERS ON)
+    target_compile_options(${target} PRIVATE -O1)
+    if(NOT "NOPCH" IN_LIST ARGN)
+      target_precompile_headers(${target} PRIVATE <Eigen/Dense> <nlohmann/json.hpp> <complex> <string> <vector>)
+    endif()
   endif()
 endfunction()
