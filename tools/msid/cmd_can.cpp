@@ -25,7 +25,8 @@ namespace msidcli {
 
 static const char *HELP =
     "usage: msid can measure --iface IF --design design.json -o frf.json [options]\n"
-    "       msid can replay --log run.log [--design design.json] -o frf.json [options]\n"
+    "       msid can replay --log run.log [--design design.json] [--session N | --since T --until T] -o frf.json\n"
+    "       msid can replay --log run.log --list\n"
     "\n"
     "measure: upload the design to an msid-can/1 device (as parameters), run every experiment,\n"
     "decode the sample stream and estimate the FRF with its covariance (msid-frf/1, with an\n"
@@ -46,7 +47,15 @@ static const char *HELP =
     "  --rcvbuf BYTES      socket receive buffer (above net.core.rmem_max needs CAP_NET_ADMIN)\n"
     "  --timeout S         give up when the device is silent this long (default 10)\n"
     "  --log FILE          also record every frame as a candump .log\n"
-    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n";
+    "  --skip-periods K, --transient flag|drop|off, --alpha A, --detect-lines B,..: as in msid frf\n"
+    "\n"
+    "replay: a session is one design upload (CFG BEGIN..COMMIT) and the experiments run with it\n"
+    "(RUNNING .. DONE) up to the next upload; the summary says how many the log holds. Sessions of one\n"
+    "design are pooled; a log of several designs needs a selection:\n"
+    "  --list              one line per session (times, design CRC, runs, sample frames), nothing written\n"
+    "  --session N         replay session N only (1 = the first)\n"
+    "  --since T, --until T  the sessions that start at or after T and end at or before T (timestamps\n"
+    "                      as the log writes them, seconds since the epoch: 1700000000.123456)\n";
 
 static std::string hex(uint32_t v) { return fmt("0x%X", v); }
 
@@ -525,25 +534,9 @@ static std::string session_line(const LogSession &s, size_t i)
                (unsigned long long)s.sample_frames);
 }
 
-static const char *REPLAY_HELP =
-    "usage: msid can replay --log run.log [--design design.json] [--session N | --since T --until T] -o frf.json\n"
-    "       msid can replay --log run.log --list\n"
-    "\n"
-    "The FRF of a candump .log (candump -l, python-can, or `msid can measure --log`) through the live\n"
-    "decoder. A session is one design upload (CFG BEGIN..COMMIT) and the experiments run with it\n"
-    "(RUNNING .. DONE) up to the next upload; the summary says how many the log holds. Sessions of one\n"
-    "design are pooled; a log of several designs needs a selection.\n"
-    "\n"
-    "  --list              one line per session (times, design CRC, runs, sample frames), nothing written\n"
-    "  --session N         replay session N only (1 = the first)\n"
-    "  --since T, --until T  the sessions that start at or after T and end at or before T (timestamps as\n"
-    "                      the log writes them, seconds since the epoch: 1700000000.123456)\n"
-    "  --design FILE       msid-design/1: must equal the design of the replayed session(s)\n"
-    "  --base ID, --window N, --skip-periods K, --transient, --alpha, --detect-lines: as in measure\n";
-
 static int cmd_replay(int argc, char **argv)
 {
-    Args a(argc, argv, 3, REPLAY_HELP,
+    Args a(argc, argv, 3,
            {"log", "design", "base", "window", "skip-periods", "transient", "alpha", "detect-lines", "output",
             "session", "since", "until"},
            {"list"});
