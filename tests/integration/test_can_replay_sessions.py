@@ -40,11 +40,10 @@ def frame(t, fid, data, tx=False):
 
 def session(t0, seed, bins, periods=4, gain=0.5):
     """One session starting at t0 s: (lines, t_end)."""
-    t, lines = t0, []
+    t, lines = t0, [frame(t0, 0x202, [1, 1, 1, 1, 0, 0, 0, 0])]       # INFO (identify): v1, 1 in, 1 out
     for d in _cfg_frames(periods, P, bins, seed=seed):
-        lines.append(frame(t, 0x201, d, tx=True))
         t += 1e-4
-    lines.append(frame(t, 0x202, [1, 1, 1, 1, 0, 0, 0, 0]))                       # INFO: v1, 1 in, 1 out
+        lines.append(frame(t, 0x201, d, tx=True))
     lines.append(frame(t, 0x200, [1, 0, 0, 0, 0, 0, 0, 0], tx=True))              # START experiment 0
     lines.append(frame(t, 0x202, [0, 3, 0, 0] + list((periods * P).to_bytes(4, "little"))))   # RUNNING
     for n in range(periods * P):
@@ -123,11 +122,17 @@ def test_session_selects_exactly_that_session(logs, tmp_path):
         assert r.returncode == 0 and f"(session {n} of 3)" in r.stdout, r.stdout + r.stderr
         got, ref = frf_lines(tmp_path / f"s{n}.json"), frf_lines(tmp_path / want)
         assert [l["G"] for l in got] == [l["G"] for l in ref] and [l["cov"] for l in got] == [l["cov"] for l in ref]
+        # the decoder saw that session's frames, its INFO before the upload included, as the log alone
+        ga, ra = (json.loads((tmp_path / x).read_text())["acquisition"] for x in (f"s{n}.json", want))
+        for k in ("frames", "status_frames", "host_frames", "sample_frames", "samples"):
+            if k in ra:
+                assert ga[k] == ra[k], k
     assert [l["bin"] for l in frf_lines(tmp_path / "a.json")] != [l["bin"] for l in frf_lines(tmp_path / "b.json")]
 
 
 def test_since_until_select_by_log_time(logs, tmp_path):
     t0, t1 = logs["t_b"]
+    t0 += 1e-4   # the upload's BEGIN (the INFO before it is at t0)
     # the second session's first and last timestamps, as the log writes them
     r = replay(tmp_path, logs["aba"], "--since", f"{t0:.6f}", "--until", f"({t1:.6f})", out="w.json")
     assert r.returncode == 0 and "(session 2 of 3)" in r.stdout, r.stdout + r.stderr

@@ -392,14 +392,15 @@ static int cmd_measure(int argc, char **argv)
 // ---- replay ------------------------------------------------------------------
 
 // One session of a log: a committed design upload (CFG BEGIN..COMMIT) and the experiments the device
-// ran with it (RUNNING .. DONE), up to the next such upload. Frame indices count the frames the
-// candump reader returns (blank lines skipped), the same in every pass over the file.
+// ran with it (RUNNING .. DONE). Its frames run from the end of the session before (its last sample,
+// RUNNING or DONE frame; the log's start for the first) to its own last such frame, so the device's
+// answers before the upload (INFO) are decoded as the live session decoded them. Frame indices count
+// the frames the candump reader returns (blank lines skipped), the same in every pass over the file.
 struct LogSession {
-    uint64_t begin = 0, commit = 0, end = 0;   // frames [begin, end); the COMMIT at frame `commit`
-    uint64_t t_begin = 0, t_end = 0;           // ns since the epoch, first and last frame
+    uint64_t begin = 0, upload = 0, commit = 0, end = 0;   // frames [begin, end); BEGIN and COMMIT frames
+    uint64_t t_begin = 0, t_end = 0;           // ns since the epoch: the upload's BEGIN, the last run frame
     uint32_t crc = 0, period = 0, n_inputs = 0, n_experiments = 0, periods = 0, encoding = 0, fd = 0;
     uint64_t runs = 0, dones = 0, sample_frames = 0;
-    uint64_t t_before = 0;                     // the frame before `begin` (the end of the session before)
     bool same_design(const LogSession &o) const
     {
         return crc == o.crc && period == o.period && n_inputs == o.n_inputs && n_experiments == o.n_experiments &&
@@ -435,7 +436,7 @@ struct LogScan {
     std::vector<LogSession> sessions;
     bool have_info = false, have_upload = false;
     uint32_t ny = 0, version = 0;
-    uint64_t frames = 0, early_samples = 0;   // sample frames before the first session's upload
+    uint64_t frames = 0;
     std::string iface;
 };
 
@@ -453,7 +454,7 @@ static LogScan scan_sessions(msid_candump_reader &rd, const std::string &path, u
     msid_params_reset(cfg.get());
     bool pending = false;          // a committed upload not yet followed by a run
     LogSession cand;               // that upload
-    uint64_t upload_begin = 0, upload_t = 0, upload_prev_t = 0, last_t = 0;
+    uint64_t upload_begin = 0, upload_t = 0, run_end = 0;   // run_end: after the last run frame so far
     msid_can_frame fr[64];
     msid_candump_rewind(&rd);
     for (;;) {
@@ -464,24 +465,26 @@ static LogScan scan_sessions(msid_candump_reader &rd, const std::string &path, u
             const msid_can_frame &f = fr[i];
             if (sc.iface.empty()) sc.iface = rd.iface;
             LogSession *cur = sc.sessions.empty() ? nullptr : &sc.sessions.back();
-            if (cur) cur->t_end = f.t_ns;
+            auto run_frame = [&] {
+                if (!cur) return;
+                run_end = sc.frames + 1;
+                cur->t_end = f.t_ns;
+            };
             if (is_sample_frame(f, base)) {
                 if (cur) cur->sample_frames++;
-                else sc.early_samples++;
+                run_frame();
             }
             if (f.id == base + MSID_CAN_ID_CFG) {
                 if (f.len >= 1 && f.data[0] == MSID_CAN_P_BEGIN) {
                     upload_begin = sc.frames;
                     upload_t = f.t_ns;
-                    upload_prev_t = last_t;
                 }
                 if (msid_params_feed(cfg.get(), f.data, f.len, MSID_CAN_PROTO_VERSION) == 1) {
                     sc.have_upload = true;
                     pending = true;
                     cand = LogSession{};
-                    cand.begin = upload_begin;
+                    cand.upload = upload_begin;
                     cand.t_begin = upload_t;
-                    cand.t_before = upload_prev_t;
                     cand.commit = sc.frames;
                     cand.crc = cfg->crc;
                     cand.period = cfg->period;
@@ -497,28 +500,27 @@ static LogScan scan_sessions(msid_candump_reader &rd, const std::string &path, u
                     sc.version = f.data[1];
                     sc.ny = f.data[3];
                 } else if (f.data[0] == MSID_CAN_ST_STATE && f.data[1] == MSID_CAN_STATE_RUNNING) {
-                    if (pending) {   // the upload's first run: a new session from its BEGIN on
-                        if (cur) {
-                            cur->end = cand.begin;
-                            cur->t_end = cand.t_before;
-                        }
+                    if (pending) {   // the upload's first run: a new session
+                        cand.begin = cur ? std::min(run_end, cand.upload) : 0;
+                        if (cur) cur->end = cand.begin;
                         sc.sessions.push_back(cand);
                         pending = false;
                         cur = &sc.sessions.back();
-                        cur->t_end = f.t_ns;
                     }
                     if (cur) cur->runs++;
+                    run_frame();
                 } else if (f.data[0] == MSID_CAN_ST_STATE && f.data[1] == MSID_CAN_STATE_DONE && cur) {
                     cur->dones++;
+                    run_frame();
                 }
             }
-            last_t = f.t_ns;
         }
     }
     // A log whose last upload never ran (and nothing ran before it) still has that one session:
     // its replay reports what is missing.
     if (sc.sessions.empty() && pending) {
         sc.sessions.push_back(cand);
+        sc.sessions.back().begin = 0;
         sc.sessions.back().t_end = cand.t_begin;
     }
     if (!sc.sessions.empty()) sc.sessions.back().end = sc.frames;
@@ -674,9 +676,6 @@ static int cmd_replay(int argc, char **argv)
             throw Error(fmt("'%s' holds no samples of experiment %u of %u", path.c_str(), e + 1, m));
     if (sel.size() > 1)
         notes.push_back(fmt("%zu sessions of the same design pooled (--session N replays one)", sel.size()));
-    if (sc.early_samples)
-        notes.push_back(fmt("%llu sample frame(s) before the first design upload were not used",
-                            (unsigned long long)sc.early_samples));
     msid_can_link_stats ls;
     msid_can_get_stats(&t, &ls);
     auto ln = loss_notes(acq.dec, ls);
