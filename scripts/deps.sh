@@ -3,7 +3,7 @@
 # Called by ./bootstrap.sh; safe to run again.
 set -euo pipefail
 
-APT_PKGS=(build-essential cmake pkg-config libcmocka-dev libfftw3-dev libmatio-dev zlib1g-dev
+APT_PKGS=(build-essential cmake ninja-build pkg-config libcmocka-dev libfftw3-dev libmatio-dev zlib1g-dev
           nlohmann-json3-dev libeigen3-dev python3 python3-pip)
 PY_MODS=(numpy jsonschema pytest)
 # Experiment-file tests and `msid bench io`: scipy (writes .mat v5), h5py (writes .mat v7.3), pandas (the CSV peer).
@@ -24,17 +24,20 @@ APT_PKGS+=(clang libclang-rt-dev)
 DEMO_ONLY=0
 if [ "${1:-}" = demo ]; then
   DEMO_ONLY=1
-  APT_PKGS=(build-essential cmake pkg-config libfftw3-dev libmatio-dev zlib1g-dev nlohmann-json3-dev libeigen3-dev
-            libmodbus-dev python3 python3-pip)
+  APT_PKGS=(build-essential cmake ninja-build pkg-config libfftw3-dev libmatio-dev zlib1g-dev nlohmann-json3-dev
+            libeigen3-dev libmodbus-dev python3 python3-pip)
   PY_MODS=(numpy matplotlib)
 fi
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else
   echo "deps: need root (or sudo) to run: $*" >&2; return 1; fi; }
 
+# One dpkg-query for every package (a fresh clone with everything present spends no time here).
 missing=()
+installed=" $(dpkg-query -W -f='${Package} ${Status}\n' "${APT_PKGS[@]}" 2>/dev/null |
+             awk '$NF == "installed" && $(NF-1) == "ok" {printf "%s ", $1}')"
 for p in "${APT_PKGS[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
 done
 if [ ${#missing[@]} -gt 0 ]; then
   echo "deps: installing ${missing[*]} (log: deps.log)"
@@ -43,8 +46,10 @@ if [ ${#missing[@]} -gt 0 ]; then
     >> deps.log 2>&1 || { tail -30 deps.log; echo "deps: apt-get failed (see deps.log)" >&2; exit 1; }
 fi
 
-py_missing() { local m out=(); for m in "${PY_MODS[@]}"; do
-  python3 -c "import $m" 2>/dev/null || out+=("$m"); done; echo "${out[*]:-}"; }
+# One interpreter, find_spec only (importing matplotlib alone takes a second): the modules not found.
+py_missing() { python3 -c 'import importlib.util as u, sys
+print(" ".join(m for m in sys.argv[1:] if u.find_spec(m) is None))' "${PY_MODS[@]}" 2>/dev/null ||
+  echo "${PY_MODS[*]}"; }
 need=$(py_missing)
 if [ -n "$need" ]; then
   # Debian's own python3 takes Debian packages; any other python3 on PATH (pyenv, venv) takes pip.

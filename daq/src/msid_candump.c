@@ -31,6 +31,12 @@ int msid_candump_format(char *buf, size_t cap, const msid_can_frame *f, const ch
             buf[n++] = HEX[f->data[i] >> 4];
             buf[n++] = HEX[f->data[i] & 15];
         }
+    /* direction, as python-can's CanutilsLogWriter and `candump -x` write it: T sent by this host,
+       R received; none on error frames (they come from the controller, not from a node) */
+    if (!(f->id & MSID_CAN_ERR_FLAG)) {
+        buf[n++] = ' ';
+        buf[n++] = (f->flags & MSID_CANF_TX) ? 'T' : 'R';
+    }
     buf[n++] = '\n';
     buf[n] = 0;
     return n;
@@ -42,6 +48,22 @@ static int hexval(char c)
     if (c >= 'a' && c <= 'f') return c - 'a' + 10;
     if (c >= 'A' && c <= 'F') return c - 'A' + 10;
     return -1;
+}
+
+/* The end of a line after the frame: nothing, or a space and the direction T (sent by the logging
+   host: MSID_CANF_TX) or R (received), as python-can and `candump -x` write it; then only spaces and
+   the line end. An error frame's direction is accepted and dropped (the writer gives it none). */
+static int parse_tail(const char *s, msid_can_frame *f)
+{
+    if (*s == ' ') {
+        while (*s == ' ') ++s;
+        if ((*s == 'T' || *s == 'R') && (s[1] == ' ' || s[1] == 0 || s[1] == '\n' || s[1] == '\r')) {
+            if (*s == 'T' && !(f->id & MSID_CAN_ERR_FLAG)) f->flags |= MSID_CANF_TX;
+            ++s;
+        }
+    }
+    while (*s == '\r' || *s == '\n' || *s == ' ') ++s;
+    return *s ? -MSID_DAQ_E_FORMAT : 0;
 }
 
 int msid_candump_parse(const char *s, msid_can_frame *f, char *iface, size_t iface_cap)
@@ -91,8 +113,7 @@ int msid_candump_parse(const char *s, msid_can_frame *f, char *iface, size_t ifa
         f->id |= MSID_CAN_RTR_FLAG;
         ++s;
         if (*s >= '0' && *s <= '8') f->len = (uint8_t)(*s++ - '0');
-        while (*s == '\r' || *s == '\n' || *s == ' ') ++s;
-        return *s ? -MSID_DAQ_E_FORMAT : 0;
+        return parse_tail(s, f);
     }
     unsigned len = 0;
     for (;;) {
@@ -109,10 +130,7 @@ int msid_candump_parse(const char *s, msid_can_frame *f, char *iface, size_t ifa
         if (hexval(s[1]) < 0) return -MSID_DAQ_E_FORMAT;
         s += 2;
     }
-    while (*s == ' ') ++s;   /* trailing annotations (T/R) are not ours: refuse them below unless space-only */
-    if (*s == 'T' || *s == 'R') { ++s; if (*s == ' ' || *s == 0 || *s == '\n' || *s == '\r') {} else return -MSID_DAQ_E_FORMAT; }
-    while (*s == '\r' || *s == '\n' || *s == ' ') ++s;
-    return *s ? -MSID_DAQ_E_FORMAT : 0;
+    return parse_tail(s, f);
 }
 
 static int replay_recv(void *ctx, msid_can_frame *out, int n, int timeout_ms)

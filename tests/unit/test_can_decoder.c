@@ -155,7 +155,7 @@ static void candump_lines(void **st)
     f.id = 0x212; f.len = 8; f.t_ns = 1700000000123456000ull;
     for (int i = 0; i < 8; ++i) f.data[i] = (uint8_t)(0x11 * i);
     assert_true(msid_candump_format(buf, sizeof buf, &f, "vcan0") > 0);
-    assert_string_equal(buf, "(1700000000.123456) vcan0 212#0011223344556677\n");
+    assert_string_equal(buf, "(1700000000.123456) vcan0 212#0011223344556677 R\n");
     assert_int_equal(msid_candump_parse(buf, &g, ifn, sizeof ifn), 0);
     assert_int_equal(g.id, 0x212); assert_int_equal(g.len, 8); assert_memory_equal(g.data, f.data, 8);
     assert_true(g.t_ns == f.t_ns);
@@ -180,20 +180,43 @@ static void candump_lines(void **st)
     memset(&f, 0, sizeof f);
     f.id = MSID_CAN_RTR_FLAG | 0x123u; f.len = 8;
     msid_candump_format(buf, sizeof buf, &f, "vcan0");
-    assert_non_null(strstr(buf, " 123#R8\n"));
+    assert_non_null(strstr(buf, " 123#R8 R\n"));
     assert_int_equal(msid_candump_parse(buf, &g, ifn, sizeof ifn), 0);
     assert_true(g.id == (MSID_CAN_RTR_FLAG | 0x123u) && g.len == 8);
     f.len = 0;
     msid_candump_format(buf, sizeof buf, &f, "vcan0");
-    assert_non_null(strstr(buf, " 123#R\n"));
+    assert_non_null(strstr(buf, " 123#R R\n"));
     assert_int_equal(msid_candump_parse("(1.0) vcan0 E0000044#0004000000000000\n", &g, ifn, sizeof ifn), 0);
     assert_int_equal(g.id, MSID_CAN_ERR_FLAG | 0x44u);
     assert_int_equal(msid_candump_parse("   \n", &g, ifn, sizeof ifn), 1);
+    /* direction (issue 13): T sets MSID_CANF_TX and is written back, R and none are received frames,
+       an error frame carries none; python-can's remote frame line "123#R T" reads too */
+    memset(&f, 0, sizeof f);
+    f.id = 0x201; f.len = 2; f.flags = MSID_CANF_TX;
+    msid_candump_format(buf, sizeof buf, &f, "vcan0");
+    assert_non_null(strstr(buf, " 201#0000 T\n"));
+    assert_int_equal(msid_candump_parse(buf, &g, ifn, sizeof ifn), 0);
+    assert_true(g.flags == MSID_CANF_TX && g.id == 0x201 && g.len == 2);
+    assert_int_equal(msid_candump_parse("(1.000000) vcan0 212#0011 R\n", &g, ifn, sizeof ifn), 0);
+    assert_true(g.flags == 0 && g.len == 2);
+    assert_int_equal(msid_candump_parse("(1.000000) vcan0 212#0011\n", &g, ifn, sizeof ifn), 0);
+    assert_true(g.flags == 0 && g.len == 2);
+    assert_int_equal(msid_candump_parse("(1.000000) vcan0 123#R T\n", &g, ifn, sizeof ifn), 0);
+    assert_true(g.id == (MSID_CAN_RTR_FLAG | 0x123u) && g.flags == MSID_CANF_TX);
+    assert_int_equal(msid_candump_parse("(1.000000) vcan0 248##1AABB T\r\n", &g, ifn, sizeof ifn), 0);
+    assert_true(g.flags == (MSID_CANF_FD | MSID_CANF_BRS | MSID_CANF_TX) && g.len == 2);
+    assert_int_equal(msid_candump_parse("(1.000000) vcan0 20000040#00 T\n", &g, ifn, sizeof ifn), 0);
+    assert_true(g.flags == 0);
+    f.id = MSID_CAN_ERR_FLAG | 0x40u; f.len = 1; f.flags = MSID_CANF_TX;
+    msid_candump_format(buf, sizeof buf, &f, "vcan0");
+    assert_non_null(strstr(buf, " 20000040#00\n"));
     static const char *bad[] = {
         "1700000000.1 vcan0 212#00\n", "(1700000000.1) vcan0 2123#00\n", "(1700000000.1) vcan0 212#0\n",
         "(1700000000.1) vcan0 212#001122334455667788\n", "(1700000000.1) vcan0 212##G00\n",
         "(x) vcan0 212#00\n", "(1700000000.1) vcan0 800#00\n", "(1700000000.1)  212#00\n",
-        "(1700000000.1) vcan0 212#00 garbage\n", "(1700000000.1) vcan0 212\n"};
+        "(1700000000.1) vcan0 212#00 garbage\n", "(1700000000.1) vcan0 212\n",
+        "(1700000000.1) vcan0 212#00T\n", "(1700000000.1) vcan0 212#00 TR\n", "(1700000000.1) vcan0 212#00 T x\n",
+        "(1700000000.1) vcan0 123#RT\n"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
         assert_int_equal(msid_candump_parse(bad[i], &g, ifn, sizeof ifn), -MSID_DAQ_E_FORMAT);
 }

@@ -4,10 +4,14 @@
  *
  * One frame per line, as `candump -l` writes and can-utils' canplayer and
  * python-can's CanutilsLogReader read:
- *   (1700000000.123456) vcan0 212#0102030405060708       classic
- *   (1700000000.123456) vcan0 248##1<128 hex digits>     CAN FD (flags digit)
- *   (1700000000.123456) vcan0 20000040#0000000000000000  error frame (8 hex digits)
- *   (1700000000.123456) vcan0 1ABCDEF0#...               29-bit identifier
+ *   (1700000000.123456) vcan0 212#0102030405060708 R     classic, received
+ *   (1700000000.123456) vcan0 201#0100000001000000 T     classic, sent by the logging host
+ *   (1700000000.123456) vcan0 248##1<128 hex digits> R   CAN FD (flags digit)
+ *   (1700000000.123456) vcan0 20000040#0000000000000000  error frame (8 hex digits, no direction)
+ *   (1700000000.123456) vcan0 1ABCDEF0#... R             29-bit identifier
+ * The direction (T: the frame has MSID_CANF_TX, R: received) is written as python-can's
+ * CanutilsLogWriter and `candump -x` write it; the reader accepts lines with and without it
+ * (without: received) and sets MSID_CANF_TX for T.
  * The replay backend returns the frames in file order with their timestamps;
  * a malformed line stops the replay with -MSID_DAQ_E_FORMAT and its line number
  * (after the frames before it have been returned).

@@ -10,6 +10,13 @@ magnitude |G| -/+ r, phase -/+ asin(r/|G|) (all phases once r >= |G|). With a mo
 dense grid, and the residual |Ghat - G_model| / sqrt(v) per line against the `level` threshold sqrt(q).
 A model file with an `order_selection` block adds the stabilisation diagram (pole frequency vs order).
 
+Noise-dominated lines (the `level` region covers the origin, r >= |G|: the phase is unknown there) are
+drawn as open markers without joining the phase line, and the phase is unwrapped across the other
+lines only, so one such line cannot shift every later line by 360 degrees. An ETFE file
+(`msid frf --method etfe`) also gets the band of its finite-sample bound (Tsiamis et al. 2024
+Theorem 1): `||Ghat - G||_2 <= bound` for all lines jointly with probability 1 - delta, so every
+element lies within `bound` of its estimate (|G| -/+ bound, phase -/+ asin(bound/|G|)).
+
 The figures are plain matplotlib Figure objects (no pyplot state): `bode(frf, model)` returns one.
 """
 import argparse
@@ -22,6 +29,8 @@ from . import regions
 from .files import FRF, Model, FormatError, read_frf, read_model
 
 REGION_LABEL = "95% region"
+BOUND_LABEL = "ETFE bound"
+NOISE_LABEL = "noise-dominated line"
 FLAG_STYLE = {  # stabilisation flags of docs/fitting.md: s stable pole, d damping, f frequency, o new
     "s": ("o", "tab:green", "stable (f, zeta)"),
     "d": ("D", "tab:blue", "stable f, zeta moved"),
@@ -42,6 +51,55 @@ def _model_axis_points(frf, f_axis):
         return 1j * 2 * np.pi * f_axis
     h = frf.sample_time if (unit == "Hz" and frf.sample_time) else 1.0
     return np.exp(2j * np.pi * f_axis * h)
+
+
+def unwrap_phase(G, noisy=None):
+    """Phase (radians) of G along axis 0, unwrapped across the lines where `noisy` is False only: each
+    such line takes the branch nearest the previous one (np.unwrap where nothing is noisy); a noisy
+    line takes the branch nearest the last line before it (the first clean line after it at the start),
+    and never moves the lines after it."""
+    G = np.asarray(G)
+    ang = np.angle(G)
+    if noisy is None:
+        return np.unwrap(ang, axis=0)
+    noisy = np.broadcast_to(np.asarray(noisy, bool), ang.shape)
+    out = np.array(ang, float)
+    flat_a, flat_n, flat_o = (x.reshape(len(ang), -1) for x in (ang, noisy, out))
+    two_pi = 2 * np.pi
+    for c in range(flat_a.shape[1]):
+        a, nz, o = flat_a[:, c], flat_n[:, c], flat_o[:, c]
+        clean = np.flatnonzero(~nz)
+        ref = None
+        for k in range(len(a)):
+            if nz[k]:
+                r = ref if ref is not None else (a[clean[0]] if len(clean) else a[k])
+                o[k] = a[k] + two_pi * np.round((r - a[k]) / two_pi)
+                continue
+            o[k] = a[k] if ref is None else a[k] + two_pi * np.round((ref - a[k]) / two_pi)
+            ref = o[k]
+        # the first clean line keeps its principal value; noisy lines before it were placed near it
+    return flat_o.reshape(ang.shape)
+
+
+def etfe_bound(frf):
+    """The per-line ETFE bound (L,) of an `msid frf --method etfe` file, or None."""
+    if frf.meta.get("method") != "etfe" or not frf.line_extra or not all("bound" in e for e in frf.line_extra):
+        return None
+    b = np.array([float(e["bound"]) for e in frf.line_extra])
+    return b if np.all(np.isfinite(b)) else None
+
+
+def _disc_band(am, ap, f, m, ph, rad, color, alpha, label):
+    """The band a disc of radius `rad` around each estimate sweeps: |G| -/+ rad on the magnitude axes
+    `am` (the lower edge at a floor where the disc covers the origin), phase -/+ asin(rad/|G|) on `ap`
+    (all phases once rad >= |G|)."""
+    lo = np.where(rad < m, m - rad, np.nan)
+    floor = np.nanmin(np.concatenate([lo, m])) / 10 if np.any(m > 0) else 1e-12
+    lo = np.where(np.isnan(lo), floor, lo)
+    am.fill_between(f, _db(lo), _db(m + rad), color=color, alpha=alpha, linewidth=0, label=label)
+    half = np.degrees(np.arcsin(np.clip(rad / np.where(m > 0, m, 1), 0, 1)))
+    half = np.where(rad >= m, 180.0, half)
+    ap.fill_between(f, ph - half, ph + half, color=color, alpha=alpha, linewidth=0, label=label)
 
 
 def _grid(f):
@@ -80,7 +138,9 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
     gs = fig.add_gridspec(nrows, nu, height_ratios=ratios, left=0.9 / (4.2 * nu + 1.0), right=0.98,
                           bottom=0.55 / height, top=1 - 0.8 / height, hspace=0.45, wspace=0.25)
     mag = np.abs(frf.G)
-    phase = np.degrees(np.unwrap(np.angle(frf.G), axis=0))
+    noisy = (r >= mag) if r is not None else np.zeros(mag.shape, bool)
+    phase = np.degrees(unwrap_phase(frf.G, noisy))
+    bound = etfe_bound(frf)
     if model is not None:
         fg = _grid(f)
         Gd = model.response_at(_model_axis_points(frf, fg))
@@ -94,25 +154,22 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
             base = i * rows_per_out
             am = fig.add_subplot(gs[base, j])
             ap = fig.add_subplot(gs[base + 1, j], sharex=am)
-            g, m, ph = frf.G[:, i, j], mag[:, i, j], phase[:, i, j]
+            g, m, ph, nz = frf.G[:, i, j], mag[:, i, j], phase[:, i, j], noisy[:, i, j]
+            if bound is not None:
+                _disc_band(am, ap, f, m, ph, bound, "tab:orange", 0.18, BOUND_LABEL)
             if r is not None:
-                rr = r[:, i, j]
-                lo = np.where(rr < m, m - rr, np.nan)
-                floor = np.nanmin(np.concatenate([lo, m])) / 10 if np.any(m > 0) else 1e-12
-                lo = np.where(np.isnan(lo), floor, lo)
-                am.fill_between(f, _db(lo), _db(m + rr), color="tab:blue", alpha=0.25, linewidth=0,
-                                label=REGION_LABEL.replace("95%", lev), step=None)
-                half = np.degrees(np.arcsin(np.clip(rr / np.where(m > 0, m, 1), 0, 1)))
-                half = np.where(rr >= m, 180.0, half)
-                ap.fill_between(f, ph - half, ph + half, color="tab:blue", alpha=0.25, linewidth=0,
-                                label=REGION_LABEL.replace("95%", lev))
+                _disc_band(am, ap, f, m, ph, r[:, i, j], "tab:blue", 0.25, REGION_LABEL.replace("95%", lev))
             am.plot(f, _db(m), "o-", color="tab:blue", ms=3, lw=1, label="estimate")
-            ap.plot(f, ph, "o-", color="tab:blue", ms=3, lw=1, label="estimate")
+            # noise-dominated lines: open markers, not joined (the phase line breaks there)
+            ap.plot(f, np.where(nz, np.nan, ph), "o-", color="tab:blue", ms=3, lw=1, label="estimate")
+            if np.any(nz):
+                ap.plot(f[nz], ph[nz], "o", color="tab:blue", ms=3, mfc="none", lw=0, label=NOISE_LABEL)
             if model is not None:
                 gd = Gd[:, i, j]
                 pd = np.degrees(np.unwrap(np.angle(gd)))
                 # put the model's phase on the branch of the estimate at the line nearest the grid start
-                k0 = int(np.argmin(np.abs(f - fg[0])))
+                cand = np.flatnonzero(~nz) if np.any(~nz) else np.arange(len(f))
+                k0 = int(cand[np.argmin(np.abs(f[cand] - fg[0]))])
                 pd += 360.0 * np.round((ph[k0] - np.degrees(np.angle(Gl[k0, i, j])) -
                                         (pd[0] - np.degrees(np.angle(gd[0])))) / 360.0)
                 am.plot(fg, _db(np.abs(gd)), "-", color="tab:red", lw=1.2, label="model")
