@@ -260,8 +260,8 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
         nent = le64(b + z64 + 32);
         cdoff = le64(b + z64 + 48);
     }
-    // every central directory entry takes at least 46 bytes: a larger count is a lie (found by fuzz_files:
-    // a zip64 record claiming 2^60 entries made reserve() throw std::length_error)
+    // every central directory entry takes at least 46 bytes: a larger count is a lie (issue 15: a zip64
+    // record claiming 2^60 entries made reserve() throw; seed corpus/fuzz_files/regress-npz-zip64-entry-count)
     if (nent > N / 46) throw Error(fmt("'%s': corrupt zip directory (%llu entries in %zu bytes)", path.c_str(),
                                        (unsigned long long)nent, N));
     std::vector<std::string> bufs;   // inflated members (kept alive for the Arrays)
@@ -299,7 +299,7 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
             continue;
         } else if (method == 8) {
             // deflate expands at most 1032:1: a larger uncompressed size would size memory from a lie
-            // (found by fuzz_files: a 100-byte member claiming 4 GiB)
+            // (issue 15: a 100-byte member claiming 4 GiB; seed corpus/fuzz_files/regress-npz-huge-uncompressed-size)
             if (usize > csize * 1032 + 1024) throw Error("'" + where + "': corrupt zip member (uncompressed size)");
             m.resize(usize);
             z_stream zs{};
