@@ -118,7 +118,8 @@ static void update_header(sim_mb *m)
     h.overruns = (uint32_t)m->overruns;
     h.period_count = m->d->configured && m->d->des.period ? (uint32_t)((m->w - m->s0) / m->d->des.period) : 0;
     h.total = (uint32_t)m->d->n_total;
-    if (m->d->o.absurd_exp == (int)m->mexp && m->mstate == MSID_MB_STATE_RUNNING && m->d->n_sample >= m->d->o.absurd_at) {
+    if (m->d->o.absurd_exp == (int)m->mexp && (m->mstate == MSID_MB_STATE_RUNNING || m->mstate == MSID_MB_STATE_DONE) &&
+        m->d->n_sample >= m->d->o.absurd_at) {
         h.total = 0xFFFFFFF0u;   /* adversarial: an absurd sample count */
         m->mc.absurd_header = 1;
     }
