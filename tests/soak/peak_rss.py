@@ -34,8 +34,8 @@ def timed(*args):
 
 
 def csv_case(d, rows, P=1000):
-    subprocess.run([MSID, "excite", "--period", P, "--lines", "1:7:400", "--inputs", 1, "--experiments", 1,
-                    "--periods", rows // P, "--seed", 3, "-o", d / "design.json", "--csv", d],
+    subprocess.run([MSID, *map(str, ("excite", "--period", P, "--lines", "1:7:400", "--inputs", 1, "--experiments", 1,
+                                     "--periods", rows // P, "--seed", 3, "-o", d / "design.json", "--csv", d))],
                    check=True, capture_output=True)
     u1 = np.loadtxt(d / "e1.csv", delimiter=",", skiprows=1, max_rows=P)
     rng = np.random.default_rng(1)
