@@ -35,7 +35,7 @@ def timed(*args):
 
 def csv_case(d, rows, P=1000):
     subprocess.run([MSID, *map(str, ("excite", "--period", P, "--lines", "1:7:400", "--inputs", 1, "--experiments", 1,
-                                     "--periods", rows // P, "--seed", 3, "-o", d / "design.json", "--csv", d))],
+                                     "--periods", 2, "--seed", 3, "-o", d / "design.json", "--csv", d))],
                    check=True, capture_output=True)
     u1 = np.loadtxt(d / "e1.csv", delimiter=",", skiprows=1, max_rows=P)
     rng = np.random.default_rng(1)
@@ -50,7 +50,7 @@ def csv_case(d, rows, P=1000):
             yy = yy + 0.01 * rng.standard_normal(n)
             f.write("\n".join(f"{a:.9g},{b:.9g}" for a, b in zip(u, yy)) + "\n")
     size = path.stat().st_size
-    hwm, wall, cpu = timed("frf", "--design", d / "design.json", path, "--skip-periods", 1, "-o", d / "frf.json")
+    hwm, wall, cpu = timed("frf", "--design", d / "design.json", "--experiment", path, "--skip-periods", 1, "-o", d / "frf.json")
     return size, hwm, wall, cpu
 
 
