@@ -119,12 +119,19 @@ def check_accounting(doc, rep, names, sim_args):
     why = f"faults {sim_args}: host {a}, device {rep}"
     assert a["exceptions"] == inj["exceptions"], why
     assert a["bad_replies"] == adv["garbage_tid"] + adv["oversized"], why
-    # with 3 s response timeouts, a timeout is a truncated reply or a request the stalled device left unanswered
-    assert a["timeouts"] == adv["truncated"] + rep["unanswered"], why
-    assert a["io_errors"] >= inj["dropped"] and a["reconnects"] == a["timeouts"] + a["io_errors"], why
+    # With 3 s response timeouts, a timeout is a truncated reply or a request the stalled device left
+    # unanswered -- or a reply lost with a dropped connection (the 30-minute soak found it): the device
+    # sent it and marked its ring slots read, so it may overwrite them without counting an overrun,
+    # while the host times out once and finds newer tags there: it declares those samples missing (at
+    # most one read's worth per drop). The host is right (tags prove every sample it used); the
+    # device's count cannot know what the link lost.
+    drops, per_read = inj["dropped"], 125 // a["sample_regs"]
+    assert 0 <= a["timeouts"] - adv["truncated"] - rep["unanswered"] <= drops, why
+    assert a["io_errors"] >= drops and a["reconnects"] == a["timeouts"] + a["io_errors"], why
     assert a["device_restarts"] == inj["restarts"], why
-    assert a["samples_lost"] == a["overrun_samples"] == a["device_overruns"] == rep["overrun_samples"], why
-    assert a["overrun_events"] == len(rep["overrun_ranges"]), why
+    assert a["samples_lost"] == a["overrun_samples"] and a["device_overruns"] == rep["overrun_samples"], why
+    assert 0 <= a["samples_lost"] - rep["overrun_samples"] <= drops * per_read, why
+    assert 0 <= a["overrun_events"] - len(rep["overrun_ranges"]) <= drops, why
     assert a["crc_errors"] == 0 and rep["experiments_done"] == 2, why
     for n, key in (("exceptions", inj["exceptions"]), ("delays", inj["delayed"]), ("drop", inj["dropped"]),
                    ("stall", inj["stalls"]), ("restart", inj["restarts"]), ("garbage_tid", adv["garbage_tid"]),
@@ -171,6 +178,7 @@ def test_soak_modbus_tcp(design, tmp_path):
 def test_negative_control_accounting_sees_a_missing_count(design, tmp_path):
     """check_accounting is not vacuous: a host counter off by one fails it."""
     doc = json.loads(json.dumps({"acquisition": {"exceptions": 1, "bad_replies": 0, "timeouts": 0, "io_errors": 0,
+                                                 "sample_regs": 5,
                                                  "reconnects": 0, "device_restarts": 0, "samples_lost": 0,
                                                  "overrun_samples": 0, "device_overruns": 0, "overrun_events": 0,
                                                  "crc_errors": 0}}))
