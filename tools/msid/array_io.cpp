@@ -110,7 +110,11 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
         while (p < shp.size() && (shp[p] == ' ' || shp[p] == ',')) ++p;
         if (p >= shp.size()) break;
         char *e;
-        dims.push_back((size_t)std::strtoull(shp.c_str() + p, &e, 10));
+        const unsigned long long d = std::strtoull(shp.c_str() + p, &e, 10);
+        // not a number: an error (found by fuzz_files: a NUL in the shape kept this loop appending 0s until
+        // the 10 s timeout; seed corpus/fuzz_files/regress-npy-shape-not-a-number)
+        if (e == shp.c_str() + p || dims.size() >= 8) throw Error("'" + where + "': bad .npy shape");
+        dims.push_back((size_t)d);
         p = (size_t)(e - shp.c_str());
     }
     if (dims.size() == 1) dims.push_back(1);
@@ -118,6 +122,8 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
         throw Error(fmt("'%s': a %zu-dimensional array; expected a vector or a samples x channels matrix", where.c_str(),
                         dims.size()));
     const size_t R = dims[0], Cc = dims[1];
+    if (Cc && R > SIZE_MAX / Cc / a.esize)   // R * Cc * esize would wrap and pass the size check below
+        throw Error(fmt("'%s': the header says %zu x %zu values, more than any file holds", where.c_str(), R, Cc));
     const size_t need = R * Cc * a.esize, have = buf.size() - hoff - hlen;
     if (have < need)
         throw Error(fmt("'%s': truncated: the header says %zu x %zu %s (%zu bytes of data) but %zu are there",
