@@ -58,19 +58,22 @@ def can_case(d, frames, P=1000):
     from test_can_host import _cfg_frames, _frame
     samples = frames // 2
     periods = samples // P
+    bins = tuple(range(1, 400, 7))
+    k = np.arange(P)
+    up = sum(np.cos(2 * np.pi * b * k / P + 0.1 * b * b) for b in bins) / math.sqrt(len(bins))   # one period
     path = d / "big.log"
     with open(path, "w") as f:
         t = 1.0
-        for c in _cfg_frames(periods, P, bins=tuple(range(1, 400, 7))):
+        for c in _cfg_frames(periods, P, bins=bins):
             f.write(_frame(t, 0x201, c) + "\n")
             t += 1e-4
         f.write(_frame(t, 0x202, [1, 1, 1, 1, 0, 0, 0, 0]) + "\n")
         f.write(_frame(t, 0x202, [0, 3, 0, 0] + list((periods * P).to_bytes(4, "little"))) + "\n")
         out = []
         for n in range(periods * P):
-            u = math.cos(2 * math.pi * (n % P) / P)
+            u = float(up[n % P])
             fl = (0x40 if n % P == 0 else 0) | (0x80 if n == 0 else 0)
-            for k, v in enumerate((u, 0.5 * u)):
+            for k, v in enumerate((u, 0.5 * u + 0.01 * ((n * 7919) % 13))):
                 t += 1e-5
                 out.append(f"({t:.6f}) vcan0 {0x220 + k:03X}#{n & 0xFF:02X}{(n >> 8) & 0xFF:02X}{n >> 16:02X}{fl:02X}"
                            f"{struct.pack('<f', v).hex().upper()}")
