@@ -54,7 +54,7 @@ def run_round(tmp, design, args):
     with c.Sim(tmp, "--seed", 4, *args) as sim:
         out = Path(tmp) / "frf.json"
         p = subprocess.Popen([c.MSID, "can", "measure", "--iface", "vcan0", "--design", str(design), "--skip-periods",
-                              "1", "--rcvbuf", str(4 << 20), "-o", str(out)],
+                              "1", "--rcvbuf", str(4 << 20), "--transient", "off", "-o", str(out)],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         host, _ = watch(p, sim.p.pid, 900, f"msid can measure (faults {args})")
         _, err = p.communicate()
