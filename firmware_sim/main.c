@@ -57,7 +57,15 @@ static const char *USAGE =
     "  --answer-twice        (adversarial) send every reply twice\n"
     "  --index-back-at E:N   (adversarial) from sample N of experiment E report a write index 16 samples back\n"
     "  --bad-result          (adversarial) a NaN in the on-device result block\n"
-    "  --restart-at E:N, --seed, --noise-*, --plant, --truth, --report, --idle-exit: as for CAN\n";
+    "  --garbage-tid-every K (adversarial, TCP) every K-th reply with a transaction id the host never sent\n"
+    "  --drip-every K[:MS]   (adversarial) every K-th read reply one byte at a time, MS ms apart (default 2)\n"
+    "  --truncate-every K    (adversarial) every K-th read reply cut to half its bytes\n"
+    "  --oversize-every K    (adversarial) every K-th read reply 16 bytes longer than asked\n"
+    "  --absurd-header-at E:N  (adversarial) from sample N of experiment E the header's TOTAL reads 0xFFFFFFF0\n"
+    "  --restart-at E:N, --seed, --noise-*, --plant, --truth, --report, --idle-exit: as for CAN\n"
+    "CAN adversarial modes:\n"
+    "  --done-twice          send every DONE frame twice\n"
+    "  --replay-done-at E:N  at sample N of experiment E send the last DONE frame again (a replay)\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -142,6 +150,7 @@ int main(int argc, char **argv)
         if (!strcmp(a, "--never-done")) { o->never_done = 1; continue; }
         if (!strcmp(a, "--answer-twice")) { o->answer_twice = 1; continue; }
         if (!strcmp(a, "--bad-result")) { o->bad_result = 1; continue; }
+        if (!strcmp(a, "--done-twice")) { o->done_twice = 1; continue; }
         if (i + 1 >= argc) { fprintf(stderr, "msid-devsim: error: unknown option or missing value: %s\n%s", a, USAGE); return 2; }
         const char *v = argv[++i];
         if (!strcmp(a, "--iface")) o->iface = v;
@@ -175,6 +184,12 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--corrupt-every")) o->corrupt_every = num_u(a, v);
         else if (!strcmp(a, "--drop-at")) pair(a, v, &o->drop_exp, &o->drop_at, NULL);
         else if (!strcmp(a, "--index-back-at")) pair(a, v, &o->back_exp, &o->back_at, NULL);
+        else if (!strcmp(a, "--garbage-tid-every")) o->garbage_tid_every = num_u(a, v);
+        else if (!strcmp(a, "--drip-every")) kv(a, v, &o->drip_every, &o->drip_ms, 2);
+        else if (!strcmp(a, "--truncate-every")) o->truncate_every = num_u(a, v);
+        else if (!strcmp(a, "--oversize-every")) o->oversize_every = num_u(a, v);
+        else if (!strcmp(a, "--absurd-header-at")) pair(a, v, &o->absurd_exp, &o->absurd_at, NULL);
+        else if (!strcmp(a, "--replay-done-at")) pair(a, v, &o->replay_exp, &o->replay_at, NULL);
         else if (!strcmp(a, "--stall-at")) {
             uint64_t d4[4] = {0, 0, 0, 300};
             char buf[64];

@@ -21,6 +21,7 @@ typedef struct sim_counts {
     uint64_t frames_sent, sample_frames, samples;
     uint64_t dropped, duplicated, reordered, malformed, error_frames, bus_off, restarts, tx_busy;
     uint64_t busoff_samples;         /* samples not sent while bus-off */
+    uint64_t done_duplicated, done_replayed;   /* adversarial: DONE frames sent twice, or again later */
     uint64_t paced_waits, late_samples;  /* --rate: samples that waited for their deadline / found it passed */
     uint64_t early_samples;              /* --rate: samples sent before their deadline (never, if paced) */
     uint32_t experiments_done;
@@ -34,7 +35,8 @@ typedef struct sim_can {
     int state, running_exp;
     uint64_t fc;                     /* frame counter */
     uint64_t busoff_left;
-    int busoff_done, restart_done;
+    int busoff_done, restart_done, replay_done;
+    uint32_t last_done_exp, last_done_val;   /* the last DONE frame sent (--replay-done-at) */
     msid_can_frame held;             /* reorder: frame held back */
     int have_held;
     double last_host_frame;
@@ -123,6 +125,8 @@ static void report_body(FILE *f, const void *ctx)
             (unsigned long long)c->cnt.dropped, (unsigned long long)c->cnt.duplicated, (unsigned long long)c->cnt.reordered,
             (unsigned long long)c->cnt.malformed, (unsigned long long)c->cnt.error_frames, (unsigned long long)c->cnt.bus_off,
             (unsigned long long)c->cnt.busoff_samples, (unsigned long long)c->cnt.restarts);
+    fprintf(f, " \"adversarial\": {\"done_duplicated\": %llu, \"done_replayed\": %llu},\n",
+            (unsigned long long)c->cnt.done_duplicated, (unsigned long long)c->cnt.done_replayed);
     fprintf(f, " \"rate_hz\": %u, \"paced_waits\": %llu, \"late_samples\": %llu, \"early_samples\": %llu,\n",
             c->d->configured ? c->d->cfg.rate_hz : 0, (unsigned long long)c->cnt.paced_waits, (unsigned long long)c->cnt.late_samples,
             (unsigned long long)c->cnt.early_samples);
@@ -136,7 +140,7 @@ static int start(sim_can *c, uint32_t e, uint32_t periods)
     const int err = sim_start(c->d, e, periods);
     if (err) return err;
     c->running_exp = (int)e;
-    c->busoff_done = c->restart_done = 0;
+    c->busoff_done = c->restart_done = c->replay_done = 0;
     c->busoff_left = 0;
     c->state = MSID_CAN_STATE_RUNNING;
     if (c->est.on) sim_est_begin(&c->est, e);
@@ -401,6 +405,11 @@ static void run_step(sim_can *c)
         c->busoff_left = c->d->o.busoff_len ? c->d->o.busoff_len : 1;
         c->cnt.busoff_samples += c->busoff_left;
     }
+    if (c->d->o.replay_exp == e && !c->replay_done && c->d->n_sample == c->d->o.replay_at && c->cnt.experiments_done) {
+        c->replay_done = 1;   /* adversarial: the last DONE frame again, in the middle of this experiment */
+        send_state(c, MSID_CAN_STATE_DONE, c->last_done_exp, 0, c->last_done_val);
+        c->cnt.done_replayed++;
+    }
     produce_sample(c);
     if (c->d->n_sample >= c->d->n_total) {
         flush_held(c);
@@ -408,6 +417,12 @@ static void run_step(sim_can *c)
         c->cnt.experiments_done++;
         send_counters(c);
         send_state(c, MSID_CAN_STATE_DONE, (uint32_t)e, 0, (uint32_t)c->d->n_sample);
+        if (c->d->o.done_twice) {   /* adversarial: a duplicated DONE frame */
+            send_state(c, MSID_CAN_STATE_DONE, (uint32_t)e, 0, (uint32_t)c->d->n_sample);
+            c->cnt.done_duplicated++;
+        }
+        c->last_done_exp = (uint32_t)e;
+        c->last_done_val = (uint32_t)c->d->n_sample;
         sim_write_atomic(c->d->o.report, report_body, c);
         c->state = MSID_CAN_STATE_CONFIGURED;
     }

@@ -46,6 +46,13 @@ typedef struct sim_opts {
     int answer_twice;                /**< Modbus: send every reply twice */
     int back_exp; uint64_t back_at;  /**< Modbus: from sample N of experiment E report a write index 16 samples back */
     int bad_result;                  /**< Modbus: publish a NaN in the on-device result block (line 1, G[0][0]) */
+    uint64_t garbage_tid_every;      /**< Modbus TCP: every K-th reply carries a transaction id the host never sent */
+    uint64_t drip_every, drip_ms;    /**< Modbus: every K-th read reply sent one byte at a time, MS ms apart */
+    uint64_t truncate_every;         /**< Modbus: every K-th read reply cut to half its bytes (the rest never comes) */
+    uint64_t oversize_every;         /**< Modbus: every K-th read reply 16 bytes longer than asked (byte count and all) */
+    int absurd_exp; uint64_t absurd_at;   /**< Modbus: from sample N of experiment E the header's TOTAL is 0xFFFFFFF0 */
+    int done_twice;                  /**< CAN: send every DONE frame twice */
+    int replay_exp; uint64_t replay_at;   /**< CAN: at sample N of experiment E send the last DONE frame again */
     /* on-device estimation (sim_estimate.c) */
     uint64_t est_mem;                /**< bytes the device gives the estimator (0: the default) */
 } sim_opts;

@@ -44,6 +44,7 @@ typedef struct sim_mb {
     struct {
         uint64_t requests, replies, unanswered, delayed, dropped, exceptions, corrupted, stalls, stall_samples;
         uint64_t restarts, overrun_samples, samples, experiments_done;
+        uint64_t garbage_tid, dripped, truncated, oversized, absurd_header;   /* adversarial replies */
     } mc;
     struct { uint32_t e; uint64_t a, b; } ranges[MAX_RANGES];   /* overwritten unread: [a, b) of experiment e */
     int n_ranges;
@@ -81,6 +82,10 @@ static void report_body(FILE *f, const void *ctx)
             (unsigned long long)m->mc.delayed, (unsigned long long)m->mc.dropped, (unsigned long long)m->mc.exceptions,
             (unsigned long long)m->mc.corrupted, (unsigned long long)m->mc.stalls, (unsigned long long)m->mc.stall_samples,
             (unsigned long long)m->mc.restarts);
+    fprintf(f, " \"adversarial\": {\"garbage_tid\": %llu, \"dripped\": %llu, \"truncated\": %llu, \"oversized\": %llu, "
+               "\"absurd_header\": %llu},\n",
+            (unsigned long long)m->mc.garbage_tid, (unsigned long long)m->mc.dripped, (unsigned long long)m->mc.truncated,
+            (unsigned long long)m->mc.oversized, (unsigned long long)m->mc.absurd_header);
     fprintf(f, " \"overrun_samples\": %llu, \"overrun_ranges\": [", (unsigned long long)m->mc.overrun_samples);
     for (int i = 0; i < m->n_ranges; ++i)
         fprintf(f, "%s[%u, %llu, %llu]", i ? ", " : "", m->ranges[i].e, (unsigned long long)m->ranges[i].a,
@@ -113,6 +118,11 @@ static void update_header(sim_mb *m)
     h.overruns = (uint32_t)m->overruns;
     h.period_count = m->d->configured && m->d->des.period ? (uint32_t)((m->w - m->s0) / m->d->des.period) : 0;
     h.total = (uint32_t)m->d->n_total;
+    if (m->d->o.absurd_exp == (int)m->mexp && (m->mstate == MSID_MB_STATE_RUNNING || m->mstate == MSID_MB_STATE_DONE) &&
+        m->d->n_sample >= m->d->o.absurd_at) {
+        h.total = 0xFFFFFFF0u;   /* adversarial: an absurd sample count */
+        m->mc.absurd_header = 1;
+    }
     h.crc = m->d->configured ? m->d->cfg.crc : 0;
     h.period = m->d->configured ? m->d->des.period : 0;
     h.cmd_done = m->cmd_done;
@@ -382,23 +392,84 @@ static uint16_t crc16(const uint8_t *p, size_t n)
     return c;
 }
 
-/* RTU: the reply to a read, with one data bit flipped after the CRC was computed. */
-static int send_corrupt(sim_mb *m, const uint8_t *q, int hl, uint32_t addr, uint32_t cnt)
+/* A read reply (function 3 or 4) built here, TCP or RTU framed, with `extra` junk bytes counted in its
+   byte count (and length) beyond the registers asked for; 0 when the request is not a valid read. */
+static size_t read_reply(const sim_mb *m, const uint8_t *q, int hl, uint32_t addr, uint32_t cnt, uint32_t extra, uint8_t *f)
 {
     const uint16_t *src = q[hl] == 4 ? m->ir : m->hr;
     const uint32_t lim = q[hl] == 4 ? 65536u : MSID_MB_HR_EXT_COUNT;
     if (cnt == 0 || cnt > 125 || addr + cnt > lim) return 0;
-    uint8_t f[260];
+    const uint32_t bc = 2 * cnt + extra > 255 ? 255 : 2 * cnt + extra;
     size_t n = 0;
-    f[n++] = q[0];
+    if (!m->rtu) {   /* MBAP: the request's transaction id, protocol 0, length, unit */
+        f[n++] = q[0]; f[n++] = q[1]; f[n++] = 0; f[n++] = 0;
+        f[n++] = (uint8_t)((3 + bc) >> 8); f[n++] = (uint8_t)(3 + bc);
+    }
+    f[n++] = q[hl - 1];
     f[n++] = q[hl];
-    f[n++] = (uint8_t)(2 * cnt);
+    f[n++] = (uint8_t)bc;
     for (uint32_t i = 0; i < cnt; ++i) { f[n++] = (uint8_t)(src[addr + i] >> 8); f[n++] = (uint8_t)src[addr + i]; }
-    const uint16_t c = crc16(f, n);
+    for (uint32_t i = 2 * cnt; i < bc; ++i) f[n++] = (uint8_t)(0xA5 ^ i);
+    if (m->rtu) {
+        const uint16_t c = crc16(f, n);
+        f[n++] = (uint8_t)c;
+        f[n++] = (uint8_t)(c >> 8);
+    }
+    return n;
+}
+
+/* RTU: the reply to a read, with one data bit flipped after the CRC was computed. */
+static int send_corrupt(sim_mb *m, const uint8_t *q, int hl, uint32_t addr, uint32_t cnt)
+{
+    uint8_t f[MODBUS_MAX_ADU_LENGTH + 32];
+    const size_t n = read_reply(m, q, hl, addr, cnt, 0, f);
+    if (!n) return 0;
     f[3] ^= 0x01;
-    f[n++] = (uint8_t)c;
-    f[n++] = (uint8_t)(c >> 8);
     return write(modbus_get_socket(m->mb), f, n) == (ssize_t)n;
+}
+
+enum { HOSTILE_SENT = 1, HOSTILE_UNUSABLE = 2 };
+
+/* The adversarial replies (issue 15): HOSTILE_SENT when a reply was sent in place of the honest one
+   (a write was still applied to the map), HOSTILE_UNUSABLE when the host cannot use what it got (the
+   ring slots it asked for are not marked read). At most one per request. */
+static int hostile_reply(sim_mb *m, const uint8_t *q, int len, int hl, uint64_t k, uint32_t fc, uint32_t addr, uint32_t cnt)
+{
+    const sim_opts *o = &m->d->o;
+    const int fd = modbus_get_socket(m->mb);
+    if (!m->rtu && o->garbage_tid_every && k % o->garbage_tid_every == 0) {
+        uint8_t g[MODBUS_MAX_ADU_LENGTH];
+        memcpy(g, q, (size_t)len);
+        g[0] ^= 0x5A;   /* a transaction id the host never sent */
+        g[1] ^= 0xC3;
+        if (modbus_reply(m->mb, g, len, &m->map) < 0) return HOSTILE_SENT | HOSTILE_UNUSABLE;
+        m->mc.garbage_tid++;
+        return HOSTILE_SENT | HOSTILE_UNUSABLE;
+    }
+    if (fc != 3 && fc != 4) return 0;
+    const int cut = o->truncate_every && k % o->truncate_every == 0;
+    const int big = !cut && o->oversize_every && k % o->oversize_every == 0;
+    const int drip = !cut && !big && o->drip_every && k % o->drip_every == 0;
+    if (!cut && !big && !drip) return 0;
+    uint8_t f[MODBUS_MAX_ADU_LENGTH + 32];
+    size_t n = read_reply(m, q, hl, addr, cnt, big ? 16u : 0u, f);
+    if (!n) return 0;
+    if (drip) {
+        m->mc.dripped++;
+        for (size_t i = 0; i < n; ++i) {
+            if (write(fd, f + i, 1) != 1) break;
+            sleep_s(m, 1e-3 * (double)o->drip_ms);
+        }
+        return HOSTILE_SENT;
+    }
+    if (cut) {
+        m->mc.truncated++;
+        n /= 2;
+    } else {
+        m->mc.oversized++;
+    }
+    if (write(fd, f, n) != (ssize_t)n) {}
+    return HOSTILE_SENT | HOSTILE_UNUSABLE;
 }
 
 static void serve(sim_mb *m, const uint8_t *q, int len)
@@ -428,10 +499,11 @@ static void serve(sim_mb *m, const uint8_t *q, int len)
         m->mc.corrupted++;
         return;
     }
-    if (modbus_reply(m->mb, q, len, &m->map) < 0) return;
+    const int hostile = hostile_reply(m, q, len, hl, k, fc, addr, cnt);
+    if (!hostile && modbus_reply(m->mb, q, len, &m->map) < 0) return;
     m->mc.replies++;
     if (m->d->o.answer_twice && modbus_reply(m->mb, q, len, &m->map) >= 0) m->mc.replies++;   /* adversarial: a duplicate */
-    if (fc == 4 && addr + cnt > MSID_MB_RING_ADDR && m->W && m->R) {
+    if (fc == 4 && !(hostile & HOSTILE_UNUSABLE) && addr + cnt > MSID_MB_RING_ADDR && m->W && m->R) {
         const uint32_t a = addr > MSID_MB_RING_ADDR ? addr - MSID_MB_RING_ADDR : 0;
         const uint32_t b = addr + cnt - MSID_MB_RING_ADDR;
         for (uint32_t slot = a / m->W; slot < m->R && slot * m->W < b; ++slot)

@@ -240,7 +240,12 @@ static void on_status(msid_can_decoder *d, const msid_can_frame *f)
                     d->cnt.done_beyond++;
                     n = (int64_t)d->cfg.samples_total;
                 }
-                if (d->seen && d->last_s >= n) d->cnt.malformed++;
+                if (d->seen && d->last_s >= n) {
+                    /* a DONE counting no more samples than have arrived is stale (a replay of an earlier
+                       run's DONE): ignored, or it would close the experiment and drop the rest (issue 15) */
+                    d->cnt.malformed++;
+                    break;
+                }
                 close_exp(d, n);
                 d->done_exp = (int)v->experiment;
                 d->cnt.experiments_done++;

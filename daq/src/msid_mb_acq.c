@@ -70,8 +70,9 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
 {
     *transient = 0;
     const msid_mb_transport *t = a->tr;
-    int rc = 0;
+    int rc = 0, reissued = 0;
     for (uint32_t attempt = 0;; ++attempt) {
+        if (a->drain) msid_mb_flush(t);   /* no request is outstanding: whatever waits on the link is stale */
         a->cnt.requests++;
         rc = kind == MSID_MB_READ_INPUT     ? msid_mb_read_input(t, addr, n, regs)
              : kind == MSID_MB_READ_HOLDING ? msid_mb_read_holding(t, addr, n, regs)
@@ -95,7 +96,19 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
         }
         case MSID_DAQ_E_TIMEOUT: a->cnt.timeouts++; reconnect = 1; break;
         case MSID_DAQ_E_CRC: a->cnt.crc_errors++; break;
-        case MSID_DAQ_E_BADDATA: a->cnt.bad_replies++; break;
+        case MSID_DAQ_E_BADDATA:
+            /* a reply that does not match its request (a stale duplicate, a foreign transaction id, bytes
+               left over from an oversized frame): the real reply is still in flight. The backoff lets it
+               arrive, the flush drops it, and the request is issued once more even when the caller allows
+               no retry; from now on the link is drained before every request, so a device that answers
+               every request twice costs a flush per request instead of a livelock (issue 15 #8) */
+            a->cnt.bad_replies++;
+            a->drain = 1;
+            if (!reissued) {
+                reissued = 1;
+                retries++;
+            }
+            break;
         case MSID_DAQ_E_ARG:
             snprintf(a->err, sizeof a->err, "%s %u..%u: bad request", kind_name(kind), addr, addr + n - 1);
             return rc;

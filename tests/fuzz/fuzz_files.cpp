@@ -1,6 +1,8 @@
 // libFuzzer: the file readers of the command line, through their own entry points: the first byte picks
 // the reader, the rest is the file. msid-frf/1 (read_frf), msid-model/1 (read_model), msid-design/1
-// (read_design_file) and experiment CSV (read_record_csv). A reader must return a value or throw its
+// (read_design_file), experiment CSV (read_record_csv) and the binary records: .npy (read_record_npy, the
+// copying and the zero-copy path), .npz (read_record_npz: zip, stored and deflated members, zip64) and
+// .mat (read_record_mat, through libmatio). Seeds: corpus/fuzz_files/ (npy-*, npz-*, mat-* from gen_seeds.py). A reader must return a value or throw its
 // one error; any other exception, a crash or a sanitizer report is a finding.
 #include "csv_io.hpp"
 #include "design_io.hpp"
@@ -28,11 +30,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     std::fwrite(data + 1, 1, size - 1, f);
     std::fclose(f);
     try {
-        switch (data[0] % 4) {
+        static const msidcli::ColumnMap two = msidcli::parse_column_map("u1=1,y1=2");
+        switch (data[0] % 8) {
         case 0: (void)msidfit::read_frf(path); break;
         case 1: (void)msidfit::read_model(path); break;
         case 2: (void)msidcli::read_design_file(path); break;
-        default: (void)msidcli::read_record_csv(path); break;
+        case 3: (void)msidcli::read_record_csv(path); break;
+        case 4: (void)msidcli::read_record_npy(path, {}, false); break;
+        case 5: (void)msidcli::read_record_npy(path, two, true); break;   // the zero-copy view
+        case 6: (void)msidcli::read_record_npz(path, {}); break;
+        default: (void)msidcli::read_record_mat(path, {}); break;
         }
     } catch (const msidfit::FitError &) {
     } catch (const msidcli::Error &) {

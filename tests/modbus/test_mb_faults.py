@@ -2,6 +2,7 @@
 the adapter's counters match what the device injected, no overwritten or corrupted sample is
 used, and the FRF from the good periods is right (bit-identical to a clean run when nothing
 was lost; inside its 95% regions when periods were rejected)."""
+import json
 import signal
 import threading
 import time
@@ -163,10 +164,22 @@ def test_write_index_stepping_back_is_one_clear_error(design, tmp_path):
     assert "write index stepped back" in r.stderr or f"reported DONE after {K * P - 16} of the design's" in r.stderr
 
 
-def test_device_that_answers_twice(design, tmp_path):
-    """Every reply sent twice: the stale duplicate answers the next request, so no ring read succeeds.
-    The run used to end with the misleading "produced no new sample"; it now names the cause, once,
-    in bounded time, with nothing written."""
+def test_device_that_answers_twice(design, tmp_path, clean):
+    """Every reply sent twice: the stale duplicate answers the next request. The run used to livelock
+    until "produced no new sample", then ended with one clear error. Now the first mismatch makes the
+    client drain the link before every request and issue a mismatched request once more after its
+    backoff and flush. Whether that wins depends on when the duplicate arrives (libmodbus rejects a
+    foreign transaction id but cannot skip the stale reply and read on: docs/reliability.md #8), so
+    the run ends either with the honest device's FRF, bit for bit, or with one clear error naming the
+    mismatches, nothing written; never a wrong FRF, never a hang."""
     with c.Sim(tmp_path, "--seed", 4, "--answer-twice") as sim:
         r = c.measure(tmp_path, sim, design, "--timeout", 3, ok=False, timeout=120)
-    c.fails(tmp_path, r, 1, "did not match their requests", "answers twice")
+    rep = sim.report()
+    assert rep["replies"] >= 2 * rep["requests"] - 2   # the device did answer (nearly) every request twice
+    if r.returncode == 0:
+        doc = json.loads((tmp_path / "frf.json").read_text())
+        a = doc["acquisition"]
+        assert a["bad_replies"] >= 1 and a["samples_lost"] == 0
+        assert c.frf_equal(doc, clean[False])
+    else:
+        c.fails(tmp_path, r, 1, "did not match their requests", "answers twice")

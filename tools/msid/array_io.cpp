@@ -110,7 +110,11 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
         while (p < shp.size() && (shp[p] == ' ' || shp[p] == ',')) ++p;
         if (p >= shp.size()) break;
         char *e;
-        dims.push_back((size_t)std::strtoull(shp.c_str() + p, &e, 10));
+        const unsigned long long d = std::strtoull(shp.c_str() + p, &e, 10);
+        // not a number: an error (found by fuzz_files: a NUL in the shape kept this loop appending 0s until
+        // the 10 s timeout; seed corpus/fuzz_files/regress-npy-shape-not-a-number)
+        if (e == shp.c_str() + p || dims.size() >= 8) throw Error("'" + where + "': bad .npy shape");
+        dims.push_back((size_t)d);
         p = (size_t)(e - shp.c_str());
     }
     if (dims.size() == 1) dims.push_back(1);
@@ -118,6 +122,8 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
         throw Error(fmt("'%s': a %zu-dimensional array; expected a vector or a samples x channels matrix", where.c_str(),
                         dims.size()));
     const size_t R = dims[0], Cc = dims[1];
+    if (Cc && R > SIZE_MAX / Cc / a.esize)   // R * Cc * esize would wrap and pass the size check below
+        throw Error(fmt("'%s': the header says %zu x %zu values, more than any file holds", where.c_str(), R, Cc));
     const size_t need = R * Cc * a.esize, have = buf.size() - hoff - hlen;
     if (have < need)
         throw Error(fmt("'%s': truncated: the header says %zu x %zu %s (%zu bytes of data) but %zu are there",
@@ -269,6 +275,10 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
         nent = le64(b + z64 + 32);
         cdoff = le64(b + z64 + 48);
     }
+    // every central directory entry takes at least 46 bytes: a larger count is a lie (issue 15: a zip64
+    // record claiming 2^60 entries made reserve() throw; seed corpus/fuzz_files/regress-npz-zip64-entry-count)
+    if (nent > N / 46) throw Error(fmt("'%s': corrupt zip directory (%llu entries in %zu bytes)", path.c_str(),
+                                       (unsigned long long)nent, N));
     std::vector<std::string> bufs;   // inflated members (kept alive for the Arrays)
     std::vector<Array> arrs;
     bufs.reserve(nent);
@@ -303,6 +313,9 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
             arrs.push_back(parse_npy(where, std::string_view((const char *)b + data, csize), var));
             continue;
         } else if (method == 8) {
+            // deflate expands at most 1032:1: a larger uncompressed size would size memory from a lie
+            // (issue 15: a 100-byte member claiming 4 GiB; seed corpus/fuzz_files/regress-npz-huge-uncompressed-size)
+            if (usize > csize * 1032 + 1024) throw Error("'" + where + "': corrupt zip member (uncompressed size)");
             m.resize(usize);
             z_stream zs{};
             if (inflateInit2(&zs, -MAX_WBITS) != Z_OK) throw Error("zlib: inflateInit2 failed");
@@ -322,6 +335,34 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
     return assemble(path, arrs, cols, false);
 }
 
+// A MATLAB v4 file is a run of records (a 20-byte header: type MOPT, rows, columns, imaginary flag, name
+// length; the name; the data). libmatio sizes its work from a header before checking it against the file
+// (issue 15, found by fuzz_files: a 297-byte v4 file kept it clearing memory past libFuzzer's 10 s timeout;
+// seed corpus/fuzz_files/regress-mat-v4-header-beyond-file), so each record is checked against the bytes
+// the file holds first. v5 and v7.3 files (a 128-byte header ending in "IM" or "MI") are left to matio.
+static void check_mat_v4(const std::string &path)
+{
+    const FileBytes f(path);
+    const auto *b = (const unsigned char *)f.data();
+    const size_t N = f.size();
+    if (N >= 128 && ((b[126] == 'I' && b[127] == 'M') || (b[126] == 'M' && b[127] == 'I'))) return;
+    static const unsigned esize[6] = {8, 4, 4, 2, 2, 1};   // P: double, single, int32, int16, uint16, uint8
+    for (size_t p = 0, k = 1; p < N; ++k) {
+        if (N - p < 20) throw Error(fmt("'%s': variable %zu of the MATLAB v4 file is truncated", path.c_str(), k));
+        uint32_t h[5];
+        for (int i = 0; i < 5; ++i) h[i] = le32(b + p + 4 * i);
+        if (h[0] >= 1000 && h[0] < 2000)   // M = 1: a big-endian file
+            for (int i = 0; i < 5; ++i) h[i] = (uint32_t)b[p + 4 * i] << 24 | (uint32_t)b[p + 4 * i + 1] << 16 |
+                                              (uint32_t)b[p + 4 * i + 2] << 8 | b[p + 4 * i + 3];
+        const uint32_t P = h[0] / 10 % 10;
+        const uint64_t need = (uint64_t)h[4] + (uint64_t)h[1] * h[2] * (P < 6 ? esize[P] : 1) * (h[3] ? 2 : 1);
+        if (h[0] >= 2000 || P >= 6 || need > N - p - 20)
+            throw Error(fmt("'%s' is not a MATLAB .mat file or is corrupt: variable %zu claims more bytes than the file "
+                            "holds", path.c_str(), k));
+        p += 20 + need;
+    }
+}
+
 Record read_record_mat(const std::string &path, const ColumnMap &cols)
 {
     {   // matio prints to stderr on failure; check that the file opens first
@@ -329,6 +370,7 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
         ::close(fd);
     }
+    check_mat_v4(path);
     const Matio &M = matio();
     M.LogInitFunc("msid", mat_log);   // matio's messages go to the one error, not to stderr
     mat_t *mf = M.Open(path.c_str(), MAT_ACC_RDONLY);

@@ -174,6 +174,7 @@ static const char *HELP =
     "--measure plans FFTW with FFTW_MEASURE (default FFTW_ESTIMATE, as `msid frf`).\n";
 
 static int bench_fit(int argc, char **argv);
+int cmd_bench_crest(int argc, char **argv);   // cmd_bench_crest.cpp
 static int bench_frf(int argc, char **argv);
 
 static const char *BENCH_HELP =
@@ -187,6 +188,7 @@ static const char *BENCH_HELP =
     "  modbus  the highest lossless sample rate x channels over Modbus from msid-devsim\n"
     "  target  instructions per sample of the core on a Cortex-M (qemu)\n"
     "  wcet    per-sample time of generation + streaming estimation on the host\n"
+    "  crest   design set-up for large P: crest factors by FFT vs direct synthesis vs NumPy\n"
     "\n"
     "Results with date and machine go to docs/benchmarks.md.\n";
 
@@ -200,7 +202,8 @@ int cmd_bench(int argc, char **argv)
                                 {"can", cmd_bench_can},
                                 {"modbus", cmd_bench_modbus},
                                 {"target", cmd_bench_target},
-                                {"wcet", cmd_bench_target}},
+                                {"wcet", cmd_bench_target},
+                                {"crest", cmd_bench_crest}},
                                true);
 }
 

@@ -53,6 +53,7 @@ typedef struct msid_mb_client {
     uint32_t cmd_seq, cfg_seq;
     msid_mb_link_counters cnt;
     char err[320];              /**< message of the last failure */
+    int drain;                  /**< a reply did not match its request: the link is flushed before every request */
 } msid_mb_client;
 
 /** Configuration of the ring poller. */

@@ -1,0 +1,140 @@
+// msid bench crest: the design's set-up time for large P (issue 15 #6) -- crest factors by two real
+// DFTs per input and experiment (MSID_CREST_FFT, O(m nu P log P)) against direct synthesis
+// (MSID_CREST_DIRECT, O(m nu P L)) and a NumPy peer (tools/python/msid/crest_peer.py: one irfft per
+// input) on the same coefficients in the same run; prints the agreement of the crest factors.
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "frf_io.hpp"
+
+extern "C" {
+#include "msid/msid_fft_fftw.h"
+}
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <unistd.h>
+
+namespace msidcli {
+
+namespace {
+
+double wall() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+double cpu() { return (double)std::clock() / CLOCKS_PER_SEC; }
+
+struct Setup {
+    uint32_t P, L, nu = 2, m = 2;
+    std::vector<uint32_t> bins;
+    Mem mtw;
+    msid_twiddle tw{};
+    explicit Setup(uint32_t P_, uint32_t L_) : P(P_), L(L_)
+    {
+        for (uint32_t l = 0; l < L; ++l) bins.push_back(1 + l * ((P / 2 - 2) / L));   // spread below Nyquist
+        mtw = Mem(msid_twiddle_mem_size(P));
+        check(msid_twiddle_init(&tw, P, mtw.p, mtw.n), "twiddle table");
+    }
+    // One msid_design_init with the given crest mode: (wall, cpu) seconds; the design kept in d/mem.
+    std::pair<double, double> init(msid_crest_mode mode, msid_design &d, Mem &mem) const
+    {
+        msid_design_cfg c{};
+        c.period = P;
+        c.n_lines = L;
+        c.bins = bins.data();
+        c.phase_mode = MSID_PHASE_SCHROEDER;
+        c.n_inputs = nu;
+        c.n_experiments = m;
+        c.twiddle = &tw;
+        c.crest = mode;
+        msid_fft_fftw f{};
+        if (mode == MSID_CREST_FFT) {
+            check(msid_fft_fftw_create(&f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
+            c.fft = &f.be;
+        }
+        mem = Mem(msid_design_mem_size(&c));
+        const double t0 = wall(), c0 = cpu();
+        const msid_status st = msid_design_init(&d, &c, mem.p, mem.n);
+        const std::pair<double, double> t{wall() - t0, cpu() - c0};
+        if (mode == MSID_CREST_FFT) msid_fft_fftw_destroy(&f);
+        check(st, "design");
+        return t;
+    }
+};
+
+}  // namespace
+
+int cmd_bench_crest(int argc, char **argv)
+{
+    static const char *HELP =
+        "usage: msid bench crest [--quick] [--no-peer] [--direct-max P]\n"
+        "Design set-up time for large periods (issue 15 #6): msid_design_init of a 2-input,\n"
+        "2-experiment Schroeder multisine with 1000 lines at P = 2^12 ... 2^22, the crest factors\n"
+        "computed by FFT (MSID_CREST_FFT, what the host uses) and by direct synthesis\n"
+        "(MSID_CREST_DIRECT, only up to --direct-max, default 2^18: it is O(m nu P L)), beside a NumPy\n"
+        "peer (one irfft per input) on the same coefficients. Wall and CPU time (the machine may be\n"
+        "shared), and the largest relative difference of the crest factors. --quick: P up to 2^16.\n";
+    const Args a(argc, argv, 3, HELP, {"direct-max"}, {"quick", "no-peer"});
+    const uint64_t direct_max = a.u64("direct-max", 1u << 18);
+    const uint32_t top = a.has("quick") ? 16 : 22;
+    std::printf("msid bench crest  (msid %s)\nmachine: %s\n", MSID_VERSION, bench_machine().c_str());
+    std::printf("design: 2 inputs, 2 experiments, Schroeder phases, 1000 lines (P/2 - 1 if fewer); one run each\n\n");
+    std::printf("  %8s %6s | %-19s | %-19s | %-19s | %s\n", "P", "lines", "msid FFT wall/cpu", "msid direct wall/cpu",
+                "NumPy irfft wall/cpu", "max rel. diff (FFT vs direct, vs NumPy)");
+    for (uint32_t e2 = 12; e2 <= top; e2 += 2) {
+        const uint32_t P = 1u << e2, L = std::min<uint32_t>(1000, P / 2 - 2);
+        const Setup S(P, L);
+        msid_design dF{}, dD{};
+        Mem mF, mD;
+        const auto tF = S.init(MSID_CREST_FFT, dF, mF);
+        std::string sD = "(skipped)", diffD = "-", diffP = "-", sP = "(no peer)";
+        if (P <= direct_max) {
+            const auto tD = S.init(MSID_CREST_DIRECT, dD, mD);
+            sD = fmt("%8.4f / %8.4f", tD.first, tD.second);
+            double w = 0;
+            for (uint32_t k = 0; k < S.m * S.nu; ++k) w = std::max(w, std::fabs(dF.crest[k] / dD.crest[k] - 1));
+            diffD = fmt("%.1e", w);
+        }
+        if (!a.has("no-peer")) {
+            char tmpl[] = "/tmp/msid-bench-crest-XXXXXX";
+            const int fd = mkstemp(tmpl);
+            if (fd < 0) throw Error("cannot create a temporary file");
+            FILE *f = fdopen(fd, "wb");
+            std::fwrite(S.bins.data(), sizeof(uint32_t), L, f);
+            for (uint32_t e = 0; e < S.m; ++e)
+                for (uint32_t i = 0; i < S.nu; ++i)
+                    for (uint32_t l = 0; l < L; ++l) {
+                        const msid_cplx c = msid_design_coef(&dF, e, i, l);
+                        std::fwrite(&c, sizeof c, 1, f);
+                    }
+            std::fclose(f);
+            const std::string pydir = bench_python_dir();
+            const std::string cmd = fmt("python3 '%s/msid/crest_peer.py' '%s' %u %u %u %u 2>&1", pydir.c_str(), tmpl, P,
+                                        L, S.m, S.nu);
+            FILE *p = popen(cmd.c_str(), "r");
+            std::string out;
+            char buf[4096];
+            while (p && std::fgets(buf, sizeof buf, p)) out += buf;
+            const int rc = p ? pclose(p) : -1;
+            std::remove(tmpl);
+            try {
+                if (rc != 0) throw std::runtime_error("exit status");
+                const Json pj = Json::parse(out);
+                double w = 0;
+                for (uint32_t k = 0; k < S.m * S.nu; ++k)
+                    w = std::max(w, std::fabs(dF.crest[k] / pj["crest"][k].get<double>() - 1));
+                diffP = fmt("%.1e", w);
+                sP = fmt("%8.4f / %8.4f", pj["sec"].get<double>(), pj["cpu"].get<double>());
+            } catch (const std::exception &) {
+                sP = "(peer failed: " + out.substr(0, 60) + ")";
+            }
+        }
+        std::printf("  %8u %6u | %8.4f / %8.4f | %19s | %19s | %s, %s\n", P, L, tF.first, tF.second, sD.c_str(), sP.c_str(),
+                    diffD.c_str(), diffP.c_str());
+        std::fflush(stdout);
+    }
+    return 0;
+}
+
+}  // namespace msidcli
