@@ -65,7 +65,8 @@ static const char *USAGE =
     "  --restart-at E:N, --seed, --noise-*, --plant, --truth, --report, --idle-exit: as for CAN\n"
     "CAN adversarial modes:\n"
     "  --done-twice          send every DONE frame twice\n"
-    "  --replay-done-at E:N  at sample N of experiment E send the last DONE frame again (a replay)\n";
+    "  --replay-done-at E:N  at sample N of experiment E send the last DONE frame again (a replay)\n"
+    "  --lose-done E         do not send experiment E's DONE frame (lost on the bus): a QUERY answers DONE(E, n)\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -190,6 +191,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--oversize-every")) o->oversize_every = num_u(a, v);
         else if (!strcmp(a, "--absurd-header-at")) pair(a, v, &o->absurd_exp, &o->absurd_at, NULL);
         else if (!strcmp(a, "--replay-done-at")) pair(a, v, &o->replay_exp, &o->replay_at, NULL);
+        else if (!strcmp(a, "--lose-done")) o->lose_done_exp = (int)num_d(a, v, 0, 255);
         else if (!strcmp(a, "--stall-at")) {
             uint64_t d4[4] = {0, 0, 0, 300};
             char buf[64];

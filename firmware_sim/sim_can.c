@@ -22,6 +22,7 @@ typedef struct sim_counts {
     uint64_t dropped, duplicated, reordered, malformed, error_frames, bus_off, restarts, tx_busy;
     uint64_t busoff_samples;         /* samples not sent while bus-off */
     uint64_t done_duplicated, done_replayed;   /* adversarial: DONE frames sent twice, or again later */
+    uint64_t done_lost, done_queried;         /* --lose-done: DONE frames not sent; QUERY answered with DONE */
     uint64_t paced_waits, late_samples;  /* --rate: samples that waited for their deadline / found it passed */
     uint64_t early_samples;              /* --rate: samples sent before their deadline (never, if paced) */
     uint32_t experiments_done;
@@ -37,6 +38,7 @@ typedef struct sim_can {
     uint64_t busoff_left;
     int busoff_done, restart_done, replay_done;
     uint32_t last_done_exp, last_done_val;   /* the last DONE frame sent (--replay-done-at) */
+    int done_valid;                  /* the last experiment is done and nothing started or configured since */
     msid_can_frame held;             /* reorder: frame held back */
     int have_held;
     double last_host_frame;
@@ -125,8 +127,9 @@ static void report_body(FILE *f, const void *ctx)
             (unsigned long long)c->cnt.dropped, (unsigned long long)c->cnt.duplicated, (unsigned long long)c->cnt.reordered,
             (unsigned long long)c->cnt.malformed, (unsigned long long)c->cnt.error_frames, (unsigned long long)c->cnt.bus_off,
             (unsigned long long)c->cnt.busoff_samples, (unsigned long long)c->cnt.restarts);
-    fprintf(f, " \"adversarial\": {\"done_duplicated\": %llu, \"done_replayed\": %llu},\n",
-            (unsigned long long)c->cnt.done_duplicated, (unsigned long long)c->cnt.done_replayed);
+    fprintf(f, " \"adversarial\": {\"done_duplicated\": %llu, \"done_replayed\": %llu, \"done_lost\": %llu, \"done_queried\": %llu},\n",
+            (unsigned long long)c->cnt.done_duplicated, (unsigned long long)c->cnt.done_replayed,
+            (unsigned long long)c->cnt.done_lost, (unsigned long long)c->cnt.done_queried);
     fprintf(f, " \"rate_hz\": %u, \"paced_waits\": %llu, \"late_samples\": %llu, \"early_samples\": %llu,\n",
             c->d->configured ? c->d->cfg.rate_hz : 0, (unsigned long long)c->cnt.paced_waits, (unsigned long long)c->cnt.late_samples,
             (unsigned long long)c->cnt.early_samples);
@@ -140,6 +143,7 @@ static int start(sim_can *c, uint32_t e, uint32_t periods)
     const int err = sim_start(c->d, e, periods);
     if (err) return err;
     c->running_exp = (int)e;
+    c->done_valid = 0;
     c->busoff_done = c->restart_done = c->replay_done = 0;
     c->busoff_left = 0;
     c->state = MSID_CAN_STATE_RUNNING;
@@ -253,6 +257,7 @@ static void handle_host_frame(sim_can *c, const msid_can_frame *f)
             if (c->d->cfg.fd && !c->can.fd_frames) { c->d->configured = 0; err = MSID_CAN_ERR_CFG; }   /* FD on a classic-only bus */
             else err = sim_configure(c->d, &ms);
             est_off(c);
+            c->done_valid = 0;
             c->state = err ? MSID_CAN_STATE_ERROR : MSID_CAN_STATE_CONFIGURED;
             send_info(c);
             send_state(c, (uint32_t)c->state, 0, err, ms);
@@ -286,12 +291,20 @@ static void handle_host_frame(sim_can *c, const msid_can_frame *f)
         est_off(c);
         c->d->configured = 0;
         msid_params_reset(&c->d->cfg);
+        c->done_valid = 0;
         c->state = MSID_CAN_STATE_IDLE;
         send_state(c, MSID_CAN_STATE_IDLE, 0, 0, 0);
         break;
     case MSID_CAN_CMD_QUERY:
         send_info(c);
-        send_state(c, (uint32_t)c->state, c->running_exp < 0 ? 0 : (uint32_t)c->running_exp, 0, (uint32_t)c->d->n_sample);
+        if (c->state == MSID_CAN_STATE_CONFIGURED && c->done_valid) {
+            /* after an experiment and before the next START: DONE(e, n) again, so a host that lost the
+               DONE frame closes the experiment exactly as that frame would have (docs/can-protocol.md) */
+            send_state(c, MSID_CAN_STATE_DONE, c->last_done_exp, 0, c->last_done_val);
+            c->cnt.done_queried++;
+        } else {
+            send_state(c, (uint32_t)c->state, c->running_exp < 0 ? 0 : (uint32_t)c->running_exp, 0, (uint32_t)c->d->n_sample);
+        }
         send_counters(c);
         break;
     default:
@@ -416,13 +429,15 @@ static void run_step(sim_can *c)
         c->state = MSID_CAN_STATE_DONE;
         c->cnt.experiments_done++;
         send_counters(c);
-        send_state(c, MSID_CAN_STATE_DONE, (uint32_t)e, 0, (uint32_t)c->d->n_sample);
+        if (c->d->o.lose_done_exp == e) c->cnt.done_lost++;   /* adversarial: the DONE frame is lost */
+        else send_state(c, MSID_CAN_STATE_DONE, (uint32_t)e, 0, (uint32_t)c->d->n_sample);
         if (c->d->o.done_twice) {   /* adversarial: a duplicated DONE frame */
             send_state(c, MSID_CAN_STATE_DONE, (uint32_t)e, 0, (uint32_t)c->d->n_sample);
             c->cnt.done_duplicated++;
         }
         c->last_done_exp = (uint32_t)e;
         c->last_done_val = (uint32_t)c->d->n_sample;
+        c->done_valid = 1;
         sim_write_atomic(c->d->o.report, report_body, c);
         c->state = MSID_CAN_STATE_CONFIGURED;
     }

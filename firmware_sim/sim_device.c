@@ -21,7 +21,7 @@ void sim_device_init(sim_device *d, uint8_t *arena, size_t arena_size)
     d->o.sigma_y = 0.05;
     d->o.sigma_u = 0.002;
     d->o.busoff_exp = d->o.restart_exp = d->o.drop_exp = d->o.stall_exp = d->o.back_exp = -1;
-    d->o.absurd_exp = d->o.replay_exp = -1;
+    d->o.absurd_exp = d->o.replay_exp = d->o.lose_done_exp = -1;
     d->o.baud = 115200;
     d->o.unit = 1;
     d->o.emulate_baud = 1;

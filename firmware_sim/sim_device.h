@@ -53,6 +53,7 @@ typedef struct sim_opts {
     int absurd_exp; uint64_t absurd_at;   /**< Modbus: from sample N of experiment E the header's TOTAL is 0xFFFFFFF0 */
     int done_twice;                  /**< CAN: send every DONE frame twice */
     int replay_exp; uint64_t replay_at;   /**< CAN: at sample N of experiment E send the last DONE frame again */
+    int lose_done_exp;               /**< CAN: the DONE frame of experiment E is not sent (lost); QUERY recovers it (-1: none) */
     /* on-device estimation (sim_estimate.c) */
     uint64_t est_mem;                /**< bytes the device gives the estimator (0: the default) */
 } sim_opts;

@@ -167,3 +167,16 @@ def test_garbage_frames_never_crash_the_adapter(design, tmp_path, clean):
     a = r.doc["acquisition"]
     assert sent[0] > 50 and a["malformed"] + a["foreign"] > 0
     assert a["samples_lost"] == 0 and c.lines_equal(r.doc, clean["doc"])
+
+
+def test_lost_done_recovered_by_query(design, clean, tmp_path):
+    """Experiment 1's DONE frame is lost on the bus (msid-devsim --lose-done 0): the host's QUERY after a
+    quiet spell is answered with DONE(0, n) (the documented recovery, docs/can-protocol.md), the
+    experiment closes exactly as the lost frame would have, and the FRF equals the honest run's."""
+    doc, rep, _, err = run_fault(design, tmp_path, "--lose-done", "0")
+    assert rep["adversarial"]["done_lost"] == 1
+    assert rep["adversarial"]["done_queried"] >= 1
+    a = doc["acquisition"]
+    assert a["done_recovered"] == 1 and a["samples_lost"] == 0
+    assert doc["lines"] == clean["doc"]["lines"]
+    assert "QUERY" in err or any("QUERY" in n for n in doc.get("notes", [])), err
