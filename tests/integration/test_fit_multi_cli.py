@@ -65,14 +65,21 @@ def test_ringdowns_modes_and_crb(tmp_path):
     assert out.read_bytes() == out2.read_bytes()
 
 
-def test_input_output_transients(tmp_path):
-    rng = np.random.default_rng(5)
+def io_plant():
+    """The 4th-order input-output plant of the I/O tests: poles p (one of each pair), a(q^-1) coefficients
+    alpha, numerator beta and the observer-form A whose first column is -alpha."""
     p = [0.9 * np.exp(0.5j), 0.8 * np.exp(1.4j)]
     alpha = np.real(np.poly([p[0], np.conj(p[0]), p[1], np.conj(p[1])]))[1:]
     beta = np.array([1.0, -0.5, 0.3, 0.2])
     A = np.zeros((4, 4))
     A[:, 0] = -alpha
     A[:3, 1:] = np.eye(3)
+    return p, alpha, beta, A
+
+
+def test_input_output_transients(tmp_path):
+    rng = np.random.default_rng(5)
+    p, alpha, beta, A = io_plant()
     files = []
     for i, T in enumerate([50, 90, 140, 200]):
         x = 3 * rng.standard_normal(4)
@@ -251,12 +258,7 @@ def test_coloured_noise_cli(tmp_path):
 def test_noisy_inputs_cli(tmp_path):
     """--input-noise-ratio: white noise on u and y (sigma_u = sigma_y), errors-in-variables estimate."""
     rng = np.random.default_rng(31)
-    p = [0.9 * np.exp(0.5j), 0.8 * np.exp(1.4j)]
-    alpha = np.real(np.poly([p[0], np.conj(p[0]), p[1], np.conj(p[1])]))[1:]
-    beta = np.array([1.0, -0.5, 0.3, 0.2])
-    A = np.zeros((4, 4))
-    A[:, 0] = -alpha
-    A[:3, 1:] = np.eye(3)
+    p, alpha, beta, A = io_plant()
     files = []
     sd = 0.15
     for i in range(10):
