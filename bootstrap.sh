@@ -4,6 +4,7 @@
 #                         the simulator on Modbus TCP loopback, measure, fit, validate, plot into ./msid-demo/
 #   ./bootstrap.sh test   install what is missing, build, run every test (ctest: unit, stats, integration)
 set -euo pipefail
+trap 'echo "bootstrap: failed (exit $?) at line $LINENO: $BASH_COMMAND" >&2' ERR
 cd "$(dirname "$0")"
 mode=${1:-}
 case "$mode" in

@@ -2,6 +2,7 @@
 # Install what msid needs on Debian bookworm, only where it is missing.
 # Called by ./bootstrap.sh; safe to run again.
 set -euo pipefail
+trap 'echo "deps: failed (exit $?) at line $LINENO: $BASH_COMMAND" >&2' ERR
 
 APT_PKGS=(build-essential cmake ninja-build pkg-config libcmocka-dev libfftw3-dev libmatio-dev zlib1g-dev
           nlohmann-json3-dev libeigen3-dev python3 python3-pip)
@@ -34,7 +35,8 @@ as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; t
 
 # One dpkg-query for every package (a fresh clone with everything present spends no time here).
 missing=()
-installed=" $(dpkg-query -W -f='${Package} ${Status}\n' "${APT_PKGS[@]}" 2>/dev/null |
+# dpkg-query exits 1 when a package was never known to dpkg (a fresh machine): that is the answer, not an error.
+installed=" $({ dpkg-query -W -f='${Package} ${Status}\n' "${APT_PKGS[@]}" 2>/dev/null || true; } |
              awk '$NF == "installed" && $(NF-1) == "ok" {printf "%s ", $1}')"
 for p in "${APT_PKGS[@]}"; do
   case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
