@@ -40,53 +40,49 @@ install)
   grep -c "share/msid/python" "$P/bin/msid" > /dev/null || fail "msid does not look in share/msid/python"
   echo "install test: ok ($P)"
   ;;
-nomodbus)
+nomodbus|nocan)
   src=$2 work=$3
   rm -rf "$work" && mkdir -p "$work/pc"
-  # pkg-config sees no libmodbus (nor anything else): MSID_WITH_MODBUS=AUTO must drop Modbus, not fail
-  PKG_CONFIG_LIBDIR=$work/pc PKG_CONFIG_PATH= cmake -S "$src" -B "$work/b" -DCMAKE_BUILD_TYPE=Release \
-      -DMSID_BUILD_TOOLS=OFF -DMSID_BUILD_TESTS=OFF ${CMAKE_C_COMPILER_LAUNCHER:+-DCMAKE_C_COMPILER_LAUNCHER=$CMAKE_C_COMPILER_LAUNCHER} \
-      > "$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure without libmodbus failed"; }
-  grep -q "libmodbus not found: building without the Modbus transport" "$work/configure.log" ||
-    fail "configure did not say that Modbus is left out"
+  launcher=${CMAKE_C_COMPILER_LAUNCHER:+-DCMAKE_C_COMPILER_LAUNCHER=$CMAKE_C_COMPILER_LAUNCHER}
+  if [ "$mode" = nomodbus ]; then
+    # pkg-config sees no libmodbus (nor anything else): MSID_WITH_MODBUS=AUTO must drop Modbus, not fail
+    what="without libmodbus"
+    PKG_CONFIG_LIBDIR=$work/pc PKG_CONFIG_PATH= cmake -S "$src" -B "$work/b" -DCMAKE_BUILD_TYPE=Release \
+        -DMSID_BUILD_TOOLS=OFF -DMSID_BUILD_TESTS=OFF $launcher > "$work/configure.log" 2>&1 || rc=$?
+  else
+    what="with MSID_WITH_CAN=OFF"
+    cmake -S "$src" -B "$work/b" -DCMAKE_BUILD_TYPE=Release -DMSID_WITH_CAN=OFF -DMSID_WITH_MODBUS=ON \
+        -DMSID_BUILD_TOOLS=OFF -DMSID_BUILD_TESTS=OFF $launcher > "$work/configure.log" 2>&1 || rc=$?
+  fi
+  [ "${rc:-0}" = 0 ] || { cat "$work/configure.log"; fail "configure $what failed"; }
   cmake --build "$work/b" --target msid_daq msid_devsim -j2 > "$work/build.log" 2>&1 ||
-    { tail -30 "$work/build.log"; fail "build without libmodbus failed"; }
+    { tail -30 "$work/build.log"; fail "build $what failed"; }
   lib=$(find "$work/b" -name libmsid_daq.a | head -1)
+  dev=$(find "$work/b" -name msid-devsim -type f | head -1)
   # (symbol lists to files: `nm | grep -q` under pipefail fails when grep stops reading early)
   nm "$lib" > "$work/nm.txt" 2>/dev/null
-  ! grep -q ' U modbus_' "$work/nm.txt" || fail "libmsid_daq.a still needs libmodbus"
-  grep -q ' T msid_socketcan_open' "$work/nm.txt" || fail "the CAN transport is missing"
-  grep -q ' T msid_candump_parse' "$work/nm.txt" || fail "the candump reader is missing"
-  dev=$(find "$work/b" -name msid-devsim -type f | head -1)
-  ldd "$dev" > "$work/ldd.txt"
-  ! grep -q libmodbus "$work/ldd.txt" || fail "msid-devsim still links libmodbus"
-  set +e
-  out=$("$dev" --modbus-tcp 127.0.0.1:1502 2>&1); rc=$?
-  set -e
-  [ $rc -ne 0 ] && [[ "$out" == *"built without Modbus"* ]] || fail "msid-devsim --modbus-tcp: '$out' (exit $rc)"
-  echo "install test: CAN-only build ok"
-  ;;
-nocan)
-  src=$2 work=$3
-  rm -rf "$work" && mkdir -p "$work"
-  cmake -S "$src" -B "$work/b" -DCMAKE_BUILD_TYPE=Release -DMSID_WITH_CAN=OFF -DMSID_WITH_MODBUS=ON \
-      -DMSID_BUILD_TOOLS=OFF -DMSID_BUILD_TESTS=OFF ${CMAKE_C_COMPILER_LAUNCHER:+-DCMAKE_C_COMPILER_LAUNCHER=$CMAKE_C_COMPILER_LAUNCHER} \
-      > "$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure with MSID_WITH_CAN=OFF failed"; }
-  cmake --build "$work/b" --target msid_daq msid_devsim -j2 > "$work/build.log" 2>&1 ||
-    { tail -30 "$work/build.log"; fail "build with MSID_WITH_CAN=OFF failed"; }
-  lib=$(find "$work/b" -name libmsid_daq.a | head -1)
-  nm "$lib" > "$work/nm.txt" 2>/dev/null
-  # the SocketCAN transport (the only user of ioctl/SIOCGIFINDEX) is left out; its entry point is the stub
-  ! grep -q ' U ioctl' "$work/nm.txt" || fail "libmsid_daq.a still holds the SocketCAN transport"
-  grep -q ' T msid_socketcan_open' "$work/nm.txt" || fail "the SocketCAN entry point (stub) is missing"
-  grep -q ' T msid_modbus_open' "$work/nm.txt" || fail "the Modbus transport is missing"
-  grep -q ' T msid_candump_parse' "$work/nm.txt" || fail "the candump reader is missing (it needs no SocketCAN)"
-  dev=$(find "$work/b" -name msid-devsim -type f | head -1)
-  set +e
-  out=$("$dev" --iface vcan0 2>&1); rc=$?
-  set -e
-  [ $rc -ne 0 ] && [[ "$out" == *"without SocketCAN"* ]] || fail "msid-devsim --iface vcan0: '$out' (exit $rc)"
-  echo "install test: Modbus-only build ok"
+  has() { grep -q " $1" "$work/nm.txt"; }
+  # the simulator refuses the left-out transport with a message naming the build option
+  refuses() { local out rc; set +e; out=$("$dev" "$1" "$2" 2>&1); rc=$?; set -e
+    [ $rc -ne 0 ] && [[ "$out" == *"$3"* ]] || fail "msid-devsim $1 $2: '$out' (exit $rc)"; }
+  has 'T msid_candump_parse' || fail "the candump reader is missing (it needs neither transport)"
+  if [ "$mode" = nomodbus ]; then
+    grep -q "libmodbus not found: building without the Modbus transport" "$work/configure.log" ||
+      fail "configure did not say that Modbus is left out"
+    ! has 'U modbus_' || fail "libmsid_daq.a still needs libmodbus"
+    has 'T msid_socketcan_open' || fail "the CAN transport is missing"
+    ldd "$dev" > "$work/ldd.txt"
+    ! grep -q libmodbus "$work/ldd.txt" || fail "msid-devsim still links libmodbus"
+    refuses --modbus-tcp 127.0.0.1:1502 "built without Modbus"
+    echo "install test: CAN-only build ok"
+  else
+    # the SocketCAN transport (the only user of ioctl/SIOCGIFINDEX) is left out; its entry point is the stub
+    ! has 'U ioctl' || fail "libmsid_daq.a still holds the SocketCAN transport"
+    has 'T msid_socketcan_open' || fail "the SocketCAN entry point (stub) is missing"
+    has 'T msid_modbus_open' || fail "the Modbus transport is missing"
+    refuses --iface vcan0 "without SocketCAN"
+    echo "install test: Modbus-only build ok"
+  fi
   ;;
 *) fail "usage: run.sh install BUILD WORK | nomodbus SRC WORK | nocan SRC WORK" ;;
 esac

@@ -26,10 +26,17 @@ Json read_json(const std::string &path)
     if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
     std::stringstream ss;
     ss << in.rdbuf();
+    const std::string s = ss.str();
+    if (s.empty()) throw Error("'" + path + "' is empty");
     try {
-        return Json::parse(ss.str());
+        return Json::parse(s);
     } catch (const Json::parse_error &e) {
         throw Error("'" + path + "' is not valid JSON: " + e.what());
+    } catch (const Json::out_of_range &e) {
+        // e.g. 1e400: a number no double holds (found by fuzz_files; seed regress-number-overflow)
+        throw Error("'" + path + "' holds a number beyond the range of a double: " + e.what());
+    } catch (const Json::exception &e) {
+        throw Error("'" + path + "' cannot be read as JSON: " + e.what());
     }
 }
 

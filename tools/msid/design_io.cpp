@@ -1,4 +1,5 @@
 #include "design_io.hpp"
+#include "frf_file.hpp"
 
 #include "msid/msid_fft_fftw.h"
 
@@ -180,16 +181,10 @@ Json design_to_json(const Design &D)
 
 Json read_json_file(const std::string &path)
 {
-    std::ifstream f(path, std::ios::binary);
-    if (!f) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    std::stringstream ss;
-    ss << f.rdbuf();
-    const std::string s = ss.str();
-    if (s.empty()) throw Error("'" + path + "' is empty");
     try {
-        return Json::parse(s);
-    } catch (const Json::parse_error &e) {
-        throw Error("'" + path + "' is not valid JSON: " + e.what());
+        return msidfrf::read_json(path);
+    } catch (const msidfrf::Error &e) {
+        throw Error(e.what());
     }
 }
 
