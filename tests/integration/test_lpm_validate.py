@@ -141,3 +141,19 @@ def test_reference_lpm_2x2_record_columns(tmp_path):
     print("2x2 0 dB reference cover", cover, "plain", cover_plain)
     assert 0.9 <= cover <= 0.99              # one record: ~970 element tests, MC std 0.7%
     assert cover_plain < 0.8                 # negative control: the plain LPM is biased
+
+
+def test_fit_reports_independent_line_cost(tmp_path):
+    """msid fit on an LPM file: cost.independent_lines is validate's statistic for the fitted model."""
+    u, y = _sim(np.random.default_rng(3), 2048, sigma=0.05)
+    p, f, m, v = tmp_path / "e.csv", tmp_path / "f.json", tmp_path / "m.json", tmp_path / "v.json"
+    h.write_csv(p, h.experiment_columns(u[:, None], y[:, None]))
+    h.run_ok("frf", "--method", "lpm", "--experiment", p, "-o", f)
+    r = h.run_ok("fit", "--method", "ml", "--order", 2, f, "-o", m)
+    assert "every 11-th line" in r.stdout
+    h.run_ok("validate", m, f, "-o", v)
+    ic, vd = h.load_json(m)["cost"]["independent_lines"], h.load_json(v)
+    h.validate(h.load_json(m), "msid-model-1")
+    assert ic["line_stride"] == vd["line_stride"] == 11
+    for a, b in (("value", "cost"), ("expected", "expected"), ("dof", "dof"), ("p_value", "p_value")):
+        assert abs(ic[a] - vd[b]) <= 1e-9 * max(1.0, abs(vd[b]))

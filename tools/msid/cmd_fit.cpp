@@ -212,6 +212,24 @@ static MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<Weigh
 }
 
 // Weighted cost (40) of model FRFs Gm at the lines.
+// The lines of validate's statistic: every line, or for an LPM file (neighbouring lines share 2W of
+// their 2W+1 window bins) every (2W+1)-th, which are independent (docs/statistics.md).
+static size_t lpm_line_stride(const FrfData &f, const std::string &mode)
+{
+    if (mode != "independent" && mode != "all")
+        throw UsageError("--lpm-lines must be independent or all (got '" + mode + "')");
+    if (f.method != "lpm" || mode == "all") return 1;
+    const Json j = read_json(f.path);
+    if (!j.contains("lpm") || !j["lpm"].contains("window") || !j["lpm"]["window"].is_number_unsigned() ||
+        j["lpm"]["window"].get<uint64_t>() < 1 || j["lpm"]["window"].get<uint64_t>() > 1000000)
+        throw FitError("'" + f.path + "' is an LPM file without a valid lpm.window: cannot tell which lines are independent");
+    for (size_t l = 1; l < f.lines.size(); ++l)
+        if (f.lines[l].bin != f.lines[l - 1].bin + 1)
+            throw FitError("'" + f.path + "': LPM lines are not consecutive bins (bin " + std::to_string(f.lines[l].bin) +
+                           " after " + std::to_string(f.lines[l - 1].bin) + "): cannot tell which lines are independent");
+    return 2 * (size_t)j["lpm"]["window"].get<uint64_t>() + 1;
+}
+
 static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC> &Gm)
 {
     double V = 0;
@@ -220,6 +238,35 @@ static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC
         V += (w[l].real ? 0.5 : 1.0) * (w[l].Linv * Eigen::Map<const VecC>(E.data(), E.size())).squaredNorm();
     }
     return V;
+}
+
+// LPM files: the fitted model's cost over every (2W+1)-th line (independent, as msid validate
+// sums it) with the cost law of those lines; null when the file has no usable covariance.
+static Json lpm_independent_cost(const FrfData &f, Domain d, const std::vector<MatC> &Gm, int nparams)
+{
+    std::vector<WeightedLine> wc;
+    try {
+        wc = weigh(f, d, Weight::Cov);
+    } catch (const FitError &) {
+        return nullptr;
+    }
+    if (Gm.size() != wc.size()) return nullptr;
+    const size_t stride = lpm_line_stride(f, "independent");
+    double V = 0, neq = 0, neq_all = 0, nmin = 1e300;
+    for (size_t l = 0; l < wc.size(); ++l) {
+        const double k = (wc[l].real ? 1.0 : 2.0) * (double)f.g();
+        neq_all += k;
+        if (l % stride) continue;
+        const MatC E = wc[l].G - Gm[l];
+        V += (wc[l].real ? 0.5 : 1.0) * (wc[l].Linv * Eigen::Map<const VecC>(E.data(), E.size())).squaredNorm();
+        neq += k;
+        nmin = std::min(nmin, wc[l].dof);
+    }
+    const double dof = neq - nparams * (neq / neq_all);
+    if (!(dof > 0)) return nullptr;
+    Json c = cost_json(V, dof, nmin, (double)f.ny);
+    c["line_stride"] = stride;
+    return c;
 }
 
 int cmd_fit(int argc, char **argv)
@@ -493,6 +540,10 @@ int cmd_fit(int argc, char **argv)
                 // no usable covariance in the file: unit weights, as documented
             }
         }
+        if (f.method == "lpm") {   // neighbouring LPM lines are correlated: the p-value of independent lines
+            const Json ic = lpm_independent_cost(f, d, Gm, nparams);
+            if (!ic.is_null()) cost["independent_lines"] = ic;
+        }
         doc["cost"] = cost;
         doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
         add_modes(doc, true);   // modal parameters with standard deviations (cmd_fit_modal.cpp)
@@ -502,6 +553,10 @@ int cmd_fit(int argc, char **argv)
                     doc["cost"]["p_value"].is_null() ? "no p-value"
                                                      : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
                     doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+        if (doc["cost"].contains("independent_lines") && !doc["cost"]["independent_lines"]["p_value"].is_null())
+            std::printf("LPM file: p = %.3g on every %d-th line (independent; the p-value msid validate gives)\n",
+                        doc["cost"]["independent_lines"]["p_value"].get<double>(),
+                        doc["cost"]["independent_lines"]["line_stride"].get<int>());
         if (!converged) {
             std::fprintf(stderr, "msid fit: warning: ml did not converge in %d iterations (cost %.6g, gradient norm %.3g): "
                                  "wrote the best iterate to %s marked \"converged\": false (exit status %d)\n",
@@ -523,24 +578,6 @@ static const char *VAL_HELP =
     "are validated on time records: residual whiteness and cost (msid validate --experiment x --help).\n"
     "LPM files: neighbouring lines share 2W of their 2W+1 window bins, so the cost is summed over every\n"
     "(2W+1)-th line, which are independent (--lpm-lines all: every line, an optimistic p-value).\n";
-
-// The lines of validate's statistic: every line, or for an LPM file (neighbouring lines share 2W of
-// their 2W+1 window bins) every (2W+1)-th, which are independent (docs/statistics.md).
-static size_t lpm_line_stride(const FrfData &f, const std::string &mode)
-{
-    if (mode != "independent" && mode != "all")
-        throw UsageError("--lpm-lines must be independent or all (got '" + mode + "')");
-    if (f.method != "lpm" || mode == "all") return 1;
-    const Json j = read_json(f.path);
-    if (!j.contains("lpm") || !j["lpm"].contains("window") || !j["lpm"]["window"].is_number_unsigned() ||
-        j["lpm"]["window"].get<uint64_t>() < 1 || j["lpm"]["window"].get<uint64_t>() > 1000000)
-        throw FitError("'" + f.path + "' is an LPM file without a valid lpm.window: cannot tell which lines are independent");
-    for (size_t l = 1; l < f.lines.size(); ++l)
-        if (f.lines[l].bin != f.lines[l - 1].bin + 1)
-            throw FitError("'" + f.path + "': LPM lines are not consecutive bins (bin " + std::to_string(f.lines[l].bin) +
-                           " after " + std::to_string(f.lines[l - 1].bin) + "): cannot tell which lines are independent");
-    return 2 * (size_t)j["lpm"]["window"].get<uint64_t>() + 1;
-}
 
 int cmd_validate(int argc, char **argv)
 {
