@@ -40,7 +40,7 @@ def _rates(tmp_path, runs, seed, ar=0.0):
     (tmp_path / "wrong.json").write_text(json.dumps(_ss(ANG * 1.01)))   # 1% frequency error
     rng = np.random.default_rng(seed)
     rej = {"independent": 0, "all": 0, "wrong": 0}
-    n_wrong = min(runs, 40)
+    n_wrong, n_all = min(runs, 40), min(runs, 100)
     for r in range(runs):
         u, y = _sim(rng, 2048, sigma=0.05 if not ar else 0.02, ar=ar)
         p, f = tmp_path / "e.csv", tmp_path / "f.json"
@@ -48,7 +48,7 @@ def _rates(tmp_path, runs, seed, ar=0.0):
         h.run_ok("frf", "--method", "lpm", "--experiment", p, "-o", f)
         for key, model, extra in (("independent", "true.json", []), ("all", "true.json", ["--lpm-lines", "all"]),
                                   ("wrong", "wrong.json", [])):
-            if key == "wrong" and r >= n_wrong:
+            if (key == "wrong" and r >= n_wrong) or (key == "all" and r >= n_all):
                 continue
             o = tmp_path / "v.json"
             h.run_ok("validate", tmp_path / model, f, *extra, "-o", o)
@@ -56,7 +56,7 @@ def _rates(tmp_path, runs, seed, ar=0.0):
             rej[key] += not doc["consistent_at_5pct"]
             if key == "independent":
                 assert doc["line_stride"] == 11 and "every 11-th line" in doc["lines_in_statistic"]
-    return {k: v / (n_wrong if k == "wrong" else runs) for k, v in rej.items()}
+    return {k: v / {"wrong": n_wrong, "all": n_all}.get(k, runs) for k, v in rej.items()}
 
 
 def test_validate_lpm_rejection_rate_white(tmp_path):
