@@ -103,6 +103,14 @@ def test_reference_lpm_file_and_validate(tmp_path):
     h.run_ok("frf", "--method", "lpm", "--columns", "u1=u1,y1=y1", "--experiment", p, "-o", fp)
     h.run_ok("validate", tmp_path / "true.json", fp, "-o", tmp_path / "vp.json")
     assert not h.load_json(tmp_path / "vp.json")["consistent_at_5pct"]
+    # the same record as .npz (named members) and .npy (numbered columns): the same file
+    np.savez(tmp_path / "e.npz", Cmd=r, u1=u, y1=y)
+    np.save(tmp_path / "e.npy", np.c_[u, y, r])
+    for src, args in ((tmp_path / "e.npz", ["--reference", "r1=Cmd", "--columns", "u1=u1,y1=y1"]),
+                      (tmp_path / "e.npy", ["--reference", "r1=3", "--columns", "u1=1,y1=2"])):
+        o = tmp_path / "o.json"
+        h.run_ok("frf", "--method", "lpm", *args, "--experiment", src, "-o", o)
+        assert h.load_json(o)["lines"][50]["G"] == doc["lines"][50]["G"]
     # bad input: one message, no file
     bad = h.run("frf", "--method", "lpm", "--reference", "r1=Nope", "--columns", "u1=u1,y1=y1", "--experiment", p,
                 "-o", tmp_path / "bad.json")
