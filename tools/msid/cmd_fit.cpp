@@ -212,6 +212,24 @@ static MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<Weigh
 }
 
 // Weighted cost (40) of model FRFs Gm at the lines.
+// The lines of validate's statistic: every line, or for an LPM file (neighbouring lines share 2W of
+// their 2W+1 window bins) every (2W+1)-th, which are independent (docs/statistics.md).
+static size_t lpm_line_stride(const FrfData &f, const std::string &mode)
+{
+    if (mode != "independent" && mode != "all")
+        throw UsageError("--lpm-lines must be independent or all (got '" + mode + "')");
+    if (f.method != "lpm" || mode == "all") return 1;
+    const Json j = read_json(f.path);
+    if (!j.contains("lpm") || !j["lpm"].contains("window") || !j["lpm"]["window"].is_number_unsigned() ||
+        j["lpm"]["window"].get<uint64_t>() < 1 || j["lpm"]["window"].get<uint64_t>() > 1000000)
+        throw FitError("'" + f.path + "' is an LPM file without a valid lpm.window: cannot tell which lines are independent");
+    for (size_t l = 1; l < f.lines.size(); ++l)
+        if (f.lines[l].bin != f.lines[l - 1].bin + 1)
+            throw FitError("'" + f.path + "': LPM lines are not consecutive bins (bin " + std::to_string(f.lines[l].bin) +
+                           " after " + std::to_string(f.lines[l - 1].bin) + "): cannot tell which lines are independent");
+    return 2 * (size_t)j["lpm"]["window"].get<uint64_t>() + 1;
+}
+
 static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC> &Gm)
 {
     double V = 0;
@@ -220,6 +238,35 @@ static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC
         V += (w[l].real ? 0.5 : 1.0) * (w[l].Linv * Eigen::Map<const VecC>(E.data(), E.size())).squaredNorm();
     }
     return V;
+}
+
+// LPM files: the fitted model's cost over every (2W+1)-th line (independent, as msid validate
+// sums it) with the cost law of those lines; null when the file has no usable covariance.
+static Json lpm_independent_cost(const FrfData &f, Domain d, const std::vector<MatC> &Gm, int nparams)
+{
+    std::vector<WeightedLine> wc;
+    try {
+        wc = weigh(f, d, Weight::Cov);
+    } catch (const FitError &) {
+        return nullptr;
+    }
+    if (Gm.size() != wc.size()) return nullptr;
+    const size_t stride = lpm_line_stride(f, "independent");
+    double V = 0, neq = 0, neq_all = 0, nmin = 1e300;
+    for (size_t l = 0; l < wc.size(); ++l) {
+        const double k = (wc[l].real ? 1.0 : 2.0) * (double)f.g();
+        neq_all += k;
+        if (l % stride) continue;
+        const MatC E = wc[l].G - Gm[l];
+        V += (wc[l].real ? 0.5 : 1.0) * (wc[l].Linv * Eigen::Map<const VecC>(E.data(), E.size())).squaredNorm();
+        neq += k;
+        nmin = std::min(nmin, wc[l].dof);
+    }
+    const double dof = neq - nparams * (neq / neq_all);
+    if (!(dof > 0)) return nullptr;
+    Json c = cost_json(V, dof, nmin, (double)f.ny);
+    c["line_stride"] = stride;
+    return c;
 }
 
 int cmd_fit(int argc, char **argv)
@@ -493,6 +540,10 @@ int cmd_fit(int argc, char **argv)
                 // no usable covariance in the file: unit weights, as documented
             }
         }
+        if (f.method == "lpm") {   // neighbouring LPM lines are correlated: the p-value of independent lines
+            const Json ic = lpm_independent_cost(f, d, Gm, nparams);
+            if (!ic.is_null()) cost["independent_lines"] = ic;
+        }
         doc["cost"] = cost;
         doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
         add_modes(doc, true);   // modal parameters with standard deviations (cmd_fit_modal.cpp)
@@ -502,6 +553,10 @@ int cmd_fit(int argc, char **argv)
                     doc["cost"]["p_value"].is_null() ? "no p-value"
                                                      : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
                     doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+        if (doc["cost"].contains("independent_lines") && !doc["cost"]["independent_lines"]["p_value"].is_null())
+            std::printf("LPM file: p = %.3g on every %d-th line (independent; the p-value msid validate gives)\n",
+                        doc["cost"]["independent_lines"]["p_value"].get<double>(),
+                        doc["cost"]["independent_lines"]["line_stride"].get<int>());
         if (!converged) {
             std::fprintf(stderr, "msid fit: warning: ml did not converge in %d iterations (cost %.6g, gradient norm %.3g): "
                                  "wrote the best iterate to %s marked \"converged\": false (exit status %d)\n",
@@ -515,16 +570,19 @@ int cmd_fit(int argc, char **argv)
 }
 
 static const char *VAL_HELP =
-    "usage: msid validate model.json frf.json [--weight cov|known-input|none] [-o report.json]\n"
+    "usage: msid validate model.json frf.json [--weight cov|known-input|none] [--lpm-lines independent|all]\n"
+    "                     [-o report.json]\n"
     "       msid validate multi-model.json --experiment r1.csv ... [--lags M] [-o report.json]\n"
     "The weighted residual cost of the model on the FRF data against its expectation, with a p-value,\n"
     "per-line normalised residuals, and a verdict at 5%. Models of --method multi (free responses too)\n"
-    "are validated on time records: residual whiteness and cost (msid validate --experiment x --help).\n";
+    "are validated on time records: residual whiteness and cost (msid validate --experiment x --help).\n"
+    "LPM files: neighbouring lines share 2W of their 2W+1 window bins, so the cost is summed over every\n"
+    "(2W+1)-th line, which are independent (--lpm-lines all: every line, an optimistic p-value).\n";
 
 int cmd_validate(int argc, char **argv)
 {
     if (validate_on_records(argc, argv)) return cmd_validate_multi(argc, argv);   // time records (cmd_fit_multi.cpp)
-    Args a(argc, argv, 2, VAL_HELP, {"weight", "output"}, {});
+    Args a(argc, argv, 2, VAL_HELP, {"weight", "output", "lpm-lines"}, {});
     if (a.positional().size() != 2) throw UsageError("give a model file and an FRF file");
     try {
         const ModelFile mf = read_model(a.positional()[0]);
@@ -549,7 +607,8 @@ int cmd_validate(int argc, char **argv)
             wt = Weight::None;
             w = weigh(f, mf.domain, wt);
         }
-        double V = 0, neq = 0;
+        const size_t stride = lpm_line_stride(f, a.has("lpm-lines") ? a.get("lpm-lines") : "independent");
+        double V = 0, neq = 0, neq_all = 0;
         Json per = Json::array();
         const double g = (double)f.g();
         int worst = -1;
@@ -558,8 +617,11 @@ int cmd_validate(int argc, char **argv)
             const MatC Gm = mf.lmfd ? lmfd_eval(*mf.lmfd, w[l].x) : ss_eval(mf.ss, w[l].x);
             const MatC e = w[l].Linv * Eigen::Map<const MatC>(MatC(w[l].G - Gm).data(), (Eigen::Index)g, 1);
             const double q = (w[l].real ? 0.5 : 1.0) * e.squaredNorm();
-            V += q;
-            neq += (w[l].real ? 1.0 : 2.0) * g;
+            neq_all += (w[l].real ? 1.0 : 2.0) * g;
+            if (l % stride == 0) {   // the lines of the test statistic (all but for LPM files)
+                V += q;
+                neq += (w[l].real ? 1.0 : 2.0) * g;
+            }
             // per line: q / (expected under the model) ~ 1
             const double ex = (w[l].real ? 0.5 : 1.0) * g * (w[l].dof < 1e8 && w[l].dof > f.ny ? w[l].dof / (w[l].dof - f.ny) : 1.0);
             Json pl;
@@ -569,7 +631,8 @@ int cmd_validate(int argc, char **argv)
             per.push_back(pl);
             if (q / ex > worst_q) { worst_q = q / ex; worst = (int)l; }
         }
-        const double dof = neq - mf.n_params;
+        // a model fitted to all lines: its parameters take their share of the lines used
+        const double dof = neq - mf.n_params * (neq / neq_all);
         if (dof <= 0) throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(dof) + ")");
         double nmin = 1e300;
         for (const auto &l : w) nmin = std::min(nmin, l.dof);
@@ -580,6 +643,9 @@ int cmd_validate(int argc, char **argv)
                     f.path.c_str(), V, law.mean, dof, pv);
         if (worst >= 0)
             std::printf("largest normalised residual %.3g at bin %u (1 expected on average)\n", worst_q, f.lines[(size_t)worst].bin);
+        if (stride > 1)
+            std::printf("LPM file: the cost sums every %zu-th line (2W+1 bins apart: independent), %zu of %zu lines\n",
+                        stride, (w.size() + stride - 1) / stride, w.size());
         std::printf("verdict: %s\n", ok ? "consistent with the data at 5%" : "NOT consistent with the data at 5%");
         if (wt == Weight::None) std::printf("note: unweighted residuals: the p-value assumes unit noise\n");
         const Json nlv = distortion_verdict(f.path, mf, wname, pv);   // noise vs distortion level (frf_bla.cpp)
@@ -594,6 +660,9 @@ int cmd_validate(int argc, char **argv)
             r["dof"] = dof;
             r["p_value"] = pv;
             r["consistent_at_5pct"] = ok;
+            r["lines_in_statistic"] = stride > 1 ? fmt("every %zu-th line (2W+1, independent LPM lines)", stride)
+                                                 : std::string("all");
+            r["line_stride"] = stride;
             if (!nlv.is_null()) r["nonlinear_distortion"] = nlv;
             r["lines"] = per;
             write_json_file(a.get("output"), r);

@@ -7,6 +7,8 @@
 
 #include "etfe.hpp"
 #include "lpm.hpp"
+#include "lpm_eiv.hpp"
+#include "frf_reference.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -28,6 +30,9 @@ static const char *HELP_EST =
     "                   whole record; every bin in the band is a line; dof = m(2W+1) - (R+1)(nu+m)\n"
     "  --order R        polynomial degree (default 2)\n"
     "  --window W       half-width (default: smallest W with dof >= n_outputs + 4)\n"
+    "  --reference r1=COL,...  noisy input or closed loop: the LPM of [y; u] on these reference (command)\n"
+    "                   signals, one per input, then G = G_yr G_ur^-1 with its linearised covariance\n"
+    "                   (`--reference r1,r2`: the record's columns r1, r2); dof = m(2W+1) - (R+1)(nu+m)\n"
     "  --method etfe    empirical transfer function estimate for inputs of period M (Tsiamis et al. 2024),\n"
     "                   with the finite-sample bound of their Theorem 1 per line (field `bound`)\n"
     "  --period M       input period in samples; the record holds Np >= 2 whole periods\n"
@@ -138,16 +143,61 @@ std::string lpm_singular_cause(const std::vector<Record> &recs, const std::strin
                recs[0].path.c_str(), P, recs[0].n_rows / P, what.c_str(), P);
 }
 
+// --method lpm --reference: the LPM of z = [y; u] on the references r (lpm_eiv.hpp). Fills the
+// header, the lines (G, its linearised cov, C_e = [I, -G] C_z [I, -G]^H as the line's noise and
+// the stacked C_z as `noise_z`) and the noise sum; returns the number of lines.
+size_t lpm_reference(const std::vector<Record> &recs, const std::vector<std::string> &ref, const msidest::LpmConfig &c,
+                     FrfRequest &rq, Json &doc, Json &lines, std::vector<std::complex<double>> &noise_sum)
+{
+    const unsigned nu = recs[0].nu, ny = recs[0].ny, m = (unsigned)recs.size(), nz = nu + ny;
+    const size_t N = recs[0].n_rows;
+    std::vector<std::vector<double>> rows;
+    std::vector<msidest::RecordView> views;
+    for (const auto &r : recs) rows.push_back(rows_with_reference(r, ref));
+    for (const auto &r : rows) views.push_back({r.data(), N, (size_t)(nu + nz)});
+    const auto S = msidest::record_spectra(views, nu, nz);
+    const auto E = msidest::lpm_eiv(S, ny, c);
+    const auto &R = E.zr;
+    doc = est_header(rq, N, R.bins, nu, ny, m, "lpm");
+    Json cols = Json::array();
+    for (size_t k = 0; k < ref.size(); ++k) cols.push_back(fmt("r%zu=%s", k + 1, ref[k].c_str()));
+    doc["lpm"] = {{"order", R.R},
+                  {"window", R.W},
+                  {"window_bins", 2 * R.W + 1},
+                  {"dof", R.q},
+                  {"band_bins", {R.bins.front(), R.bins.back()}},
+                  {"inputs", "noisy (reference)"},
+                  {"reference_signals", cols},
+                  {"reference", "Pintelon et al. 2010, MSSP 24, Part I/II: LPM of [y; u] on r, G = G_yr G_ur^-1"}};
+    doc["experiments"] = experiments_json(recs, N);
+    const size_t g = (size_t)ny * nu;
+    for (size_t l = 0; l < R.bins.size(); ++l) {
+        const auto *nz_ = &E.noise[l * ny * ny];
+        std::vector<double> snr;
+        for (unsigned i = 0; i < ny; ++i) {
+            double p = 0;
+            for (unsigned e = 0; e < m; ++e) p += std::norm(S.Y(e, i)[R.bins[l]]);
+            const double v = nz_[i * ny + i].real() * m;
+            snr.push_back(v > 0 ? 10 * std::log10(p / v) : INFINITY);
+        }
+        Json e = est_line_json(line_position(rq, l), ny, nu, &E.G[l * g], &E.cov[l * g * g], R.q, nz_, snr);
+        e["noise_z"] = cplx_json(&R.noise[l * nz * nz], nz, nz);
+        lines.push_back(std::move(e));
+        for (size_t t = 0; t < (size_t)ny * ny; ++t) noise_sum[t] += nz_[t];
+    }
+    return R.bins.size();
+}
+
 }  // namespace
 
 int cmd_frf_est(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP_EST, {"method", "order", "window", "band", "fs", "period", "delta", "gstar", "threads", "output", "columns"},
+    Args a(argc, argv, 2, HELP_EST, {"method", "order", "window", "band", "fs", "period", "delta", "gstar", "threads", "output", "columns", "reference"},
            {}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string method = a.get("method");
     const bool is_lpm = method == "lpm";
-    for (const char *k : {"order", "window"})
+    for (const char *k : {"order", "window", "reference"})
         if (!is_lpm && a.has(k)) throw UsageError(std::string("--") + k + " applies to --method lpm only");
     for (const char *k : {"period", "delta", "gstar"})
         if (is_lpm && a.has(k)) throw UsageError(std::string("--") + k + " applies to --method etfe only");
@@ -163,6 +213,12 @@ int cmd_frf_est(int argc, char **argv)
 
     std::vector<Record> recs;
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
+    const std::vector<std::string> ref = a.has("reference") ? parse_reference(a.get("reference")) : std::vector<std::string>{};
+    for (size_t k = 0; k < ref.size() && cols.empty(); ++k)   // without a map, only u<k>, y<k>, r<k>, time are known
+        if (ref[k] != fmt("r%zu", k + 1) && ref[k] != fmt("R%zu", k + 1))
+            throw UsageError(fmt("--reference r%zu=%s names a column: name the inputs and outputs too, with --columns "
+                                 "u1=NAME,...,y1=NAME,... (or call the reference columns r1.. and give --reference r1,..)",
+                                 k + 1, ref[k].c_str()));
     for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols));
     const unsigned nu = recs[0].nu, ny = recs[0].ny, m = (unsigned)recs.size();
     std::vector<msidest::RecordView> views;
@@ -191,6 +247,9 @@ int cmd_frf_est(int argc, char **argv)
                 std::tie(c.k_lo, c.k_hi) = band_range(band, a, N, fscale, Kmax,
                                                       fmt("DFT bin of the %zu-sample record (resolution %g %s)", N,
                                                           fscale / N, rq.fs > 0 ? "Hz" : "cycles/sample"));
+            if (!ref.empty()) {   // noisy inputs / closed loop (lpm_reference below)
+                nlines = lpm_reference(recs, ref, c, rq, doc, lines, noise_mean);
+            } else {
             const auto S = msidest::record_spectra(views, nu, ny);
             const auto R = msidest::lpm(S, c);
             doc = est_header(rq, N, R.bins, nu, ny, m, "lpm");
@@ -209,6 +268,7 @@ int cmd_frf_est(int argc, char **argv)
                 for (size_t t = 0; t < (size_t)ny * ny; ++t) noise_mean[t] += nz[t];
             }
             nlines = R.bins.size();
+            }
         } else if (method == "etfe") {
             if (!a.has("period")) throw UsageError("--method etfe needs --period M (samples per input period)");
             msidest::EtfeConfig c;

@@ -143,7 +143,10 @@ std::vector<size_t> resolve_columns(const std::string &path, const std::vector<s
         for (size_t i = 0; i < names.size(); ++i) {
             auto [kind, k] = uy_name(names[i]);
             if (kind < 0) {
-                if (names[i].empty() || is_time_name(names[i]) || !strict) continue;
+                // r<k>: reference signals, read only by msid frf --method lpm --reference
+                const bool ref = names[i].size() >= 2 && (names[i][0] == 'r' || names[i][0] == 'R') &&
+                                 uy_name("u" + names[i].substr(1)).first == 0;
+                if (names[i].empty() || is_time_name(names[i]) || ref || !strict) continue;
                 throw Error(fmt("'%s' line 1: column '%s' is not u<k>, y<k> or a time column (t, time, n, sample, "
                                 "index); map named columns with --columns u1=NAME,y1=NAME",
                                 path.c_str(), names[i].c_str()));
