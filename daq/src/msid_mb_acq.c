@@ -74,9 +74,11 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
     for (uint32_t attempt = 0;; ++attempt) {
         if (a->drain) msid_mb_flush(t);   /* no request is outstanding: whatever waits on the link is stale */
         a->cnt.requests++;
+        const uint64_t skipped0 = msid_mb_skipped(t);
         rc = kind == MSID_MB_READ_INPUT     ? msid_mb_read_input(t, addr, n, regs)
              : kind == MSID_MB_READ_HOLDING ? msid_mb_read_holding(t, addr, n, regs)
                                             : msid_mb_write_holding(t, addr, n, regs);
+        a->cnt.skipped_replies += msid_mb_skipped(t) - skipped0;   /* TCP: stale or foreign replies read past */
         if (rc == 0) {
             if (kind == MSID_MB_WRITE_HOLDING) a->cnt.registers_written += n;
             else a->cnt.registers_read += n;
@@ -108,6 +110,12 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
                 reissued = 1;
                 retries++;
             }
+            break;
+        case MSID_DAQ_E_PROTOCOL:
+            /* a malformed frame (TCP: an MBAP length or protocol id out of range): the byte stream has lost
+               its framing, so only a new connection can be trusted */
+            a->cnt.malformed_frames++;
+            reconnect = 1;
             break;
         case MSID_DAQ_E_ARG:
             snprintf(a->err, sizeof a->err, "%s %u..%u: bad request", kind_name(kind), addr, addr + n - 1);

@@ -116,6 +116,8 @@ static Json acquisition_json(const ModbusLink &l, const msid_mb_client &cl, cons
     j["crc_errors"] = k.crc_errors;
     j["exceptions"] = k.exceptions;
     j["bad_replies"] = k.bad_replies;
+    j["skipped_replies"] = k.skipped_replies;
+    j["malformed_frames"] = k.malformed_frames;
     j["io_errors"] = k.io_errors;
     j["reconnects"] = k.reconnects;
     j["stream_seconds"] = 1e-9 * (double)c.stream_ns;
