@@ -5,7 +5,6 @@ was lost; inside its 95% regions when periods were rejected)."""
 import json
 import signal
 import threading
-import time
 
 import pytest
 
@@ -40,9 +39,11 @@ def test_delayed_replies_time_out_and_are_retried(design, tmp_path, clean):
     a = doc["acquisition"]
     assert rep["injected"]["delayed"] >= 1
     # a late reply (500 ms > the 200 ms response timeout) costs the timeouts until the device is back
-    # (the simulator is single-threaded: it answers nothing while it delays); each is answered by a reconnect
+    # (the simulator is single-threaded: it answers nothing while it delays); each is answered by a reconnect.
+    # How many attempts fall into the 500 ms depends on scheduling, so only the lower bound is asserted
+    # (it was `<= 3 * d`, a wall-clock assumption: issue 15 #9); the run recovering bounds the rest.
     d = rep["injected"]["delayed"]
-    assert d <= a["timeouts"] <= 3 * d and a["reconnects"] == a["timeouts"] + a["io_errors"]
+    assert d <= a["timeouts"] and a["reconnects"] == a["timeouts"] + a["io_errors"]
     assert a["samples_lost"] == 0 and a["stale_replies"] == 0
     assert c.frf_equal(doc, clean[False]) and "retried" in err
 
@@ -127,14 +128,14 @@ def test_device_restart_mid_run(design, tmp_path):
 
 
 def test_device_that_hangs_never_blocks_the_host(design, tmp_path):
-    """SIGSTOP the device mid-run: the host gives up after its retries with one clear error."""
+    """SIGSTOP the device mid-run: the host gives up after its retries with one clear error. Bounded by
+    its attempts (the message says 4), not asserted by the clock: measure's subprocess timeout is only
+    a hang detector (issue 15 #9)."""
     with c.Sim(tmp_path) as sim:
         threading.Timer(0.8, lambda: sim.p.send_signal(signal.SIGSTOP)).start()
-        t0 = time.monotonic()
-        r = c.measure(tmp_path, sim, design, "--rate", 2000, "--response-timeout", 100, "--retries", 3, ok=False)
-        took = time.monotonic() - t0
+        r = c.measure(tmp_path, sim, design, "--rate", 2000, "--response-timeout", 100, "--retries", 3, ok=False,
+                      timeout=120)
     c.fails(tmp_path, r, 1, "no valid reply", "after 4 attempts")
-    assert took < 10, took
 
 
 # ---- adversarial device: the header's counts are checked against the design (issue 15 #2, #7) ----
