@@ -99,11 +99,13 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
         case MSID_DAQ_E_TIMEOUT: a->cnt.timeouts++; reconnect = 1; break;
         case MSID_DAQ_E_CRC: a->cnt.crc_errors++; break;
         case MSID_DAQ_E_BADDATA:
-            /* a reply that does not match its request (a stale duplicate, a foreign transaction id, bytes
-               left over from an oversized frame): the real reply is still in flight. The backoff lets it
+            /* a reply that does not match its request. TCP: the MBAP reader (msid_mbap.c) has already
+               skipped stale and foreign transaction ids, so this is the request's own reply with wrong
+               contents (a byte count or function code that does not fit): read whole, the link is still
+               framed. RTU, which has no transaction id: possibly a stale duplicate or bytes left over from
+               an oversized frame, with the real reply still in flight. Either way the backoff lets it
                arrive, the flush drops it, and the request is issued once more even when the caller allows
-               no retry; from now on the link is drained before every request, so a device that answers
-               every request twice costs a flush per request instead of a livelock (issue 15 #8) */
+               no retry; from now on the link is drained before every request (issue 15 #8) */
             a->cnt.bad_replies++;
             a->drain = 1;
             if (!reissued) {
