@@ -95,9 +95,15 @@ def run_round(tmp, design, sim_args):
         out = Path(tmp) / "frf.json"
         cmd = [c.MSID, "modbus", "measure", *sim.link, "--design", str(design), "--skip-periods", "1",
                *map(str, LINK), "-o", str(out)]
-        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        # the host's output goes to a file: a pipe read only after exit filled up with the progress lines
+        # of a 400-period round (64 kB) and blocked the host in write() (the first 30-minute run of the
+        # MBAP reader hung there)
+        log = Path(tmp) / "host.log"
+        with open(log, "w") as f:
+            p = subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, text=True)
         host, dev = watch(p, sim.p.pid, 600 + 0.05 * K * P, f"msid modbus measure (faults {sim_args})")
-        _, err = p.communicate()
+        p.wait()
+        err = log.read_text()
         assert p.returncode == 0, f"faults {sim_args}: exit {p.returncode}: {err}"
         doc = json.loads(out.read_text())
     return doc, sim.report(), sim.truth(), host, dev, err
