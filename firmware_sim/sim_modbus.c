@@ -44,7 +44,8 @@ typedef struct sim_mb {
     struct {
         uint64_t requests, replies, unanswered, delayed, dropped, exceptions, corrupted, stalls, stall_samples;
         uint64_t restarts, overrun_samples, samples, experiments_done;
-        uint64_t garbage_tid, dripped, truncated, oversized, absurd_header;   /* adversarial replies */
+        uint64_t garbage_tid, dripped, truncated, oversized, absurd_header, duplicated;   /* adversarial replies */
+        uint64_t paced_waits, late_samples;   /* --rate: the next sample not yet due / written > 1 period late */
     } mc;
     struct { uint32_t e; uint64_t a, b; } ranges[MAX_RANGES];   /* overwritten unread: [a, b) of experiment e */
     int n_ranges;
@@ -83,9 +84,13 @@ static void report_body(FILE *f, const void *ctx)
             (unsigned long long)m->mc.corrupted, (unsigned long long)m->mc.stalls, (unsigned long long)m->mc.stall_samples,
             (unsigned long long)m->mc.restarts);
     fprintf(f, " \"adversarial\": {\"garbage_tid\": %llu, \"dripped\": %llu, \"truncated\": %llu, \"oversized\": %llu, "
-               "\"absurd_header\": %llu},\n",
+               "\"absurd_header\": %llu, \"duplicated\": %llu},\n",
             (unsigned long long)m->mc.garbage_tid, (unsigned long long)m->mc.dripped, (unsigned long long)m->mc.truncated,
-            (unsigned long long)m->mc.oversized, (unsigned long long)m->mc.absurd_header);
+            (unsigned long long)m->mc.oversized, (unsigned long long)m->mc.absurd_header,
+            (unsigned long long)m->mc.duplicated);
+    fprintf(f, " \"rate_hz\": %u, \"paced_waits\": %llu, \"late_samples\": %llu,\n",
+            m->d->configured ? m->d->cfg.rate_hz : 0, (unsigned long long)m->mc.paced_waits,
+            (unsigned long long)m->mc.late_samples);
     fprintf(f, " \"overrun_samples\": %llu, \"overrun_ranges\": [", (unsigned long long)m->mc.overrun_samples);
     for (int i = 0; i < m->n_ranges; ++i)
         fprintf(f, "%s[%u, %llu, %llu]", i ? ", " : "", m->ranges[i].e, (unsigned long long)m->ranges[i].a,
@@ -372,7 +377,11 @@ static double produce(sim_mb *m)
             m->mc.stall_samples++;
         } else if (m->d->cfg.rate_hz) {
             const double due = run_time(m) * m->d->cfg.rate_hz;
-            if ((double)m->w >= due) return ((double)m->w + 1 - due) / m->d->cfg.rate_hz;
+            if ((double)m->w >= due) {
+                m->mc.paced_waits++;   /* waits for its clock: never a sample before its time */
+                return ((double)m->w + 1 - due) / m->d->cfg.rate_hz;
+            }
+            if (due - (double)m->w > 2.0) m->mc.late_samples++;   /* behind its clock (a loaded machine) */
         } else if (m->R && m->w >= m->R && !m->served[m->w % m->R]) {
             return -1;
         }
@@ -502,7 +511,10 @@ static void serve(sim_mb *m, const uint8_t *q, int len)
     const int hostile = hostile_reply(m, q, len, hl, k, fc, addr, cnt);
     if (!hostile && modbus_reply(m->mb, q, len, &m->map) < 0) return;
     m->mc.replies++;
-    if (m->d->o.answer_twice && modbus_reply(m->mb, q, len, &m->map) >= 0) m->mc.replies++;   /* adversarial: a duplicate */
+    if (m->d->o.answer_twice && modbus_reply(m->mb, q, len, &m->map) >= 0) {   /* adversarial: a duplicate */
+        m->mc.replies++;
+        m->mc.duplicated++;
+    }
     if (fc == 4 && !(hostile & HOSTILE_UNUSABLE) && addr + cnt > MSID_MB_RING_ADDR && m->W && m->R) {
         const uint32_t a = addr > MSID_MB_RING_ADDR ? addr - MSID_MB_RING_ADDR : 0;
         const uint32_t b = addr + cnt - MSID_MB_RING_ADDR;

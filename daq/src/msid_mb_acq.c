@@ -74,9 +74,11 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
     for (uint32_t attempt = 0;; ++attempt) {
         if (a->drain) msid_mb_flush(t);   /* no request is outstanding: whatever waits on the link is stale */
         a->cnt.requests++;
+        const uint64_t skipped0 = msid_mb_skipped(t);
         rc = kind == MSID_MB_READ_INPUT     ? msid_mb_read_input(t, addr, n, regs)
              : kind == MSID_MB_READ_HOLDING ? msid_mb_read_holding(t, addr, n, regs)
                                             : msid_mb_write_holding(t, addr, n, regs);
+        a->cnt.skipped_replies += msid_mb_skipped(t) - skipped0;   /* TCP: stale or foreign replies read past */
         if (rc == 0) {
             if (kind == MSID_MB_WRITE_HOLDING) a->cnt.registers_written += n;
             else a->cnt.registers_read += n;
@@ -97,17 +99,25 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
         case MSID_DAQ_E_TIMEOUT: a->cnt.timeouts++; reconnect = 1; break;
         case MSID_DAQ_E_CRC: a->cnt.crc_errors++; break;
         case MSID_DAQ_E_BADDATA:
-            /* a reply that does not match its request (a stale duplicate, a foreign transaction id, bytes
-               left over from an oversized frame): the real reply is still in flight. The backoff lets it
+            /* a reply that does not match its request. TCP: the MBAP reader (msid_mbap.c) has already
+               skipped stale and foreign transaction ids, so this is the request's own reply with wrong
+               contents (a byte count or function code that does not fit): read whole, the link is still
+               framed. RTU, which has no transaction id: possibly a stale duplicate or bytes left over from
+               an oversized frame, with the real reply still in flight. Either way the backoff lets it
                arrive, the flush drops it, and the request is issued once more even when the caller allows
-               no retry; from now on the link is drained before every request, so a device that answers
-               every request twice costs a flush per request instead of a livelock (issue 15 #8) */
+               no retry; from now on the link is drained before every request (issue 15 #8) */
             a->cnt.bad_replies++;
             a->drain = 1;
             if (!reissued) {
                 reissued = 1;
                 retries++;
             }
+            break;
+        case MSID_DAQ_E_PROTOCOL:
+            /* a malformed frame (TCP: an MBAP length or protocol id out of range): the byte stream has lost
+               its framing, so only a new connection can be trusted */
+            a->cnt.malformed_frames++;
+            reconnect = 1;
             break;
         case MSID_DAQ_E_ARG:
             snprintf(a->err, sizeof a->err, "%s %u..%u: bad request", kind_name(kind), addr, addr + n - 1);

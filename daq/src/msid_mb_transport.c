@@ -34,3 +34,5 @@ void msid_mb_close(msid_mb_transport *t)
     t->be->close(t->ctx);
     t->be = NULL;
 }
+
+uint64_t msid_mb_skipped(const msid_mb_transport *t) { return t->be->skipped ? t->be->skipped(t->ctx) : 0; }

@@ -1,4 +1,5 @@
-/* Modbus TCP and RTU transports on libmodbus; errors mapped to msid_daq_status. */
+/* Modbus TCP and RTU transports: libmodbus connects both and frames RTU; TCP requests and replies are framed
+   by msid_mbap.c (stale and foreign replies skipped). Errors mapped to msid_daq_status. */
 #define _DEFAULT_SOURCE
 #include "msid_daq/msid_modbus.h"
 
@@ -64,6 +65,86 @@ static int wr_holding(void *ctx, uint32_t addr, uint32_t n, const uint16_t *src)
     return r == (int)n ? 0 : r < 0 ? fail(m, "write holding registers") : -MSID_DAQ_E_BADDATA;
 }
 
+/* ---- TCP: our own MBAP framing (msid_mbap.c), so that a stale or foreign reply is skipped, not taken
+   for the answer (issue 15). Request PDUs as the Modbus Application Protocol v1.1b3 specifies them:
+   FC 03/04 section 6.3/6.4 (address, count), FC 16 section 6.12 (address, count, byte count, values). */
+static int tcp_exchange(msid_modbus *m, const char *what, const uint8_t *req, size_t req_n, uint8_t *rsp, size_t *rsp_n)
+{
+    msid_mbap *c = &m->mbap;
+    c->fd = modbus_get_socket(m->mb);
+    m->exc = 0;
+    const int rc = msid_mbap_request(c, req, req_n, rsp, rsp_n);
+    if (rc < 0) {
+        snprintf(m->err, sizeof m->err, "%s: %s", what, c->err);
+        return rc;
+    }
+    if (rsp[0] == (req[0] | 0x80u) && *rsp_n == 2) {
+        m->exc = rsp[1];
+        snprintf(m->err, sizeof m->err, "%s: exception %u (%s)", what, m->exc, msid_mb_exception_name(m->exc));
+        return -MSID_DAQ_E_EXCEPTION;
+    }
+    if (rsp[0] != req[0]) {
+        snprintf(m->err, sizeof m->err, "%s: reply with function code %u to a request of function code %u", what,
+                 rsp[0], req[0]);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    return 0;
+}
+
+static int tcp_read(msid_modbus *m, uint8_t fc, uint32_t addr, uint32_t n, uint16_t *dst, const char *what)
+{
+    if (n == 0 || n > MODBUS_MAX_READ_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
+    const uint8_t req[5] = {fc, (uint8_t)(addr >> 8), (uint8_t)addr, (uint8_t)(n >> 8), (uint8_t)n};
+    uint8_t rsp[MSID_MBAP_MAX_PDU];
+    size_t len = 0;
+    const int rc = tcp_exchange(m, what, req, sizeof req, rsp, &len);
+    if (rc < 0) return rc;
+    if (len != 2 + 2 * (size_t)n || rsp[1] != 2 * n) {
+        snprintf(m->err, sizeof m->err, "%s: a reply of %zu bytes, byte count %u, to a read of %u registers", what, len,
+                 rsp[1], n);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    for (uint32_t i = 0; i < n; ++i) dst[i] = (uint16_t)(rsp[2 + 2 * i] << 8 | rsp[3 + 2 * i]);
+    return 0;
+}
+
+static int tcp_rd_input(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
+{
+    return tcp_read(ctx, 4, addr, n, dst, "read input registers");
+}
+
+static int tcp_rd_holding(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
+{
+    return tcp_read(ctx, 3, addr, n, dst, "read holding registers");
+}
+
+static int tcp_wr_holding(void *ctx, uint32_t addr, uint32_t n, const uint16_t *src)
+{
+    msid_modbus *m = ctx;
+    if (n == 0 || n > MODBUS_MAX_WRITE_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
+    uint8_t req[6 + 2 * MODBUS_MAX_WRITE_REGISTERS], rsp[MSID_MBAP_MAX_PDU];
+    req[0] = 16;
+    req[1] = (uint8_t)(addr >> 8);
+    req[2] = (uint8_t)addr;
+    req[3] = (uint8_t)(n >> 8);
+    req[4] = (uint8_t)n;
+    req[5] = (uint8_t)(2 * n);
+    for (uint32_t i = 0; i < n; ++i) {
+        req[6 + 2 * i] = (uint8_t)(src[i] >> 8);
+        req[7 + 2 * i] = (uint8_t)src[i];
+    }
+    size_t len = 0;
+    const int rc = tcp_exchange(m, "write holding registers", req, 6 + 2 * (size_t)n, rsp, &len);
+    if (rc < 0) return rc;
+    if (len != 5 || memcmp(rsp + 1, req + 1, 4) != 0) {
+        snprintf(m->err, sizeof m->err, "write holding registers: a reply that does not echo the address and count");
+        return -MSID_DAQ_E_BADDATA;
+    }
+    return 0;
+}
+
+static uint64_t tcp_skipped(void *ctx) { return ((msid_modbus *)ctx)->mbap.skipped; }
+
 static void flush_(void *ctx) { modbus_flush(((msid_modbus *)ctx)->mb); }
 
 static int connect_(msid_modbus *m)
@@ -99,8 +180,9 @@ static void close_(void *ctx)
     }
 }
 
-static const msid_mb_backend TCP = {"tcp", rd_input, rd_holding, wr_holding, flush_, reconnect_, exc_, err_, close_};
-static const msid_mb_backend RTU = {"rtu", rd_input, rd_holding, wr_holding, flush_, reconnect_, exc_, err_, close_};
+static const msid_mb_backend TCP = {"tcp",        tcp_rd_input, tcp_rd_holding, tcp_wr_holding, flush_, reconnect_,
+                                    exc_,         err_,         close_,         tcp_skipped};
+static const msid_mb_backend RTU = {"rtu", rd_input, rd_holding, wr_holding, flush_, reconnect_, exc_, err_, close_, NULL};
 
 int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *c)
 {
@@ -134,6 +216,10 @@ int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *c)
     modbus_set_slave(m->mb, c->unit);
     modbus_set_response_timeout(m->mb, c->response_timeout_ms / 1000, (c->response_timeout_ms % 1000) * 1000);
     modbus_set_byte_timeout(m->mb, c->byte_timeout_ms / 1000, (c->byte_timeout_ms % 1000) * 1000);
+    m->mbap.fd = -1;
+    m->mbap.unit = (uint8_t)c->unit;
+    m->mbap.response_timeout_ms = c->response_timeout_ms ? c->response_timeout_ms : 1;
+    m->mbap.byte_timeout_ms = c->byte_timeout_ms ? c->byte_timeout_ms : 1;
     m->tr.be = c->rtu ? &RTU : &TCP;
     m->tr.ctx = m;
     const int r = connect_(m);

@@ -3,7 +3,7 @@ its bytes one at a time, cuts replies short, sends replies longer than asked, or
 sample count in its header. Each run either recovers -- the FRF is bit-identical to the honest
 device's and the host counted every injected fault exactly -- or fails in bounded time with one clear
 error and nothing written. Never an FRF from corrupted data. (A device answering every request twice:
-test_mb_faults.py.) Generous link timeouts keep the counts exact on a loaded machine: no test depends
+test_mb_faults.py; the MBAP reader frame by frame: test_mbap.c.) Generous link timeouts keep the counts exact on a loaded machine: no test depends
 on how fast anything runs."""
 import pytest
 
@@ -33,23 +33,39 @@ def hostile(design, tmp, *sim_args, ok=True):
     return r, sim.report()
 
 
-@pytest.mark.parametrize("opt,key", [("--garbage-tid-every", "garbage_tid"), ("--oversize-every", "oversized")])
-def test_mismatched_replies_are_reissued(design, tmp_path, honest, opt, key):
-    """Every 37th reply carries a transaction id the host never sent, or is 16 bytes longer than asked
-    (byte count included; a full 125-register read then exceeds the Modbus TCP frame): libmodbus rejects
-    it (one bad reply each), the host drains the link and issues the request again (also a ring read,
-    which gets no other retry); the FRF is the honest one."""
-    r, rep = hostile(design, tmp_path, opt, 37)
-    a, n = r.doc["acquisition"], rep["adversarial"][key]
+def test_foreign_transaction_ids_are_skipped_and_time_out(design, tmp_path, honest):
+    """Every 37th reply carries a transaction id the host never sent, in place of the real reply. The
+    host's MBAP reader (daq/src/msid_mbap.c) skips and counts it and waits on for the matching reply,
+    which never comes: one response timeout each, a reconnect, the request again (also a ring read);
+    the FRF is the honest one."""
+    r, rep = hostile(design, tmp_path, "--garbage-tid-every", 37)
+    a, n = r.doc["acquisition"], rep["adversarial"]["garbage_tid"]
     assert n >= 5
-    assert a["bad_replies"] == n and a["timeouts"] == 0 and a["samples_lost"] == 0
+    assert a["skipped_replies"] == n and a["timeouts"] == n and a["reconnects"] == n
+    assert a["bad_replies"] == a["malformed_frames"] == 0 and a["samples_lost"] == 0
+    assert c.frf_equal(r.doc, honest[0])
+
+
+def test_oversized_replies_are_rejected_and_reissued(design, tmp_path, honest):
+    """Every 37th read reply is 16 bytes longer than asked, byte count and MBAP length included. Within
+    the 254-byte MBAP length it is read whole and rejected as a bad reply (the stream stays framed); a
+    full 125-register read then has a length of 269: a malformed frame, counted, the connection
+    renewed. Either way the request is issued again and the FRF is the honest one."""
+    r, rep = hostile(design, tmp_path, "--oversize-every", 37)
+    a, n = r.doc["acquisition"], rep["adversarial"]["oversized"]
+    assert n >= 5
+    assert a["bad_replies"] + a["malformed_frames"] == n and a["malformed_frames"] >= 1
+    assert a["timeouts"] == a["skipped_replies"] == 0 and a["reconnects"] == a["malformed_frames"]
+    assert a["samples_lost"] == 0
     assert c.frf_equal(r.doc, honest[0])
 
 
 def test_only_garbage_transaction_ids_is_one_clear_error(design, tmp_path):
-    """A device whose every reply has a foreign transaction id: one clear error after the retries."""
+    """A device whose every reply has a foreign transaction id: one clear error after the retries, naming
+    the skipped replies."""
     r, rep = hostile(design, tmp_path, "--garbage-tid-every", 1, ok=False)
-    c.fails(tmp_path, r, 1, "no msid-modbus device answered", "no valid reply", "attempts")
+    c.fails(tmp_path, r, 1, "no msid-modbus device answered", "no valid reply", "attempts",
+            "with another transaction or unit id")
     assert rep["adversarial"]["garbage_tid"] >= 2
 
 
@@ -86,5 +102,5 @@ def test_absurd_header_count_is_one_clear_error(design, tmp_path):
 def test_negative_control_an_honest_device_counts_nothing(honest):
     """The counts above are the faults': the honest device injected none and the host counted none."""
     a = honest[0]["acquisition"]
-    assert a["bad_replies"] == a["timeouts"] == a["retries"] == 0
+    assert a["bad_replies"] == a["timeouts"] == a["retries"] == a["skipped_replies"] == a["malformed_frames"] == 0
     assert sum(honest[1]["adversarial"].values()) == 0

@@ -76,9 +76,16 @@ def test_tcp_and_rtu_bit_identical(design, tmp_path):
 
 
 def test_paced_rate_sets_fs(design, tmp_path):
-    """A device paced at 4 kHz over TCP: fs_hz in the file, no loss, the stream takes the time it should."""
+    """A device paced at 4 kHz over TCP: fs_hz in the file, no loss, and the device says it ran at that
+    rate and waited for its clock (pacing checked by what the device reports, never by the host's
+    elapsed time: issue 15 #9; a loaded machine may make it late, never early). Control: unpaced, the
+    same device never waits."""
     with c.Sim(tmp_path, "--seed", 2) as sim:
         r = c.measure(tmp_path, sim, design, "--rate", 4000, "--periods", 3)
-    a = r.doc["acquisition"]
+    a, rep = r.doc["acquisition"], sim.report()
     assert r.doc["fs_hz"] == 4000 and a["samples_lost"] == 0 and a["rate_hz"] == 4000
-    assert abs(a["stream_seconds"] - 2 * 3 * P / 4000) < 0.5 * 2 * 3 * P / 4000, a["stream_seconds"]
+    assert rep["rate_hz"] == 4000 and rep["paced_waits"] >= 1, rep
+    with c.Sim(tmp_path, "--seed", 2) as sim:
+        c.measure(tmp_path, sim, design, "--rate", 0, "--periods", 3, out="unpaced.json")
+    rep = sim.report()
+    assert rep["rate_hz"] == 0 and rep["paced_waits"] == 0, rep

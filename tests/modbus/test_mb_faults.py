@@ -5,7 +5,6 @@ was lost; inside its 95% regions when periods were rejected)."""
 import json
 import signal
 import threading
-import time
 
 import pytest
 
@@ -40,9 +39,11 @@ def test_delayed_replies_time_out_and_are_retried(design, tmp_path, clean):
     a = doc["acquisition"]
     assert rep["injected"]["delayed"] >= 1
     # a late reply (500 ms > the 200 ms response timeout) costs the timeouts until the device is back
-    # (the simulator is single-threaded: it answers nothing while it delays); each is answered by a reconnect
+    # (the simulator is single-threaded: it answers nothing while it delays); each is answered by a reconnect.
+    # How many attempts fall into the 500 ms depends on scheduling, so only the lower bound is asserted
+    # (it was `<= 3 * d`, a wall-clock assumption: issue 15 #9); the run recovering bounds the rest.
     d = rep["injected"]["delayed"]
-    assert d <= a["timeouts"] <= 3 * d and a["reconnects"] == a["timeouts"] + a["io_errors"]
+    assert d <= a["timeouts"] and a["reconnects"] == a["timeouts"] + a["io_errors"]
     assert a["samples_lost"] == 0 and a["stale_replies"] == 0
     assert c.frf_equal(doc, clean[False]) and "retried" in err
 
@@ -127,14 +128,14 @@ def test_device_restart_mid_run(design, tmp_path):
 
 
 def test_device_that_hangs_never_blocks_the_host(design, tmp_path):
-    """SIGSTOP the device mid-run: the host gives up after its retries with one clear error."""
+    """SIGSTOP the device mid-run: the host gives up after its retries with one clear error. Bounded by
+    its attempts (the message says 4), not asserted by the clock: measure's subprocess timeout is only
+    a hang detector (issue 15 #9)."""
     with c.Sim(tmp_path) as sim:
         threading.Timer(0.8, lambda: sim.p.send_signal(signal.SIGSTOP)).start()
-        t0 = time.monotonic()
-        r = c.measure(tmp_path, sim, design, "--rate", 2000, "--response-timeout", 100, "--retries", 3, ok=False)
-        took = time.monotonic() - t0
+        r = c.measure(tmp_path, sim, design, "--rate", 2000, "--response-timeout", 100, "--retries", 3, ok=False,
+                      timeout=120)
     c.fails(tmp_path, r, 1, "no valid reply", "after 4 attempts")
-    assert took < 10, took
 
 
 # ---- adversarial device: the header's counts are checked against the design (issue 15 #2, #7) ----
@@ -165,21 +166,26 @@ def test_write_index_stepping_back_is_one_clear_error(design, tmp_path):
 
 
 def test_device_that_answers_twice(design, tmp_path, clean):
-    """Every reply sent twice: the stale duplicate answers the next request. The run used to livelock
-    until "produced no new sample", then ended with one clear error. Now the first mismatch makes the
-    client drain the link before every request and issue a mismatched request once more after its
-    backoff and flush. Whether that wins depends on when the duplicate arrives (libmodbus rejects a
-    foreign transaction id but cannot skip the stale reply and read on: docs/reliability.md #8), so
-    the run ends either with the honest device's FRF, bit for bit, or with one clear error naming the
-    mismatches, nothing written; never a wrong FRF, never a hang."""
+    """Every reply sent twice. The host's own MBAP reader (daq/src/msid_mbap.c) reads the stale
+    duplicate of request k while it waits for reply k+1, sees transaction id k, skips and counts it:
+    deterministic recovery (libmodbus alone took the duplicate for the next reply and recovered only
+    when the timing let it, issue 15 #8). The FRF is the honest device's, bit for bit, with no fault
+    counted, and the host skipped exactly the device's duplicates but the last (sent after the host's
+    last request, never read)."""
     with c.Sim(tmp_path, "--seed", 4, "--answer-twice") as sim:
-        r = c.measure(tmp_path, sim, design, "--timeout", 3, ok=False, timeout=120)
-    rep = sim.report()
-    assert rep["replies"] >= 2 * rep["requests"] - 2   # the device did answer (nearly) every request twice
-    if r.returncode == 0:
-        doc = json.loads((tmp_path / "frf.json").read_text())
-        a = doc["acquisition"]
-        assert a["bad_replies"] >= 1 and a["samples_lost"] == 0
-        assert c.frf_equal(doc, clean[False])
-    else:
-        c.fails(tmp_path, r, 1, "did not match their requests", "answers twice")
+        r = c.measure(tmp_path, sim, design, "--timeout", 3, timeout=120)
+    rep, a = sim.report(), r.doc["acquisition"]
+    dup = rep["adversarial"]["duplicated"]
+    assert dup == rep["requests"] and dup >= 100   # every request answered twice
+    assert a["skipped_replies"] == dup - 1
+    assert a["bad_replies"] == a["timeouts"] == a["retries"] == a["reconnects"] == a["malformed_frames"] == 0
+    assert a["samples_lost"] == 0 and a["requests"] == rep["requests"]
+    assert c.frf_equal(r.doc, clean[False])
+
+
+def test_negative_control_an_honest_device_skips_nothing(design, tmp_path, clean):
+    """The count above is the duplicates': a device answering once leaves nothing to skip."""
+    with c.Sim(tmp_path, "--seed", 4) as sim:
+        r = c.measure(tmp_path, sim, design, "--timeout", 3, timeout=120)
+    assert r.doc["acquisition"]["skipped_replies"] == 0 and sim.report()["adversarial"]["duplicated"] == 0
+    assert c.frf_equal(r.doc, clean[False])

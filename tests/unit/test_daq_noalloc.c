@@ -140,7 +140,7 @@ static void modbus_hot_path_allocates_nothing(void **st)
         msid_mb_encode_value(r + 1, u, MSID_MB_ENC_F32, 0, 1.0);
         msid_mb_encode_value(r + 3, 0.5 * u + 0.01 * (double)((s * 7919u) % 13u), MSID_MB_ENC_F32, 0, 1.0);
     }
-    const msid_mb_backend be = {"mem", rd, rd, wr, nop, rc0, exc, err, nop};
+    const msid_mb_backend be = {"mem", rd, rd, wr, nop, rc0, exc, err, nop, NULL};
     msid_mb_transport tr = {&be, &DEV};
     msid_mb_client cl;
     msid_mb_client_init(&cl, &tr, 1, 1);

@@ -116,6 +116,8 @@ static Json acquisition_json(const ModbusLink &l, const msid_mb_client &cl, cons
     j["crc_errors"] = k.crc_errors;
     j["exceptions"] = k.exceptions;
     j["bad_replies"] = k.bad_replies;
+    j["skipped_replies"] = k.skipped_replies;
+    j["malformed_frames"] = k.malformed_frames;
     j["io_errors"] = k.io_errors;
     j["reconnects"] = k.reconnects;
     j["stream_seconds"] = 1e-9 * (double)c.stream_ns;
@@ -231,10 +233,14 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Progress &
                             "reporting DONE", (unsigned long long)q.cnt.done_missing, P.sf.periods, d.period));
     if (q.cnt.restarts) notes.push_back(fmt("the device restarted %llu time(s)", (unsigned long long)q.cnt.restarts));
     if (cl.cnt.retries)
-        notes.push_back(fmt("%llu request(s) retried (%llu timeout(s), %llu bad CRC, %llu exception(s), %llu reconnect(s))",
+        notes.push_back(fmt("%llu request(s) retried (%llu timeout(s), %llu bad CRC, %llu exception(s), %llu malformed "
+                            "frame(s), %llu reconnect(s))",
                             (unsigned long long)cl.cnt.retries, (unsigned long long)cl.cnt.timeouts,
                             (unsigned long long)cl.cnt.crc_errors, (unsigned long long)cl.cnt.exceptions,
-                            (unsigned long long)cl.cnt.reconnects));
+                            (unsigned long long)cl.cnt.malformed_frames, (unsigned long long)cl.cnt.reconnects));
+    if (cl.cnt.skipped_replies)
+        notes.push_back(fmt("%llu stale or foreign repl(ies) skipped (transaction or unit id not the request's)",
+                            (unsigned long long)cl.cnt.skipped_replies));
     MeasureResult R = finish_measure(job, P, lr, "modbus:" + l.name, notes);
     R.o.doc["acquisition"] = acquisition_json(l, cl, q, (double)P.sf.scale, P.sf.rate, crc, lrate);
     R.summary = fmt("%zu lines, %u x %u, %u%s experiment(s) over %s (%s %s), %llu samples, %llu missing, "

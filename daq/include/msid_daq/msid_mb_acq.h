@@ -42,6 +42,9 @@ extern "C" {
 typedef struct msid_mb_link_counters {
     uint64_t requests, registers_read, registers_written;
     uint64_t retries, timeouts, crc_errors, exceptions, bad_replies, io_errors, reconnects;
+    uint64_t skipped_replies;   /**< TCP: replies read past because their transaction or unit id was not the
+                                     request's (a stale duplicate, a foreign reply); not a failure by itself */
+    uint64_t malformed_frames;  /**< TCP: frames with a length or protocol id out of range (reconnected) */
 } msid_mb_link_counters;
 
 /** A client of one msid-modbus/1 device: retried requests, header, upload, commands (caller-owned). */

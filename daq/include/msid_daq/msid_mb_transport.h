@@ -40,6 +40,9 @@ typedef struct msid_mb_backend {
     const char *(*error)(void *ctx);
     /** Release the transport. */
     void (*close)(void *ctx);
+    /** Replies skipped so far because their transaction id or unit id was not the request's (cumulative;
+        NULL: the backend cannot tell, e.g. RTU, which has no transaction id). */
+    uint64_t (*skipped)(void *ctx);
 } msid_mb_backend;
 
 /** A transport: a backend and its state. */
@@ -68,6 +71,9 @@ uint32_t msid_mb_exception(const msid_mb_transport *t);
 
 /** @brief Detail of the transport's last error ("" if none). */
 const char *msid_mb_error(const msid_mb_transport *t);
+
+/** @brief Replies the transport skipped as stale or foreign, cumulative (0 if it cannot tell). */
+uint64_t msid_mb_skipped(const msid_mb_transport *t);
 
 /** @brief Name of the backend ("tcp", "rtu"). */
 const char *msid_mb_backend_name(const msid_mb_transport *t);

@@ -2,6 +2,12 @@
  * @file msid_modbus.h
  * @brief Modbus TCP and RTU transports on libmodbus (client side).
  *
+ * libmodbus connects both and frames RTU. Over TCP the requests and replies
+ * are framed by ::msid_mbap_request: a reply whose transaction id or unit id
+ * is not the request's (a stale duplicate, a foreign reply) is skipped and
+ * counted (msid_mb_backend.skipped), a malformed frame (length, protocol id)
+ * is -MSID_DAQ_E_PROTOCOL.
+ *
  * Explicit response and byte timeouts (libmodbus's own error recovery is
  * off: the adapter retries and reconnects), errno mapped to msid_daq_status:
  * ETIMEDOUT -> timeout, EMBBADCRC -> bad CRC, an exception response ->
@@ -12,6 +18,7 @@
 #define MSID_MODBUS_H
 
 #include "msid_mb_transport.h"
+#include "msid_mbap.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -37,6 +44,7 @@ typedef struct msid_modbus {
     void *mb;                     /**< modbus_t */
     msid_modbus_cfg cfg;
     char host[128], device[256];
+    msid_mbap mbap;               /**< TCP: our own request framing and reply matching (msid_mbap.h) */
     uint32_t exc;                 /**< last exception code */
     char err[400];
 } msid_modbus;
