@@ -441,6 +441,7 @@ int cmd_fit(int argc, char **argv)
                 b["theta"] = r.theta_bound;
                 b["lambda_max_cov"] = r.lambda_max_cov;
                 b["sigma_min_jacobian"] = r.sigma_min_J;
+                b["jacobian_rank"] = r.sigma_rank;
                 b["valid_if"] = "Gonzalez et al. 2025 Theorem 5: Gaussian white noise of known covariance, whole "
                                 "periods, no undermodelling; theta bound also needs the estimate inside the ball "
                                 "where the Jacobian stays within (1-beta) sigma_min of its value";
