@@ -87,4 +87,27 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
     return out;
 }
 
+void smooth_weights(std::vector<WeightedLine> &w, int half)
+{
+    std::vector<size_t> cx;
+    for (size_t i = 0; i < w.size(); ++i)
+        if (!w[i].real) cx.push_back(i);
+    const size_t n = cx.size(), win = std::min(n, (size_t)(2 * std::max(half, 0) + 1));
+    if (win <= 1) return;
+    std::vector<MatC> C(n);
+    std::vector<double> dof(n);
+    for (size_t k = 0; k < n; ++k) { C[k] = w[cx[k]].cov; dof[k] = w[cx[k]].dof; }
+    for (size_t k = 0; k < n; ++k) {
+        const size_t lo = std::min(k > (size_t)half ? k - (size_t)half : 0, n - win);
+        MatC S = MatC::Zero(C[k].rows(), C[k].cols());
+        double nd = 0;
+        for (size_t j = lo; j < lo + win; ++j) { S += dof[j] * C[j]; nd += dof[j]; }
+        WeightedLine &l = w[cx[k]];
+        l.cov = S / nd;
+        l.dof = nd;
+        Eigen::LLT<MatC> llt(l.cov);
+        l.Linv = MatC(llt.matrixL()).triangularView<Eigen::Lower>().solve(MatC::Identity(S.rows(), S.cols()));
+    }
+}
+
 }  // namespace msidfit
