@@ -31,5 +31,7 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
 // band edges), its dof by their sum. Right when the noise covariance of the FRF is smooth over the
 // window (output noise, smooth excitation amplitude); real lines and half = 0 are left as they are.
 void smooth_weights(std::vector<WeightedLine> &w, int half);
+// ml's default half-width H (`msid fit --weight-smooth`; docs/fitting.md, "Pooled weights").
+constexpr int ML_WEIGHT_SMOOTH = 4;
 
 }  // namespace msidfit

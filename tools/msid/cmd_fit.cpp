@@ -62,9 +62,6 @@ static Domain parse_domain(const Args &a, const FrfData &f)
     return d;
 }
 
-// ml's default weight pooling half-width in lines (docs/fitting.md, "Weights").
-static const int ML_WEIGHT_SMOOTH = 4;
-
 static const std::vector<std::pair<std::string, Weight>> WEIGHTS = {
     {"cov", Weight::Cov}, {"known-input", Weight::KnownInput}, {"none", Weight::None}};
 
