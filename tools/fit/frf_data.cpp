@@ -1,4 +1,5 @@
 #include "frf_data.hpp"
+#include "stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -101,7 +102,16 @@ void smooth_weights(std::vector<WeightedLine> &w, int half)
         const size_t lo = std::min(k > (size_t)half ? k - (size_t)half : 0, n - win);
         MatC S = MatC::Zero(C[k].rows(), C[k].cols());
         double nd = 0;
-        for (size_t j = lo; j < lo + win; ++j) { S += dof[j] * C[j]; nd += dof[j]; }
+        const double tk = C[k].trace().real();
+        for (size_t j = lo; j < lo + win; ++j) {
+            // a neighbour whose covariance differs from this line's (trace ratio outside the central
+            // 99% of F(2n, 2n)) is not pooled: the noise level changes there (e.g. noisy inputs at a
+            // resonance, a notch in the excitation)
+            const double q = C[j].trace().real() / tk, d = 2.0 * std::min(dof[j], dof[k]);
+            if (j != k && (f_sf(d, d, q) < 0.005 || f_sf(d, d, 1.0 / q) < 0.005)) continue;
+            S += dof[j] * C[j];
+            nd += dof[j];
+        }
         WeightedLine &l = w[cx[k]];
         l.cov = S / nd;
         l.dof = nd;
