@@ -1,4 +1,5 @@
 #include "frf_data.hpp"
+#include "stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -85,6 +86,38 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
         out.push_back(std::move(wl));
     }
     return out;
+}
+
+void smooth_weights(std::vector<WeightedLine> &w, int half)
+{
+    std::vector<size_t> cx;
+    for (size_t i = 0; i < w.size(); ++i)
+        if (!w[i].real) cx.push_back(i);
+    const size_t n = cx.size(), win = std::min(n, (size_t)(2 * std::max(half, 0) + 1));
+    if (win <= 1) return;
+    std::vector<MatC> C(n);
+    std::vector<double> dof(n);
+    for (size_t k = 0; k < n; ++k) { C[k] = w[cx[k]].cov; dof[k] = w[cx[k]].dof; }
+    for (size_t k = 0; k < n; ++k) {
+        const size_t lo = std::min(k > (size_t)half ? k - (size_t)half : 0, n - win);
+        MatC S = MatC::Zero(C[k].rows(), C[k].cols());
+        double nd = 0;
+        const double tk = C[k].trace().real();
+        for (size_t j = lo; j < lo + win; ++j) {
+            // a neighbour whose covariance differs from this line's (trace ratio outside the central
+            // 99% of F(2n, 2n)) is not pooled: the noise level changes there (e.g. noisy inputs at a
+            // resonance, a notch in the excitation)
+            const double q = C[j].trace().real() / tk, d = 2.0 * std::min(dof[j], dof[k]);
+            if (j != k && (f_sf(d, d, q) < 0.005 || f_sf(d, d, 1.0 / q) < 0.005)) continue;
+            S += dof[j] * C[j];
+            nd += dof[j];
+        }
+        WeightedLine &l = w[cx[k]];
+        l.cov = S / nd;
+        l.dof = nd;
+        Eigen::LLT<MatC> llt(l.cov);
+        l.Linv = MatC(llt.matrixL()).triangularView<Eigen::Lower>().solve(MatC::Identity(S.rows(), S.cols()));
+    }
 }
 
 }  // namespace msidfit

@@ -26,4 +26,13 @@ struct WeightedLine {
 // (per output, white), keeping the design structure of cov_known_input.
 std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noise_var = 0.0);
 
+// Weights with less variance for ml: each complex line's covariance replaced by the dof-weighted mean
+// of the per-line covariances over a window of 2 half + 1 neighbouring complex lines (shifted at the
+// band edges), its dof by their sum. Right when the noise covariance of the FRF is smooth over the
+// window (output noise, smooth excitation amplitude); a neighbour whose covariance trace differs from
+// the line's beyond the central 99% of F(2n, 2n) is left out. Real lines and half = 0: unchanged.
+void smooth_weights(std::vector<WeightedLine> &w, int half);
+// ml's default half-width H (`msid fit --weight-smooth`; docs/fitting.md, "Pooled weights").
+constexpr int ML_WEIGHT_SMOOTH = 4;
+
 }  // namespace msidfit

@@ -418,6 +418,28 @@ MatR fisher_cov(const MatR &J, int &rank)
            sd.cwiseInverse().asDiagonal();
 }
 
+// Smallest non-zero singular value of J (Theorem 5, eq. 46) and the rank of J. The columns of J
+// are the unscaled LMFD coefficients, graded by ws^-i: J^T J squares a condition of 1e10 or more
+// and its smallest eigenvalue came out negative (sigma = 0, an infinite theta bound). Here J = B C
+// with C the column norms; the SVD of the equilibrated B keeps its accuracy, and
+// sigma_min(J) = 1 / |J^+| = 1 / sigma_max(C^-1 V_r S_r^-1) over the rank r of B.
+double sigma_min_graded(const MatR &J, int &rank)
+{
+    rank = 0;
+    if (J.cols() == 0 || J.rows() == 0) return 0.0;
+    const VecR c = J.colwise().norm().transpose();
+    VecR ci(c.size());
+    for (Eigen::Index k = 0; k < c.size(); ++k) ci(k) = c(k) > 0 ? 1.0 / c(k) : 0.0;
+    const Eigen::JacobiSVD<MatR> svd(J * ci.asDiagonal(), Eigen::ComputeThinV);
+    const VecR sv = svd.singularValues();
+    const double tol = 1e-13 * std::max(sv(0), 1e-300) * std::sqrt((double)J.cols());
+    while (rank < sv.size() && sv(rank) > tol) ++rank;
+    if (rank == 0) return 0.0;
+    const MatR P = ci.asDiagonal() * svd.matrixV().leftCols(rank) * sv.head(rank).cwiseInverse().asDiagonal();
+    const double pn = Eigen::JacobiSVD<MatR>(P).singularValues()(0);
+    return pn > 0 ? 1.0 / pn : 0.0;
+}
+
 // Sample-ML correction: weights estimated with n complex dof (p outputs) inflate the
 // variance by about n/(n - p - 1) (exact for p = 1: Pintelon & Schoukens SML, (M-2)/(M-3)
 // relative to the CRB with the (n-1)/n bias of the inverse sample covariance).
@@ -492,8 +514,7 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     Jg.resize(rows, (Eigen::Index)free.size());
     rows = 0;
     for (auto &b : blocks) { Jg.block(rows, 0, b.rows(), b.cols()) = b; rows += b.rows(); }
-    Eigen::SelfAdjointEigenSolver<MatR> sj(Jg.transpose() * Jg, Eigen::EigenvaluesOnly);
-    res.sigma_min_J = std::sqrt(std::max(0.0, sj.eigenvalues()(0)));
+    res.sigma_min_J = sigma_min_graded(Jg, res.sigma_rank);
     // (45): 2 sqrt(lambda_max(Cov)) (sqrt(2 log(2/delta)) + sqrt(nu ny (2M+1)))
     const double B = std::sqrt((double)g * (double)(2 * nc + nr));
     res.frf_bound = 2.0 * std::sqrt(res.lambda_max_cov) * (std::sqrt(2.0 * std::log(2.0 / o.delta)) + B);

@@ -65,6 +65,7 @@ struct MlResult {
     std::vector<MatC> G;      // model FRF at the lines
     std::vector<MatC> Gcov;   // its covariance (J Cov J^H)
     double frf_bound = 0.0, theta_bound = 0.0, sigma_min_J = 0.0, lambda_max_cov = 0.0;
+    int sigma_rank = 0;      // rank of the FRF Jacobian; sigma_min_J is its smallest non-zero singular value
 };
 
 // Sanathanan-Koerner starting point (weighted Levy then iterations).
@@ -85,6 +86,9 @@ MlResult lmfd_evaluate(const std::vector<WeightedLine> &w, Domain d, double h, c
 // columns (a singular Fisher matrix at a good estimate is a rank-deficient parametrisation: the
 // pseudo-inverse, eigenvalues below 1e-12 n lambda_max dropped), and its rank.
 MatR fisher_cov(const MatR &J, int &rank);
+// Smallest non-zero singular value of a column-graded J (unscaled LMFD coefficients) and its rank,
+// without forming J^T J.
+double sigma_min_graded(const MatR &J, int &rank);
 // Sample-ML factor n/(n - ny - 1) for weights estimated with n complex dof (1 for known noise).
 double sample_ml_factor(const std::vector<WeightedLine> &w, size_t ny, bool known_noise);
 

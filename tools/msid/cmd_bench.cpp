@@ -410,24 +410,33 @@ void bench_structures(const std::string &dir, double min_s)
         return;
     }
     const Json pj = read_json_file(js);
-    std::printf("  %-14s %5s %6s | %-30s | %-30s | %-26s\n", "case", "order", "range", "vector fitting: cost, rel.err, time",
-                "msid ml: cost, rel.err, time", "msid subspace: cost (x VF)");
+    std::printf("  %-14s %5s %6s | %-30s | %-30s | %-16s | %-26s\n", "case", "order", "range", "vector fitting: cost, rel.err, time",
+                "msid ml: cost, rel.err, time", "ml H=0: rel.err", "msid subspace: cost (x VF)");
     for (const Json &c : pj["cases"]) {
         const FrfData f = read_frf(c["file"].get<std::string>());
         const auto w = weigh(f, Domain::CT, Weight::Cov);
+        auto wp = w;   // ml as `msid fit` runs it: pooled weights (--weight-smooth 4)
+        smooth_weights(wp, ML_WEIGHT_SMOOTH);
         const int n = c["order"].get<int>();
         PrOptions po;
         po.order = n;
-        PrResult r;
-        const double t_ml = best_time([&] { r = pr_ml_fit(f, Domain::CT, w, true, po); }, c["modes"].get<int>() == 10 ? min_s : 0.0);
+        PrResult r, r0;
+        const double t_ml = best_time([&] { r = pr_ml_fit(f, Domain::CT, wp, true, po); }, c["modes"].get<int>() == 10 ? min_s : 0.0);
+        r0 = pr_ml_fit(f, Domain::CT, w, true, po);
         const Json &G0 = c["G0"];
-        double num = 0, den = 0;
+        auto rel_err = [&](const std::vector<MatC> &G) {
+            double num = 0, den = 0;
+            for (size_t l = 0; l < w.size(); ++l)
+                for (Eigen::Index ij = 0; ij < (Eigen::Index)f.g(); ++ij) {
+                    const cd g0(G0["re"][l][(size_t)ij].get<double>(), G0["im"][l][(size_t)ij].get<double>());
+                    num += std::norm(G[l].data()[ij] - g0);
+                    den += std::norm(g0);
+                }
+            return std::sqrt(num / den);
+        };
+        double V = 0;   // eq. (40) on the file's (per-line) covariance, as vector fitting's cost
         for (size_t l = 0; l < w.size(); ++l)
-            for (Eigen::Index ij = 0; ij < (Eigen::Index)f.g(); ++ij) {
-                const cd g0(G0["re"][l][(size_t)ij].get<double>(), G0["im"][l][(size_t)ij].get<double>());
-                num += std::norm(r.G[l].data()[ij] - g0);
-                den += std::norm(g0);
-            }
+            V += (w[l].real ? 0.5 : 1.0) * (w[l].Linv * Eigen::Map<const VecC>(MatC(w[l].G - r.G[l]).data(), f.g())).squaredNorm();
         SubspaceOptions so;   // as `msid fit --method subspace` runs it: refined, stable unless the data need not
         so.order = n;
         so.stable_auto = true;
@@ -435,14 +444,16 @@ void bench_structures(const std::string &dir, double min_s)
         SubspaceResult sr;
         const double t_sub = best_time([&] { sr = fit_subspace(f, Domain::CT, w, true, so); }, 0.0);
         const std::string name = std::string(c["kind"].get<std::string>()) + " " + std::to_string(c["modes"].get<int>()) + " modes";
-        std::printf("  %-14s %5d %4.0fdB | %9.5g %9.3g %8.3f s | %9.5g %9.3g %8.3f s | %9.5g (%.2fx) %s %5.1f ms\n",
+        const double vfe = c["vf_rel_error"].get<double>(), e_ml = rel_err(r.G), e_ml0 = rel_err(r0.G);
+        std::printf("  %-14s %5d %4.0fdB | %9.5g %9.3g %8.3f s | %9.5g %9.3g %8.3f s | %9.3g (%.3fx) | %9.5g (%.2fx) %s %5.1f ms\n",
                     name.c_str(), n, c["dynamic_range_db"].get<double>(), c["vf_cost"].get<double>(),
-                    c["vf_rel_error"].get<double>(), c["vf_seconds"].get<double>(), r.cost, std::sqrt(num / den), t_ml,
+                    vfe, c["vf_seconds"].get<double>(), V, e_ml, t_ml, e_ml0, e_ml0 / vfe,
                     sr.cost, sr.cost / c["vf_cost"].get<double>(), ss_stable(sr.model) ? "stable" : "UNSTABLE",
                     t_sub * 1e3);
     }
     std::printf("  (scikit-rf %s; rel.err = |G_model - G_true| / |G_true| over the lines; cost = eq. (40) on the file's "
-                "covariance; ml time: best of runs for the 10-mode SISO, one run otherwise)\n\n",
+                "covariance; ml: pooled weights, --weight-smooth 4 (the default); ml H=0: each line's own covariance as weight;\n"
+                "   ml time: best of runs for the 10-mode SISO, one run otherwise)\n\n",
                 pj["skrf"].get<std::string>().c_str());
 }
 

@@ -48,6 +48,8 @@ static const char *FIT_HELP =
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
+    "  --weight-smooth H  ml with --weight cov|known-input: weights from the covariance pooled over 2H+1\n"
+    "                neighbouring lines (default H = 4; 0: each line's own sample covariance)\n"
     "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
     "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
 
@@ -277,7 +279,7 @@ int cmd_fit(int argc, char **argv)
     if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)
     Args a(argc, argv, 2, FIT_HELP,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
-            "feedthrough", "param", "output", "refine"},
+            "feedthrough", "param", "output", "refine", "weight-smooth"},
            {"stable", "no-d", "allow-unstable"}, {"pin"});
     if (a.positional().size() != 1) throw UsageError("give exactly one msid-frf/1 file");
     const std::string out = a.require("output");
@@ -289,8 +291,14 @@ int cmd_fit(int argc, char **argv)
         const Weight wt = a.enum_<Weight>("weight", Weight::Cov, WEIGHTS);
         const double noise_var = a.f64("noise-var", 0.0);
         if (a.has("noise-var") && !(noise_var > 0)) throw UsageError("--noise-var must be positive");
-        const auto w = weigh(f, d, wt, noise_var);
+        auto w = weigh(f, d, wt, noise_var);
         const bool known = noise_var > 0;
+        const int wsmooth = (int)a.u32("weight-smooth", (uint32_t)ML_WEIGHT_SMOOTH);
+        if (a.has("weight-smooth") && (method != "ml" || wt == Weight::None || known))
+            throw UsageError("--weight-smooth belongs to --method ml with estimated weights (--weight cov|known-input)");
+        const bool smoothed = method == "ml" && wt != Weight::None && !known && wsmooth > 0;
+        std::vector<WeightedLine> w_line;   // per-line weights, for the cost block of a smoothed fit
+        if (smoothed) { w_line = w; smooth_weights(w, wsmooth); }
         Json doc;
         doc["format"] = "msid-model/1";
         doc["generator"] = std::string("msid ") + MSID_VERSION;
@@ -300,6 +308,7 @@ int cmd_fit(int argc, char **argv)
         doc["method"] = method;
         Json settings;
         settings["weight"] = a.get("weight", "cov");
+        if (smoothed) settings["weight_smooth"] = wsmooth;
         if (known) settings["noise_var"] = noise_var;
         const size_t ny = f.ny, nu = f.nu;
         double neq = 0;
@@ -488,6 +497,7 @@ int cmd_fit(int argc, char **argv)
                 b["theta"] = r.theta_bound;
                 b["lambda_max_cov"] = r.lambda_max_cov;
                 b["sigma_min_jacobian"] = r.sigma_min_J;
+                b["jacobian_rank"] = r.sigma_rank;
                 b["valid_if"] = "Gonzalez et al. 2025 Theorem 5: Gaussian white noise of known covariance, whole "
                                 "periods, no undermodelling; theta bound also needs the estimate inside the ball "
                                 "where the Jacobian stays within (1-beta) sigma_min of its value";
@@ -528,7 +538,12 @@ int cmd_fit(int argc, char **argv)
         // the fit used: an unweighted fit's p-value would otherwise depend on the units of the data.
         Json cost = cost_json(V, dof, known || wt == Weight::None ? 1e300 : min_dof(w), (double)ny);
         cost["weight"] = settings["weight"];
-        if (wt == Weight::None) {
+        if (smoothed) {
+            // the p-value from each line's own covariance (as validate computes it); the fit's own cost beside it
+            cost = cost_json(cost_at(w_line, Gm), dof, min_dof(w_line), (double)ny);
+            cost["weight"] = settings["weight"];
+            cost["fit_cost_smoothed_weights"] = V;
+        } else if (wt == Weight::None) {
             try {
                 const auto wc = weigh(f, d, Weight::Cov);
                 if (Gm.size() == wc.size()) {
