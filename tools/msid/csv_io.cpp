@@ -1,9 +1,9 @@
 // Experiment files -> Record: the CSV reader, the column mapping shared with
 // the binary readers (array_io.cpp), and the format dispatch.
 //
-// Speed and memory: the file is streamed in blocks of 4 MiB by read(2)
-// (never held whole: peak memory is the samples plus a constant); cells are
-// parsed in place (no per-cell or per-line strings); a block over 1 MiB is
+// Speed and memory: the file is streamed in blocks of about 4 MiB (mapped
+// window by window; a pipe by read(2)), never held whole: peak memory is the
+// samples plus a constant. Cells are parsed in place (no per-cell or per-line strings); a block over 1 MiB is
 // split at a line boundary and its halves parsed by two threads, joined in
 // file order (values, errors and so every result are independent of the
 // block size and the split).
@@ -430,25 +430,83 @@ namespace {
 
 // The file read in blocks of whole lines: next() hands out [p, q), q just
 // after a '\n' (a newline is appended to a last line that lacks one); the
-// bytes stay valid until the next call. A line longer than the block grows
-// the buffer (to the line's length, a constant of the file, not its size).
+// bytes stay valid until the next call. A regular file is mapped one window
+// of about 4 MiB at a time (MAP_POPULATE: no copy, no fault per page; the
+// window is unmapped when the next is taken), anything else (a pipe) read(2)
+// into a buffer. A line longer than the window grows it (to the line's
+// length, a constant of the file, not its size).
 class LineBlocks {
 public:
     static constexpr size_t BLOCK = (size_t)4 << 20;
-    explicit LineBlocks(const std::string &path) : path_(path), buf_(BLOCK + 1)
+    explicit LineBlocks(const std::string &path) : path_(path)
     {
         fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
         if (fd_ < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
         struct stat st;
         if (fstat(fd_, &st) == 0 && S_ISREG(st.st_mode)) size_ = (size_t)st.st_size;
     }
-    ~LineBlocks() { ::close(fd_); }
+    ~LineBlocks()
+    {
+        unmap();
+        ::close(fd_);
+    }
     LineBlocks(const LineBlocks &) = delete;
     LineBlocks &operator=(const LineBlocks &) = delete;
     size_t file_size() const { return size_; }   // 0 when not a regular file (a pipe)
 
-    bool next(const char *&p, const char *&q)
+    bool next(const char *&p, const char *&q) { return size_ ? next_mapped(p, q) : next_read(p, q); }
+
+private:
+    std::string path_;
+    int fd_ = -1;
+    size_t size_ = 0, have_ = 0, cut_ = 0, pos_ = 0, win_ = BLOCK;
+    bool eof_ = false;
+    std::vector<char> buf_;   // read(2) buffer, or the last line of a mapped file lacking its newline
+    void *map_ = nullptr;
+    size_t map_len_ = 0;
+
+    void unmap()
     {
+        if (map_) munmap(map_, map_len_);
+        map_ = nullptr;
+    }
+
+    bool next_mapped(const char *&p, const char *&q)
+    {
+        static const size_t page = (size_t)sysconf(_SC_PAGESIZE);
+        unmap();
+        while (pos_ < size_) {
+            const size_t off = pos_ & ~(page - 1), len = std::min(win_, size_ - off);
+            void *m = mmap(nullptr, len, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, (off_t)off);
+            if (m == MAP_FAILED) throw Error("cannot map '" + path_ + "': " + std::strerror(errno));
+            map_ = m;
+            map_len_ = len;
+            const char *b = (const char *)m + (pos_ - off), *e = (const char *)m + len;
+            const void *nl = memrchr(b, '\n', (size_t)(e - b));
+            if (nl) {
+                p = b;
+                q = (const char *)nl + 1;
+                pos_ = off + (size_t)(q - (const char *)m);
+                return true;
+            }
+            if (off + len == size_) {   // the last line, without a newline
+                buf_.assign(b, e);
+                buf_.push_back('\n');
+                unmap();
+                pos_ = size_;
+                p = buf_.data();
+                q = p + buf_.size();
+                return true;
+            }
+            unmap();
+            win_ *= 2;   // a line longer than the window
+        }
+        return false;
+    }
+
+    bool next_read(const char *&p, const char *&q)
+    {
+        if (buf_.size() < win_ + 1) buf_.resize(win_ + 1);
         if (cut_ < have_) std::memmove(buf_.data(), buf_.data() + cut_, have_ - cut_);
         have_ -= std::min(cut_, have_);
         cut_ = 0;
@@ -472,13 +530,6 @@ public:
             buf_.resize(2 * buf_.size());   // a line longer than the buffer
         }
     }
-
-private:
-    std::string path_;
-    int fd_ = -1;
-    size_t size_ = 0, have_ = 0, cut_ = 0;
-    bool eof_ = false;
-    std::vector<char> buf_;
 };
 
 }  // namespace
