@@ -232,7 +232,12 @@ static double pc_result(const pcomb *c)
     return pv > 1.0 ? 1.0 : pv;
 }
 
-/* p-value of one kept period p against the other kept periods. */
+/* p-value of one kept period p against the other kept periods. The complex
+ * channels of a line need only the largest statistic: P(F(2, 2n) > t) is
+ * decreasing in t and the line keeps only its channels' minimum p-value, so
+ * exp/log1p run once per line, not once per channel (same value: the
+ * minimum of f(t_c) is f(max t_c) for a non-increasing f; tests/unit
+ * test_pstats checks it bit for bit against the per-channel form). */
 static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K)
 {
     const size_t L = ps->n_lines, q = ps->n_channels;
@@ -240,6 +245,7 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
     const double Kd = (double)K, n = (double)(K - 2u);
     pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
     for (size_t l = 0; l < L; ++l) {
+        double tmax = -1.0;                          /* largest F(2, 2n) statistic of the line */
         for (size_t c = 0; c < q; ++c) {
             const msid_cplx mu = mean[l * q + c];
             const double dev2 = msid__cabs2(msid__csub(zp[l * q + c], mu));
@@ -248,18 +254,22 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
             double s2 = (m2c - Kd / (Kd - 1.0) * dev2) / n;
             const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
             const double floor_ = 1e-24 * (msid__cabs2(mu) + m2c / (Kd - 1.0)) + 1e-300;
-            double pv;
             if (s2 <= floor_) {
                 if (d2 <= floor_) continue;          /* deterministic channel, unchanged */
-                pv = 0.0;                            /* deterministic channel that changed */
-            } else {
-                const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
-                if (mu.im == 0.0 && zp[l * q + c].im == 0.0)
-                    pv = f1_tail(t, K - 2u);         /* real line (DC, Nyquist): F(1, n) */
-                else
-                    pv = exp(-n * log1p(t / n));     /* P(F(2, 2n) > t) */
+                pc_channel(&pc, 0.0);                /* deterministic channel that changed */
+                continue;
             }
-            pc_channel(&pc, pv);
+            const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
+            if (mu.im == 0.0 && zp[l * q + c].im == 0.0) {
+                pc_channel(&pc, f1_tail(t, K - 2u)); /* real line (DC, Nyquist): F(1, n) */
+            } else {
+                if (t > tmax) tmax = t;
+                pc.qt++;                             /* counted now, its p-value below */
+            }
+        }
+        if (tmax >= 0.0) {
+            const double pv = exp(-n * log1p(tmax / n));   /* P(F(2, 2n) > tmax) */
+            if (pv < pc.cmin) pc.cmin = pv;
         }
         pc_line_end(&pc);
     }
