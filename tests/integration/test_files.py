@@ -5,6 +5,7 @@ format must give the FRF bit-identical to the plain CSV of the same samples;
 every bad file one message naming file, row/line and column/variable, and no
 output file."""
 import json
+import sys
 import zipfile
 
 import numpy as np
@@ -418,3 +419,31 @@ def test_streamed_csv_blocks_long_lines_pipe_and_error_order(tmp_path):
         assert _lines(_frf(tmp_path, [fifo], name="pipe.json")) == want
     finally:
         w.join()
+
+
+def test_csv_memory_is_the_samples_plus_a_constant(tmp_path):
+    """Issue 15: the CSV is streamed, not held. A 55 MB file whose rows are
+    mostly an ignored text column holds 8 MB of samples (500,000 rows x 2
+    mapped columns): peak RSS (getrusage of the child) must stay under the
+    samples + 32 MiB. The reader that held the file peaked at 69 MiB here
+    (negative control: main's binary fails this bound)."""
+    import subprocess
+    n = 500_000
+    rng = np.random.default_rng(21)
+    t = np.arange(n)
+    u = np.cos(2 * np.pi * 3 * t / P) + 0.01 * rng.standard_normal(n)
+    y = 0.5 * u + 0.01 * rng.standard_normal(n)
+    f = tmp_path / "wide.csv"
+    pad = "x" * 90
+    f.write_text("u1,y1,note\n" + "".join(f"{a:.6f},{b:.6f},{pad}\n" for a, b in zip(u, y)), encoding="utf-8")
+    assert f.stat().st_size > 50e6
+    # a fresh child per measurement: ru_maxrss of RUSAGE_CHILDREN is the largest child so far
+    code = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:], capture_output=True); "
+            "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    out = subprocess.run([sys.executable, "-c", code, h.msid_bin(), "frf", "--period", str(P), "--lines", "3",
+                          "--columns", "u1=u1,y1=y1", "--experiment", str(f), "-o", str(tmp_path / "o.json")],
+                         capture_output=True, text=True, timeout=120, check=True).stdout.split()
+    rc, kib = int(out[0]), int(out[1])
+    samples = 8 * 2 * n
+    assert rc == 0
+    assert kib * 1024 < samples + (32 << 20), f"peak RSS {kib / 1024:.0f} MiB, samples {samples / 2**20:.0f} MiB"
