@@ -332,7 +332,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         }
         if (out.first_blank) out.row_after_blank = true;
         p = ls;
-        if (out.n >= out.cap) {   // cannot happen: see the row bound in parse_block
+        if (out.n >= out.cap) {   // cannot happen: see the row bound in read_record_csv
             out.err = fmt("'%s': internal error: row count", L.path->c_str());
             return;
         }
@@ -454,13 +454,13 @@ public:
     LineBlocks &operator=(const LineBlocks &) = delete;
     size_t file_size() const { return size_; }   // 0 when not a regular file (a pipe)
 
-    bool next(const char *&p, const char *&q) { return size_ ? next_mapped(p, q) : next_read(p, q); }
+    bool next(const char *&p, const char *&q) { return size_ && mapped_ ? next_mapped(p, q) : next_read(p, q); }
 
 private:
     std::string path_;
     int fd_ = -1;
     size_t size_ = 0, have_ = 0, cut_ = 0, pos_ = 0, win_ = BLOCK;
-    bool eof_ = false;
+    bool eof_ = false, mapped_ = true;
     std::vector<char> buf_;   // read(2) buffer, or the last line of a mapped file lacking its newline
     void *map_ = nullptr;
     size_t map_len_ = 0;
@@ -478,7 +478,12 @@ private:
         while (pos_ < size_) {
             const size_t off = pos_ & ~(page - 1), len = std::min(win_, size_ - off);
             void *m = mmap(nullptr, len, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, (off_t)off);
-            if (m == MAP_FAILED) throw Error("cannot map '" + path_ + "': " + std::strerror(errno));
+            if (m == MAP_FAILED) {   // a file system without mmap: read(2) from here on
+                if (lseek(fd_, (off_t)pos_, SEEK_SET) < 0)
+                    throw Error("cannot read '" + path_ + "': " + std::strerror(errno));
+                mapped_ = false;
+                return next_read(p, q);
+            }
             map_ = m;
             map_len_ = len;
             const char *b = (const char *)m + (pos_ - off), *e = (const char *)m + len;
