@@ -151,21 +151,23 @@ msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
 }
 
 /* Upper tail of Gamma(n, 1) at S for integer n >= 1:
- * Q = exp(-S) sum_{j<n} S^j / j!, summed in the log domain. */
-static double gamma_upper_int(uint32_t n, double S)
+ * Q = exp(-S) sum_{j<n} S^j / j!, summed in the log domain. logj[j] =
+ * log(j) for 1 <= j < n (the same values as calling log: a table filled once
+ * per detection). */
+static double gamma_upper_int(uint32_t n, double S, const double *logj)
 {
     if (!(S > 0.0)) return 1.0;
     const double lS = log(S);
     double lt = -S, mx = -S;
     for (uint32_t j = 1; j < n; ++j) {
-        lt += lS - log((double)j);
+        lt += lS - logj[j];
         if (lt > mx) mx = lt;
     }
     double sum = 0.0;
     lt = -S;
     sum += exp(lt - mx);
     for (uint32_t j = 1; j < n; ++j) {
-        lt += lS - log((double)j);
+        lt += lS - logj[j];
         sum += exp(lt - mx);
     }
     const double q = exp(mx + log(sum));
@@ -222,24 +224,31 @@ static void pc_line_end(pcomb *c)
     c->qt = 0;
 }
 
-static double pc_result(const pcomb *c)
+static double pc_result(const pcomb *c, const double *logj)
 {
     if (c->ntested == 0) return 1.0;
-    const double pf = gamma_upper_int(c->ntested, c->fisher);
+    const double pf = gamma_upper_int(c->ntested, c->fisher, logj);
     double pb = c->pmin * (double)c->ntested;
     if (pb > 1.0) pb = 1.0;
     double pv = 2.0 * (pf < pb ? pf : pb);
     return pv > 1.0 ? 1.0 : pv;
 }
 
-/* p-value of one kept period p against the other kept periods. */
-static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K)
+/* p-value of one kept period p against the other kept periods. The complex
+ * channels of a line need only the largest statistic: P(F(2, 2n) > t) is
+ * decreasing in t and the line keeps only its channels' minimum p-value, so
+ * exp/log1p run once per line, not once per channel (same value: the
+ * minimum of f(t_c) is f(max t_c) for a non-increasing f; tests/unit
+ * test_pstats checks it bit for bit against the per-channel form). */
+static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K,
+                            const double *logj)
 {
     const size_t L = ps->n_lines, q = ps->n_channels;
     const msid_cplx *zp = ps->hist + (size_t)p * L * q;
     const double Kd = (double)K, n = (double)(K - 2u);
     pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
     for (size_t l = 0; l < L; ++l) {
+        double tmax = -1.0;                          /* largest F(2, 2n) statistic of the line */
         for (size_t c = 0; c < q; ++c) {
             const msid_cplx mu = mean[l * q + c];
             const double dev2 = msid__cabs2(msid__csub(zp[l * q + c], mu));
@@ -248,27 +257,31 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
             double s2 = (m2c - Kd / (Kd - 1.0) * dev2) / n;
             const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
             const double floor_ = 1e-24 * (msid__cabs2(mu) + m2c / (Kd - 1.0)) + 1e-300;
-            double pv;
             if (s2 <= floor_) {
                 if (d2 <= floor_) continue;          /* deterministic channel, unchanged */
-                pv = 0.0;                            /* deterministic channel that changed */
-            } else {
-                const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
-                if (mu.im == 0.0 && zp[l * q + c].im == 0.0)
-                    pv = f1_tail(t, K - 2u);         /* real line (DC, Nyquist): F(1, n) */
-                else
-                    pv = exp(-n * log1p(t / n));     /* P(F(2, 2n) > t) */
+                pc_channel(&pc, 0.0);                /* deterministic channel that changed */
+                continue;
             }
-            pc_channel(&pc, pv);
+            const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
+            if (mu.im == 0.0 && zp[l * q + c].im == 0.0) {
+                pc_channel(&pc, f1_tail(t, K - 2u)); /* real line (DC, Nyquist): F(1, n) */
+            } else {
+                if (t > tmax) tmax = t;
+                pc.qt++;                             /* counted now, its p-value below */
+            }
+        }
+        if (tmax >= 0.0) {
+            const double pv = exp(-n * log1p(tmax / n));   /* P(F(2, 2n) > tmax) */
+            if (pv < pc.cmin) pc.cmin = pv;
         }
         pc_line_end(&pc);
     }
-    return pc_result(&pc);
+    return pc_result(&pc, logj);
 }
 
 /* Drift: p-value of a linear trend in the period number over the stored
  * periods [first, nhist) (none dropped yet); see msid_pstats_detect. */
-static double trend_pvalue(const msid_pstats *ps, uint32_t first)
+static double trend_pvalue(const msid_pstats *ps, uint32_t first, const double *logj)
 {
     const size_t L = ps->n_lines, q = ps->n_channels, nq = L * q;
     const uint32_t Kt = ps->nhist - first;
@@ -306,7 +319,7 @@ static double trend_pvalue(const msid_pstats *ps, uint32_t first)
         }
         pc_line_end(&pc);
     }
-    return pc_result(&pc);
+    return pc_result(&pc, logj);
 }
 
 /* Two-pass mean and diagonal scatter over the kept history periods. */
@@ -344,6 +357,8 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     /* Scratch: reuse the statistics arrays (recomputed afterwards). */
     msid_cplx *mean = ps->mean;
     double *m2d = (double *)ps->m2;      /* L*q doubles fit in L*q*q complex */
+    double *logj = m2d + (size_t)ps->n_lines * ps->n_channels;   /* and L more: 2 L q^2 >= L q + L */
+    for (uint32_t j = 1; j < ps->n_lines; ++j) logj[j] = log((double)j);
     const uint32_t K0 = ps->nhist;
     ps->cnt.tested = 1;
     /* Drift first: a trend that persists through the late half is no start-up
@@ -353,7 +368,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     ps->cnt.drift = 0;
     ps->drift_pval = NAN;
     if (K0 >= 6u) {
-        ps->drift_pval = trend_pvalue(ps, K0 / 2u);
+        ps->drift_pval = trend_pvalue(ps, K0 / 2u, logj);
         ps->cnt.drift_tested = 1;
         if (ps->drift_pval < ps->alpha) { ps->cnt.drift = 1; mode = MSID_TRANSIENT_FLAG; }
     }
@@ -367,7 +382,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         uint32_t wp = 0;
         for (uint32_t p = 0; p < ps->nhist; ++p) {
             if (ps->hdrop[p]) continue;
-            const double pv = period_pvalue(ps, p, mean, m2d, K);
+            const double pv = period_pvalue(ps, p, mean, m2d, K, logj);
             ps->hpval[p] = pv;
             const double r = pv / period_level(ps->alpha, p, K0);
             if (r < worst) { worst = r; wp = p; }

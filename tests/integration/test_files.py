@@ -5,6 +5,7 @@ format must give the FRF bit-identical to the plain CSV of the same samples;
 every bad file one message naming file, row/line and column/variable, and no
 output file."""
 import json
+import sys
 import zipfile
 
 import numpy as np
@@ -361,3 +362,88 @@ def test_number_formats_parse_exactly(tmp_path):
         h.run_ok("frf", "--period", P, "--lines", "3,5", "--experiment", f, "-o", o)
         out.append(h.load_json(o)["lines"])
     assert out[0] == out[1]
+
+
+def test_streamed_csv_blocks_long_lines_pipe_and_error_order(tmp_path):
+    """The CSV is streamed in 4 MiB blocks of whole lines: a bad cell or an
+    empty line on either side of a block boundary is reported at its true
+    line; a line longer than a block (5 MiB of blanks before a number), a
+    missing final newline, CRLF and a named pipe give the same FRF as the
+    plain file; a bad cell is reported before an earlier empty line whatever
+    the block it falls in."""
+    rng = np.random.default_rng(12)
+    Kb, n = 4000, np.arange(P)
+    per = sum(np.cos(2 * np.pi * b * n / P + rng.uniform(0, 2 * np.pi)) for b in BINS)
+    u = np.tile(per, Kb) + 1e-3 * rng.standard_normal(Kb * P)
+    y = 0.5 * u + 0.01 * rng.standard_normal(Kb * P)
+    rows = ["u1,y1"] + [f"{a!r},{b!r}" for a, b in zip(u.tolist(), y.tolist())]
+    text = "\n".join(rows) + "\n"
+    assert len(text) > 9 << 20   # three blocks
+    ref = tmp_path / "ref.csv"
+    ref.write_text(text, encoding="utf-8")
+    want = _lines(_frf(tmp_path, [ref], name="ref.json"))
+    # line index (0-based) of the first line that starts at or after byte `off`
+    starts = np.cumsum([0] + [len(r) + 1 for r in rows])
+    at = lambda off: int(np.searchsorted(starts, off))  # noqa: E731
+    for off in ((4 << 20) - 1, 4 << 20, (6 << 20) + 7, 8 << 20):
+        for k in (at(off) - 1, at(off)):
+            bad = rows.copy()
+            bad[k] = bad[k].replace(",", ",x", 1)
+            f = tmp_path / f"bad{k}.csv"
+            f.write_text("\n".join(bad) + "\n", encoding="utf-8")
+            _fails(tmp_path, [f], [], f"'{f}' line {k + 1}, column y1")
+            blank = rows.copy()
+            blank[k] = ""
+            f.write_text("\n".join(blank) + "\n", encoding="utf-8")
+            _fails(tmp_path, [f], [], f"'{f}' line {k + 1}: empty line inside the data")
+    both = rows.copy()
+    both[5], both[at(9 << 20)] = "", both[at(9 << 20)].replace(",", ",x", 1)
+    f = tmp_path / "both.csv"
+    f.write_text("\n".join(both) + "\n", encoding="utf-8")
+    _fails(tmp_path, [f], [], f"'{f}' line {at(9 << 20) + 1}, column y1")
+    longl = rows.copy()
+    longl[3] = " " * (5 << 20) + longl[3]
+    f = tmp_path / "long.csv"
+    f.write_text("\n".join(longl), encoding="utf-8")   # and no final newline
+    assert _lines(_frf(tmp_path, [f], name="long.json")) == want
+    f = tmp_path / "crlf.csv"
+    f.write_bytes(text.replace("\n", "\r\n").encode())
+    assert _lines(_frf(tmp_path, [f], name="crlf.json")) == want
+    import os
+    import threading
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    w = threading.Thread(target=lambda: fifo.write_text(text, encoding="utf-8"))
+    w.start()
+    try:
+        assert _lines(_frf(tmp_path, [fifo], name="pipe.json")) == want
+    finally:
+        w.join()
+
+
+def test_csv_memory_is_the_samples_plus_a_constant(tmp_path):
+    """Issue 15: the CSV is streamed, not held. A 55 MB file whose rows are
+    mostly an ignored text column holds 8 MB of samples (500,000 rows x 2
+    mapped columns): peak RSS (getrusage of the child) must stay under the
+    samples + 32 MiB. The reader that held the file peaked at 69 MiB here
+    (negative control: main's binary fails this bound)."""
+    import subprocess
+    n = 500_000
+    rng = np.random.default_rng(21)
+    t = np.arange(n)
+    u = np.cos(2 * np.pi * 3 * t / P) + 0.01 * rng.standard_normal(n)
+    y = 0.5 * u + 0.01 * rng.standard_normal(n)
+    f = tmp_path / "wide.csv"
+    pad = "x" * 90
+    f.write_text("u1,y1,note\n" + "".join(f"{a:.6f},{b:.6f},{pad}\n" for a, b in zip(u, y)), encoding="utf-8")
+    assert f.stat().st_size > 50e6
+    # a fresh child per measurement: ru_maxrss of RUSAGE_CHILDREN is the largest child so far
+    code = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:], capture_output=True); "
+            "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    out = subprocess.run([sys.executable, "-c", code, h.msid_bin(), "frf", "--period", str(P), "--lines", "3",
+                          "--columns", "u1=u1,y1=y1", "--experiment", str(f), "-o", str(tmp_path / "o.json")],
+                         capture_output=True, text=True, timeout=120, check=True).stdout.split()
+    rc, kib = int(out[0]), int(out[1])
+    samples = 8 * 2 * n
+    assert rc == 0
+    assert kib * 1024 < samples + (32 << 20), f"peak RSS {kib / 1024:.0f} MiB, samples {samples / 2**20:.0f} MiB"

@@ -1,11 +1,12 @@
 // Experiment files -> Record: the CSV reader, the column mapping shared with
 // the binary readers (array_io.cpp), and the format dispatch.
 //
-// Speed: the file is read with one read(2) into one buffer; cells are parsed
-// in place by std::from_chars (no per-cell or per-line strings); files over
-// 4 MiB are split at line boundaries and parsed by two threads, the parts
-// joined in file order (the values, and so every result, are independent of
-// the split).
+// Speed and memory: the file is streamed in blocks of about 4 MiB (mapped
+// window by window; a pipe by read(2)), never held whole: peak memory is the
+// samples plus a constant. Cells are parsed in place (no per-cell or per-line strings); a block over 1 MiB is
+// split at a line boundary and its halves parsed by two threads, joined in
+// file order (values, errors and so every result are independent of the
+// block size and the split).
 #include "csv_io.hpp"
 #include "cli_util.hpp"
 
@@ -288,7 +289,8 @@ inline const char *parse_double(const char *p, const char *end, double &v, bool 
 
 struct CsvLayout {
     const std::string *path;
-    const char *text;            // buffer start (line numbers count from here)
+    const char *text;            // block start (line numbers count from here)
+    size_t line0 = 0;            // lines of the file before `text`
     char delim;
     std::vector<int> dest;       // per file column: destination column or -1
     std::vector<std::string> names;
@@ -298,6 +300,7 @@ struct CsvLayout {
 struct Chunk {
     double *rows = nullptr;              // room for `cap` rows of C values
     size_t cap = 0, n = 0;
+    size_t lines = 0;                    // lines consumed (rows and blank lines)
     const char *first_blank = nullptr;   // first blank line in the chunk
     bool row_after_blank = false;
     std::string err;                     // first error (message), empty if none
@@ -305,7 +308,7 @@ struct Chunk {
 
 size_t line_of(const CsvLayout &L, const char *p)
 {
-    return 1 + (size_t)std::count(L.text, p, '\n');
+    return L.line0 + 1 + (size_t)std::count(L.text, p, '\n');
 }
 
 std::string cell_text(const char *p, char delim)
@@ -327,6 +330,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         if (*p == '\n' || (*p == '\r' && p[1] == '\n')) {   // blank line
             if (!out.first_blank) out.first_blank = ls;
             p += *p == '\r' ? 2 : 1;
+            out.lines++;
             continue;
         }
         if (out.first_blank) out.row_after_blank = true;
@@ -392,6 +396,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
                 return;
             }
         out.n++;
+        out.lines++;
     }
 }
 
@@ -424,31 +429,130 @@ FileBytes::~FileBytes()
     if (map_) munmap(map_, n_);
 }
 
-// The CSV text, ending in a newline (appended in a copy when the file lacks it).
-struct Text {
-    FileBytes fb;
-    std::string own;
-    const char *p;
-    size_t n;
-    explicit Text(const std::string &path) : fb(path)
+namespace {
+
+// The file read in blocks of whole lines: next() hands out [p, q), q just
+// after a '\n' (a newline is appended to a last line that lacks one); the
+// bytes stay valid until the next call. A regular file is mapped one window
+// of about 4 MiB at a time (MAP_POPULATE: no copy, no fault per page; the
+// window is unmapped when the next is taken), anything else (a pipe) read(2)
+// into a buffer. A line longer than the window grows it (to the line's
+// length, a constant of the file, not its size).
+class LineBlocks {
+public:
+    static constexpr size_t BLOCK = (size_t)4 << 20;
+    explicit LineBlocks(const std::string &path) : path_(path)
     {
-        if (fb.size() && fb.data()[fb.size() - 1] == '\n') { p = fb.data(); n = fb.size(); return; }
-        own.assign(fb.data(), fb.size());
-        own.push_back('\n');
-        p = own.data();
-        n = own.size();
+        fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd_ < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+        struct stat st;
+        if (fstat(fd_, &st) == 0 && S_ISREG(st.st_mode)) size_ = (size_t)st.st_size;
+    }
+    ~LineBlocks()
+    {
+        unmap();
+        ::close(fd_);
+    }
+    LineBlocks(const LineBlocks &) = delete;
+    LineBlocks &operator=(const LineBlocks &) = delete;
+    size_t file_size() const { return size_; }   // 0 when not a regular file (a pipe)
+
+    bool next(const char *&p, const char *&q) { return size_ && mapped_ ? next_mapped(p, q) : next_read(p, q); }
+
+private:
+    std::string path_;
+    int fd_ = -1;
+    size_t size_ = 0, have_ = 0, cut_ = 0, pos_ = 0, win_ = BLOCK;
+    bool eof_ = false, mapped_ = true;
+    std::vector<char> buf_;   // read(2) buffer, or the last line of a mapped file lacking its newline
+    void *map_ = nullptr;
+    size_t map_len_ = 0;
+
+    void unmap()
+    {
+        if (map_) munmap(map_, map_len_);
+        map_ = nullptr;
+    }
+
+    bool next_mapped(const char *&p, const char *&q)
+    {
+        static const size_t page = (size_t)sysconf(_SC_PAGESIZE);
+        unmap();
+        while (pos_ < size_) {
+            const size_t off = pos_ & ~(page - 1), len = std::min(win_, size_ - off);
+            void *m = mmap(nullptr, len, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, (off_t)off);
+            if (m == MAP_FAILED) {   // a file system without mmap: read(2) from here on
+                if (lseek(fd_, (off_t)pos_, SEEK_SET) < 0)
+                    throw Error("cannot read '" + path_ + "': " + std::strerror(errno));
+                mapped_ = false;
+                return next_read(p, q);
+            }
+            map_ = m;
+            map_len_ = len;
+            const char *b = (const char *)m + (pos_ - off), *e = (const char *)m + len;
+            const void *nl = memrchr(b, '\n', (size_t)(e - b));
+            if (nl) {
+                p = b;
+                q = (const char *)nl + 1;
+                pos_ = off + (size_t)(q - (const char *)m);
+                return true;
+            }
+            if (off + len == size_) {   // the last line, without a newline
+                buf_.assign(b, e);
+                buf_.push_back('\n');
+                unmap();
+                pos_ = size_;
+                p = buf_.data();
+                q = p + buf_.size();
+                return true;
+            }
+            unmap();
+            win_ *= 2;   // a line longer than the window
+        }
+        return false;
+    }
+
+    bool next_read(const char *&p, const char *&q)
+    {
+        if (buf_.size() < win_ + 1) buf_.resize(win_ + 1);
+        if (cut_ < have_) std::memmove(buf_.data(), buf_.data() + cut_, have_ - cut_);
+        have_ -= std::min(cut_, have_);
+        cut_ = 0;
+        for (;;) {
+            while (!eof_ && have_ < buf_.size() - 1) {
+                const ssize_t k = ::read(fd_, buf_.data() + have_, buf_.size() - 1 - have_);
+                if (k < 0 && errno == EINTR) continue;
+                if (k < 0) throw Error("cannot read '" + path_ + "': " + std::strerror(errno));
+                if (k == 0) eof_ = true;
+                have_ += (size_t)k;
+            }
+            if (eof_ && have_ && buf_[have_ - 1] != '\n') buf_[have_++] = '\n';   // room: the +1
+            if (have_ == 0) return false;
+            const void *nl = memrchr(buf_.data(), '\n', have_);
+            if (nl) {
+                cut_ = (size_t)((const char *)nl - buf_.data()) + 1;
+                p = buf_.data();
+                q = p + cut_;
+                return true;
+            }
+            buf_.resize(2 * buf_.size());   // a line longer than the buffer
+        }
     }
 };
 
+}  // namespace
+
 Record read_record_csv(const std::string &path, const ColumnMap &cols)
 {
-    const Text text(path);
-    const char *t0 = text.p, *end = t0 + text.n;
+    LineBlocks in(path);
+    const char *t0 = nullptr, *end = nullptr;
+    const bool any = in.next(t0, end);
     const char *p = t0;
-    if (text.n >= 3 && (unsigned char)t0[0] == 0xEF && (unsigned char)t0[1] == 0xBB && (unsigned char)t0[2] == 0xBF)
+    if (any && end - t0 >= 3 && (unsigned char)t0[0] == 0xEF && (unsigned char)t0[1] == 0xBB &&
+        (unsigned char)t0[2] == 0xBF)
         p += 3;   /* UTF-8 byte order mark, as some spreadsheet exports write */
     const char *hl = p;
-    const char *he = (const char *)std::memchr(p, '\n', (size_t)(end - p));
+    const char *he = any ? (const char *)std::memchr(p, '\n', (size_t)(end - p)) : p;
     std::string_view header(hl, (size_t)(he - hl));
     if (!header.empty() && header.back() == '\r') header.remove_suffix(1);
     if (trim(header).empty())
@@ -460,7 +564,6 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
     const char delim = ns > nc && ns >= nt ? ';' : (nt > nc && nt > ns ? '\t' : ',');
     CsvLayout L;
     L.path = &path;
-    L.text = t0;
     L.delim = delim;
     {
         size_t a = 0;
@@ -477,62 +580,64 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
     Record r;
     r.path = path;
     const std::vector<size_t> src = resolve_columns(path, L.names, cols, true, r.nu, r.ny);
-    L.C = r.nu + r.ny;
+    const size_t C = L.C = r.nu + r.ny;
     L.dest.assign(L.names.size(), -1);
     for (size_t k = 0; k < src.size(); ++k) {
         L.dest[src[k]] = (int)k;
         r.columns.push_back(L.names[src[k]]);
     }
 
-    // Split the data at line starts for the threads.
-    const char *d0 = he + 1;
-    const size_t bytes = (size_t)(end - d0);
-    unsigned nt_ = bytes > (4u << 20) ? std::max(1u, std::min(2u, std::thread::hardware_concurrency())) : 1u;
-    std::vector<const char *> cut{d0};
-    for (unsigned k = 1; k < nt_; ++k) {
-        const char *q = d0 + bytes * k / nt_;
-        q = (const char *)std::memchr(q, '\n', (size_t)(end - q));
-        cut.push_back(q ? q + 1 : end);
-    }
-    cut.push_back(end);
     // Room by an upper bound, without a counting pass: a row holds at least
     // max(cells, 2 C) bytes (each mapped number a character and a delimiter or
-    // newline). Pages never written are never touched (no zero fill). Part 0
-    // writes into the record, the others into their own buffers, appended after.
-    const size_t row_min = std::max(L.names.size(), 2 * L.C);
-    std::vector<Chunk> ch(nt_);
-    std::vector<Samples> part(nt_);
-    r.rows.resize((bytes / row_min + 1) * L.C);
-    ch[0].rows = r.rows.data();
-    ch[0].cap = bytes / row_min + 1;
-    for (unsigned k = 1; k < nt_; ++k) {
-        ch[k].cap = (size_t)(cut[k + 1] - cut[k]) / row_min + 1;
-        part[k].resize(ch[k].cap * L.C);
-        ch[k].rows = part[k].data();
+    // newline). Sized from the file's size (pages never written are never
+    // touched: no zero fill), grown for a pipe. The first half of a block is
+    // parsed into the record, the second (by a thread) into `half`, appended.
+    const size_t row_min = std::max(L.names.size(), 2 * C);
+    const bool two = std::thread::hardware_concurrency() >= 2;
+    r.rows.resize((in.file_size() / row_min + 1) * C);
+    Samples half;
+    size_t blank_line = 0, blank_err = 0;   // first blank line; first blank line followed by data
+    size_t lines = 1;                       // lines before the next block (the header)
+    L.text = t0;                            // block 0 counts lines from the file's start
+    const char *b = he + 1;
+    for (;;) {
+        const size_t bytes = (size_t)(end - b);
+        const char *mid = b + bytes / 2;
+        mid = two && bytes > ((size_t)1 << 20) ? (const char *)std::memchr(mid, '\n', (size_t)(end - mid)) + 1 : end;
+        Chunk ch[2];
+        ch[0].cap = (size_t)(mid - b) / row_min + 1;
+        ch[1].cap = (size_t)(end - mid) / row_min + 1;
+        if (r.rows.size() < (r.n_rows + ch[0].cap + ch[1].cap) * C)
+            r.rows.resize(std::max(2 * r.rows.size(), (r.n_rows + ch[0].cap + ch[1].cap) * C));
+        ch[0].rows = r.rows.data() + r.n_rows * C;
+        if (mid < end) {
+            if (half.size() < ch[1].cap * C) half.resize(ch[1].cap * C);
+            ch[1].rows = half.data();
+            std::thread th([&] { parse_chunk(L, mid, end, ch[1]); });
+            parse_chunk(L, b, mid, ch[0]);
+            th.join();
+        } else {
+            parse_chunk(L, b, end, ch[0]);
+        }
+        // A bad cell is reported first (the first in the file); an empty line
+        // inside the data only when the whole file has no bad cell.
+        for (Chunk &c : ch) {
+            if (!c.err.empty()) throw Error(c.err);
+            if (blank_line && c.n && !blank_err) blank_err = blank_line;
+            const size_t fb = c.first_blank ? line_of(L, c.first_blank) : 0;
+            if (fb && c.row_after_blank && !blank_err) blank_err = fb;
+            if (fb && !blank_line) blank_line = fb;
+            if (c.n && c.rows != r.rows.data() + r.n_rows * C)
+                std::memcpy(r.rows.data() + r.n_rows * C, c.rows, c.n * C * sizeof(double));
+            r.n_rows += c.n;
+            lines += c.lines;
+        }
+        if (!in.next(b, end)) break;
+        L.text = b;   // both halves count lines from the block's start
+        L.line0 = lines;
     }
-    if (nt_ == 1) parse_chunk(L, cut[0], cut[1], ch[0]);
-    else {
-        std::vector<std::thread> th;
-        for (unsigned k = 1; k < nt_; ++k)
-            th.emplace_back([&, k] { parse_chunk(L, cut[k], cut[k + 1], ch[k]); });
-        parse_chunk(L, cut[0], cut[1], ch[0]);
-        for (auto &x : th) x.join();
-    }
-    // Errors in file order; a blank line followed by data anywhere later.
-    const char *blank = nullptr;
-    for (auto &c : ch) {
-        if (blank && c.n) throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), line_of(L, blank)));
-        if (!c.err.empty()) throw Error(c.err);
-        if (c.first_blank && c.row_after_blank)
-            throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), line_of(L, c.first_blank)));
-        if (c.first_blank && !blank) blank = c.first_blank;
-    }
-    for (auto &c : ch) {
-        if (c.n && c.rows != r.rows.data() + r.n_rows * L.C)
-            std::memcpy(r.rows.data() + r.n_rows * L.C, c.rows, c.n * L.C * sizeof(double));
-        r.n_rows += c.n;
-    }
-    r.rows.resize(r.n_rows * L.C);   // shrinks in place; the untouched tail was never faulted in
+    if (blank_err) throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), blank_err));
+    r.rows.resize(r.n_rows * C);   // shrinks in place; the untouched tail was never faulted in
     if (r.n_rows == 0) throw Error("'" + path + "' has a header but no samples");
     return r;
 }
