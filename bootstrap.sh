@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # msid on a fresh Debian bookworm machine (as root, or with sudo):
-#   ./bootstrap.sh demo   install and build only what the demo needs (msid, msid-devsim), run `msid demo`:
-#                         the simulator on Modbus TCP loopback, measure, fit, validate, plot into ./msid-demo/
+#   ./bootstrap.sh demo   install and build only what the demo needs (msid without bench, fit --method
+#                         cissim|multi; msid-devsim), run `msid demo`: the simulator on Modbus TCP loopback,
+#                         measure, fit, validate, plot into ./msid-demo/
+#   ./bootstrap.sh build  install what is missing, build every target (a demo build directory is switched back)
 #   ./bootstrap.sh test   install what is missing, build, run every test (ctest: unit, stats, integration)
 set -euo pipefail
 trap 'echo "bootstrap: failed (exit $?) at line $LINENO: $BASH_COMMAND" >&2' ERR
@@ -19,8 +21,8 @@ jobs=$(nproc 2>/dev/null || echo 2)
 gen=()
 if [ ! -f build/CMakeCache.txt ] && command -v ninja >/dev/null; then gen=(-G Ninja); fi
 if [ "$mode" = demo ]; then
-  # no tests (no cmocka), no cross builds: the two executables the demo runs, built the quick way
-  # (MSID_DEMO, cmake/msid_demo.cmake: precompiled headers, -O1 for the code the demo never runs)
+  # no tests (no cmocka), no cross builds: the two executables the demo runs, and of msid only what the
+  # demo runs (MSID_DEMO, cmake/msid_demo.cmake: no bench, no cissim or multi fits, C++ at MSID_DEMO_OPT)
   scripts/deps.sh demo
   cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DMSID_BUILD_TESTS=OFF -DMSID_DEMO=ON \
     > build.log 2>&1 || { cat build.log; exit 1; }
@@ -28,7 +30,8 @@ if [ "$mode" = demo ]; then
   exec ./build/tools/msid demo --out msid-demo
 fi
 scripts/deps.sh
-# the full build: every target at -O3 (a build directory the demo configured is switched back)
+# the full build: every target and command at -O3 (a build directory the demo configured is switched back:
+# MSID_DEMO=OFF brings back the commands the demo build left out)
 cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DMSID_DEMO=OFF -DMSID_BUILD_TESTS=ON \
   > build.log 2>&1 || { cat build.log; exit 1; }
 cmake --build build -j "$jobs" >> build.log 2>&1 || { tail -50 build.log; exit 1; }

@@ -3,6 +3,7 @@
 #include "frf_file.hpp"
 
 #include <Eigen/Dense>
+#include "eigen_inst.hpp"   // the shared decompositions, instantiated once in msid_fit
 #include <complex>
 #include <stdexcept>
 #include <string>

@@ -46,15 +46,6 @@ static const char *CISSIM_HELP =
     "                   the covariance of the model FRF at --lines (frf[].cov); needs >= 2 periods after the\n"
     "                   skipped ones and noise. --refine none: the paper's estimate alone (no FRF covariance)\n";
 
-bool cissim_requested(int argc, char **argv)
-{
-    for (int i = 2; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--method") && i + 1 < argc && !std::strcmp(argv[i + 1], "cissim")) return true;
-        if (!std::strcmp(argv[i], "--method=cissim")) return true;
-    }
-    return false;
-}
-
 int cmd_fit_cissim(int argc, char **argv)
 {
     Args a(argc, argv, 2, CISSIM_HELP,

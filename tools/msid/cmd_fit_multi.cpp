@@ -48,15 +48,6 @@ static const char *MULTI_HELP =
     "parameter and initial condition by finite differences); exit status 3 if the iterations run out.\n"
     "Validate a model on records (fresh ones, or its own): msid validate model.json --experiment r.csv ...\n";
 
-bool fit_method_is(int argc, char **argv, const char *method)
-{
-    for (int i = 2; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--method") && i + 1 < argc && !std::strcmp(argv[i + 1], method)) return true;
-        if (!std::strncmp(argv[i], "--method=", 9) && !std::strcmp(argv[i] + 9, method)) return true;
-    }
-    return false;
-}
-
 static Json params_block(const MultiResult &r)
 {
     Json p;
@@ -442,13 +433,6 @@ int cmd_fit_multi(int argc, char **argv)
 }
 
 // ---------------- msid validate model.json --experiment r.csv ... ----------------
-
-bool validate_on_records(int argc, char **argv)
-{
-    for (int i = 2; i < argc; ++i)
-        if (!std::strcmp(argv[i], "--experiment") || !std::strncmp(argv[i], "--experiment=", 13)) return true;
-    return false;
-}
 
 // The model of a --method multi file: poles, numerator, noise AR, noise variance and its dof.
 struct MultiModelDoc {
