@@ -34,5 +34,7 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
 void smooth_weights(std::vector<WeightedLine> &w, int half);
 // ml's default half-width H (`msid fit --weight-smooth`; docs/fitting.md, "Pooled weights").
 constexpr int ML_WEIGHT_SMOOTH = 4;
+// Without --weight-smooth, ml pools only when the file has at least this many windows of 2H+1 lines.
+constexpr int ML_WEIGHT_SMOOTH_MIN_WINDOWS = 4;
 
 }  // namespace msidfit

@@ -49,7 +49,8 @@ static const char *FIT_HELP =
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
     "  --weight-smooth H  ml with --weight cov|known-input: weights from the covariance pooled over 2H+1\n"
-    "                neighbouring lines (default H = 4; 0: each line's own sample covariance)\n"
+    "                neighbouring lines (default H = 4 when the file has at least 4(2H+1) lines, else 0;\n"
+    "                0: each line's own sample covariance)\n"
     "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
     "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
 
@@ -296,7 +297,11 @@ int cmd_fit(int argc, char **argv)
         const int wsmooth = (int)a.u32("weight-smooth", (uint32_t)ML_WEIGHT_SMOOTH);
         if (a.has("weight-smooth") && (method != "ml" || wt == Weight::None || known))
             throw UsageError("--weight-smooth belongs to --method ml with estimated weights (--weight cov|known-input)");
-        const bool smoothed = method == "ml" && wt != Weight::None && !known && wsmooth > 0;
+        // Pooling needs the window to be a small part of the band: by default only with at least
+        // ML_WEIGHT_SMOOTH_MIN_WINDOWS windows of lines (docs/fitting.md, "Pooled weights").
+        const bool dense = w.size() >= (size_t)ML_WEIGHT_SMOOTH_MIN_WINDOWS * (size_t)(2 * wsmooth + 1);
+        const bool smoothed = method == "ml" && wt != Weight::None && !known && wsmooth > 0 &&
+                              (a.has("weight-smooth") || dense);
         std::vector<WeightedLine> w_line;   // per-line weights, for the cost block of a smoothed fit
         if (smoothed) { w_line = w; smooth_weights(w, wsmooth); }
         Json doc;
