@@ -137,6 +137,13 @@ int msid_params_feed(msid_params *c, const uint8_t *d, uint32_t len, uint32_t ho
         if (idx != host_version) return -MSID_CAN_ERR_VERSION;
         c->open = 1;
         c->have_amp = c->have_phase = c->is_ct = 0;
+        /* an upload that sends one index twice and another never (the counts still match) must not
+         * inherit the previous upload's value there: every table starts at zero (found by
+         * fuzz_can_config: a stale amplitude of 1e200 made a Schroeder phase NaN) */
+        memset(c->bins, 0, sizeof c->bins);
+        memset(c->amp, 0, sizeof c->amp);
+        memset(c->phase, 0, sizeof c->phase);
+        memset(c->omega, 0, sizeof c->omega);
         c->n_frames = 1;
         c->run_crc = msid_can_crc32(0, d, 8);
         return 0;

@@ -244,9 +244,18 @@ static msid_status base_phases(msid_design *d, const msid_design_cfg *c)
              * Incrementally: phi_l = phi_{l-1} - S_l, S_l = sum_{j<l} p_j (turns). */
             double tot = 0.0;
             for (uint32_t l = 0; l < L; ++l) tot += A[l] * A[l];
+            /* Amplitudes whose squares overflow (A ~ 1e160) made p_j = inf/inf = NaN and the phase
+             * NaN (found by fuzz_can_config): then the same p_j from A / max A. Otherwise unchanged. */
+            double k = 1.0;
+            if (!msid__finite(tot)) {
+                double amax = 0.0;
+                for (uint32_t l = 0; l < L; ++l) if (A[l] > amax) amax = A[l];
+                k = 1.0 / amax; tot = 0.0;
+                for (uint32_t l = 0; l < L; ++l) tot += (k * A[l]) * (k * A[l]);
+            }
             double S = 0.0, phi = 0.0;
             for (uint32_t l = 0; l < L; ++l) {
-                if (l > 0) { S += A[l - 1] * A[l - 1] / tot; phi -= S; phi -= floor(phi); }
+                if (l > 0) { S += (k * A[l - 1]) * (k * A[l - 1]) / tot; phi -= S; phi -= floor(phi); }
                 ph[l] = phi;
             }
         } else {

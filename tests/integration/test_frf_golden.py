@@ -9,6 +9,7 @@ transient), the direct time-domain estimator (records cut to partial periods),
 the LPM and the ETFE, the robust BLA (--realisations); the reader through msid fit and
 msid validate on those files. The line DFT is pinned to the streaming path (--dft stream).
 Negative control: a file that differs in one byte is told apart."""
+import json
 import os
 import shutil
 
@@ -29,7 +30,27 @@ def work(tmp_path_factory):
     return {"dir": d, **bench}
 
 
-def _check(path, name):
+def _close(a, b, tol, where="$"):
+    """Same structure and strings, numbers within tol relative (None for null)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and list(a) == list(b), f"{where}: keys {list(a)} vs {list(b)}"
+        for k in a:
+            _close(a[k], b[k], tol, f"{where}.{k}")
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), f"{where}: lengths differ"
+        for i, (x, y) in enumerate(zip(a, b)):
+            _close(x, y, tol, f"{where}[{i}]")
+    elif isinstance(a, (int, float)) and not isinstance(a, bool):
+        assert isinstance(b, (int, float)) and abs(a - b) <= tol * max(abs(a), abs(b)), f"{where}: {a!r} vs {b!r}"
+    else:
+        assert a == b, f"{where}: {a!r} vs {b!r}"
+
+
+def _check(path, name, fft_tol=0.0):
+    """Byte-identical to golden/NAME. fft_tol > 0: a document whose numbers come through FFTW (or whose
+    input records come through NumPy's FFT) may differ in the last bits on another CPU, whose SIMD
+    codelets FFTW picks (FFTW_ESTIMATE is deterministic on one machine, not across machines): then
+    the same structure and strings and every number within fft_tol relative is required instead."""
     got = path.read_bytes()
     ref = GOLDEN / name
     if WRITE:
@@ -37,6 +58,9 @@ def _check(path, name):
         shutil.copyfile(path, ref)
         return
     want = ref.read_bytes()
+    if got != want and fft_tol > 0:
+        _close(json.loads(got), json.loads(want), fft_tol)
+        return
     if got != want:
         k = next((i for i, (a, b) in enumerate(zip(got, want)) if a != b), min(len(got), len(want)))
         pytest.fail(f"{name}: differs from golden/{name} at byte {k}: "
@@ -59,13 +83,21 @@ def _names(paths):
     return [p.name for p in paths]
 
 
-def _fit_and_validate(d, frf, stem, order=4):
+def _fit_and_validate(d, frf, stem, order=4, fft_tol=0.0):
     model = f"{stem}-model.json"
     run(d, "fit", "--method", "subspace", "--order", order, frf, "-o", model)
-    _check(d / model, model)
+    if fft_tol > 0 and not WRITE and (d / model).read_bytes() != (GOLDEN / model).read_bytes():
+        # last-bit differences of the FRF move the state-space basis (A, B, C are not unique): the
+        # same keys, and the model's FRF and cost within fft_tol
+        got, want = json.loads((d / model).read_text()), json.loads((GOLDEN / model).read_text())
+        assert list(got) == list(want), f"{model}: keys {list(got)} vs {list(want)}"
+        for k in ("frf", "cost", "order", "domain"):
+            _close(got[k], want[k], fft_tol, f"{model}:{k}")
+    else:
+        _check(d / model, model)
     val = f"{stem}-validate.json"
     run(d, "validate", model, frf, "-o", val)
-    _check(d / val, val)
+    _check(d / val, val, fft_tol)
 
 
 def test_periodic(work):
@@ -92,8 +124,8 @@ def test_direct(work, tmp_path):
         h.write_csv(tmp_path / cut[-1], {k: np.asarray(v)[:256 * 4 + 77] for k, v in cols.items() if k != "t"})
     shutil.copyfile(d / "design.json", tmp_path / "design.json")
     run(tmp_path, "frf", "--direct", "--design", "design.json", *_exps(cut), "-o", "direct.json")
-    _check(tmp_path / "direct.json", "direct.json")
-    _fit_and_validate(tmp_path, "direct.json", "direct")
+    _check(tmp_path / "direct.json", "direct.json", fft_tol=1e-10)
+    _fit_and_validate(tmp_path, "direct.json", "direct", fft_tol=1e-6)
 
 
 def test_lpm(work):
@@ -122,7 +154,7 @@ def test_realisations(tmp_path):
     paths = realisation_bench(tmp_path, 2, 0.3, periods=3)
     run(tmp_path, "frf", "--design", "design0.json", "--realisations", 2, *_exps(_names(paths)), "--dft", "stream",
         "-o", "bla.json")
-    _check(tmp_path / "bla.json", "bla.json")
+    _check(tmp_path / "bla.json", "bla.json", fft_tol=1e-10)
 
 
 def test_negative_control(tmp_path):
@@ -135,6 +167,12 @@ def test_negative_control(tmp_path):
     bad.write_bytes(src[:i] + bytes([src[i] ^ 1]) + src[i + 1:])
     with pytest.raises(pytest.fail.Exception):
         _check(bad, "periodic.json")
+    # the tolerant comparison of FFTW documents: a number off by 1e-6 relative is told apart
+    doc = json.loads((GOLDEN / "direct.json").read_text())
+    doc["lines"][0]["G"]["re"][0][0] *= 1 + 1e-6
+    bad.write_text(json.dumps(doc, indent=1))
+    with pytest.raises(AssertionError):
+        _check(bad, "direct.json", fft_tol=1e-10)
 
 
 def test_numbers_shortest_round_trip():

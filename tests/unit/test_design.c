@@ -346,6 +346,35 @@ static long double indep_sample(const msid_design *d, uint32_t e, uint32_t i, ui
     return u;
 }
 
+/* Amplitudes whose squares overflow (1e200): before, sum A^2 = inf made every Schroeder p_j NaN and
+ * the NaN phase was cast to int (undefined behaviour, found by fuzz_can_config; this test fails under
+ * the UBSan build of scripts/sanitize.sh without the fix). Such a design is refused as singular;
+ * amplitudes that only look large (1e150: squares 1e300) keep the unit case's crest factor. */
+static void test_schroeder_huge_amplitudes(void **state)
+{
+    (void)state;
+    uint32_t b[16];
+    double amp[16];
+    double cf[2];
+    const double scale[3] = {1.0, 1e150, 1e200};
+    for (int k = 0; k < 3; ++k) {
+        for (uint32_t l = 0; l < 16; ++l) { b[l] = 1 + l; amp[l] = scale[k] * (1.0 + 0.1 * l); }
+        msid_design_cfg c = base_cfg(256, 16, b, 1, 1);
+        c.phase_mode = MSID_PHASE_SCHROEDER;
+        c.amplitudes = amp;
+        tsim_design t = {0};
+        if (k == 2) {
+            UT_STATUS(tsim_design_make(&t, &c), MSID_E_SINGULAR);
+            tsim_design_free(&t);
+            continue;
+        }
+        UT_STATUS(tsim_design_make(&t, &c), MSID_OK);
+        cf[k] = msid_design_crest_factor(&t.d, 0, 0);
+        tsim_design_free(&t);
+    }
+    UT_CHECK(isfinite(cf[1]) && fabs(cf[1] - cf[0]) < 1e-9 * cf[0], "crest %.17g against %.17g", cf[1], cf[0]);
+}
+
 static void test_schroeder_crest(void **state)
 {
     (void)state;
@@ -786,6 +815,7 @@ int main(void)
         cmocka_unit_test(test_crest_fft_equals_direct),
         cmocka_unit_test(test_input_dft_vs_naive),
         cmocka_unit_test(test_ct_alias_map_random),
+        cmocka_unit_test(test_schroeder_huge_amplitudes),
         cmocka_unit_test(test_ct_gonzalez_fig1),
         cmocka_unit_test(test_ct_edges_and_periodicity),
         cmocka_unit_test(test_ct_folded_samples_mimo),

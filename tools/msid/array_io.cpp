@@ -363,6 +363,73 @@ static void check_mat_v4(const std::string &path)
     }
 }
 
+// A MATLAB v5 file is a run of elements after its 128-byte header; a matrix (miMATRIX, or one inside
+// miCOMPRESSED) starts with its array flags and its dimensions. libmatio allocates the dimensions (and
+// then the data) from these before checking them (issue 15, found by fuzz_files: a 333-byte file made it
+// ask for 3 GB; seed corpus/fuzz_files/regress-mat-v5-rank-beyond-file). So every top-level element's
+// size, the rank (at most MAX_RANK) and the number of elements (at most what the element's bytes, at
+// zlib's largest ratio, can hold) are checked first, inflating only the first bytes of a compressed one.
+static void check_mat_v5(const std::string &path)
+{
+    const FileBytes f(path);
+    const auto *b = (const unsigned char *)f.data();
+    const size_t N = f.size();
+    if (N < 128 || !((b[126] == 'I' && b[127] == 'M') || (b[126] == 'M' && b[127] == 'I'))) return;
+    const bool swap = b[126] == 'M';   // "MI": written on a big-endian machine
+    auto u32 = [swap](const unsigned char *q) {
+        return swap ? (uint32_t)q[0] << 24 | (uint32_t)q[1] << 16 | (uint32_t)q[2] << 8 | q[3] : le32(q);
+    };
+    constexpr uint32_t MAX_RANK = 32;
+    const auto bad = [&](size_t k, const char *what) {
+        return Error(fmt("'%s' is not a MATLAB .mat file or is corrupt: variable %zu %s", path.c_str(), k, what));
+    };
+    for (size_t p = 128, k = 1; p + 8 <= N; ++k) {
+        const uint32_t type = u32(b + p), nbytes = u32(b + p + 4);
+        if (type >> 16) { p += 8; continue; }   // a small element: its data is in the tag
+        if (nbytes > N - p - 8) throw bad(k, "claims more bytes than the file holds");
+        unsigned char head[8 + 16 + 8 + 4 * MAX_RANK];
+        size_t hn = 0, o = 0;
+        uint64_t room = nbytes;   // the most data bytes the element can stand for
+        if (type == 15) {   // miCOMPRESSED: inflate the matrix's tag, flags and dimensions only
+            z_stream zs{};
+            if (inflateInit(&zs) != Z_OK) break;
+            zs.next_in = const_cast<unsigned char *>(b + p + 8);
+            zs.avail_in = nbytes;
+            zs.next_out = head;
+            zs.avail_out = sizeof head;
+            (void)inflate(&zs, Z_SYNC_FLUSH);
+            hn = zs.total_out;
+            inflateEnd(&zs);
+            if (hn < 8 || u32(head) != 14) { p += 8 + (size_t)nbytes; continue; }   // not a matrix: matio decides
+            o = 8;
+            room = (uint64_t)nbytes * 1032u;   // deflate's largest expansion ratio
+        } else if (type == 14) {
+            hn = std::min<size_t>(sizeof head, nbytes);
+            std::memcpy(head, b + p + 8, hn);
+        }
+        if ((type == 14 || type == 15) && hn >= o + 24) {
+            const uint32_t dt = u32(head + o + 16);
+            const uint32_t dbytes = dt >> 16 ? dt >> 16 : u32(head + o + 20);
+            const size_t d0 = dt >> 16 ? o + 20 : o + 24;
+            if (dbytes % 4 != 0 || dbytes / 4 > MAX_RANK)
+                throw bad(k, fmt("claims %u bytes of dimensions (at most %u dimensions are read)", dbytes,
+                                 MAX_RANK).c_str());
+            const uint32_t nd = std::min<uint32_t>(dbytes / 4, (uint32_t)((hn - std::min(hn, d0)) / 4));
+            const uint32_t cls = u32(head + o + 8) & 0xFFu;   // mxSPARSE_CLASS (5): dims say nothing of its bytes
+            bool empty = cls == 5;
+            for (uint32_t i = 0; i < nd; ++i) empty = empty || u32(head + d0 + 4 * i) == 0;
+            uint64_t elems = 1;
+            for (uint32_t i = 0; i < nd && !empty; ++i) {
+                const uint32_t dim = u32(head + d0 + 4 * i);
+                if (elems > room / dim) throw bad(k, "claims more elements than its bytes can hold");
+                elems *= dim;
+            }
+        }
+        p += 8 + (size_t)nbytes;
+        if (type != 15) p = (p + 7) / 8 * 8;   // uncompressed elements are padded to 8 bytes
+    }
+}
+
 Record read_record_mat(const std::string &path, const ColumnMap &cols)
 {
     {   // matio prints to stderr on failure; check that the file opens first
@@ -371,6 +438,7 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         ::close(fd);
     }
     check_mat_v4(path);
+    check_mat_v5(path);
     const Matio &M = matio();
     M.LogInitFunc("msid", mat_log);   // matio's messages go to the one error, not to stderr
     mat_t *mf = M.Open(path.c_str(), MAT_ACC_RDONLY);
