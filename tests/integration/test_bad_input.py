@@ -306,6 +306,16 @@ def fit_frf_number_overflow(d):
 
 
 @case
+def mat_v5_rank_beyond_file(d):
+    # a 333-byte .mat v5 file whose compressed matrix claims 385,875,968 dimensions: libmatio asked for
+    # 3 GB before checking (found by fuzz_files, seed regress-mat-v5-rank-beyond-file); now one message
+    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-mat-v5-rank-beyond-file").read_bytes()
+    m = Path(d) / "bad.mat"
+    m.write_bytes(seed[1:])
+    return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [f"'{m}' is not a MATLAB .mat file or is corrupt"]
+
+
+@case
 def design_not_json(d):
     ds = _write(d, "design.json", '{"format": "msid-design/1",')
     p = _write(d, "ok.csv", _siso_text())

@@ -379,6 +379,8 @@ static void check_mat_v5(const std::string &path)
     auto u32 = [swap](const unsigned char *q) {
         return swap ? (uint32_t)q[0] << 24 | (uint32_t)q[1] << 16 | (uint32_t)q[2] << 8 | q[3] : le32(q);
     };
+    const unsigned version = swap ? (unsigned)b[124] << 8 | b[125] : (unsigned)b[125] << 8 | b[124];
+    if (version != 0x0100) return;   // 0x0200: v7.3, an HDF5 file after the header (HDF5 checks its own)
     constexpr uint32_t MAX_RANK = 32;
     const auto bad = [&](size_t k, const char *what) {
         return Error(fmt("'%s' is not a MATLAB .mat file or is corrupt: variable %zu %s", path.c_str(), k, what));
