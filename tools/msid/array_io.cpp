@@ -389,7 +389,7 @@ static void check_mat_v5(const std::string &path)
         const uint32_t type = u32(b + p), nbytes = u32(b + p + 4);
         if (type >> 16) { p += 8; continue; }   // a small element: its data is in the tag
         if (nbytes > N - p - 8) throw bad(k, "claims more bytes than the file holds");
-        unsigned char head[8 + 16 + 8 + 4 * MAX_RANK];
+        unsigned char head[8 + 16 + 8 + 4 * MAX_RANK + 8];
         size_t hn = 0, o = 0;
         uint64_t room = nbytes;   // the most data bytes the element can stand for
         if (type == 15) {   // miCOMPRESSED: inflate the matrix's tag, flags and dimensions only
@@ -416,6 +416,10 @@ static void check_mat_v5(const std::string &path)
             if (dbytes % 4 != 0 || dbytes / 4 > MAX_RANK)
                 throw bad(k, fmt("claims %u bytes of dimensions (at most %u dimensions are read)", dbytes,
                                  MAX_RANK).c_str());
+            // the name follows the dimensions (padded to 8 bytes); its length sizes an allocation too
+            const size_t nt = dt >> 16 ? o + 24 : d0 + ((size_t)dbytes + 7) / 8 * 8;
+            if (nt + 8 <= hn && u32(head + nt) >> 16 == 0 && u32(head + nt + 4) > room)
+                throw bad(k, "claims a name longer than its bytes");
             const uint32_t nd = std::min<uint32_t>(dbytes / 4, (uint32_t)((hn - std::min(hn, d0)) / 4));
             const uint32_t cls = u32(head + o + 8) & 0xFFu;   // mxSPARSE_CLASS (5): dims say nothing of its bytes
             bool empty = cls == 5;
