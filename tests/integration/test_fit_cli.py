@@ -188,3 +188,17 @@ def test_non_convergence_keeps_the_best_iterate(tmp_path, bench, param):
     # the same fit with enough iterations converges and exits 0
     r = h.run_ok("fit", "--method", "ml", "--param", param, "--order", 4, bench["frf"], "-o", tmp_path / "c.json")
     assert h.load_json(tmp_path / "c.json")["converged"] is True
+
+
+def test_subspace_refine_spelling(tmp_path, bench):
+    # --refine ml|none, as for cissim: ml is the 30-step budget, none the bare estimate (0 steps)
+    out = {}
+    for r in ("ml", "30", "none", "0"):
+        out[r] = tmp_path / f"m-{r}.json"
+        h.run_ok("fit", bench["frf"], "--method", "subspace", "--order", 4, "--refine", r, "-o", out[r])
+    assert out["ml"].read_bytes() == out["30"].read_bytes()
+    assert out["none"].read_bytes() == out["0"].read_bytes()
+    assert out["ml"].read_bytes() != out["none"].read_bytes()   # the refinement did something
+    r = h.run("fit", bench["frf"], "--method", "subspace", "--order", 4, "--refine", "bogus", "-o", tmp_path / "x.json")
+    assert r.returncode == 2 and "--refine must be ml, none or a number of steps" in r.stderr
+    assert not (tmp_path / "x.json").exists()

@@ -24,12 +24,13 @@ static const char *FIT_HELP =
     "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
-    "                [--allow-unstable] [--refine N]\n"
+    "                [--allow-unstable] [--refine ml|none|N]\n"
     "       msid fit --method multi --experiment r1.csv ... --order n|auto -o model.json   (time records)\n"
     "\n"
     "  subspace  frequency-domain subspace (McKelvey; Pintelon 2002 Alg. 1, CT by the bilinear map,\n"
     "            Alg. 2.1) weighted by the FRF covariance; block rows r in {1.5n, 2n, 3n, 4n}, the one with the\n"
-    "            smallest weighted cost (35), refined by up to --refine N (30) Levenberg-Marquardt steps on\n"
+    "            smallest weighted cost (35), refined (--refine ml, the default: up to 30 Levenberg-Marquardt\n"
+    "            steps; N: up to N steps; none: the bare estimate, as for cissim) on\n"
     "            that cost (never raising it); stable unless the data need unstable poles (LR test at 1%,\n"
     "            --allow-unstable: no constraint); order from the singular values when --order is omitted\n"
     "  lmfd      closed-form ML of a left matrix fraction D(p)^-1 N(p), fully or under-constrained\n"
@@ -353,7 +354,12 @@ int cmd_fit(int argc, char **argv)
             o.stable = a.has("stable");
             o.stable_auto = !a.has("allow-unstable");
             if (o.stable && !o.stable_auto) throw UsageError("--stable contradicts --allow-unstable");
-            o.refine_iter = (int)a.u32("refine", 30);
+            // --refine ml|none as for cissim (the LM steps lower the weighted cost (35), the ML cost of
+            // Gaussian FRF errors); a number is the step budget (ml = 30, none = 0)
+            const std::string rspec = a.get("refine", "ml");
+            if (rspec != "ml" && rspec != "none" && (rspec.empty() || rspec.find_first_not_of("0123456789") != std::string::npos))
+                throw UsageError("--refine must be ml, none or a number of steps (got '" + rspec + "')");
+            o.refine_iter = rspec == "ml" ? 30 : rspec == "none" ? 0 : (int)a.u32("refine", 30);
             o.estimate_D = ft != Feedthrough::No;
             o.feedthrough_auto = ft == Feedthrough::Auto;
             const SubspaceResult r = fit_subspace(f, d, w, weighted, o);
