@@ -40,6 +40,7 @@ typedef struct sim_can {
     uint32_t last_done_exp, last_done_val;   /* the last DONE frame sent (--replay-done-at) */
     int done_valid;                  /* the last experiment is done and nothing started or configured since */
     msid_can_frame held;             /* reorder: frame held back */
+    int held_bad;                    /* the held frame was made malformed */
     int have_held;
     double last_host_frame;
     /* on-device estimation (extension estimate/1, msid_can_est.h) */
@@ -335,9 +336,11 @@ static void send_sample_frame(sim_can *c, msid_can_frame *f)
         c->cnt.dropped++;
         return;
     }
+    int bad = 0;
     if (c->d->o.malformed_every && c->fc % c->d->o.malformed_every == 0) {
         f->len = (uint8_t)(c->d->cfg.fd ? 12 : 5);   /* wrong DLC for a sample frame */
         c->cnt.malformed++;
+        bad = 1;
     }
     if (c->d->o.error_every && c->fc % c->d->o.error_every == 0) {
         static const uint32_t cls[4] = {0x004u, 0x004u, 0x008u, 0x020u};   /* CRTL warning, CRTL passive, PROT, ACK */
@@ -348,17 +351,21 @@ static void send_sample_frame(sim_can *c, msid_can_frame *f)
     }
     if (c->have_held) {
         tx(c, f);
+        /* a reorder is counted when it happened as a receiver can see it: a well-formed frame overtook a
+           well-formed held one (a held frame flushed in order at a restart, bus-off, STOP or the end of the
+           experiment was not reordered; a malformed frame is discarded, so it cannot overtake or be overtaken) */
+        if (!bad && !c->held_bad) c->cnt.reordered++;
         flush_held(c);
         return;
     }
     if (c->d->o.reorder_every && c->fc % c->d->o.reorder_every == 0) {
         c->held = *f;
+        c->held_bad = bad;
         c->have_held = 1;
-        c->cnt.reordered++;
         return;
     }
     tx(c, f);
-    if (c->d->o.dup_every && c->fc % c->d->o.dup_every == 0) {
+    if (!bad && c->d->o.dup_every && c->fc % c->d->o.dup_every == 0) {   /* a malformed frame is not duplicated */
         tx(c, f);
         c->cnt.duplicated++;
     }

@@ -94,6 +94,33 @@ def test_duplicate_and_reorder_are_repaired(design, tmp_path, clean, mode):
     assert c.lines_equal(doc, clean["doc"])          # same samples: the same FRF, bit for bit
 
 
+def test_reorder_and_dup_counted_as_a_receiver_sees_them(design, tmp_path):
+    """The soak found the device counting a reorder the host could not see: a held frame flushed in order at a
+    restart or at the end of an experiment, and one next to a malformed frame (discarded, so nothing overtook).
+    Reorder every 2nd frame (a frame is held at every sample boundary), malformed frames next to held ones
+    (fc = 2998, 5996 held; 1499, 4497, 7495 overtaking) and a restart: the counts computed here from the
+    schedule, the device's and the host's must agree. The same for a duplicate of a malformed frame (none is
+    sent)."""
+    m, restart = 1499, 700
+    total = 2 * P * K * CHUNKS + restart * CHUNKS          # exp 1 restarts after `restart` samples
+    ends = {P * K * CHUNKS, P * K * CHUNKS + restart * CHUNKS, total}   # a held frame there is flushed in order
+    (tmp_path / "reorder").mkdir()
+    doc, rep, _, _ = run_fault(design, tmp_path / "reorder", "--reorder-every", 2, "--malformed-every", m,
+                               "--restart-at", f"1:{restart}")
+    want = sum(1 for f in range(2, total + 1, 2) if f not in ends and f % m and (f + 1) % m)
+    a, inj = doc["acquisition"], rep["injected"]
+    assert inj["malformed"] == a["malformed"] == total // m
+    assert inj["restarts"] == a["device_restarts"] == 1
+    assert inj["reordered"] == want and a["reordered"] == want, (want, inj, a)
+    (tmp_path / "dup").mkdir()
+    doc, rep, _, _ = run_fault(design, tmp_path / "dup", "--dup-every", 3, "--malformed-every", m)
+    total = 2 * P * K * CHUNKS
+    want = sum(1 for f in range(3, total + 1, 3) if f % m)  # 4497 and 8994 are malformed: not duplicated
+    a, inj = doc["acquisition"], rep["injected"]
+    assert inj["duplicated"] == want and a["duplicates"] == want, (want, inj, a)
+    assert a["malformed"] == inj["malformed"] == total // m
+
+
 def test_error_frames(design, tmp_path, clean):
     k = 1000
     doc, rep, truth, _ = run_fault(design, tmp_path, "--error-every", k)
