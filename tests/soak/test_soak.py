@@ -109,9 +109,18 @@ def run_round(tmp, design, sim_args):
     return doc, sim.report(), sim.truth(), host, dev, err
 
 
-def check_memory(samples, hwm_mb, what, settled=0.25):
+def settled_rss(samples, settled=0.25):
+    """The highest VmRSS (kB) from the first `settled` fraction of the samples to the 90% mark: the level a
+    round's process reached once set up."""
+    q, end = int(settled * len(samples)), (9 * len(samples)) // 10
+    return max(s[0] for s in samples[q + 1:end]) if end > q + 1 else max(s[0] for s in samples)
+
+
+def check_memory(samples, hwm_mb, what, settled=0.25, ref_kb=0):
     """VmHWM under hwm_mb; VmRSS may not grow from the first `settled` fraction of the samples (set-up)
-    to the 90% mark."""
+    to the 90% mark by more than GROWTH_KB above the higher of that early level and ref_kb (the settled
+    level of the honest round, settled_rss: a round whose faults stretch its first experiment touches
+    the second experiment's state late, and only growth beyond what the honest run needs is a leak)."""
     assert samples, f"{what}: no RSS sample taken"
     assert samples[-1][1] <= hwm_mb * 1024, f"{what}: VmHWM {samples[-1][1]} kB above {hwm_mb} MB"
     if len(samples) >= 8:
@@ -119,7 +128,7 @@ def check_memory(samples, hwm_mb, what, settled=0.25):
         # set-up, the first touch of the second experiment's state and the final FRF and JSON (the last
         # samples) do not (the first 30-minute run failed on 528 kB of growth between the halves of a round)
         q, end = int(settled * len(samples)), (9 * len(samples)) // 10
-        first, later = max(s[0] for s in samples[:q + 1]), max(s[0] for s in samples[q + 1:end])
+        first, later = max(max(s[0] for s in samples[:q + 1]), ref_kb), max(s[0] for s in samples[q + 1:end])
         assert later - first <= GROWTH_KB, f"{what}: VmRSS grew {later - first} kB during the run"
 
 
@@ -213,3 +222,20 @@ def test_negative_control_accounting_sees_a_missing_count(design, tmp_path):
         check_accounting(doc, rep, ["exceptions", "garbage_tid"], [])
     doc["acquisition"].update(skipped_replies=2, timeouts=2, reconnects=2)
     check_accounting(doc, rep, ["exceptions", "garbage_tid"], [])
+
+
+def test_check_memory_tells_a_leak_from_a_late_first_touch():
+    """The memory check on synthetic RSS traces (kB): a process that settles late at the honest round's level
+    passes; the same trace beyond that level by more than GROWTH_KB, and a steady leak, fail."""
+    flat = [(6000, 6000)] * 100
+    late = [(4900, 4900)] * 55 + [(6064, 6064)] * 45           # the CAN soak round that first failed
+    check_memory(flat, 64, "flat")
+    check_memory(late, 64, "late first touch", settled=0.5, ref_kb=settled_rss(flat, settled=0.5))
+    with pytest.raises(AssertionError, match="grew"):
+        check_memory(late, 64, "late, no reference", settled=0.5)
+    beyond = [(4900, 4900)] * 55 + [(6000 + GROWTH_KB + 100, 7000)] * 45
+    with pytest.raises(AssertionError, match="grew"):
+        check_memory(beyond, 64, "beyond the reference", settled=0.5, ref_kb=6000)
+    leak = [(5000 + 20 * i, 5000 + 20 * i) for i in range(100)]   # 20 kB per sample
+    with pytest.raises(AssertionError, match="grew"):
+        check_memory(leak, 64, "leak", ref_kb=6000)

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "tests" / "vcan" / "in_vm"))
 sys.path.insert(0, str(ROOT / "tests" / "soak"))
 import canlib as c  # noqa: E402
-from test_soak import check_memory, watch  # noqa: E402
+from test_soak import check_memory, settled_rss, watch  # noqa: E402
 
 BUDGET = float(os.environ.get("MSID_SOAK_CAN_SECONDS", "30"))
 K = int(os.environ.get("MSID_SOAK_CAN_PERIODS", "32"))
@@ -71,6 +71,7 @@ def test_soak_can(design, tmp_path):
     (tmp_path / "honest").mkdir()
     ref, _, truth, host = run_round(tmp_path / "honest", design, [])
     check_memory(host, 64, "host (honest)", settled=0.5)   # the TCG VM is slow to start a process
+    ref_kb = settled_rss(host, settled=0.5)
     t0, rounds = time.monotonic(), 0
     while rounds < 2 or time.monotonic() - t0 < BUDGET:
         names, args = draw(rng)
@@ -79,7 +80,7 @@ def test_soak_can(design, tmp_path):
         doc, rep, truth, host = run_round(tmp, design, args)
         a, inj = doc["acquisition"], rep["injected"]
         why = f"faults {args}: host {a}, device {inj}"
-        check_memory(host, 64, f"host, faults {args}", settled=0.5)
+        check_memory(host, 64, f"host, faults {args}", settled=0.5, ref_kb=ref_kb)
         assert a["duplicates"] == inj["duplicated"] and a["reordered"] == inj["reordered"], why
         assert a["malformed"] == inj["malformed"] and a["error_frames"] == inj["error_frames"], why
         assert a["device_restarts"] == inj["restarts"], why
