@@ -6,7 +6,7 @@ device restarts, garbage transaction ids, truncated, oversized and slow-drip rep
 Per round it asserts
   * no crash and no hang: the host exits 0 (a timeout far beyond the round's work is only a hang
     detector; nothing asserts how long anything took);
-  * memory: the host's VmRSS, read from /proc/PID/status while it runs, does not grow from the first
+  * memory: the host's anonymous RSS (RssAnon), read from /proc/PID/status while it runs, does not grow from the first
     half of the run to the second (the measurement's memory is fixed at set-up: `--transient off`
     keeps no period history), and its VmHWM stays under a fixed bound; the same for the device;
   * every injected fault accounted for: the device's report against the host's counters, exactly;
@@ -43,17 +43,19 @@ GROWTH_KB = 512                # RSS growth allowed from the first half of a run
 
 
 def rss_kb(pid):
-    """(VmRSS, VmHWM) in kB of a running process, or None once it is gone."""
+    """(RssAnon, VmHWM) in kB of a running process, or None once it is gone. Growth is judged on the
+    anonymous memory (heap, stacks, mappings): VmRSS also counts the binary's code pages, faulted in the
+    first time a code path runs (an experiment's end, a restart), which is not a leak."""
     try:
         text = Path(f"/proc/{pid}/status").read_text()
     except OSError:
         return None
-    v = {l.split(":")[0]: int(l.split()[1]) for l in text.splitlines() if l.startswith(("VmRSS", "VmHWM"))}
-    return (v["VmRSS"], v["VmHWM"]) if len(v) == 2 else None
+    v = {l.split(":")[0]: int(l.split()[1]) for l in text.splitlines() if l.startswith(("RssAnon", "VmHWM"))}
+    return (v["RssAnon"], v["VmHWM"]) if len(v) == 2 else None
 
 
 def watch(p, other_pid, hang_s, what):
-    """Sample (VmRSS, VmHWM) of p and of other_pid every 0.1 s until p exits; after hang_s seconds p is
+    """Sample (RssAnon, VmHWM) of p and of other_pid every 0.1 s until p exits; after hang_s seconds p is
     killed and the test fails (a hang detector with a generous margin, never a timing assertion)."""
     mine, other, limit = [], [], time.monotonic() + hang_s
     while p.poll() is None:
@@ -110,14 +112,14 @@ def run_round(tmp, design, sim_args):
 
 
 def settled_rss(samples, settled=0.25):
-    """The highest VmRSS (kB) from the first `settled` fraction of the samples to the 90% mark: the level a
+    """The highest RssAnon (kB) from the first `settled` fraction of the samples to the 90% mark: the level a
     round's process reached once set up."""
     q, end = int(settled * len(samples)), (9 * len(samples)) // 10
     return max(s[0] for s in samples[q + 1:end]) if end > q + 1 else max(s[0] for s in samples)
 
 
 def check_memory(samples, hwm_mb, what, settled=0.25, ref_kb=0):
-    """VmHWM under hwm_mb; VmRSS may not grow from the first `settled` fraction of the samples (set-up)
+    """VmHWM under hwm_mb; RssAnon may not grow from the first `settled` fraction of the samples (set-up)
     to the 90% mark by more than GROWTH_KB above the higher of that early level and ref_kb (the settled
     level of the honest round, settled_rss: a round whose faults stretch its first experiment touches
     the second experiment's state late, and only growth beyond what the honest run needs is a leak)."""
@@ -129,7 +131,7 @@ def check_memory(samples, hwm_mb, what, settled=0.25, ref_kb=0):
         # samples) do not (the first 30-minute run failed on 528 kB of growth between the halves of a round)
         q, end = int(settled * len(samples)), (9 * len(samples)) // 10
         first, later = max(max(s[0] for s in samples[:q + 1]), ref_kb), max(s[0] for s in samples[q + 1:end])
-        assert later - first <= GROWTH_KB, f"{what}: VmRSS grew {later - first} kB during the run"
+        assert later - first <= GROWTH_KB, f"{what}: RssAnon grew {later - first} kB during the run"
 
 
 def check_accounting(doc, rep, names, sim_args):

@@ -2,7 +2,7 @@
 msid-devsim -> vcan0 -> `msid can measure` -> the core, rounds of random CAN faults from a fixed seed
 (random drops, duplicates, reorders, malformed frames, error frames, bus-off, device restarts) until
 MSID_SOAK_CAN_SECONDS (default 30) of rounds have started. Per round: exit 0 (no crash; a hang
-detector only), the host's VmRSS does not grow from the first half of the run to the second, every
+detector only), the host's anonymous RSS does not grow from the first half of the run to the second, every
 injected fault is in the host's counters, and the FRF is bit-identical to the honest device's when no
 sample was lost, else statistically consistent with the truth (95% regions, binomial). The device is paced
 (--rate 2000): unpaced, a host process that a loaded TCG VM starves overflows its socket queue, and those
