@@ -21,6 +21,7 @@ faults. The 30-minute run of docs/reliability.md: MSID_SOAK_SECONDS=1800 MSID_SO
 import json
 import os
 import random
+import re
 import subprocess
 import sys
 import time
@@ -54,15 +55,28 @@ def rss_kb(pid):
     return (v["RssAnon"], v["VmHWM"]) if len(v) == 2 else None
 
 
-def watch(p, other_pid, hang_s, what):
+class Samples(list):
+    """(RssAnon, VmHWM) samples of one process; acq_end: the index of the first sample taken after the host
+    logged its last experiment done (None if it never did), where acquisition ends and the FRF and its
+    file are built (memory the final solve and JSON need is not a leak)."""
+    acq_end = None
+
+
+ACQ_DONE = re.compile(r"experiment (\d+)/\1 done")
+
+
+def watch(p, other_pid, hang_s, what, log=None):
     """Sample (RssAnon, VmHWM) of p and of other_pid every 0.1 s until p exits; after hang_s seconds p is
-    killed and the test fails (a hang detector with a generous margin, never a timing assertion)."""
-    mine, other, limit = [], [], time.monotonic() + hang_s
+    killed and the test fails (a hang detector with a generous margin, never a timing assertion). With
+    `log` (the host's output file) the samples of p note where acquisition ended (Samples.acq_end)."""
+    mine, other, limit = Samples(), Samples(), time.monotonic() + hang_s
     while p.poll() is None:
         for pid, out in ((p.pid, mine), (other_pid, other)):
             v = rss_kb(pid)
             if v:
                 out.append(v)
+        if log is not None and mine.acq_end is None and ACQ_DONE.search(Path(log).read_text(errors="replace")):
+            mine.acq_end = len(mine)
         if time.monotonic() > limit:
             p.kill()
             pytest.fail(f"{what} hung")
@@ -103,7 +117,7 @@ def run_round(tmp, design, sim_args):
         log = Path(tmp) / "host.log"
         with open(log, "w") as f:
             p = subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, text=True)
-        host, dev = watch(p, sim.p.pid, 600 + 0.05 * K * P, f"msid modbus measure (faults {sim_args})")
+        host, dev = watch(p, sim.p.pid, 600 + 0.05 * K * P, f"msid modbus measure (faults {sim_args})", log)
         p.wait()
         err = log.read_text()
         assert p.returncode == 0, f"faults {sim_args}: exit {p.returncode}: {err}"
@@ -115,12 +129,14 @@ def settled_rss(samples, settled=0.25):
     """The highest RssAnon (kB) from the first `settled` fraction of the samples to the 90% mark: the level a
     round's process reached once set up."""
     q, end = int(settled * len(samples)), (9 * len(samples)) // 10
+    if getattr(samples, "acq_end", None) and samples.acq_end > q + 1:
+        end = samples.acq_end
     return max(s[0] for s in samples[q + 1:end]) if end > q + 1 else max(s[0] for s in samples)
 
 
 def check_memory(samples, hwm_mb, what, settled=0.25, ref_kb=0):
     """VmHWM under hwm_mb; RssAnon may not grow from the first `settled` fraction of the samples (set-up)
-    to the 90% mark by more than GROWTH_KB above the higher of that early level and ref_kb (the settled
+    to the 90% mark (or to the end of acquisition, Samples.acq_end) by more than GROWTH_KB above the higher of that early level and ref_kb (the settled
     level of the honest round, settled_rss: a round whose faults stretch its first experiment touches
     the second experiment's state late, and only growth beyond what the honest run needs is a leak)."""
     assert samples, f"{what}: no RSS sample taken"
@@ -130,6 +146,8 @@ def check_memory(samples, hwm_mb, what, settled=0.25, ref_kb=0):
         # set-up, the first touch of the second experiment's state and the final FRF and JSON (the last
         # samples) do not (the first 30-minute run failed on 528 kB of growth between the halves of a round)
         q, end = int(settled * len(samples)), (9 * len(samples)) // 10
+        if getattr(samples, "acq_end", None) and samples.acq_end > q + 1:
+            end = samples.acq_end   # up to the end of acquisition, where the FRF and its file are built
         first, later = max(max(s[0] for s in samples[:q + 1]), ref_kb), max(s[0] for s in samples[q + 1:end])
         assert later - first <= GROWTH_KB, f"{what}: RssAnon grew {later - first} kB during the run"
 
@@ -238,6 +256,14 @@ def test_check_memory_tells_a_leak_from_a_late_first_touch():
     beyond = [(4900, 4900)] * 55 + [(6000 + GROWTH_KB + 100, 7000)] * 45
     with pytest.raises(AssertionError, match="grew"):
         check_memory(beyond, 64, "beyond the reference", settled=0.5, ref_kb=6000)
+    final = Samples([(1150, 1150)] * 80 + [(1840, 1840)] * 20)   # the final FRF and JSON after acquisition
+    with pytest.raises(AssertionError, match="grew"):
+        check_memory(final, 64, "final phase, end unknown", settled=0.5)
+    final.acq_end = 79
+    check_memory(final, 64, "final phase after acquisition", settled=0.5)
+    final.acq_end = 90                                             # growth before the end of acquisition
+    with pytest.raises(AssertionError, match="grew"):
+        check_memory(final, 64, "growth during acquisition", settled=0.5)
     leak = [(5000 + 20 * i, 5000 + 20 * i) for i in range(100)]   # 20 kB per sample
     with pytest.raises(AssertionError, match="grew"):
         check_memory(leak, 64, "leak", ref_kb=6000)

@@ -55,12 +55,14 @@ def draw(rng):
 def run_round(tmp, design, args):
     with c.Sim(tmp, "--seed", 4, *args) as sim:
         out = Path(tmp) / "frf.json"
-        p = subprocess.Popen([c.MSID, "can", "measure", "--iface", "vcan0", "--design", str(design), "--skip-periods",
-                              "1", "--rcvbuf", str(4 << 20), "--rate", "2000", "--transient", "off",
-                              "-o", str(out)],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        host, _ = watch(p, sim.p.pid, 900, f"msid can measure (faults {args})")
-        _, err = p.communicate()
+        log = Path(tmp) / "host.log"   # a file, not a pipe: watch() reads where acquisition ended
+        with open(log, "w") as f:
+            p = subprocess.Popen([c.MSID, "can", "measure", "--iface", "vcan0", "--design", str(design),
+                                  "--skip-periods", "1", "--rcvbuf", str(4 << 20), "--rate", "2000", "--transient",
+                                  "off", "-o", str(out)], stdout=f, stderr=subprocess.STDOUT, text=True)
+        host, _ = watch(p, sim.p.pid, 900, f"msid can measure (faults {args})", log)
+        p.wait()
+        err = log.read_text()
         assert p.returncode == 0, f"faults {args}: {err}"
         doc = json.loads(out.read_text())
     return doc, sim.report(), sim.truth(), host
