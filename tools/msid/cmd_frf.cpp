@@ -80,8 +80,7 @@ int cmd_frf(int argc, char **argv)
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
-    std::vector<Record> recs;
-    for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols, true));   // read via data()
+    std::vector<Record> recs = read_experiments(a.all("experiment"), cols, true);   // read via data()
     // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
     if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
     if (auto_period) {

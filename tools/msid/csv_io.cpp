@@ -542,7 +542,7 @@ private:
 
 }  // namespace
 
-Record read_record_csv(const std::string &path, const ColumnMap &cols)
+Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split)
 {
     LineBlocks in(path);
     const char *t0 = nullptr, *end = nullptr;
@@ -593,7 +593,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
     // touched: no zero fill), grown for a pipe. The first half of a block is
     // parsed into the record, the second (by a thread) into `half`, appended.
     const size_t row_min = std::max(L.names.size(), 2 * C);
-    const bool two = std::thread::hardware_concurrency() >= 2;
+    const bool two = split && std::thread::hardware_concurrency() >= 2;
     r.rows.resize((in.file_size() / row_min + 1) * C);
     Samples half;
     size_t blank_line = 0, blank_err = 0;   // first blank line; first blank line followed by data
@@ -651,12 +651,53 @@ static bool ends_with(const std::string &s, const char *suf)
     return true;
 }
 
-Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
+static Record read_one(const std::string &path, const ColumnMap &cols, bool zero_copy, bool split)
 {
     if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy);
     if (ends_with(path, ".npz")) return read_record_npz(path, cols);
     if (ends_with(path, ".mat")) return read_record_mat(path, cols);
-    return read_record_csv(path, cols);
+    return read_record_csv(path, cols, split);
+}
+
+Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
+{
+    return read_one(path, cols, zero_copy, true);
+}
+
+std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols, bool zero_copy)
+{
+    // .mat goes through libmatio (and HDF5, not thread-safe), .npz through zlib: serial, as is a
+    // pipe (which might be given twice). Regular CSV and .npy files: one thread per file.
+    bool par = paths.size() >= 2 && std::thread::hardware_concurrency() >= 2;
+    for (const auto &p : paths) {
+        struct stat st;
+        par = par && !ends_with(p, ".npz") && !ends_with(p, ".mat") && ::stat(p.c_str(), &st) == 0 &&
+              S_ISREG(st.st_mode);
+    }
+    std::vector<Record> recs(paths.size());
+    if (!par) {
+        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true);
+        return recs;
+    }
+    // Thread t reads files t, t + 2, ...; a thread stops at its first bad file. The first bad
+    // file in the list is reported: every file before it was read (by one thread or the other).
+    std::vector<std::exception_ptr> err(paths.size());
+    auto work = [&](size_t t) {
+        for (size_t i = t; i < paths.size(); i += 2) {
+            try {
+                recs[i] = read_one(paths[i], cols, zero_copy, false);
+            } catch (...) {
+                err[i] = std::current_exception();
+                return;
+            }
+        }
+    };
+    std::thread th(work, (size_t)1);
+    work(0);
+    th.join();
+    for (const auto &x : err)
+        if (x) std::rethrow_exception(x);
+    return recs;
 }
 
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols)
