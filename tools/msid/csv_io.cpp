@@ -6,7 +6,8 @@
 // samples plus a constant. Cells are parsed in place (no per-cell or per-line strings); a block over 1 MiB is
 // split at a line boundary and its halves parsed by two threads, joined in
 // file order (values, errors and so every result are independent of the
-// block size and the split).
+// block size and the split). read_experiments() reads two files at once
+// instead (one thread each, no split), reporting the first bad file in order.
 #include "csv_io.hpp"
 #include "cli_util.hpp"
 #include "msid_decimal.hpp"
