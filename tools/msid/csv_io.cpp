@@ -22,6 +22,7 @@
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <system_error>
 #include <thread>
 #include <unistd.h>
 
@@ -619,7 +620,13 @@ std::vector<Record> read_experiments(const std::vector<std::string> &paths, cons
             }
         }
     };
-    std::thread th(work, (size_t)1);
+    std::thread th;
+    try {
+        th = std::thread(work, (size_t)1);
+    } catch (const std::system_error &) {   // no thread to be had: one after the other
+        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true);
+        return recs;
+    }
     work(0);
     th.join();
     for (const auto &x : err)

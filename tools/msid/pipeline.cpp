@@ -7,6 +7,7 @@ extern "C" {
 }
 #include <cmath>
 #include <exception>
+#include <system_error>
 #include <thread>
 
 namespace msidcli {
@@ -180,13 +181,16 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
             }
         }
     };
+    std::thread th;
     if (lanes == 2) {
-        std::thread th(measure, 1u);
-        measure(0);
-        th.join();
-    } else {
-        measure(0);
+        try {
+            th = std::thread(measure, 1u);
+        } catch (const std::system_error &) {   // no thread to be had: lane 1 after lane 0
+        }
     }
+    measure(0);
+    if (th.joinable()) th.join();
+    else if (lanes == 2) measure(1);
     for (const auto &x : err)
         if (x) std::rethrow_exception(x);
     std::vector<ExpSource> src;
