@@ -6,6 +6,7 @@ every bad file one message naming file, row/line and column/variable, and no
 output file."""
 import json
 import os
+import subprocess
 import sys
 import zipfile
 
@@ -450,3 +451,51 @@ def test_csv_memory_is_the_samples_plus_a_constant(tmp_path):
     samples = 8 * 2 * n
     assert rc == 0
     assert kib * 1024 < samples + (32 << 20), f"peak RSS {kib / 1024:.0f} MiB, samples {samples / 2**20:.0f} MiB"
+
+
+def test_files_read_in_parallel_report_the_first_bad_file(tmp_path, data):
+    """msid frf reads two regular CSV/.npy files at once (one thread each) and measures two
+    experiments at once: the message is that of the first bad file in --experiment order
+    whichever thread finds its error first, and three experiments (lanes 0, 1, 0) give the
+    same FRF as the same files read one by one through a pipe (serial path)."""
+    good = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"g{e}.csv"
+        h.write_csv(p, h.experiment_columns(u, y))
+        good.append(p)
+    bad = []
+    for e, (u, y) in enumerate(data):
+        lines = (tmp_path / f"g{e}.csv").read_text(encoding="utf-8").splitlines()
+        cells = lines[5 + 3 * e].split(",")
+        cells[1] = "x" + str(e)
+        lines[5 + 3 * e] = ",".join(cells)
+        p = tmp_path / f"b{e}.csv"
+        p.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        bad.append(p)
+    # the second file's error lies earlier in its file, and the small bad first file is read
+    # by one thread while the other reads a large good .npy: still the first file's message
+    _fails(tmp_path, [bad[0], bad[1]], [], f"'{bad[0]}' line 6, column u2", "'x0'")
+    _fails(tmp_path, [good[0], bad[1]], [], f"'{bad[1]}' line 9, column u2", "'x1'")
+    big = tmp_path / "big.csv"
+    u, y = data[1]
+    x = np.tile(np.column_stack([u, y]), (300, 1))
+    np.savetxt(big, x, delimiter=",", header="u1,u2,y1,y2", comments="", fmt="%.17g")
+    _fails(tmp_path, [bad[0], big], [], f"'{bad[0]}' line 6, column u2", "'x0'")
+    # the control that a "first error found" order would fail: a large first file whose bad
+    # cell is its last, a small second file bad at line 9 (found long before)
+    text = big.read_text(encoding="utf-8").rstrip("\n").split("\n")
+    text[-1] = "bad" + text[-1][text[-1].index(","):]
+    big.write_text("\n".join(text) + "\n", encoding="utf-8")
+    _fails(tmp_path, [big, bad[1]], [], f"'{big}' line {len(text)}, column u1", "'bad'")
+    # three experiments: lanes 0, 1, 0; the same FRF as read serially (a pipe is read serially)
+    third = tmp_path / "g2.csv"
+    u, y = _samples(5)
+    h.write_csv(third, h.experiment_columns(u, y))
+    par = _frf(tmp_path, good + [third], name="par.json")
+    r = subprocess.run([h.msid_bin(), "frf", "--period", str(P), "--lines", ",".join(map(str, BINS)),
+                        "--experiment", str(good[0]), "--experiment", str(good[1]),
+                        "--experiment", "/dev/stdin", "-o", str(tmp_path / "ser.json")],
+                       input=third.read_bytes(), capture_output=True, timeout=60)   # stdin: a pipe
+    assert r.returncode == 0, r.stderr.decode()
+    ser = h.load_json(tmp_path / "ser.json")
+    assert _lines(par) == _lines(ser)

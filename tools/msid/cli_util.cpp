@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 namespace msidcli {
@@ -192,7 +193,7 @@ void check(msid_status st, const std::string &context)
     if (st != MSID_OK) throw Error(context + ": " + msid_strerror(st));
 }
 
-void write_file_atomic(const std::string &path, const std::string &data)
+void write_file_atomic(const std::string &path, const std::string &data, bool durable)
 {
     std::string tmp = path + ".tmp." + std::to_string(getpid());
     int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -209,7 +210,7 @@ void write_file_atomic(const std::string &path, const std::string &data)
         }
         off += (size_t)k;
     }
-    if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    if ((durable && ::fsync(fd) != 0) || ::close(fd) != 0) {
         int e = errno;
         ::unlink(tmp.c_str());
         throw Error("cannot write '" + path + "': " + std::strerror(e));
@@ -221,10 +222,29 @@ void write_file_atomic(const std::string &path, const std::string &data)
     }
 }
 
+// A block of 256 KiB or more is mapped: the kernel's pages are zero already, and a page
+// is only faulted in when the core touches it (the second FrfJob lane never touches the
+// other lane's experiments), instead of all of it by memset.
+static constexpr size_t MEM_MAP_MIN = (size_t)256 << 10;
+
+static void mem_release(void *p, size_t n)
+{
+    if (!p) return;
+    if (n >= MEM_MAP_MIN) munmap(p, n);
+    else std::free(p);
+}
+
 Mem::Mem(size_t bytes)
 {
     if (bytes == 0) bytes = MSID_MEM_ALIGN;
     size_t r = (bytes + MSID_MEM_ALIGN - 1) / MSID_MEM_ALIGN * MSID_MEM_ALIGN;
+    if (r >= MEM_MAP_MIN) {
+        void *m = mmap(nullptr, r, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (m == MAP_FAILED) throw Error("out of memory (" + std::to_string(bytes) + " bytes)");
+        p = m;   // page-aligned (>= MSID_MEM_ALIGN) and zero
+        n = r;
+        return;
+    }
     p = std::aligned_alloc(MSID_MEM_ALIGN, r);
     if (!p) throw Error("out of memory (" + std::to_string(bytes) + " bytes)");
     std::memset(p, 0, r);
@@ -232,10 +252,10 @@ Mem::Mem(size_t bytes)
 }
 Mem &Mem::operator=(Mem &&o) noexcept
 {
-    if (this != &o) { std::free(p); p = o.p; n = o.n; o.p = nullptr; o.n = 0; }
+    if (this != &o) { mem_release(p, n); p = o.p; n = o.n; o.p = nullptr; o.n = 0; }
     return *this;
 }
-Mem::~Mem() { std::free(p); }
+Mem::~Mem() { mem_release(p, n); }
 
 std::string fmt(const char *f, ...)
 {

@@ -89,7 +89,11 @@ std::vector<double> parse_double_list(const std::string &s, const std::string &w
 void check(msid_status st, const std::string &context);
 
 // Write a file atomically: data goes to a temporary next to `path`, then rename.
-void write_file_atomic(const std::string &path, const std::string &data);
+// `durable`: fsync the data before the rename (a crash or power loss right after
+// leaves the old file or the whole new one, never an empty one). Off only for
+// results that a re-run reproduces from files (msid frf): it saves the wait for
+// the disk.
+void write_file_atomic(const std::string &path, const std::string &data, bool durable = true);
 
 // Aligned, owned working memory for one msid object.
 struct Mem {

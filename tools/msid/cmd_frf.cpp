@@ -80,8 +80,7 @@ int cmd_frf(int argc, char **argv)
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
-    std::vector<Record> recs;
-    for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols, true));   // read via data()
+    std::vector<Record> recs = read_experiments(a.all("experiment"), cols, true);   // read via data()
     // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
     if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
     if (auto_period) {
@@ -118,13 +117,20 @@ int cmd_frf(int argc, char **argv)
                                   "(--realisations R) to include it");
         }
     }
-    write_json_file(out, o.doc);
+    // no fsync: the file is reproduced by running msid frf again on the same files
+    // (msid measure, whose samples are gone after the run, keeps it)
+    write_json_file(out, o.doc, false);
     for (const auto &n : o.notes) std::fprintf(stderr, "msid frf: note: %s\n", n.c_str());
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %zu experiment(s), %llu periods used, %llu rejected "
                 "(%s)\n",
                 out.c_str(), rq.bins.size(), recs[0].ny, recs[0].nu, recs.size(),
                 (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
                 (unsigned long long)o.doc["periods_rejected"].get<uint64_t>(), o.dft_path.c_str());
+    // The process ends now: the document's tree (some 10^5 nodes) and the records are left to
+    // the exit instead of being freed node by node (~1.5 ms CPU on the 2 x 262,144-row bench).
+    // Still reachable (not a leak for LeakSanitizer); cmd_frf runs once per process (main.cpp).
+    static const auto *left_to_exit = new std::pair<Json, std::vector<Record>>(std::move(o.doc), std::move(recs));
+    (void)left_to_exit;
     return 0;
 }
 

@@ -6,9 +6,11 @@
 // samples plus a constant. Cells are parsed in place (no per-cell or per-line strings); a block over 1 MiB is
 // split at a line boundary and its halves parsed by two threads, joined in
 // file order (values, errors and so every result are independent of the
-// block size and the split).
+// block size and the split). read_experiments() reads two files at once
+// instead (one thread each, no split), reporting the first bad file in order.
 #include "csv_io.hpp"
 #include "cli_util.hpp"
+#include "msid_decimal.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -20,6 +22,7 @@
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <system_error>
 #include <thread>
 #include <unistd.h>
 
@@ -210,82 +213,7 @@ static std::string slurp(const std::string &path)
 
 namespace {
 
-// Decimal to double, correctly rounded, so bit-identical to std::from_chars:
-// the exact fast path of Clinger (1990) for numbers of at most 15 significant
-// digits with a decimal exponent in [-22, 22] (mantissa and power of ten are
-// exact doubles, so one IEEE multiply or divide rounds correctly), else
-// std::from_chars. Returns the end of the number, or nullptr if none.
-const double POW10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
-                          1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
-
-// Eight ASCII digits at once (SWAR): are they all digits, and their value.
-inline bool eight_digits(uint64_t w)
-{
-    return (((w & 0xF0F0F0F0F0F0F0F0ull) | (((w + 0x0606060606060606ull) & 0xF0F0F0F0F0F0F0F0ull) >> 4)) ==
-            0x3333333333333333ull);
-}
-
-inline uint64_t eight_value(uint64_t w)   // little-endian: first char in the low byte
-{
-    w -= 0x3030303030303030ull;
-    w = (w * 10) + (w >> 8);
-    w = (((w & 0x000000FF000000FFull) * 0x000F424000000064ull) +
-         (((w >> 16) & 0x000000FF000000FFull) * 0x0000271000000001ull)) >> 32;
-    return (uint32_t)w;
-}
-
-inline bool digit(char c) { return (unsigned)(c - '0') < 10u; }
-
-// The general path: std::from_chars (correctly rounded; inf/nan parse and are
-// rejected by the caller). Kept out of line so the fast path stays in registers.
-__attribute__((noinline)) const char *parse_slow(const char *s, const char *end, double &v, bool &slow_path)
-{
-    slow_path = true;
-    auto res = std::from_chars(s, end, v);
-    return res.ec == std::errc() ? res.ptr : nullptr;
-}
-
-// `slow_path` is set when std::from_chars was needed (only then can v be non-finite).
-inline const char *parse_double(const char *p, const char *end, double &v, bool &slow_path)
-{
-    const char *s = p;
-    const bool neg = *p == '-';
-    p += neg;
-    uint64_t m = 0;
-    const char *d0 = p;
-    while (digit(*p)) m = m * 10 + (uint64_t)(*p++ - '0');
-    size_t nd = (size_t)(p - d0);
-    int e10 = 0;
-    if (*p == '.') {
-        const char *f0 = ++p;
-        uint64_t w;
-        if (p + 8 <= end && (std::memcpy(&w, p, 8), eight_digits(w)) && nd <= 7) {
-            m = m * 100000000ull + eight_value(w);
-            p += 8;
-        }
-        while (digit(*p)) m = m * 10 + (uint64_t)(*p++ - '0');
-        e10 = -(int)(p - f0);
-        nd += (size_t)(p - f0);
-    }
-    // at most 15 digits (leading zeros included): m < 10^15 < 2^53, exact
-    if (nd == 0 || nd > 15) return parse_slow(s, end, v, slow_path);
-    if ((*p | 0x20) == 'e') {
-        const char *q = p + 1;
-        const bool en = *q == '-';
-        q += (*q == '-' || *q == '+');
-        if (!digit(*q)) return parse_slow(s, end, v, slow_path);
-        int x = 0;
-        while (digit(*q) && x < 10000) x = x * 10 + (*q++ - '0');
-        if (digit(*q)) return parse_slow(s, end, v, slow_path);
-        e10 += en ? -x : x;
-        p = q;
-    }
-    if (e10 < -22 || e10 > 22) return parse_slow(s, end, v, slow_path);
-    const double d = (double)m;
-    const double r = e10 < 0 ? d / POW10[-e10] : d * POW10[e10];
-    v = neg ? -r : r;
-    return p;
-}
+// Numbers: msid_decimal.hpp (correctly rounded, bit-identical to std::from_chars).
 
 struct CsvLayout {
     const std::string *path;
@@ -355,7 +283,7 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
                 const char *q = p + (*p == '+');
                 double v = 0;
                 bool slow = false;
-                const char *r = parse_double(q, e, v, slow);
+                const char *r = decimal::parse(q, e, v, slow);
                 const bool ok = r != nullptr && r != q;
                 if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
                 if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
@@ -542,7 +470,7 @@ private:
 
 }  // namespace
 
-Record read_record_csv(const std::string &path, const ColumnMap &cols)
+Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split)
 {
     LineBlocks in(path);
     const char *t0 = nullptr, *end = nullptr;
@@ -593,7 +521,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols)
     // touched: no zero fill), grown for a pipe. The first half of a block is
     // parsed into the record, the second (by a thread) into `half`, appended.
     const size_t row_min = std::max(L.names.size(), 2 * C);
-    const bool two = std::thread::hardware_concurrency() >= 2;
+    const bool two = split && std::thread::hardware_concurrency() >= 2;
     r.rows.resize((in.file_size() / row_min + 1) * C);
     Samples half;
     size_t blank_line = 0, blank_err = 0;   // first blank line; first blank line followed by data
@@ -651,12 +579,59 @@ static bool ends_with(const std::string &s, const char *suf)
     return true;
 }
 
-Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
+static Record read_one(const std::string &path, const ColumnMap &cols, bool zero_copy, bool split)
 {
     if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy);
     if (ends_with(path, ".npz")) return read_record_npz(path, cols);
     if (ends_with(path, ".mat")) return read_record_mat(path, cols);
-    return read_record_csv(path, cols);
+    return read_record_csv(path, cols, split);
+}
+
+Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
+{
+    return read_one(path, cols, zero_copy, true);
+}
+
+std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols, bool zero_copy)
+{
+    // .mat goes through libmatio (and HDF5, not thread-safe), .npz through zlib: serial, as is a
+    // pipe (which might be given twice). Regular CSV and .npy files: one thread per file.
+    bool par = paths.size() >= 2 && std::thread::hardware_concurrency() >= 2;
+    for (const auto &p : paths) {
+        struct stat st;
+        par = par && !ends_with(p, ".npz") && !ends_with(p, ".mat") && ::stat(p.c_str(), &st) == 0 &&
+              S_ISREG(st.st_mode);
+    }
+    std::vector<Record> recs(paths.size());
+    if (!par) {
+        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true);
+        return recs;
+    }
+    // Thread t reads files t, t + 2, ...; a thread stops at its first bad file. The first bad
+    // file in the list is reported: every file before it was read (by one thread or the other).
+    std::vector<std::exception_ptr> err(paths.size());
+    auto work = [&](size_t t) {
+        for (size_t i = t; i < paths.size(); i += 2) {
+            try {
+                recs[i] = read_one(paths[i], cols, zero_copy, false);
+            } catch (...) {
+                err[i] = std::current_exception();
+                return;
+            }
+        }
+    };
+    std::thread th;
+    try {
+        th = std::thread(work, (size_t)1);
+    } catch (const std::system_error &) {   // no thread to be had: one after the other
+        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true);
+        return recs;
+    }
+    work(0);
+    th.join();
+    for (const auto &x : err)
+        if (x) std::rethrow_exception(x);
+    return recs;
 }
 
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols)

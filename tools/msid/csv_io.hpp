@@ -71,8 +71,17 @@ ColumnMap parse_column_map(const std::string &spec, bool inputs_optional = false
 // may be used in place (read the samples through data()).
 Record read_experiment(const std::string &path, const ColumnMap &cols = {}, bool zero_copy = false);
 
-// The CSV reader alone (read_experiment dispatches to it).
-Record read_record_csv(const std::string &path, const ColumnMap &cols = {});
+// Several experiment files, as read_experiment() of each in turn: the same
+// records and, when files are bad, the message of the first bad file in the
+// list. Two regular CSV/.npy files or more are read by two threads, one file
+// each at a time (and then each CSV by one thread); .npz/.mat or a pipe in
+// the list: one after the other.
+std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols = {},
+                                     bool zero_copy = false);
+
+// The CSV reader alone (read_experiment dispatches to it). `split`: a block of
+// over 1 MiB is parsed by two threads (the same values either way).
+Record read_record_csv(const std::string &path, const ColumnMap &cols = {}, bool split = true);
 
 // Format rows (n x cols) with a header; values printed to round-trip exactly.
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols);

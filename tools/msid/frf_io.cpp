@@ -24,7 +24,7 @@ static std::string nonfinite_at(const Json &j, const std::string &at)
     return "";
 }
 
-void write_json_file(const std::string &path, const Json &doc)
+void write_json_file(const std::string &path, const Json &doc, bool durable)
 {
     // A result is never written with a silent null for NaN/Inf (it would fail the schema): one message, no file.
     // The text is nlohmann's dump(1) layout with std::to_chars' shortest round-trip numbers (msidfrf::dump).
@@ -37,7 +37,7 @@ void write_json_file(const std::string &path, const Json &doc)
                     " (inputs beyond double precision's range, e.g. data scaled near 1e150 or a sample rate near 0)");
     }
     s += '\n';
-    write_file_atomic(path, s);
+    write_file_atomic(path, s, durable);
 }
 
 Json cplx_json(const std::complex<double> *a, size_t rows, size_t cols) { return msidfrf::cmat(a, rows, cols); }

@@ -5,8 +5,9 @@
 
 namespace msidcli {
 
-// Serialise with a trailing newline and write atomically (no partial file on error).
-void write_json_file(const std::string &path, const Json &doc);
+// Serialise with a trailing newline and write atomically (no partial file on error);
+// `durable` as write_file_atomic().
+void write_json_file(const std::string &path, const Json &doc, bool durable = true);
 
 // {"re": [[...]], "im": [[...]]} of a rows x cols complex matrix (row-major).
 Json cplx_json(const std::complex<double> *a, size_t rows, size_t cols);

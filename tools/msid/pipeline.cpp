@@ -6,6 +6,9 @@ extern "C" {
 #include "msid/msid_fft_fftw.h"
 }
 #include <cmath>
+#include <exception>
+#include <system_error>
+#include <thread>
 
 namespace msidcli {
 
@@ -153,22 +156,45 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
     // The input diagnostics on the samples (non-periodic input, wrong period; docs/statistics.md
     // "Input periodicity"), for every caller of the periodic job on records.
     if (!rq.inputs_checked) check_periodic_inputs(P, rq.skip, rq.bins, recs);
-    FrfJob job(rq, nu, ny, m, maxK, maxK);
-    msid_meas &ms = *job.meas();
+    // Two experiments at once on two lanes (threads), each experiment's statistics the same bits as
+    // measured alone; an error is that of the first failing experiment in file order, as serially.
+    const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
+    FrfJob job(rq, nu, ny, m, maxK, maxK, lanes);
     const size_t C = nu + ny;
-    std::vector<ExpSource> src;
-    for (uint32_t e = 0; e < m; ++e) {
-        const Record &r = recs[e];
-        check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
-        const size_t nwhole = r.n_rows / P * P;
-        const size_t blk = rq.block ? rq.block : nwhole;
-        for (size_t k = 0; k < nwhole; k += blk) {
-            const size_t n = std::min(blk, nwhole - k);
-            check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
+    std::vector<std::exception_ptr> err(m);
+    auto measure = [&](uint32_t lane) {
+        msid_meas &ms = *job.meas(lane);
+        for (uint32_t e = lane; e < m; e += lanes) {
+            try {
+                const Record &r = recs[e];
+                check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
+                const size_t nwhole = r.n_rows / P * P;
+                const size_t blk = rq.block ? rq.block : nwhole;
+                for (size_t k = 0; k < nwhole; k += blk) {
+                    const size_t n = std::min(blk, nwhole - k);
+                    check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
+                }
+                check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
+            } catch (...) {
+                err[e] = std::current_exception();
+                return;   // this lane's later experiments are never reported
+            }
         }
-        check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
-        src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
+    };
+    std::thread th;
+    if (lanes == 2) {
+        try {
+            th = std::thread(measure, 1u);
+        } catch (const std::system_error &) {   // no thread to be had: lane 1 after lane 0
+        }
     }
+    measure(0);
+    if (th.joinable()) th.join();
+    else if (lanes == 2) measure(1);
+    for (const auto &x : err)
+        if (x) std::rethrow_exception(x);
+    std::vector<ExpSource> src;
+    for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
     return job.finish(src, notes);
 }
 
@@ -177,17 +203,24 @@ struct FrfJob::Impl {
     uint32_t nu, ny, m;
     Mem mtw, mm;
     msid_twiddle tw{};
-    Fftw fftw;
     std::string dft_path;
-    msid_meas ms{};
+    struct Lane {
+        Mem mm;
+        Fftw fftw;
+        msid_meas ms{};
+    };
+    std::vector<std::unique_ptr<Lane>> lane;
 };
 
 FrfJob::~FrfJob() = default;
-msid_meas *FrfJob::meas() { return &p_->ms; }
+msid_meas *FrfJob::meas(uint32_t lane) { return &p_->lane.at(lane)->ms; }
+uint32_t FrfJob::lanes() const { return (uint32_t)p_->lane.size(); }
 
-FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t maxK, uint32_t history)
+FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t maxK, uint32_t history,
+               uint32_t lanes)
     : p_(std::make_unique<Impl>())
 {
+    if (lanes < 1 || lanes > 2) throw Error("internal error: 1 or 2 measurement lanes");
     validate_lines(rq);
     Impl &I = *p_;
     I.rq = rq;
@@ -201,10 +234,6 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     check(msid_twiddle_init(&I.tw, P, I.mtw.p, I.mtw.n), "twiddle table");
     msid_dft_path path = rq.path;
     if (path == MSID_DFT_AUTO) path = msid_linedft_choose(P, (uint32_t)(L + Ld), nu + ny, 1);
-    if (path == MSID_DFT_FFT) {
-        check(msid_fft_fftw_create(&I.fftw.f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
-        I.fftw.on = true;
-    }
     I.dft_path = path == MSID_DFT_FFT ? "fft" : "stream";
 
     msid_meas_cfg mc{};
@@ -218,22 +247,30 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     mc.detect_bins = Ld ? rq.detect.data() : nullptr;
     mc.twiddle = &I.tw;
     mc.path = path;
-    mc.fft = I.fftw.on ? &I.fftw.f.be : nullptr;
+    mc.fft = nullptr;   // per lane
     mc.skip_periods = rq.skip;
     mc.transient = maxK >= (uint64_t)rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
     mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? history : 0;
     mc.alpha = rq.alpha;
-    const size_t nm = msid_meas_mem_size(&mc);
-    if (nm == 0) throw Error("measurement dimensions out of range");
-    I.mm = Mem(nm);
-    check(msid_meas_init(&I.ms, &mc, I.mm.p, I.mm.n), "measurement setup");
+    for (uint32_t k = 0; k < lanes; ++k) {   // FFTW plans are made here, in one thread (its planner is not thread-safe)
+        I.lane.push_back(std::make_unique<Impl::Lane>());
+        Impl::Lane &ln = *I.lane.back();
+        if (path == MSID_DFT_FFT) {
+            check(msid_fft_fftw_create(&ln.fftw.f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
+            ln.fftw.on = true;
+        }
+        mc.fft = ln.fftw.on ? &ln.fftw.f.be : nullptr;
+        const size_t nm = msid_meas_mem_size(&mc);
+        if (nm == 0) throw Error("measurement dimensions out of range");
+        ln.mm = Mem(nm);
+        check(msid_meas_init(&ln.ms, &mc, ln.mm.p, ln.mm.n), "measurement setup");
+    }
 }
 
 FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::string> notes)
 {
     Impl &I = *p_;
     const FrfRequest &rq = I.rq;
-    msid_meas &ms = I.ms;
     const uint32_t nu = I.nu, ny = I.ny, m = I.m, P = rq.period;
     const size_t L = rq.bins.size(), Ld = rq.detect.size();
     FrfOutcome out;
@@ -245,7 +282,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     std::vector<const msid_pstats *> ps(m);
     for (uint32_t e = 0; e < m; ++e) {
         const ExpSource &r = src[e];
-        ps[e] = msid_meas_stats(&ms, e);
+        ps[e] = msid_meas_stats(&I.lane[e % I.lane.size()]->ms, e);
         const msid_pstats_counts c = msid_pstats_get_counts(ps[e]);
         std::vector<uint32_t> flagged, dropped;
         const double dp = msid_pstats_drift_pvalue(ps[e]);
@@ -339,20 +376,48 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     doc["vec_convention"] = msidfrf::VEC_CONVENTION;
     doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
     doc["experiments"] = exps;
-    Json lines = Json::array();
-    for (uint32_t l = 0; l < L; ++l) {
-        msidfrf::LineStats s;
-        s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
-        s.cov = cmat_of(msid_frf_cov(&f, l), g, g);
-        s.dof = msid_frf_dof(&f, l);
-        s.cov_ki = cmat_of(msid_frf_cov_known_input(&f, l), g, g);
-        s.dof_ki = msid_frf_dof_known_input(&f, l);
-        s.noise = cmat_of(msid_frf_noise_cov(&f, l), ny, ny);
-        s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
-        s.cond = msid_frf_cond(&f, l);
-        s.input_snr = msid_frf_input_snr_db(&f, l);
-        lines.push_back(msidfrf::line(line_position(rq, l), s));
+    // The lines' subtrees (thousands of small allocations) built in two halves on two threads
+    // when there are many, appended in line order: the same document.
+    auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part) {
+        part.reserve(l1 - l0);
+        for (uint32_t l = l0; l < l1; ++l) {
+            msidfrf::LineStats s;
+            s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
+            s.cov = cmat_of(msid_frf_cov(&f, l), g, g);
+            s.dof = msid_frf_dof(&f, l);
+            s.cov_ki = cmat_of(msid_frf_cov_known_input(&f, l), g, g);
+            s.dof_ki = msid_frf_dof_known_input(&f, l);
+            s.noise = cmat_of(msid_frf_noise_cov(&f, l), ny, ny);
+            s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
+            s.cond = msid_frf_cond(&f, l);
+            s.input_snr = msid_frf_input_snr_db(&f, l);
+            part.push_back(msidfrf::line(line_position(rq, l), s));
+        }
+    };
+    std::vector<Json> part[2];
+    const uint32_t half = L >= 64 && std::thread::hardware_concurrency() >= 2 ? (uint32_t)L / 2 : (uint32_t)L;
+    std::exception_ptr part_err;
+    std::thread th;
+    if (half < L) {
+        try {
+            th = std::thread([&] {
+                try {
+                    build(half, (uint32_t)L, part[1]);
+                } catch (...) {
+                    part_err = std::current_exception();
+                }
+            });
+        } catch (const std::system_error &) {
+        }
     }
+    build(0, half, part[0]);
+    if (th.joinable()) th.join();
+    else if (half < L) build(half, (uint32_t)L, part[1]);
+    if (part_err) std::rethrow_exception(part_err);
+    Json lines = Json::array();
+    lines.get_ref<Json::array_t &>().reserve(L);
+    for (auto &pt : part)
+        for (auto &x : pt) lines.push_back(std::move(x));
     doc["lines"] = std::move(lines);
     if (Ld) {
         Json dl = Json::array();

@@ -61,13 +61,18 @@ struct ExpSource {
 // checks the period counts, solves the FRF and builds the one msid-frf/1
 // document. `history` is the per-experiment period capacity of the transient
 // test; `periods` the expected periods per experiment (it enables the test).
+// `lanes` (1 or 2) measurement objects, each with its own FFTW plan: experiment
+// e is measured on lane e % lanes, so two threads can measure experiments at
+// once; every experiment's statistics are the same bits on either lane.
 class FrfJob {
 public:
-    FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t history);
+    FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t history,
+           uint32_t lanes = 1);
     ~FrfJob();
     FrfJob(const FrfJob &) = delete;
     FrfJob &operator=(const FrfJob &) = delete;
-    msid_meas *meas();
+    msid_meas *meas(uint32_t lane = 0);
+    uint32_t lanes() const;
     FrfOutcome finish(const std::vector<ExpSource> &src, std::vector<std::string> notes = {});
 
 private:

@@ -1,0 +1,175 @@
+// The CSV reader's number parser (tools/msid/msid_decimal.hpp) against
+// std::from_chars, bit for bit, on 4 million random and adversarial decimal
+// strings (fixed seed): every shape of the fast path (1..15 digits, a dot
+// anywhere, exponents in and beyond [-22, 22]), 16..25 digits (from_chars
+// path), halfway and near-halfway cases, subnormals, overflow, leading zeros.
+// Negative control: the same checker on a parser that is deliberately 1 ulp
+// off for one string in 64 must report those strings (a checker that cannot
+// fail would prove nothing).
+#include "msid_decimal.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+extern "C" {
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <cmocka.h>
+#include "msid/msid_rng.h"
+}
+
+namespace {
+
+using Parser = const char *(*)(const char *, const char *, double &, bool &);
+
+// The string s (followed by a ',' delimiter and padding, as inside a CSV row).
+struct Probe {
+    std::string buf;
+    explicit Probe(const std::string &s) : buf(s + ",\n" + std::string(16, '\n')) {}
+};
+
+// One random decimal string of a random shape.
+std::string random_number(msid_rng &r)
+{
+    std::string s;
+    const uint64_t shape = msid_rng_u64(&r) % 8;
+    if (msid_rng_u64(&r) % 2) s += '-';
+    const unsigned nd = shape < 5 ? 1 + (unsigned)(msid_rng_u64(&r) % 15)      // fast-path digit counts
+                                  : 1 + (unsigned)(msid_rng_u64(&r) % 25);     // up to 25 digits
+    std::string digits;
+    for (unsigned k = 0; k < nd; ++k) digits += (char)('0' + msid_rng_u64(&r) % 10);
+    if (shape == 1) digits[0] = '0';                                         // leading zeros
+    if (shape == 2) for (unsigned k = nd / 2; k < nd; ++k) digits[k] = '9';  // runs of 9s (carries)
+    const unsigned dot = (unsigned)(msid_rng_u64(&r) % (nd + 2));            // nd + 1: no dot
+    if (dot <= nd) digits.insert(digits.begin() + dot, '.');
+    if (digits == ".") digits = "0.";
+    s += digits;
+    if (shape >= 3 && msid_rng_u64(&r) % 2) {
+        const int e = shape == 7 ? (int)(msid_rng_u64(&r) % 700) - 350   // subnormal .. overflow
+                                 : (int)(msid_rng_u64(&r) % 61) - 30;    // around the [-22, 22] border
+        s += (msid_rng_u64(&r) % 2) ? 'e' : 'E';
+        s += std::to_string(e);
+    }
+    return s;
+}
+
+// Strings made to be hard: halfway between two doubles, the fast-path borders, extremes.
+std::vector<std::string> adversarial()
+{
+    std::vector<std::string> v = {
+        "0", "-0", "0.0", "5.", ".5", "-.5", "1", "9007199254740992", "9007199254740993", "9007199254740995",
+        "999999999999999", "9999999999999999", "0.1", "0.2", "0.3", "1e22", "1e23", "1e-22", "1e-23",
+        "123456789012345e22", "123456789012345e-22", "2.2250738585072011e-308", "2.2250738585072014e-308",
+        "4.9406564584124654e-324", "2.4703282292062327e-324", "2.4703282292062328e-324", "1.7976931348623157e308",
+        "1.7976931348623158e308", "1.7976931348623159e308", "1e400", "1e-400", "0.000000000000000000000001",
+        "100000000000000000000000", "1.00000000000000011102230246251565404236316680908203125",
+        "1.00000000000000011102230246251565404236316680908203124", "1.00000000000000011102230246251565404236316680908203126",
+        "8.98846567431158e307", "3.0517578125e-05", "0.720449303", "-0.595336847", "1.20735233",
+        "000000000000001", "0000000000000001.5", "7.2057594037927933e16", "72057594037927933",
+    };
+    // every double's shortest form and its 17-digit form, and the decimal halfway to the next double
+    msid_rng r;
+    msid_rng_seed(&r, 77);
+    char b[64];
+    for (int k = 0; k < 20000; ++k) {
+        uint64_t bits = msid_rng_u64(&r) & 0x7FEFFFFFFFFFFFFFull;
+        double x;
+        std::memcpy(&x, &bits, 8);
+        auto res = std::to_chars(b, b + sizeof b, x);
+        v.emplace_back(b, res.ptr);
+        std::snprintf(b, sizeof b, "%.17g", x);
+        v.emplace_back(b);
+        const double y = std::nextafter(x, INFINITY);
+        if (std::isfinite(y)) {   // the midpoint x + (y - x) / 2, to 40 significant digits
+            std::snprintf(b, sizeof b, "%.40Lg", (long double)x + ((long double)y - (long double)x) / 2);
+            v.emplace_back(b);
+        }
+    }
+    return v;
+}
+
+// Mismatches of `p` against std::from_chars (value bits, end position, accepted or not).
+size_t check(Parser p, const std::vector<std::string> &strs, std::string *first)
+{
+    size_t bad = 0;
+    for (const auto &s : strs) {
+        const Probe pr(s);
+        const char *b = pr.buf.data(), *e = b + pr.buf.size();
+        double ref = 0, got = 0;
+        auto res = std::from_chars(b, e, ref);
+        bool slow = false;
+        const char *q = p(b, e, got, slow);
+        const bool ok_ref = res.ec == std::errc(), ok = q != nullptr;
+        bool same = ok == ok_ref;
+        // from_chars reports out of range (1e400, 1e-400) without a value; parse_slow passes that on
+        if (same && ok) same = q == res.ptr && std::memcmp(&ref, &got, 8) == 0 && (slow || std::isfinite(got));
+        if (!same) {
+            if (!bad && first) *first = s;
+            ++bad;
+        }
+    }
+    return bad;
+}
+
+const char *parse_ok(const char *p, const char *end, double &v, bool &slow)
+{
+    return msidcli::decimal::parse(p, end, v, slow);
+}
+
+// The negative control: 1 ulp off when the string's length is a multiple of 64... of its bytes' sum.
+const char *parse_off_by_one_ulp(const char *p, const char *end, double &v, bool &slow)
+{
+    const char *q = msidcli::decimal::parse(p, end, v, slow);
+    unsigned sum = 0;
+    for (const char *c = p; q && c < q; ++c) sum += (unsigned char)*c;
+    if (q && sum % 64 == 0 && std::isfinite(v)) v = std::nextafter(v, INFINITY);
+    return q;
+}
+
+std::vector<std::string> corpus()
+{
+    std::vector<std::string> v = adversarial();
+    msid_rng r;
+    msid_rng_seed(&r, 2026);
+    const size_t n = 4000000;
+    v.reserve(v.size() + n);
+    for (size_t k = 0; k < n; ++k) v.push_back(random_number(r));
+    return v;
+}
+
+void test_decimal_equals_from_chars(void **)
+{
+    const std::vector<std::string> strs = corpus();
+    std::string first;
+    const size_t bad = check(parse_ok, strs, &first);
+    if (bad) std::fprintf(stderr, "%zu mismatches, first '%s'\n", bad, first.c_str());
+    assert_int_equal(bad, 0);
+}
+
+void test_decimal_negative_control(void **)
+{
+    msid_rng r;
+    msid_rng_seed(&r, 2026);
+    std::vector<std::string> strs;
+    for (int k = 0; k < 200000; ++k) strs.push_back(random_number(r));
+    const size_t bad = check(parse_off_by_one_ulp, strs, nullptr);
+    // about one string in 64 is made wrong: the checker must see (nearly) all of them
+    assert_true(bad > strs.size() / 128);
+}
+
+}  // namespace
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_decimal_equals_from_chars),
+        cmocka_unit_test(test_decimal_negative_control),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
