@@ -177,6 +177,7 @@ def test_order_selection_uses_independent_lines(tmp_path):
     h.run_ok("frf", "--method", "lpm", "--experiment", p, "-o", f)
     r = h.run_ok("fit", "--method", "ml", "--order", "auto", f, "-o", m)
     assert "every 11-th line" in r.stdout
+    h.validate(h.load_json(m), "msid-model-1")
     sel = h.load_json(m)["order_selection"]
     assert sel["chosen"] == 2 and sel["rule"] == "p-value", sel["chosen"]
     assert sel["line_stride"] == 11 and "every 11-th line" in sel["lines_in_statistic"]
