@@ -577,6 +577,8 @@ static int bench_fit(int argc, char **argv)
     const int NS = (int)a.u32("systems", 50);
     const double min_s = a.f64("min-seconds", 0.5);
     if (NS < 1) throw UsageError("--systems must be at least 1");
+    const uint32_t runs = a.u32("runs", 3);
+    if (runs > 1000) throw UsageError("--runs must be at most 1000 (each run is 5 vector fits of seconds each)");
     char tmpl[] = "/tmp/msid-bench-fit-XXXXXX";
     if (!mkdtemp(tmpl)) throw Error("cannot create a temporary directory");
     const std::string dir = tmpl;
@@ -686,8 +688,6 @@ static int bench_fit(int argc, char **argv)
             std::printf("  peer unavailable: %s\n", note.c_str());
         std::printf("\n");
     }
-    const uint32_t runs = a.u32("runs", 3);
-    if (runs > 1000) throw UsageError("--runs must be at most 1000");
     if ((!only || only == 3) && !a.has("no-peer")) bench_structures(dir, min_s, runs);
     if (!only || only == 4) bench_process(dir);
     if (!only) {   // the multiple-experiment ML on case M1 (cmd_bench_multi.cpp), 50 runs per N
