@@ -25,3 +25,9 @@ def test_bench_fit_siso_runs():
     for m in ("subspace", "lmfd", "ml", "peer"):
         assert m in r.stdout
     assert "peer unavailable" not in r.stdout
+
+
+def test_bench_fit_runs_bad_input():
+    # --runs (the ml / vector fitting Monte Carlo of --only 3): one message, usage status, nothing run
+    r = h.run("bench", "fit", "--only", "3", "--runs", "1001")
+    assert r.returncode == 2 and "--runs must be at most 1000" in r.stderr and "Monte Carlo" not in r.stdout

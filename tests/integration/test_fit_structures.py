@@ -339,3 +339,42 @@ def test_pooled_weights_monte_carlo(tmp_path):
     _, mu = _fit(tmp_path, p, "mu", "--method", "ml", "--order", 6)
     h.run_ok("validate", tmp_path / "mu.json", p, "-o", tmp_path / "vu.json")
     assert h.load_json(tmp_path / "vu.json")["p_value"] < 0.05
+
+
+def test_ml_against_vector_fitting_monte_carlo(tmp_path):
+    # issue 9: ml's error against the truth no worse than vector fitting's at the same order, on
+    # average over noise seeds (one realisation cannot tell: per seed the ratio scatters by ~1.3%).
+    # The 10-mode SISO structure of `msid bench fit --only 3` holds a mode whose peak is 0.1 x the
+    # noise sd (6.28 Hz, residue 1e-4): the data identify 9 modes, order 18. At the nominal 20 the
+    # free pole pair is spent on the noise by any cost minimiser (ml: cost 1.2% below vector
+    # fitting's, error 6% above, 20 seeds; docs/benchmarks.md); at 18 ml and vector fitting agree
+    # (20 seeds: mean ratio 1.003, se 0.003). 5 seeds here (vector fitting takes seconds per fit),
+    # `msid bench fit --only 3 --runs 20` prints the rest.
+    st = S.structure("siso", SEED, n_modes=10)
+    n = S.order(st) - 2
+    ratio, ratio0, ratio_nom, cost = [], [], [], []
+    for seed in range(5):
+        p = S.write(tmp_path / f"mc{seed}.json", S.frf_doc(st, seed))
+        om, G, C = S.load_frf(p)
+        G0 = S.frf(st, 1j * om)
+        Gvf = S.vector_fit(p, n)[0]
+        e_vf, V_vf = S.rel_error(Gvf, G0), S.weighted_cost(G, Gvf, C)
+        err = {}
+        for name, order, extra in (("ml", n, ()), ("ml0", n, ("--weight-smooth", 0)), ("nominal", n + 2, ())):
+            _, m = _fit(tmp_path, p, name, "--method", "ml", "--order", order, *extra)
+            Gm = np.array([h.cplx(e["G"]) for e in m["frf"]])
+            err[name] = S.rel_error(Gm, G0)
+            if name == "ml":
+                cost.append(S.weighted_cost(G, Gm, C) / V_vf)
+        ratio.append(err["ml"] / e_vf); ratio0.append(err["ml0"] / e_vf); ratio_nom.append(err["nominal"] / e_vf)
+    ratio, ratio0, ratio_nom, cost = map(np.array, (ratio, ratio0, ratio_nom, cost))
+    print(f"ml / vector fitting at order {n}: error ratio mean {ratio.mean():.4f} median {np.median(ratio):.4f} "
+          f"(per seed {np.round(ratio, 4)}), cost ratio mean {cost.mean():.5f}; per-line weights {ratio0.mean():.4f}; "
+          f"ml at the nominal order {n + 2} over vector fitting at {n}: {ratio_nom.mean():.4f}")
+    assert ratio.mean() <= 1.015, ratio          # measured 1.0059 (seeds 0-4), 1.0028 (0-19)
+    assert cost.mean() <= 1.001, cost            # the cost: ml minimises it with pooled weights (measured 0.9997)
+    # negative controls: worse ml fails the same bound. (a) each line's own 16-period sample
+    # covariance as weight (--weight-smooth 0, the weighting bias of Gonzalez et al. 2025): measured
+    # 1.024; (b) one pole pair too many (the nominal order): measured 1.16
+    assert ratio0.mean() > 1.015, ratio0
+    assert ratio_nom.mean() > 1.05, ratio_nom

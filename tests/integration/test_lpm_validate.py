@@ -165,3 +165,32 @@ def test_fit_reports_independent_line_cost(tmp_path):
     assert ic["line_stride"] == vd["line_stride"] == 11
     for a, b in (("value", "cost"), ("expected", "expected"), ("dof", "dof"), ("p_value", "p_value")):
         assert abs(ic[a] - vd[b]) <= 1e-9 * max(1.0, abs(vd[b]))
+
+
+def test_order_selection_uses_independent_lines(tmp_path):
+    """msid fit --order auto on an LPM file: the p-value rule on validate's statistic (every (2W+1)-th
+    line, validation_stat.hpp), not on every line. Record seed 11: the true order 2 has p = 0.0019 over
+    all 1023 correlated lines (the old rule went on to order 8) and p = 0.21 over the 93 independent ones."""
+    u, y = _sim(np.random.default_rng(11), 2048, sigma=0.05)
+    p, f, m, v = tmp_path / "e.csv", tmp_path / "f.json", tmp_path / "m.json", tmp_path / "v.json"
+    h.write_csv(p, h.experiment_columns(u[:, None], y[:, None]))
+    h.run_ok("frf", "--method", "lpm", "--experiment", p, "-o", f)
+    r = h.run_ok("fit", "--method", "ml", "--order", "auto", f, "-o", m)
+    assert "every 11-th line" in r.stdout
+    h.validate(h.load_json(m), "msid-model-1")
+    sel = h.load_json(m)["order_selection"]
+    assert sel["chosen"] == 2 and sel["rule"] == "p-value", sel["chosen"]
+    assert sel["line_stride"] == 11 and "every 11-th line" in sel["lines_in_statistic"]
+    row = next(x for x in sel["orders"] if x["order"] == 2)
+    h.run_ok("validate", m, f, "-o", v)
+    vd = h.load_json(v)
+    assert vd["line_stride"] == 11 and vd["consistent_at_5pct"]
+    for a in ("cost", "expected", "dof", "p_value"):   # the table's row is validate's statistic
+        assert abs(row[a] - vd[a]) <= 1e-9 * max(1.0, abs(vd[a])), (a, row[a], vd[a])
+    # negative control: over every line the same fits reject orders 2, 3 and 4 at 5% (the all-lines
+    # rule picks a wrong order), while every order's independent-line p-value is validate's
+    for n in (2, 3, 4):
+        h.run_ok("fit", "--method", "ml", "--order", n, f, "-o", tmp_path / f"m{n}.json")
+        c = h.load_json(tmp_path / f"m{n}.json")["cost"]
+        assert c["p_value"] < 0.05, (n, c["p_value"])
+        assert abs(c["independent_lines"]["p_value"] - next(x for x in sel["orders"] if x["order"] == n)["p_value"]) < 1e-9

@@ -110,6 +110,10 @@ Json order_selection_json(const OrderSelection &s)
     o["rule_text"] = "smallest order with cost p-value >= alpha; if none, the smallest order whose cost ratio V/E is "
                      "within 10% of the way from the best ratio to the first order's";
     o["alpha"] = s.alpha;
+    o["line_stride"] = s.line_stride;
+    o["lines_in_statistic"] = s.line_stride > 1 ? "every " + std::to_string(s.line_stride) +
+                                                      "-th line (2W+1, independent LPM lines, as msid validate)"
+                                                : std::string("all");
     o["tolerances"] = {{"freq_rel", s.tol.freq}, {"damping_rel", s.tol.damping}, {"damping_abs_below_0.002", 1e-4},
                        {"residue_rel", s.tol.residue}};
     Json rows = Json::array();

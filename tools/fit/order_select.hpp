@@ -52,6 +52,7 @@ struct OrderSelection {
     std::string rule;            // "p-value" or "elbow"
     double alpha = 0.05;
     StabTol tol;
+    size_t line_stride = 1;      // lines of the cost/p-value: every line_stride-th (LPM: 2W+1, as msid validate)
 };
 
 // Parse "auto", "a:b" or "a:step:b" into orders (multiples of `step` when auto

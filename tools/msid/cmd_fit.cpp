@@ -3,6 +3,7 @@
 #include "commands.hpp"
 #include "frf_io.hpp"
 #include "nl_verdict.hpp"
+#include "validation_stat.hpp"
 
 #include "lmfd_fit.hpp"
 #include "poleres.hpp"
@@ -45,7 +46,8 @@ static const char *FIT_HELP =
     "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
     "  --stable  subspace: reflect unstable poles whatever the test says; ml (poles): constrained to stable poles\n"
     "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
-    "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md)\n"
+    "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md);\n"
+    "                on LPM files the cost and p-value of every (2W+1)-th line, as msid validate\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
@@ -216,24 +218,6 @@ static MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<Weigh
 }
 
 // Weighted cost (40) of model FRFs Gm at the lines.
-// The lines of validate's statistic: every line, or for an LPM file (neighbouring lines share 2W of
-// their 2W+1 window bins) every (2W+1)-th, which are independent (docs/statistics.md).
-static size_t lpm_line_stride(const FrfData &f, const std::string &mode)
-{
-    if (mode != "independent" && mode != "all")
-        throw UsageError("--lpm-lines must be independent or all (got '" + mode + "')");
-    if (f.method != "lpm" || mode == "all") return 1;
-    const Json j = read_json(f.path);
-    if (!j.contains("lpm") || !j["lpm"].contains("window") || !j["lpm"]["window"].is_number_unsigned() ||
-        j["lpm"]["window"].get<uint64_t>() < 1 || j["lpm"]["window"].get<uint64_t>() > 1000000)
-        throw FitError("'" + f.path + "' is an LPM file without a valid lpm.window: cannot tell which lines are independent");
-    for (size_t l = 1; l < f.lines.size(); ++l)
-        if (f.lines[l].bin != f.lines[l - 1].bin + 1)
-            throw FitError("'" + f.path + "': LPM lines are not consecutive bins (bin " + std::to_string(f.lines[l].bin) +
-                           " after " + std::to_string(f.lines[l - 1].bin) + "): cannot tell which lines are independent");
-    return 2 * (size_t)j["lpm"]["window"].get<uint64_t>() + 1;
-}
-
 static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC> &Gm)
 {
     double V = 0;
@@ -244,8 +228,9 @@ static double cost_at(const std::vector<WeightedLine> &w, const std::vector<MatC
     return V;
 }
 
-// LPM files: the fitted model's cost over every (2W+1)-th line (independent, as msid validate
-// sums it) with the cost law of those lines; null when the file has no usable covariance.
+// LPM files: the fitted model's cost over every (2W+1)-th line (independent) with the cost law
+// of those lines: validate's statistic (validation_stat.hpp); null when the file has no usable
+// covariance.
 static Json lpm_independent_cost(const FrfData &f, Domain d, const std::vector<MatC> &Gm, int nparams)
 {
     std::vector<WeightedLine> wc;
@@ -255,21 +240,14 @@ static Json lpm_independent_cost(const FrfData &f, Domain d, const std::vector<M
         return nullptr;
     }
     if (Gm.size() != wc.size()) return nullptr;
-    const size_t stride = lpm_line_stride(f, "independent");
-    double V = 0, neq = 0, neq_all = 0, nmin = 1e300;
-    for (size_t l = 0; l < wc.size(); ++l) {
-        const double k = (wc[l].real ? 1.0 : 2.0) * (double)f.g();
-        neq_all += k;
-        if (l % stride) continue;
-        const MatC E = wc[l].G - Gm[l];
-        V += (wc[l].real ? 0.5 : 1.0) * (wc[l].Linv * Eigen::Map<const VecC>(E.data(), E.size())).squaredNorm();
-        neq += k;
-        nmin = std::min(nmin, wc[l].dof);
-    }
-    const double dof = neq - nparams * (neq / neq_all);
-    if (!(dof > 0)) return nullptr;
-    Json c = cost_json(V, dof, nmin, (double)f.ny);
-    c["line_stride"] = stride;
+    const ValidationStat vs = validation_stat(wc, Gm, nparams, lpm_line_stride(f), (double)f.ny, false);
+    if (!(vs.dof > 0)) return nullptr;
+    Json c;
+    c["value"] = vs.cost;
+    c["expected"] = vs.expected;
+    c["dof"] = vs.dof;
+    if (std::isfinite(vs.p_value)) c["p_value"] = vs.p_value; else c["p_value"] = nullptr;
+    c["line_stride"] = vs.stride;
     return c;
 }
 
@@ -634,20 +612,18 @@ int cmd_validate(int argc, char **argv)
             w = weigh(f, mf.domain, wt);
         }
         const size_t stride = lpm_line_stride(f, a.has("lpm-lines") ? a.get("lpm-lines") : "independent");
-        double V = 0, neq = 0, neq_all = 0;
+        std::vector<MatC> Gm;
+        for (const auto &l : w) Gm.push_back(mf.lmfd ? lmfd_eval(*mf.lmfd, l.x) : ss_eval(mf.ss, l.x));
+        const ValidationStat vs = validation_stat(w, Gm, mf.n_params, stride, (double)f.ny, wt == Weight::None);
+        if (!(vs.dof > 0))
+            throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(vs.dof) + ")");
+        const double V = vs.cost, dof = vs.dof, pv = vs.p_value;
         Json per = Json::array();
         const double g = (double)f.g();
         int worst = -1;
         double worst_q = -1;
         for (size_t l = 0; l < w.size(); ++l) {
-            const MatC Gm = mf.lmfd ? lmfd_eval(*mf.lmfd, w[l].x) : ss_eval(mf.ss, w[l].x);
-            const MatC e = w[l].Linv * Eigen::Map<const MatC>(MatC(w[l].G - Gm).data(), (Eigen::Index)g, 1);
-            const double q = (w[l].real ? 0.5 : 1.0) * e.squaredNorm();
-            neq_all += (w[l].real ? 1.0 : 2.0) * g;
-            if (l % stride == 0) {   // the lines of the test statistic (all but for LPM files)
-                V += q;
-                neq += (w[l].real ? 1.0 : 2.0) * g;
-            }
+            const double q = vs.q[l];
             // per line: q / (expected under the model) ~ 1
             const double ex = (w[l].real ? 0.5 : 1.0) * g * (w[l].dof < 1e8 && w[l].dof > f.ny ? w[l].dof / (w[l].dof - f.ny) : 1.0);
             Json pl;
@@ -657,16 +633,9 @@ int cmd_validate(int argc, char **argv)
             per.push_back(pl);
             if (q / ex > worst_q) { worst_q = q / ex; worst = (int)l; }
         }
-        // a model fitted to all lines: its parameters take their share of the lines used
-        const double dof = neq - mf.n_params * (neq / neq_all);
-        if (dof <= 0) throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(dof) + ")");
-        double nmin = 1e300;
-        for (const auto &l : w) nmin = std::min(nmin, l.dof);
-        const CostLaw law = cost_law(dof, wt == Weight::None ? 1e300 : nmin, (double)f.ny);
-        const double pv = cost_pvalue(law, V);
         const bool ok = pv >= 0.05;
         std::printf("model %s on %s: weighted cost %.6g, expected %.6g (dof %.0f), p-value %.4g\n", mf.path.c_str(),
-                    f.path.c_str(), V, law.mean, dof, pv);
+                    f.path.c_str(), V, vs.expected, dof, pv);
         if (worst >= 0)
             std::printf("largest normalised residual %.3g at bin %u (1 expected on average)\n", worst_q, f.lines[(size_t)worst].bin);
         if (stride > 1)
@@ -682,7 +651,7 @@ int cmd_validate(int argc, char **argv)
             r["frf"] = f.path;
             r["weight"] = wname;
             r["cost"] = V;
-            r["expected"] = law.mean;
+            r["expected"] = vs.expected;
             r["dof"] = dof;
             r["p_value"] = pv;
             r["consistent_at_5pct"] = ok;

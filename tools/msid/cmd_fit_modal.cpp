@@ -1,6 +1,7 @@
 // Order selection (`msid fit --order auto | a:b | a:step:b`), modal parameters
 // in every model file, and `msid modes model.json`. See docs/fitting.md.
 #include "cli_util.hpp"
+#include "validation_stat.hpp"
 #include "commands.hpp"
 #include "frf_io.hpp"
 
@@ -108,6 +109,7 @@ int cmd_fit_scan(int argc, char **argv)
     } catch (const FitError &e) {
         throw UsageError(e.what());
     }
+    const size_t stride = lpm_line_stride(f);   // as msid validate: every (2W+1)-th line of an LPM file
     std::vector<Json> docs;
     const std::string tmp = out + ".order-scan.tmp";
     auto fit_at = [&](int n) {
@@ -129,10 +131,20 @@ int cmd_fit_scan(int argc, char **argv)
         std::remove(tmp.c_str());
         r.ok = true;
         r.converged = rc == 0 && d.value("converged", true);
-        r.cost = d["cost"]["value"].get<double>();
-        r.expected = d["cost"]["expected"].get<double>();
-        r.dof = d["cost"]["dof"].get<double>();
-        r.p_value = d["cost"]["p_value"].is_number() ? d["cost"]["p_value"].get<double>() : NAN;
+        // the statistic of msid validate: for an LPM file the cost over every (2W+1)-th line (independent),
+        // which `msid fit` writes as cost.independent_lines (validation_stat.hpp); every line otherwise
+        const Json &c = stride > 1 ? d["cost"].value("independent_lines", Json()) : d["cost"];
+        if (c.is_null()) {   // too few independent lines for this many parameters: no p-value
+            r.cost = d["cost"]["value"].get<double>();
+            r.expected = d["cost"]["expected"].get<double>();
+            r.dof = d["cost"]["dof"].get<double>();
+            r.p_value = NAN;
+        } else {
+            r.cost = c["value"].get<double>();
+            r.expected = c["expected"].get<double>();
+            r.dof = c["dof"].get<double>();
+            r.p_value = c["p_value"].is_number() ? c["p_value"].get<double>() : NAN;
+        }
         const Eigen::Index k = d["order"].get<Eigen::Index>(), nu = f.nu, ny = f.ny;
         r.model.domain = d["domain"] == "ct" ? Domain::CT : Domain::DT;
         auto jm = [](const Json &v, Eigen::Index rr, Eigen::Index cc) {
@@ -149,7 +161,11 @@ int cmd_fit_scan(int argc, char **argv)
         docs.push_back(std::move(d));
         return r;
     };
-    const OrderSelection sel = select_order(orders, fit_at, f.h, 0.05, StabTol{}, is_auto);
+    OrderSelection sel = select_order(orders, fit_at, f.h, 0.05, StabTol{}, is_auto);
+    sel.line_stride = stride;
+    if (stride > 1)
+        std::printf("LPM file: cost and p-value over every %zu-th line (2W+1 bins apart: independent), as msid validate\n",
+                    stride);
     std::printf("order  cost          expected      p-value     stable poles\n");
     for (const auto &r : sel.rows) {
         if (!r.fit.ok) {
