@@ -107,44 +107,60 @@ double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
 {
     const Eigen::Index n = m.A.rows(), ny = m.C.rows(), nu = m.B.cols() ? m.B.cols() : (Eigen::Index)(w[0].G.cols());
     const Eigen::Index g = ny * nu, nb = n * nu, nd = estimate_D ? g : 0, np = nb + nd;
-    // rows: per line g complex equations -> 2g real (real lines: g)
-    Eigen::Index rows = 0;
-    for (const auto &l : w) rows += l.real ? g : 2 * g;
-    MatR X(rows, np);
-    VecR y(rows);
-    Eigen::Index r0 = 0;
+    // The whitened rows [X y] (per line g complex equations -> 2g real, real lines g) are reduced to
+    // the R factor of [X y] a chunk of lines at a time (a QR of the running R stacked on the chunk's
+    // rows: the buffer stays in cache and no 2Lg x np matrix is formed); then, with
+    // R [X y] = [[R_X, z], [0, rho]], the LS solution solves R_X th = z (column pivoting: rank
+    // deficient X gives the basic solution, as a pivoted QR of X would) and the weighted cost is
+    // |R [th; -1]|^2 = |y - X th|^2.
+    const Eigen::Index nc = np + 1, CH = 64 * 2 * g;
+    MatR S(nc + CH, nc);      // rows 0..have-1: the running R; then the chunk's rows
+    Eigen::Index have = 0, rows = 0;
+    auto reduce = [&]() {
+        if (!rows) return;
+        const Eigen::Index used = have + rows;
+        Eigen::Ref<MatR> top = S.topRows(used);
+        Eigen::HouseholderQR<Eigen::Ref<MatR>> qr(top);   // in place
+        have = std::min(used, nc);
+        S.topRows(have) = S.topRows(have).triangularView<Eigen::Upper>();
+        rows = 0;
+    };
     const Resolvent res(m.A, m.C);
     MatC K(ny, n), T(ny, n);
     for (const auto &l : w) {
         res.at(l.x, K, T);   // ny x n
         // whitened rows of [ (I_nu kron K) , I_g ] and of vec(G): row a of Linv times them
         const double s = l.real ? std::sqrt(0.5) : 1.0;
+        const Eigen::Index r0 = have + rows, ri = l.real ? 0 : g;   // imaginary rows follow the real ones
         for (Eigen::Index a = 0; a < g; ++a) {
             for (Eigen::Index j = 0; j < nu; ++j)
                 for (Eigen::Index k = 0; k < n; ++k) {
                     cd acc = 0.0;
                     for (Eigen::Index i = 0; i < ny; ++i) acc += l.Linv(a, i + ny * j) * K(i, k);
-                    X(r0 + a, j * n + k) = s * acc.real();
-                    if (!l.real) X(r0 + g + a, j * n + k) = acc.imag();
+                    S(r0 + a, j * n + k) = s * acc.real();
+                    if (!l.real) S(r0 + ri + a, j * n + k) = acc.imag();
                 }
             cd gy = 0.0;
             for (Eigen::Index b = 0; b < g; ++b) {
                 if (estimate_D) {
-                    X(r0 + a, nb + b) = s * l.Linv(a, b).real();
-                    if (!l.real) X(r0 + g + a, nb + b) = l.Linv(a, b).imag();
+                    S(r0 + a, nb + b) = s * l.Linv(a, b).real();
+                    if (!l.real) S(r0 + ri + a, nb + b) = l.Linv(a, b).imag();
                 }
                 gy += l.Linv(a, b) * l.G.data()[b];
             }
-            y(r0 + a) = s * gy.real();
-            if (!l.real) y(r0 + g + a) = gy.imag();
+            S(r0 + a, np) = s * gy.real();
+            if (!l.real) S(r0 + ri + a, np) = gy.imag();
         }
-        r0 += l.real ? g : 2 * g;
+        rows += l.real ? g : 2 * g;
+        if (rows + 2 * g > CH) reduce();
     }
-    const VecR th = X.colPivHouseholderQr().solve(y);
+    reduce();
+    const MatR Rf = S.topRows(have);
+    const VecR th = Rf.leftCols(np).colPivHouseholderQr().solve(Rf.col(np));
     m.B = Eigen::Map<const MatR>(th.data(), n, nu);
     m.D = estimate_D ? MatR(Eigen::Map<const MatR>(th.data() + nb, ny, nu)) : MatR::Zero(ny, nu);
-    // weighted cost: the whitened residual is y - X th (real lines already carry their 1/2)
-    return (y - X * th).squaredNorm();
+    // weighted cost: the whitened residual (real lines already carry their 1/2)
+    return (Rf.col(np) - Rf.leftCols(np) * th).squaredNorm();
 }
 
 // W_r(x) = [1, x, ..., x^{r-1}]
@@ -414,9 +430,11 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
     };
     const unsigned hw = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
     if (hw > 1 && nr > 1) {
+        // hw - 1 threads beside this one, which takes its own share (one thread start saved)
+        auto share = [&](unsigned t) { for (int i = (int)t; i < nr; i += (int)hw) work(i); };
         std::vector<std::thread> pool;
-        for (unsigned t = 0; t < hw; ++t)
-            pool.emplace_back([&, t] { for (int i = (int)t; i < nr; i += (int)hw) work(i); });
+        for (unsigned t = 1; t < hw; ++t) pool.emplace_back(share, t);
+        share(0);
         for (auto &th : pool) th.join();
     } else {
         for (int i = 0; i < nr; ++i) work(i);
