@@ -248,7 +248,7 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
     VecR th;
     if (!to_modal(m, L, th)) { out.note = "A is (nearly) defective: not refined"; return out; }
     if (stable && !stable_poles(L, th)) { out.note = "start unstable: not refined"; return out; }
-    NormalEq ne, nt;
+    NormalEq ne;
     double V = residual(L, th, w, &ne);
     out.cost_start = V;
     double lambda = 1e-3;
@@ -267,15 +267,16 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
             const VecR step = -H.ldlt().solve(Jtr);
             const VecR tn = th + step;
             if (!step.allFinite() || (stable && !stable_poles(L, tn))) { lambda *= 10; continue; }
-            // the normal equations come with the trial: most LM trials are accepted
-            const double Vn = residual(L, tn, w, &nt);
+            // the cost of the trial alone (a few % of the normal equations): those only for an
+            // accepted step that is not the last
+            const double Vn = residual(L, tn, w, nullptr);
             if (std::isfinite(Vn) && Vn < V) {
                 // converged when a step gains less than 1e-6 of the cost (far below the
                 // statistical resolution of (35), whose spread is sqrt(2 dof))
                 done = (V - Vn) < 1e-6 * V;
                 th = tn;
                 V = Vn;
-                std::swap(ne, nt);
+                if (!done && it + 1 < max_iter) residual(L, th, w, &ne);   // the same V, with J^T J, J^T r
                 lambda = std::max(lambda / 10, 1e-12);
                 taken = true;
                 ++steps;
