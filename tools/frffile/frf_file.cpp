@@ -24,9 +24,23 @@ Json read_json(const std::string &path)
 {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string s = ss.str();
+    // one buffer of the file's size (a stringstream grows by doubling and str() copies: three
+    // buffers of fresh pages for a large file); streams without a size are read the long way
+    std::string s;
+    in.seekg(0, std::ios::end);
+    const std::streamoff size = in.tellg();
+    if (size > 0) {
+        s.resize((size_t)size);
+        in.seekg(0, std::ios::beg);
+        in.read(&s[0], (std::streamsize)size);
+        if (in.gcount() != (std::streamsize)size) s.resize((size_t)std::max<std::streamsize>(0, in.gcount()));
+    } else {
+        in.clear();
+        in.seekg(0, std::ios::beg);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        s = ss.str();
+    }
     if (s.empty()) throw Error("'" + path + "' is empty");
     try {
         return Json::parse(s);
