@@ -13,6 +13,7 @@ extern "C" {
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <sys/stat.h>
 
 namespace msidfrf {
 
@@ -24,11 +25,17 @@ Json read_json(const std::string &path)
 {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    // one buffer of the file's size (a stringstream grows by doubling and str() copies: three
-    // buffers of fresh pages for a large file); streams without a size are read the long way
+    // a regular file into one buffer of its size (a stringstream grows by doubling and str()
+    // copies: three buffers of fresh pages for a large file); anything else (a pipe, a directory,
+    // whose "size" from seeking is not its content) is read the long way
     std::string s;
-    in.seekg(0, std::ios::end);
-    const std::streamoff size = in.tellg();
+    struct stat st;
+    const bool regular = ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+    std::streamoff size = -1;
+    if (regular) {
+        in.seekg(0, std::ios::end);
+        size = in.tellg();
+    }
     if (size > 0) {
         s.resize((size_t)size);
         in.seekg(0, std::ios::beg);
