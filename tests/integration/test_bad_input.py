@@ -306,6 +306,15 @@ def fit_frf_number_overflow(d):
 
 
 @case
+def fit_frf_directory(d):
+    # the JSON reader sizes its buffer by the file's size only for regular files: a directory's
+    # seek "size" is not its content (it once gave basic_string::_M_replace_aux)
+    sub = Path(d) / "frf-dir"
+    sub.mkdir()
+    return ["fit", sub, "--method", "subspace", "--order", "2"], [f"'{sub}' is empty"]
+
+
+@case
 def mat_v5_rank_beyond_file(d):
     # a 333-byte .mat v5 file whose compressed matrix claims 385,875,968 dimensions: libmatio asked for
     # 3 GB before checking (found by fuzz_files, seed regress-mat-v5-rank-beyond-file); now one message

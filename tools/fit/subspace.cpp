@@ -107,44 +107,60 @@ double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
 {
     const Eigen::Index n = m.A.rows(), ny = m.C.rows(), nu = m.B.cols() ? m.B.cols() : (Eigen::Index)(w[0].G.cols());
     const Eigen::Index g = ny * nu, nb = n * nu, nd = estimate_D ? g : 0, np = nb + nd;
-    // rows: per line g complex equations -> 2g real (real lines: g)
-    Eigen::Index rows = 0;
-    for (const auto &l : w) rows += l.real ? g : 2 * g;
-    MatR X(rows, np);
-    VecR y(rows);
-    Eigen::Index r0 = 0;
+    // The whitened rows [X y] (per line g complex equations -> 2g real, real lines g) are reduced to
+    // the R factor of [X y] a chunk of lines at a time (a QR of the running R stacked on the chunk's
+    // rows: the buffer stays in cache and no 2Lg x np matrix is formed); then, with
+    // R [X y] = [[R_X, z], [0, rho]], the LS solution solves R_X th = z (column pivoting: rank
+    // deficient X gives the basic solution, as a pivoted QR of X would) and the weighted cost is
+    // |R [th; -1]|^2 = |y - X th|^2.
+    const Eigen::Index nc = np + 1, CH = 64 * 2 * g;
+    MatR S(nc + CH, nc);      // rows 0..have-1: the running R; then the chunk's rows
+    Eigen::Index have = 0, rows = 0;
+    auto reduce = [&]() {
+        if (!rows) return;
+        const Eigen::Index used = have + rows;
+        Eigen::Ref<MatR> top = S.topRows(used);
+        Eigen::HouseholderQR<Eigen::Ref<MatR>> qr(top);   // in place
+        have = std::min(used, nc);
+        S.topRows(have) = S.topRows(have).triangularView<Eigen::Upper>();
+        rows = 0;
+    };
     const Resolvent res(m.A, m.C);
     MatC K(ny, n), T(ny, n);
     for (const auto &l : w) {
         res.at(l.x, K, T);   // ny x n
         // whitened rows of [ (I_nu kron K) , I_g ] and of vec(G): row a of Linv times them
         const double s = l.real ? std::sqrt(0.5) : 1.0;
+        const Eigen::Index r0 = have + rows, ri = l.real ? 0 : g;   // imaginary rows follow the real ones
         for (Eigen::Index a = 0; a < g; ++a) {
             for (Eigen::Index j = 0; j < nu; ++j)
                 for (Eigen::Index k = 0; k < n; ++k) {
                     cd acc = 0.0;
                     for (Eigen::Index i = 0; i < ny; ++i) acc += l.Linv(a, i + ny * j) * K(i, k);
-                    X(r0 + a, j * n + k) = s * acc.real();
-                    if (!l.real) X(r0 + g + a, j * n + k) = acc.imag();
+                    S(r0 + a, j * n + k) = s * acc.real();
+                    if (!l.real) S(r0 + ri + a, j * n + k) = acc.imag();
                 }
             cd gy = 0.0;
             for (Eigen::Index b = 0; b < g; ++b) {
                 if (estimate_D) {
-                    X(r0 + a, nb + b) = s * l.Linv(a, b).real();
-                    if (!l.real) X(r0 + g + a, nb + b) = l.Linv(a, b).imag();
+                    S(r0 + a, nb + b) = s * l.Linv(a, b).real();
+                    if (!l.real) S(r0 + ri + a, nb + b) = l.Linv(a, b).imag();
                 }
                 gy += l.Linv(a, b) * l.G.data()[b];
             }
-            y(r0 + a) = s * gy.real();
-            if (!l.real) y(r0 + g + a) = gy.imag();
+            S(r0 + a, np) = s * gy.real();
+            if (!l.real) S(r0 + ri + a, np) = gy.imag();
         }
-        r0 += l.real ? g : 2 * g;
+        rows += l.real ? g : 2 * g;
+        if (rows + 2 * g > CH) reduce();
     }
-    const VecR th = X.colPivHouseholderQr().solve(y);
+    reduce();
+    const MatR Rf = S.topRows(have);
+    const VecR th = Rf.leftCols(np).colPivHouseholderQr().solve(Rf.col(np));
     m.B = Eigen::Map<const MatR>(th.data(), n, nu);
     m.D = estimate_D ? MatR(Eigen::Map<const MatR>(th.data() + nb, ny, nu)) : MatR::Zero(ny, nu);
-    // weighted cost: the whitened residual is y - X th (real lines already carry their 1/2)
-    return (y - X * th).squaredNorm();
+    // weighted cost: the whitened residual (real lines already carry their 1/2)
+    return (Rf.col(np) - Rf.leftCols(np) * th).squaredNorm();
 }
 
 // W_r(x) = [1, x, ..., x^{r-1}]
@@ -161,17 +177,21 @@ struct Shared {
     double wscale = 0.0;
 };
 
-// A and C from block-row count r (steps 1-2 of Algorithm 1). Returns the singular values.
-// Everything of the subspace step that does not depend on r, computed once for
-// the largest r of the scan: the R factor of Z^T (columns ordered U_0..U_{R-1},
-// Y_0..Y_{R-1}) and C_Y. For a smaller r the R factor of the column subset
-// [U_0..U_{r-1}, Y_0..Y_{r-1}] is the R factor of the same columns of R_max
-// (Z^T = Q R_max), and C_Y(r) is the leading principal block.
+// Everything of the subspace step that does not depend on r, computed once for the largest r of
+// the scan. Z^T (2 F nu rows, columns U_0..U_{R-1}, Y_0..Y_{R-1}) is, with its rows grouped by
+// input j, block structured: input j's rows are [W_j, Y_j] with W_j = [Re; Im] W_R(x_l)^T (the same
+// for every j) in the columns of U_k's entry j and zeros under the other inputs' U columns. Its R
+// factor therefore comes from one QR per input of the 2F x R (1 + ny) matrix Z_j = [W_j, Y_j]
+// (about half the work of the QR of Z^T): Z_j = Q_j R_j. For a block-row count r <= R the columns
+// of U_0..U_{r-1} of Z_j are its first r columns, whose span in R_j's coordinates is that of the
+// first r unit vectors (R_j upper triangular), so the Y_0..Y_{r-1} columns with U_0..U_{r-1}
+// projected out are rows r.. of R_j's Y_0..Y_{r-1} columns, and (step 1b of P Algorithm 1)
+// R_22(r)^T R_22(r) = sum_j R_j[r:, Y(r)]^T R_j[r:, Y(r)]; C_Y(r) is the leading principal block.
 struct Precomp {
     int R = 0;
     Eigen::Index nu = 0, ny = 0;
-    MatR Rmax;   // R (nu + ny) square, upper triangular
-    MatR CY;     // R ny square
+    std::vector<MatR> Rj;   // per input: min(2F, R (1 + ny)) x R (1 + ny), upper triangular
+    MatR CY;                // R ny square
 };
 
 static Precomp precompute(const std::vector<WeightedLine> &w, const Shared &sh, int R, bool weighted)
@@ -181,8 +201,8 @@ static Precomp precompute(const std::vector<WeightedLine> &w, const Shared &sh, 
     const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows(), F = (Eigen::Index)w.size();
     pc.nu = nu;
     pc.ny = ny;
-    const Eigen::Index cols = R * (nu + ny), rows = 2 * F * nu;
-    MatR ZT = MatR::Zero(rows, cols);
+    const Eigen::Index cols = R * (1 + ny), rows = 2 * F;
+    std::vector<MatR> Z((size_t)nu, MatR::Zero(rows, cols));
     // C_Y = Re sum_l (W W^H) kron S_l. On the unit circle (|xi| = 1: DT z, CT bilinear w)
     // (W W^H)(a, b) = xi^(a-b): accumulate the 2R-1 moments sum_l xi^k S_l once.
     std::vector<MatC> mom((size_t)(2 * R - 1), MatC::Zero(ny, ny));
@@ -194,13 +214,13 @@ static Precomp precompute(const std::vector<WeightedLine> &w, const Shared &sh, 
         cd p = 1.0;
         for (int k = 0; k < R; ++k, p *= x) {
             for (Eigen::Index j = 0; j < nu; ++j) {
-                const Eigen::Index r0 = 2 * (l * nu + j);
-                ZT(r0, k * nu + j) = p.real();
-                ZT(r0 + 1, k * nu + j) = p.imag();
+                MatR &Zj = Z[(size_t)j];
+                Zj(2 * l, k) = p.real();
+                Zj(2 * l + 1, k) = p.imag();
                 for (Eigen::Index i = 0; i < ny; ++i) {
                     const cd v = p * G(i, j);
-                    ZT(r0, R * nu + k * ny + i) = v.real();
-                    ZT(r0 + 1, R * nu + k * ny + i) = v.imag();
+                    Zj(2 * l, R + k * ny + i) = v.real();
+                    Zj(2 * l + 1, R + k * ny + i) = v.imag();
                 }
             }
         }
@@ -236,24 +256,26 @@ static Precomp precompute(const std::vector<WeightedLine> &w, const Shared &sh, 
                         for (Eigen::Index k = 0; k < ny; ++k) pc.CY(a * ny + i, b * ny + k) += (W(a) * std::conj(W(b)) * S(i, k)).real();
         }
     }
-    Eigen::HouseholderQR<MatR> qr(ZT);
     const Eigen::Index keep = std::min(rows, cols);
-    pc.Rmax = MatR::Zero(cols, cols);
-    pc.Rmax.topRows(keep) = qr.matrixQR().topRows(keep).triangularView<Eigen::Upper>();
+    for (Eigen::Index j = 0; j < nu; ++j) {
+        Eigen::HouseholderQR<Eigen::Ref<MatR>> qr(Z[(size_t)j]);   // in place
+        pc.Rj.push_back(qr.matrixQR().topRows(keep).triangularView<Eigen::Upper>());
+    }
     return pc;
 }
 
 // A and C from block-row count r (steps 1-2 of Algorithm 1). Returns the singular values.
 static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::vector<double> &sv)
 {
-    const Eigen::Index nu = pc.nu, ny = pc.ny, R = pc.R;
-    const Eigen::Index cols = r * (nu + ny);
-    MatR M(pc.Rmax.rows(), cols);
-    M.leftCols(r * nu) = pc.Rmax.leftCols(r * nu);
-    M.rightCols(r * ny) = pc.Rmax.middleCols(R * nu, r * ny);
-    Eigen::HouseholderQR<MatR> qr(M);
-    const MatR Rr = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
-    const MatR R22 = Rr.bottomRightCorner(r * ny, r * ny);
+    const Eigen::Index ny = pc.ny, R = pc.R;
+    // R_22^T R_22 from the rows r.. of every input's R factor (see Precomp)
+    MatR G22 = MatR::Zero(r * ny, r * ny);
+    for (const MatR &Rj : pc.Rj)
+        if (Rj.rows() > r) {
+            const auto Yr = Rj.block(r, R, Rj.rows() - r, r * ny);
+            G22.selfadjointView<Eigen::Lower>().rankUpdate(Yr.transpose());
+        }
+    G22.triangularView<Eigen::StrictlyUpper>() = G22.transpose();
     const MatR CY = pc.CY.topLeftCorner(r * ny, r * ny);
     // C_Y^{1/2} and its (pseudo-)inverse by a symmetric eigendecomposition: with many block
     // rows over a narrow band C_Y is numerically rank deficient (near-collinear powers).
@@ -269,10 +291,11 @@ static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::
     }
     const MatR Ch = es.eigenvectors() * sq.asDiagonal() * es.eigenvectors().transpose();
     const MatR Cih = es.eigenvectors() * isq.asDiagonal() * es.eigenvectors().transpose();
-    const MatR Mw = Cih * R22.transpose();
-    // left singular vectors of Mw = eigenvectors of Mw Mw^T (descending), singular values = sqrt(eig)
-    Eigen::SelfAdjointEigenSolver<MatR> eg(Mw * Mw.transpose());
-    const Eigen::Index q = Mw.rows();
+    // Mw = C_Y^{-1/2} R_22^T: its left singular vectors are the eigenvectors of
+    // Mw Mw^T = C_Y^{-1/2} R_22^T R_22 C_Y^{-1/2} (descending), its singular values sqrt(eig)
+    const MatR MMt = Cih * G22 * Cih;
+    Eigen::SelfAdjointEigenSolver<MatR> eg(0.5 * (MMt + MMt.transpose()));
+    const Eigen::Index q = MMt.rows();
     sv.resize((size_t)q);
     MatR Us(q, n);
     for (Eigen::Index k = 0; k < q; ++k) sv[(size_t)k] = std::sqrt(std::max(0.0, eg.eigenvalues()(q - 1 - k)));
@@ -407,9 +430,11 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
     };
     const unsigned hw = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
     if (hw > 1 && nr > 1) {
+        // hw - 1 threads beside this one, which takes its own share (one thread start saved)
+        auto share = [&](unsigned t) { for (int i = (int)t; i < nr; i += (int)hw) work(i); };
         std::vector<std::thread> pool;
-        for (unsigned t = 0; t < hw; ++t)
-            pool.emplace_back([&, t] { for (int i = (int)t; i < nr; i += (int)hw) work(i); });
+        for (unsigned t = 1; t < hw; ++t) pool.emplace_back(share, t);
+        share(0);
         for (auto &th : pool) th.join();
     } else {
         for (int i = 0; i < nr; ++i) work(i);

@@ -119,23 +119,48 @@ bool stable_poles(const Modal &L, const VecR &th)
     return true;
 }
 
-// Whitened residual r (real, imag stacked per line) and, if J, its Jacobian d r / d theta.
-double residual(const Modal &L, const VecR &th, const std::vector<WeightedLine> &w, VecR &r, MatR *J)
+// Weighted cost (35) of theta and, if JtJ, the Gauss-Newton normal equations of its whitened residual
+// r (real, imag stacked per line): JtJ = J^T J (lower triangle only) and Jtr = J^T r, J = d r / d theta.
+// J is never formed whole: the rows of up to CHUNK lines at a time go into a small buffer (L2-resident)
+// whose rank update is added, so the work is that of one J^T J without its 2 L g np doubles.
+constexpr Eigen::Index CHUNK = 32;
+struct NormalEq {
+    MatR JtJ;      // np x np, lower triangle
+    VecR Jtr;      // np
+    MatR Jb;       // CHUNK 2g x np rows of J
+    VecR rb;       // their residuals
+    MatC Jc;       // g x np: d vec(Gm) / d theta (complex) of one line
+};
+double residual(const Modal &L, const VecR &th, const std::vector<WeightedLine> &w, NormalEq *ne)
 {
     const Eigen::Index n = L.n, nu = L.nu, ny = L.ny, g = ny * nu, np = L.size();
     const Eigen::Map<const MatR> B(th.data() + n, n, nu), C(th.data() + n + n * nu, ny, n);
     const MatR D = L.estD ? MatR(Eigen::Map<const MatR>(th.data() + n + n * nu + ny * n, ny, nu)) : MatR::Zero(ny, nu);
-    r.resize((Eigen::Index)w.size() * 2 * g);
-    if (J) J->resize(r.size(), np);
+    const bool J = ne != nullptr;
+    if (J) {
+        ne->JtJ.setZero(np, np);
+        ne->Jtr.setZero(np);
+        ne->Jb.resize(CHUNK * 2 * g, np);
+        ne->rb.resize(CHUNK * 2 * g);
+        ne->Jc.resize(g, np);
+    }
     MatC Gm(ny, nu), dG(ny, nu);
     VecC e(g);
-    MatC Jc(g, np);   // d vec(Gm) / d theta (complex), per line
+    Eigen::Index rows = 0;   // rows of the chunk buffer in use
+    auto flush = [&]() {
+        if (!rows) return;
+        const auto Jr = ne->Jb.topRows(rows);
+        ne->JtJ.selfadjointView<Eigen::Lower>().rankUpdate(Jr.transpose());
+        ne->Jtr.noalias() += Jr.transpose() * ne->rb.head(rows);
+        rows = 0;
+    };
     double V = 0;
     for (size_t li = 0; li < w.size(); ++li) {
         const WeightedLine &l = w[li];
         const cd x = l.x;
         Gm = D.cast<cd>();
-        if (J) Jc.setZero();
+        MatC *Jcp = J ? &ne->Jc : nullptr;
+        if (J) Jcp->setZero();
         Eigen::Index p = 0;
         for (size_t b = 0; b < L.pair.size(); ++b) {
             const Eigen::Index i0 = L.first[b];
@@ -150,6 +175,7 @@ double residual(const Modal &L, const VecR &th, const std::vector<WeightedLine> 
                     for (Eigen::Index j = 0; j < nu; ++j) {
                         Gm(i, j) += k0 * B(i0, j) + k1 * B(i0 + 1, j);
                         if (!J) continue;
+                        MatC &Jc = *Jcp;
                         const Eigen::Index ij = i + ny * j;
                         const cd m0 = R00 * B(i0, j) + R01 * B(i0 + 1, j), m1 = R10 * B(i0, j) + R11 * B(i0 + 1, j);
                         // d/ds: K M (dA/ds = I); d/dw: K [[0,1],[-1,0]] M = k0 m1 - k1 m0
@@ -169,6 +195,7 @@ double residual(const Modal &L, const VecR &th, const std::vector<WeightedLine> 
                         const cd t = C(i, i0) * R * B(i0, j);
                         Gm(i, j) += t;
                         if (!J) continue;
+                        MatC &Jc = *Jcp;
                         const Eigen::Index ij = i + ny * j;
                         Jc(ij, p) = t * R;
                         Jc(ij, n + j * n + i0) = C(i, i0) * R;
@@ -178,21 +205,35 @@ double residual(const Modal &L, const VecR &th, const std::vector<WeightedLine> 
             }
         }
         if (J && L.estD)
-            for (Eigen::Index ij = 0; ij < g; ++ij) Jc(ij, n + n * nu + ny * n + ij) = 1.0;
+            for (Eigen::Index ij = 0; ij < g; ++ij) (*Jcp)(ij, n + n * nu + ny * n + ij) = 1.0;
         dG = l.G - Gm;
-        e.noalias() = l.Linv * Eigen::Map<const VecC>(dG.data(), g);
+        // e = Linv vec(dG); Linv is lower triangular (weigh(): the inverse Cholesky factor or I)
+        for (Eigen::Index a = 0; a < g; ++a) {
+            cd s = 0.0;
+            for (Eigen::Index b = 0; b <= a; ++b) s += l.Linv(a, b) * dG.data()[b];
+            e(a) = s;
+        }
         const double sc = l.real ? std::sqrt(0.5) : 1.0;
-        const Eigen::Index r0 = (Eigen::Index)li * 2 * g;
-        r.segment(r0, g) = sc * e.real();
-        r.segment(r0 + g, g) = sc * e.imag();
         V += sc * sc * e.squaredNorm();
         if (J) {
-            // residual = Linv (G - Gm): d r = -Linv d Gm
-            const MatC WJ = -(l.Linv * Jc);
-            J->block(r0, 0, g, np) = sc * WJ.real();
-            J->block(r0 + g, 0, g, np) = sc * WJ.imag();
+            // residual = Linv (G - Gm): d r = -Linv d Gm, rows (Re, Im) of the line into the chunk buffer
+            const MatC &Jc = *Jcp;
+            for (Eigen::Index a = 0; a < g; ++a) {
+                ne->rb(rows + a) = sc * e(a).real();
+                ne->rb(rows + g + a) = sc * e(a).imag();
+            }
+            for (Eigen::Index c = 0; c < np; ++c)
+                for (Eigen::Index a = 0; a < g; ++a) {
+                    cd s = 0.0;
+                    for (Eigen::Index b = 0; b <= a; ++b) s += l.Linv(a, b) * Jc(b, c);
+                    ne->Jb(rows + a, c) = -sc * s.real();
+                    ne->Jb(rows + g + a, c) = -sc * s.imag();
+                }
+            rows += 2 * g;
+            if (rows == ne->Jb.rows()) flush();
         }
     }
+    if (J) flush();
     return V;
 }
 
@@ -207,19 +248,15 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
     VecR th;
     if (!to_modal(m, L, th)) { out.note = "A is (nearly) defective: not refined"; return out; }
     if (stable && !stable_poles(L, th)) { out.note = "start unstable: not refined"; return out; }
-    VecR r, rt;
-    MatR J, Jt;
-    double V = residual(L, th, w, r, &J);
+    NormalEq ne;
+    double V = residual(L, th, w, &ne);
     out.cost_start = V;
     double lambda = 1e-3;
     int steps = 0;
-    const Eigen::Index np = L.size();
-    MatR JtJ(np, np);
     for (int it = 0; it < max_iter; ++it) {
-        JtJ.setZero();
-        JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+        MatR &JtJ = ne.JtJ;
         JtJ.triangularView<Eigen::StrictlyUpper>() = JtJ.transpose();
-        const VecR Jtr = J.transpose() * r;
+        const VecR &Jtr = ne.Jtr;
         VecR dg = JtJ.diagonal();
         const double dmax = dg.maxCoeff();
         for (Eigen::Index k = 0; k < dg.size(); ++k) dg(k) = std::max(dg(k), 1e-12 * dmax);
@@ -230,16 +267,16 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
             const VecR step = -H.ldlt().solve(Jtr);
             const VecR tn = th + step;
             if (!step.allFinite() || (stable && !stable_poles(L, tn))) { lambda *= 10; continue; }
-            // the Jacobian comes with the trial: most LM trials are accepted
-            const double Vn = residual(L, tn, w, rt, &Jt);
+            // the cost of the trial alone (a few % of the normal equations): those only for an
+            // accepted step that is not the last
+            const double Vn = residual(L, tn, w, nullptr);
             if (std::isfinite(Vn) && Vn < V) {
                 // converged when a step gains less than 1e-6 of the cost (far below the
                 // statistical resolution of (35), whose spread is sqrt(2 dof))
                 done = (V - Vn) < 1e-6 * V;
                 th = tn;
                 V = Vn;
-                r.swap(rt);
-                J.swap(Jt);
+                if (!done && it + 1 < max_iter) residual(L, th, w, &ne);   // the same V, with J^T J, J^T r
                 lambda = std::max(lambda / 10, 1e-12);
                 taken = true;
                 ++steps;

@@ -13,6 +13,7 @@ extern "C" {
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <sys/stat.h>
 
 namespace msidfrf {
 
@@ -24,9 +25,29 @@ Json read_json(const std::string &path)
 {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string s = ss.str();
+    // a regular file into one buffer of its size (a stringstream grows by doubling and str()
+    // copies: three buffers of fresh pages for a large file); anything else (a pipe, a directory,
+    // whose "size" from seeking is not its content) is read the long way
+    std::string s;
+    struct stat st;
+    const bool regular = ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+    std::streamoff size = -1;
+    if (regular) {
+        in.seekg(0, std::ios::end);
+        size = in.tellg();
+    }
+    if (size > 0) {
+        s.resize((size_t)size);
+        in.seekg(0, std::ios::beg);
+        in.read(&s[0], (std::streamsize)size);
+        if (in.gcount() != (std::streamsize)size) s.resize((size_t)std::max<std::streamsize>(0, in.gcount()));
+    } else {
+        in.clear();
+        in.seekg(0, std::ios::beg);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        s = ss.str();
+    }
     if (s.empty()) throw Error("'" + path + "' is empty");
     try {
         return Json::parse(s);
