@@ -561,7 +561,7 @@ int cmd_fit(int argc, char **argv)
         doc["cost"] = cost;
         doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
         add_modes(doc, true);   // modal parameters with standard deviations (cmd_fit_modal.cpp)
-        write_json_file(out, doc);
+        write_json_file(out, doc, false);   // derived from files: atomic, not fsynced (docs/model-format.md)
         std::printf("wrote %s: %s fit, order %d, weighted cost %.6g (expected %.6g, %s)%s\n", out.c_str(), method.c_str(),
                     (int)ss.n(), doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
                     doc["cost"]["p_value"].is_null() ? "no p-value"
@@ -670,7 +670,7 @@ int cmd_validate(int argc, char **argv)
             r["line_stride"] = stride;
             if (!nlv.is_null()) r["nonlinear_distortion"] = nlv;
             r["lines"] = per;
-            write_json_file(a.get("output"), r);
+            write_json_file(a.get("output"), r, false);
         }
         return 0;
     } catch (const FitError &e) {
@@ -695,7 +695,7 @@ int cmd_compare(int argc, char **argv)
         if (a.has("output"))
             write_json_file(a.get("output"), Json{{"format", "msid-compare/1"}, {"model", m1.path}, {"reference", m2.path},
                                                    {"h2_rel", dd.h2}, {"hinf_rel", dd.hinf}, {"h2_ref", dd.h2_ref},
-                                                   {"hinf_ref", dd.hinf_ref}});
+                                                   {"hinf_ref", dd.hinf_ref}}, false);
         return 0;
     } catch (const FitError &e) {
         throw Error(e.what());
