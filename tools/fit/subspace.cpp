@@ -257,7 +257,8 @@ static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::
     const MatR CY = pc.CY.topLeftCorner(r * ny, r * ny);
     // C_Y^{1/2} and its (pseudo-)inverse by a symmetric eigendecomposition: with many block
     // rows over a narrow band C_Y is numerically rank deficient (near-collinear powers).
-    Eigen::SelfAdjointEigenSolver<MatR> es(0.5 * (CY + CY.transpose()));
+    // MatR arguments: the one compute<MatrixXd> instance of eigen_inst_eigen.cpp, not one per expression type
+    Eigen::SelfAdjointEigenSolver<MatR> es(MatR(0.5 * (CY + CY.transpose())));
     const VecR lam = es.eigenvalues();
     const double lmax = lam.maxCoeff();
     if (!(lmax > 0)) throw FitError("the noise weighting C_Y of the subspace step is zero");
@@ -271,7 +272,7 @@ static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::
     const MatR Cih = es.eigenvectors() * isq.asDiagonal() * es.eigenvectors().transpose();
     const MatR Mw = Cih * R22.transpose();
     // left singular vectors of Mw = eigenvectors of Mw Mw^T (descending), singular values = sqrt(eig)
-    Eigen::SelfAdjointEigenSolver<MatR> eg(Mw * Mw.transpose());
+    Eigen::SelfAdjointEigenSolver<MatR> eg(MatR(Mw * Mw.transpose()));
     const Eigen::Index q = Mw.rows();
     sv.resize((size_t)q);
     MatR Us(q, n);
