@@ -14,3 +14,15 @@ function(msid_demo_quick target)
     target_compile_options(${target} PRIVATE ${MSID_DEMO_OPT})
   endif()
 endfunction()
+
+# msid_demo_unity(target): in the demo build, compile this target's sources as one unity source (CMake
+# UNITY_BUILD), so that what they all instantiate (Eigen's matrix-product kernels, nlohmann-json) is
+# compiled once instead of once per file: Eigen template instantiation, not optimisation, is the build
+# time (docs/benchmarks.md "Demo build"). Sources marked SKIP_UNITY_BUILD_INCLUSION stay apart
+# (tools/fit's explicit instantiations, eigen_inst_*.cpp, which the second core compiles meanwhile).
+# The sources themselves are unchanged; the full build compiles them one by one as before.
+function(msid_demo_unity target)
+  if(MSID_DEMO)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 0)
+  endif()
+endfunction()
