@@ -1,11 +1,15 @@
 # The demo build (MSID_DEMO=ON, what `./bootstrap.sh demo` configures; docs/benchmarks.md "Demo build").
 # It builds msid and msid-devsim only (bootstrap.sh asks for those two targets, MSID_BUILD_TESTS=OFF) and
-# leaves out of msid what `msid demo` never runs: every `msid bench`, `fit --method cissim` and
-# `fit --method multi` (with the cissim and multi fitting sources behind them); msid/left_out.cpp
-# answers those commands with one message naming `./bootstrap.sh build`. The C++ host code is compiled
-# at MSID_DEMO_OPT. With MSID_DEMO=OFF (the default, ./bootstrap.sh build|test, CI) every command is
-# built and msid_demo_quick does nothing: -O3 everywhere, so `msid bench` measures what it always did.
+# leaves out of msid what `msid demo` never runs: every `msid bench`, `fit --method cissim|multi`,
+# `fit --method ml --param poles`, `modbus|can measure --on-device`, `frf --method lpm|etfe` and
+# `frf --direct` (with the sources behind them); msid/left_out.cpp answers those commands with one
+# message naming `./bootstrap.sh build`. The C++ host code is compiled at MSID_DEMO_OPT, msid_fit and
+# most command-line objects as unity sources (msid_demo_unity below). With MSID_DEMO=OFF (the default,
+# ./bootstrap.sh build|test, CI) every command is built and msid_demo_quick does nothing: -O3
+# everywhere, one object per source, so `msid bench` measures what it always did.
 option(MSID_DEMO "Build only what `msid demo` runs (./bootstrap.sh demo)" OFF)
+# -O0 is no cheaper: eigen_inst_linear.cpp 29.9 s of CPU at -O0, 29.0 s at -O1; cmd_fit.cpp 16.9 / 18.0 s
+# (the time is template instantiation; docs/benchmarks.md "Demo build, fourth pass")
 set(MSID_DEMO_OPT "-O1" CACHE STRING "Optimisation of the C++ host code in the demo build (MSID_DEMO=ON)")
 
 # msid_demo_quick(target): in the demo build, compile this C++ target at MSID_DEMO_OPT.
