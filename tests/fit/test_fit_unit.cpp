@@ -3,6 +3,7 @@
 // FRFs (DT and CT, SISO and 2x2 4th order, by subspace, lmfd and ml), model
 // conversions and distances, and the errors the issue lists.
 #include "lmfd_fit.hpp"
+#include "order_select.hpp"
 #include "subspace.hpp"
 #include <cmath>
 #include <cstdio>
@@ -352,6 +353,34 @@ static void errors(void **)
     expect_error([&] { parse_pin("Q0=1"); }, "expected e.g.");
 }
 
+// --pin and --order a:b are read by hand (text_scan.hpp, no <regex>: issue 13, compile time); the
+// grammars they replaced, ^\s*([DN])(\d+)(?:\[(\d+),(\d+)\])?\s*=\s*([-+0-9.eE]+)\s*$ and
+// ^(\d+):(?:(\d+):)?(\d+)$, accept exactly these and refuse every near miss below.
+static void option_parsers(void **)
+{
+    const Pin a = parse_pin(" D12[3,4] = -1.5e-2 ");
+    assert_int_equal(a.mat, 'D');
+    assert_int_equal(a.index, 12);
+    assert_int_equal(a.row, 2);
+    assert_int_equal(a.col, 3);
+    assert_true(a.value == -1.5e-2);
+    const Pin b = parse_pin("N0=0");
+    assert_int_equal(b.mat, 'N');
+    assert_int_equal(b.index, 0);
+    assert_int_equal(b.row, -1);   // every entry
+    assert_true(b.value == 0.0);
+    for (const char *bad : {"Q0=1", "D=1", "D1", "D1=", "D1[1,2]=", "D1[1,]=0", "D1[,2]=0", "D1[1,2=0", "D1[12]=0",
+                            "D1[1,2]=0.5x", "d1=0", "D1 [1,2]=0", "D1[1, 2]=0", "", "=1", "D1==1"})
+        expect_error([&] { parse_pin(bad); }, "expected e.g.");
+    expect_error([&] { parse_pin("N0=e"); }, "bad value");   // the characters fit, the number does not
+    const std::vector<int> r = parse_order_range("2:6", 2, 100, nullptr);
+    assert_true(r == std::vector<int>({2, 4, 6}));
+    const std::vector<int> st = parse_order_range("1:3:10", 1, 100, nullptr);
+    assert_true(st == std::vector<int>({1, 4, 7, 10}));
+    for (const char *bad : {"3:", ":3", "3:5:", "3::5", "3:5:7:9", "a:b", "3-5", " 3:5", "3:5 ", "+3:5"})
+        expect_error([&] { parse_order_range(bad, 1, 100, nullptr); }, "expected a positive integer");
+}
+
 int main()
 {
     const struct CMUnitTest tests[] = {
@@ -366,6 +395,7 @@ int main()
         cmocka_unit_test(subspace_refine_and_auto_stability),
         cmocka_unit_test(distances),
         cmocka_unit_test(errors),
+        cmocka_unit_test(option_parsers),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # ctest demo_build_left_out (label integration): the demo build's msid (MSID_DEMO, cmake/msid_demo.cmake;
-# here msid_demo_cli, the same objects as msid with msid/left_out.cpp for the bench, cissim, multi and
-# lpm/etfe handlers) answers each left-out command with exactly one line naming it and `./bootstrap.sh build`,
-# exit status 2, nothing on stdout, no file written; the commands it keeps still run.
+# here msid_demo_cli, the same objects as msid with msid/left_out.cpp for the bench, cissim, multi,
+# ml --param poles, --on-device and lpm/etfe handlers) answers each left-out command with exactly one line
+# naming it and `./bootstrap.sh build`, exit status 2, nothing on stdout, no file written; the commands it keeps still run.
 # Negative control: the full msid (FULL) gets the same commands and must NOT pass the same check.
 set -uo pipefail
 demo=$(realpath "$1") full=${2:+$(realpath "$2")}
@@ -18,11 +18,15 @@ left_out() {
   echo "  $(basename "$bin") $*: exit $rc, stderr '$(cat "$work/err.txt")'" >&2
   return 1
 }
+golden=$(realpath "$(dirname "$0")/golden")
 cases=(
   "bench::bench --help"
   "bench::bench no-such-benchmark"
   "fit --method cissim::fit --method cissim --period 64 --lines 1,2 --experiment e.csv -o m.json"
   "fit --method multi::fit --method=multi --experiment r.csv --order 2 -o m.json"
+  "fit --method ml --param poles::fit --method ml --param poles --order 4 $golden/periodic.json -o m.json"
+  "modbus measure --on-device::modbus measure --on-device --tcp 127.0.0.1:1 --design d.json -o f.json"
+  "can measure --on-device::can measure --on-device --iface vcan-none --design d.json -o f.json"
   "validate --experiment::validate m.json --experiment r.csv"
   "frf --method lpm|etfe::frf --method etfe --experiment r.csv -o f.json"
 )

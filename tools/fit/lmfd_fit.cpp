@@ -1,23 +1,46 @@
 #include "lmfd_fit.hpp"
+#include "text_scan.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <regex>
 
 namespace msidfit {
 
 Pin parse_pin(const std::string &s)
 {
-    static const std::regex re(R"(^\s*([DN])(\d+)(?:\[(\d+),(\d+)\])?\s*=\s*([-+0-9.eE]+)\s*$)");
-    std::smatch m;
-    if (!std::regex_match(s, m, re))
-        throw FitError("--pin '" + s + "': expected e.g. N0=0 or D1[1,2]=0.5 (entries 1-based)");
+    // ^\s*([DN])(\d+)(?:\[(\d+),(\d+)\])?\s*=\s*([-+0-9.eE]+)\s*$, every part read before any is converted
+    size_t i = 0;
+    scan_spaces(s, i);
+    const char mat = i < s.size() ? s[i] : '\0';
+    bool ok = (mat == 'D' || mat == 'N') && scan_char(s, i, mat);
+    const std::string index = ok ? scan_digits(s, i) : std::string();
+    std::string row, col, value;
+    ok = ok && !index.empty();
+    bool entry = false;
+    if (ok && scan_char(s, i, '[')) {
+        entry = true;
+        row = scan_digits(s, i);
+        ok = !row.empty() && scan_char(s, i, ',');
+        if (ok) col = scan_digits(s, i);
+        ok = ok && !col.empty() && scan_char(s, i, ']');
+    }
+    if (ok) {
+        scan_spaces(s, i);
+        ok = scan_char(s, i, '=');
+    }
+    if (ok) {
+        scan_spaces(s, i);
+        value = scan_set(s, i, "-+0123456789.eE");
+        scan_spaces(s, i);
+        ok = !value.empty() && i == s.size();
+    }
+    if (!ok) throw FitError("--pin '" + s + "': expected e.g. N0=0 or D1[1,2]=0.5 (entries 1-based)");
     Pin p;
-    p.mat = m[1].str()[0];
-    p.index = std::stoi(m[2].str());
-    if (m[3].matched) { p.row = std::stoi(m[3].str()) - 1; p.col = std::stoi(m[4].str()) - 1; }
-    try { p.value = std::stod(m[5].str()); } catch (...) { throw FitError("--pin '" + s + "': bad value"); }
+    p.mat = mat;
+    p.index = std::stoi(index);
+    if (entry) { p.row = std::stoi(row) - 1; p.col = std::stoi(col) - 1; }
+    try { p.value = std::stod(value); } catch (...) { throw FitError("--pin '" + s + "': bad value"); }
     if (!std::isfinite(p.value)) throw FitError("--pin '" + s + "': value not finite");
     return p;
 }
@@ -405,7 +428,8 @@ MatR fisher_cov(const MatR &J, int &rank)
     JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
     JtJ = JtJ.selfadjointView<Eigen::Lower>();
     const VecR sd = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt();
-    Eigen::SelfAdjointEigenSolver<MatR> es(sd.cwiseInverse().asDiagonal() * JtJ * sd.cwiseInverse().asDiagonal());
+    // a MatR argument: the one compute<MatrixXd> instance of eigen_inst_eigen.cpp, not one per expression type
+    Eigen::SelfAdjointEigenSolver<MatR> es(MatR(sd.cwiseInverse().asDiagonal() * JtJ * sd.cwiseInverse().asDiagonal()));
     const VecR ev = es.eigenvalues();
     const double tol = 1e-12 * std::max(ev.maxCoeff(), 1e-300) * (double)ev.size();
     VecR inv(ev.size());

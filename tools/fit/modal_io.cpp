@@ -2,10 +2,10 @@
 #include "poleres.hpp"
 
 #include "model_io.hpp"
+#include "text_scan.hpp"
 
 #include <cmath>
 #include <cstdio>
-#include <regex>
 
 namespace msidfit {
 
@@ -25,10 +25,19 @@ struct Slot {
 
 static Slot slot_of(const std::string &name)
 {
-    static const std::regex re(R"(^([DN])(\d+)\[(\d+),(\d+)\]$)");
-    std::smatch m;
-    if (!std::regex_match(name, m, re)) throw FitError("parameter name '" + name + "' is not an LMFD coefficient");
-    return {m[1].str()[0], std::stoi(m[2].str()), std::stoi(m[3].str()) - 1, std::stoi(m[4].str()) - 1};
+    // ^([DN])(\d+)\[(\d+),(\d+)\]$
+    size_t i = 0;
+    const char mat = name.empty() ? '\0' : name[0];
+    std::string index, row, col;
+    bool ok = (mat == 'D' || mat == 'N') && scan_char(name, i, mat);
+    if (ok) index = scan_digits(name, i);
+    ok = ok && !index.empty() && scan_char(name, i, '[');
+    if (ok) row = scan_digits(name, i);
+    ok = ok && !row.empty() && scan_char(name, i, ',');
+    if (ok) col = scan_digits(name, i);
+    ok = ok && !col.empty() && scan_char(name, i, ']') && i == name.size();
+    if (!ok) throw FitError("parameter name '" + name + "' is not an LMFD coefficient");
+    return {mat, std::stoi(index), std::stoi(row) - 1, std::stoi(col) - 1};
 }
 
 ModalReport modal_report(const Json &j)

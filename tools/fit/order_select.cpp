@@ -1,8 +1,8 @@
 #include "order_select.hpp"
+#include "text_scan.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <regex>
 
 namespace msidfit {
 
@@ -16,12 +16,20 @@ std::vector<int> parse_order_range(const std::string &s, int step, int max_order
         if (out.empty()) throw FitError("--order auto: the lines support no order (at most " + std::to_string(max_order) + ")");
         return out;
     }
-    static const std::regex re(R"(^(\d+):(?:(\d+):)?(\d+)$)");
-    std::smatch m;
-    if (!std::regex_match(s, m, re))
-        throw FitError("--order '" + s + "': expected a positive integer, auto, a:b or a:step:b");
-    const int a = std::stoi(m[1].str()), b = std::stoi(m[3].str());
-    const int st = m[2].matched ? std::stoi(m[2].str()) : step;
+    // ^(\d+):(?:(\d+):)?(\d+)$
+    size_t i = 0;
+    const std::string first = scan_digits(s, i);
+    std::string mid, last;
+    bool ok = !first.empty() && scan_char(s, i, ':');
+    if (ok) last = scan_digits(s, i);
+    if (ok && !last.empty() && scan_char(s, i, ':')) {   // a:step:b
+        mid = last;
+        last = scan_digits(s, i);
+    }
+    ok = ok && !last.empty() && i == s.size();
+    if (!ok) throw FitError("--order '" + s + "': expected a positive integer, auto, a:b or a:step:b");
+    const int a = std::stoi(first), b = std::stoi(last);
+    const int st = !mid.empty() ? std::stoi(mid) : step;
     if (a < 1 || b < a || st < 1 || b > 400) throw FitError("--order '" + s + "': need 1 <= a <= b <= 400 and step >= 1");
     for (int n = a; n <= b; n += st)
         if (n % step == 0) out.push_back(n);

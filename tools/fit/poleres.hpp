@@ -24,9 +24,13 @@ struct PoleResidueModel {
     int order() const;        // number of poles counting pairs twice
 };
 
+// The model and its realisations: poleres_model.cpp; the ML fit below: poleres.cpp.
 MatC pr_eval(const PoleResidueModel &m, cd x);
 // Real realisation (A block-diagonal: p I_nu, or [[s, w], [-w, s]] kron I_nu), order order() * nu.
 SSModel pr_to_ss(const PoleResidueModel &m);
+// Pole list from the eigenvalues of a real matrix: one entry per real pole (|Im| <= 1e-10 |p|, stored with
+// Im = 0) or conjugate pair (its Im > 0 member), sorted by |p|, then by Re p.
+std::vector<cd> pole_list(const VecC &ev);
 // Poles of a state-space model as pole-residue pole list (pairs by their Im > 0 member), sorted by |p|.
 std::vector<cd> ss_poles(const SSModel &m);
 

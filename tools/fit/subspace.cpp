@@ -279,7 +279,8 @@ static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::
     const MatR CY = pc.CY.topLeftCorner(r * ny, r * ny);
     // C_Y^{1/2} and its (pseudo-)inverse by a symmetric eigendecomposition: with many block
     // rows over a narrow band C_Y is numerically rank deficient (near-collinear powers).
-    Eigen::SelfAdjointEigenSolver<MatR> es(0.5 * (CY + CY.transpose()));
+    // MatR arguments: the one compute<MatrixXd> instance of eigen_inst_eigen.cpp, not one per expression type
+    Eigen::SelfAdjointEigenSolver<MatR> es(MatR(0.5 * (CY + CY.transpose())));
     const VecR lam = es.eigenvalues();
     const double lmax = lam.maxCoeff();
     if (!(lmax > 0)) throw FitError("the noise weighting C_Y of the subspace step is zero");
@@ -294,7 +295,7 @@ static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::
     // Mw = C_Y^{-1/2} R_22^T: its left singular vectors are the eigenvectors of
     // Mw Mw^T = C_Y^{-1/2} R_22^T R_22 C_Y^{-1/2} (descending), its singular values sqrt(eig)
     const MatR MMt = Cih * G22 * Cih;
-    Eigen::SelfAdjointEigenSolver<MatR> eg(0.5 * (MMt + MMt.transpose()));
+    Eigen::SelfAdjointEigenSolver<MatR> eg(MatR(0.5 * (MMt + MMt.transpose())));   // a plain matrix: the shared instance
     const Eigen::Index q = MMt.rows();
     sv.resize((size_t)q);
     MatR Us(q, n);

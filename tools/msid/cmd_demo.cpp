@@ -10,6 +10,7 @@
 
 #include "model_io.hpp"
 #include "models.hpp"
+#include "text_scan.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -17,7 +18,6 @@
 #include <cstdio>
 #include <cstring>
 #include <poll.h>
-#include <regex>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -104,13 +104,16 @@ public:
             if (k <= 0) break;
             text.append(buf, (size_t)k);
         }
-        std::smatch m;
         const std::string line = text.substr(0, text.find('\n'));
-        if (!std::regex_search(line, m, std::regex("ready on modbus-tcp 127\\.0\\.0\\.1:(\\d+)"))) {
+        static const std::string ready = "ready on modbus-tcp 127.0.0.1:";   // then the port's digits
+        const size_t at = line.find(ready);
+        size_t i = at == std::string::npos ? 0 : at + ready.size();
+        const std::string port = at == std::string::npos ? std::string() : msidfit::scan_digits(line, i);
+        if (port.empty()) {
             stop();
             throw Error("msid-devsim (" + args[0] + ") did not start: " + (line.empty() ? "no output in 20 s" : line));
         }
-        port_ = std::stoi(m[1]);
+        port_ = std::stoi(port);
     }
     ~Devsim() { stop(); }
     int port() const { return port_; }

@@ -1,6 +1,7 @@
 // msid fit | validate | compare: parametric models from msid-frf/1 files.
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "fit_poles.hpp"
 #include "frf_io.hpp"
 #include "nl_verdict.hpp"
 #include "validation_stat.hpp"
@@ -389,7 +390,7 @@ int cmd_fit(int argc, char **argv)
             po.stable = a.has("stable");
             po.known_noise = known;
             po.max_iter = (int)a.u32("max-iter", (uint32_t)po.max_iter);
-            const PrResult r = pr_ml_fit(f, d, w, weighted, po);
+            const PrResult r = fit_ml_poles(f, d, w, weighted, po);   // cmd_fit_poles.cpp (not in the demo build)
             ss = pr_to_ss(r.model);
             settings["param"] = "poles";
             settings["stable"] = po.stable;
