@@ -112,11 +112,11 @@ def measure(tmp, design, *extra, iface="vcan0", out="frf.json", skip=1, ok=True)
     return r
 
 
-def sim_measure(design, tmp, *sim_args, seed=4):
+def sim_measure(design, tmp, *sim_args, seed=4, rate=None):
     """One `msid can measure` against a fresh simulator with these options: (its result, the
-    simulator's report, its truth)."""
+    simulator's report, its truth). rate: the device's sample rate in Hz (`--rate`; None: unpaced)."""
     with Sim(tmp, "--seed", seed, *sim_args) as sim:
-        r = measure(tmp, design)
+        r = measure(tmp, design, *(("--rate", rate) if rate else ()))
     return r, sim.report(), sim.truth()
 
 
