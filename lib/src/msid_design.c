@@ -189,12 +189,14 @@ static msid_status ct_lines(msid_design *d, const msid_design_cfg *c, uint8_t *b
     d->sample_time = h;
     const double tol = c->ct_tol > 0.0 ? c->ct_tol : 1e-6;
     const double span = (double)P * h;           /* P*h seconds */
+    if (!msid__finite(span)) return MSID_E_SAMPLE_TIME;   /* P h overflows: 0 * inf would be a NaN line */
     for (uint32_t l = 0; l < d->n_lines; ++l) {
         const double w = c->omega[l];
         if (!msid__finite(w) || w < 0.0) return fail(d, MSID_E_ARG, (int32_t)l, -1, -1);
         const double cyc = w * span / TWO_PI;     /* cycles of line l in P*h */
         const double r = floor(cyc + 0.5);
-        if (fabs(cyc - r) > tol || r > 9.0e15) return fail(d, MSID_E_CT_NOT_PERIODIC, (int32_t)l, -1, -1);
+        if (!(fabs(cyc - r) <= tol) || !(r <= 9.0e15))   /* NaN-safe: a NaN is never periodic */
+            return fail(d, MSID_E_CT_NOT_PERIODIC, (int32_t)l, -1, -1);
         uint32_t b = (uint32_t)((uint64_t)r % P);
         uint8_t fold = 0;
         if (w != 0.0 && b == 0u) return fail(d, MSID_E_ALIAS_EDGE, (int32_t)l, -1, 0);

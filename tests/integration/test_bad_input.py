@@ -325,6 +325,17 @@ def mat_v5_rank_beyond_file(d):
 
 
 @case
+def mat_v5_small_name_too_long(d):
+    # a 414-byte .mat v5 file whose name element is "small" (data in the tag) yet claims 21,037 bytes:
+    # libmatio misread what followed and asked for more than 2 GB (fuzz_files, seed
+    # regress-mat-v5-small-name-too-long); now one message
+    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-mat-v5-small-name-too-long").read_bytes()
+    m = Path(d) / "bad.mat"
+    m.write_bytes(seed[1:])
+    return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [f"'{m}' is not a MATLAB .mat file or is corrupt"]
+
+
+@case
 def design_not_json(d):
     ds = _write(d, "design.json", '{"format": "msid-design/1",')
     p = _write(d, "ok.csv", _siso_text())

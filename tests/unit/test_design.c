@@ -738,6 +738,12 @@ static void test_ct_edges_and_periodicity(void **state)
     c = ct_cfg(8, 1.0, 3, w00, 1, 1);
     UT_STATUS(try_design(&c, &dg), MSID_E_ALIAS_COLLISION);
     CHECK_DIAG(dg, 0, 2, 0);
+    /* P h overflows (h = 1e308): a DC line would make 0 * inf = NaN cycles, cast to an integer (UBSan,
+       fuzz_core_cfg seed regress-ct-span-overflow); the sample time is refused first. A NaN cycle count is
+       never periodic either (the comparisons are NaN-safe). */
+    const double wdc0[] = {0.0};
+    c = ct_cfg(8, 1e308, 1, wdc0, 1, 1);
+    UT_STATUS(try_design(&c, &dg), MSID_E_SAMPLE_TIME);
     /* not a whole number of cycles in P h */
     const double wnp[] = {UT_TWO_PI / 8.0, 1.0};
     c = ct_cfg(8, 1.0, 2, wnp, 1, 1);

@@ -412,6 +412,9 @@ static void check_mat_v5(const std::string &path)
         if ((type == 14 || type == 15) && hn >= o + 24) {
             const uint32_t dt = u32(head + o + 16);
             const uint32_t dbytes = dt >> 16 ? dt >> 16 : u32(head + o + 20);
+            // a small data element (its byte count in the tag's upper half) holds at most 4 bytes; more
+            // made libmatio misread what follows and ask for gigabytes (fuzz_files, 2026-11-23)
+            if (dt >> 16 > 4) throw bad(k, "has a malformed dimensions element");
             const size_t d0 = dt >> 16 ? o + 20 : o + 24;
             if (dbytes % 4 != 0 || dbytes / 4 > MAX_RANK)
                 throw bad(k, fmt("claims %u bytes of dimensions (at most %u dimensions are read)", dbytes,
@@ -420,6 +423,7 @@ static void check_mat_v5(const std::string &path)
             const size_t nt = dt >> 16 ? o + 24 : d0 + ((size_t)dbytes + 7) / 8 * 8;
             if (nt + 8 <= hn && u32(head + nt) >> 16 == 0 && u32(head + nt + 4) > room)
                 throw bad(k, "claims a name longer than its bytes");
+            if (nt + 4 <= hn && u32(head + nt) >> 16 > 4) throw bad(k, "has a malformed name element");
             const uint32_t nd = std::min<uint32_t>(dbytes / 4, (uint32_t)((hn - std::min(hn, d0)) / 4));
             const uint32_t cls = u32(head + o + 8) & 0xFFu;   // mxSPARSE_CLASS (5): dims say nothing of its bytes
             bool empty = cls == 5;
