@@ -27,6 +27,7 @@ BUDGET = float(os.environ.get("MSID_SOAK_CAN_SECONDS", "30"))
 K = int(os.environ.get("MSID_SOAK_CAN_PERIODS", "32"))
 SEED = int(os.environ.get("MSID_SOAK_SEED", "15"))
 P, CHUNKS = 256, 2             # classic int16, 4 channels: 2 frames per sample
+KERNEL_REORDERS = 4            # reorders vcan itself may add per round (see the accounting below)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +84,11 @@ def test_soak_can(design, tmp_path):
         a, inj = doc["acquisition"], rep["injected"]
         why = f"faults {args}: host {a}, device {inj}"
         check_memory(host, 64, f"host, faults {args}", settled=0.5, ref_kb=ref_kb)
-        assert a["duplicates"] == inj["duplicated"] and a["reordered"] == inj["reordered"], why
+        assert a["duplicates"] == inj["duplicated"], why
+        # every injected reorder is seen; the kernel may add a few: vcan hands each frame to the sending
+        # CPU's backlog, and a sender that migrates between the VM's 2 CPUs can have two frames delivered
+        # in the other order (seen once in the 30-minute soak: 566 seen, 564 injected)
+        assert 0 <= a["reordered"] - inj["reordered"] <= KERNEL_REORDERS, why
         assert a["malformed"] == inj["malformed"] and a["error_frames"] == inj["error_frames"], why
         assert a["device_restarts"] == inj["restarts"], why
         assert a["frames_missing"] == inj["dropped"] + inj["malformed"] + CHUNKS * inj["busoff_samples"], why
