@@ -336,6 +336,18 @@ def mat_v5_small_name_too_long(d):
 
 
 @case
+def mat_v4_behind_v5_marker(d):
+    # a 136-byte file ending its first 128 bytes in "IM" with version 0: libmatio reads it as v4, whose
+    # first record claims a 2 GB name, and asked for it (2.3 GB RSS; fuzz_files, seed
+    # regress-mat-v4-behind-v5-marker). The v4 check must read it too: its message names the record.
+    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-mat-v4-behind-v5-marker").read_bytes()
+    m = Path(d) / "bad.mat"
+    m.write_bytes(seed[1:])
+    return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [
+        f"'{m}' is not a MATLAB .mat file or is corrupt: variable 1 claims more bytes than the file holds"]
+
+
+@case
 def design_not_json(d):
     ds = _write(d, "design.json", '{"format": "msid-design/1",')
     p = _write(d, "ok.csv", _siso_text())

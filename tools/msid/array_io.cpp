@@ -339,13 +339,23 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
 // length; the name; the data). libmatio sizes its work from a header before checking it against the file
 // (issue 15, found by fuzz_files: a 297-byte v4 file kept it clearing memory past libFuzzer's 10 s timeout;
 // seed corpus/fuzz_files/regress-mat-v4-header-beyond-file), so each record is checked against the bytes
-// the file holds first. v5 and v7.3 files (a 128-byte header ending in "IM" or "MI") are left to matio.
+// the file holds first. v5 and v7.3 files are left to check_mat_v5 and matio.
+// The version of a v5/v7.3 header (a 128-byte header ending in "IM", or "MI" when written big-endian:
+// 0x0100 v5, 0x0200 v7.3), 0 when the file has none. libmatio reads any other file, an "IM" header with
+// another version included, as v4 (fuzz_files, 2026-11-23: version 0 and a v4 name length of 2 GB).
+static unsigned mat_v5_version(const unsigned char *b, size_t N)
+{
+    if (N < 128 || !((b[126] == 'I' && b[127] == 'M') || (b[126] == 'M' && b[127] == 'I'))) return 0;
+    const unsigned v = b[126] == 'M' ? (unsigned)b[124] << 8 | b[125] : (unsigned)b[125] << 8 | b[124];
+    return v == 0x0100 || v == 0x0200 ? v : 0;
+}
+
 static void check_mat_v4(const std::string &path)
 {
     const FileBytes f(path);
     const auto *b = (const unsigned char *)f.data();
     const size_t N = f.size();
-    if (N >= 128 && ((b[126] == 'I' && b[127] == 'M') || (b[126] == 'M' && b[127] == 'I'))) return;
+    if (mat_v5_version(b, N)) return;
     static const unsigned esize[6] = {8, 4, 4, 2, 2, 1};   // P: double, single, int32, int16, uint16, uint8
     for (size_t p = 0, k = 1; p < N; ++k) {
         if (N - p < 20) throw Error(fmt("'%s': variable %zu of the MATLAB v4 file is truncated", path.c_str(), k));
@@ -374,13 +384,12 @@ static void check_mat_v5(const std::string &path)
     const FileBytes f(path);
     const auto *b = (const unsigned char *)f.data();
     const size_t N = f.size();
-    if (N < 128 || !((b[126] == 'I' && b[127] == 'M') || (b[126] == 'M' && b[127] == 'I'))) return;
+    // 0x0200: v7.3, an HDF5 file after the header (HDF5 checks its own); 0: a v4 file (check_mat_v4)
+    if (mat_v5_version(b, N) != 0x0100) return;
     const bool swap = b[126] == 'M';   // "MI": written on a big-endian machine
     auto u32 = [swap](const unsigned char *q) {
         return swap ? (uint32_t)q[0] << 24 | (uint32_t)q[1] << 16 | (uint32_t)q[2] << 8 | q[3] : le32(q);
     };
-    const unsigned version = swap ? (unsigned)b[124] << 8 | b[125] : (unsigned)b[125] << 8 | b[124];
-    if (version != 0x0100) return;   // 0x0200: v7.3, an HDF5 file after the header (HDF5 checks its own)
     constexpr uint32_t MAX_RANK = 32;
     const auto bad = [&](size_t k, const char *what) {
         return Error(fmt("'%s' is not a MATLAB .mat file or is corrupt: variable %zu %s", path.c_str(), k, what));
