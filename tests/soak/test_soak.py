@@ -56,8 +56,9 @@ def rss_kb(pid):
 
 
 class Samples(list):
-    """(RssAnon, VmHWM) samples of one process; acq_end: the index of the first sample taken after the host
-    logged that its last experiment has all its periods or is done (None if it never did): acquisition
+    """(RssAnon, VmHWM) samples of one process; acq_end: the index of the first sample that may have been
+    taken after the host logged that its last experiment has all its periods or is done (the sample just
+    before the log read that found the line; None if the host never logged it): acquisition
     ends there, and closing it, the final solve and the JSON allocate what they need (not a leak; the
     30-minute CAN soak saw 684 kB appear there, in a TCG VM slow enough to log it before "done")."""
     acq_end = None
@@ -77,8 +78,12 @@ def watch(p, other_pid, hang_s, what, log=None):
             v = rss_kb(pid)
             if v:
                 out.append(v)
+        # the log is read after the sample: if it shows the end now, the sample just taken may already
+        # be past it (the process printed the line, then allocated, then was sampled: the 30-minute CAN
+        # soak failed on one such sample, RssAnon 1156 -> 1820 kB), so it counts as after the end. Every
+        # sample before it was followed by a read of the log that did not show the end yet.
         if log is not None and mine.acq_end is None and ACQ_DONE.search(Path(log).read_text(errors="replace")):
-            mine.acq_end = len(mine)
+            mine.acq_end = max(len(mine) - 1, 0)
         if time.monotonic() > limit:
             p.kill()
             pytest.fail(f"{what} hung")
@@ -269,3 +274,27 @@ def test_check_memory_tells_a_leak_from_a_late_first_touch():
     leak = [(5000 + 20 * i, 5000 + 20 * i) for i in range(100)]   # 20 kB per sample
     with pytest.raises(AssertionError, match="grew"):
         check_memory(leak, 64, "leak", ref_kb=6000)
+
+
+def test_watch_ends_acquisition_before_a_sample_that_may_follow_the_log_line(tmp_path):
+    """A process that logs the end of acquisition and right after allocates (as `msid ... measure` closes
+    its last experiment): no sample before Samples.acq_end may hold that allocation, however the 0.1 s
+    sampling falls. The rule of the first 30-minute CAN soak counted the sample taken just before the
+    log read that found the line, and with it 664 kB of the final phase as growth."""
+    log = tmp_path / "host.log"
+    child = ("import sys, time\n"
+             "time.sleep(0.6)\n"
+             "f = open(sys.argv[1], 'a'); f.write('msid can: experiment 2/2 done\\n'); f.flush()\n"
+             "big = b'\\x01' * (48 << 20)\n"   # written, so resident at once
+             "time.sleep(0.6)\n")
+    for _ in range(3):
+        log.write_text("msid can: experiment 2/2: 31/32 periods acquired\n")
+        with open(tmp_path / "out", "w") as f:
+            p = subprocess.Popen([sys.executable, "-c", child, str(log)], stdout=f, stderr=subprocess.STDOUT)
+        mine, _ = watch(p, p.pid, 60, "child", log)
+        assert p.wait() == 0
+        assert mine.acq_end is not None and mine.acq_end >= 2, f"end not found: {mine.acq_end} of {len(mine)}"
+        during = max(s[0] for s in mine[:mine.acq_end])
+        after = max(s[0] for s in mine[mine.acq_end:])
+        assert after - during > 40 << 10, f"the allocation was not seen after the end: {during} -> {after} kB"
+        assert during < 40 << 10, f"a sample before acq_end holds the final allocation: {during} kB"
