@@ -17,8 +17,9 @@ struct NonFinite : std::runtime_error {
 // and number layout: "1.0", "0.001", "1e-05", "1.5e+20"), but every double printed
 // through std::to_chars' shortest round-trip digits, so reading the text back gives
 // the same bits, and without the serializer's per-character virtual calls. Appends
-// to `out`. Throws NonFinite at a NaN or infinite number.
-void dump(const Json &doc, int indent, std::string &out);
+// to `out`. Throws NonFinite at a NaN or infinite number. `two_threads`: arrays of 64 elements
+// or more (the lines) are written in two halves by two threads, the same bytes.
+void dump(const Json &doc, int indent, std::string &out, bool two_threads = false);
 
 // One double in that layout (shortest round-trip digits); `buf` holds >= 32 chars.
 // Returns the end of the text. `v` must be finite.

@@ -31,7 +31,7 @@ void write_json_file(const std::string &path, const Json &doc, bool durable)
     std::string s;
     s.reserve(1 << 16);
     try {
-        msidfrf::dump(doc, 1, s);
+        msidfrf::dump(doc, 1, s, true);
     } catch (const msidfrf::NonFinite &) {
         throw Error("'" + path + "' not written: the result is not finite at " + nonfinite_at(doc, "") +
                     " (inputs beyond double precision's range, e.g. data scaled near 1e150 or a sample rate near 0)");
