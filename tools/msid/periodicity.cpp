@@ -3,6 +3,7 @@
 // docs/statistics.md ("Input periodicity").
 #include "periodicity.hpp"
 #include "cli_util.hpp"
+#include "fftw_warmup.hpp"
 
 #include <fftw3.h>
 
@@ -22,6 +23,7 @@ struct R2c {
     fftw_plan plan;
     explicit R2c(int n_) : n(n_)
     {
+        fftw_planner_ready();   // msid frf's warm-up plan (fftw_warmup.hpp) is made on another thread
         in = fftw_alloc_real((size_t)n);
         out = fftw_alloc_complex((size_t)n / 2 + 1);
         if (!in || !out) throw Error("out of memory for an FFT of length " + std::to_string(n));

@@ -1,6 +1,7 @@
 #include "pipeline.hpp"
 #include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
 #include "periodicity.hpp"
+#include "fftw_warmup.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
@@ -88,7 +89,12 @@ void request_from_core_design(FrfRequest &rq, const msid_design &d)
 struct Fftw {
     msid_fft_fftw f{};
     bool on = false;
-    ~Fftw() { if (on) msid_fft_fftw_destroy(&f); }
+    ~Fftw()
+    {
+        if (!on) return;
+        fftw_planner_ready();
+        msid_fft_fftw_destroy(&f);
+    }
 };
 
 static void validate_lines(const FrfRequest &rq)
@@ -252,6 +258,7 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     mc.transient = maxK >= (uint64_t)rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
     mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? history : 0;
     mc.alpha = rq.alpha;
+    if (path == MSID_DFT_FFT) fftw_planner_ready();   // msid frf's warm-up plan (fftw_warmup.hpp): these plans then cost ~0.02 ms
     for (uint32_t k = 0; k < lanes; ++k) {   // FFTW plans are made here, in one thread (its planner is not thread-safe)
         I.lane.push_back(std::make_unique<Impl::Lane>());
         Impl::Lane &ln = *I.lane.back();
@@ -370,12 +377,14 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
 
     const size_t g = (size_t)nu * ny;
     Json doc = frf_header(rq, nu, ny, m);
+    // room for every member (and a caller's few more): a reallocation would copy the lines' subtrees
+    doc.get_ref<Json::object_t &>().reserve(doc.size() + 16);
     doc["periods_used"] = used;
     doc["periods_rejected"] = rejected;
     doc["dft_path"] = out.dft_path;
     doc["vec_convention"] = msidfrf::VEC_CONVENTION;
     doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
-    doc["experiments"] = exps;
+    doc["experiments"] = std::move(exps);
     // The lines' subtrees (thousands of small allocations) built in two halves on two threads
     // when there are many, appended in line order: the same document.
     auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part) {
