@@ -139,7 +139,7 @@ void check_records(const FrfRequest &rq, const std::vector<Record> &recs)
     }
 }
 
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep)
 {
     std::vector<std::string> notes;
     validate_lines(rq);
@@ -165,7 +165,8 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
     // Two experiments at once on two lanes (threads), each experiment's statistics the same bits as
     // measured alone; an error is that of the first failing experiment in file order, as serially.
     const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
-    FrfJob job(rq, nu, ny, m, maxK, maxK, lanes);
+    auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
+    FrfJob &job = *jobp;
     const size_t C = nu + ny;
     std::vector<std::exception_ptr> err(m);
     auto measure = [&](uint32_t lane) {
@@ -201,7 +202,9 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         if (x) std::rethrow_exception(x);
     std::vector<ExpSource> src;
     for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
-    return job.finish(src, notes);
+    FrfOutcome out = job.finish(src, notes);
+    if (keep) *keep = std::move(jobp);
+    return out;
 }
 
 struct FrfJob::Impl {

@@ -44,8 +44,12 @@ void parse_estimate_options(const Args &a, FrfRequest &rq);
 // the design's inputs and experiments). Throws Error.
 void check_records(const FrfRequest &rq, const std::vector<Record> &recs);
 
-// Validate everything, run the core, build the document. Throws Error.
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs);
+class FrfJob;
+// Validate everything, run the core, build the document. Throws Error. `keep`: the job (its
+// measurement memory, some MB, and FFTW plans) is handed over instead of freed, for a caller that
+// leaves it to the process exit (msid frf): freeing mapped blocks while the other threads' CPU
+// still maps the process costs a TLB shootdown each, on the path to the result.
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep = nullptr);
 
 // What the document reports about where each experiment came from.
 struct ExpSource {
