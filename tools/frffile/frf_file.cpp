@@ -381,7 +381,8 @@ static void dump_string(const std::string &s, std::string &out)
     out += '"';
 }
 
-static void dump_at(const Json &v, int indent, int level, std::string &out, bool split = false);
+static void dump_at(const Json &v, int indent, int level, std::string &out, bool split = false,
+                    const Prerendered *pre = nullptr);
 
 // Arrays of at least this many elements (an FRF file's lines) are written by two threads.
 static const size_t SPLIT_MIN_ELEMENTS = 64;
@@ -390,11 +391,14 @@ static const size_t SPLIT_MIN_ELEMENTS = 64;
 // after none when i0 == 0): the text dump_at writes between "[\n" and the closing "\n]".
 static void dump_elements(const Json &v, size_t i0, size_t i1, int indent, int level, std::string &out)
 {
-    for (size_t i = i0; i < i1; ++i) {
-        if (i) out += ",\n";
-        out.append((size_t)(indent * (level + 1)), ' ');
-        dump_at(v[i], indent, level + 1, out);
-    }
+    for (size_t i = i0; i < i1; ++i) dump_element(v[i], i, indent, level, out);
+}
+
+void dump_element(const Json &e, size_t i, int indent, int level, std::string &out)
+{
+    if (i) out += ",\n";
+    out.append((size_t)(indent * (level + 1)), ' ');
+    dump_at(e, indent, level + 1, out);
 }
 
 // The largest array's text in two halves on two threads, appended in order: the same bytes as
@@ -439,7 +443,7 @@ static void dump_elements_split(const Json &v, int indent, int level, std::strin
     out += second;
 }
 
-static void dump_at(const Json &v, int indent, int level, std::string &out, bool split)
+static void dump_at(const Json &v, int indent, int level, std::string &out, bool split, const Prerendered *pre)
 {
     char buf[48];
     switch (v.type()) {
@@ -452,6 +456,15 @@ static void dump_at(const Json &v, int indent, int level, std::string &out, bool
             out.append((size_t)(indent * (level + 1)), ' ');
             dump_string(it.key(), out);
             out += ": ";
+            if (pre && it.key() == pre->key && it.value().is_array() && it.value().empty() && pre->n) {
+                // the member's elements as dump_element() wrote them (array at level + 1)
+                out += "[\n";
+                for (const std::string &t : pre->parts) out += t;
+                out += '\n';
+                out.append((size_t)(indent * (level + 1)), ' ');
+                out += ']';
+                continue;
+            }
             dump_at(it.value(), indent, level + 1, out, split);
         }
         out += '\n';
@@ -493,9 +506,14 @@ static void dump_at(const Json &v, int indent, int level, std::string &out, bool
     }
 }
 
-void dump(const Json &doc, int indent, std::string &out, bool two_threads)
+void dump(const Json &doc, int indent, std::string &out, bool two_threads, const Prerendered *pre)
 {
-    dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2);
+    if (pre) {
+        size_t n = out.size() + 4096;
+        for (const std::string &t : pre->parts) n += t.size();
+        out.reserve(n);
+    }
+    dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2, pre);
 }
 
 }  // namespace msidfrf

@@ -117,6 +117,7 @@ int cmd_frf(int argc, char **argv)
     const uint32_t R = a.u32("realisations", 1);
     std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)
     if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
+    rq.lines_as_text = !a.has("direct") && !a.has("realisations");   // only written to the file below
     FrfOutcome o = a.has("direct") ? run_frf_direct(rq, *D, recs)
                    : a.has("realisations") ? run_frf_realisations(rq, recs, R)   // BLA + noise/distortion split
                                            : run_frf(rq, recs, &job);
@@ -133,7 +134,7 @@ int cmd_frf(int argc, char **argv)
     }
     // no fsync: the file is reproduced by running msid frf again on the same files
     // (msid measure, whose samples are gone after the run, keeps it)
-    write_json_file(out, o.doc, false);
+    write_json_file(out, o.doc, false, o.lines_text.n ? &o.lines_text : nullptr);
     for (const auto &n : o.notes) std::fprintf(stderr, "msid frf: note: %s\n", n.c_str());
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %zu experiment(s), %llu periods used, %llu rejected "
                 "(%s)\n",

@@ -24,14 +24,14 @@ static std::string nonfinite_at(const Json &j, const std::string &at)
     return "";
 }
 
-void write_json_file(const std::string &path, const Json &doc, bool durable)
+void write_json_file(const std::string &path, const Json &doc, bool durable, const msidfrf::Prerendered *pre)
 {
     // A result is never written with a silent null for NaN/Inf (it would fail the schema): one message, no file.
     // The text is nlohmann's dump(1) layout with std::to_chars' shortest round-trip numbers (msidfrf::dump).
     std::string s;
     s.reserve(1 << 16);
     try {
-        msidfrf::dump(doc, 1, s, true);
+        msidfrf::dump(doc, 1, s, true, pre);
     } catch (const msidfrf::NonFinite &) {
         throw Error("'" + path + "' not written: the result is not finite at " + nonfinite_at(doc, "") +
                     " (inputs beyond double precision's range, e.g. data scaled near 1e150 or a sample rate near 0)");

@@ -10,6 +10,7 @@ extern "C" {
 #include <exception>
 #include <system_error>
 #include <thread>
+#include <atomic>
 
 namespace msidcli {
 
@@ -389,9 +390,13 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
     doc["experiments"] = std::move(exps);
     // The lines' subtrees (thousands of small allocations) built in two halves on two threads
-    // when there are many, appended in line order: the same document.
-    auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part) {
-        part.reserve(l1 - l0);
+    // when there are many, appended in line order: the same document. rq.lines_as_text: each
+    // line's text written as soon as it is built (the text dump() gives, element l of an array
+    // member of the document) and its subtree dropped: no tree of the lines, no second pass.
+    std::string text[2];
+    std::atomic<bool> as_text{rq.lines_as_text};
+    auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part, std::string *txt) {
+        if (!txt) part.reserve(l1 - l0);
         for (uint32_t l = l0; l < l1; ++l) {
             msidfrf::LineStats s;
             s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
@@ -403,33 +408,58 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
             s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
             s.cond = msid_frf_cond(&f, l);
             s.input_snr = msid_frf_input_snr_db(&f, l);
-            part.push_back(msidfrf::line(line_position(rq, l), s));
+            if (!txt) {
+                part.push_back(msidfrf::line(line_position(rq, l), s));
+                continue;
+            }
+            if (l == l0) txt->reserve((size_t)(l1 - l0) * 4096);
+            try {
+                msidfrf::dump_element(msidfrf::line(line_position(rq, l), s), l, 1, 1, *txt);
+            } catch (const msidfrf::NonFinite &) {   // the tree instead (below), and the writer's message
+                as_text = false;
+                return;
+            }
         }
     };
     std::vector<Json> part[2];
     const uint32_t half = L >= 64 && std::thread::hardware_concurrency() >= 2 ? (uint32_t)L / 2 : (uint32_t)L;
-    std::exception_ptr part_err;
-    std::thread th;
-    if (half < L) {
-        try {
-            th = std::thread([&] {
-                try {
-                    build(half, (uint32_t)L, part[1]);
-                } catch (...) {
-                    part_err = std::current_exception();
-                }
-            });
-        } catch (const std::system_error &) {
+    auto build_all = [&](bool txt) {
+        std::exception_ptr part_err;
+        std::thread th;
+        if (half < L) {
+            try {
+                th = std::thread([&] {
+                    try {
+                        build(half, (uint32_t)L, part[1], txt ? &text[1] : nullptr);
+                    } catch (...) {
+                        part_err = std::current_exception();
+                    }
+                });
+            } catch (const std::system_error &) {
+            }
         }
-    }
-    build(0, half, part[0]);
-    if (th.joinable()) th.join();
-    else if (half < L) build(half, (uint32_t)L, part[1]);
-    if (part_err) std::rethrow_exception(part_err);
+        try {
+            build(0, half, part[0], txt ? &text[0] : nullptr);
+        } catch (...) {
+            if (th.joinable()) th.join();
+            throw;
+        }
+        if (th.joinable()) th.join();
+        else if (half < L) build(half, (uint32_t)L, part[1], txt ? &text[1] : nullptr);
+        if (part_err) std::rethrow_exception(part_err);
+    };
+    build_all(as_text.load());
+    if (rq.lines_as_text && !as_text) build_all(false);   // a line is not finite
     Json lines = Json::array();
-    lines.get_ref<Json::array_t &>().reserve(L);
-    for (auto &pt : part)
-        for (auto &x : pt) lines.push_back(std::move(x));
+    if (as_text) {
+        out.lines_text.key = "lines";
+        out.lines_text.n = L;
+        out.lines_text.parts = {std::move(text[0]), std::move(text[1])};
+    } else {
+        lines.get_ref<Json::array_t &>().reserve(L);
+        for (auto &pt : part)
+            for (auto &x : pt) lines.push_back(std::move(x));
+    }
     doc["lines"] = std::move(lines);
     if (Ld) {
         Json dl = Json::array();
