@@ -2,7 +2,8 @@
 // FRF-shaped documents (fixed seed): the lines' array written in two halves by two
 // threads (two_threads), and the lines pre-rendered element by element with
 // dump_element() and spliced in (Prerendered: msid frf writes each line's text as it
-// builds it, without a tree of the lines). Numbers of every layout (integers as
+// builds it, without a tree of the lines; dump_around() leaves them for the writer to
+// write after the text before them). Numbers of every layout (integers as
 // doubles, 1e-5 .. 1e+20 borders, subnormals, -0.0, 17 digits), 1 to 501 lines, every
 // split point class. A NaN or infinite number throws NonFinite in every form.
 // Negative control: the same comparison on elements rendered one level too deep, or
@@ -150,6 +151,12 @@ void test_prerendered_equal_tree(void **)
                     msidfrf::dump(x.doc, 1, got, two, &x.pre);
                     if (got != want) std::fprintf(stderr, "pre-rendered differs: L = %u, h = %zu\n", L, h);
                     assert_true(got == want);
+                    // the writer's form: the text around the parts, the parts written after `at`
+                    std::string around;
+                    const size_t at = msidfrf::dump_around(x.doc, 1, around, two, x.pre);
+                    assert_true(at != std::string::npos);
+                    around.insert(at, x.pre.parts[0] + x.pre.parts[1]);
+                    assert_true(around == want);
                 }
             }
         }

@@ -382,7 +382,7 @@ static void dump_string(const std::string &s, std::string &out)
 }
 
 static void dump_at(const Json &v, int indent, int level, std::string &out, bool split = false,
-                    const Prerendered *pre = nullptr);
+                    const Prerendered *pre = nullptr, size_t *at = nullptr);
 
 // Arrays of at least this many elements (an FRF file's lines) are written by two threads.
 static const size_t SPLIT_MIN_ELEMENTS = 64;
@@ -443,7 +443,8 @@ static void dump_elements_split(const Json &v, int indent, int level, std::strin
     out += second;
 }
 
-static void dump_at(const Json &v, int indent, int level, std::string &out, bool split, const Prerendered *pre)
+static void dump_at(const Json &v, int indent, int level, std::string &out, bool split, const Prerendered *pre,
+                    size_t *at)
 {
     char buf[48];
     switch (v.type()) {
@@ -459,7 +460,9 @@ static void dump_at(const Json &v, int indent, int level, std::string &out, bool
             if (pre && it.key() == pre->key && it.value().is_array() && it.value().empty() && pre->n) {
                 // the member's elements as dump_element() wrote them (array at level + 1)
                 out += "[\n";
-                for (const std::string &t : pre->parts) out += t;
+                if (at) *at = out.size();   // dump_around(): the caller writes the parts there
+                else
+                    for (const std::string &t : pre->parts) out += t;
                 out += '\n';
                 out.append((size_t)(indent * (level + 1)), ' ');
                 out += ']';
@@ -514,6 +517,13 @@ void dump(const Json &doc, int indent, std::string &out, bool two_threads, const
         out.reserve(n);
     }
     dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2, pre);
+}
+
+size_t dump_around(const Json &doc, int indent, std::string &out, bool two_threads, const Prerendered &pre)
+{
+    size_t at = std::string::npos;
+    dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2, &pre, &at);
+    return at;
 }
 
 }  // namespace msidfrf

@@ -23,6 +23,12 @@ struct NonFinite : std::runtime_error {
 struct Prerendered;
 void dump(const Json &doc, int indent, std::string &out, bool two_threads = false, const Prerendered *pre = nullptr);
 
+// dump() with `pre`, but the pre-rendered parts are not copied: the text goes to `out` without
+// them and the offset in `out` where they belong (in order) is returned (npos: the member is not
+// in the document, or not an empty array there; nothing is to be inserted). The writer then
+// writes the pieces one after the other (no copy of the lines' text).
+size_t dump_around(const Json &doc, int indent, std::string &out, bool two_threads, const Prerendered &pre);
+
 // Element i of an array at `level`, as dump() writes it inside the array's brackets: ",\n"
 // before every element but the first, the indent, the element's text.
 void dump_element(const Json &e, size_t i, int indent, int level, std::string &out);

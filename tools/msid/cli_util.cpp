@@ -197,20 +197,27 @@ void check(msid_status st, const std::string &context)
 
 void write_file_atomic(const std::string &path, const std::string &data, bool durable)
 {
+    write_file_atomic(path, std::vector<std::string_view>{data}, durable);
+}
+
+void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable)
+{
     std::string tmp = path + ".tmp." + std::to_string(getpid());
     int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0) throw Error("cannot write '" + path + "': " + std::strerror(errno));
-    size_t off = 0;
-    while (off < data.size()) {
-        ssize_t k = ::write(fd, data.data() + off, data.size() - off);
-        if (k < 0) {
-            if (errno == EINTR) continue;
-            int e = errno;
-            ::close(fd);
-            ::unlink(tmp.c_str());
-            throw Error("cannot write '" + path + "': " + std::strerror(e));
+    for (const std::string_view &data : pieces) {
+        size_t off = 0;
+        while (off < data.size()) {
+            ssize_t k = ::write(fd, data.data() + off, data.size() - off);
+            if (k < 0) {
+                if (errno == EINTR) continue;
+                int e = errno;
+                ::close(fd);
+                ::unlink(tmp.c_str());
+                throw Error("cannot write '" + path + "': " + std::strerror(e));
+            }
+            off += (size_t)k;
         }
-        off += (size_t)k;
     }
     if ((durable && ::fsync(fd) != 0) || ::close(fd) != 0) {
         int e = errno;
