@@ -412,13 +412,13 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                 part.push_back(msidfrf::line(line_position(rq, l), s));
                 continue;
             }
-            if (l == l0) txt->reserve((size_t)(l1 - l0) * 4096);
             try {
                 msidfrf::dump_element(msidfrf::line(line_position(rq, l), s), l, 1, 1, *txt);
             } catch (const msidfrf::NonFinite &) {   // the tree instead (below), and the writer's message
                 as_text = false;
                 return;
             }
+            if (l == l0) txt->reserve(txt->size() * (l1 - l0) / 8 * 9 + 4096);   // lines are alike in size
         }
     };
     std::vector<Json> part[2];
