@@ -251,6 +251,37 @@ def test_bad_npy_nan_names_row_and_column(tmp_path, data):
     _fails(tmp_path, [p], ["--columns", "u1=1,u2=2,y1=3,y2=4"], f"'{p}' row 38, column 3: NaN or Inf")
 
 
+@pytest.mark.parametrize("bad", [np.nan, -np.nan, np.inf, -np.inf, "nan-payload"])
+def test_bad_npy_zero_copy_every_nonfinite_kind(tmp_path, data, bad):
+    """The mapped .npy (float64, C order, columns in order) is checked by an integer OR over the
+    bit patterns: every exponent-all-ones pattern (NaN of either sign or with a payload, +-Inf)
+    at the last sample is found, and named by its row and column."""
+    u, y = data[0]
+    x = np.column_stack([u, y])
+    if bad == "nan-payload":
+        x.view(np.uint64)[-1, 3] = np.uint64(0xFFF0000000000001)   # signalling NaN, sign set
+    else:
+        x[-1, 3] = bad
+    p = tmp_path / "bad.npy"
+    np.save(p, x)
+    _fails(tmp_path, [p], ["--columns", "u1=1,u2=2,y1=3,y2=4"], f"'{p}' row {K * P}, column 4: NaN or Inf")
+
+
+def test_npy_zero_copy_extreme_finite_values_pass_the_check(tmp_path, data):
+    """Negative control of the check above: the largest finite doubles, the smallest subnormal and
+    -0.0 are no NaN or Inf. The file is read and the FRF written (the period holding +-DBL_MAX
+    overflows in its DFT and is rejected by the core, not by the reader)."""
+    files = _npy_files(tmp_path, data)
+    x = np.load(files[0])
+    x[-1, 3] = np.finfo(float).max
+    x[-2, 3] = -np.finfo(float).max
+    x[-3, 2] = 5e-324
+    x[-4, 2] = -0.0
+    np.save(files[0], x)
+    doc = _frf(tmp_path, files, ["--columns", "u1=1,u2=2,y1=3,y2=4"])
+    assert doc["experiments"][0]["periods_nonfinite"] == 1 and doc["experiments"][1]["periods_nonfinite"] == 0
+
+
 def test_bad_npy_without_columns_and_truncated(tmp_path, data):
     p = _npy_files(tmp_path, data)[0]
     _fails(tmp_path, [p], [], f"'{p}' holds one {K * P} x 4 matrix", "--columns u1=1,y1=2")

@@ -234,17 +234,20 @@ Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero
             r.keep = buf;
             if (a.n == 0) throw Error("'" + path + "' holds no samples");
             const double *x = r.view;
-            // NaN/Inf: exponent bits all ones. Integer OR-reduction over the bit patterns
-            // (vectorised; no branch per sample, no floating-point compare).
-            const uint64_t E = 0x7ff0000000000000ull;
+            // NaN/Inf: exponent bits all ones. Integer OR-reduction over the bit patterns, no
+            // branch per sample, no floating-point compare: (b & E) + 2^52 reaches bit 63 exactly
+            // when the exponent is all ones; and, add and or on 64-bit lanes are SSE2, so the
+            // loop vectorises at the x86-64 baseline (a == compare of 64-bit lanes, SSE4.1, kept
+            // it scalar: 1.2 ms per 8 MiB file)
+            const uint64_t E = 0x7ff0000000000000ull, ONE_EXP = 1ull << 52;
             uint64_t bad = 0;
             const size_t nx = a.n * a.C;
             for (size_t i = 0; i < nx; ++i) {
                 uint64_t b;
                 std::memcpy(&b, x + i, sizeof b);
-                bad |= (uint64_t)((b & E) == E);
+                bad |= (b & E) + ONE_EXP;
             }
-            const bool finite = bad == 0;
+            const bool finite = (bad >> 63) == 0;
             if (!finite)
                 for (size_t i = 0; i < a.n * a.C; ++i)
                     if (!std::isfinite(x[i]))

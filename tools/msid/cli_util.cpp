@@ -9,6 +9,8 @@
 #include <cstring>
 #include <fcntl.h>
 #include <sys/mman.h>
+#include <system_error>
+#include <thread>
 #include <unistd.h>
 
 namespace msidcli {
@@ -195,30 +197,51 @@ void check(msid_status st, const std::string &context)
 
 void write_file_atomic(const std::string &path, const std::string &data, bool durable)
 {
+    write_file_atomic(path, std::vector<std::string_view>{data}, durable);
+}
+
+void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable)
+{
     std::string tmp = path + ".tmp." + std::to_string(getpid());
     int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0) throw Error("cannot write '" + path + "': " + std::strerror(errno));
-    size_t off = 0;
-    while (off < data.size()) {
-        ssize_t k = ::write(fd, data.data() + off, data.size() - off);
-        if (k < 0) {
-            if (errno == EINTR) continue;
-            int e = errno;
-            ::close(fd);
-            ::unlink(tmp.c_str());
-            throw Error("cannot write '" + path + "': " + std::strerror(e));
+    for (const std::string_view &data : pieces) {
+        size_t off = 0;
+        while (off < data.size()) {
+            ssize_t k = ::write(fd, data.data() + off, data.size() - off);
+            if (k < 0) {
+                if (errno == EINTR) continue;
+                int e = errno;
+                ::close(fd);
+                ::unlink(tmp.c_str());
+                throw Error("cannot write '" + path + "': " + std::strerror(e));
+            }
+            off += (size_t)k;
         }
-        off += (size_t)k;
     }
     if ((durable && ::fsync(fd) != 0) || ::close(fd) != 0) {
         int e = errno;
         ::unlink(tmp.c_str());
         throw Error("cannot write '" + path + "': " + std::strerror(e));
     }
+    // The file replaced, if any, is held open (O_PATH: no read access, no blocking on a FIFO) so that
+    // rename() only unlinks it, and its blocks are freed when that descriptor is closed by a thread
+    // of its own, beside the rest of the command, instead of inside rename() (0.5-0.9 ms of ext4
+    // for the bench's 0.6 MB FRF file). Nothing a reader sees changes: the path still switches
+    // from the whole old file to the whole new one.
+    const int old = ::open(path.c_str(), O_PATH | O_CLOEXEC);
     if (::rename(tmp.c_str(), path.c_str()) != 0) {
         int e = errno;
+        if (old >= 0) ::close(old);
         ::unlink(tmp.c_str());
         throw Error("cannot write '" + path + "': " + std::strerror(e));
+    }
+    if (old >= 0) {
+        try {
+            std::thread([old] { ::close(old); }).detach();
+        } catch (const std::system_error &) {   // no thread: freed here, as without the hold
+            ::close(old);
+        }
     }
 }
 

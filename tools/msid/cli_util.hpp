@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 extern "C" {
@@ -94,6 +95,8 @@ void check(msid_status st, const std::string &context);
 // results that a re-run reproduces from files (msid frf): it saves the wait for
 // the disk.
 void write_file_atomic(const std::string &path, const std::string &data, bool durable = true);
+// The same file from pieces written one after the other (no copy into one buffer).
+void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable = true);
 
 // Aligned, owned working memory for one msid object.
 struct Mem {

@@ -1,5 +1,6 @@
 #include "design_io.hpp"
 #include "frf_file.hpp"
+#include "fftw_warmup.hpp"
 
 #include "msid/msid_fft_fftw.h"
 
@@ -66,8 +67,9 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
     struct Plan {
         msid_fft_fftw f{};
         bool on = false;
-        ~Plan() { if (on) msid_fft_fftw_destroy(&f); }
+        ~Plan() { if (on) msid_fft_fftw_destroy(&f); }   // after fftw_planner_ready() below
     } plan;
+    fftw_planner_ready();
     check(msid_fft_fftw_create(&plan.f, p.period, MSID_FFTW_ESTIMATE), "FFTW plan");
     plan.on = true;
     c.crest = MSID_CREST_FFT;

@@ -3,12 +3,16 @@
 // docs/statistics.md ("Input periodicity").
 #include "periodicity.hpp"
 #include "cli_util.hpp"
+#include "fftw_warmup.hpp"
 
 #include <fftw3.h>
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <exception>
+#include <system_error>
+#include <thread>
 
 namespace msidcli {
 
@@ -22,6 +26,7 @@ struct R2c {
     fftw_plan plan;
     explicit R2c(int n_) : n(n_)
     {
+        fftw_planner_ready();   // msid frf's warm-up plan (fftw_warmup.hpp) is made on another thread
         in = fftw_alloc_real((size_t)n);
         out = fftw_alloc_complex((size_t)n / 2 + 1);
         if (!in || !out) throw Error("out of memory for an FFT of length " + std::to_string(n));
@@ -272,13 +277,60 @@ void check_periodic_lines(const msid_pstats *const *ps, uint32_t m, uint32_t nu,
 
 void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &recs)
 {
-    for (const Record &r : recs) {
-        const size_t K = window_periods(r, P, skip);
+    // The time-domain part of every record's check (the non-periodic fraction at P and at the
+    // neighbours P +- 1, 2: samples only, no FFTW) for two or more records on two threads, record
+    // e on thread e % 2; the verdicts below in file order, the same as one record after the other.
+    struct Cheap {
+        size_t K = 0;
+        double eta = 0, eta_n = 0;
+        uint32_t Q = 0;
+    };
+    std::vector<Cheap> ch(recs.size());
+    std::exception_ptr err;
+    auto cheap = [&](size_t e0) {
+        for (size_t e = e0; e < recs.size(); e += 2) {
+            const Record &r = recs[e];
+            Cheap &c = ch[e];
+            c.K = window_periods(r, P, skip);
+            if (c.K < 2) continue;
+            c.eta = nonperiodic_fraction(r, P, skip, c.K);
+            c.Q = c.eta > 1e-9 ? better_neighbour(r, P, skip, c.eta, c.eta_n) : 0;
+            if (c.Q && !(c.eta_n < 0.5 * c.eta)) c.Q = 0;
+        }
+    };
+    std::thread th;
+    if (recs.size() >= 2 && std::thread::hardware_concurrency() >= 2) {
+        try {
+            th = std::thread([&] {
+                try {
+                    cheap(1);
+                } catch (...) {   // no memory for a period's mean
+                    err = std::current_exception();
+                }
+            });
+        } catch (const std::system_error &) {
+        }
+    }
+    if (th.joinable()) {
+        try {
+            cheap(0);
+        } catch (...) {
+            th.join();
+            throw;
+        }
+        th.join();
+        if (err) std::rethrow_exception(err);
+    } else {
+        cheap(0);
+        cheap(1);
+    }
+    for (size_t e = 0; e < recs.size(); ++e) {
+        const Record &r = recs[e];
+        const size_t K = ch[e].K;
         if (K < 2) continue;   // too short: run_frf says so
-        const double eta = nonperiodic_fraction(r, P, skip, K);
-        double eta_n;
-        uint32_t Q = eta > 1e-9 ? better_neighbour(r, P, skip, eta, eta_n) : 0;
-        if (Q && !(eta_n < 0.5 * eta)) Q = 0;
+        const double eta = ch[e].eta;
+        double eta_n = ch[e].eta_n;
+        uint32_t Q = ch[e].Q;
         // A noisy input (errors-in-variables, input SNR at or below 0 dB) changes mostly by its noise:
         // periodic when its period mean is stable within its standard error at enough bins.
         PeriodicEvidence ev;

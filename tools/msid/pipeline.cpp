@@ -1,6 +1,7 @@
 #include "pipeline.hpp"
 #include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
 #include "periodicity.hpp"
+#include "fftw_warmup.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
@@ -9,6 +10,7 @@ extern "C" {
 #include <exception>
 #include <system_error>
 #include <thread>
+#include <atomic>
 
 namespace msidcli {
 
@@ -88,7 +90,12 @@ void request_from_core_design(FrfRequest &rq, const msid_design &d)
 struct Fftw {
     msid_fft_fftw f{};
     bool on = false;
-    ~Fftw() { if (on) msid_fft_fftw_destroy(&f); }
+    ~Fftw()
+    {
+        if (!on) return;
+        fftw_planner_ready();
+        msid_fft_fftw_destroy(&f);
+    }
 };
 
 static void validate_lines(const FrfRequest &rq)
@@ -133,7 +140,7 @@ void check_records(const FrfRequest &rq, const std::vector<Record> &recs)
     }
 }
 
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep)
 {
     std::vector<std::string> notes;
     validate_lines(rq);
@@ -159,7 +166,8 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
     // Two experiments at once on two lanes (threads), each experiment's statistics the same bits as
     // measured alone; an error is that of the first failing experiment in file order, as serially.
     const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
-    FrfJob job(rq, nu, ny, m, maxK, maxK, lanes);
+    auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
+    FrfJob &job = *jobp;
     const size_t C = nu + ny;
     std::vector<std::exception_ptr> err(m);
     auto measure = [&](uint32_t lane) {
@@ -195,7 +203,9 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
         if (x) std::rethrow_exception(x);
     std::vector<ExpSource> src;
     for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
-    return job.finish(src, notes);
+    FrfOutcome out = job.finish(src, notes);
+    if (keep) *keep = std::move(jobp);
+    return out;
 }
 
 struct FrfJob::Impl {
@@ -252,6 +262,7 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     mc.transient = maxK >= (uint64_t)rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
     mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? history : 0;
     mc.alpha = rq.alpha;
+    if (path == MSID_DFT_FFT) fftw_planner_ready();   // msid frf's warm-up plan (fftw_warmup.hpp): these plans then cost ~0.02 ms
     for (uint32_t k = 0; k < lanes; ++k) {   // FFTW plans are made here, in one thread (its planner is not thread-safe)
         I.lane.push_back(std::make_unique<Impl::Lane>());
         Impl::Lane &ln = *I.lane.back();
@@ -370,16 +381,22 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
 
     const size_t g = (size_t)nu * ny;
     Json doc = frf_header(rq, nu, ny, m);
+    // room for every member (and a caller's few more): a reallocation would copy the lines' subtrees
+    doc.get_ref<Json::object_t &>().reserve(doc.size() + 16);
     doc["periods_used"] = used;
     doc["periods_rejected"] = rejected;
     doc["dft_path"] = out.dft_path;
     doc["vec_convention"] = msidfrf::VEC_CONVENTION;
     doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
-    doc["experiments"] = exps;
+    doc["experiments"] = std::move(exps);
     // The lines' subtrees (thousands of small allocations) built in two halves on two threads
-    // when there are many, appended in line order: the same document.
-    auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part) {
-        part.reserve(l1 - l0);
+    // when there are many, appended in line order: the same document. rq.lines_as_text: each
+    // line's text written as soon as it is built (the text dump() gives, element l of an array
+    // member of the document) and its subtree dropped: no tree of the lines, no second pass.
+    std::string text[2];
+    std::atomic<bool> as_text{rq.lines_as_text};
+    auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part, std::string *txt) {
+        if (!txt) part.reserve(l1 - l0);
         for (uint32_t l = l0; l < l1; ++l) {
             msidfrf::LineStats s;
             s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
@@ -391,33 +408,58 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
             s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
             s.cond = msid_frf_cond(&f, l);
             s.input_snr = msid_frf_input_snr_db(&f, l);
-            part.push_back(msidfrf::line(line_position(rq, l), s));
+            if (!txt) {
+                part.push_back(msidfrf::line(line_position(rq, l), s));
+                continue;
+            }
+            try {
+                msidfrf::dump_element(msidfrf::line(line_position(rq, l), s), l, 1, 1, *txt);
+            } catch (const msidfrf::NonFinite &) {   // the tree instead (below), and the writer's message
+                as_text = false;
+                return;
+            }
+            if (l == l0) txt->reserve(txt->size() * (l1 - l0) / 8 * 9 + 4096);   // lines are alike in size
         }
     };
     std::vector<Json> part[2];
     const uint32_t half = L >= 64 && std::thread::hardware_concurrency() >= 2 ? (uint32_t)L / 2 : (uint32_t)L;
-    std::exception_ptr part_err;
-    std::thread th;
-    if (half < L) {
-        try {
-            th = std::thread([&] {
-                try {
-                    build(half, (uint32_t)L, part[1]);
-                } catch (...) {
-                    part_err = std::current_exception();
-                }
-            });
-        } catch (const std::system_error &) {
+    auto build_all = [&](bool txt) {
+        std::exception_ptr part_err;
+        std::thread th;
+        if (half < L) {
+            try {
+                th = std::thread([&] {
+                    try {
+                        build(half, (uint32_t)L, part[1], txt ? &text[1] : nullptr);
+                    } catch (...) {
+                        part_err = std::current_exception();
+                    }
+                });
+            } catch (const std::system_error &) {
+            }
         }
-    }
-    build(0, half, part[0]);
-    if (th.joinable()) th.join();
-    else if (half < L) build(half, (uint32_t)L, part[1]);
-    if (part_err) std::rethrow_exception(part_err);
+        try {
+            build(0, half, part[0], txt ? &text[0] : nullptr);
+        } catch (...) {
+            if (th.joinable()) th.join();
+            throw;
+        }
+        if (th.joinable()) th.join();
+        else if (half < L) build(half, (uint32_t)L, part[1], txt ? &text[1] : nullptr);
+        if (part_err) std::rethrow_exception(part_err);
+    };
+    build_all(as_text.load());
+    if (rq.lines_as_text && !as_text) build_all(false);   // a line is not finite
     Json lines = Json::array();
-    lines.get_ref<Json::array_t &>().reserve(L);
-    for (auto &pt : part)
-        for (auto &x : pt) lines.push_back(std::move(x));
+    if (as_text) {
+        out.lines_text.key = "lines";
+        out.lines_text.n = L;
+        out.lines_text.parts = {std::move(text[0]), std::move(text[1])};
+    } else {
+        lines.get_ref<Json::array_t &>().reserve(L);
+        for (auto &pt : part)
+            for (auto &x : pt) lines.push_back(std::move(x));
+    }
     doc["lines"] = std::move(lines);
     if (Ld) {
         Json dl = Json::array();

@@ -3,6 +3,7 @@
 #pragma once
 #include "csv_io.hpp"
 #include "design_io.hpp"
+#include "frf_text.hpp"
 
 namespace msidcli {
 
@@ -24,12 +25,18 @@ struct FrfRequest {
     // before --lines auto); else run_frf() runs it. FrfJob::finish() always runs
     // check_periodic_lines() on the core's period statistics (every host path).
     bool inputs_checked = false;
+    // FrfJob::finish() writes the lines' text as it builds them (FrfOutcome::lines_text) and
+    // leaves "lines" an empty array in the document: for a caller that only writes the file
+    // (msid frf) with write_json_file(..., &lines_text). Not when a line is not finite: then the
+    // lines are in the document as always (and the writer names the entry).
+    bool lines_as_text = false;
 };
 
 struct FrfOutcome {
     Json doc;                  // msid-frf/1
     std::vector<std::string> notes;      // warnings for stderr
     std::string dft_path;                // "stream" or "fft"
+    msidfrf::Prerendered lines_text;     // FrfRequest::lines_as_text: key "lines", n = 0 if not used
 };
 
 // Fill period/bins/folded/omega/sample_time from a design.
@@ -44,8 +51,12 @@ void parse_estimate_options(const Args &a, FrfRequest &rq);
 // the design's inputs and experiments). Throws Error.
 void check_records(const FrfRequest &rq, const std::vector<Record> &recs);
 
-// Validate everything, run the core, build the document. Throws Error.
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs);
+class FrfJob;
+// Validate everything, run the core, build the document. Throws Error. `keep`: the job (its
+// measurement memory, some MB, and FFTW plans) is handed over instead of freed, for a caller that
+// leaves it to the process exit (msid frf): freeing mapped blocks while the other threads' CPU
+// still maps the process costs a TLB shootdown each, on the path to the result.
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep = nullptr);
 
 // What the document reports about where each experiment came from.
 struct ExpSource {
