@@ -348,6 +348,17 @@ def mat_v4_behind_v5_marker(d):
 
 
 @case
+def npz_zip64_directory_offset_wraps(d):
+    # a 107-byte .npz whose zip64 locator puts the zip64 directory at 2^64 - 9: `offset + 56 > size`
+    # wrapped and the reader read 9 bytes before the file (UBSan: pointer overflow; fuzz_files, seed
+    # regress-npz-zip64-offset-wraps); under the sanitizer build this case aborts without the fix
+    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-npz-zip64-offset-wraps").read_bytes()
+    z = Path(d) / "bad.npz"
+    z.write_bytes(seed[1:])
+    return ["frf", "--period", 64, "--lines", "1,3", "--experiment", z], [f"'{z}': bad zip64 directory"]
+
+
+@case
 def design_not_json(d):
     ds = _write(d, "design.json", '{"format": "msid-design/1",')
     p = _write(d, "ok.csv", _siso_text())

@@ -259,6 +259,11 @@ Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero
     return assemble(path, arrs, cols, true);
 }
 
+// [off, off + len) lies inside N bytes, without the wrap-around of off + len (offsets and sizes of a
+// zip64 file are 64-bit fields: fuzz_files, 2026-11-23, a zip64 directory at 2^64 - 9 passed
+// `z64 + 56 > N` and the reader looked 9 bytes before the file's buffer)
+static bool within(uint64_t off, uint64_t len, size_t N) { return off <= N && len <= N - off; }
+
 Record read_record_npz(const std::string &path, const ColumnMap &cols)
 {
     const FileBytes z(path);
@@ -274,7 +279,7 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
     uint64_t nent = le16(b + eocd + 10), cdoff = le32(b + eocd + 16);
     if ((nent == 0xFFFF || cdoff == 0xFFFFFFFFu) && eocd >= 20 && le32(b + eocd - 20) == 0x07064b50u) {
         const uint64_t z64 = le64(b + eocd - 20 + 8);   // zip64 end of central directory record
-        if (z64 + 56 > N || le32(b + z64) != 0x06064b50u) throw Error("'" + path + "': bad zip64 directory");
+        if (!within(z64, 56, N) || le32(b + z64) != 0x06064b50u) throw Error("'" + path + "': bad zip64 directory");
         nent = le64(b + z64 + 32);
         cdoff = le64(b + z64 + 48);
     }
@@ -287,15 +292,17 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
     bufs.reserve(nent);
     size_t p = cdoff;
     for (uint64_t e = 0; e < nent; ++e) {
-        if (p + 46 > N || le32(b + p) != 0x02014b50u) throw Error("'" + path + "': corrupt zip central directory");
+        if (!within(p, 46, N) || le32(b + p) != 0x02014b50u) throw Error("'" + path + "': corrupt zip central directory");
         const unsigned method = le16(b + p + 10);
         uint64_t csize = le32(b + p + 20), usize = le32(b + p + 24), loff = le32(b + p + 42);
         const size_t fnl = le16(b + p + 28), exl = le16(b + p + 30), cml = le16(b + p + 32);
-        if (p + 46 + fnl + exl > N) throw Error("'" + path + "': corrupt zip central directory");
+        if (!within(p, 46 + fnl + exl, N)) throw Error("'" + path + "': corrupt zip central directory");
         std::string fname((const char *)b + p + 46, fnl);
         // zip64 extra field: the 0xFFFFFFFF sizes/offset follow in this order
         for (size_t x = p + 46 + fnl; x + 4 <= p + 46 + fnl + exl;) {
             const unsigned id = le16(b + x), len = le16(b + x + 2);
+            // a field claiming more than the extra area holds would have its fields read past it
+            if (x + 4 + len > p + 46 + fnl + exl) throw Error("'" + path + "': corrupt zip central directory");
             if (id == 1) {
                 size_t q = x + 4;
                 if (usize == 0xFFFFFFFFu && q + 8 <= x + 4 + len) { usize = le64(b + q); q += 8; }
@@ -308,9 +315,9 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
         if (fname.size() < 4 || fname.compare(fname.size() - 4, 4, ".npy") != 0) continue;
         const std::string var = fname.substr(0, fname.size() - 4);
         const std::string where = path + "' variable '" + var;   // quoted as '<path>' variable '<var>'
-        if (loff + 30 > N || le32(b + loff) != 0x04034b50u) throw Error("'" + where + "': corrupt zip member");
+        if (!within(loff, 30, N) || le32(b + loff) != 0x04034b50u) throw Error("'" + where + "': corrupt zip member");
         const size_t data = loff + 30 + le16(b + loff + 26) + le16(b + loff + 28);
-        if (data + csize > N) throw Error("'" + where + "': truncated zip member");
+        if (!within(data, csize, N)) throw Error("'" + where + "': truncated zip member");
         std::string m;
         if (method == 0) {   // stored: parse in place
             arrs.push_back(parse_npy(where, std::string_view((const char *)b + data, csize), var));
