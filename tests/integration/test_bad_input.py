@@ -54,6 +54,13 @@ def _design(d, name="design.json", inputs=1, experiments=1, edit=None):
 CASES = {}
 
 
+def _fuzz_seed_file(d, seed, name):
+    """The file of fuzz_files' regression seed `seed` (its first byte picks the reader) as d/name."""
+    f = Path(d) / name
+    f.write_bytes((Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / seed).read_bytes()[1:])
+    return f
+
+
 def case(fn):
     CASES[fn.__name__] = fn
     return fn
@@ -318,9 +325,7 @@ def fit_frf_directory(d):
 def mat_v5_rank_beyond_file(d):
     # a 333-byte .mat v5 file whose compressed matrix claims 385,875,968 dimensions: libmatio asked for
     # 3 GB before checking (found by fuzz_files, seed regress-mat-v5-rank-beyond-file); now one message
-    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-mat-v5-rank-beyond-file").read_bytes()
-    m = Path(d) / "bad.mat"
-    m.write_bytes(seed[1:])
+    m = _fuzz_seed_file(d, "regress-mat-v5-rank-beyond-file", "bad.mat")
     return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [f"'{m}' is not a MATLAB .mat file or is corrupt"]
 
 
@@ -329,9 +334,7 @@ def mat_v5_small_name_too_long(d):
     # a 414-byte .mat v5 file whose name element is "small" (data in the tag) yet claims 21,037 bytes:
     # libmatio misread what followed and asked for more than 2 GB (fuzz_files, seed
     # regress-mat-v5-small-name-too-long); now one message
-    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-mat-v5-small-name-too-long").read_bytes()
-    m = Path(d) / "bad.mat"
-    m.write_bytes(seed[1:])
+    m = _fuzz_seed_file(d, "regress-mat-v5-small-name-too-long", "bad.mat")
     return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [f"'{m}' is not a MATLAB .mat file or is corrupt"]
 
 
@@ -340,9 +343,7 @@ def mat_v4_behind_v5_marker(d):
     # a 136-byte file ending its first 128 bytes in "IM" with version 0: libmatio reads it as v4, whose
     # first record claims a 2 GB name, and asked for it (2.3 GB RSS; fuzz_files, seed
     # regress-mat-v4-behind-v5-marker). The v4 check must read it too: its message names the record.
-    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-mat-v4-behind-v5-marker").read_bytes()
-    m = Path(d) / "bad.mat"
-    m.write_bytes(seed[1:])
+    m = _fuzz_seed_file(d, "regress-mat-v4-behind-v5-marker", "bad.mat")
     return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [
         f"'{m}' is not a MATLAB .mat file or is corrupt: variable 1 claims more bytes than the file holds"]
 
@@ -352,9 +353,7 @@ def npz_zip64_directory_offset_wraps(d):
     # a 107-byte .npz whose zip64 locator puts the zip64 directory at 2^64 - 9: `offset + 56 > size`
     # wrapped and the reader read 9 bytes before the file (UBSan: pointer overflow; fuzz_files, seed
     # regress-npz-zip64-offset-wraps); under the sanitizer build this case aborts without the fix
-    seed = (Path(__file__).parent.parent / "fuzz" / "corpus" / "fuzz_files" / "regress-npz-zip64-offset-wraps").read_bytes()
-    z = Path(d) / "bad.npz"
-    z.write_bytes(seed[1:])
+    z = _fuzz_seed_file(d, "regress-npz-zip64-offset-wraps", "bad.npz")
     return ["frf", "--period", 64, "--lines", "1,3", "--experiment", z], [f"'{z}': bad zip64 directory"]
 
 
