@@ -9,6 +9,11 @@ import pytest
 
 import canlib as c
 
+# The device is paced (4 kHz, as test_faults): unpaced, a host that a loaded TCG VM starves overflows its
+# socket queue, and those honestly counted kernel drops fail the no-loss checks (seen once in a fresh
+# clone's `./bootstrap.sh test` beside a fuzzer: 4034 of 4096 samples in fd-float32)
+RATE = 4000
+
 FORMATS = {
     "classic-int16": [],
     "fd-float32": ["--fd", "--encoding", "float32"],
@@ -25,7 +30,7 @@ def design(tmp_path_factory):
 def live(request, design, tmp_path_factory):
     tmp = tmp_path_factory.mktemp(request.param)
     with c.Sim(tmp, "--seed", 21) as sim:
-        r = c.measure(tmp, design, "--log", tmp / "run.log", *FORMATS[request.param])
+        r = c.measure(tmp, design, "--log", tmp / "run.log", "--rate", RATE, *FORMATS[request.param])
     return {"tmp": tmp, "doc": r.doc, "truth": sim.truth(), "report": sim.report(), "stderr": r.stderr,
             "fmt": request.param}
 
@@ -111,7 +116,7 @@ def test_external_candump_log_replays_identically(design, tmp_path):
     time.sleep(0.5)
     try:
         with c.Sim(tmp_path, "--seed", 5):
-            r = c.measure(tmp_path, design, "--fd")
+            r = c.measure(tmp_path, design, "--fd", "--rate", RATE)
     finally:
         time.sleep(0.5)
         dump.terminate()
