@@ -349,6 +349,15 @@ def mat_v4_behind_v5_marker(d):
 
 
 @case
+def mat_v5_part_beyond_matrix(d):
+    # a .mat v5 sparse matrix of 112 bytes whose data part claims 2 GB: libmatio sized its buffer from that
+    # tag (fuzz_files, seed regress-mat-v5-part-beyond-matrix); the message is the check's, not matio's
+    m = _fuzz_seed_file(d, "regress-mat-v5-part-beyond-matrix", "bad.mat")
+    return ["frf", "--period", 64, "--lines", "1,3", "--experiment", m], [
+        f"'{m}' is not a MATLAB .mat file or is corrupt: variable 1 holds a part longer than the variable"]
+
+
+@case
 def npz_zip64_directory_offset_wraps(d):
     # a 107-byte .npz whose zip64 locator puts the zip64 directory at 2^64 - 9: `offset + 56 > size`
     # wrapped and the reader read 9 bytes before the file (UBSan: pointer overflow; fuzz_files, seed
