@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -209,6 +210,140 @@ void test_negative_control(void **)
     assert_true(got != want);
 }
 
+// line_element() against dump_element() of the tree line(position(p), s) built from the same
+// row-major arrays: every shape (ny, nu 1..3; bin 0; DT with and without fs; CT folded or
+// not), optional members set and unset, non-finite values where the tree writes null
+// (snr, input_snr) and where it throws (G, cov, cond), two indents and levels, first and later
+// elements. Negative control: one number changed by one ulp in the arrays changes the text.
+struct ArrayLine {
+    msidfrf::Position p;
+    std::vector<msidfrf::cd> G, cov, cov_ki, noise;
+    std::vector<double> snr;
+    double dof = 0, dof_ki = 0;
+    std::optional<double> cond, input_snr;
+    size_t ny = 0, nu = 0;
+    msidfrf::LineArrays arrays() const
+    {
+        msidfrf::LineArrays a;
+        a.G = G.data();
+        a.cov = cov.data();
+        a.dof = dof;
+        a.cov_ki = cov_ki.empty() ? nullptr : cov_ki.data();
+        a.dof_ki = dof_ki;
+        a.noise = noise.empty() ? nullptr : noise.data();
+        a.snr = snr.data();
+        a.ny = ny;
+        a.nu = nu;
+        a.cond = cond;
+        a.input_snr = input_snr;
+        return a;
+    }
+    Json tree() const
+    {
+        msidfrf::LineStats s;
+        s.G = msidfrf::from_row_major(G.data(), ny, nu);
+        s.cov = msidfrf::from_row_major(cov.data(), ny * nu, ny * nu);
+        s.dof = dof;
+        if (!cov_ki.empty()) s.cov_ki = msidfrf::from_row_major(cov_ki.data(), ny * nu, ny * nu);
+        s.dof_ki = dof_ki;
+        if (!noise.empty()) s.noise = msidfrf::from_row_major(noise.data(), ny, ny);
+        s.snr = snr;
+        s.cond = cond;
+        s.input_snr = input_snr;
+        return msidfrf::line(msidfrf::position(p), s);
+    }
+};
+
+std::vector<msidfrf::cd> random_cvec(msid_rng &r, size_t n)
+{
+    std::vector<msidfrf::cd> v(n);
+    for (auto &x : v) x = {random_value(r), random_value(r)};
+    return v;
+}
+
+ArrayLine random_array_line(msid_rng &r, uint32_t k)
+{
+    ArrayLine x;
+    x.ny = 1 + k % 3;
+    x.nu = 1 + k / 3 % 3;
+    const size_t g = x.ny * x.nu;
+    x.p.bin = k % 7 == 0 ? 0 : 1 + k;
+    x.p.period = 1024 + 3 * k;
+    x.p.ct = k % 4 == 1;
+    x.p.omega = x.p.ct ? 1e3 * msid_rng_uniform(&r) : 0.0;
+    x.p.folded = x.p.ct && k % 8 == 1;
+    x.p.fs = !x.p.ct && k % 4 == 2 ? 48000.0 : 0.0;
+    x.G = random_cvec(r, g);
+    x.cov = random_cvec(r, g * g);
+    x.dof = k % 2 ? 2.0 * k + 1.0 : random_value(r);
+    if (k % 5 != 3) {
+        x.cov_ki = random_cvec(r, g * g);
+        x.dof_ki = random_value(r);
+    }
+    if (k % 6 != 4) x.noise = random_cvec(r, x.ny * x.ny);
+    for (size_t y = 0; y < x.ny; ++y)
+        x.snr.push_back(k % 9 == y ? (y ? -std::numeric_limits<double>::infinity() : std::nan("")) : random_value(r));
+    if (k % 3 != 2) x.cond = random_value(r);
+    if (k % 4 != 3) x.input_snr = k % 10 == 5 ? std::nan("") : random_value(r);
+    return x;
+}
+
+std::string tree_text(const ArrayLine &x, size_t i, int indent, int level)
+{
+    std::string s;
+    msidfrf::dump_element(x.tree(), i, indent, level, s);
+    return s;
+}
+
+std::string direct_text(const ArrayLine &x, size_t i, int indent, int level)
+{
+    std::string s = "prefix";   // appends, as dump_element does
+    msidfrf::line_element(x.p, x.arrays(), i, indent, level, s);
+    return s.substr(6);
+}
+
+void test_line_element_equals_tree(void **)
+{
+    msid_rng r;
+    msid_rng_seed(&r, 14);
+    for (uint32_t k = 0; k < 400; ++k) {
+        const ArrayLine x = random_array_line(r, k);
+        for (size_t i : {(size_t)0, (size_t)5})
+            for (int indent : {1, 2})
+                for (int level : {1, 2}) {
+                    const std::string want = tree_text(x, i, indent, level), got = direct_text(x, i, indent, level);
+                    if (got != want)
+                        std::fprintf(stderr, "line_element differs: k = %u, i = %zu, indent %d, level %d\n%s\n---\n%s\n", k,
+                                     i, indent, level, want.c_str(), got.c_str());
+                    assert_true(got == want);
+                }
+    }
+    // non-finite where the tree throws: both throw
+    for (int where = 0; where < 3; ++where) {
+        ArrayLine x = random_array_line(r, 11);
+        if (where == 0) x.G[1] = {1.0, std::nan("")};
+        if (where == 1) x.cov.back() = {std::numeric_limits<double>::infinity(), 0.0};
+        if (where == 2) x.cond = std::nan("");
+        int thrown = 0;
+        try {
+            tree_text(x, 0, 1, 1);
+        } catch (const msidfrf::NonFinite &) {
+            thrown++;
+        }
+        try {
+            direct_text(x, 0, 1, 1);
+        } catch (const msidfrf::NonFinite &) {
+            thrown++;
+        }
+        assert_int_equal(thrown, 2);
+    }
+    // negative control: a number one ulp off in the arrays is seen in the text
+    ArrayLine x = random_array_line(r, 13);
+    const std::string want = tree_text(x, 0, 1, 1);
+    x.cov[x.cov.size() / 2] = {x.cov[x.cov.size() / 2].real(), std::nextafter(x.cov[x.cov.size() / 2].imag(), HUGE_VAL)};
+    assert_true(direct_text(x, 0, 1, 1) != want);
+}
+
 }  // namespace
 
 int main(void)
@@ -218,6 +353,7 @@ int main(void)
         cmocka_unit_test(test_prerendered_equal_tree),
         cmocka_unit_test(test_nonfinite_throws_in_every_form),
         cmocka_unit_test(test_negative_control),
+        cmocka_unit_test(test_line_element_equals_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -401,6 +401,133 @@ void dump_element(const Json &e, size_t i, int indent, int level, std::string &o
     dump_at(e, indent, level + 1, out);
 }
 
+// line_element(): the layout of dump_at() written member by member. A value at `level` opens
+// with "{\n" or "[\n"; its members or elements each start with ",\n" (but the first) and
+// indent * (level + 1) spaces; it closes with "\n", indent * level spaces and "}" or "]".
+namespace {
+struct LineWriter {
+    std::string &o;
+    int indent;
+    char buf[48];
+    void pad(int level) { o.append((size_t)(indent * level), ' '); }
+    void sep(size_t k, int level)
+    {
+        if (k) o += ",\n";
+        pad(level);
+    }
+    void close(int level, char c)
+    {
+        o += '\n';
+        pad(level);
+        o += c;
+    }
+    // member k of an object at `level`: ",\n", the indent, "\"key\": " (keys need no escapes)
+    void key(size_t k, int level, const char *name)
+    {
+        sep(k, level + 1);
+        o += '"';
+        o += name;
+        o += "\": ";
+    }
+    void num(double v)
+    {
+        if (!std::isfinite(v)) throw NonFinite();
+        o.append(buf, format_double(v, buf));
+    }
+    void num_or_null(double v)
+    {
+        if (std::isfinite(v)) o.append(buf, format_double(v, buf));
+        else o += "null";
+    }
+    void uns(uint64_t v) { o.append(buf, std::to_chars(buf, buf + sizeof buf, v).ptr); }
+    // cmat(): {"re": [[...], ...], "im": [[...], ...]} of a row-major rows x cols array at `level`
+    void cmat(const cd *a, size_t rows, size_t cols, int level)
+    {
+        o += "{\n";
+        for (int part = 0; part < 2; ++part) {
+            key((size_t)part, level, part ? "im" : "re");
+            if (!rows) { o += "[]"; continue; }
+            o += "[\n";
+            for (size_t r = 0; r < rows; ++r) {
+                sep(r, level + 2);
+                if (!cols) { o += "[]"; continue; }
+                o += "[\n";
+                for (size_t c = 0; c < cols; ++c) {
+                    sep(c, level + 3);
+                    num(part ? a[r * cols + c].imag() : a[r * cols + c].real());
+                }
+                close(level + 2, ']');
+            }
+            close(level + 1, ']');
+        }
+        close(level, '}');
+    }
+};
+}  // namespace
+
+void line_element(const Position &p, const LineArrays &a, size_t i, int indent, int level, std::string &out)
+{
+    if (i) out += ",\n";
+    LineWriter w{out, indent, {}};
+    w.pad(level + 1);
+    const int L = level + 1;   // the line object's level; members as position() and line() add them
+    size_t k = 0;
+    out += "{\n";
+    w.key(k++, L, "bin");
+    w.uns(p.bin);
+    w.key(k++, L, "freq");
+    w.num((double)p.bin / p.period);
+    if (p.ct) {
+        w.key(k++, L, "omega");
+        w.num(p.omega);
+        w.key(k++, L, "folded");
+        out += p.folded ? "true" : "false";
+        w.key(k++, L, "freq_hz");
+        w.num(p.omega / (2 * M_PI));
+    } else if (p.fs > 0) {
+        w.key(k++, L, "freq_hz");
+        w.num((double)p.bin / p.period * p.fs);
+    }
+    if (p.bin == 0) {
+        w.key(k++, L, "real");
+        out += "true";
+    }
+    const size_t g = a.ny * a.nu;
+    w.key(k++, L, "G");
+    w.cmat(a.G, a.ny, a.nu, L + 1);
+    w.key(k++, L, "cov");
+    w.cmat(a.cov, g, g, L + 1);
+    w.key(k++, L, "dof");
+    w.num(a.dof);
+    w.key(k++, L, "cov_known_input");
+    w.cmat(a.cov_ki ? a.cov_ki : a.cov, g, g, L + 1);
+    w.key(k++, L, "dof_known_input");
+    w.num(a.cov_ki ? a.dof_ki : a.dof);
+    if (a.noise) {
+        w.key(k++, L, "noise_cov");
+        w.cmat(a.noise, a.ny, a.ny, L + 1);
+    }
+    w.key(k++, L, "snr");
+    if (!a.ny) out += "[]";
+    else {
+        out += "[\n";
+        for (size_t y = 0; y < a.ny; ++y) {
+            w.sep(y, L + 2);
+            w.num_or_null(a.snr[y]);
+        }
+        w.close(L + 1, ']');
+    }
+    if (a.cond) {
+        w.key(k++, L, "cond");
+        w.num(*a.cond);
+    }
+    if (a.input_snr) {
+        w.key(k++, L, "input_snr");
+        w.num_or_null(*a.input_snr);
+    }
+    w.close(L, '}');
+}
+
 // The largest array's text in two halves on two threads, appended in order: the same bytes as
 // one thread writes. An exception (NonFinite) of either half is rethrown after both are done.
 // Both strings are sized once from the first element's text (elements of an FRF file's lines

@@ -33,6 +33,25 @@ size_t dump_around(const Json &doc, int indent, std::string &out, bool two_threa
 // before every element but the first, the indent, the element's text.
 void dump_element(const Json &e, size_t i, int indent, int level, std::string &out);
 
+// A line whose statistics are row-major complex arrays (the C core's layout), for line_element().
+// g = ny nu. Null cov_ki: the same as cov (dof_ki ignored); null noise: not written.
+struct LineArrays {
+    const cd *G = nullptr;        // ny x nu
+    const cd *cov = nullptr;      // g x g
+    double dof = 0.0;
+    const cd *cov_ki = nullptr;   // g x g or null
+    double dof_ki = 0.0;
+    const cd *noise = nullptr;    // ny x ny or null
+    const double *snr = nullptr;  // ny values, dB (non-finite: null)
+    size_t ny = 0, nu = 0;
+    std::optional<double> cond, input_snr;   // written when set (input_snr non-finite: null)
+};
+
+// The text dump_element(line(position(p), s), i, indent, level, out) appends, for the line
+// whose statistics `a` holds (LineStats without pcov), written directly: no tree, no Eigen
+// copies (msid frf writes 10^2-10^4 lines this way). Throws NonFinite where dump() would.
+void line_element(const Position &p, const LineArrays &a, size_t i, int indent, int level, std::string &out);
+
 // The elements of the top-level member `key` (n of them, n >= 1) written by dump_element() at
 // level 1 (an array member of the document), concatenated in `parts` in order; the document
 // holds an empty array there. dump() writes the member from these texts: the bytes of dumping

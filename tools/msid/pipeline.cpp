@@ -41,7 +41,8 @@ Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
     return msidfrf::header(h);
 }
 
-Json line_position(const FrfRequest &rq, size_t l)
+// The position fields of line l (msidfrf::position() gives their tree).
+static msidfrf::Position line_pos(const FrfRequest &rq, size_t l)
 {
     msidfrf::Position p;
     p.bin = rq.bins[l];
@@ -52,8 +53,10 @@ Json line_position(const FrfRequest &rq, size_t l)
         p.folded = rq.folded[l] != 0;
     }
     p.fs = rq.fs;
-    return msidfrf::position(p);
+    return p;
 }
+
+Json line_position(const FrfRequest &rq, size_t l) { return msidfrf::position(line_pos(rq, l)); }
 
 void request_from_design(FrfRequest &rq, const Design &D)
 {
@@ -391,13 +394,35 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     doc["experiments"] = std::move(exps);
     // The lines' subtrees (thousands of small allocations) built in two halves on two threads
     // when there are many, appended in line order: the same document. rq.lines_as_text: each
-    // line's text written as soon as it is built (the text dump() gives, element l of an array
-    // member of the document) and its subtree dropped: no tree of the lines, no second pass.
+    // line's text written straight from the core's arrays (msidfrf::line_element: the text dump()
+    // gives of the subtree, element l of an array member of the document): no tree of the lines.
     std::string text[2];
     std::atomic<bool> as_text{rq.lines_as_text};
     auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part, std::string *txt) {
         if (!txt) part.reserve(l1 - l0);
         for (uint32_t l = l0; l < l1; ++l) {
+            if (txt) {   // the text of the tree below, written directly (msidfrf::line_element)
+                msidfrf::LineArrays a;
+                a.ny = ny;
+                a.nu = nu;
+                a.G = reinterpret_cast<const std::complex<double> *>(msid_frf_G(&f, l));
+                a.cov = reinterpret_cast<const std::complex<double> *>(msid_frf_cov(&f, l));
+                a.dof = msid_frf_dof(&f, l);
+                a.cov_ki = reinterpret_cast<const std::complex<double> *>(msid_frf_cov_known_input(&f, l));
+                a.dof_ki = msid_frf_dof_known_input(&f, l);
+                a.noise = reinterpret_cast<const std::complex<double> *>(msid_frf_noise_cov(&f, l));
+                a.snr = msid_frf_snr_db(&f, l);
+                a.cond = msid_frf_cond(&f, l);
+                a.input_snr = msid_frf_input_snr_db(&f, l);
+                try {
+                    msidfrf::line_element(line_pos(rq, l), a, l, 1, 1, *txt);
+                } catch (const msidfrf::NonFinite &) {   // the tree instead (below), and the writer's message
+                    as_text = false;
+                    return;
+                }
+                if (l == l0) txt->reserve(txt->size() * (l1 - l0) / 8 * 9 + 4096);   // lines are alike in size
+                continue;
+            }
             msidfrf::LineStats s;
             s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
             s.cov = cmat_of(msid_frf_cov(&f, l), g, g);
@@ -408,17 +433,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
             s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
             s.cond = msid_frf_cond(&f, l);
             s.input_snr = msid_frf_input_snr_db(&f, l);
-            if (!txt) {
-                part.push_back(msidfrf::line(line_position(rq, l), s));
-                continue;
-            }
-            try {
-                msidfrf::dump_element(msidfrf::line(line_position(rq, l), s), l, 1, 1, *txt);
-            } catch (const msidfrf::NonFinite &) {   // the tree instead (below), and the writer's message
-                as_text = false;
-                return;
-            }
-            if (l == l0) txt->reserve(txt->size() * (l1 - l0) / 8 * 9 + 4096);   // lines are alike in size
+            part.push_back(msidfrf::line(line_position(rq, l), s));
         }
     };
     std::vector<Json> part[2];
