@@ -469,7 +469,11 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     if (as_text) {
         out.lines_text.key = "lines";
         out.lines_text.n = L;
-        out.lines_text.parts = {std::move(text[0]), std::move(text[1])};
+        // moved one by one: an initializer list's elements are const, so {move(a), move(b)} copied
+        // both texts (0.6 MB into fresh pages, ~0.4 ms on the bench)
+        out.lines_text.parts.resize(2);
+        out.lines_text.parts[0] = std::move(text[0]);
+        out.lines_text.parts[1] = std::move(text[1]);
     } else {
         lines.get_ref<Json::array_t &>().reserve(L);
         for (auto &pt : part)
