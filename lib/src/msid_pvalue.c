@@ -23,11 +23,13 @@ double msid__gamma_upper_log(uint32_t n, double S, const double *logj)
     return q > 1.0 ? 1.0 : q;
 }
 
-/* ln 2 in two parts (fdlibm): LN2_HI has 32 significant bits, so E * LN2_HI
- * is exact for |E| < 2^21, and E LN2_HI - S loses nothing where Q is
- * representable (E ln 2 and S then agree to within a factor 2). */
+/* ln 2 in two parts (fdlibm): LN2_HI has 32 significant bits, so F * LN2_HI
+ * is exact for |F| < 2^21 and, F being the integer nearest S / ln 2,
+ * F LN2_HI - S is exact too (Sterbenz): exp(-S) = 2^-F exp(F ln 2 - S) with
+ * an argument in [-0.35, 0.35] that carries no rounding of S's size. */
 #define MSID_LN2_HI 6.93147180369123816490e-01
 #define MSID_LN2_LO 1.90821492927058770002e-10
+#define MSID_INV_LN2 1.44269504088896338700e+00
 
 double msid__gamma_upper(uint32_t n, double S)
 {
@@ -51,8 +53,10 @@ double msid__gamma_upper(uint32_t n, double S)
     int e;
     const double m = frexp(sum, &e);         /* sum = m 2^e, m in [0.5, 1) */
     E += e;
-    const double x = ((double)E * MSID_LN2_HI - S) + (double)E * MSID_LN2_LO;   /* E ln 2 - S */
-    const double q = m * exp(x);
+    /* Q = m 2^E exp(-S) = ldexp(m exp(F ln 2 - S), E - F) */
+    const int F = S < 1e9 ? (int)floor(S * MSID_INV_LN2 + 0.5) : (int)(1e9 * MSID_INV_LN2);
+    const double x = ((double)F * MSID_LN2_HI - S) + (double)F * MSID_LN2_LO;
+    const double q = ldexp(m * exp(x), E - F);
     return q > 1.0 ? 1.0 : q;
 }
 

@@ -11,11 +11,12 @@
 double msid__gamma_upper_log(uint32_t n, double S, const double *logj);
 
 /* The same tail by the term ratio recurrence t_j = t_{j-1} S / j (no exp or
- * log per term; sum rescaled by 2^-600 before it could overflow), then
- * Q = m exp(E ln 2 - S) for the sum m 2^E: two transcendental calls per call
- * whatever n. Relative error a few times 1e-16 per term of the recurrence
- * (bounded by 2 (n-1) eps, eps = 2^-53) plus exp's; tests/unit test_pstats
- * bounds it against the log-domain form and a long-double reference. */
+ * log per term; the sum rescaled by 2^-600 before it could overflow, the
+ * loop left once the terms fall below half an ulp of the sum), then
+ * Q = ldexp(m exp(F ln 2 - S), E - F) for the sum m 2^E: one exp per call
+ * whatever n. Relative error: the recurrence's roundings (at most 2 j eps on
+ * term j, eps = 2^-53) plus 1.5 ulp; tests/unit test_pstats bounds it
+ * against the log-domain form, a long-double reference and closed forms. */
 double msid__gamma_upper(uint32_t n, double S);
 
 /* P(F(1, n) > f) for integer n >= 1 (two-sided Student-t tail at sqrt(f),
