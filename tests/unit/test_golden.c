@@ -280,7 +280,7 @@ static void test_golden_frf(void **state)
        transient FLAG */
     const frf_case mi3 = {96, 6, 4, 3, 2, 3, 1, B4, B4, 4, DET1, NULL, MSID_DFT_STREAM,
                           MSID_TRANSIENT_FLAG, 0, 2, 0.02, 0.03, 0.0, 23u, 0.0};
-    check_hash("frf_3in", frf_hash(&mi3, MSID_OK), 0xe01bb7ecbaaf5e29ull);
+    check_hash("frf_3in", frf_hash(&mi3, MSID_OK), 0xc6745a2fa10d315aull);
     /* one line the design does not excite: it is reported UNEXCITED, the rest solved */
     const frf_case unex = {96, 4, 4, 2, 1, 2, 0, B4x, B4, 4, NULL, NULL, MSID_DFT_STREAM,
                            MSID_TRANSIENT_OFF, 0, 0, 0.0, 0.05, 0.3, 31u, 0.0};
