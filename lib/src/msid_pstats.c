@@ -21,7 +21,7 @@ static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
         ps->hdrop = (uint8_t *)msid__lay(&y, H, 1);
         ps->hpval = (double *)msid__lay(&y, H, sizeof(double));
         ps->hidx = (uint32_t *)msid__lay(&y, H, sizeof(uint32_t));
-        ps->scr = (msid_cplx *)msid__lay(&y, L * q, sizeof(msid_cplx));
+        ps->scr = (double *)msid__lay(&y, msid__mul(L * q, 3u), sizeof(double));
     }
     return y.size;
 }
@@ -193,8 +193,8 @@ static double pc_result(const pcomb *c, const double *logj)
 #define MSID_PSTATS_LOG_FAST_MAX 700.0
 
 /* p-value of one kept period p against the other kept periods; mean[l*q+c]
- * the kept means, the kept diagonal scatter in ps->m2's diagonal imaginary
- * parts (see msid_pstats_detect). The complex channels of a line need only
+ * the kept means, m2d[l*q+c] the kept diagonal scatter (see msid_pstats_detect).
+ * The complex channels of a line need only
  * the largest statistic: P(F(2, 2n) > t) is decreasing in t and the line keeps
  * only its channels' minimum p-value (the minimum of f(t_c) is f(max t_c) for
  * a non-increasing f; tests/unit test_pstats checks it bit for bit).
@@ -209,24 +209,36 @@ static double pc_result(const pcomb *c, const double *logj)
  * so the minimum is the old value bit for bit at about log L exps per
  * period. Lines with a real or deterministic channel, and terms above
  * MSID_PSTATS_LOG_FAST_MAX, go through pc_channel / pc_line_end unchanged. */
-static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, uint32_t K, const double *logq)
+static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K,
+                            const double *logq)
 {
     const size_t L = ps->n_lines, q = ps->n_channels;
     const msid_cplx *zp = ps->hist + (size_t)p * L * q;
     const double Kd = (double)K, n = (double)(K - 2u);
+    /* the old expressions' constant factors, the same bits hoisted */
+    const double KK = Kd / (Kd - 1.0), kf = 1.0 + 1.0 / (Kd - 1.0), rK1 = 1.0 / (Kd - 1.0);
     pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
     double best = -1.0;                              /* largest log-domain term so far */
     for (size_t l = 0; l < L; ++l) {
-        const msid_cplx *m2l = ps->m2 + l * q * q;
         double tmax = -1.0;                          /* largest F(2, 2n) statistic of the line */
         int exact = 0;                               /* a real or deterministic channel: exact form */
         for (size_t c = 0; c < q; ++c) {
             const msid_cplx mu = mean[l * q + c];
             const double dev2 = msid__cabs2(msid__csub(zp[l * q + c], mu));
-            const double m2c = m2l[c * q + c].im;    /* kept diagonal scatter */
-            /* leave-one-out scatter and difference */
-            double s2 = (m2c - Kd / (Kd - 1.0) * dev2) / n;
-            const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
+            const double m2c = m2d[l * q + c];
+            /* leave-one-out scatter s2 = X / n and difference d2 */
+            const double X = m2c - KK * dev2;
+            const double d2 = dev2 * KK * KK;
+            const int real = mu.im == 0.0 && zp[l * q + c].im == 0.0;
+            /* s2 surely above the deterministic floor (the floor below with a
+             * multiplication for its division, margin 1e-6): a complex channel */
+            if (!real && X > n * ((1e-24 * (msid__cabs2(mu) + m2c * rK1) + 1e-300) * (1.0 + 1e-6))) {
+                const double t = d2 / ((X / n) * kf);
+                tmax = t > tmax ? t : tmax;
+                pc.qt++;                             /* counted now, its p-value below */
+                continue;
+            }
+            const double s2 = X / n;
             const double floor_ = 1e-24 * (msid__cabs2(mu) + m2c / (Kd - 1.0)) + 1e-300;
             if (s2 <= floor_) {
                 if (d2 <= floor_) continue;          /* deterministic channel, unchanged */
@@ -234,13 +246,13 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
                 exact = 1;
                 continue;
             }
-            const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
-            if (mu.im == 0.0 && zp[l * q + c].im == 0.0) {
+            const double t = d2 / (s2 * kf);
+            if (real) {
                 pc_channel(&pc, msid__f1_tail(t, K - 2u)); /* real line (DC, Nyquist): F(1, n) */
                 exact = 1;
             } else {
                 if (t > tmax) tmax = t;
-                pc.qt++;                             /* counted now, its p-value below */
+                pc.qt++;
             }
         }
         if (pc.qt == 0) continue;                    /* no channel tested */
@@ -311,16 +323,12 @@ static double trend_pvalue(const msid_pstats *ps, uint32_t first, const double *
     return pc_result(&pc, logj);
 }
 
-/* Two-pass mean (into mean) and diagonal scatter over the kept history
- * periods; the scatter goes into the imaginary parts of ps->m2's diagonal,
- * which the Welford update keeps exactly 0 (see msid_pstats_detect). */
-static void kept_moments(msid_pstats *ps, msid_cplx *mean, uint32_t *K)
+/* Two-pass mean and diagonal scatter over the kept history periods. */
+static void kept_moments(const msid_pstats *ps, msid_cplx *mean, double *m2d, uint32_t *K)
 {
     const size_t L = ps->n_lines, q = ps->n_channels, n = L * q;
     uint32_t k = 0;
-    for (size_t i = 0; i < n; ++i) mean[i] = msid__c(0.0, 0.0);
-    for (size_t l = 0; l < L; ++l)
-        for (size_t c = 0; c < q; ++c) ps->m2[(l * q + c) * q + c].im = 0.0;
+    for (size_t i = 0; i < n; ++i) { mean[i] = msid__c(0.0, 0.0); m2d[i] = 0.0; }
     for (uint32_t p = 0; p < ps->nhist; ++p) {
         if (ps->hdrop[p]) continue;
         k++;
@@ -331,9 +339,7 @@ static void kept_moments(msid_pstats *ps, msid_cplx *mean, uint32_t *K)
     for (uint32_t p = 0; p < ps->nhist; ++p) {
         if (ps->hdrop[p]) continue;
         const msid_cplx *z = ps->hist + (size_t)p * n;
-        for (size_t l = 0; l < L; ++l)
-            for (size_t c = 0; c < q; ++c)
-                ps->m2[(l * q + c) * q + c].im += msid__cabs2(msid__csub(z[l * q + c], mean[l * q + c]));
+        for (size_t i = 0; i < n; ++i) m2d[i] += msid__cabs2(msid__csub(z[i], mean[i]));
     }
     *K = k;
 }
@@ -349,13 +355,12 @@ msid_status msid_pstats_detect(msid_pstats *ps)
 {
     if (ps->transient == MSID_TRANSIENT_OFF) return MSID_OK;
     if (ps->nhist < 3) { ps->cnt.tested = 0; return MSID_OK; }
-    /* Scratch: the kept means in ps->scr, the kept diagonal scatter in the
-     * imaginary parts of ps->m2's diagonal (exactly 0 in the Welford
-     * statistics: welford_lines writes only their real parts), first the
-     * log(j) table of the drift test in ps->scr (2 L q >= L doubles). The
-     * statistics themselves are untouched until a period is dropped. */
-    msid_cplx *mean = ps->scr;
-    double *logj = (double *)ps->scr;
+    /* Scratch (ps->scr, 3 L q doubles): kept means and diagonal scatter,
+     * first the log(j) table of the drift test. The Welford statistics are
+     * left alone until a period is dropped. */
+    msid_cplx *mean = (msid_cplx *)ps->scr;
+    double *m2d = ps->scr + 2u * (size_t)ps->n_lines * ps->n_channels;
+    double *logj = ps->scr;
     for (uint32_t j = 1; j < ps->n_lines; ++j) logj[j] = log((double)j);
     double logq[MSID_MAX_CHANNELS + 1];
     for (uint32_t j = 1; j <= ps->n_channels; ++j) logq[j] = log((double)j);
@@ -375,7 +380,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     int dropped = 0;
     for (;;) {
         uint32_t K;
-        kept_moments(ps, mean, &K);
+        kept_moments(ps, mean, m2d, &K);
         if (K < 3) break;
         /* Weighted Bonferroni over periods: transients sit at the start of a
          * record, so early periods get more of alpha; the weights sum to < 1. */
@@ -383,7 +388,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         uint32_t wp = 0;
         for (uint32_t p = 0; p < ps->nhist; ++p) {
             if (ps->hdrop[p]) continue;
-            const double pv = period_pvalue(ps, p, mean, K, logq);
+            const double pv = period_pvalue(ps, p, mean, m2d, K, logq);
             ps->hpval[p] = pv;
             const double r = pv / period_level(ps->alpha, p, K0);
             if (r < worst) { worst = r; wp = p; }
@@ -409,15 +414,10 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         const size_t n = (size_t)ps->n_lines * ps->n_channels;
         for (uint32_t p = 0; p < ps->nhist; ++p)
             if (!ps->hdrop[p]) welford(ps, ps->hist + (size_t)p * n);
-    } else {
-        /* Nothing dropped now: mean, m2 and K are the Welford statistics of
-         * the kept periods in order already (the streaming updates are the
-         * rebuild's, line by line; tests/unit test_pstats checks the bits);
-         * only the scratch diagonal goes back to exactly 0. */
-        const size_t L = ps->n_lines, q = ps->n_channels;
-        for (size_t l = 0; l < L; ++l)
-            for (size_t c = 0; c < q; ++c) ps->m2[(l * q + c) * q + c].im = 0.0;
     }
+    /* Nothing dropped now: mean, m2 and K are the Welford statistics of the
+     * kept periods in order already (the streaming updates are the rebuild's,
+     * line by line; tests/unit test_pstats checks the bits). */
     ps->cnt.used = ps->K;
     return MSID_OK;
 }
