@@ -636,6 +636,96 @@ static void test_transient_pvalue_reference(void **state)
     UT_CHECK(small > 20, "only %u small p-values", small);
 }
 
+/* The deterministic floor (s2 <= 1e-24 (|mean|^2 + scatter/(K-1))): channel 0
+ * carries noise swept across the floor, channel 1 ordinary noise (L = 1,
+ * q = 2). A test-side mirror of the earlier rule in double (two-pass kept
+ * moments, the same expressions) gives each period's class: channel 0
+ * deterministic and unchanged (not tested), deterministic and changed
+ * (p = 0 exactly), or tested; the library must agree on every class and on
+ * the p-value to 1e-12 relative. Negative control: both classes near the floor
+ * occur. */
+static void test_transient_floor_boundary(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 2468u);
+    const uint32_t K = 5, q = 2;
+    uint32_t n_det = 0, n_changed = 0, n_tested = 0;
+    double worst = 0.0;
+    for (int trial = 0; trial < 600; ++trial) {
+        msid_cplx z[5 * 2];
+        const double sigma = 1e-13 * pow(100.0, trial / 599.0);   /* s2 / floor from ~1e-2 to ~1e2 */
+        for (uint32_t p = 0; p < K; ++p) {
+            z[p * q] = ut_c(1.0 + sigma * msid_rng_normal(&r), 1.0 + sigma * msid_rng_normal(&r));
+            z[p * q + 1] = ut_c(3.0 + msid_rng_normal(&r), -2.0 + msid_rng_normal(&r));
+        }
+        if (trial % 3 == 0) z[0].re += 1e-9;                    /* period 0 departs in channel 0 */
+        pst o;
+        UT_STATUS(ps_make(&o, 1, q, 0, K, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
+        ps_add_periods(&o, z, 0, K, NULL);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        /* the earlier rule, expression by expression */
+        msid_cplx mean[2] = {{0.0, 0.0}, {0.0, 0.0}};
+        double m2d[2] = {0.0, 0.0};
+        for (uint32_t p = 0; p < K; ++p)
+            for (uint32_t c = 0; c < q; ++c) { mean[c].re += z[p * q + c].re; mean[c].im += z[p * q + c].im; }
+        for (uint32_t c = 0; c < q; ++c) { mean[c].re *= 1.0 / (double)K; mean[c].im *= 1.0 / (double)K; }
+        for (uint32_t p = 0; p < K; ++p)
+            for (uint32_t c = 0; c < q; ++c) {
+                const double dr = z[p * q + c].re - mean[c].re, di = z[p * q + c].im - mean[c].im;
+                m2d[c] += dr * dr + di * di;
+            }
+        const double Kd = (double)K, n = (double)(K - 2u);
+        for (uint32_t p = 0; p < K; ++p) {
+            double cmin = 1.0, tmax = -1.0;
+            uint32_t qt = 0;
+            int changed = 0;
+            for (uint32_t c = 0; c < q; ++c) {
+                const double dr = z[p * q + c].re - mean[c].re, di = z[p * q + c].im - mean[c].im;
+                const double dev2 = dr * dr + di * di;
+                const double s2 = (m2d[c] - Kd / (Kd - 1.0) * dev2) / n;
+                const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
+                const double mu2 = mean[c].re * mean[c].re + mean[c].im * mean[c].im;
+                const double floor_ = 1e-24 * (mu2 + m2d[c] / (Kd - 1.0)) + 1e-300;
+                if (s2 <= floor_) {
+                    if (c == 0) n_det += d2 <= floor_;
+                    if (d2 <= floor_) continue;
+                    ++qt;
+                    cmin = 0.0;
+                    changed = 1;
+                    continue;
+                }
+                if (c == 0) ++n_tested;
+                const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
+                if (t > tmax) tmax = t;
+                ++qt;
+            }
+            n_changed += (uint32_t)changed;
+            if (tmax >= 0.0) {
+                const double pv = exp(-n * log1p(tmax / n));
+                if (pv < cmin) cmin = pv;
+            }
+            double pl = cmin * qt;
+            if (pl > 1.0) pl = 1.0;
+            /* one line: Fisher tail exp(-(-log pl)) = pl and Bonferroni pl: p = min(1, 2 pl) */
+            const double want = 2.0 * pl > 1.0 ? 1.0 : 2.0 * pl;
+            double got;
+            msid_pstats_period_state(&o.ps, p, &got);
+            if (changed) UT_CHECK(got == 0.0, "trial %d period %u: deterministic change, p %.17g", trial, p, got);
+            else {
+                const double d = fabs(got - want) / want;
+                if (d > worst) worst = d;
+                UT_CHECK(d <= 1e-12, "trial %d period %u: p %.17g want %.17g", trial, p, got, want);
+            }
+        }
+        tsim_free(o.mem);
+    }
+    print_message("floor boundary: %u deterministic, %u changed, %u tested channel-periods; p within %.2e\n", n_det,
+                  n_changed, n_tested, worst);
+    UT_CHECK(n_det > 200 && n_tested > 200 && n_changed > 50, "classes: %u deterministic, %u tested, %u changed", n_det, n_tested,
+             n_changed);
+}
+
 /* Welford statistics after detection without a drop are the streaming ones
  * bit for bit (no rebuild), and equal those of a TRANSIENT_OFF object given
  * the same periods (also in line blocks, also after a second detection and
@@ -710,6 +800,7 @@ int main(void)
         cmocka_unit_test(test_gamma_tail_accuracy),
         cmocka_unit_test(test_line_term_log_domain),
         cmocka_unit_test(test_transient_pvalue_reference),
+        cmocka_unit_test(test_transient_floor_boundary),
         cmocka_unit_test(test_detect_no_drop_keeps_stats),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
