@@ -4,6 +4,7 @@
 #include "msid/msid_linedft.h"
 #include "msid_internal.h"
 #include "msid_cmat.h"
+#include "msid_pvalue.h"
 #include <math.h>
 
 /* The one memory layout (see msid__layout): mean, scatter, then the period history. */
@@ -13,13 +14,14 @@ static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
     msid__layout y = msid__layout_begin(mem);
     ps->mean = (msid_cplx *)msid__lay(&y, L * q, sizeof(msid_cplx));
     ps->m2 = (msid_cplx *)msid__lay(&y, msid__mul(L * q, q), sizeof(msid_cplx));
-    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0;
+    ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0; ps->scr = 0;
     if (H) {
         ps->hist = (msid_cplx *)msid__lay(&y, msid__mul(H, L * q), sizeof(msid_cplx));
         ps->hflag = (uint8_t *)msid__lay(&y, H, 1);
         ps->hdrop = (uint8_t *)msid__lay(&y, H, 1);
         ps->hpval = (double *)msid__lay(&y, H, sizeof(double));
         ps->hidx = (uint32_t *)msid__lay(&y, H, sizeof(uint32_t));
+        ps->scr = (double *)msid__lay(&y, msid__mul(L * q, 3u), sizeof(double));
     }
     return y.size;
 }
@@ -150,57 +152,6 @@ msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags)
     return st;
 }
 
-/* Upper tail of Gamma(n, 1) at S for integer n >= 1:
- * Q = exp(-S) sum_{j<n} S^j / j!, summed in the log domain. logj[j] =
- * log(j) for 1 <= j < n (the same values as calling log: a table filled once
- * per detection). */
-static double gamma_upper_int(uint32_t n, double S, const double *logj)
-{
-    if (!(S > 0.0)) return 1.0;
-    const double lS = log(S);
-    double lt = -S, mx = -S;
-    for (uint32_t j = 1; j < n; ++j) {
-        lt += lS - logj[j];
-        if (lt > mx) mx = lt;
-    }
-    double sum = 0.0;
-    lt = -S;
-    sum += exp(lt - mx);
-    for (uint32_t j = 1; j < n; ++j) {
-        lt += lS - logj[j];
-        sum += exp(lt - mx);
-    }
-    const double q = exp(mx + log(sum));
-    return q > 1.0 ? 1.0 : q;
-}
-
-/* P(F(1, n) > f) for integer n >= 1: the two-sided Student-t tail at sqrt(f),
- * by the finite sums of Abramowitz & Stegun 26.7.3-26.7.4. */
-static double f1_tail(double f, uint32_t n)
-{
-    if (!(f > 0.0)) return 1.0;
-    const double th = atan(sqrt(f / (double)n));
-    const double c2 = cos(th) * cos(th), sn = sin(th);
-    double A;
-    if (n & 1u) {
-        double term = 1.0, sum = (n > 1u) ? 1.0 : 0.0;
-        for (uint32_t k = 1; 2u * k + 1u <= n - 2u && n > 1u; ++k) {
-            term *= c2 * (2.0 * k) / (2.0 * k + 1.0);
-            sum += term;
-        }
-        A = 0.63661977236758134308 * (th + (n > 1u ? sn * cos(th) * sum : 0.0));
-    } else {
-        double term = 1.0, sum = 1.0;
-        for (uint32_t k = 1; 2u * k <= n - 2u; ++k) {
-            term *= c2 * (2.0 * k - 1.0) / (2.0 * k);
-            sum += term;
-        }
-        A = sn * sum;
-    }
-    const double p = 1.0 - A;
-    return p < 0.0 ? 0.0 : (p > 1.0 ? 1.0 : p);
-}
-
 /* Combining p-values: channels by Bonferroni within a line; lines by a
  * Fisher sum (conservative Gamma(L,1) tail) and a Bonferroni minimum, each at
  * half the level. */
@@ -224,59 +175,109 @@ static void pc_line_end(pcomb *c)
     c->qt = 0;
 }
 
+/* Combined p-value 2 min(Fisher tail, Bonferroni minimum). logj given: the
+ * Fisher tail in the log-domain form (the drift test, whose p-value is
+ * written to the FRF file bit for bit); NULL: the ratio recurrence. */
 static double pc_result(const pcomb *c, const double *logj)
 {
     if (c->ntested == 0) return 1.0;
-    const double pf = gamma_upper_int(c->ntested, c->fisher, logj);
+    const double pf = logj ? msid__gamma_upper_log(c->ntested, c->fisher, logj) : msid__gamma_upper(c->ntested, c->fisher);
     double pb = c->pmin * (double)c->ntested;
     if (pb > 1.0) pb = 1.0;
     double pv = 2.0 * (pf < pb ? pf : pb);
     return pv > 1.0 ? 1.0 : pv;
 }
 
-/* p-value of one kept period p against the other kept periods. The complex
- * channels of a line need only the largest statistic: P(F(2, 2n) > t) is
- * decreasing in t and the line keeps only its channels' minimum p-value, so
- * exp/log1p run once per line, not once per channel (same value: the
- * minimum of f(t_c) is f(max t_c) for a non-increasing f; tests/unit
- * test_pstats checks it bit for bit against the per-channel form). */
+/* Fisher terms up to this -log p take the log-domain path; beyond it the
+ * line's p-value would be subnormal and the exact form (745 for 0) is used. */
+#define MSID_PSTATS_LOG_FAST_MAX 700.0
+
+/* p-value of one kept period p against the other kept periods; mean[l*q+c]
+ * the kept means, m2d[l*q+c] the kept diagonal scatter (see msid_pstats_detect).
+ * The complex channels of a line need only
+ * the largest statistic: P(F(2, 2n) > t) is decreasing in t and the line keeps
+ * only its channels' minimum p-value (the minimum of f(t_c) is f(max t_c) for
+ * a non-increasing f; tests/unit test_pstats checks it bit for bit).
+ *
+ * Log domain (a line of complex channels only): with a = n log1p(tmax/n) =
+ * -log P(F(2, 2n) > tmax) (Pintelon 2002 eq. 34 form: (1 + t/n)^-n) and qt
+ * tested channels, the line's Bonferroni p-value is pl = min(1, qt e^-a),
+ * so its Fisher term -log pl = max(0, a - log qt): one log1p per line, no exp
+ * and no log. The Bonferroni minimum over lines takes the old form
+ * min(1, qt exp(-a)) on every line whose term comes within 1e-9 of the
+ * largest so far (-log pl and a - log qt agree to ~1e-13 while pl is normal),
+ * so the minimum is the old value bit for bit at about log L exps per
+ * period. Lines with a real or deterministic channel, and terms above
+ * MSID_PSTATS_LOG_FAST_MAX, go through pc_channel / pc_line_end unchanged. */
 static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K,
-                            const double *logj)
+                            const double *logq)
 {
     const size_t L = ps->n_lines, q = ps->n_channels;
     const msid_cplx *zp = ps->hist + (size_t)p * L * q;
     const double Kd = (double)K, n = (double)(K - 2u);
+    /* the old expressions' constant factors, the same bits hoisted */
+    const double KK = Kd / (Kd - 1.0), kf = 1.0 + 1.0 / (Kd - 1.0), rK1 = 1.0 / (Kd - 1.0);
     pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
+    double best = -1.0;                              /* largest log-domain term so far */
     for (size_t l = 0; l < L; ++l) {
         double tmax = -1.0;                          /* largest F(2, 2n) statistic of the line */
+        int exact = 0;                               /* a real or deterministic channel: exact form */
         for (size_t c = 0; c < q; ++c) {
             const msid_cplx mu = mean[l * q + c];
             const double dev2 = msid__cabs2(msid__csub(zp[l * q + c], mu));
             const double m2c = m2d[l * q + c];
-            /* leave-one-out scatter and difference */
-            double s2 = (m2c - Kd / (Kd - 1.0) * dev2) / n;
-            const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
+            /* leave-one-out scatter s2 = X / n and difference d2 */
+            const double X = m2c - KK * dev2;
+            const double d2 = dev2 * KK * KK;
+            const int real = mu.im == 0.0 && zp[l * q + c].im == 0.0;
+            /* s2 surely above the deterministic floor (the floor below with a
+             * multiplication for its division, margin 1e-6): a complex channel */
+            if (!real && X > n * ((1e-24 * (msid__cabs2(mu) + m2c * rK1) + 1e-300) * (1.0 + 1e-6))) {
+                const double t = d2 / ((X / n) * kf);
+                tmax = t > tmax ? t : tmax;
+                pc.qt++;                             /* counted now, its p-value below */
+                continue;
+            }
+            const double s2 = X / n;
             const double floor_ = 1e-24 * (msid__cabs2(mu) + m2c / (Kd - 1.0)) + 1e-300;
             if (s2 <= floor_) {
                 if (d2 <= floor_) continue;          /* deterministic channel, unchanged */
                 pc_channel(&pc, 0.0);                /* deterministic channel that changed */
+                exact = 1;
                 continue;
             }
-            const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
-            if (mu.im == 0.0 && zp[l * q + c].im == 0.0) {
-                pc_channel(&pc, f1_tail(t, K - 2u)); /* real line (DC, Nyquist): F(1, n) */
+            const double t = d2 / (s2 * kf);
+            if (real) {
+                pc_channel(&pc, msid__f1_tail(t, K - 2u)); /* real line (DC, Nyquist): F(1, n) */
+                exact = 1;
             } else {
                 if (t > tmax) tmax = t;
-                pc.qt++;                             /* counted now, its p-value below */
+                pc.qt++;
             }
         }
-        if (tmax >= 0.0) {
-            const double pv = exp(-n * log1p(tmax / n));   /* P(F(2, 2n) > tmax) */
-            if (pv < pc.cmin) pc.cmin = pv;
+        if (pc.qt == 0) continue;                    /* no channel tested */
+        const double a = tmax >= 0.0 ? n * log1p(tmax / n) : 0.0;   /* -log P(F(2, 2n) > tmax) */
+        double lp = a - logq[pc.qt];
+        if (exact || lp > MSID_PSTATS_LOG_FAST_MAX) {
+            if (tmax >= 0.0) {
+                const double pv = exp(-a);           /* = exp(-n * log1p(tmax / n)) bit for bit */
+                if (pv < pc.cmin) pc.cmin = pv;
+            }
+            pc_line_end(&pc);
+            continue;
         }
-        pc_line_end(&pc);
+        if (lp < 0.0) lp = 0.0;                      /* pl = 1 */
+        pc.ntested++;
+        pc.fisher += lp;
+        if (lp > best - 1e-9) {                      /* may hold the minimum: the exact form */
+            double pl = exp(-a) * (double)pc.qt;
+            if (pl > 1.0) pl = 1.0;
+            if (pl < pc.pmin) pc.pmin = pl;
+            if (lp > best) best = lp;
+        }
+        pc.qt = 0;
     }
-    return pc_result(&pc, logj);
+    return pc_result(&pc, 0);
 }
 
 /* Drift: p-value of a linear trend in the period number over the stored
@@ -313,7 +314,7 @@ static double trend_pvalue(const msid_pstats *ps, uint32_t first, const double *
                 pv = 0.0;                                    /* deterministic channel, trending */
             } else {
                 const double t = ess * n / rss;
-                pv = real ? f1_tail(t, Kt - 2u) : exp(-n * log1p(t / n));
+                pv = real ? msid__f1_tail(t, Kt - 2u) : exp(-n * log1p(t / n));
             }
             pc_channel(&pc, pv);
         }
@@ -354,11 +355,15 @@ msid_status msid_pstats_detect(msid_pstats *ps)
 {
     if (ps->transient == MSID_TRANSIENT_OFF) return MSID_OK;
     if (ps->nhist < 3) { ps->cnt.tested = 0; return MSID_OK; }
-    /* Scratch: reuse the statistics arrays (recomputed afterwards). */
-    msid_cplx *mean = ps->mean;
-    double *m2d = (double *)ps->m2;      /* L*q doubles fit in L*q*q complex */
-    double *logj = m2d + (size_t)ps->n_lines * ps->n_channels;   /* and L more: 2 L q^2 >= L q + L */
+    /* Scratch (ps->scr, 3 L q doubles): kept means and diagonal scatter,
+     * first the log(j) table of the drift test. The Welford statistics are
+     * left alone until a period is dropped. */
+    msid_cplx *mean = (msid_cplx *)ps->scr;
+    double *m2d = ps->scr + 2u * (size_t)ps->n_lines * ps->n_channels;
+    double *logj = ps->scr;
     for (uint32_t j = 1; j < ps->n_lines; ++j) logj[j] = log((double)j);
+    double logq[MSID_MAX_CHANNELS + 1];
+    for (uint32_t j = 1; j <= ps->n_channels; ++j) logq[j] = log((double)j);
     const uint32_t K0 = ps->nhist;
     ps->cnt.tested = 1;
     /* Drift first: a trend that persists through the late half is no start-up
@@ -372,6 +377,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         ps->cnt.drift_tested = 1;
         if (ps->drift_pval < ps->alpha) { ps->cnt.drift = 1; mode = MSID_TRANSIENT_FLAG; }
     }
+    int dropped = 0;
     for (;;) {
         uint32_t K;
         kept_moments(ps, mean, m2d, &K);
@@ -382,7 +388,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         uint32_t wp = 0;
         for (uint32_t p = 0; p < ps->nhist; ++p) {
             if (ps->hdrop[p]) continue;
-            const double pv = period_pvalue(ps, p, mean, m2d, K, logj);
+            const double pv = period_pvalue(ps, p, mean, m2d, K, logq);
             ps->hpval[p] = pv;
             const double r = pv / period_level(ps->alpha, p, K0);
             if (r < worst) { worst = r; wp = p; }
@@ -400,12 +406,18 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         ps->hdrop[wp] = 1;
         ps->cnt.transient_flagged++;
         ps->cnt.transient_dropped++;
+        dropped = 1;
     }
-    /* Rebuild the Welford statistics from the kept periods, in order. */
-    clear_stats(ps);
-    const size_t n = (size_t)ps->n_lines * ps->n_channels;
-    for (uint32_t p = 0; p < ps->nhist; ++p)
-        if (!ps->hdrop[p]) welford(ps, ps->hist + (size_t)p * n);
+    if (dropped) {
+        /* Rebuild the Welford statistics from the kept periods, in order. */
+        clear_stats(ps);
+        const size_t n = (size_t)ps->n_lines * ps->n_channels;
+        for (uint32_t p = 0; p < ps->nhist; ++p)
+            if (!ps->hdrop[p]) welford(ps, ps->hist + (size_t)p * n);
+    }
+    /* Nothing dropped now: mean, m2 and K are the Welford statistics of the
+     * kept periods in order already (the streaming updates are the rebuild's,
+     * line by line; tests/unit test_pstats checks the bits). */
     ps->cnt.used = ps->K;
     return MSID_OK;
 }

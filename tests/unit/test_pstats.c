@@ -3,6 +3,8 @@
  * capacity, and the leave-one-out transient test (closed-form p-value,
  * DROP / FLAG behaviour, false-alarm rate on clean data). */
 #include "unit_util.h"
+#include "../../lib/src/msid_pvalue.h"
+#include <float.h>
 
 typedef struct {
     msid_pstats ps;
@@ -448,6 +450,340 @@ static void test_transient_line_max_same_bits(void **state)
     UT_CHECK(control > N / 4, "negative control found only %u differences", control);
 }
 
+/* ---------- the log-domain evaluation of the period p-values ---------- */
+
+/* Reference Gamma(n, 1) upper tail in long double: exp(-S) sum_{j<n} S^j / j!,
+ * every term in the log domain with long-double logs (on targets where long
+ * double is double this is the double log-domain form). */
+static long double gamma_upper_ref(uint32_t n, long double S)
+{
+    if (!(S > 0.0L)) return 1.0L;
+    const long double lS = logl(S);
+    long double lt = -S, mx = -S, lf = 0.0L;
+    for (uint32_t j = 1; j < n; ++j) {
+        lf += logl((long double)j);
+        lt = -S + j * lS - lf;
+        if (lt > mx) mx = lt;
+    }
+    long double sum = 0.0L;
+    lf = 0.0L;
+    for (uint32_t j = 0; j < n; ++j) {
+        if (j) lf += logl((long double)j);
+        sum += expl(-S + j * lS - lf - mx);
+    }
+    const long double q = expl(mx + logl(sum));
+    return q > 1.0L ? 1.0L : q;
+}
+
+/* The ratio-recurrence Gamma tail (transient test) against the log-domain form
+ * it replaced (kept for the drift test), a long-double reference and closed
+ * forms, over n = 1..2000 and S from 1e-3 to where Q underflows. Relative
+ * errors are measured where Q > 1e-290. Negative control: the tail at n - 1
+ * (the classic off-by-one of this sum) must miss by far more than the bound
+ * wherever Q < 1/2. */
+static void test_gamma_tail_accuracy(void **state)
+{
+    (void)state;
+    static const uint32_t ns[] = {1, 2, 3, 4, 7, 10, 31, 64, 100, 200, 513, 2000};
+    const int long_ref = LDBL_MANT_DIG > 53;
+    static double logj[2001];
+    for (uint32_t j = 1; j <= 2000; ++j) logj[j] = log((double)j);
+    double e_old = 0.0, e_new = 0.0, e_ref_old = 0.0;
+    uint32_t N = 0, control = 0, cpts = 0;
+    for (size_t k = 0; k < sizeof ns / sizeof ns[0]; ++k) {
+        const uint32_t n = ns[k];
+        /* measured on x86-64 (glibc): recurrence vs long double <= 3.7e-15 at n = 200, 2.1e-14 at
+         * n = 2000 (about 1e-17 n); the log-domain form <= 1.1e-12 and 8e-12 */
+        const double tol_ref = 2e-15 + 2e-17 * n, tol_old = 1e-12 + 1e-14 * n;
+        double en = 0.0, eo = 0.0, er = 0.0;
+        for (int i = 0; i <= 300; ++i) {
+            /* S from 1e-3 to n + 40 sqrt(n) + 700, log-spaced, some of them integers */
+            const double top = n + 40.0 * sqrt((double)n) + 700.0;
+            double S = 1e-3 * pow(top / 1e-3, i / 300.0);
+            if (i % 50 == 7) S = floor(S) + 0.0;
+            const double qn = msid__gamma_upper(n, S), qo = msid__gamma_upper_log(n, S, logj);
+            UT_CHECK(qn >= 0.0 && qn <= 1.0, "n %u S %.17g: Q %.17g", n, S, qn);
+            if (n == 1 && S < 660.0) UT_CHECK(fabs(qn - exp(-S)) <= 4e-16 * exp(-S), "n 1 S %.17g: %.17g vs %.17g", S, qn, exp(-S));
+            if (n == 2 && S < 660.0) {
+                const double w = exp(-S) * (1.0 + S);
+                UT_CHECK(fabs(qn - w) <= 8e-16 * w, "n 2 S %.17g: %.17g vs %.17g", S, qn, w);
+            }
+            if (qo > 1e-290) {
+                const double d = fabs(qn - qo) / qo;
+                if (d > eo) eo = d;
+                if (n > 1 && qo < 0.5) {
+                    ++cpts;
+                    control += fabs(msid__gamma_upper(n - 1, S) - qn) > 1e3 * tol_ref * qn;
+                }
+                ++N;
+                if (long_ref) {
+                    const long double r = gamma_upper_ref(n, S);
+                    const double dn = (double)(fabsl(qn - r) / r), dr = (double)(fabsl(qo - r) / r);
+                    if (dn > en) en = dn;
+                    if (dr > er) er = dr;
+                }
+            }
+        }
+        UT_CHECK(eo <= tol_old, "n %u: recurrence vs log-domain form: relative %.3g (bound %.3g)", n, eo, tol_old);
+        if (long_ref) UT_CHECK(en <= tol_ref, "n %u: recurrence vs long double: relative %.3g (bound %.3g)", n, en, tol_ref);
+        if (eo > e_old) e_old = eo;
+        if (en > e_new) e_new = en;
+        if (er > e_ref_old) e_ref_old = er;
+    }
+    print_message("Gamma tail, %u points, n <= 2000: recurrence vs log-domain form %.2e; vs long double: recurrence %.2e, "
+                  "log-domain form %.2e\n", N, e_old, e_new, e_ref_old);
+    UT_CHECK(cpts > 500 && control == cpts, "negative control: the tail at n - 1 differs at only %u of %u points", control, cpts);
+    /* S <= 0, NaN: 1 */
+    UT_CHECK(msid__gamma_upper(5, 0.0) == 1.0 && msid__gamma_upper(5, -1.0) == 1.0 && msid__gamma_upper(5, NAN) == 1.0, "%d", 0);
+}
+
+/* A line's Fisher term in the log domain, max(0, n log1p(t/n) - log qt),
+ * against the form it replaced, -log(min(1, qt exp(-n log1p(t/n)))), for
+ * n = 1..300, t over 1e-6..1e4 and qt = 1..4 (terms up to the 700 where the
+ * exact form takes over). Negative control: without the log qt the terms
+ * differ. */
+static void test_line_term_log_domain(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 4242u);
+    double worst = 0.0;
+    uint32_t N = 0, control = 0;
+    for (uint32_t k = 0; k < 50000u; ++k) {
+        const double n = (double)(1u + msid_rng_u64(&r) % 300u), qt = (double)(1u + msid_rng_u64(&r) % 4u);
+        const double t = pow(10.0, -6.0 + 10.0 * msid_rng_uniform(&r));
+        const double a = n * log1p(t / n);
+        double lp = a - log(qt);
+        if (lp > 700.0) continue;
+        if (lp < 0.0) lp = 0.0;
+        double pl = qt * exp(-n * log1p(t / n));
+        if (pl > 1.0) pl = 1.0;
+        const double old = pl > 0.0 ? -log(pl) : 745.0;
+        const double d = fabs(lp - old) / (old > 1.0 ? old : 1.0);
+        if (d > worst) worst = d;
+        control += qt > 1.0 && fabs(((a < 0.0) ? 0.0 : a) - old) > 1e-6;
+        ++N;
+    }
+    print_message("line term, %u points: log domain vs exp/log form, %.2e (relative, absolute below 1)\n", N, worst);
+    UT_CHECK(worst <= 2e-15, "log-domain line term off by %.3g", worst);
+    UT_CHECK(control > N / 2, "negative control: %u of %u", control, N);
+}
+
+/* Period p-values of the library against an independent long-double
+ * evaluation of the documented test (leave-one-out F(2, 2n) statistics,
+ * Bonferroni over channels, Fisher sum and Bonferroni minimum over lines),
+ * with periods that carry a transient so both small and large p-values occur. */
+static void test_transient_pvalue_reference(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 8080u);
+    const uint32_t K = 9, L = 25, q = 3;
+    double worst = 0.0;
+    uint32_t small = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+        msid_cplx *z = make_periods(K, L, q, 4.0, 1.0, &r);
+        const double bump = 0.3 * (trial % 8);
+        for (uint32_t k = 0; k < L * q; ++k) { z[k].re += bump * msid_rng_normal(&r); z[k].im += bump; }
+        pst o;
+        UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
+        ps_add_periods(&o, z, 0, K, NULL);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        const long double n = K - 2;
+        for (uint32_t p = 0; p < K; ++p) {
+            long double fisher = 0.0L, pmin = 1.0L;
+            uint32_t nt = 0;
+            for (uint32_t l = 0; l < L; ++l) {
+                long double cmin = 1.0L;
+                for (uint32_t c = 0; c < q; ++c) {
+                    long double mr = 0.0L, mi = 0.0L, s2 = 0.0L;
+                    for (uint32_t j = 0; j < K; ++j)
+                        if (j != p) { mr += z[((size_t)j * L + l) * q + c].re; mi += z[((size_t)j * L + l) * q + c].im; }
+                    mr /= (K - 1); mi /= (K - 1);
+                    for (uint32_t j = 0; j < K; ++j)
+                        if (j != p) {
+                            const long double dr = z[((size_t)j * L + l) * q + c].re - mr, di = z[((size_t)j * L + l) * q + c].im - mi;
+                            s2 += dr * dr + di * di;
+                        }
+                    s2 /= n;
+                    const long double dr = z[((size_t)p * L + l) * q + c].re - mr, di = z[((size_t)p * L + l) * q + c].im - mi;
+                    const long double t = (dr * dr + di * di) / (s2 * (1.0L + 1.0L / (K - 1)));
+                    const long double pc = powl(1.0L + t / n, -n);
+                    if (pc < cmin) cmin = pc;
+                }
+                long double pl = cmin * q;
+                if (pl > 1.0L) pl = 1.0L;
+                fisher -= logl(pl);
+                if (pl < pmin) pmin = pl;
+                ++nt;
+            }
+            const long double pf = gamma_upper_ref(nt, fisher);
+            long double pb = pmin * nt;
+            if (pb > 1.0L) pb = 1.0L;
+            long double want = 2.0L * (pf < pb ? pf : pb);
+            if (want > 1.0L) want = 1.0L;
+            double got;
+            msid_pstats_period_state(&o.ps, p, &got);
+            const double d = (double)(fabsl(got - want) / want);
+            if (d > worst) worst = d;
+            small += want < 1e-3L;
+        }
+        tsim_free(o.mem);
+        free(z);
+    }
+    print_message("period p-values vs long-double reference: relative %.2e (%u below 1e-3)\n", worst, small);
+    UT_CHECK(worst <= (LDBL_MANT_DIG > 53 ? 1e-12 : 1e-10), "relative %.3g", worst);
+    UT_CHECK(small > 20, "only %u small p-values", small);
+}
+
+/* The deterministic floor (s2 <= 1e-24 (|mean|^2 + scatter/(K-1))): channel 0
+ * carries noise swept across the floor, channel 1 ordinary noise (L = 1,
+ * q = 2). A test-side mirror of the earlier rule in double (two-pass kept
+ * moments, the same expressions) gives each period's class: channel 0
+ * deterministic and unchanged (not tested), deterministic and changed
+ * (p = 0 exactly), or tested; the library must agree on every class and on
+ * the p-value to 1e-12 relative. Negative control: both classes near the floor
+ * occur. */
+static void test_transient_floor_boundary(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 2468u);
+    const uint32_t K = 5, q = 2;
+    uint32_t n_det = 0, n_changed = 0, n_tested = 0;
+    double worst = 0.0;
+    for (int trial = 0; trial < 600; ++trial) {
+        msid_cplx z[5 * 2];
+        const double sigma = 1e-13 * pow(100.0, trial / 599.0);   /* s2 / floor from ~1e-2 to ~1e2 */
+        for (uint32_t p = 0; p < K; ++p) {
+            z[p * q] = ut_c(1.0 + sigma * msid_rng_normal(&r), 1.0 + sigma * msid_rng_normal(&r));
+            z[p * q + 1] = ut_c(3.0 + msid_rng_normal(&r), -2.0 + msid_rng_normal(&r));
+        }
+        if (trial % 3 == 0) z[0].re += 1e-9;                    /* period 0 departs in channel 0 */
+        pst o;
+        UT_STATUS(ps_make(&o, 1, q, 0, K, MSID_TRANSIENT_FLAG, 0.01), MSID_OK);
+        ps_add_periods(&o, z, 0, K, NULL);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        /* the earlier rule, expression by expression */
+        msid_cplx mean[2] = {{0.0, 0.0}, {0.0, 0.0}};
+        double m2d[2] = {0.0, 0.0};
+        for (uint32_t p = 0; p < K; ++p)
+            for (uint32_t c = 0; c < q; ++c) { mean[c].re += z[p * q + c].re; mean[c].im += z[p * q + c].im; }
+        for (uint32_t c = 0; c < q; ++c) { mean[c].re *= 1.0 / (double)K; mean[c].im *= 1.0 / (double)K; }
+        for (uint32_t p = 0; p < K; ++p)
+            for (uint32_t c = 0; c < q; ++c) {
+                const double dr = z[p * q + c].re - mean[c].re, di = z[p * q + c].im - mean[c].im;
+                m2d[c] += dr * dr + di * di;
+            }
+        const double Kd = (double)K, n = (double)(K - 2u);
+        for (uint32_t p = 0; p < K; ++p) {
+            double cmin = 1.0, tmax = -1.0;
+            uint32_t qt = 0;
+            int changed = 0;
+            for (uint32_t c = 0; c < q; ++c) {
+                const double dr = z[p * q + c].re - mean[c].re, di = z[p * q + c].im - mean[c].im;
+                const double dev2 = dr * dr + di * di;
+                const double s2 = (m2d[c] - Kd / (Kd - 1.0) * dev2) / n;
+                const double d2 = dev2 * (Kd / (Kd - 1.0)) * (Kd / (Kd - 1.0));
+                const double mu2 = mean[c].re * mean[c].re + mean[c].im * mean[c].im;
+                const double floor_ = 1e-24 * (mu2 + m2d[c] / (Kd - 1.0)) + 1e-300;
+                if (s2 <= floor_) {
+                    if (c == 0) n_det += d2 <= floor_;
+                    if (d2 <= floor_) continue;
+                    ++qt;
+                    cmin = 0.0;
+                    changed = 1;
+                    continue;
+                }
+                if (c == 0) ++n_tested;
+                const double t = d2 / (s2 * (1.0 + 1.0 / (Kd - 1.0)));
+                if (t > tmax) tmax = t;
+                ++qt;
+            }
+            n_changed += (uint32_t)changed;
+            if (tmax >= 0.0) {
+                const double pv = exp(-n * log1p(tmax / n));
+                if (pv < cmin) cmin = pv;
+            }
+            double pl = cmin * qt;
+            if (pl > 1.0) pl = 1.0;
+            /* one line: Fisher tail exp(-(-log pl)) = pl and Bonferroni pl: p = min(1, 2 pl) */
+            const double want = 2.0 * pl > 1.0 ? 1.0 : 2.0 * pl;
+            double got;
+            msid_pstats_period_state(&o.ps, p, &got);
+            if (changed) UT_CHECK(got == 0.0, "trial %d period %u: deterministic change, p %.17g", trial, p, got);
+            else {
+                const double d = fabs(got - want) / want;
+                if (d > worst) worst = d;
+                UT_CHECK(d <= 1e-12, "trial %d period %u: p %.17g want %.17g", trial, p, got, want);
+            }
+        }
+        tsim_free(o.mem);
+    }
+    print_message("floor boundary: %u deterministic, %u changed, %u tested channel-periods; p within %.2e\n", n_det,
+                  n_changed, n_tested, worst);
+    UT_CHECK(n_det > 200 && n_tested > 200 && n_changed > 50, "classes: %u deterministic, %u tested, %u changed", n_det, n_tested,
+             n_changed);
+}
+
+/* Welford statistics after detection without a drop are the streaming ones
+ * bit for bit (no rebuild), and equal those of a TRANSIENT_OFF object given
+ * the same periods (also in line blocks, also after a second detection and
+ * more periods). Negative control: with a drop, they differ from the
+ * pre-detection statistics. */
+static void test_detect_no_drop_keeps_stats(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 1357u);
+    const uint32_t K = 12, L = 17, q = 3;
+    uint32_t no_drop = 0, with_drop = 0;
+    for (int trial = 0; trial < 30; ++trial) {
+        msid_cplx *z = make_periods(K, L, q, 2.0, 1.0, &r);
+        const int transient = trial % 3 == 0;
+        if (transient) for (uint32_t k = 0; k < L * q; ++k) z[k].re += 7.0;
+        pst o, ref;
+        UT_STATUS(ps_make(&o, L, q, 0, K, MSID_TRANSIENT_DROP, 0.01), MSID_OK);
+        UT_STATUS(ps_make(&ref, L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0), MSID_OK);
+        /* the first 8 periods in line blocks of 5 */
+        for (uint32_t p = 0; p < 8; ++p) {
+            int use;
+            UT_STATUS(msid_pstats_add_begin(&o.ps, 0, &use), MSID_OK);
+            for (uint32_t l0 = 0; l0 < L; l0 += 5) msid_pstats_add_lines(&o.ps, z + (size_t)p * L * q, l0, l0 + 5);
+        }
+        const size_t nm = (size_t)L * q * sizeof(msid_cplx), ns = nm * q;
+        msid_cplx *mean0 = (msid_cplx *)malloc(nm), *m20 = (msid_cplx *)malloc(ns);
+        memcpy(mean0, o.ps.mean, nm);
+        memcpy(m20, o.ps.m2, ns);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        const int dropped = msid_pstats_get_counts(&o.ps).transient_dropped > 0;
+        const int same = memcmp(mean0, o.ps.mean, nm) == 0 && memcmp(m20, o.ps.m2, ns) == 0;
+        if (!dropped) {
+            UT_CHECK(same, "trial %d: detection without a drop changed the statistics", trial);
+            ++no_drop;
+        } else {
+            UT_CHECK(!same, "trial %d: a drop left the statistics unchanged", trial);
+            ++with_drop;
+        }
+        /* four more periods, detect again: still the statistics of the kept periods in order */
+        ps_add_periods(&o, z, 8, K, NULL);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        for (uint32_t p = 0; p < K; ++p)
+            if (msid_pstats_period_state(&o.ps, p, NULL) != 2) ps_add_periods(&ref, z, p, p + 1, NULL);
+        UT_CHECK(msid_pstats_count(&o.ps) == msid_pstats_count(&ref.ps) && memcmp(o.ps.mean, ref.ps.mean, nm) == 0 &&
+                     memcmp(o.ps.m2, ref.ps.m2, ns) == 0,
+                 "trial %d: statistics differ from the kept periods' (K %u vs %u)", trial, msid_pstats_count(&o.ps),
+                 msid_pstats_count(&ref.ps));
+        check_hermitian(&o.ps);
+        free(mean0);
+        free(m20);
+        tsim_free(o.mem);
+        tsim_free(ref.mem);
+        free(z);
+    }
+    UT_CHECK(no_drop >= 10 && with_drop >= 5, "both cases exercised: %u without, %u with a drop", no_drop, with_drop);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -461,6 +797,11 @@ int main(void)
         cmocka_unit_test(test_transient_flag_levels),
         cmocka_unit_test(test_transient_false_alarm_rate),
         cmocka_unit_test(test_transient_line_max_same_bits),
+        cmocka_unit_test(test_gamma_tail_accuracy),
+        cmocka_unit_test(test_line_term_log_domain),
+        cmocka_unit_test(test_transient_pvalue_reference),
+        cmocka_unit_test(test_transient_floor_boundary),
+        cmocka_unit_test(test_detect_no_drop_keeps_stats),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

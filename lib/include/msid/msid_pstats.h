@@ -67,6 +67,7 @@ typedef struct msid_pstats {
     uint8_t *hdrop;         /**< [max_periods] 1 = dropped */
     double *hpval;          /**< [max_periods] test p-value per accepted period (NaN if untested) */
     uint32_t *hidx;         /**< [max_periods] 0-based number of each accepted period among all offered */
+    double *scr;            /**< [3*L*q] scratch of msid_pstats_detect (with a history only) */
     double drift_pval;      /**< p-value of the drift test (NaN if untested) */
     uint32_t nhist;         /**< accepted periods stored */
     uint32_t seg_skipped;   /**< periods skipped in the current segment */
