@@ -472,9 +472,14 @@ static void finish_period(msid_linedft *d)
     if (d->spread) { swap_period(d); return; }
     if (d->path == MSID_DFT_FFT) {
         for (size_t c = 0; c < C; ++c) {
-            msid_status st = d->fft->r2c(d->fft->ctx, d->buf + c * P, d->fout);
+            msid_status st;
+            if (d->fft->r2c_bins) {   /* the lines only, straight into out[l * C + c] */
+                st = d->fft->r2c_bins(d->fft->ctx, d->buf + c * P, d->bins, (uint32_t)L, d->out + c, (uint32_t)C);
+            } else {
+                st = d->fft->r2c(d->fft->ctx, d->buf + c * P, d->fout);
+                for (size_t l = 0; l < L; ++l) d->out[l * C + c] = d->fout[d->bins[l]];
+            }
             if (st != MSID_OK) { d->err = MSID_E_BACKEND; d->flags |= MSID_PERIOD_NONFINITE; }
-            for (size_t l = 0; l < L; ++l) d->out[l * C + c] = d->fout[d->bins[l]];
         }
     } else if (d->path == MSID_DFT_STREAM_F32) {
         for (size_t k = 0; k < L * C; ++k) {

@@ -4,6 +4,7 @@
 #include "unit_util.h"
 #ifdef MSID_HAVE_FFTW
 #include "msid/msid_fft_fftw.h"
+#include <fftw3.h>   /* fftw_malloc: inputs of FFTW's alignment, and one off it */
 #endif
 
 /* ---------- helpers ---------- */
@@ -130,7 +131,7 @@ static msid_fft_backend naive_backend(naive_ctx *ctx, uint32_t P)
     ctx->tw = ut_tw_table(P);
     ctx->calls = 0;
     ctx->fail = 0;
-    msid_fft_backend be = {"naive", P, ctx, naive_r2c};
+    msid_fft_backend be = {"naive", P, ctx, naive_r2c, NULL};
     return be;
 }
 
@@ -220,8 +221,9 @@ static void test_fftw_vs_stream(void **state)
         pick_bins(&r, P, L, bins);
         double *x = (double *)malloc(sizeof(double) * K * P * C);
         fill_signal(x, (size_t)K * P, C, P, &r);
+        for (int lines = 0; lines < 2; ++lines) {   /* the real plan, and the lines-only complex one */
         msid_fft_fftw f;
-        UT_STATUS(msid_fft_fftw_create(&f, P, MSID_FFTW_ESTIMATE), MSID_OK);
+        UT_STATUS(msid_fft_fftw_create(&f, P, lines ? MSID_FFTW_LINES : MSID_FFTW_ESTIMATE), MSID_OK);
         ldft a, b;
         UT_STATUS(ld_make(&a, P, C, L, bins, MSID_DFT_STREAM, NULL), MSID_OK);
         UT_STATUS(ld_make(&b, P, C, L, bins, MSID_DFT_FFT, &f.be), MSID_OK);
@@ -241,10 +243,85 @@ static void test_fftw_vs_stream(void **state)
             UT_CHECK(e <= 1e-12, "P=%u FFTW vs naive %.3g", P, e);
         }
         free(tw);
-        free(sa); free(sb); free(x);
+        free(sa); free(sb);
         ld_free(&a); ld_free(&b);
         msid_fft_fftw_destroy(&f);
+        }
+        free(x);
     }
+#else
+    skip();
+#endif
+}
+
+/* MSID_FFTW_LINES: the real DFT at chosen bins from one complex DFT of P/2 points, against
+ * the naive long-double DFT (even P: the split; odd P: the real plan), stride > 1, DC and
+ * Nyquist exactly real, the whole spectrum by r2c, an input of another alignment (copied: the
+ * same bits), the twiddle cache when the same array holds other bins (a stale cache would
+ * give the old bins' twiddles: wrong values), a bin beyond P/2 refused. ESTIMATE keeps no
+ * r2c_bins (the core picks from r2c: unchanged bits). */
+static void test_fftw_lines_backend(void **state)
+{
+    (void)state;
+#ifdef MSID_HAVE_FFTW
+    const uint32_t Ps[] = {2, 4, 6, 64, 1023, 1024, 4096};
+    msid_rng r;
+    msid_rng_seed(&r, 4242u);
+    for (size_t pi = 0; pi < sizeof Ps / sizeof Ps[0]; ++pi) {
+        const uint32_t P = Ps[pi], H = P / 2u, S = 3;
+        double *x = (double *)fftw_malloc(sizeof(double) * (P + 1u));
+        for (uint32_t n = 0; n < P; ++n) x[n] = msid_rng_normal(&r) + (n % 7u == 3u ? 5.0 : 0.0);
+        long double *tw = ut_tw_table(P);
+        msid_fft_fftw f, e;
+        UT_STATUS(msid_fft_fftw_create(&f, P, MSID_FFTW_LINES), MSID_OK);
+        UT_STATUS(msid_fft_fftw_create(&e, P, MSID_FFTW_ESTIMATE), MSID_OK);
+        UT_CHECK(f.be.r2c_bins != NULL && e.be.r2c_bins == NULL && f.half == (P % 2u == 0u), "P=%u", P);
+        /* exact spectrum and its scale */
+        msid_cplx *X0 = (msid_cplx *)malloc(sizeof(msid_cplx) * (H + 1u));
+        double xmax = 0.0;
+        for (uint32_t k = 0; k <= H; ++k) {
+            long double re, im;
+            ut_dft_ld(x, 1, P, k, tw, &re, &im);
+            X0[k].re = (double)re;
+            X0[k].im = (double)im;
+            xmax = fmax(xmax, ut_cabs(X0[k]));
+        }
+        /* bins: all of them reversed (the split's index pairs k, N-k in any order), stride S */
+        const uint32_t n = H + 1u;
+        uint32_t *bins = (uint32_t *)malloc(sizeof(uint32_t) * n);
+        for (uint32_t i = 0; i < n; ++i) bins[i] = H - i;
+        msid_cplx *out = (msid_cplx *)malloc(sizeof(msid_cplx) * n * S), *full = (msid_cplx *)malloc(sizeof(msid_cplx) * n);
+        for (int pass = 0; pass < 2; ++pass) {   /* pass 1: the same array, other bins (cache) */
+            if (pass) for (uint32_t i = 0; i < n; ++i) bins[i] = (uint32_t)((i * 7u + 1u) % n);
+            UT_STATUS(f.be.r2c_bins(f.be.ctx, x, bins, n, out, S), MSID_OK);
+            double dmax = 0.0;
+            for (uint32_t i = 0; i < n; ++i) dmax = fmax(dmax, ut_cdist(out[(size_t)i * S], X0[bins[i]]));
+            UT_CHECK(dmax <= 1e-13 * xmax, "P=%u pass %d: r2c_bins off by %.3g of %.3g", P, pass, dmax, xmax);
+            for (uint32_t i = 0; i < n; ++i)
+                if (bins[i] == 0u || (P % 2u == 0u && bins[i] == H))
+                    UT_CHECK(out[(size_t)i * S].im == 0.0, "P=%u bin %u not real: %.3g", P, bins[i], out[(size_t)i * S].im);
+        }
+        /* the whole spectrum by r2c, and an input of another alignment: the same bits as aligned */
+        UT_STATUS(f.be.r2c(f.be.ctx, x, full), MSID_OK);
+        double dmax = 0.0;
+        for (uint32_t k = 0; k <= H; ++k) dmax = fmax(dmax, ut_cdist(full[k], X0[k]));
+        UT_CHECK(dmax <= 1e-13 * xmax, "P=%u: r2c off by %.3g of %.3g", P, dmax, xmax);
+        double *xs = (double *)fftw_malloc(sizeof(double) * (P + 1u));
+        memcpy(xs + 1, x, sizeof(double) * P);
+        UT_STATUS(f.be.r2c_bins(f.be.ctx, x, bins, n, out, 1u), MSID_OK);
+        msid_cplx *out2 = (msid_cplx *)malloc(sizeof(msid_cplx) * n);
+        UT_STATUS(f.be.r2c_bins(f.be.ctx, xs + 1, bins, n, out2, 1u), MSID_OK);
+        UT_CHECK(memcmp(out, out2, sizeof(msid_cplx) * n) == 0, "P=%u: misaligned input changed the bits", P);
+        /* a bin beyond P/2 */
+        const uint32_t bad = H + 1u;
+        UT_STATUS(f.be.r2c_bins(f.be.ctx, x, &bad, 1u, out, 1u), MSID_E_BACKEND);
+        free(out2); fftw_free(xs);
+        free(out); free(full); free(bins); free(X0); free(tw); fftw_free(x);
+        msid_fft_fftw_destroy(&f);
+        msid_fft_fftw_destroy(&e);
+    }
+    msid_fft_fftw z;
+    UT_STATUS(msid_fft_fftw_create(&z, 64, (msid_fftw_effort)7), MSID_E_ARG);
 #else
     skip();
 #endif
@@ -607,6 +684,7 @@ int main(void)
         cmocka_unit_test(test_stream_vs_naive),
         cmocka_unit_test(test_fft_path_naive_backend),
         cmocka_unit_test(test_fftw_vs_stream),
+        cmocka_unit_test(test_fftw_lines_backend),
         cmocka_unit_test(test_linearity_and_shift),
         cmocka_unit_test(test_chunking_bit_identical),
         cmocka_unit_test(test_gaps_and_nonfinite),

@@ -26,7 +26,7 @@ void fftw_warmup_start(uint32_t period)
     try {
         // a failed plan (a period out of range, no memory) leaves g_plan zeroed: the job then
         // plans, and reports, as without a warm-up
-        g_thread = new std::thread([period] { (void)msid_fft_fftw_create(&g_plan, period, MSID_FFTW_ESTIMATE); });
+        g_thread = new std::thread([period] { (void)msid_fft_fftw_create(&g_plan, period, MSID_FFTW_LINES); });
     } catch (const std::exception &) {   // no thread (std::system_error) or no memory: no warm-up
     }
 }

@@ -270,7 +270,7 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
         I.lane.push_back(std::make_unique<Impl::Lane>());
         Impl::Lane &ln = *I.lane.back();
         if (path == MSID_DFT_FFT) {
-            check(msid_fft_fftw_create(&ln.fftw.f, P, MSID_FFTW_ESTIMATE), "FFTW plan");
+            check(msid_fft_fftw_create(&ln.fftw.f, P, MSID_FFTW_LINES), "FFTW plan");
             ln.fftw.on = true;
         }
         mc.fft = ln.fftw.on ? &ln.fftw.f.be : nullptr;

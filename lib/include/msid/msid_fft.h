@@ -27,6 +27,15 @@ typedef struct msid_fft_backend {
      * Must not modify `in`. Returns MSID_OK or MSID_E_BACKEND.
      */
     msid_status (*r2c)(void *ctx, const double *in, msid_cplx *out);
+    /**
+     * Optional (NULL: the core calls `r2c` and picks the bins). The same DFT at
+     * `n` bins only: out[i * stride] = X[bins[i]], i < n, bins[i] in [0, P/2]
+     * (a backend may compute them more cheaply than the whole spectrum).
+     * `in` as for r2c (P doubles, aligned, not modified); `stride` >= 1.
+     * Returns MSID_OK or MSID_E_BACKEND.
+     */
+    msid_status (*r2c_bins)(void *ctx, const double *in, const uint32_t *bins, uint32_t n, msid_cplx *out,
+                            uint32_t stride);
 } msid_fft_backend;
 
 #ifdef __cplusplus
