@@ -267,6 +267,48 @@ def test_bad_npy_zero_copy_every_nonfinite_kind(tmp_path, data, bad):
     _fails(tmp_path, [p], ["--columns", "u1=1,u2=2,y1=3,y2=4"], f"'{p}' row {K * P}, column 4: NaN or Inf")
 
 
+@pytest.mark.parametrize("case", ["whole", "blocks", "leftover", "skipped", "first_in_order", "before_input_check"])
+def test_bad_npy_nan_found_by_the_lanes(tmp_path, data, case):
+    """msid frf scans an in-place .npy for NaN/Inf in its measurement lanes, block by block, not in
+    the reader (Record::finite_unchecked): the message and its precedence are the reader's. A NaN
+    inside the periods (one block, or --block 100: several), in the rows after the last whole
+    period, in a skipped period; two bad files: the first in file order although the other's NaN
+    comes earlier in its record; file 1's input not periodic (an error of the input check, before
+    the lanes) and file 2 with a NaN: the NaN, as when the reader scanned."""
+    files = _npy_files(tmp_path, data)
+    xs = [np.load(f) for f in files]
+    extra = ["--columns", "u1=1,u2=2,y1=3,y2=4"]
+    want = None
+    if case in ("whole", "blocks"):
+        xs[1][199, 1] = np.nan
+        want = f"'{files[1]}' row 200, column 2: NaN or Inf"
+        if case == "blocks":
+            extra += ["--block", "100"]
+    elif case == "leftover":
+        xs[0] = np.vstack([xs[0], xs[0][:10]])
+        xs[0][K * P + 6, 3] = -np.inf
+        want = f"'{files[0]}' row {K * P + 7}, column 4: NaN or Inf"
+    elif case == "skipped":
+        xs[1][4, 0] = np.inf
+        extra += ["--skip-periods", "1"]
+        want = f"'{files[1]}' row 5, column 1: NaN or Inf"
+    elif case == "first_in_order":
+        xs[0][K * P - 1, 2] = np.nan
+        xs[1][0, 2] = np.nan
+        want = f"'{files[0]}' row {K * P}, column 3: NaN or Inf"
+    else:
+        xs[0][:, :2] = np.random.default_rng(3).standard_normal((K * P, 2))   # not periodic: the input check fails
+        xs[1][300, 3] = np.nan
+        want = f"'{files[1]}' row 301, column 4: NaN or Inf"
+    for f, x in zip(files, xs):
+        np.save(f, x)
+    _fails(tmp_path, files, extra, want)
+    if case == "before_input_check":   # negative control: without the NaN the input check speaks
+        xs[1][300, 3] = 0.0
+        np.save(files[1], xs[1])
+        _fails(tmp_path, files, extra, f"'{files[0]}': the input is not periodic")
+
+
 def test_npy_zero_copy_extreme_finite_values_pass_the_check(tmp_path, data):
     """Negative control of the check above: the largest finite doubles, the smallest subnormal and
     -0.0 are no NaN or Inf. The file is read and the FRF written (the period holding +-DBL_MAX

@@ -209,7 +209,31 @@ void mat_log(int, char *msg) { g_mat_msg = msg ? msg : ""; }
 
 }  // namespace
 
-Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero_copy)
+void check_finite(const Record &r, size_t row0, size_t n)
+{
+    const size_t C = (size_t)r.nu + r.ny;
+    if (row0 > r.n_rows || n > r.n_rows - row0) throw Error("internal error: rows beyond the record");
+    const double *x = r.data() + row0 * C;
+    // NaN/Inf: exponent bits all ones. Integer OR-reduction over the bit patterns, no branch per
+    // sample, no floating-point compare: (b & E) + 2^52 reaches bit 63 exactly when the exponent is
+    // all ones; and, add and or on 64-bit lanes are SSE2, so the loop vectorises at the x86-64
+    // baseline (a == compare of 64-bit lanes, SSE4.1, kept it scalar: 1.2 ms per 8 MiB file)
+    const uint64_t E = 0x7ff0000000000000ull, ONE_EXP = 1ull << 52;
+    uint64_t bad = 0;
+    const size_t nx = n * C;
+    for (size_t i = 0; i < nx; ++i) {
+        uint64_t b;
+        std::memcpy(&b, x + i, sizeof b);
+        bad |= (b & E) + ONE_EXP;
+    }
+    if ((bad >> 63) == 0) return;
+    for (size_t i = 0; i < nx; ++i)
+        if (!std::isfinite(x[i]))
+            throw Error(fmt("'%s' row %zu, column %s: NaN or Inf is not allowed", r.path.c_str(), row0 + i / C + 1,
+                            r.columns[i % C].c_str()));
+}
+
+Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero_copy, bool defer_finite)
 {
     auto buf = std::make_shared<const FileBytes>(path);
     std::vector<Array> arrs{parse_npy(path, std::string_view(buf->data(), buf->size()), "")};
@@ -233,26 +257,8 @@ Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero
             r.view = reinterpret_cast<const double *>(a.data);
             r.keep = buf;
             if (a.n == 0) throw Error("'" + path + "' holds no samples");
-            const double *x = r.view;
-            // NaN/Inf: exponent bits all ones. Integer OR-reduction over the bit patterns, no
-            // branch per sample, no floating-point compare: (b & E) + 2^52 reaches bit 63 exactly
-            // when the exponent is all ones; and, add and or on 64-bit lanes are SSE2, so the
-            // loop vectorises at the x86-64 baseline (a == compare of 64-bit lanes, SSE4.1, kept
-            // it scalar: 1.2 ms per 8 MiB file)
-            const uint64_t E = 0x7ff0000000000000ull, ONE_EXP = 1ull << 52;
-            uint64_t bad = 0;
-            const size_t nx = a.n * a.C;
-            for (size_t i = 0; i < nx; ++i) {
-                uint64_t b;
-                std::memcpy(&b, x + i, sizeof b);
-                bad |= (b & E) + ONE_EXP;
-            }
-            const bool finite = (bad >> 63) == 0;
-            if (!finite)
-                for (size_t i = 0; i < a.n * a.C; ++i)
-                    if (!std::isfinite(x[i]))
-                        throw Error(fmt("'%s' row %zu, column %zu: NaN or Inf is not allowed", path.c_str(),
-                                        i / a.C + 1, i % a.C + 1));
+            if (defer_finite) r.finite_unchecked = true;   // the caller scans each block it uses
+            else check_finite(r, 0, r.n_rows);
             return r;
         }
     }

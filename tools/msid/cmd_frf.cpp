@@ -93,34 +93,47 @@ int cmd_frf(int argc, char **argv)
         (auto_lines || rq.path == MSID_DFT_FFT ||
          msid_linedft_choose(rq.period, (uint32_t)(rq.bins.size() + rq.detect.size()), 1, 1) == MSID_DFT_FFT))
         fftw_warmup_start(rq.period);
-    std::vector<Record> recs = read_experiments(a.all("experiment"), cols, true);   // read via data()
-    // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
-    if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
-    if (auto_period) {
-        std::string rep;
-        rq.period = find_period(recs, rep);
-        std::printf("--period auto: %s\n", rep.c_str());
-    }
-    if (!a.has("direct") && rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD)
-        check_periodic_inputs(rq.period, rq.skip, rq.bins, recs);
-    rq.inputs_checked = !a.has("direct");
-    if (auto_lines) {
-        std::string rep;
-        rq.bins = find_lines(recs, rq.period, rq.skip, rep);
-        std::printf("--lines auto: %s:\n  %s\n", rep.c_str(), format_bins(rq.bins).c_str());
-    }
-    if (a.has("direct")) {
-        if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
-        for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
-            if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
-    }
-    const uint32_t R = a.u32("realisations", 1);
+    // read via data(); on the plain path (run_frf's lanes read every sample; before them only the
+    // input checks read samples, and any error there is preceded by the scan below) a .npy in place
+    // is scanned for NaN/Inf by the lanes, block by block, while in cache (Record::finite_unchecked)
+    const bool plain = !a.has("direct") && !a.has("realisations") && !auto_period && !auto_lines;
+    std::vector<Record> recs = read_experiments(a.all("experiment"), cols, true, plain);
     std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)
-    if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
-    rq.lines_as_text = !a.has("direct") && !a.has("realisations");   // only written to the file below
-    FrfOutcome o = a.has("direct") ? run_frf_direct(rq, *D, recs)
-                   : a.has("realisations") ? run_frf_realisations(rq, recs, R)   // BLA + noise/distortion split
-                                           : run_frf(rq, recs, &job);
+    FrfOutcome o;
+    try {
+        // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
+        if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
+        if (auto_period) {
+            std::string rep;
+            rq.period = find_period(recs, rep);
+            std::printf("--period auto: %s\n", rep.c_str());
+        }
+        if (!a.has("direct") && rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD)
+            check_periodic_inputs(rq.period, rq.skip, rq.bins, recs);
+        rq.inputs_checked = !a.has("direct");
+        if (auto_lines) {
+            std::string rep;
+            rq.bins = find_lines(recs, rq.period, rq.skip, rep);
+            std::printf("--lines auto: %s:\n  %s\n", rep.c_str(), format_bins(rq.bins).c_str());
+        }
+        if (a.has("direct")) {
+            if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
+            for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
+                if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
+        }
+        const uint32_t R = a.u32("realisations", 1);
+        if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
+        rq.lines_as_text = !a.has("direct") && !a.has("realisations");   // only written to the file below
+        o = a.has("direct")         ? run_frf_direct(rq, *D, recs)
+            : a.has("realisations") ? run_frf_realisations(rq, recs, R)   // BLA + noise/distortion split
+                                    : run_frf(rq, recs, &job);
+    } catch (...) {
+        // a record read without its NaN/Inf scan (plain): the reader's message comes first, as when
+        // the reader scanned, whatever the run found later (file order: the first bad file)
+        for (const Record &r : recs)
+            if (r.finite_unchecked) check_finite(r, 0, r.n_rows);
+        throw;
+    }
     if (!a.has("realisations") && !a.has("direct")) {
         const Json nl = detection_distortion(o.doc);   // one realisation: level from the detection lines
         if (!nl.is_null()) {

@@ -579,9 +579,10 @@ static bool ends_with(const std::string &s, const char *suf)
     return true;
 }
 
-static Record read_one(const std::string &path, const ColumnMap &cols, bool zero_copy, bool split)
+static Record read_one(const std::string &path, const ColumnMap &cols, bool zero_copy, bool split,
+                       bool defer_finite = false)
 {
-    if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy);
+    if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy, defer_finite);
     if (ends_with(path, ".npz")) return read_record_npz(path, cols);
     if (ends_with(path, ".mat")) return read_record_mat(path, cols);
     return read_record_csv(path, cols, split);
@@ -592,7 +593,8 @@ Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero
     return read_one(path, cols, zero_copy, true);
 }
 
-std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols, bool zero_copy)
+std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols, bool zero_copy,
+                                     bool defer_finite)
 {
     // .mat goes through libmatio (and HDF5, not thread-safe), .npz through zlib: serial, as is a
     // pipe (which might be given twice). Regular CSV and .npy files: one thread per file.
@@ -604,7 +606,7 @@ std::vector<Record> read_experiments(const std::vector<std::string> &paths, cons
     }
     std::vector<Record> recs(paths.size());
     if (!par) {
-        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true);
+        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true, defer_finite);
         return recs;
     }
     // Thread t reads files t, t + 2, ...; a thread stops at its first bad file. The first bad
@@ -613,7 +615,7 @@ std::vector<Record> read_experiments(const std::vector<std::string> &paths, cons
     auto work = [&](size_t t) {
         for (size_t i = t; i < paths.size(); i += 2) {
             try {
-                recs[i] = read_one(paths[i], cols, zero_copy, false);
+                recs[i] = read_one(paths[i], cols, zero_copy, false, defer_finite);
             } catch (...) {
                 err[i] = std::current_exception();
                 return;
@@ -624,7 +626,7 @@ std::vector<Record> read_experiments(const std::vector<std::string> &paths, cons
     try {
         th = std::thread(work, (size_t)1);
     } catch (const std::system_error &) {   // no thread to be had: one after the other
-        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true);
+        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true, defer_finite);
         return recs;
     }
     work(0);

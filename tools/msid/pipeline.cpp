@@ -180,11 +180,19 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
                 const Record &r = recs[e];
                 check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
                 const size_t nwhole = r.n_rows / P * P;
-                const size_t blk = rq.block ? rq.block : nwhole;
+                // A record read without its NaN/Inf scan (read_experiments' defer_finite) is scanned
+                // block by block just before the block is pushed, while it is in cache (256 KiB
+                // blocks; the results do not depend on the block size), the rows after the last
+                // whole period at the end: the reader's message, no sample used unchecked.
+                const size_t blk = r.finite_unchecked ? std::min<size_t>(rq.block ? rq.block : nwhole,
+                                                                         std::max<size_t>(1, ((size_t)256 << 10) / (8 * C)))
+                                                      : (rq.block ? rq.block : nwhole);
                 for (size_t k = 0; k < nwhole; k += blk) {
                     const size_t n = std::min(blk, nwhole - k);
+                    if (r.finite_unchecked) check_finite(r, k, n);
                     check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
                 }
+                if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
                 check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
             } catch (...) {
                 err[e] = std::current_exception();
