@@ -249,12 +249,15 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     I.ny = ny;
     I.m = m;
     const uint32_t P = rq.period;
-    // Twiddle table (stream path) and FFTW backend (dense path).
+    // Twiddle table (stream path only: P values of msid_cis_turns, ~0.1 ms at P = 4096) and FFTW
+    // backend (dense path).
     const size_t L = rq.bins.size(), Ld = rq.detect.size();
-    I.mtw = Mem(msid_twiddle_mem_size(P));
-    check(msid_twiddle_init(&I.tw, P, I.mtw.p, I.mtw.n), "twiddle table");
     msid_dft_path path = rq.path;
     if (path == MSID_DFT_AUTO) path = msid_linedft_choose(P, (uint32_t)(L + Ld), nu + ny, 1);
+    if (path != MSID_DFT_FFT) {
+        I.mtw = Mem(msid_twiddle_mem_size(P));
+        check(msid_twiddle_init(&I.tw, P, I.mtw.p, I.mtw.n), "twiddle table");
+    }
     I.dft_path = path == MSID_DFT_FFT ? "fft" : "stream";
 
     msid_meas_cfg mc{};
@@ -266,7 +269,7 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     mc.bins = rq.bins.data();
     mc.n_detect = (uint32_t)Ld;
     mc.detect_bins = Ld ? rq.detect.data() : nullptr;
-    mc.twiddle = &I.tw;
+    mc.twiddle = path != MSID_DFT_FFT ? &I.tw : nullptr;
     mc.path = path;
     mc.fft = nullptr;   // per lane
     mc.skip_periods = rq.skip;
