@@ -285,6 +285,25 @@ ArrayLine random_array_line(msid_rng &r, uint32_t k)
         x.snr.push_back(k % 9 == y ? (y ? -std::numeric_limits<double>::infinity() : std::nan("")) : random_value(r));
     if (k % 3 != 2) x.cond = random_value(r);
     if (k % 4 != 3) x.input_snr = k % 10 == 5 ? std::nan("") : random_value(r);
+    if (k % 2 == 0) {   // Hermitian covariances, as the estimators give them (line_element reuses mirror texts)
+        for (auto *M : {&x.cov, &x.cov_ki, &x.noise}) {
+            if (M->empty()) continue;
+            const size_t n = M == &x.noise ? x.ny : g;
+            for (size_t i = 0; i < n; ++i)
+                for (size_t j = 0; j < i; ++j) {
+                    const msidfrf::cd u = (*M)[j * n + i];
+                    (*M)[i * n + j] = std::conj(u);
+                    switch (msid_rng_u64(&r) % 6) {   // the cases of the mirror test
+                    case 0: (*M)[i * n + j] = {u.real(), std::nextafter(-u.imag(), HUGE_VAL)}; break;   // 1 ulp off
+                    case 1: (*M)[j * n + i] = {u.real(), 0.0}; (*M)[i * n + j] = {u.real(), 0.0}; break;   // +0 twice
+                    case 2: (*M)[j * n + i] = {u.real(), 0.0}; (*M)[i * n + j] = {u.real(), -0.0}; break;  // exact conj of 0
+                    case 3: (*M)[i * n + j] = {std::nextafter(u.real(), -HUGE_VAL), -u.imag()}; break;
+                    default: break;   // exact conjugate
+                    }
+                }
+            for (size_t i = 0; i < n; ++i) (*M)[i * n + i] = {(*M)[i * n + i].real(), 0.0};
+        }
+    }
     return x;
 }
 

@@ -17,6 +17,7 @@ extern "C" {
 #include <sys/stat.h>
 #include <system_error>
 #include <thread>
+#include <memory>
 
 namespace msidfrf {
 
@@ -405,56 +406,92 @@ void dump_element(const Json &e, size_t i, int indent, int level, std::string &o
 // with "{\n" or "[\n"; its members or elements each start with ",\n" (but the first) and
 // indent * (level + 1) spaces; it closes with "\n", indent * level spaces and "}" or "]".
 namespace {
+// Writes through a raw pointer into room reserved for the whole line (line_element sizes it from
+// an upper bound of every token: no capacity check per append; ~70,000 appends per 200 lines).
 struct LineWriter {
-    std::string &o;
+    char *w;
     int indent;
     char buf[48];
-    void pad(int level) { o.append((size_t)(indent * level), ' '); }
+    void put(const char *t, size_t n)
+    {
+        std::memcpy(w, t, n);
+        w += n;
+    }
+    void put(const char *t) { put(t, std::strlen(t)); }
+    void put(char c) { *w++ = c; }
+    void pad(int level)
+    {
+        const size_t n = (size_t)(indent * level);
+        std::memset(w, ' ', n);
+        w += n;
+    }
     void sep(size_t k, int level)
     {
-        if (k) o += ",\n";
+        if (k) put(",\n", 2);
         pad(level);
     }
     void close(int level, char c)
     {
-        o += '\n';
+        put('\n');
         pad(level);
-        o += c;
+        put(c);
     }
     // member k of an object at `level`: ",\n", the indent, "\"key\": " (keys need no escapes)
     void key(size_t k, int level, const char *name)
     {
         sep(k, level + 1);
-        o += '"';
-        o += name;
-        o += "\": ";
+        put('"');
+        put(name);
+        put("\": ", 3);
     }
     void num(double v)
     {
         if (!std::isfinite(v)) throw NonFinite();
-        o.append(buf, format_double(v, buf));
+        w = format_double(v, w);
     }
     void num_or_null(double v)
     {
-        if (std::isfinite(v)) o.append(buf, format_double(v, buf));
-        else o += "null";
+        if (std::isfinite(v)) w = format_double(v, w);
+        else put("null", 4);
     }
-    void uns(uint64_t v) { o.append(buf, std::to_chars(buf, buf + sizeof buf, v).ptr); }
-    // cmat(): {"re": [[...], ...], "im": [[...], ...]} of a row-major rows x cols array at `level`
+    void uns(uint64_t v) { w = std::to_chars(w, w + 24, v).ptr; }
+    // cmat(): {"re": [[...], ...], "im": [[...], ...]} of a row-major rows x cols array at `level`.
+    // A covariance is Hermitian: an element below the diagonal whose value is, bit for bit, the
+    // conjugate of its mirror above takes the mirror's text (re as is, im with its sign flipped:
+    // format_double writes '-' exactly when the sign bit is set), not a second formatting (the
+    // shortest digits of a double cost ~50 ns; half of a line's numbers are such mirrors).
     void cmat(const cd *a, size_t rows, size_t cols, int level)
     {
-        o += "{\n";
+        constexpr size_t MAXM = 256;   // mirrors kept for matrices of up to 256 elements
+        struct Span { const char *at; size_t n; };
+        Span sp[MAXM];
+        const bool square = rows == cols && rows * cols <= MAXM;
+        put("{\n", 2);
         for (int part = 0; part < 2; ++part) {
             key((size_t)part, level, part ? "im" : "re");
-            if (!rows) { o += "[]"; continue; }
-            o += "[\n";
+            if (!rows) { put("[]", 2); continue; }
+            put("[\n", 2);
             for (size_t r = 0; r < rows; ++r) {
                 sep(r, level + 2);
-                if (!cols) { o += "[]"; continue; }
-                o += "[\n";
+                if (!cols) { put("[]", 2); continue; }
+                put("[\n", 2);
                 for (size_t c = 0; c < cols; ++c) {
                     sep(c, level + 3);
-                    num(part ? a[r * cols + c].imag() : a[r * cols + c].real());
+                    const double v = part ? a[r * cols + c].imag() : a[r * cols + c].real();
+                    char *const at0 = w;
+                    const Span t = square && c < r ? sp[c * cols + r] : Span{nullptr, 0};
+                    const double m = !t.at ? 0.0 : part ? -a[c * cols + r].imag() : a[c * cols + r].real();
+                    if (t.at && std::memcmp(&v, &m, sizeof v) == 0) {   // the mirror's text (finite)
+                        if (!part) put(t.at, t.n);
+                        else if (t.at[0] == '-') put(t.at + 1, t.n - 1);
+                        else {
+                            put('-');
+                            put(t.at, t.n);
+                        }
+                    } else {
+                        num(v);
+                    }
+                    if (square) sp[r * cols + c] = {at0, (size_t)(w - at0)};
                 }
                 close(level + 2, ']');
             }
@@ -467,12 +504,27 @@ struct LineWriter {
 
 void line_element(const Position &p, const LineArrays &a, size_t i, int indent, int level, std::string &out)
 {
-    if (i) out += ",\n";
-    LineWriter w{out, indent, {}};
-    w.pad(level + 1);
     const int L = level + 1;   // the line object's level; members as position() and line() add them
+    const size_t g = a.ny * a.nu;
+    // Room: every token bounded (a number <= 26 chars, a key <= 24, padding <= indent * (L + 4)),
+    // twice over; the string is cut to what was written at the end.
+    const size_t nums = 2 * g + 4 * g * g + 2 * a.ny * a.ny + a.ny + 8, rows = 4 * (a.ny + 2 * g) + 8;
+    const size_t line_w = 32 + (size_t)indent * (size_t)(L + 4);
+    const size_t room = 2 * (1024 + (nums + 2 * rows + 64) * line_w);
+    // the line is written into this thread's scratch (not zero-filled, kept between lines), then
+    // appended once
+    thread_local std::unique_ptr<char[]> scratch;
+    thread_local size_t scratch_n = 0;
+    if (scratch_n < room) {
+        scratch.reset(new char[room]);
+        scratch_n = room;
+    }
+    LineWriter w{scratch.get(), indent, {}};
+    char *const end = scratch.get() + room;
+    if (i) w.put(",\n", 2);
+    w.pad(level + 1);
     size_t k = 0;
-    out += "{\n";
+    w.put("{\n", 2);
     w.key(k++, L, "bin");
     w.uns(p.bin);
     w.key(k++, L, "freq");
@@ -481,7 +533,7 @@ void line_element(const Position &p, const LineArrays &a, size_t i, int indent, 
         w.key(k++, L, "omega");
         w.num(p.omega);
         w.key(k++, L, "folded");
-        out += p.folded ? "true" : "false";
+        w.put(p.folded ? "true" : "false");
         w.key(k++, L, "freq_hz");
         w.num(p.omega / (2 * M_PI));
     } else if (p.fs > 0) {
@@ -490,42 +542,45 @@ void line_element(const Position &p, const LineArrays &a, size_t i, int indent, 
     }
     if (p.bin == 0) {
         w.key(k++, L, "real");
-        out += "true";
+        w.put("true", 4);
     }
-    const size_t g = a.ny * a.nu;
-    w.key(k++, L, "G");
-    w.cmat(a.G, a.ny, a.nu, L + 1);
-    w.key(k++, L, "cov");
-    w.cmat(a.cov, g, g, L + 1);
-    w.key(k++, L, "dof");
-    w.num(a.dof);
-    w.key(k++, L, "cov_known_input");
-    w.cmat(a.cov_ki ? a.cov_ki : a.cov, g, g, L + 1);
-    w.key(k++, L, "dof_known_input");
-    w.num(a.cov_ki ? a.dof_ki : a.dof);
-    if (a.noise) {
-        w.key(k++, L, "noise_cov");
-        w.cmat(a.noise, a.ny, a.ny, L + 1);
-    }
-    w.key(k++, L, "snr");
-    if (!a.ny) out += "[]";
-    else {
-        out += "[\n";
-        for (size_t y = 0; y < a.ny; ++y) {
-            w.sep(y, L + 2);
-            w.num_or_null(a.snr[y]);
+    {
+        w.key(k++, L, "G");
+        w.cmat(a.G, a.ny, a.nu, L + 1);
+        w.key(k++, L, "cov");
+        w.cmat(a.cov, g, g, L + 1);
+        w.key(k++, L, "dof");
+        w.num(a.dof);
+        w.key(k++, L, "cov_known_input");
+        w.cmat(a.cov_ki ? a.cov_ki : a.cov, g, g, L + 1);
+        w.key(k++, L, "dof_known_input");
+        w.num(a.cov_ki ? a.dof_ki : a.dof);
+        if (a.noise) {
+            w.key(k++, L, "noise_cov");
+            w.cmat(a.noise, a.ny, a.ny, L + 1);
         }
-        w.close(L + 1, ']');
-    }
-    if (a.cond) {
-        w.key(k++, L, "cond");
-        w.num(*a.cond);
-    }
-    if (a.input_snr) {
-        w.key(k++, L, "input_snr");
-        w.num_or_null(*a.input_snr);
-    }
-    w.close(L, '}');
+        w.key(k++, L, "snr");
+        if (!a.ny) w.put("[]", 2);
+        else {
+            w.put("[\n", 2);
+            for (size_t y = 0; y < a.ny; ++y) {
+                w.sep(y, L + 2);
+                w.num_or_null(a.snr[y]);
+            }
+            w.close(L + 1, ']');
+        }
+        if (a.cond) {
+            w.key(k++, L, "cond");
+            w.num(*a.cond);
+        }
+        if (a.input_snr) {
+            w.key(k++, L, "input_snr");
+            w.num_or_null(*a.input_snr);
+        }
+        w.close(L, '}');
+    }   // NonFinite thrown above: nothing of this line is in `out`
+    if (w.w > end) std::abort();   // the bound above was wrong: never continue past a buffer overrun
+    out.append(scratch.get(), (size_t)(w.w - scratch.get()));
 }
 
 // The largest array's text in two halves on two threads, appended in order: the same bytes as
