@@ -2,7 +2,6 @@
 #include "msid/msid_fft_fftw.h"
 #include "msid/msid_dmath.h"
 #include <fftw3.h>
-#include <stdlib.h>
 #include <string.h>
 
 /* The transform of `in` by the plan: new-array execute needs the alignment the plan was made
@@ -28,12 +27,13 @@ static const msid_cplx *twiddles(msid_fft_fftw *f, int s, const uint32_t *bins, 
         return f->tw[s].w;
     for (uint32_t i = 0; i < n; ++i)
         if (bins[i] > P / 2u) return NULL;
-    uint32_t *b = (uint32_t *)realloc(f->tw[s].bins, (size_t)(n ? n : 1) * sizeof(uint32_t));
-    if (b) f->tw[s].bins = b;
-    msid_cplx *w = (msid_cplx *)realloc(f->tw[s].w, (size_t)(n ? n : 1) * sizeof(msid_cplx));
-    if (w) f->tw[s].w = w;
-    if (!b || !w) { f->tw[s].n = 0; return NULL; }
+    /* FFTW's allocator, as for the plan's buffers (this backend lives outside the heap-free core) */
+    fftw_free(f->tw[s].bins);
+    fftw_free(f->tw[s].w);
     f->tw[s].n = 0;   /* valid again only when complete */
+    uint32_t *b = f->tw[s].bins = (uint32_t *)fftw_malloc((size_t)(n ? n : 1) * sizeof(uint32_t));
+    msid_cplx *w = f->tw[s].w = (msid_cplx *)fftw_malloc((size_t)(n ? n : 1) * sizeof(msid_cplx));
+    if (!b || !w) return NULL;
     for (uint32_t i = 0; i < n; ++i) {
         b[i] = bins[i];
         msid_cis_turns(-(double)bins[i] / (double)P, &w[i].re, &w[i].im);
@@ -74,11 +74,11 @@ static msid_status r2c(void *ctx, const double *in, msid_cplx *out)
     if (f->half) {   /* every bin 0..P/2: the split with the whole twiddle table (slot 1) */
         const uint32_t N = P / 2u;
         if (f->tw[1].n != N + 1u) {
-            uint32_t *all = (uint32_t *)malloc(((size_t)N + 1u) * sizeof(uint32_t));
+            uint32_t *all = (uint32_t *)fftw_malloc(((size_t)N + 1u) * sizeof(uint32_t));
             if (!all) return MSID_E_BACKEND;
             for (uint32_t k = 0; k <= N; ++k) all[k] = k;
             const msid_cplx *w = twiddles(f, 1, all, N + 1u);
-            free(all);
+            fftw_free(all);
             if (!w) return MSID_E_BACKEND;
         }
         run(f, in, P);
@@ -148,8 +148,8 @@ void msid_fft_fftw_destroy(msid_fft_fftw *f)
     if (f->in) fftw_free(f->in);
     if (f->out) fftw_free(f->out);
     for (int s = 0; s < 2; ++s) {
-        free(f->tw[s].bins);
-        free(f->tw[s].w);
+        fftw_free(f->tw[s].bins);
+        fftw_free(f->tw[s].w);
     }
     memset(f, 0, sizeof(*f));
 }
