@@ -410,6 +410,7 @@ namespace {
 // an upper bound of every token: no capacity check per append; ~70,000 appends per 200 lines).
 struct LineWriter {
     char *w;
+    char *end;   // the scratch's end: every element checks its room first (sep)
     int indent;
     char buf[48];
     void put(const char *t, size_t n)
@@ -425,13 +426,17 @@ struct LineWriter {
         std::memset(w, ' ', n);
         w += n;
     }
+    // before every member and element: room for ",\n", the padding and the longest token that
+    // follows (a number <= 26, a key <= 24 chars) with its brackets, or stop before any overrun
     void sep(size_t k, int level)
     {
+        if ((size_t)(end - w) < (size_t)(indent * (level + 2)) + 64u) std::abort();
         if (k) put(",\n", 2);
         pad(level);
     }
     void close(int level, char c)
     {
+        if ((size_t)(end - w) < (size_t)(indent * level) + 64u) std::abort();
         put('\n');
         pad(level);
         put(c);
@@ -507,7 +512,7 @@ void line_element(const Position &p, const LineArrays &a, size_t i, int indent, 
     const int L = level + 1;   // the line object's level; members as position() and line() add them
     const size_t g = a.ny * a.nu;
     // Room: every token bounded (a number <= 26 chars, a key <= 24, padding <= indent * (L + 4)),
-    // twice over; the string is cut to what was written at the end.
+    // twice over; LineWriter::sep checks the room before each element all the same.
     const size_t nums = 2 * g + 4 * g * g + 2 * a.ny * a.ny + a.ny + 8, rows = 4 * (a.ny + 2 * g) + 8;
     const size_t line_w = 32 + (size_t)indent * (size_t)(L + 4);
     const size_t room = 2 * (1024 + (nums + 2 * rows + 64) * line_w);
@@ -519,8 +524,8 @@ void line_element(const Position &p, const LineArrays &a, size_t i, int indent, 
         scratch.reset(new char[room]);
         scratch_n = room;
     }
-    LineWriter w{scratch.get(), indent, {}};
     char *const end = scratch.get() + room;
+    LineWriter w{scratch.get(), end, indent, {}};
     if (i) w.put(",\n", 2);
     w.pad(level + 1);
     size_t k = 0;
@@ -579,7 +584,6 @@ void line_element(const Position &p, const LineArrays &a, size_t i, int indent, 
         }
         w.close(L, '}');
     }   // NonFinite thrown above: nothing of this line is in `out`
-    if (w.w > end) std::abort();   // the bound above was wrong: never continue past a buffer overrun
     out.append(scratch.get(), (size_t)(w.w - scratch.get()));
 }
 
