@@ -10,6 +10,8 @@
 #include "model_io.hpp"
 
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <cstdio>
 #include <string>
 #include <unistd.h>
@@ -19,6 +21,28 @@ static std::string tmp_path()
     static std::string p;
     if (p.empty()) p = "/tmp/msid-fuzz-files." + std::to_string(getpid());
     return p;
+}
+
+// The CSV reader's cell path and general path (csv_io.cpp) must agree: the same rows bit for bit or
+// the same error message; a difference is a finding (abort).
+static void csv_both_paths(const std::string &path)
+{
+    std::string err[2];
+    msidcli::Record rec[2];
+    for (int k = 0; k < 2; ++k) {
+        try {
+            rec[k] = msidcli::read_record_csv(path, {}, true, k == 0);
+        } catch (const msidcli::Error &e) {
+            err[k] = e.what();
+        }
+    }
+    if (err[0] != err[1] || rec[0].n_rows != rec[1].n_rows || rec[0].rows.size() != rec[1].rows.size() ||
+        (!rec[0].rows.empty() &&
+         std::memcmp(rec[0].rows.data(), rec[1].rows.data(), rec[0].rows.size() * sizeof(double)) != 0)) {
+        std::fprintf(stderr, "CSV cell path and general path differ: '%s' / '%s'\n", err[0].c_str(), err[1].c_str());
+        std::abort();
+    }
+    if (!err[0].empty()) throw msidcli::Error(err[0]);
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -35,7 +59,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         case 0: (void)msidfit::read_frf(path); break;
         case 1: (void)msidfit::read_model(path); break;
         case 2: (void)msidcli::read_design_file(path); break;
-        case 3: (void)msidcli::read_record_csv(path); break;
+        case 3: csv_both_paths(path); break;
         case 4: (void)msidcli::read_record_npy(path, {}, false); break;
         case 5: (void)msidcli::read_record_npy(path, two, true); break;   // the zero-copy view
         case 6: (void)msidcli::read_record_npz(path, {}); break;

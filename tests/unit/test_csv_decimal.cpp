@@ -6,6 +6,12 @@
 // Negative control: the same checker on a parser that is deliberately 1 ulp
 // off for one string in 64 must report those strings (a checker that cannot
 // fail would prove nothing).
+// The cell parser (decimal::parse_cell, the CSV reader's path for cells whose
+// extent it knows) on the same strings and on 2 million cells of the shape it
+// takes, each after 16 random bytes it must ignore: whenever it accepts a cell
+// its value has from_chars' bits and from_chars reads the whole cell, and it
+// accepts every cell of its shape (-?D+.D+, at most 15 digits). Negative
+// controls: a cell parser 1 ulp off, and one that takes a cell of a wrong shape.
 #include "msid_decimal.hpp"
 
 #include <charconv>
@@ -163,6 +169,132 @@ void test_decimal_negative_control(void **)
     assert_true(bad > strs.size() / 128);
 }
 
+#ifdef MSID_DECIMAL_CELL
+using CellParser = bool (*)(const char *, size_t, double &);
+
+bool cell_ok(const char *s, size_t len, double &v) { return msidcli::decimal::parse_cell(s, len, v); }
+
+// Negative controls: 1 ulp off for one cell in 64 (by its bytes' sum); a cell with an exponent read
+// as its mantissa (the parse of a wrong shape).
+bool cell_off_by_one_ulp(const char *s, size_t len, double &v)
+{
+    if (!msidcli::decimal::parse_cell(s, len, v)) return false;
+    unsigned sum = 0;
+    for (size_t k = 0; k < len; ++k) sum += (unsigned char)s[k];
+    if (sum % 64 == 0) v = std::nextafter(v, INFINITY);
+    return true;
+}
+bool cell_ignores_exponent(const char *s, size_t len, double &v)
+{
+    size_t n = 0;
+    while (n < len && (s[n] | 0x20) != 'e') ++n;
+    return msidcli::decimal::parse_cell(s, n, v) || msidcli::decimal::parse_cell(s, len, v);
+}
+
+// Is s of the cell parser's shape: -?D+.D+ with 2..15 digits?
+bool cell_shape(const std::string &s)
+{
+    size_t k = s[0] == '-', digits = 0, dots = 0;
+    if (k == s.size()) return false;
+    const size_t first = k;
+    for (; k < s.size(); ++k) {
+        if (s[k] == '.') {
+            if (dots++ || k == first || k + 1 == s.size()) return false;
+        } else if (msidcli::decimal::digit(s[k])) {
+            ++digits;
+        } else {
+            return false;
+        }
+    }
+    return dots == 1 && digits <= 15;
+}
+
+// Mismatches of the cell parser `p` against std::from_chars; `missed`: cells of its shape it refused.
+size_t check_cells(CellParser p, const std::vector<std::string> &strs, size_t &taken, size_t &missed,
+                   std::string *first)
+{
+    static const char junk[] = "0123456789.-+eE,;\t \n\r\"x";
+    msid_rng r;
+    msid_rng_seed(&r, 31);
+    size_t bad = 0;
+    taken = missed = 0;
+    std::string buf;
+    for (const auto &s : strs) {
+        buf.clear();
+        for (int k = 0; k < 16; ++k) buf += junk[msid_rng_u64(&r) % (sizeof junk - 1)];
+        buf += s;
+        buf += ',';
+        double got = 0, ref = 0;
+        const char *c = buf.data() + 16;
+        const bool ok = p(c, s.size(), got);
+        if (ok) {
+            ++taken;
+            auto res = std::from_chars(c, c + s.size(), ref);
+            if (res.ec != std::errc() || res.ptr != c + s.size() || std::memcmp(&ref, &got, 8) != 0) {
+                if (!bad && first) *first = s;
+                ++bad;
+            }
+        } else if (cell_shape(s)) {
+            if (!bad && first) *first = s + " (refused)";
+            ++missed;
+        }
+    }
+    return bad;
+}
+
+// Cells of the parser's shape: a sign or not, 2..17 digits (16, 17: refused), the dot anywhere inside.
+std::vector<std::string> cells()
+{
+    msid_rng r;
+    msid_rng_seed(&r, 4242);
+    std::vector<std::string> v;
+    v.reserve(2000000);
+    for (int n = 0; n < 2000000; ++n) {
+        const unsigned nd = 2 + (unsigned)(msid_rng_u64(&r) % 16);
+        std::string s = msid_rng_u64(&r) % 2 ? "-" : "";
+        std::string d;
+        for (unsigned k = 0; k < nd; ++k) d += (char)('0' + msid_rng_u64(&r) % 10);
+        if (msid_rng_u64(&r) % 4 == 0) d[0] = '0';
+        d.insert(d.begin() + 1 + (long)(msid_rng_u64(&r) % (nd - 1)), '.');
+        v.push_back(s + d);
+    }
+    return v;
+}
+
+void test_cell_equals_from_chars(void **)
+{
+    if (!msidcli::decimal::cell_available()) skip();
+    std::vector<std::string> strs = corpus();
+    const std::vector<std::string> c = cells();
+    strs.insert(strs.end(), c.begin(), c.end());
+    for (const char *x : {"", "-", ".", "-.", "1.", ".5", "1.5e3", "+1.5", "1..5", "-0.0", "0.0", "1 .5", "1.5 "})
+        strs.emplace_back(x);
+    std::string first;
+    size_t taken = 0, missed = 0;
+    const size_t bad = check_cells(cell_ok, strs, taken, missed, &first);
+    if (bad || missed) std::fprintf(stderr, "%zu mismatches, %zu refused, first '%s'\n", bad, missed, first.c_str());
+    assert_int_equal(bad, 0);
+    assert_int_equal(missed, 0);
+    assert_true(taken > 1800000);   // the cells of its shape (about 7/8 of 2 million) and the corpus's
+}
+
+void test_cell_negative_controls(void **)
+{
+    if (!msidcli::decimal::cell_available()) skip();
+    const std::vector<std::string> c = cells();
+    const std::vector<std::string> strs(c.begin(), c.begin() + 200000);
+    size_t taken = 0, missed = 0;
+    assert_true(check_cells(cell_off_by_one_ulp, strs, taken, missed, nullptr) > strs.size() / 128);
+    std::vector<std::string> e;
+    for (size_t k = 0; k < 2000; ++k) e.push_back(strs[k] + "e3");
+    assert_true(check_cells(cell_ignores_exponent, e, taken, missed, nullptr) > 1000);
+    // a parser refusing everything fails the coverage count
+    assert_int_equal(check_cells([](const char *, size_t, double &) { return false; }, strs, taken, missed,
+                                 nullptr), 0);
+    assert_true(missed > 150000);
+}
+#endif
+
 }  // namespace
 
 int main(void)
@@ -170,6 +302,10 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_decimal_equals_from_chars),
         cmocka_unit_test(test_decimal_negative_control),
+#ifdef MSID_DECIMAL_CELL
+        cmocka_unit_test(test_cell_equals_from_chars),
+        cmocka_unit_test(test_cell_negative_controls),
+#endif
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -223,12 +223,14 @@ struct CsvLayout {
     std::vector<int> dest;       // per file column: destination column or -1
     std::vector<std::string> names;
     size_t C;
+    bool cells = true;           // parse_lines_cells where the CPU has it (else parse_lines)
 };
 
 struct Chunk {
     double *rows = nullptr;              // room for `cap` rows of C values
     size_t cap = 0, n = 0;
     size_t lines = 0;                    // lines consumed (rows and blank lines)
+    size_t general = 0;                  // lines read by general_line
     const char *first_blank = nullptr;   // first blank line in the chunk
     bool row_after_blank = false;
     std::string err;                     // first error (message), empty if none
@@ -246,86 +248,206 @@ std::string cell_text(const char *p, char delim)
     return trim(std::string_view(p, (size_t)(e - p)));
 }
 
-// Parse the lines in [b, e) (b at a line start, e just after a '\n').
-void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
+// One line at p (a row or a blank line; p at the line start, e just after a
+// '\n'): its values into out, or out.err and nullptr. Returns the next line's start.
+const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk &out)
 {
     const size_t ncol = L.dest.size(), C = L.C;
     const char d = L.delim;
+    const char *ls = p;
+    out.general++;
+    while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
+    if (*p == '\n' || (*p == '\r' && p[1] == '\n')) {   // blank line
+        if (!out.first_blank) out.first_blank = ls;
+        p += *p == '\r' ? 2 : 1;
+        out.lines++;
+        return p;
+    }
+    if (out.first_blank) out.row_after_blank = true;
+    p = ls;
+    if (out.n >= out.cap) {   // cannot happen: see the row bound in read_record_csv
+        out.err = fmt("'%s': internal error: row count", L.path->c_str());
+        return nullptr;
+    }
+    double *dst = out.rows + out.n * C;   // written in place
+    size_t c = 0;
+    for (;; ++c) {
+        while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
+        if (c >= ncol) {   // beyond the header: only empty trailing fields
+            if (*p == d) { ++p; continue; }
+            if (*p == '\r' || *p == '\n') break;
+            out.err = fmt("'%s' line %zu: ragged row, more than the %zu cells of the header", L.path->c_str(),
+                          line_of(L, ls), ncol);
+            return nullptr;
+        }
+        const int dc = L.dest[c];
+        if (dc >= 0) {
+            const char *q = p + (*p == '+');
+            double v = 0;
+            bool slow = false;
+            const char *r = decimal::parse(q, e, v, slow);
+            const bool ok = r != nullptr && r != q;
+            if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
+            if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
+                const std::string cell = cell_text(p, d);
+                out.err = cell.empty()
+                              ? fmt("'%s' line %zu, column %s: '' is not a number (empty cell)", L.path->c_str(),
+                                    line_of(L, ls), L.names[c].c_str())
+                              : fmt("'%s' line %zu, column %s: '%s' is not a number%s", L.path->c_str(),
+                                    line_of(L, ls), L.names[c].c_str(), cell.c_str(),
+                                    d == ';' && cell.find(',') != std::string::npos
+                                        ? " (decimal commas are not supported)" : "");
+                return nullptr;
+            }
+            if (slow && !std::isfinite(v)) {
+                out.err = fmt("'%s' line %zu, column %s: NaN or Inf is not allowed", L.path->c_str(),
+                              line_of(L, ls), L.names[c].c_str());
+                return nullptr;
+            }
+            dst[dc] = v;
+            p = r;
+        } else {
+            while (*p != d && *p != '\n' && *p != '\r') ++p;
+        }
+        if (*p == d) { ++p; continue; }
+        break;
+    }
+    if (*p == '\r') ++p;
+    if (*p != '\n') {
+        out.err = fmt("'%s' line %zu: stray carriage return", L.path->c_str(), line_of(L, ls));
+        return nullptr;
+    }
+    ++p;
+    // missing trailing cells are fine only for ignored columns
+    for (size_t k = c + 1; k < ncol; ++k)
+        if (L.dest[k] >= 0) {
+            out.err = fmt("'%s' line %zu: ragged row, %zu cells where the header has %zu (column %s missing)",
+                          L.path->c_str(), line_of(L, ls), c + 1, ncol, L.names[k].c_str());
+            return nullptr;
+        }
+    out.n++;
+    out.lines++;
+    return p;
+}
+
+// Parse the lines in [b, e) (b at a line start, e just after a '\n') one by one.
+void parse_lines(const CsvLayout &L, const char *b, const char *e, Chunk &out)
+{
+    for (const char *p = b; p < e;)
+        if (!(p = general_line(L, p, e, out))) return;
+}
+
+#ifdef MSID_DECIMAL_CELL
+// The byte offsets in [p, q) of every delimiter, '\r' and '\n' (SSE2, 64 bytes a
+// step; each step's hits written 8 at a time whatever their count, so no branch
+// per hit). pos: room for q - p + 8 offsets. Returns the count.
+size_t structural(const char *p, const char *q, char d, uint32_t *pos)
+{
+    const size_t len = (size_t)(q - p);
+    size_t n = 0, off = 0;
+    const __m128i vd = _mm_set1_epi8(d), vn = _mm_set1_epi8('\n'), vr = _mm_set1_epi8('\r');
+    for (; off + 64 <= len; off += 64) {
+        uint64_t m = 0;
+        for (int k = 0; k < 4; ++k) {
+            const __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(p + off + 16 * k));
+            const __m128i h =
+                _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi8(v, vd), _mm_cmpeq_epi8(v, vn)), _mm_cmpeq_epi8(v, vr));
+            m |= (uint64_t)(uint16_t)_mm_movemask_epi8(h) << (16 * k);
+        }
+        const size_t cnt = (size_t)__builtin_popcountll(m);
+        uint32_t *o = pos + n;
+        while (m) {
+            for (int k = 0; k < 8; ++k) {   // ctz(m | 2^63): the lowest hit, 63 (unused) once m is 0
+                o[k] = (uint32_t)(off + (unsigned)__builtin_ctzll(m | 0x8000000000000000ull));
+                m &= m - 1;
+            }
+            o += 8;
+        }
+        n += cnt;
+    }
+    for (; off < len; ++off)
+        if (p[off] == d || p[off] == '\n' || p[off] == '\r') pos[n++] = (uint32_t)off;
+    return n;
+}
+
+// parse_lines with every delimiter found first (structural) and each row of the
+// one common shape (every cell -?D+.D+ with at most 15 digits, no spaces, only
+// empty cells after the header's columns, LF or CRLF) taken cell by cell from
+// those offsets by decimal::parse_cell, independently of each other. Any other
+// line (blank, ragged, spaces, exponents, '+', an error) goes through
+// general_line, which gives it the meaning and the message it has there: the
+// values and errors are those of parse_lines, bit for bit (test_csv_rows).
+__attribute__((target("ssse3"))) void parse_lines_cells(const CsvLayout &L, const char *b, const char *e, Chunk &out)
+{
+    constexpr size_t SUB = (size_t)32 << 10;   // lines scanned at a time (their offsets stay in L1/L2)
+    const size_t ncol = L.dest.size(), C = L.C;
+    const char d = L.delim;
+    std::vector<uint32_t> pos(SUB + 64);
     const char *p = b;
     while (p < e) {
+        const char *q = e;
+        if ((size_t)(e - p) > SUB) {
+            const void *nl = memrchr(p, '\n', SUB);
+            if (!nl) {   // a line longer than SUB
+                if (!(p = general_line(L, p, e, out))) return;
+                continue;
+            }
+            q = (const char *)nl + 1;
+        }
+        const size_t np = structural(p, q, d, pos.data());
+        size_t i = 0;
         const char *ls = p;
-        while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
-        if (*p == '\n' || (*p == '\r' && p[1] == '\n')) {   // blank line
-            if (!out.first_blank) out.first_blank = ls;
-            p += *p == '\r' ? 2 : 1;
-            out.lines++;
-            continue;
-        }
-        if (out.first_blank) out.row_after_blank = true;
-        p = ls;
-        if (out.n >= out.cap) {   // cannot happen: see the row bound in read_record_csv
-            out.err = fmt("'%s': internal error: row count", L.path->c_str());
-            return;
-        }
-        double *dst = out.rows + out.n * C;   // written in place
-        size_t c = 0;
-        for (;; ++c) {
-            while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
-            if (c >= ncol) {   // beyond the header: only empty trailing fields
-                if (*p == d) { ++p; continue; }
-                if (*p == '\r' || *p == '\n') break;
-                out.err = fmt("'%s' line %zu: ragged row, more than the %zu cells of the header", L.path->c_str(),
-                              line_of(L, ls), ncol);
-                return;
+        while (ls < q) {
+            size_t j = i;
+            const char *s = ls;
+            bool ok = out.n < out.cap;
+            double *dst = out.rows + out.n * C;
+            for (size_t c = 0; ok && c < ncol; ++c) {
+                const char *t = p + pos[j++];   // the cell's end (each line in [p, q) ends in a '\n' of pos)
+                ok = *t == d || (c + 1 == ncol && (*t == '\n' || *t == '\r'));
+                const int dc = L.dest[c];
+                if (ok && dc >= 0) ok = t - b >= 16 && decimal::parse_cell(s, (size_t)(t - s), dst[dc]);
+                s = t + 1;
             }
-            const int dc = L.dest[c];
-            if (dc >= 0) {
-                const char *q = p + (*p == '+');
-                double v = 0;
-                bool slow = false;
-                const char *r = decimal::parse(q, e, v, slow);
-                const bool ok = r != nullptr && r != q;
-                if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
-                if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
-                    const std::string cell = cell_text(p, d);
-                    out.err = cell.empty()
-                                  ? fmt("'%s' line %zu, column %s: '' is not a number (empty cell)", L.path->c_str(),
-                                        line_of(L, ls), L.names[c].c_str())
-                                  : fmt("'%s' line %zu, column %s: '%s' is not a number%s", L.path->c_str(),
-                                        line_of(L, ls), L.names[c].c_str(), cell.c_str(),
-                                        d == ';' && cell.find(',') != std::string::npos
-                                            ? " (decimal commas are not supported)" : "");
-                    return;
+            if (ok) {   // the line's end: empty cells beyond the header's, then LF or CRLF
+                const char *t = s - 1;
+                while (ok && *t == d) {
+                    ok = j < np && p + pos[j] == t + 1;
+                    t = t + 1;
+                    j += ok;
                 }
-                if (slow && !std::isfinite(v)) {
-                    out.err = fmt("'%s' line %zu, column %s: NaN or Inf is not allowed", L.path->c_str(),
-                                  line_of(L, ls), L.names[c].c_str());
-                    return;
+                if (ok && *t == '\r') {
+                    ok = j < np && p + pos[j] == t + 1 && t[1] == '\n';
+                    t = t + 1;
+                    j += ok;
                 }
-                dst[dc] = v;
-                p = r;
-            } else {
-                while (*p != d && *p != '\n' && *p != '\r') ++p;
+                ok = ok && *t == '\n';
+                s = t + 1;
             }
-            if (*p == d) { ++p; continue; }
-            break;
-        }
-        if (*p == '\r') ++p;
-        if (*p != '\n') {
-            out.err = fmt("'%s' line %zu: stray carriage return", L.path->c_str(), line_of(L, ls));
-            return;
-        }
-        ++p;
-        // missing trailing cells are fine only for ignored columns
-        for (size_t k = c + 1; k < ncol; ++k)
-            if (L.dest[k] >= 0) {
-                out.err = fmt("'%s' line %zu: ragged row, %zu cells where the header has %zu (column %s missing)",
-                              L.path->c_str(), line_of(L, ls), c + 1, ncol, L.names[k].c_str());
-                return;
+            if (ok) {
+                ls = s;
+                if (out.first_blank) out.row_after_blank = true;
+                out.n++;
+                out.lines++;
+            } else {   // the general path gives the line its meaning or its message
+                if (!(ls = general_line(L, ls, e, out))) return;
+                j = i;
+                while (j < np && p + pos[j] < ls) ++j;
             }
-        out.n++;
-        out.lines++;
+            i = j;
+        }
+        p = q;
     }
+}
+#endif
+
+// Parse the lines in [b, e) (b at a line start, e just after a '\n').
+void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
+{
+#ifdef MSID_DECIMAL_CELL
+    if (L.cells && decimal::cell_available()) return parse_lines_cells(L, b, e, out);
+#endif
+    parse_lines(L, b, e, out);
 }
 
 }  // namespace
@@ -470,7 +592,7 @@ private:
 
 }  // namespace
 
-Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split)
+Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split, bool cells)
 {
     LineBlocks in(path);
     const char *t0 = nullptr, *end = nullptr;
@@ -492,6 +614,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     const char delim = ns > nc && ns >= nt ? ';' : (nt > nc && nt > ns ? '\t' : ',');
     CsvLayout L;
     L.path = &path;
+    L.cells = cells;
     L.delim = delim;
     {
         size_t a = 0;
@@ -558,6 +681,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
             if (c.n && c.rows != r.rows.data() + r.n_rows * C)
                 std::memcpy(r.rows.data() + r.n_rows * C, c.rows, c.n * C * sizeof(double));
             r.n_rows += c.n;
+            r.general_lines += c.general;
             lines += c.lines;
         }
         if (!in.next(b, end)) break;

@@ -48,6 +48,9 @@ struct Record {
     // read with defer_finite: no NaN/Inf scan yet; whoever reads the samples calls
     // check_finite() on every row it takes, before using it (run_frf does, block by block)
     bool finite_unchecked = false;
+    // CSV: the lines (rows and blank lines) its general parser read; the others took the cell
+    // parser (read_record_csv's `cells`). A count for tests and benchmarks; the values are the same.
+    size_t general_lines = 0;
     // The n_rows x (nu + ny) samples, row-major: use this, not `rows`.
     const double *data() const { return view ? view : rows.data(); }
 };
@@ -90,8 +93,10 @@ std::vector<Record> read_experiments(const std::vector<std::string> &paths, cons
 void check_finite(const Record &r, size_t row0, size_t n);
 
 // The CSV reader alone (read_experiment dispatches to it). `split`: a block of
-// over 1 MiB is parsed by two threads (the same values either way).
-Record read_record_csv(const std::string &path, const ColumnMap &cols = {}, bool split = true);
+// over 1 MiB is parsed by two threads (the same values either way). `cells`: rows
+// of the common shape by the cell parser (decimal::parse_cell) where the CPU has
+// it; false: every line by the general parser (the same values and errors).
+Record read_record_csv(const std::string &path, const ColumnMap &cols = {}, bool split = true, bool cells = true);
 
 // Format rows (n x cols) with a header; values printed to round-trip exactly.
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols);
