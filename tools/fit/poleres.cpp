@@ -281,7 +281,7 @@ VecR theta_from_poles(const Layout &L, const std::vector<cd> &poles, double ws)
 }  // namespace
 
 std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, int order, bool feedthrough, int iters,
-                                 double wscale)
+                                 double wscale, bool relaxed)
 {
     const Prob P = make_prob(w, d, wscale);
     const Eigen::Index F = (Eigen::Index)w.size(), g = P.g;
@@ -297,7 +297,7 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
     for (int k = 0; k < npair; ++k) {
         const double f = npair > 1 ? (double)k / (npair - 1) : 0.5;
         if (d == Domain::CT) {
-            const double om = lo * std::pow(hi / lo, f);
+            const double om = relaxed ? lo + (hi - lo) * f : lo * std::pow(hi / lo, f);
             poles.push_back(cd(-om / 100.0, om));
         } else {
             const double th = lo + (hi - lo) * f;
@@ -330,11 +330,16 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
                 }
             }
         }
-        // fast VF: per response QR, keep the rows that only involve the sigma coefficients
-        MatR S(g * N, N);
-        VecR sb(g * N);
+        // fast VF: per response QR, keep the rows that only involve the sigma coefficients.
+        // Relaxed (Gustavsen 2006): sigma = sum c~ Phi + d~ with d~ free, every response's rows
+        // homogeneous, and one more row Re sum_l sigma(x_l) = F (weighted by |w G| / F) against the
+        // trivial solution; the new poles are the zeros of sigma, eig(A - b c~^T / d~).
+        const Eigen::Index ns = N + (relaxed ? 1 : 0);   // sigma's unknowns
+        MatR S(g * ns + (relaxed ? 1 : 0), ns);
+        VecR sb = VecR::Zero(S.rows());
+        double wg2 = 0.0;   // |w G|^2 over lines and responses (the extra row's weight)
         for (Eigen::Index ij = 0; ij < g; ++ij) {
-            MatR A(2 * F, 2 * N + nd);
+            MatR A(2 * F, 2 * N + nd + (relaxed ? 1 : 0));
             VecR b(2 * F);
             for (Eigen::Index l = 0; l < F; ++l) {
                 const double ww = wt(l, ij);
@@ -345,17 +350,33 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
                     A(2 * l, N + nd + c) = s.real(); A(2 * l + 1, N + nd + c) = s.imag();
                 }
                 if (nd) { A(2 * l, N) = ww; A(2 * l + 1, N) = 0.0; }
-                b(2 * l) = ww * Gv.real();
-                b(2 * l + 1) = ww * Gv.imag();
+                if (relaxed) {   // -G d~
+                    A(2 * l, 2 * N + nd) = -ww * Gv.real();
+                    A(2 * l + 1, 2 * N + nd) = -ww * Gv.imag();
+                    wg2 += std::norm(ww * Gv);
+                }
+                b(2 * l) = relaxed ? 0.0 : ww * Gv.real();
+                b(2 * l + 1) = relaxed ? 0.0 : ww * Gv.imag();
             }
+            const Eigen::Index nc = A.cols();
             Eigen::HouseholderQR<MatR> qr(A);
-            const MatR Rf = qr.matrixQR().topRows(2 * N + nd).triangularView<Eigen::Upper>();
-            const VecR qb = (qr.householderQ().transpose() * b).head(2 * N + nd);
-            S.block(ij * N, 0, N, N) = Rf.block(N + nd, N + nd, N, N);
-            sb.segment(ij * N, N) = qb.segment(N + nd, N);
+            const MatR Rf = qr.matrixQR().topRows(nc).triangularView<Eigen::Upper>();
+            S.block(ij * ns, 0, ns, ns) = Rf.block(N + nd, N + nd, ns, ns);
+            if (!relaxed) sb.segment(ij * N, N) = (qr.householderQ().transpose() * b).head(nc).segment(N + nd, N);
         }
-        const VecR ct = S.colPivHouseholderQr().solve(sb);
+        if (relaxed) {
+            const double we = std::sqrt(wg2) / (double)F;
+            for (Eigen::Index c = 0; c < N; ++c) S(g * ns, c) = we * Phi.col(c).real().sum();
+            S(g * ns, N) = we * (double)F;
+            sb(g * ns) = we * (double)F;
+        }
+        VecR ct = S.colPivHouseholderQr().solve(sb);
         if (!ct.allFinite()) break;
+        if (relaxed) {   // c~ / d~ (a d~ near zero: no relocation from this step)
+            const double dt = ct(N);
+            if (!(std::abs(dt) > 1e-8)) break;
+            ct = (ct.head(N) / dt).eval();
+        }
         // zeros of sigma = eig(A - b c~^T)
         MatR A = MatR::Zero(N, N);
         VecR bb = VecR::Zero(N);
@@ -377,7 +398,11 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
         std::vector<cd> np = pole_list(es.eigenvalues());
         for (cd &p : np) p = reflect(p, d, nullptr);
         if (np.empty()) break;
+        // converged: the same pole list to 1e-10 relative (pole_list's order: by |p|, then Re p)
+        bool same = np.size() == poles.size();
+        for (size_t k = 0; same && k < np.size(); ++k) same = std::abs(np[k] - poles[k]) <= 1e-10 * std::abs(poles[k]);
         poles = np;
+        if (same) break;
     }
     for (cd &p : poles) p *= P.ws;
     return poles;
@@ -460,7 +485,9 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
     // starts: vector fitting, then the subspace models (several block-row counts)
     struct Cand { std::string name; std::vector<cd> poles; };
     std::vector<Cand> cands;
-    cands.push_back({"vector-fitting", vector_fit_poles(w, d, o.order, tryD, o.vf_iter, o.wscale)});
+    cands.push_back({"vector-fitting", vector_fit_poles(w, d, o.order, tryD, o.vf_iter, o.wscale, false)});
+    if (o.rvf_iter > 0)
+        cands.push_back({"vector-fitting-relaxed", vector_fit_poles(w, d, o.order, tryD, o.rvf_iter, o.wscale, true)});
     for (size_t k = 0; k < o.subspace_starts.size(); ++k) {
         std::vector<cd> p = ss_poles(o.subspace_starts[k]);
         if (!p.empty()) cands.push_back({"subspace#" + std::to_string(k + 1), p});

@@ -42,7 +42,8 @@ struct PrOptions {
     bool stable = false;           // reflect unstable poles after every step (constrained ML)
     int max_iter = 200;            // LM iterations of the final refinement
     double tol = 1e-10;            // relative cost decrease for convergence
-    int vf_iter = 15;              // vector-fitting relocations of the VF start
+    int vf_iter = 15;              // vector-fitting relocations of the VF start (log-spaced poles)
+    int rvf_iter = 100;            // relaxed vector-fitting relocations (linear spacing; 0: no such start)
     int start_iter = 15;           // LM iterations from each start before the best continues
     double auto_alpha = 0.01;      // level of the likelihood-ratio test for the feedthrough (auto)
     double wscale = 0.0;           // CT frequency scaling (0: geometric mean of the line frequencies)
@@ -75,7 +76,7 @@ struct PrResult {
 
 // Vector fitting (weighted by the diagonal of the line covariances): the relocated poles.
 std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, int order, bool feedthrough, int iters,
-                                 double wscale);
+                                 double wscale, bool relaxed = false);
 
 // Weighted ML in pole-residue form. Never throws for non-convergence: the best
 // iterate comes back with converged = false. Throws FitError for impossible

@@ -433,10 +433,10 @@ void bench_structures_mc(const Json &mc)
     if (mc.empty()) return;
     std::printf("  Monte Carlo over noise seeds 0..%zu (ml error against the truth / vector fitting's, same file, same order):\n",
                 mc[0]["runs"].size() - 1);
-    std::printf("  %-14s %5s %4s | %-28s | %-9s | %-13s | %-12s | %s\n", "case", "order", "runs", "err ratio mean (se), median",
-                "ml <= VF", "cost ml/VF", "ml stable", "VF time");
+    std::printf("  %-14s %5s %4s | %-28s | %-9s | %-19s | %-19s | %-12s | %s\n", "case", "order", "runs",
+                "err ratio mean (se), median", "ml <= VF", "cost ml/VF (n > 1)", "pooled ml/VF (n > 1)", "ml stable", "VF time");
     for (const Json &c : mc) {
-        std::vector<double> er, cr;
+        std::vector<double> er, cr, cp;
         int stable = 0, better = 0;
         double tvf = 0;
         for (const Json &run : c["runs"]) {
@@ -450,6 +450,7 @@ void bench_structures_mc(const Json &mc)
             const double e = rel_error_to(r.G, run["G0"], (Eigen::Index)f.g());
             er.push_back(e / run["vf_rel_error"].get<double>());
             cr.push_back(cost_on(w, r.G) / run["vf_cost"].get<double>());
+            cp.push_back(r.cost / run["vf_cost_pooled"].get<double>());   // the cost ml minimises, on both
             stable += ss_stable(pr_to_ss(r.model));
             better += er.back() <= 1.0;
             tvf += run["vf_seconds"].get<double>();
@@ -459,10 +460,15 @@ void bench_structures_mc(const Json &mc)
         for (double x : er) m += x / n;
         for (double x : er) v += (x - m) * (x - m) / std::max(n - 1, 1.0);
         for (double x : cr) mc_ += x / n;
+        double mp = 0;
+        for (double x : cp) mp += x / n;
+        const long cr_above = std::count_if(cr.begin(), cr.end(), [](double x) { return x > 1.0; });
+        const long cp_above = std::count_if(cp.begin(), cp.end(), [](double x) { return x > 1.0; });
         const std::string name = c["kind"].get<std::string>() + " " + std::to_string(c["modes"].get<int>()) + " modes";
         const int order = c["order"].get<int>(), nominal = c["nominal_order"].get<int>();
-        std::printf("  %-14s %5d %4.0f | %6.4f (%6.4f), %6.4f        | %4d/%-4.0f | %11.4f   | %4d/%-4.0f   | %.2f s/fit%s\n",
-                    name.c_str(), order, n, m, std::sqrt(v / n), median_of(er), better, n, mc_, stable, n, tvf / n,
+        std::printf("  %-14s %5d %4.0f | %6.4f (%6.4f), %6.4f        | %4d/%-4.0f | %8.4f (%3ld)      | %8.4f (%3ld)      | %4d/%-4.0f   | %.2f s/fit%s\n",
+                    name.c_str(), order, n, m, std::sqrt(v / n), median_of(er), better, n, mc_, cr_above, mp, cp_above,
+                    stable, n, tvf / n,
                     order < nominal ? "  (one mode below the noise left out)" : "");
     }
     std::printf("  (the SISO structures hold a mode whose peak is 0.1 (10 modes) / 0.2 (12) times the noise sd: at the "

@@ -48,6 +48,7 @@ def monte_carlo(d, runs):
             Gvf, _ = S.vector_fit(files[key], n)
             case["runs"].append({"seed": seed, "file": str(files[key]), "vf_seconds": time.perf_counter() - t0,
                                  "vf_cost": S.weighted_cost(G, Gvf, C), "vf_rel_error": S.rel_error(Gvf, G0),
+                                 "vf_cost_pooled": S.weighted_cost(G, Gvf, S.pooled_cov(files[key])),
                                  "G0": _g0_json(G0)})
         out.append(case)
     return out
@@ -69,6 +70,7 @@ def main():
         t = time.perf_counter() - t0
         res.append({"kind": kind, "modes": modes, "file": str(path), "order": n, "vf_seconds": t,
                     "vf_cost": S.weighted_cost(G, Gvf, C), "vf_rel_error": S.rel_error(Gvf, G0),
+                    "vf_cost_pooled": S.weighted_cost(G, Gvf, S.pooled_cov(path)),
                     "dynamic_range_db": S.dynamic_range_db(G0),
                     "G0": _g0_json(G0)})
     json.dump({"cases": res, "monte_carlo": monte_carlo(d, runs) if runs > 0 else [], "skrf": skrf.__version__,

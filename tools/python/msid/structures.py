@@ -138,6 +138,40 @@ def weighted_cost(G, Gm, C):
     return V
 
 
+def pooled_cov(path, half=4):
+    """The weights `msid fit --method ml` uses by default (--weight-smooth 4), computed here
+    independently of msid: each complex line's covariance averaged, dof-weighted, with those of its
+    2 half + 1 neighbouring complex lines (the window shifted at the band's ends), leaving out a
+    neighbour whose trace ratio to the line's is outside the central 99% of F(2d, 2d),
+    d = min of the two dof (the noise level changes there). Real lines (DC, Nyquist) keep their own.
+    Only where msid pools: at least 4 (2 half + 1) lines."""
+    from scipy.stats import f as fdist
+    d = json.load(open(path))
+    C = np.array([np.asarray(ln["cov"]["re"]) + 1j * np.asarray(ln["cov"]["im"]) for ln in d["lines"]])
+    dof = np.array([float(ln["dof"]) for ln in d["lines"]])
+    real = np.array([ln["bin"] == 0 or 2 * ln["bin"] == d["period_samples"] for ln in d["lines"]])
+    if len(C) < 4 * (2 * half + 1):
+        return C
+    cx = np.flatnonzero(~real)
+    n = len(cx)
+    win = min(n, 2 * half + 1)
+    out = C.copy()
+    for k in range(n):
+        lo = min(max(k - half, 0), n - win)
+        S = np.zeros_like(C[0])
+        nd = 0.0
+        tk = np.trace(C[cx[k]]).real
+        for j in range(lo, lo + win):
+            q = np.trace(C[cx[j]]).real / tk
+            dd = 2.0 * min(dof[cx[j]], dof[cx[k]])
+            if j != k and (fdist.sf(q, dd, dd) < 0.005 or fdist.sf(1.0 / q, dd, dd) < 0.005):
+                continue
+            S += dof[cx[j]] * C[cx[j]]
+            nd += dof[cx[j]]
+        out[cx[k]] = S / nd
+    return out
+
+
 def rel_error(Gm, G0):
     return float(np.linalg.norm(Gm - G0) / np.linalg.norm(G0))
 
