@@ -316,6 +316,10 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
         for (const cd &p : poles) pair.push_back(p.imag() > 0);
         const Eigen::Index N = (Eigen::Index)std::count(pair.begin(), pair.end(), 1) * 2 +
                                (Eigen::Index)std::count(pair.begin(), pair.end(), 0);
+        // each response's 2F real rows must determine its 2N + nd (+1 relaxed) unknowns before the
+        // sigma rows are taken from its QR: with fewer lines than that (several outputs can fit an
+        // order that one response's lines cannot) the poles stay where they are
+        if (2 * F < 2 * N + nd + (relaxed ? 1 : 0)) break;
         MatC Phi(F, N);
         for (Eigen::Index l = 0; l < F; ++l) {
             Eigen::Index c = 0;

@@ -148,8 +148,15 @@ def pooled_cov(path, half=4):
     from scipy.stats import f as fdist
     d = json.load(open(path))
     C = np.array([np.asarray(ln["cov"]["re"]) + 1j * np.asarray(ln["cov"]["im"]) for ln in d["lines"]])
+    C = 0.5 * (C + np.conj(np.transpose(C, (0, 2, 1))))                  # the Hermitian part, as msid weighs
     dof = np.array([float(ln["dof"]) for ln in d["lines"]])
-    real = np.array([ln["bin"] == 0 or 2 * ln["bin"] == d["period_samples"] for ln in d["lines"]])
+    # several inputs from several experiments (periodic, no realisations): msid's weights take the
+    # dof of one experiment's Wishart, dof / m (tools/fit/frf_data.cpp, weigh)
+    if (d["n_inputs"] > 1 and d.get("n_experiments", 1) > 1 and d.get("method", "periodic") not in ("lpm", "etfe")
+            and d.get("nonlinear_distortion", {}).get("realisations", 1) < 2):
+        dof = dof / d["n_experiments"]
+    real = np.array([bool(ln.get("real", False)) for ln in d["lines"]])
+    C[real] = C[real].real
     if len(C) < 4 * (2 * half + 1):
         return C
     cx = np.flatnonzero(~real)
