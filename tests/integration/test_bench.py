@@ -31,3 +31,16 @@ def test_bench_fit_runs_bad_input():
     # --runs (the ml / vector fitting Monte Carlo of --only 3): one message, usage status, nothing run
     r = h.run("bench", "fit", "--only", "3", "--runs", "1001")
     assert r.returncode == 2 and "--runs must be at most 1000" in r.stderr and "Monte Carlo" not in r.stdout
+
+
+def test_bench_io_times_every_format(tmp_path):
+    # each timed `msid frf` is started by posix_spawn with stdout on /dev/null; the kept files
+    # are the timed job's, so its FRF file must be a whole msid-frf/1 document
+    r = h.run("bench", "io", "--no-peer", "--min-seconds", "0", "--keep", str(tmp_path), timeout=120)
+    assert r.returncode == 0, r.stderr
+    rows = [l.split() for l in r.stdout.splitlines() if l.split()[:1] in (["csv"], ["npy"], ["mat"])]
+    assert [x[0] for x in rows] == ["csv", "npy", "mat"]
+    for x in rows:
+        assert x[2] == "ms" and float(x[1]) > 0 and x[6] == "ms" and float(x[5]) > 0   # wall, cpu (no peer: "-")
+    frf = (tmp_path / "frf.json").read_text()
+    assert '"format": "msid-frf/1"' in frf and frf.rstrip().endswith("}")
