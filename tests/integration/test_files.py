@@ -160,6 +160,27 @@ def test_mat_v5_scipy(tmp_path, data, reference):
     assert _lines(doc) == reference
 
 
+def test_mat_names_case_insensitive_and_a_typo_lists_every_variable(tmp_path, data, reference):
+    """A .mat variable maps case-insensitively, as a CSV header or an .npz member does; a misspelt
+    name lists every variable of the file (it used to list only those the mapping named, so the
+    one meant was missing from the message, and 'force' did not find Force)."""
+    sio = pytest.importorskip("scipy.io")
+    files = []
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"c{e}.mat"
+        sio.savemat(p, {"Force": u[:, 0], "Force2": u[:, 1], "Acc": y, "time": np.arange(len(u)) * 1e-3})
+        files.append(p)
+    doc = _frf(tmp_path, files, ["--columns", "u1=force,u2=FORCE2,y1=acc:1,y2=Acc:2"])
+    assert _lines(doc) == reference
+    # the typo: every variable listed, Force2 among them
+    _fails(tmp_path, files, ["--columns", "u1=Force,u2=Forc2,y1=Acc:1,y2=Acc:2"],
+           f"'{files[0]}': no column 'Forc2' (for u2); the file has 'Force', 'Force2', 'Acc:1', 'Acc:2', 'time'")
+    # the same mapping on .npz members (negative control: the behaviour the .mat now shares)
+    z = tmp_path / "c.npz"
+    np.savez(z, Force=data[0][0][:, 0], Force2=data[0][0][:, 1], Acc=data[0][1])
+    _fails(tmp_path, [z, files[1]], ["--columns", "u1=Force,u2=Forc2,y1=Acc:1,y2=Acc:2"], "'Force2'")
+
+
 def _write_mat73(path, variables):
     """MATLAB v7.3: HDF5 with a 512-byte user block holding the MATLAB header,
     each variable a dataset (stored transposed, MATLAB is column-major) with

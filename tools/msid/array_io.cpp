@@ -13,6 +13,7 @@
 #include "csv_io.hpp"
 #include "cli_util.hpp"
 
+#include <cctype>
 #include <cerrno>
 #include <sys/mman.h>
 #include <cmath>
@@ -478,6 +479,12 @@ static void check_mat_v5(const std::string &path)
     }
 }
 
+static std::string lower(std::string s)
+{
+    for (auto &ch : s) ch = (char)std::tolower((unsigned char)ch);
+    return s;
+}
+
 Record read_record_mat(const std::string &path, const ColumnMap &cols)
 {
     {   // matio prints to stderr on failure; check that the file opens first
@@ -500,14 +507,25 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         ~Closer() { for (auto *x : v) M.VarFree(x); M.Close(m); }
     } cl{M, mf, {}};
     std::vector<Array> arrs;
-    std::vector<std::string> skipped;
+    std::vector<std::string> skipped, all;
     while (matvar_t *info = M.VarReadNextInfo(mf)) {
         const std::string name = info->name ? info->name : "";
         const bool numeric = info->class_type == MAT_C_DOUBLE || info->class_type == MAT_C_SINGLE ||
                              (info->class_type >= MAT_C_INT8 && info->class_type <= MAT_C_UINT64);
+        // the column names the variable gives (as assemble() names them), for the message of a
+        // mapping that names none; a mapping matches a name as resolve_columns() does, so also
+        // case-insensitively: 'force' reads variable Force, as a CSV header or an .npz member
+        if (numeric && info->rank == 2 && !info->isComplex && !info->isLogical) {
+            const size_t C = info->dims[1] > info->dims[0] ? info->dims[0] : info->dims[1];
+            if (C == 1) all.push_back(name);
+            for (size_t c = 0; C != 1 && c < C; ++c) all.push_back(name + ":" + std::to_string(c + 1));
+        }
+        const std::string lname = lower(name);
         const bool wanted = cols.empty() || [&] {
-            for (const auto &e : cols.map)
-                if (e.second == name || e.second.rfind(name + ":", 0) == 0) return true;
+            for (const auto &e : cols.map) {
+                const std::string s = lower(e.second);
+                if (s == lname || s.rfind(lname + ":", 0) == 0) return true;
+            }
             return false;
         }();
         if (!wanted) { M.VarFree(info); continue; }
@@ -550,6 +568,10 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         if (Cc > R) { a.n = Cc; a.C = R; a.si = R; a.sc = 1; }
         else { a.n = R; a.C = Cc; a.si = 1; a.sc = R; }
         arrs.push_back(a);
+    }
+    if (!cols.empty()) {   // a mapped name the file lacks: the message lists every variable, not the read ones
+        uint32_t nu = 0, ny = 0;
+        resolve_columns(path, all, cols, false, nu, ny);
     }
     if (arrs.empty())
         throw Error("'" + path + "' holds no real numeric vectors or matrices" +
