@@ -272,7 +272,11 @@ def singular_input_matrix(d):
 
 @case
 def fewer_files_than_inputs(d):
-    p = _write(d, "two.csv", "u1,u2,y1\n" + "".join(f"{k % 3},{k % 5},{k % 7}\n" for k in range(4 * P)))
+    # periodic inputs (period P): the count is the cause (an input that does not repeat with P is
+    # named as such first, test_diagnose.py)
+    n = np.arange(4 * P)
+    u1, u2 = np.cos(2 * np.pi * n / P), np.cos(2 * np.pi * 3 * n / P + 1.0)
+    p = _write(d, "two.csv", "u1,u2,y1\n" + "".join(f"{a:.17g},{b:.17g},{a + b:.17g}\n" for a, b in zip(u1, u2)))
     return _frf(p), ["2 inputs need at least 2 experiments (one file each); got 1"]
 
 

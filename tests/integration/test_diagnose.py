@@ -75,6 +75,31 @@ def test_log_chirp_is_not_periodic(tmp_path):
     assert r3.returncode == 0 and r3.stderr == "", r3.stderr
 
 
+def test_noise_with_two_inputs_in_one_file_is_not_periodic(tmp_path):
+    """One record of two uncorrelated noise inputs (what --method lpm takes) given to the periodic
+    estimator: the message names the non-periodic input and --method lpm, not the experiment count
+    (it used to say only "2 inputs need at least 2 experiments (one file each); got 1")."""
+    rng = np.random.default_rng(21)
+    N = 8 * P
+    u = rng.standard_normal((N, 2))
+    y = h.dt_simulate(PLANT, u) + 0.01 * rng.standard_normal((N, 2))
+    f = tmp_path / "noise2.csv"
+    h.write_csv(f, h.experiment_columns(u, y))
+    for period in (P, "auto"):
+        r, out = _frf(tmp_path, f, period=period)
+        assert r.returncode == 1 and len(r.stderr.splitlines()) == 1, r.stderr
+        assert "--method lpm" in r.stderr and "experiments" not in r.stderr, r.stderr
+        assert ("not periodic with period 256" if period == P else "the input does not repeat") in r.stderr
+        assert not out.exists()
+    # negative control: periodic inputs in one file still need one experiment per input
+    ms = np.tile(np.column_stack([_multisine(P, BINS, rng), _multisine(P, BINS, rng)]), (8, 1))
+    g = tmp_path / "periodic2.csv"
+    h.write_csv(g, h.experiment_columns(ms, h.dt_simulate(PLANT, ms, warmup=3, period=P)))
+    r, out = _frf(tmp_path, g)
+    assert r.returncode == 1 and "2 inputs need at least 2 experiments (one file each); got 1" in r.stderr, r.stderr
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("wrong", [P - 1, P + 1, P + 2])
 def test_wrong_period_is_named(tmp_path, wrong):
     f = _periodic(tmp_path, 3)

@@ -102,7 +102,9 @@ int cmd_frf(int argc, char **argv)
     FrfOutcome o;
     try {
         // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
-        if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
+        // the experiment count after the input checks: one record with several inputs that is not
+        // periodic (noise, a sweep) is named as such, with --method lpm, not as too few experiments
+        if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs, false);
         if (auto_period) {
             std::string rep;
             rq.period = find_period(recs, rep);
@@ -110,6 +112,7 @@ int cmd_frf(int argc, char **argv)
         }
         if (!a.has("direct") && rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD)
             check_periodic_inputs(rq.period, rq.skip, rq.bins, recs);
+        if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
         rq.inputs_checked = !a.has("direct");
         if (auto_lines) {
             std::string rep;

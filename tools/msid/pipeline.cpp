@@ -123,7 +123,7 @@ static void validate_lines(const FrfRequest &rq)
     }
 }
 
-void check_records(const FrfRequest &rq, const std::vector<Record> &recs)
+void check_records(const FrfRequest &rq, const std::vector<Record> &recs, bool count)
 {
     if (recs.empty()) throw Error("no experiment files given (--experiment)");
     const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size();
@@ -132,12 +132,12 @@ void check_records(const FrfRequest &rq, const std::vector<Record> &recs)
             throw Error(fmt("'%s' has %u inputs and %u outputs but '%s' has %u and %u", r.path.c_str(), r.nu, r.ny,
                             recs[0].path.c_str(), nu, ny));
     if (m > MSID_MAX_EXPERIMENTS) throw Error(fmt("%u experiments: at most %u are supported", m, MSID_MAX_EXPERIMENTS));
-    if (m < nu)
+    if (count && m < nu)
         throw Error(fmt("%u inputs need at least %u experiments (one file each); got %u", nu, nu, m));
     if (rq.design) {
         if (rq.design->d.n_inputs != nu)
             throw Error(fmt("the design has %u inputs but the files have %u input columns", rq.design->d.n_inputs, nu));
-        if (rq.design->d.n_experiments != m)
+        if (count && rq.design->d.n_experiments != m)
             throw Error(fmt("the design has %u experiments but %u experiment files are given",
                             rq.design->d.n_experiments, m));
     }

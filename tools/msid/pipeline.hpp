@@ -48,8 +48,9 @@ void request_from_core_design(FrfRequest &rq, const msid_design &d);
 void parse_estimate_options(const Args &a, FrfRequest &rq);
 
 // The records agree with each other and the request (same columns, m >= nu,
-// the design's inputs and experiments). Throws Error.
-void check_records(const FrfRequest &rq, const std::vector<Record> &recs);
+// the design's inputs and experiments). Throws Error. `count` false: all but the number of
+// experiments (m >= nu, the design's), for a caller that checks the inputs' periodicity first.
+void check_records(const FrfRequest &rq, const std::vector<Record> &recs, bool count = true);
 
 class FrfJob;
 // Validate everything, run the core, build the document. Throws Error. `keep`: the job (its
