@@ -87,6 +87,25 @@ def test_named_columns_semicolons_trailing_commas_time_and_rate(tmp_path, data, 
     assert _lines(doc) == reference
 
 
+@pytest.mark.parametrize("delim", [";", ",", "\t"])
+def test_trailing_rows_of_delimiters_only_are_blank_lines(tmp_path, data, reference, delim):
+    """A spreadsheet's export ends in rows of delimiters only (";;;;;", CRLF, spaces): blank trailing
+    lines, the same FRF (it used to be "line 386, column Force: '' is not a number (empty cell)").
+    Negative control: the same row inside the data is an empty line there, one message, no file."""
+    files = []
+    for e, (u, y) in enumerate(data):
+        rows = _text(u, y, ["Time", "Force", "Force2", "Acc", "Acc2"], delim=delim, time=True).splitlines()
+        p = tmp_path / f"x{e}.csv"
+        p.write_bytes(("\r\n".join(rows + [delim * 4, " " + delim + " " + delim * 3, delim * 6, ""])).encode())
+        files.append(p)
+    cols = ["--columns", "u1=Force,u2=Force2,y1=Acc,y2=Acc2"]
+    assert _lines(_frf(tmp_path, files, cols)) == reference
+    rows = files[0].read_bytes().decode().split("\r\n")
+    rows.insert(101, delim * 4)
+    files[0].write_bytes("\r\n".join(rows).encode())
+    _fails(tmp_path, files, cols, f"'{files[0]}' line 102: empty line inside the data")
+
+
 def test_tab_delimiter_and_time_column(tmp_path, data, reference):
     files = []
     for e, (u, y) in enumerate(data):

@@ -256,7 +256,8 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
     const char d = L.delim;
     const char *ls = p;
     out.general++;
-    while (*p == ' ' || (*p == '\t' && d != '\t')) ++p;
+    // a blank line, also one of delimiters only (";;;;": a spreadsheet's export of empty rows): no value
+    while (*p == ' ' || *p == '\t' || *p == d) ++p;
     if (*p == '\n' || (*p == '\r' && p[1] == '\n')) {   // blank line
         if (!out.first_blank) out.first_blank = ls;
         p += *p == '\r' ? 2 : 1;
