@@ -106,6 +106,28 @@ def test_trailing_rows_of_delimiters_only_are_blank_lines(tmp_path, data, refere
     _fails(tmp_path, files, cols, f"'{files[0]}' line 102: empty line inside the data")
 
 
+def test_quoted_numbers(tmp_path, data, reference):
+    """Every cell quoted, header and numbers ("0.25", as QUOTE_ALL exports write them): the same FRF
+    (it used to be "line 2, column Force: '"0.25"' is not a number"). Negative controls: a quote
+    left open and a non-number inside quotes are one message naming line and column."""
+    files = []
+    for e, (u, y) in enumerate(data):
+        rows = _text(u, y, ["Time", "Force", "Force2", "Acc", "Acc2"], delim=";", time=True).splitlines()
+        p = tmp_path / f"q{e}.csv"
+        p.write_text("\n".join(";".join(f'"{c}"' for c in r.split(";")) for r in rows) + "\n", encoding="utf-8")
+        files.append(p)
+    cols = ["--columns", "u1=Force,u2=Force2,y1=Acc,y2=Acc2"]
+    assert _lines(_frf(tmp_path, files, cols)) == reference
+    good = files[0].read_text(encoding="utf-8").split("\n")
+    for bad in ('"%s', '"x%s"', '%s"'):   # quote left open, a non-number inside quotes, a stray quote
+        rows = list(good)
+        c = rows[6].split(";")
+        c[1] = bad % c[1].strip('"')
+        rows[6] = ";".join(c)
+        files[0].write_text("\n".join(rows), encoding="utf-8")
+        _fails(tmp_path, files, cols, f"'{files[0]}' line 7, column Force: '{c[1]}' is not a number")
+
+
 def test_tab_delimiter_and_time_column(tmp_path, data, reference):
     files = []
     for e, (u, y) in enumerate(data):

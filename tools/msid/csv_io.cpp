@@ -283,11 +283,14 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
         }
         const int dc = L.dest[c];
         if (dc >= 0) {
-            const char *q = p + (*p == '+');
+            const bool quoted = *p == '"';   // "0.25": a quoted number, as some exports write every cell
+            const char *q = p + quoted;
+            q += *q == '+';
             double v = 0;
             bool slow = false;
             const char *r = decimal::parse(q, e, v, slow);
-            const bool ok = r != nullptr && r != q;
+            bool ok = r != nullptr && r != q;
+            if (ok && quoted) ok = *r++ == '"';
             if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
             if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
                 const std::string cell = cell_text(p, d);
