@@ -185,6 +185,10 @@ def test_startup_transient_is_a_transient_with_matching_numbers(tmp_path):
     e2 = h.load_json(out2)["experiments"][0]
     assert e2["transient_flagged"] == [6], e2
     assert "period 6 departs" in r2.stderr
+    # ... and named a disturbance during the record, not a start-up transient (it used to be "likely a
+    # start-up transient": period 6 follows periods that pass); period 1 above stays the start-up
+    assert "a disturbance during the record" in r2.stderr and "likely a start-up transient" not in r2.stderr, r2.stderr
+    assert "a disturbance during the record" not in r.stderr
 
 
 def test_clean_records_no_false_alarms(tmp_path):

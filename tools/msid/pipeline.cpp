@@ -312,19 +312,30 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         std::vector<uint32_t> flagged, dropped;
         const double dp = msid_pstats_drift_pvalue(ps[e]);
         std::string flagged_list;
+        size_t n_listed = 0;
+        bool leading = true;   // every period before this one flagged too: the record's start
         for (uint32_t k = 0; k < msid_pstats_history(ps[e]); ++k) {
             double pv;
             const int s = msid_pstats_period_state(ps[e], k, &pv);
             // period number in the record, counted from 1: the same in the notes and the file
             const uint32_t num = msid_pstats_period_number(ps[e], k) + 1;
+            leading = leading && s >= 1;
             if (s >= 1) flagged.push_back(num);
             if (s == 2) dropped.push_back(num);
-            if (s >= 1 && c.drift) flagged_list += (flagged_list.empty() ? "" : ", ") + std::to_string(num);
-            else if (s >= 1)
+            if (s >= 1 && c.drift) {
+                flagged_list += (flagged_list.empty() ? "" : ", ") + std::to_string(num);
+                ++n_listed;
+            } else if (s >= 1 && leading)
                 out.notes.push_back(fmt("'%s': period %u departs from the others more than the noise explains "
                                         "(p = %.2g): likely a start-up transient%s",
                                         r.source.c_str(), num, pv,
                                         s == 2 ? "; dropped" : "; kept (use --skip-periods or --transient drop)"));
+            else if (s >= 1)   // after periods that passed: not the start-up
+                out.notes.push_back(fmt("'%s': period %u departs from the others more than the noise explains "
+                                        "(p = %.2g), after periods that do not: a disturbance during the record "
+                                        "(a knock, a load change, a sensor glitch), not a start-up transient%s",
+                                        r.source.c_str(), num, pv,
+                                        s == 2 ? "; dropped" : "; kept (use --transient drop)"));
         }
         if (c.drift)
             out.notes.push_back(fmt("'%s': the spectra drift through the whole record (a trend over the last %u of %u "
@@ -332,8 +343,11 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                                     "FRF is an average over the drift; check the plant and sensors (temperature, "
                                     "offsets, gain changes) or measure shorter records",
                                     r.source.c_str(), msid_pstats_history(ps[e]) - msid_pstats_history(ps[e]) / 2,
-                                    msid_pstats_history(ps[e]), dp, flagged_list.empty() ? "" : "; periods ",
-                                    flagged_list.empty() ? "" : (flagged_list + " depart most from the mean").c_str()));
+                                    msid_pstats_history(ps[e]), dp,
+                                    flagged_list.empty() ? "" : n_listed == 1 ? "; period " : "; periods ",
+                                    flagged_list.empty() ? ""
+                                                         : (flagged_list + (n_listed == 1 ? " departs" : " depart") +
+                                                            " most from the mean").c_str()));
         msidfrf::Experiment x;
         x.source = r.source;
         x.samples = r.samples;
