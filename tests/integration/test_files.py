@@ -442,6 +442,29 @@ def test_bad_mat(tmp_path, data):
     _fails(tmp_path, [s], [], f"'{s}' has no input columns", "'Force:1'", "--columns")
 
 
+def test_bad_mat73_h5py_default_class_attribute(tmp_path, data):
+    """A v7.3 file written with h5py's default MATLAB_class attribute (a NUL-padded string, which
+    libmatio reads as 'doubl'): the message says so and how to write the file (it used to be
+    "variable 'Acc' is not a numeric array" for a float64 dataset). Negative control: the same
+    samples with a NUL-terminated attribute (test_mat_v73_hdf5's writer) are read."""
+    h5py = pytest.importorskip("h5py")
+    u, y = data[0]
+    p = tmp_path / "h5py.mat"
+    with h5py.File(p, "w", userblock_size=512) as f:
+        for name, v in {"Force": u, "Acc": y}.items():
+            f.create_dataset(name, data=v.T).attrs["MATLAB_class"] = np.bytes_("double")
+    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 00:00:00 2026 HDF5 schema 1.00 ."
+    with open(p, "r+b") as f:
+        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+    cols = ["--columns", "u1=Force:1,u2=Force:2,y1=Acc:1,y2=Acc:2"]
+    _fails(tmp_path, [p], cols, f"'{p}' variable ", "MATLAB_class", "h5py")
+    ok = []
+    for e, (u, y) in enumerate(data):
+        ok.append(tmp_path / f"ok{e}.mat")
+        _write_mat73(ok[-1], {"u1": u[:, 0], "u2": u[:, 1], "y1": y[:, 0], "y2": y[:, 1]})
+    _frf(tmp_path, ok)
+
+
 def test_large_csv_two_threads_same_result_and_line_numbers(tmp_path):
     """Over 4 MiB the CSV is parsed by two threads: the FRF equals the .npy of
     the same samples, and an error or a blank line in the second half is

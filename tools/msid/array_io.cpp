@@ -531,11 +531,19 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         if (!wanted) { M.VarFree(info); continue; }
         if (!numeric || info->rank != 2 || info->isComplex || info->isLogical) {
             const bool needed = !cols.empty();
+            // class "empty" with elements: an HDF5 dataset (v7.3) whose MATLAB_class attribute libmatio does
+            // not read, e.g. h5py's default NUL-padded string (it reads "doubl"), not a non-numeric variable
+            const bool unclassed = info->class_type == MAT_C_EMPTY && info->rank == 2 && info->dims &&
+                                   info->dims[0] > 0 && info->dims[1] > 0;
             std::string why = info->isComplex ? "complex" : info->rank != 2 ? fmt("%d-dimensional", info->rank)
-                                                                         : "not a numeric array";
+                              : unclassed ? "an array without a MATLAB class that libmatio reads (a v7.3 dataset whose "
+                                            "MATLAB_class attribute is not a NUL-terminated string such as 'double', "
+                                            "as h5py writes it by default; write it with MATLAB, hdf5storage, "
+                                            "scipy.io.savemat or as .npz)"
+                                          : "not a numeric array";
             M.VarFree(info);
             if (needed) throw Error("'" + path + "' variable '" + name + "' is " + why + ": expected a real vector or matrix");
-            skipped.push_back(name);
+            skipped.push_back(unclassed ? name + ": " + why : name);
             continue;
         }
         M.VarFree(info);
