@@ -118,6 +118,25 @@ def test_wrong_period_is_named(tmp_path, wrong):
     assert abs(float(d.group(2)) - expect) < 0.2 * abs(expect), (expect, r.stderr)
 
 
+def test_wrong_period_with_commensurate_lines_is_named(tmp_path):
+    """Period 256, lines 1..60; --period 320: every 4th line (4/256 = 5/320) is periodic in 320 too,
+    so those lines show stable period means as a noisy periodic input's do. It used to pass (--lines
+    auto wrote an FRF at 5:5:75 with 3/4 of the input power as "noise"; given lines: "do not excite
+    line 1"); now refused naming 256, as the ETFE is. Negative control: --period 256 passes."""
+    rng = np.random.default_rng(12)
+    u = np.tile(_multisine(P, range(1, 61), rng), 20) + 1e-3 * rng.standard_normal(20 * P)
+    f = _write(tmp_path / "ms.csv", u, _siso(u, rng))
+    for lines, extra in (("auto", ()), ("5:5:75", ()), (None, ("--method", "etfe"))):
+        out = tmp_path / "frf.json"
+        args = ["frf", "--period", 320] + (["--lines", lines] if lines else []) + ["--experiment", f, *extra, "-o", out]
+        r = h.run(*args)
+        assert r.returncode == 1 and len(r.stderr.splitlines()) == 1, r.stderr
+        assert f"'{f}': --period 320 does not fit the input: it repeats every 256 samples" in r.stderr, r.stderr
+        assert "Use --period 256" in r.stderr and not out.exists()
+    r, out = _frf(tmp_path, f, lines="auto")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+
+
 def test_period_auto_and_lines_auto(tmp_path):
     f = _periodic(tmp_path, 4, sigma_u=0.02)
     r, out = _frf(tmp_path, f, period="auto", lines="auto")

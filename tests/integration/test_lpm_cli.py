@@ -197,6 +197,28 @@ def test_etfe_input_not_periodic(tmp_path):
     _fails(tmp_path, ["frf", "--method", "etfe", "--period", 64, "--experiment", p], "not periodic with period 64")
 
 
+def test_etfe_wrong_period_names_file_and_period(tmp_path):
+    """--method etfe with a wrong --period: one message naming the file and the period the input
+    has (it used to be "experiment 1 has 1016 samples: ..." and, for a multiple of the period,
+    "the inputs do not excite line 1 (bin 8): U U^H is singular"). Negative control: --period 127."""
+    M, Np = 127, 8
+    rng = np.random.default_rng(4)
+    per = np.sign(rng.standard_normal(M))
+    u = np.tile(per, Np)
+    y = lfilter(B, A, u) + 0.05 * rng.standard_normal(u.size)
+    p = tmp_path / "prbs.csv"
+    h.write_csv(p, h.experiment_columns(u[:, None], y[:, None]))
+    _fails(tmp_path, ["frf", "--method", "etfe", "--period", 100, "--experiment", p],
+           f"'{p}' has 1016 samples: the ETFE needs a whole number Np >= 2 of input periods of M = 100")
+    _fails(tmp_path, ["frf", "--method", "etfe", "--period", 100, "--experiment", p], "use --period 127")
+    _fails(tmp_path, ["frf", "--method", "etfe", "--period", 254, "--experiment", p],
+           "repeats every 127 samples (with --period 254 only every 2-th line is excited): use --period 127")
+    q = tmp_path / "noisy_u.csv"   # exact periodicity: a measured (noisy) input is refused naming its file
+    h.write_csv(q, h.experiment_columns((u + 1e-3 * rng.standard_normal(u.size))[:, None], y[:, None]))
+    _fails(tmp_path, ["frf", "--method", "etfe", "--period", M, "--experiment", q], f"'{q}': input u1 is not periodic")
+    h.run_ok("frf", "--method", "etfe", "--period", M, "--experiment", p, "-o", tmp_path / "ok.json")
+
+
 def test_unknown_method(tmp_path):
     p, _ = _siso(tmp_path, N=512)
     _fails(tmp_path, ["frf", "--method", "magic", "--experiment", p], "--method must be periodic, lpm or etfe")

@@ -143,6 +143,22 @@ std::string lpm_singular_cause(const std::vector<Record> &recs, const std::strin
                recs[0].path.c_str(), P, recs[0].n_rows / P, what.c_str(), P);
 }
 
+// --method etfe --period M on an input that repeats with another period Q (found from the input):
+// "; the input repeats every Q samples ...: --period Q", else "" (Q = M, or no period found).
+static std::string etfe_period_hint(const std::vector<Record> &recs, uint32_t M)
+{
+    std::string rep;
+    uint32_t Q = 0;
+    try {
+        Q = find_period(recs, rep);
+    } catch (const Error &) {
+        return "";
+    }
+    if (Q == 0 || Q == M || recs[0].n_rows / Q < 2) return "";
+    return fmt("; the input of '%s' repeats every %u samples%s: use --period %u", recs[0].path.c_str(), Q,
+               M % Q == 0 ? fmt(" (with --period %u only every %u-th line is excited)", M, M / Q).c_str() : "", Q);
+}
+
 // --method lpm --reference: the LPM of z = [y; u] on the references r (lpm_eiv.hpp). Fills the
 // header, the lines (G, its linearised cov, C_e = [I, -G] C_z [I, -G]^H as the line's noise and
 // the stacked C_z as `noise_z`) and the noise sum; returns the number of lines.
@@ -277,7 +293,22 @@ int cmd_frf_est(int argc, char **argv)
             if (!(c.delta > 0 && c.delta < 1)) throw UsageError("--delta must be in (0, 1)");
             c.gstar = a.f64("gstar", c.gstar);
             if (!(c.gstar >= 0)) throw UsageError("--gstar must be >= 0");
-            msidest::check_periodic_input(views, nu, c.M);
+            // the files' own messages first: length, a wrong or absent period (named, as for the periodic
+            // estimator), then the ETFE's exact periodicity, each naming the file
+            for (const auto &r : recs)
+                if (c.M < 2 || r.n_rows % c.M != 0 || r.n_rows / c.M < 2)
+                    throw Error(fmt("'%s' has %zu samples: the ETFE needs a whole number Np >= 2 of input periods of "
+                                    "M = %zu samples (Tsiamis Assumption 3)%s",
+                                    r.path.c_str(), r.n_rows, c.M, etfe_period_hint(recs, (uint32_t)c.M).c_str()));
+            if (c.M >= MSID_MIN_PERIOD && c.M <= MSID_MAX_PERIOD) check_periodic_inputs((uint32_t)c.M, 0, {}, recs);
+            for (size_t e = 0; e < views.size(); ++e) {
+                try {
+                    msidest::check_periodic_input({views[e]}, nu, c.M);
+                } catch (const msidest::EstError &x) {
+                    const char *w = std::strstr(x.what(), ": ");   // "experiment 1: input u1 is not ..."
+                    throw Error("'" + recs[e].path + "': " + (w ? w + 2 : x.what()));
+                }
+            }
             c.du_max = msidest::max_input_norm(views, nu);
             const size_t lmax = (c.M - 1) / 2;
             if (lmax < 1) throw UsageError("--period must be at least 3 samples");
@@ -313,6 +344,8 @@ int cmd_frf_est(int argc, char **argv)
         }
     } catch (const msidest::EstError &e) {
         if (is_lpm && std::strstr(e.what(), "local input matrix is singular")) throw Error(lpm_singular_cause(recs, e.what()));
+        if (!is_lpm && std::strstr(e.what(), "U U^H is singular") && !etfe_period_hint(recs, a.u32("period", 0)).empty())
+            throw Error(std::string(e.what()) + etfe_period_hint(recs, a.u32("period", 0)));
         throw Error(e.what());
     }
     for (auto &x : noise_mean) x /= (double)nlines * (double)N;

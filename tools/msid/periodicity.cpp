@@ -345,23 +345,26 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
         uint32_t Q = ch[e].Q;
         // A noisy input (errors-in-variables, input SNR at or below 0 dB) changes mostly by its noise:
         // periodic when its period mean is stable within its standard error at enough bins.
+        // Far off? Search the whole record first: an input with another period Q whose lines are in part
+        // commensurate with P (period 256, --period 320: every 4th line is periodic in 320 too) shows
+        // stable period means there, as a noisy periodic input does, but repeats far better with Q.
         PeriodicEvidence ev;
         if (!Q && eta > NONPERIODIC_FRACTION) {
-            ev = periodic_evidence(r, P, skip, K, bins);
-            if (ev.periodic()) continue;
-        }
-        if (!Q && eta > NONPERIODIC_FRACTION) {   // far off? search the whole record
             std::vector<Record> one{r};
             std::string rep;
             try {
                 const uint32_t Q2 = find_period(one, rep);
                 if (Q2 != P) {
                     const size_t K2 = window_periods(r, Q2, 0);
-                    eta_n = K2 >= 2 ? nonperiodic_fraction(r, Q2, 0, K2) : 1.0;
-                    if (eta_n < 0.5 * eta) Q = Q2;
+                    const double e2 = K2 >= 2 ? nonperiodic_fraction(r, Q2, 0, K2) : 1.0;
+                    if (e2 < 0.5 * eta) Q = Q2, eta_n = e2;
                 }
             } catch (const Error &) {
             }
+        }
+        if (!Q && eta > NONPERIODIC_FRACTION) {
+            ev = periodic_evidence(r, P, skip, K, bins);
+            if (ev.periodic()) continue;
         }
         if (Q)
             throw Error(fmt("'%s': --period %u does not fit the input: it repeats every %u samples (the part of the input "
