@@ -128,6 +128,31 @@ def test_quoted_numbers(tmp_path, data, reference):
         _fails(tmp_path, files, cols, f"'{files[0]}' line 7, column Force: '{c[1]}' is not a number")
 
 
+def test_quoted_cells_hold_delimiters(tmp_path, data, reference):
+    """A logger's first row carries the rate and a quoted comment with a comma; header names quoted
+    with a delimiter inside: delimiters inside quotes are text (RFC 4180), the same FRF. It used to
+    split the comment, shift row 1 one column right (Force read the rate, 1000) and pass silently;
+    with ';' and a comma in a quoted name the header's delimiter was taken as ','."""
+    for delim in (",", ";"):
+        files = []
+        for e, (u, y) in enumerate(data):
+            rows = [delim.join(['"Time, s"', "Comment", "Fs", "Force", "Force2", "Acc", "Acc2", '"Note, free"']) + delim]
+            for k in range(u.shape[0]):
+                com = f'"Operator: J. Smith{delim} shift ""2"""' if k % 50 == 0 else ""
+                rows.append(delim.join([repr(k * 1e-3), com, "1000" if k == 0 else "",
+                                        *(repr(float(v)) for v in (*u[k], *y[k])), ""]) + delim)
+            p = tmp_path / f"c{e}.csv"
+            p.write_text("\n".join(rows) + "\n", encoding="utf-8")
+            files.append(p)
+        doc = _frf(tmp_path, files, ["--columns", "u1=Force,u2=Force2,y1=Acc,y2=Acc2"])
+        assert _lines(doc) == reference, delim
+    # negative control: a quote left open runs to the end of its line, so that row is ragged
+    text = files[0].read_text(encoding="utf-8").split("\n")
+    text[3] = text[3].replace(";", ';"', 1)
+    files[0].write_text("\n".join(text), encoding="utf-8")
+    _fails(tmp_path, files, ["--columns", "u1=Force,u2=Force2,y1=Acc,y2=Acc2"], f"'{files[0]}' line 4: ragged row")
+
+
 def test_tab_delimiter_and_time_column(tmp_path, data, reference):
     files = []
     for e, (u, y) in enumerate(data):

@@ -311,6 +311,11 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
             dst[dc] = v;
             p = r;
         } else {
+            if (*p == '"') {   // a quoted cell: delimiters in it are text ("J. Smith, shift 2"; "" a quote)
+                ++p;
+                while (*p != '\n' && !(*p == '"' && p[1] != '"')) p += *p == '"' ? 2 : 1;
+                if (*p == '"') ++p;
+            }
             while (*p != d && *p != '\n' && *p != '\r') ++p;
         }
         if (*p == d) { ++p; continue; }
@@ -397,6 +402,12 @@ __attribute__((target("ssse3"))) void parse_lines_cells(const CsvLayout &L, cons
                 continue;
             }
             q = (const char *)nl + 1;
+        }
+        if (std::memchr(p, '"', (size_t)(q - p))) {   // a quoted cell may hide a delimiter: the general path
+            for (const char *s = p; s < q;)
+                if (!(s = general_line(L, s, e, out))) return;
+            p = q;
+            continue;
         }
         const size_t np = structural(p, q, d, pos.data());
         size_t i = 0;
@@ -613,8 +624,12 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
         throw Error("'" + path + "' is empty: expected a header row with columns u1.. and y1.. (or named columns and "
                     "--columns)");
     // Delimiter: the most frequent of ',', ';' and tab in the header (',' on a tie).
-    const long nc = std::count(header.begin(), header.end(), ','), ns = std::count(header.begin(), header.end(), ';'),
-               nt = std::count(header.begin(), header.end(), '\t');
+    long nc = 0, ns = 0, nt = 0;   // outside quotes ("Force, N";"Acc" is ';'-delimited)
+    bool in_q = false;
+    for (char ch : header) {
+        in_q ^= ch == '"';
+        if (!in_q) nc += ch == ',', ns += ch == ';', nt += ch == '\t';
+    }
     const char delim = ns > nc && ns >= nt ? ';' : (nt > nc && nt > ns ? '\t' : ',');
     CsvLayout L;
     L.path = &path;
@@ -623,7 +638,10 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     {
         size_t a = 0;
         for (;;) {
-            const size_t b = header.find(delim, a);
+            size_t b = a;   // the next delimiter outside quotes ("Force, N" is one name)
+            for (bool quoted = false; b < header.size() && (quoted || header[b] != delim); ++b)
+                if (header[b] == '"') quoted = !quoted;
+            if (b >= header.size()) b = std::string_view::npos;
             L.names.push_back(trim(header.substr(a, b == std::string_view::npos ? std::string_view::npos : b - a)));
             if (b == std::string_view::npos) break;
             a = b + 1;
