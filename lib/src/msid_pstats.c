@@ -21,7 +21,7 @@ static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
         ps->hdrop = (uint8_t *)msid__lay(&y, H, 1);
         ps->hpval = (double *)msid__lay(&y, H, sizeof(double));
         ps->hidx = (uint32_t *)msid__lay(&y, H, sizeof(uint32_t));
-        ps->scr = (double *)msid__lay(&y, msid__mul(L * q, 3u), sizeof(double));
+        ps->scr = (double *)msid__lay(&y, msid__mul(L * q, 5u), sizeof(double));
     }
     return y.size;
 }
@@ -282,23 +282,30 @@ static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *
 
 /* Drift: p-value of a linear trend in the period number over the stored
  * periods [first, nhist) (none dropped yet); see msid_pstats_detect. */
-static double trend_pvalue(const msid_pstats *ps, uint32_t first, const double *logj)
+static double trend_pvalue(const msid_pstats *ps, uint32_t first, uint32_t skip, const double *logj)
 {
     const size_t L = ps->n_lines, q = ps->n_channels, nq = L * q;
-    const uint32_t Kt = ps->nhist - first;
-    const double xm = 0.5 * (double)(Kt - 1u), n = (double)(Kt - 2u);
+    const uint32_t Kt = ps->nhist - first - (skip < ps->nhist - first ? 1u : 0u);   /* periods in the fit */
+    double xm = 0.0;
+    for (uint32_t k = 0; k < ps->nhist - first; ++k)
+        if (k != skip) xm += (double)k;
+    xm /= (double)Kt;
+    const double n = (double)(Kt - 2u);
     double Sxx = 0.0;
-    for (uint32_t k = 0; k < Kt; ++k) Sxx += ((double)k - xm) * ((double)k - xm);
+    for (uint32_t k = 0; k < ps->nhist - first; ++k)
+        if (k != skip) Sxx += ((double)k - xm) * ((double)k - xm);
     pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
     for (size_t l = 0; l < L; ++l) {
         for (size_t c = 0; c < q; ++c) {
             const size_t i = l * q + c;
             msid_cplx zm = msid__c(0.0, 0.0), sxz = msid__c(0.0, 0.0);
-            for (uint32_t k = 0; k < Kt; ++k) zm = msid__cadd(zm, ps->hist[(size_t)(first + k) * nq + i]);
+            for (uint32_t k = 0; k < ps->nhist - first; ++k)
+                if (k != skip) zm = msid__cadd(zm, ps->hist[(size_t)(first + k) * nq + i]);
             zm = msid__cscale(zm, 1.0 / (double)Kt);
             double tss = 0.0;
             int real = 1;
-            for (uint32_t k = 0; k < Kt; ++k) {
+            for (uint32_t k = 0; k < ps->nhist - first; ++k) {
+                if (k == skip) continue;
                 const msid_cplx z = ps->hist[(size_t)(first + k) * nq + i];
                 const msid_cplx d = msid__csub(z, zm);
                 if (z.im != 0.0) real = 0;
@@ -323,21 +330,69 @@ static double trend_pvalue(const msid_pstats *ps, uint32_t first, const double *
     return pc_result(&pc, logj);
 }
 
+/* The period of the late half [first, nhist) that departs most from the
+ * straight line fitted through it: per line and channel the line z_k = a +
+ * b (k - xm) and its residual sum of squares RSS; the period with the largest
+ * sum of studentised squared residuals |r_k|^2 / ((1 - h_k) RSS), h_k = 1/Kt +
+ * (k - xm)^2 / Sxx its leverage (an end period pulls the line towards itself;
+ * the leverage undoes that). A drift leaves no period far from its line, a
+ * disturbed period stands out. Its index from `first`; scratch ps->scr
+ * (2 L q doubles of means, then wk: L q complex slopes and L q RSS). */
+static uint32_t late_outlier(const msid_pstats *ps, uint32_t first, double *wk)
+{
+    const size_t nq = (size_t)ps->n_lines * ps->n_channels;
+    const uint32_t Kt = ps->nhist - first;
+    const double xm = 0.5 * (double)(Kt - 1u);
+    double Sxx = 0.0;
+    for (uint32_t k = 0; k < Kt; ++k) Sxx += ((double)k - xm) * ((double)k - xm);
+    msid_cplx *zm = (msid_cplx *)ps->scr, *b = (msid_cplx *)wk;
+    double *rss = wk + 2u * nq;
+    for (size_t i = 0; i < nq; ++i) { zm[i] = msid__c(0.0, 0.0); b[i] = msid__c(0.0, 0.0); rss[i] = 0.0; }
+    for (uint32_t k = 0; k < Kt; ++k)
+        for (size_t i = 0; i < nq; ++i) {
+            const msid_cplx z = ps->hist[(size_t)(first + k) * nq + i];
+            zm[i] = msid__cadd(zm[i], z);
+            b[i] = msid__cadd(b[i], msid__cscale(z, ((double)k - xm) / Sxx));
+        }
+    for (size_t i = 0; i < nq; ++i) zm[i] = msid__cscale(zm[i], 1.0 / (double)Kt);
+    for (uint32_t k = 0; k < Kt; ++k)
+        for (size_t i = 0; i < nq; ++i) {
+            const msid_cplx r = msid__csub(msid__csub(ps->hist[(size_t)(first + k) * nq + i], zm[i]),
+                                           msid__cscale(b[i], (double)k - xm));
+            rss[i] += msid__cabs2(r);
+        }
+    uint32_t worst = 0;
+    double wmax = -1.0;
+    for (uint32_t k = 0; k < Kt; ++k) {
+        const double h = 1.0 / (double)Kt + ((double)k - xm) * ((double)k - xm) / Sxx;
+        double sc = 0.0;
+        for (size_t i = 0; i < nq; ++i) {
+            if (!(rss[i] > 0.0)) continue;
+            const msid_cplx r = msid__csub(msid__csub(ps->hist[(size_t)(first + k) * nq + i], zm[i]),
+                                           msid__cscale(b[i], (double)k - xm));
+            sc += msid__cabs2(r) / rss[i];
+        }
+        sc /= 1.0 - h;
+        if (sc > wmax) { wmax = sc; worst = k; }
+    }
+    return worst;
+}
+
 /* Two-pass mean and diagonal scatter over the kept history periods. */
-static void kept_moments(const msid_pstats *ps, msid_cplx *mean, double *m2d, uint32_t *K)
+static void kept_moments(const msid_pstats *ps, int flagged_out, msid_cplx *mean, double *m2d, uint32_t *K)
 {
     const size_t L = ps->n_lines, q = ps->n_channels, n = L * q;
     uint32_t k = 0;
     for (size_t i = 0; i < n; ++i) { mean[i] = msid__c(0.0, 0.0); m2d[i] = 0.0; }
     for (uint32_t p = 0; p < ps->nhist; ++p) {
-        if (ps->hdrop[p]) continue;
+        if (ps->hdrop[p] || (flagged_out && ps->hflag[p])) continue;
         k++;
         const msid_cplx *z = ps->hist + (size_t)p * n;
         for (size_t i = 0; i < n; ++i) mean[i] = msid__cadd(mean[i], z[i]);
     }
     for (size_t i = 0; i < n; ++i) mean[i] = msid__cscale(mean[i], 1.0 / (double)k);
     for (uint32_t p = 0; p < ps->nhist; ++p) {
-        if (ps->hdrop[p]) continue;
+        if (ps->hdrop[p] || (flagged_out && ps->hflag[p])) continue;
         const msid_cplx *z = ps->hist + (size_t)p * n;
         for (size_t i = 0; i < n; ++i) m2d[i] += msid__cabs2(msid__csub(z[i], mean[i]));
     }
@@ -355,7 +410,8 @@ msid_status msid_pstats_detect(msid_pstats *ps)
 {
     if (ps->transient == MSID_TRANSIENT_OFF) return MSID_OK;
     if (ps->nhist < 3) { ps->cnt.tested = 0; return MSID_OK; }
-    /* Scratch (ps->scr, 3 L q doubles): kept means and diagonal scatter,
+    /* Scratch (ps->scr, 5 L q doubles): kept means and diagonal scatter (the
+     * drift test's robustness check: means, slopes and RSS of late_outlier),
      * first the log(j) table of the drift test. The Welford statistics are
      * left alone until a period is dropped. */
     msid_cplx *mean = (msid_cplx *)ps->scr;
@@ -373,27 +429,43 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     ps->cnt.drift = 0;
     ps->drift_pval = NAN;
     if (K0 >= 6u) {
-        ps->drift_pval = trend_pvalue(ps, K0 / 2u, logj);
+        ps->drift_pval = trend_pvalue(ps, K0 / 2u, UINT32_MAX, logj);
         ps->cnt.drift_tested = 1;
+        if (ps->drift_pval < ps->alpha && K0 - K0 / 2u >= 5u) {
+            /* A trend must persist without the late period that departs most:
+             * one disturbed period (a knock, a glitch) at an end of the late
+             * half makes a straight line fit as well as a drift does. Both
+             * tests significant: the false-alarm probability stays <= alpha. */
+            const uint32_t k = late_outlier(ps, K0 / 2u, ps->scr + 2u * (size_t)ps->n_lines * ps->n_channels);
+            for (uint32_t j = 1; j < ps->n_lines; ++j) logj[j] = log((double)j);
+            const double p1 = trend_pvalue(ps, K0 / 2u, k, logj);
+            if (p1 > ps->drift_pval) ps->drift_pval = p1;
+        }
         if (ps->drift_pval < ps->alpha) { ps->cnt.drift = 1; mode = MSID_TRANSIENT_FLAG; }
     }
+    /* Without drift both modes test sequentially: the most significant period
+     * (relative to its level) leaves the reference and the rest are tested
+     * again, so one large disturbance does not hide a start-up transient by
+     * inflating the others' scatter. DROP drops what is flagged, FLAG keeps
+     * it. With drift FLAG tests once against all periods. */
+    const int sequential = !ps->cnt.drift;
     int dropped = 0;
     for (;;) {
         uint32_t K;
-        kept_moments(ps, mean, m2d, &K);
+        kept_moments(ps, sequential, mean, m2d, &K);
         if (K < 3) break;
         /* Weighted Bonferroni over periods: transients sit at the start of a
          * record, so early periods get more of alpha; the weights sum to < 1. */
         double worst = HUGE_VAL;
         uint32_t wp = 0;
         for (uint32_t p = 0; p < ps->nhist; ++p) {
-            if (ps->hdrop[p]) continue;
+            if (ps->hdrop[p] || (sequential && ps->hflag[p])) continue;
             const double pv = period_pvalue(ps, p, mean, m2d, K, logq);
             ps->hpval[p] = pv;
             const double r = pv / period_level(ps->alpha, p, K0);
             if (r < worst) { worst = r; wp = p; }
         }
-        if (mode == MSID_TRANSIENT_FLAG) {
+        if (!sequential) {
             for (uint32_t p = 0; p < ps->nhist; ++p)
                 if (ps->hpval[p] < period_level(ps->alpha, p, K0) && !ps->hflag[p]) {
                     ps->hflag[p] = 1;
@@ -403,10 +475,12 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         }
         if (!(worst < 1.0)) break;
         ps->hflag[wp] = 1;
-        ps->hdrop[wp] = 1;
         ps->cnt.transient_flagged++;
-        ps->cnt.transient_dropped++;
-        dropped = 1;
+        if (mode == MSID_TRANSIENT_DROP) {
+            ps->hdrop[wp] = 1;
+            ps->cnt.transient_dropped++;
+            dropped = 1;
+        }
     }
     if (dropped) {
         /* Rebuild the Welford statistics from the kept periods, in order. */

@@ -67,7 +67,7 @@ typedef struct msid_pstats {
     uint8_t *hdrop;         /**< [max_periods] 1 = dropped */
     double *hpval;          /**< [max_periods] test p-value per accepted period (NaN if untested) */
     uint32_t *hidx;         /**< [max_periods] 0-based number of each accepted period among all offered */
-    double *scr;            /**< [3*L*q] scratch of msid_pstats_detect (with a history only) */
+    double *scr;            /**< [5*L*q] scratch of msid_pstats_detect (with a history only) */
     double drift_pval;      /**< p-value of the drift test (NaN if untested) */
     uint32_t nhist;         /**< accepted periods stored */
     uint32_t seg_skipped;   /**< periods skipped in the current segment */
@@ -130,8 +130,12 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
  * flagged when its p-value < alpha * (2^-(k+2) + 1/(2K)): a weighted
  * Bonferroni split that gives early periods (where transients sit) more of
  * alpha; the family-wise false-alarm probability stays below alpha.
- * DROP mode removes the most significant period (relative to its level) and
- * repeats while K >= 3.
+ * The test is sequential in both modes: the most significant period (relative
+ * to its level) is flagged and leaves the reference, and the rest are tested
+ * again while K >= 3, so one large disturbance cannot hide a start-up
+ * transient by inflating the others' scatter. A flagged period keeps the
+ * p-value it was flagged with. DROP mode drops the flagged periods; FLAG mode
+ * keeps them in the statistics.
  *
  * Drift (a trend through the whole record) is told apart from a start-up
  * transient first: with K >= 6 stored periods, a straight line in the period
@@ -140,9 +144,14 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
  * t = |b|^2 Sxx (n) / RSS with n = K_late - 2 is F(2, 2n) for a constant
  * spectrum in circular Gaussian noise (F(1, n) on a real line); channels,
  * lines combine as in the transient test. Drift is declared at p < alpha
- * (its own false-alarm probability alpha per experiment); then the periods
- * the transient test flags are kept (never dropped: dropping early periods of
- * a drifting record only moves the estimate towards the late state).
+ * (its own false-alarm probability alpha per experiment), with 5 or more late
+ * periods only when the trend is also significant without the late period
+ * that departs most from its fitted line (largest studentised squared
+ * residuals: one disturbed period at an end of the late half fits a line as
+ * well as a drift does); the drift p-value is the larger of the two. Then the
+ * periods the transient test flags in one pass against all periods are kept
+ * (never dropped: dropping early periods of a drifting record only moves the
+ * estimate towards the late state).
  * @return MSID_OK.
  */
 msid_status msid_pstats_detect(msid_pstats *ps);
