@@ -422,6 +422,12 @@ msid_status msid_pstats_detect(msid_pstats *ps)
     for (uint32_t j = 1; j <= ps->n_channels; ++j) logq[j] = log((double)j);
     const uint32_t K0 = ps->nhist;
     ps->cnt.tested = 1;
+    /* A flag without a drop is the verdict of the last call only: every call
+     * tests all kept periods afresh, so a period flagged by an earlier call
+     * (a new segment since, or a drift then) neither stays out of the
+     * sequential test's reference nor escapes DROP. Dropped periods stay out. */
+    for (uint32_t p = 0; p < K0; ++p)
+        if (ps->hflag[p] && !ps->hdrop[p]) { ps->hflag[p] = 0; ps->cnt.transient_flagged--; }
     /* Drift first: a trend that persists through the late half is no start-up
      * transient; then flag only, drop nothing. */
     msid_transient_mode mode = ps->transient;

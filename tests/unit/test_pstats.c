@@ -828,6 +828,71 @@ static void test_detect_no_drop_keeps_stats(void **state)
     UT_CHECK(no_drop >= 10 && with_drop >= 5, "both cases exercised: %u without, %u with a drop", no_drop, with_drop);
 }
 
+/* Detection after every segment (msid_meas_end of each segment) ends as one
+ * detection over all the periods: states, p-values and counts bit for bit, in
+ * FLAG and DROP modes. The records: 6 periods that ramp a k^2 (drift declared
+ * in the first call, which flags but drops nothing), then 6 at the final
+ * level. Negative control: the first call leaves periods flagged and kept;
+ * before every call tested afresh, such a stale flag stayed set, kept its
+ * period out of the second call's reference and out of DROP (fails at trial
+ * 0: 5 flagged, one call 4). */
+static void test_detect_per_segment_equals_one_call(void **state)
+{
+    (void)state;
+    const uint32_t L = 20, q = 2;
+    uint32_t stale = 0, dropped = 0, compared = 0;
+    for (int trial = 0; trial < 24; ++trial) {
+        const msid_transient_mode mode = trial % 2 ? MSID_TRANSIENT_DROP : MSID_TRANSIENT_FLAG;
+        const double a = 0.1 + 0.05 * (trial / 2 % 6);
+        msid_rng r;
+        msid_rng_seed(&r, trial < 2 ? 4242u : 4242u + (uint32_t)trial);
+        msid_cplx *mu = make_periods(1, L, q, 3.0, 0.0, &r), *d = make_periods(1, L, q, 1.0, 0.0, &r);
+        msid_cplx *z = make_periods(12, L, q, 0.0, 1.0, &r);
+        for (uint32_t p = 0; p < 12; ++p) {
+            const double s = p < 6 ? a * p * p : 25.0 * a;
+            for (uint32_t k = 0; k < L * q; ++k) {
+                z[(size_t)p * L * q + k].re += mu[k].re + s * d[k].re;
+                z[(size_t)p * L * q + k].im += mu[k].im + s * d[k].im;
+            }
+        }
+        pst o, one;
+        UT_STATUS(ps_make(&o, L, q, 0, 12, mode, 0.01), MSID_OK);
+        UT_STATUS(ps_make(&one, L, q, 0, 12, mode, 0.01), MSID_OK);
+        ps_add_periods(&o, z, 0, 6, NULL);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        for (uint32_t p = 0; p < 6; ++p) stale += msid_pstats_period_state(&o.ps, p, NULL) == 1;
+        /* a drop is final: compare only records the first call dropped nothing from */
+        const int comparable = msid_pstats_get_counts(&o.ps).transient_dropped == 0;
+        compared += comparable;
+        msid_pstats_new_segment(&o.ps);
+        ps_add_periods(&o, z, 6, 12, NULL);
+        UT_STATUS(msid_pstats_detect(&o.ps), MSID_OK);
+        ps_add_periods(&one, z, 0, 12, NULL);
+        UT_STATUS(msid_pstats_detect(&one.ps), MSID_OK);
+        const msid_pstats_counts c = msid_pstats_get_counts(&o.ps), c1 = msid_pstats_get_counts(&one.ps);
+        UT_CHECK(!comparable || c.transient_flagged == c1.transient_flagged && c.transient_dropped == c1.transient_dropped &&
+                     c.used == c1.used && c.drift == c1.drift,
+                 "trial %d: flagged %u/%u dropped %u/%u used %u/%u drift %d/%d", trial, c.transient_flagged,
+                 c1.transient_flagged, c.transient_dropped, c1.transient_dropped, c.used, c1.used, c.drift, c1.drift);
+        for (uint32_t p = 0; p < 12; ++p) {
+            double pv, pv1;
+            const int s = msid_pstats_period_state(&o.ps, p, &pv), s1 = msid_pstats_period_state(&one.ps, p, &pv1);
+            UT_CHECK(!comparable || (s == s1 && memcmp(&pv, &pv1, sizeof pv) == 0), "trial %d period %u: state %d (p %.3g), one call %d (p %.3g)",
+                     trial, p, s, pv, s1, pv1);
+        }
+        dropped += comparable && c1.transient_dropped > 0;
+        tsim_free(o.mem);
+        tsim_free(one.mem);
+        free(mu);
+        free(d);
+        free(z);
+    }
+    print_message("periods flagged and kept by the first call: %u; %u records compared, %u of them with a drop\n", stale,
+                  compared, dropped);
+    UT_CHECK(stale >= 8 && compared >= 16 && dropped >= 4, "not exercised: %u stale flags, %u compared, %u with a drop", stale,
+             compared, dropped);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -846,6 +911,7 @@ int main(void)
         cmocka_unit_test(test_transient_pvalue_reference),
         cmocka_unit_test(test_transient_floor_boundary),
         cmocka_unit_test(test_detect_no_drop_keeps_stats),
+        cmocka_unit_test(test_detect_per_segment_equals_one_call),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

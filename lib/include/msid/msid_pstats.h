@@ -135,7 +135,9 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
  * again while K >= 3, so one large disturbance cannot hide a start-up
  * transient by inflating the others' scatter. A flagged period keeps the
  * p-value it was flagged with. DROP mode drops the flagged periods; FLAG mode
- * keeps them in the statistics.
+ * keeps them in the statistics. Every call (after each segment, say) tests
+ * all kept periods afresh: a flag without a drop from an earlier call is
+ * cleared first (and uncounted); dropped periods stay dropped.
  *
  * Drift (a trend through the whole record) is told apart from a start-up
  * transient first: with K >= 6 stored periods, a straight line in the period
