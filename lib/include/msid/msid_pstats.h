@@ -150,7 +150,7 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
  * periods only when the trend is also significant without the late period
  * that departs most from its fitted line (largest studentised squared
  * residuals: one disturbed period at an end of the late half fits a line as
- * well as a drift does); the drift p-value is the larger of the two. Then the
+ * well as a drift does); the drift p-value is then the larger of the two. Then the
  * periods the transient test flags in one pass against all periods are kept
  * (never dropped: dropping early periods of a drifting record only moves the
  * estimate towards the late state).
