@@ -147,10 +147,10 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
  * spectrum in circular Gaussian noise (F(1, n) on a real line); channels,
  * lines combine as in the transient test. Drift is declared at p < alpha
  * (its own false-alarm probability alpha per experiment), with 5 or more late
- * periods only when the trend is also significant without the late period
- * that departs most from its fitted line (largest studentised squared
+ * periods only when the trend is also significant (at 5 alpha) without the
+ * late period that departs most from its fitted line (largest studentised squared
  * residuals: one disturbed period at an end of the late half fits a line as
- * well as a drift does); the drift p-value is then the larger of the two. Then the
+ * well as a drift does); the drift p-value is then max(p, p1 / 5). Then the
  * periods the transient test flags in one pass against all periods are kept
  * (never dropped: dropping early periods of a drifting record only moves the
  * estimate towards the late state).
