@@ -106,6 +106,30 @@ def test_trailing_rows_of_delimiters_only_are_blank_lines(tmp_path, data, refere
     _fails(tmp_path, files, cols, f"'{files[0]}' line 102: empty line inside the data")
 
 
+def test_comment_lines_before_the_header(tmp_path, data, reference):
+    """A logger writes its settings as '#' lines before the header (after a BOM here): skipped, the
+    same FRF, and the lines named in messages are the file's (it used to be "column '# Logger X'
+    ... not found"). Negative controls: a bad cell names its line counting the comments; comments
+    and no header are one message, no file; a '#' line inside the data is still an error there."""
+    files = []
+    head = "# Logger X-200, firmware 3.1\n# sample rate: 1000 Hz\n#\n"
+    for e, (u, y) in enumerate(data):
+        p = tmp_path / f"c{e}.csv"
+        p.write_bytes(b"\xef\xbb\xbf" + (head + _text(u, y, ["Time", "Force", "Force2", "Acc", "Acc2"], time=True)).encode())
+        files.append(p)
+    cols = ["--columns", "u1=Force,u2=Force2,y1=Acc,y2=Acc2"]
+    assert _lines(_frf(tmp_path, files, cols)) == reference
+    good = files[0].read_bytes()
+    rows = good.decode("utf-8-sig").split("\n")
+    bad = rows[:10] + [rows[10].rsplit(",", 1)[0] + ",oops"] + rows[11:]   # file line 11: 3 comments, header, 6 rows
+    files[0].write_bytes(b"\xef\xbb\xbf" + "\n".join(bad).encode())
+    _fails(tmp_path, files, cols, f"'{files[0]}' line 11, column Acc2: 'oops' is not a number")
+    files[0].write_bytes(b"\xef\xbb\xbf" + "\n".join(rows[:6] + ["# a note"] + rows[6:]).encode())
+    _fails(tmp_path, files, cols, f"'{files[0]}' line 7")
+    files[0].write_text(head, encoding="utf-8")
+    _fails(tmp_path, files, cols, f"'{files[0]}' is empty after 3 comment lines")
+
+
 def test_quoted_numbers(tmp_path, data, reference):
     """Every cell quoted, header and numbers ("0.25", as QUOTE_ALL exports write them): the same FRF
     (it used to be "line 2, column Force: '"0.25"' is not a number"). Negative controls: a quote

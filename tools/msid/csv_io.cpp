@@ -616,13 +616,20 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     if (any && end - t0 >= 3 && (unsigned char)t0[0] == 0xEF && (unsigned char)t0[1] == 0xBB &&
         (unsigned char)t0[2] == 0xBF)
         p += 3;   /* UTF-8 byte order mark, as some spreadsheet exports write */
+    // Comment lines before the header ('#' first, as data loggers write their settings): skipped,
+    // and counted, so the lines named in messages are the file's
+    size_t comments = 0;
+    while (any && p < end && *p == '#') {
+        p = (const char *)std::memchr(p, '\n', (size_t)(end - p)) + 1;   // every block ends with '\n'
+        ++comments;
+    }
     const char *hl = p;
-    const char *he = any ? (const char *)std::memchr(p, '\n', (size_t)(end - p)) : p;
+    const char *he = any && p < end ? (const char *)std::memchr(p, '\n', (size_t)(end - p)) : p;
     std::string_view header(hl, (size_t)(he - hl));
     if (!header.empty() && header.back() == '\r') header.remove_suffix(1);
     if (trim(header).empty())
-        throw Error("'" + path + "' is empty: expected a header row with columns u1.. and y1.. (or named columns and "
-                    "--columns)");
+        throw Error("'" + path + "' is empty" + (comments ? fmt(" after %zu comment lines", comments) : std::string()) +
+                    ": expected a header row with columns u1.. and y1.. (or named columns and --columns)");
     // Delimiter: the most frequent of ',', ';' and tab in the header (',' on a tie).
     long nc = 0, ns = 0, nt = 0;   // outside quotes ("Force, N";"Acc" is ';'-delimited)
     bool in_q = false;
@@ -670,7 +677,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     r.rows.resize((in.file_size() / row_min + 1) * C);
     Samples half;
     size_t blank_line = 0, blank_err = 0;   // first blank line; first blank line followed by data
-    size_t lines = 1;                       // lines before the next block (the header)
+    size_t lines = 1 + comments;            // lines before the next block (comments, the header)
     L.text = t0;                            // block 0 counts lines from the file's start
     const char *b = he + 1;
     for (;;) {
