@@ -342,6 +342,13 @@ static double trend_pvalue(const msid_pstats *ps, uint32_t first, uint32_t skip,
  * the leverage undoes that). A drift leaves no period far from its line, a
  * disturbed period stands out. Its index from `first`; scratch ps->scr
  * (2 L q doubles of means, then wk: L q complex slopes and L q RSS). */
+/* |z_k - a - b (k - xm)|^2 of channel i of late period k (the residual of its fitted line). */
+static double line_res2(const msid_pstats *ps, uint32_t first, uint32_t k, size_t i, msid_cplx a, msid_cplx b, double xm)
+{
+    const size_t nq = (size_t)ps->n_lines * ps->n_channels;
+    return msid__cabs2(msid__csub(msid__csub(ps->hist[(size_t)(first + k) * nq + i], a), msid__cscale(b, (double)k - xm)));
+}
+
 static uint32_t late_outlier(const msid_pstats *ps, uint32_t first, double *wk)
 {
     const size_t nq = (size_t)ps->n_lines * ps->n_channels;
@@ -360,21 +367,14 @@ static uint32_t late_outlier(const msid_pstats *ps, uint32_t first, double *wk)
         }
     for (size_t i = 0; i < nq; ++i) zm[i] = msid__cscale(zm[i], 1.0 / (double)Kt);
     for (uint32_t k = 0; k < Kt; ++k)
-        for (size_t i = 0; i < nq; ++i) {
-            const msid_cplx r = msid__csub(msid__csub(ps->hist[(size_t)(first + k) * nq + i], zm[i]),
-                                           msid__cscale(b[i], (double)k - xm));
-            rss[i] += msid__cabs2(r);
-        }
+        for (size_t i = 0; i < nq; ++i) rss[i] += line_res2(ps, first, k, i, zm[i], b[i], xm);
     uint32_t worst = 0;
     double wmax = -1.0;
     for (uint32_t k = 0; k < Kt; ++k) {
         const double h = 1.0 / (double)Kt + ((double)k - xm) * ((double)k - xm) / Sxx;
         double sc = 0.0;
         for (size_t i = 0; i < nq; ++i) {
-            if (!(rss[i] > 0.0)) continue;
-            const msid_cplx r = msid__csub(msid__csub(ps->hist[(size_t)(first + k) * nq + i], zm[i]),
-                                           msid__cscale(b[i], (double)k - xm));
-            sc += msid__cabs2(r) / rss[i];
+            if (rss[i] > 0.0) sc += line_res2(ps, first, k, i, zm[i], b[i], xm) / rss[i];
         }
         sc /= 1.0 - h;
         if (sc > wmax) { wmax = sc; worst = k; }

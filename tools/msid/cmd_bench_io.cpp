@@ -81,25 +81,28 @@ Times time_msid(const std::vector<std::string> &args, double min_s)
     std::vector<char *> av;
     for (const auto &s : args) av.push_back(const_cast<char *>(s.c_str()));
     av.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    if (posix_spawn_file_actions_init(&fa) != 0 ||
-        posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0) != 0)
-        throw Error("posix_spawn_file_actions failed");
+    struct Actions {   // stdout of every start to /dev/null
+        posix_spawn_file_actions_t fa;
+        Actions()
+        {
+            if (posix_spawn_file_actions_init(&fa) != 0) throw Error("posix_spawn_file_actions failed");
+            if (posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0) != 0) {
+                posix_spawn_file_actions_destroy(&fa);
+                throw Error("posix_spawn_file_actions failed");
+            }
+        }
+        ~Actions() { posix_spawn_file_actions_destroy(&fa); }
+    } act;
     auto once = [&](Times &best) {
         const double t0 = now_s();
         pid_t pid;
-        if (posix_spawn(&pid, "/proc/self/exe", &fa, nullptr, av.data(), environ) != 0) {
-            posix_spawn_file_actions_destroy(&fa);
+        if (posix_spawn(&pid, "/proc/self/exe", &act.fa, nullptr, av.data(), environ) != 0)
             throw Error("cannot start msid for the benchmark");
-        }
         int st = 0;
         struct rusage ru;
         wait4(pid, &st, 0, &ru);
         const double wall = now_s() - t0;
-        if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) {
-            posix_spawn_file_actions_destroy(&fa);
-            throw Error("msid " + args[1] + " failed in the benchmark");
-        }
+        if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) throw Error("msid " + args[1] + " failed in the benchmark");
         const double cpu = ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
         best.wall = std::min(best.wall, wall);
         best.cpu = std::min(best.cpu, cpu);
@@ -108,7 +111,6 @@ Times time_msid(const std::vector<std::string> &args, double min_s)
     once(warm);
     const double t_end = now_s() + min_s;
     for (int reps = 0; reps < 3 || now_s() < t_end; ++reps) once(best);
-    posix_spawn_file_actions_destroy(&fa);
     return best;
 }
 
