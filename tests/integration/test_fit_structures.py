@@ -405,6 +405,86 @@ def test_ml_against_vector_fitting_monte_carlo(tmp_path):
     assert ratio_nom.mean() > 1.05, ratio_nom
 
 
+def _unidentified(m):
+    """1-based indices of the modes msid marks NOT identified (the contribution test, docs/fitting.md)."""
+    return [k + 1 for k, e in enumerate(m["modes"]["modes"]) if e.get("identified") is False]
+
+
+def _check_contribution_tests(m):
+    """The contribution test of every complex mode recomputed independently from the model file: in the
+    pole-residue form (SISO) v = (Re p, Im p, Re R, Im R) are parameters, so S_v is a block of the
+    parameter covariance (no delta method through an eigen-decomposition); dc/dv by central differences."""
+    pr = m["parameters"]
+    names, th, cov = pr["names"], np.array(pr["values"]), np.array(pr["cov"])
+    x = 1j * np.array([e["omega"] for e in m["frf"]])
+
+    def contrib(v):
+        p, R = v[0] + 1j * v[1], v[2] + 1j * v[3]
+        c = R / (x - p) + np.conj(R) / (x - np.conj(p))
+        return np.concatenate([c.real, c.imag])
+
+    W = {}
+    for k in range(1, len(names)):
+        if f"p{k}.im" not in names:
+            break
+        idx = [names.index(n) for n in (f"p{k}.re", f"p{k}.im", f"R{k}[1,1].re", f"R{k}[1,1].im")]
+        v, S = th[idx], cov[np.ix_(idx, idx)]
+        B = np.column_stack([(contrib(v + dv) - contrib(v - dv)) / (2 * dv.sum())
+                             for dv in np.diag(1e-6 * np.maximum(np.abs(v), 1e-3))])
+        ev, V = np.linalg.eigh(S)
+        c = contrib(v)
+        W[(v[0], abs(v[1]))] = float(np.sum(np.linalg.lstsq(B @ V @ np.diag(np.sqrt(np.maximum(ev, 0))),
+                                                                             c, rcond=1e-9)[0] ** 2))
+    checked = 0
+    for e in m["modes"]["modes"]:
+        if e["real_pole"]:
+            continue
+        key = min(W, key=lambda q: abs(complex(*q) - complex(*e["pole"])))
+        assert abs(complex(*key) - complex(*e["pole"])) < 1e-6 * abs(complex(*key))
+        assert e["contribution_test"]["chi2"] == pytest.approx(W[key], rel=2e-3), (key, e["contribution_test"], W[key])
+        checked += 1
+    assert checked == len(W) > 0
+
+
+def test_modes_the_data_do_not_identify(tmp_path):
+    # At an over-sized order ml spends the free pole pairs on the noise (the one item of issue 9 no
+    # cost minimiser meets: docs/benchmarks.md). msid says so: a mode whose contribution to the FRF at
+    # the fitted lines is within the noise (Wald test of the contribution, p >= 1e-3) is marked NOT
+    # identified, in the model file and the table. 12 noise seeds per case (24 in docs/fitting.md).
+    # Structure 2, 10 modes: one mode 0.1 x the noise (the data identify order 18); structure 4,
+    # 12 modes: two modes below the noise (modal products 1e-5 and 2e-8: order 20 of 24); structure 1,
+    # 10 modes: every mode visible (negative control, at the nominal order).
+    cases = (("s2-20", 2, 10, 20), ("s2-18", 2, 10, 18), ("s1-20", 1, 10, 20), ("s4-24", 4, 12, 24))
+    counts = {}
+    for name, sseed, modes, order in cases:
+        st = S.structure("siso", sseed, n_modes=modes)
+        counts[name] = []
+        for seed in range(12):
+            p = S.write(tmp_path / f"{name}-{seed}.json", S.frf_doc(st, seed))
+            r, m = _fit(tmp_path, p, f"ml-{name}", "--method", "ml", "--order", order, ok=False)
+            assert r.returncode in (0, 3), r.stderr
+            bad = _unidentified(m)
+            counts[name].append(len(bad))
+            assert ("NOT identified" in r.stdout) == bool(bad), r.stdout
+            for e in m["modes"]["modes"]:
+                t = e["contribution_test"]
+                assert 0 <= t["p_value"] <= 1 and t["dof"] >= 1 and e["identified"] == (t["p_value"] < 1e-3)
+            if seed == 0:
+                _check_contribution_tests(m)
+    print({k: np.bincount(v).tolist() for k, v in counts.items()})
+    # measured (12 seeds): s2-20 [0, 12], s2-18 [12], s1-20 [12], s4-24 [0, 2, 10]
+    assert sum(c == 1 for c in counts["s2-20"]) >= 11, counts
+    assert sum(c == 2 for c in counts["s4-24"]) >= 9, counts
+    # at the orders the data identify, and where every mode is visible, no mode is marked
+    assert not any(counts["s2-18"]) and not any(counts["s1-20"]), counts
+    # unit invariance: outputs in other units give the same tests
+    st = S.structure("siso", 2, n_modes=10)
+    ps = [S.write(tmp_path / f"u{k}.json", S.frf_doc(st, 0, out_scale=sc)) for k, sc in enumerate((1.0, 1e3))]
+    t = [[e["contribution_test"]["p_value"] for e in _fit(tmp_path, p, f"u{k}", "--method", "ml", "--order", 20,
+                                                           ok=False)[1]["modes"]["modes"]] for k, p in enumerate(ps)]
+    np.testing.assert_allclose(t[0], t[1], rtol=1e-4, atol=1e-300)
+
+
 def test_ml_cost_reaches_vector_fitting_at_the_nominal_order(tmp_path):
     # issue 9: ml's weighted cost no worse than vector fitting's at the same order. At the nominal
     # (over-sized) order of the SISO structures one pole pair is free and the cost has several

@@ -1,6 +1,8 @@
 #include "modal.hpp"
+#include "stats.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 
@@ -52,18 +54,109 @@ std::vector<Mode> modes_of(const SSModel &m, double h, double xscale)
     return out;
 }
 
-// Quantities of a mode for the delta method: wn, zeta, Re R, Im R (column-major).
+// Quantities of a mode for the delta method: wn, zeta, then v = (Re p, Im p, Re R, Im R) with p the pole
+// in the model's variable and R column-major (v: the contribution tests).
 static VecR mode_vec(const Mode &md)
 {
     const Eigen::Index g = md.residue.size();
-    VecR q(2 + 2 * g);
+    VecR q(4 + 2 * g);
     q(0) = md.wn;
     q(1) = md.zeta;
+    q(2) = md.pole.real();
+    q(3) = md.pole.imag();
     for (Eigen::Index i = 0; i < g; ++i) {
-        q(2 + i) = md.residue.data()[i].real();
-        q(2 + g + i) = md.residue.data()[i].imag();
+        q(4 + i) = md.residue.data()[i].real();
+        q(4 + g + i) = md.residue.data()[i].imag();
     }
     return q;
+}
+
+// The contribution of a mode at the lines, c = R/(x - p) (+ conj(R)/(x - conj p) for a pair), stacked
+// [Re; Im] per line and entry (2 L g), and its Jacobian with respect to v = (Re p, Im p, Re R, Im R).
+static void contribution(const Mode &md, const std::vector<cd> &xs, VecR &c, MatR &B)
+{
+    const Eigen::Index g = md.residue.size(), L = (Eigen::Index)xs.size();
+    c.setZero(2 * L * g);
+    B.setZero(2 * L * g, 2 + 2 * g);
+    const cd p = md.pole, pc = std::conj(md.pole), I(0.0, 1.0);
+    for (Eigen::Index l = 0; l < L; ++l) {
+        const cd a = 1.0 / (xs[(size_t)l] - p), b = md.real ? 0.0 : 1.0 / (xs[(size_t)l] - pc);
+        for (Eigen::Index e = 0; e < g; ++e) {
+            const cd R = md.residue.data()[e];
+            const cd v = R * a + std::conj(R) * b;
+            const cd dre = R * a * a + std::conj(R) * b * b, dim = I * (R * a * a - std::conj(R) * b * b);
+            const cd drr = a + b, dri = I * (a - b);
+            const Eigen::Index row = 2 * (l * g + e);
+            c(row) = v.real();
+            c(row + 1) = v.imag();
+            const cd d[4] = {dre, dim, drr, dri};
+            const Eigen::Index col[4] = {0, 1, 2 + e, 2 + g + e};
+            for (int k = 0; k < 4; ++k) {
+                B(row, col[k]) = d[k].real();
+                B(row + 1, col[k]) = d[k].imag();
+            }
+        }
+    }
+}
+
+// W = c^T (B S B^T)^+ c with S = Jv cov Jv^T: through the SVD of B S^{1/2} (2 L g x dim v), its singular
+// values above 1e-9 of the largest; returns dof (0: no test).
+static int contrib_wald(const VecR &c, const MatR &B, const MatR &Jv, const MatR &cov, double *w)
+{
+    const Eigen::SelfAdjointEigenSolver<MatR> es(Jv * cov * Jv.transpose());
+    const VecR ev = es.eigenvalues().cwiseMax(0.0);
+    const MatR M = B * es.eigenvectors() * ev.cwiseSqrt().asDiagonal();
+    const Eigen::JacobiSVD<MatR> svd(M, Eigen::ComputeThinU);
+    const VecR &sv = svd.singularValues();
+    if (!(sv.size() > 0 && sv(0) > 0) || !std::isfinite(sv(0))) return 0;
+    const VecR uc = svd.matrixU().transpose() * c;
+    int dof = 0;
+    *w = 0;
+    for (Eigen::Index i = 0; i < sv.size(); ++i) {
+        if (!(sv(i) > 1e-9 * sv(0))) break;
+        *w += (uc(i) / sv(i)) * (uc(i) / sv(i));
+        ++dof;
+    }
+    return dof;
+}
+
+// The contribution tests of every mode (and of neighbouring real poles together); J[k]: d mode_vec / d theta.
+static void contribution_tests(std::vector<Mode> &ms, const std::vector<MatR> &J, const MatR &cov,
+                               const std::vector<cd> &xs)
+{
+    const size_t K = ms.size();
+    std::vector<VecR> c(K);
+    std::vector<MatR> B(K), Jv(K);
+    for (size_t k = 0; k < K; ++k) {
+        contribution(ms[k], xs, c[k], B[k]);
+        Jv[k] = J[k].bottomRows(J[k].rows() - 2);
+        double w = 0;
+        const int dof = contrib_wald(c[k], B[k], Jv[k], cov, &w);
+        if (dof == 0) continue;
+        ms[k].contrib_chi2 = w;
+        ms[k].contrib_dof = dof;
+        ms[k].contrib_p = chi2_sf(dof, w);
+    }
+    for (size_t k = 0; k < K; ++k) {   // neighbouring real poles (in frequency order) together
+        if (!ms[k].real) continue;
+        size_t m = k + 1;
+        while (m < K && !ms[m].real) ++m;
+        if (m >= K) break;
+        MatR Bj(B[k].rows(), B[k].cols() + B[m].cols()), Jj(Jv[k].rows() + Jv[m].rows(), Jv[k].cols());
+        Bj << B[k], B[m];
+        Jj << Jv[k], Jv[m];
+        double w = 0;
+        const int dof = contrib_wald(c[k] + c[m], Bj, Jj, cov, &w);
+        if (dof == 0) continue;
+        const double p = chi2_sf(dof, w);
+        for (size_t t : {k, m}) {
+            if (ms[t].contrib_p >= p) continue;   // its own test (or a joint one) is already the weaker
+            ms[t].contrib_chi2 = w;
+            ms[t].contrib_dof = dof;
+            ms[t].contrib_p = p;
+            ms[t].contrib_with = (int)(t == k ? m : k);
+        }
+    }
 }
 
 static const Mode &nearest(const std::vector<Mode> &ms, const Mode &ref)
@@ -78,7 +171,7 @@ static const Mode &nearest(const std::vector<Mode> &ms, const Mode &ref)
 }
 
 std::vector<Mode> modes_with_sd(const std::function<SSModel(const VecR &)> &realise, const VecR &theta,
-                                const MatR &cov, double h, double xscale)
+                                const MatR &cov, double h, double xscale, const std::vector<cd> &xs)
 {
     std::vector<Mode> nom = modes_of(realise(theta), h, xscale);
     if (nom.empty() || cov.rows() != theta.size()) return nom;
@@ -106,9 +199,10 @@ std::vector<Mode> modes_with_sd(const std::function<SSModel(const VecR &)> &real
         md.sd_fn = md.sd_wn / (2.0 * M_PI);
         md.sd_zeta = std::sqrt(var(1));
         const Eigen::Index g = md.residue.size(), ny = md.residue.rows(), nu = md.residue.cols();
-        md.sd_residue_re = Eigen::Map<const VecR>(var.data() + 2, g).cwiseSqrt().reshaped(ny, nu);
-        md.sd_residue_im = Eigen::Map<const VecR>(var.data() + 2 + g, g).cwiseSqrt().reshaped(ny, nu);
+        md.sd_residue_re = Eigen::Map<const VecR>(var.data() + 4, g).cwiseSqrt().reshaped(ny, nu);
+        md.sd_residue_im = Eigen::Map<const VecR>(var.data() + 4 + g, g).cwiseSqrt().reshaped(ny, nu);
     }
+    if (!xs.empty()) contribution_tests(nom, J, cov, xs);
     return nom;
 }
 

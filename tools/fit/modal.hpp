@@ -20,6 +20,12 @@
 
 namespace msidfit {
 
+// A mode is "identified" when the Wald test of its contribution to the FRF over the fitted lines rejects
+// "no contribution" at this level (docs/fitting.md, "Modes the data do not identify"). Small, because a
+// pole pair spent on noise sits where the noise helps most: the maximum over pole positions inflates W
+// over its chi2 law under "no mode" (Davies' problem), so the nominal level is not the false-alarm rate.
+constexpr double MODE_IDENTIFIED_P = 1e-3;
+
 struct Mode {
     cd pole;                 // pole in the model's own variable (s or z), Im >= 0 member of a pair
     cd pole_ct;              // CT pole (rad/s; rad/sample if the sample time is unknown)
@@ -29,6 +35,13 @@ struct Mode {
     // standard deviations (NaN when no parameter covariance is available)
     double sd_wn = NAN, sd_fn = NAN, sd_zeta = NAN;
     MatR sd_residue_re, sd_residue_im;
+    // Wald test of "the mode contributes nothing to the FRF at the fitted lines": c the contribution
+    // R/(x - p) (+ conj for a pair) at every line, stacked [Re; Im]; W = c^T S_c^+ c, S_c its
+    // delta-method covariance, dof = rank S_c, p = P(chi2(dof) > W). For two neighbouring real poles
+    // also their sum (a pair split into two real poles whose residues cancel): `with` is the index of
+    // the neighbour whose joint test is the weaker, -1 if none. NaN without covariance or lines.
+    double contrib_chi2 = NAN, contrib_p = NAN;
+    int contrib_dof = 0, contrib_with = -1;
 };
 
 // Poles and residues of a state-space model, sorted by natural frequency,
@@ -44,7 +57,9 @@ SSModel lmfd_realise_scaled(const LmfdModel &m, double *ws);
 
 // Modes with standard deviations: `realise` maps the parameter vector to a
 // state-space model, theta is the estimate, cov its covariance.
+// xs: the fitted lines in the model's variable (s = j w, z = e^{j w h}) for the contribution tests
+// (empty: none).
 std::vector<Mode> modes_with_sd(const std::function<SSModel(const VecR &)> &realise, const VecR &theta,
-                                const MatR &cov, double h, double xscale = 1.0);
+                                const MatR &cov, double h, double xscale = 1.0, const std::vector<cd> &xs = {});
 
 }  // namespace msidfit

@@ -40,6 +40,21 @@ static Slot slot_of(const std::string &name)
     return {mat, std::stoi(index), std::stoi(row) - 1, std::stoi(col) - 1};
 }
 
+// The fitted lines of a model file ("frf": bin, freq, omega per line) in the model's variable.
+static std::vector<cd> fitted_points(const Json &j, Domain d)
+{
+    std::vector<cd> xs;
+    if (!j.contains("frf") || !j["frf"].is_array()) return xs;
+    for (const Json &l : j["frf"]) {
+        if (!l.is_object() || !l.contains("freq") || !l.contains("omega")) return {};
+        Line ln;
+        ln.freq = l["freq"].get<double>();
+        ln.omega = l["omega"].get<double>();
+        xs.push_back(line_point(ln, d));
+    }
+    return xs;
+}
+
 ModalReport modal_report(const Json &j)
 {
     ModalReport r;
@@ -93,7 +108,7 @@ ModalReport modal_report(const Json &j)
             m.D = hasD ? MatR(Eigen::Map<const MatR>(t.data() + i, ny, nu)) : MatR::Zero(ny, nu);
             return pr_to_ss(m);
         };
-        r.modes = modes_with_sd(realise, th, cov, r.h);
+        r.modes = modes_with_sd(realise, th, cov, r.h, 1.0, fitted_points(j, r.domain));
         r.have_sd = true;
         r.sd_source = "delta method from the parameter covariance (inverse Fisher information) of the pole-residue form";
         return r;
@@ -137,7 +152,7 @@ ModalReport modal_report(const Json &j)
         }
         return lmfd_to_ss(m);
     };
-    r.modes = modes_with_sd(realise, th, cov, r.h, ws);
+    r.modes = modes_with_sd(realise, th, cov, r.h, ws, fitted_points(j, r.domain));
     r.have_sd = true;
     r.sd_source = "delta method from the parameter covariance (inverse Fisher information) of the LMFD";
     return r;
@@ -167,6 +182,11 @@ Json modal_json(const ModalReport &r)
             e["sd_wn"] = m.sd_wn;
             e["sd_zeta"] = m.sd_zeta;
             e["sd_residue"] = {{"re", rmat_json(m.sd_residue_re)}, {"im", rmat_json(m.sd_residue_im)}};
+            if (std::isfinite(m.contrib_p)) {
+                e["contribution_test"] = {{"chi2", m.contrib_chi2}, {"dof", m.contrib_dof}, {"p_value", m.contrib_p}};
+                if (m.contrib_with >= 0) e["contribution_test"]["with_mode"] = m.contrib_with + 1;
+                e["identified"] = m.contrib_p < MODE_IDENTIFIED_P;
+            }
         } else {
             e["sd_fn"] = nullptr;
             e["sd_wn"] = nullptr;
@@ -179,6 +199,11 @@ Json modal_json(const ModalReport &r)
     return o;
 }
 
+static std::string fmt_with(int other)
+{
+    return ", with mode " + std::to_string(other + 1);
+}
+
 std::string modal_text(const ModalReport &r)
 {
     const bool hz = r.domain == Domain::CT || r.h > 0;
@@ -187,19 +212,31 @@ std::string modal_text(const ModalReport &r)
     std::snprintf(buf, sizeof buf, "%-4s %-14s %-12s %-12s %-12s %s\n", "mode", hz ? "fn [Hz]" : "fn [cyc/smp]", "sd(fn)",
                   "zeta [%]", "sd(zeta)[%]", "|residue| (largest entry)");
     s += buf;
-    int k = 1;
+    int k = 1, weak = 0;
     for (const Mode &m : r.modes) {
         Eigen::Index i, jj;
         const double rmax = m.residue.cwiseAbs().maxCoeff(&i, &jj);
+        std::string note = m.real ? "  (real pole)" : "";
+        if (m.contrib_p >= MODE_IDENTIFIED_P) {   // NaN (no test): no note
+            ++weak;
+            char t[96];
+            std::snprintf(t, sizeof t, "  NOT identified (p = %.2g%s)", m.contrib_p,
+                          m.contrib_with >= 0 ? fmt_with(m.contrib_with).c_str() : "");
+            note += t;
+        }
         if (r.have_sd)
             std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12.3g %-12.4g %-12.3g %.4g%s\n", k++, m.fn, m.sd_fn,
-                          100 * m.zeta, 100 * m.sd_zeta, rmax, m.real ? "  (real pole)" : "");
+                          100 * m.zeta, 100 * m.sd_zeta, rmax, note.c_str());
         else
             std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12s %-12.4g %-12s %.4g%s\n", k++, m.fn, "-", 100 * m.zeta, "-",
                           rmax, m.real ? "  (real pole)" : "");
         s += buf;
     }
     s += "standard deviations: " + r.sd_source + "\n";
+    if (weak > 0)
+        s += "NOT identified: the mode's contribution to the FRF at the fitted lines is within the noise (Wald test, "
+             "p >= " + std::string(weak == 1 ? "0.001): a pole pair spent on noise" : "0.001): pole pairs spent on noise") +
+             "; the order is larger than the data support (--order auto picks the order the data identify)\n";
     return s;
 }
 
