@@ -477,8 +477,13 @@ def test_modes_the_data_do_not_identify(tmp_path):
     assert sum(c == 2 for c in counts["s4-24"]) >= 9, counts
     # at the orders the data identify, and where every mode is visible, no mode is marked
     assert not any(counts["s2-18"]) and not any(counts["s1-20"]), counts
-    # unit invariance: outputs in other units give the same tests
+    # the order scan counts them per order: none up to the order the data identify (18)
     st = S.structure("siso", 2, n_modes=10)
+    r, m = _fit(tmp_path, tmp_path / "s2-20-0.json", "scan", "--method", "ml", "--order", "16:2:22")
+    rows = {e["order"]: e["modes_not_identified"] for e in m["order_selection"]["orders"]}
+    assert rows[16] == rows[18] == 0 and rows[20] == 1 and rows[22] >= 1, rows
+    assert m["order_selection"]["chosen"] == 18 and "not identified" in r.stdout
+    # unit invariance: outputs in other units give the same tests
     ps = [S.write(tmp_path / f"u{k}.json", S.frf_doc(st, 0, out_scale=sc)) for k, sc in enumerate((1.0, 1e3))]
     t = [[e["contribution_test"]["p_value"] for e in _fit(tmp_path, p, f"u{k}", "--method", "ml", "--order", 20,
                                                            ok=False)[1]["modes"]["modes"]] for k, p in enumerate(ps)]

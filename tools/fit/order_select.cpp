@@ -141,6 +141,7 @@ Json order_selection_json(const OrderSelection &s)
         e["p_value"] = std::isfinite(r.fit.p_value) ? Json(r.fit.p_value) : Json(nullptr);
         e["stable_model"] = ss_stable(r.fit.model);
         e["n_stable_poles"] = r.n_stable;
+        e["modes_not_identified"] = r.fit.not_identified >= 0 ? Json(r.fit.not_identified) : Json(nullptr);
         Json poles = Json::array();
         for (const auto &p : r.poles) {
             std::string flag = p.stable() ? "s" : p.freq && p.damping ? "d" : p.freq ? "f" : "o";

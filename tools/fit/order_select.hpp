@@ -27,6 +27,7 @@ struct OrderFit {
     SSModel model;
     double cost = 0, expected = 0, dof = 0, p_value = NAN;
     bool converged = true;
+    int not_identified = -1;     // modes marked NOT identified (modal.hpp, the contribution test); -1: no test
 };
 
 struct StabTol {

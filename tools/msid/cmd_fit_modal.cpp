@@ -157,6 +157,9 @@ int cmd_fit_scan(int argc, char **argv)
         r.model.B = jm(d["B"], k, nu);
         r.model.C = jm(d["C"], ny, k);
         r.model.D = jm(d["D"], ny, nu);
+        if (d.contains("modes") && d["modes"].contains("modes"))
+            for (const Json &m : d["modes"]["modes"])
+                if (m.contains("identified")) r.not_identified = std::max(r.not_identified, 0) + !m["identified"].get<bool>();
         d["__order"] = n;
         docs.push_back(std::move(d));
         return r;
@@ -166,15 +169,16 @@ int cmd_fit_scan(int argc, char **argv)
     if (stride > 1)
         std::printf("LPM file: cost and p-value over every %zu-th line (2W+1 bins apart: independent), as msid validate\n",
                     stride);
-    std::printf("order  cost          expected      p-value     stable poles\n");
+    std::printf("order  cost          expected      p-value     stable poles  not identified\n");
     for (const auto &r : sel.rows) {
         if (!r.fit.ok) {
             std::printf("%-6d failed: %s\n", r.order, r.fit.error.c_str());
             continue;
         }
-        std::printf("%-6d %-13.6g %-13.6g %-11.3g %d/%zu%s%s\n", r.order, r.fit.cost, r.fit.expected, r.fit.p_value,
-                    r.n_stable, r.poles.size(), r.fit.converged ? "" : "  (not converged)",
-                    r.order == sel.chosen ? "  <- chosen" : "");
+        const std::string sp = std::to_string(r.n_stable) + "/" + std::to_string(r.poles.size());
+        std::printf("%-6d %-13.6g %-13.6g %-11.3g %-13s %-14s%s%s\n", r.order, r.fit.cost, r.fit.expected, r.fit.p_value,
+                    sp.c_str(), r.fit.not_identified >= 0 ? std::to_string(r.fit.not_identified).c_str() : "-",
+                    r.fit.converged ? "" : "  (not converged)", r.order == sel.chosen ? "  <- chosen" : "");
     }
     if (sel.chosen < 0) throw Error("no order in '" + range + "' gave a model: " + sel.rows.back().fit.error);
     Json doc;
