@@ -43,20 +43,31 @@ void add_modes(Json &doc, bool print)
     }
 }
 
-// Run `msid fit` with stdout silenced; returns its exit status (throws its Error).
+// Run `msid fit` with stdout and stderr silenced (its one warning, ml not converged, names the temporary
+// file; the order table marks the order instead); returns its exit status (throws its Error).
 static int fit_quiet(std::vector<std::string> args)
 {
     std::vector<char *> av;
     for (auto &s : args) av.push_back(&s[0]);
     av.push_back(nullptr);
     std::fflush(stdout);
-    const int saved = dup(STDOUT_FILENO), null = open("/dev/null", O_WRONLY);
+    std::fflush(stderr);
+    const int out = dup(STDOUT_FILENO), err = dup(STDERR_FILENO), null = open("/dev/null", O_WRONLY);
     dup2(null, STDOUT_FILENO);
+    dup2(null, STDERR_FILENO);
     close(null);
     struct Restore {
-        int fd;
-        ~Restore() { std::fflush(stdout); dup2(fd, STDOUT_FILENO); close(fd); }
-    } restore{saved};
+        int out, err;
+        ~Restore()
+        {
+            std::fflush(stdout);
+            std::fflush(stderr);
+            dup2(out, STDOUT_FILENO);
+            dup2(err, STDERR_FILENO);
+            close(out);
+            close(err);
+        }
+    } restore{out, err};
     return cmd_fit((int)args.size(), av.data());
 }
 
