@@ -323,11 +323,39 @@ def test_bad_csv_named_cell(tmp_path, data):
     p = tmp_path / "bad.csv"
     text = _text(u, y, ["Time", "F1", "F2", "A1", "A2"], delim=";", time=True).splitlines()
     cells = text[9].split(";")
-    cells[3] = "0,25"    # decimal comma in A1, file line 10
+    cells[3] = "0,25.5"    # a comma and a point in A1, file line 10 (a thousands separator?)
     text[9] = ";".join(cells)
     p.write_text("\n".join(text) + "\n", encoding="utf-8")
     _fails(tmp_path, [p], ["--columns", "u1=F1,u2=F2,y1=A1,y2=A2"], f"'{p}' line 10, column A1",
-           "'0,25' is not a number", "decimal commas")
+           "'0,25.5' is not a number", "',' as the decimal separator: one ',' and no '.'")
+
+
+def test_decimal_commas_and_a_units_row(tmp_path, data, reference):
+    """A spreadsheet in a European locale: ';' (or tab) between cells and ',' as the decimal separator
+    ("0,25"), a units row under the header ("s;N;N;m/s^2;m/s^2"); also quoted decimal commas in a
+    ','-delimited file. The same FRF, bit for bit (it used to be "'0,25' is not a number", and the
+    units row "'N' is not a number"). Negative controls: "1,234.5" (a thousands separator) and a
+    second units-like row inside the data are one message naming line and column."""
+    names = ["Zeit", "F1", "F2", "A1", "A2"]
+    cols = ["--columns", "u1=F1,u2=F2,y1=A1,y2=A2"]
+    for delim, units, quote in ((";", "s;N;N;m/s^2;m/s^2", ""), ("\t", "[s]\t[N]\t[N]\t[m/s2]\t[m/s2]", ""),
+                                (",", "s,N,N,m/s^2,m/s^2", '"')):
+        files = []
+        for e, (u, y) in enumerate(data):
+            rows = _text(u, y, names, delim=delim, time=True).splitlines()
+            body = [delim.join(quote + c.replace(".", ",") + quote for c in r.split(delim)) for r in rows[1:]]
+            p = tmp_path / f"dc{e}.csv"
+            p.write_text("\n".join([rows[0], units] + body) + "\n", encoding="utf-8")
+            files.append(p)
+        assert _lines(_frf(tmp_path, files, cols)) == reference, repr(delim)
+    rows = files[0].read_text(encoding="utf-8").split("\n")   # the quoted ','-delimited file
+    u, y = data[0]
+    line8 = ",".join(f'"{c}"' for c in ["0,005", "1,234.5", *(str(float(v)).replace(".", ",") for v in (*u[5, 1:], *y[5]))])
+    files[0].write_text("\n".join(rows[:7] + [line8] + rows[8:]), encoding="utf-8")
+    _fails(tmp_path, files, cols, f"'{files[0]}' line 8, column F1: '\"1,234.5\"' is not a number",
+           "one ',' and no '.'")
+    files[0].write_text("\n".join(rows[:5] + [rows[1]] + rows[5:]), encoding="utf-8")
+    _fails(tmp_path, files, cols, f"'{files[0]}' line 6, column F1: 'N' is not a number")
 
 
 def test_bad_csv_missing_mapped_column(tmp_path, data):

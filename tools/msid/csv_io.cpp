@@ -244,8 +244,65 @@ size_t line_of(const CsvLayout &L, const char *p)
 std::string cell_text(const char *p, char delim)
 {
     const char *e = p;
-    while (*e != delim && *e != '\n' && *e != '\r') ++e;
+    bool quoted = false;
+    for (; *e != '\n' && *e != '\r' && (quoted || *e != delim); ++e)   // "1,5": one cell
+        quoted ^= *e == '"';
+    if (quoted)   // a quote left open: the cell ends at the next delimiter
+        for (e = p; *e != delim && *e != '\n' && *e != '\r';) ++e;
     return trim(std::string_view(p, (size_t)(e - p)));
+}
+
+// A decimal comma ("0,25", as spreadsheets in most European locales write numbers, with ';' or tab
+// between cells, or quoted): q at the number, r where decimal::parse stopped (at the ','). The cell's
+// text up to its delimiter (or closing quote), trailing blanks left out, must hold one ',' and no '.'
+// ("1,234.5": a thousands separator, refused); it is read with the ',' as a point (the same correctly
+// rounded value as "0.25"). Returns the end of the number, or r (not a number) otherwise.
+const char *decimal_comma(const char *q, const char *r, const char *e, bool quoted, char d, double &v, bool &slow)
+{
+    const char *ce = q;
+    while (ce < e && *ce != '\n' && *ce != '\r' && (quoted ? *ce != '"' : *ce != d)) ++ce;
+    while (ce > q && (ce[-1] == ' ' || (ce[-1] == '\t' && d != '\t'))) --ce;
+    char buf[64];
+    const size_t n = (size_t)(ce - q);
+    if (n >= sizeof buf || std::count(q, ce, ',') != 1 || std::memchr(q, '.', n)) return r;
+    std::memcpy(buf, q, n);
+    *std::find(buf, buf + n, ',') = '.';
+    double x = 0;
+    bool sl = false;
+    if (decimal::parse(buf, buf + n, x, sl) != buf + n) return r;
+    v = x;
+    slow = sl;
+    return ce;
+}
+
+// Is the line at b (ending in a '\n' before e) a units row under the header ("s;N;m/s^2", "[V]"): every
+// mapped cell non-empty text that is not a number (also with a decimal comma)?
+bool units_row(const CsvLayout &L, const char *b, const char *e)
+{
+    const char *le = (const char *)std::memchr(b, '\n', (size_t)(e - b));
+    if (!le) return false;
+    size_t c = 0, mapped = 0;
+    for (const char *p = b; p <= le && c < L.dest.size(); ++c) {
+        const char *a = p;
+        for (bool quoted = false; p < le && (quoted || *p != L.delim); ++p)
+            if (*p == '"') quoted = !quoted;
+        std::string cell = trim(std::string_view(a, (size_t)(p - a)));
+        if (!cell.empty() && cell.back() == '\r') cell = trim(std::string_view(cell).substr(0, cell.size() - 1));
+        if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') cell = cell.substr(1, cell.size() - 2);
+        ++p;   // past the delimiter (or the '\n': the loop ends)
+        if (L.dest[c] < 0) continue;
+        ++mapped;
+        if (cell.empty()) return false;
+        const char *q = cell.data(), *ce = q + cell.size();
+        q += *q == '+';
+        double v = 0;
+        bool slow = false;
+        const char *r = decimal::parse(q, ce, v, slow);
+        // the cell is isolated already: no delimiter is left in it (';' lets a quoted "0,25" of a ',' file read)
+        if (r && r < ce && *r == ',') r = decimal_comma(q, r, ce, false, L.delim == ',' ? ';' : L.delim, v, slow);
+        if (r == ce) return false;   // a number
+    }
+    return mapped > 0 && c == L.dest.size();
 }
 
 // One line at p (a row or a blank line; p at the line start, e just after a
@@ -289,6 +346,7 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
             double v = 0;
             bool slow = false;
             const char *r = decimal::parse(q, e, v, slow);
+            if (r && *r == ',' && (quoted || d != ',')) r = decimal_comma(q, r, e, quoted, d, v, slow);
             bool ok = r != nullptr && r != q;
             if (ok && quoted) ok = *r++ == '"';
             if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
@@ -299,8 +357,8 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
                                     line_of(L, ls), L.names[c].c_str())
                               : fmt("'%s' line %zu, column %s: '%s' is not a number%s", L.path->c_str(),
                                     line_of(L, ls), L.names[c].c_str(), cell.c_str(),
-                                    d == ';' && cell.find(',') != std::string::npos
-                                        ? " (decimal commas are not supported)" : "");
+                                    cell.find(',') != std::string::npos && (d != ',' || cell[0] == '"')
+                                        ? " (read with ',' as the decimal separator: one ',' and no '.')" : "");
                 return nullptr;
             }
             if (slow && !std::isfinite(v)) {
@@ -680,6 +738,10 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     size_t lines = 1 + comments;            // lines before the next block (comments, the header)
     L.text = t0;                            // block 0 counts lines from the file's start
     const char *b = he + 1;
+    if (b < end && units_row(L, b, end)) {   // units under the header: skipped, counted in line numbers
+        b = (const char *)std::memchr(b, '\n', (size_t)(end - b)) + 1;
+        ++lines;
+    }
     for (;;) {
         const size_t bytes = (size_t)(end - b);
         const char *mid = b + bytes / 2;
