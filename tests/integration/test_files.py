@@ -332,13 +332,13 @@ def test_bad_csv_named_cell(tmp_path, data):
 
 def test_decimal_commas_and_a_units_row(tmp_path, data, reference):
     """A spreadsheet in a European locale: ';' (or tab) between cells and ',' as the decimal separator
-    ("0,25"), a units row under the header ("s;N;N;m/s^2;m/s^2"); also quoted decimal commas in a
+    ("0,25"), a units row under the header ("s;N;N;m/s^2;m/s^2", one unit empty in the tab file); also quoted decimal commas in a
     ','-delimited file. The same FRF, bit for bit (it used to be "'0,25' is not a number", and the
     units row "'N' is not a number"). Negative controls: "1,234.5" (a thousands separator) and a
     second units-like row inside the data are one message naming line and column."""
     names = ["Zeit", "F1", "F2", "A1", "A2"]
     cols = ["--columns", "u1=F1,u2=F2,y1=A1,y2=A2"]
-    for delim, units, quote in ((";", "s;N;N;m/s^2;m/s^2", ""), ("\t", "[s]\t[N]\t[N]\t[m/s2]\t[m/s2]", ""),
+    for delim, units, quote in ((";", "s;N;N;m/s^2;m/s^2", ""), ("\t", "[s]\t[N]\t\t[m/s2]\t[m/s2]", ""),
                                 (",", "s,N,N,m/s^2,m/s^2", '"')):
         files = []
         for e, (u, y) in enumerate(data):

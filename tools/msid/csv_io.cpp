@@ -275,13 +275,13 @@ const char *decimal_comma(const char *q, const char *r, const char *e, bool quot
     return ce;
 }
 
-// Is the line at b (ending in a '\n' before e) a units row under the header ("s;N;m/s^2", "[V]"): every
-// mapped cell non-empty text that is not a number (also with a decimal comma)?
+// Is the line at b (ending in a '\n' before e) a units row under the header ("s;N;m/s^2", "[V]"): no
+// mapped cell a number (also with a decimal comma), at least one text (a quantity without unit: empty)?
 bool units_row(const CsvLayout &L, const char *b, const char *e)
 {
     const char *le = (const char *)std::memchr(b, '\n', (size_t)(e - b));
     if (!le) return false;
-    size_t c = 0, mapped = 0;
+    size_t c = 0, text = 0;
     for (const char *p = b; p <= le && c < L.dest.size(); ++c) {
         const char *a = p;
         for (bool quoted = false; p < le && (quoted || *p != L.delim); ++p)
@@ -290,9 +290,8 @@ bool units_row(const CsvLayout &L, const char *b, const char *e)
         if (!cell.empty() && cell.back() == '\r') cell = trim(std::string_view(cell).substr(0, cell.size() - 1));
         if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') cell = cell.substr(1, cell.size() - 2);
         ++p;   // past the delimiter (or the '\n': the loop ends)
-        if (L.dest[c] < 0) continue;
-        ++mapped;
-        if (cell.empty()) return false;
+        if (L.dest[c] < 0 || cell.empty()) continue;
+        ++text;
         const char *q = cell.data(), *ce = q + cell.size();
         q += *q == '+';
         double v = 0;
@@ -302,7 +301,7 @@ bool units_row(const CsvLayout &L, const char *b, const char *e)
         if (r && r < ce && *r == ',') r = decimal_comma(q, r, ce, false, L.delim == ',' ? ';' : L.delim, v, slow);
         if (r == ce) return false;   // a number
     }
-    return mapped > 0 && c == L.dest.size();
+    return text > 0;
 }
 
 // One line at p (a row or a blank line; p at the line start, e just after a
