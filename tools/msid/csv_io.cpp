@@ -267,9 +267,10 @@ const char *decimal_comma(const char *q, const char *r, const char *e, bool quot
     if (n >= sizeof buf || std::count(q, ce, ',') != 1 || std::memchr(q, '.', n)) return r;
     std::memcpy(buf, q, n);
     *std::find(buf, buf + n, ',') = '.';
+    buf[n] = '\n';   // decimal::parse reads up to a byte that is no part of a number
     double x = 0;
     bool sl = false;
-    if (decimal::parse(buf, buf + n, x, sl) != buf + n) return r;
+    if (decimal::parse(buf, buf + n + 1, x, sl) != buf + n) return r;
     v = x;
     slow = sl;
     return ce;
