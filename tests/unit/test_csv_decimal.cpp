@@ -14,6 +14,7 @@
 // controls: a cell parser 1 ulp off, and one that takes a cell of a wrong shape.
 #include "msid_decimal.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -278,6 +279,31 @@ void test_cell_equals_from_chars(void **)
     assert_true(taken > 1800000);   // the cells of its shape (about 7/8 of 2 million) and the corpus's
 }
 
+// Decimal commas (csv_io.cpp: ';' or tab files): "1,25" with point ',' gives the bits of "1.25" with
+// '.', and neither parser takes the other separator.
+void test_cell_decimal_comma(void **)
+{
+    if (!msidcli::decimal::cell_available()) skip();
+    const std::vector<std::string> c = cells();
+    size_t taken = 0, bad = 0;
+    std::string buf;
+    for (size_t k = 0; k < 200000; ++k) {
+        std::string s = c[k];
+        std::string t = s;
+        std::replace(t.begin(), t.end(), '.', ',');
+        buf = std::string(16, ';') + t + ";" + std::string(16, ';') + s + ";";
+        const char *tc = buf.data() + 16, *sc = tc + t.size() + 1 + 16;
+        double a = 0, b = 0;
+        const bool ok = msidcli::decimal::parse_cell(sc, s.size(), a);
+        if (ok != msidcli::decimal::parse_cell(tc, t.size(), b, ',')) ++bad;
+        else if (ok && std::memcmp(&a, &b, 8) != 0) ++bad;
+        taken += ok;
+        if (msidcli::decimal::parse_cell(sc, s.size(), a, ',') || msidcli::decimal::parse_cell(tc, t.size(), b)) ++bad;
+    }
+    assert_int_equal(bad, 0);
+    assert_true(taken > 170000);
+}
+
 void test_cell_negative_controls(void **)
 {
     if (!msidcli::decimal::cell_available()) skip();
@@ -304,6 +330,7 @@ int main(void)
         cmocka_unit_test(test_decimal_negative_control),
 #ifdef MSID_DECIMAL_CELL
         cmocka_unit_test(test_cell_equals_from_chars),
+        cmocka_unit_test(test_cell_decimal_comma),
         cmocka_unit_test(test_cell_negative_controls),
 #endif
     };

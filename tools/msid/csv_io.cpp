@@ -220,6 +220,7 @@ struct CsvLayout {
     const char *text;            // block start (line numbers count from here)
     size_t line0 = 0;            // lines of the file before `text`
     char delim;
+    char point = '.';            // the cell parser's decimal separator (',': a decimal-comma file)
     std::vector<int> dest;       // per file column: destination column or -1
     std::vector<std::string> names;
     size_t C;
@@ -479,7 +480,7 @@ __attribute__((target("ssse3"))) void parse_lines_cells(const CsvLayout &L, cons
                 const char *t = p + pos[j++];   // the cell's end (each line in [p, q) ends in a '\n' of pos)
                 ok = *t == d || (c + 1 == ncol && (*t == '\n' || *t == '\r'));
                 const int dc = L.dest[c];
-                if (ok && dc >= 0) ok = t - b >= 16 && decimal::parse_cell(s, (size_t)(t - s), dst[dc]);
+                if (ok && dc >= 0) ok = t - b >= 16 && decimal::parse_cell(s, (size_t)(t - s), dst[dc], L.point);
                 s = t + 1;
             }
             if (ok) {   // the line's end: empty cells beyond the header's, then LF or CRLF
@@ -742,6 +743,10 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
         b = (const char *)std::memchr(b, '\n', (size_t)(end - b)) + 1;
         ++lines;
     }
+    // A ',' in the first data row of a ';' or tab file: decimal commas, which the cell parser then takes
+    // as its point (a cell with the other separator goes to the general path, which reads both)
+    if (delim != ',' && b < end && std::memchr(b, ',', (size_t)((const char *)std::memchr(b, '\n', (size_t)(end - b)) - b)))
+        L.point = ',';
     for (;;) {
         const size_t bytes = (size_t)(end - b);
         const char *mid = b + bytes / 2;

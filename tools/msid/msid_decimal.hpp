@@ -155,12 +155,13 @@ inline constexpr CellTables CELL_TABLES{};
  * @param s    first byte of the cell
  * @param len  its length in bytes (the delimiter excluded)
  * @param v    the value (written on success only)
+ * @param point the decimal separator: '.' or ',' (a decimal comma, "0,25")
  * @return false when the cell has another shape (an exponent, '+', spaces,
  *         more digits, no dot, empty, ...): parse it with parse()
  * @note Reads the 16 bytes that end at s + len (from s + len - 16): the caller
  *       ensures they are readable.
  */
-__attribute__((target("ssse3"))) inline bool parse_cell(const char *s, size_t len, double &v)
+__attribute__((target("ssse3"))) inline bool parse_cell(const char *s, size_t len, double &v, char point = '.')
 {
     const bool neg = len && *s == '-';
     len -= neg;   // s + len: the end of the cell either way
@@ -173,7 +174,7 @@ __attribute__((target("ssse3"))) inline bool parse_cell(const char *s, size_t le
     const unsigned nd =
         ~(unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_min_epu8(d, _mm_set1_epi8(9)), d)) & 0xFFFFu;
     const unsigned dp = (unsigned)__builtin_ctz(nd | 0x10000u);   // the one non-digit: the dot
-    if ((nd & (nd - 1)) != 0 || dp >= 15 || dp <= 16 - len || e[(int)dp - 16] != '.') return false;
+    if ((nd & (nd - 1)) != 0 || dp >= 15 || dp <= 16 - len || e[(int)dp - 16] != point) return false;
     const __m128i x = _mm_shuffle_epi8(d, _mm_load_si128((const __m128i *)(const void *)CELL_TABLES.shuf[dp]));
     // 16 digits -> 8 of 2 -> 4 of 4 -> 2 of 8 (the first 8 in the low lane)
     const __m128i p2 = _mm_maddubs_epi16(x, _mm_setr_epi8(10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1));
