@@ -130,6 +130,25 @@ def test_comment_lines_before_the_header(tmp_path, data, reference):
     _fails(tmp_path, files, cols, f"'{files[0]}' is empty after 3 comment lines")
 
 
+def test_column_names_with_commas(tmp_path, data, reference):
+    """Channel names with a unit after a comma ("Force, N" in a ';' file, or quoted in a ',' file):
+    --columns takes them plainly (a piece without '=' continues the name before it) or quoted
+    (it used to split 'u1=Force, N' at the comma: "' N' is not <u<k>|y<k>>=<column name>")."""
+    names = ["Time", "Force, N", "Force2, N", "Acc, m/s2", "Acc2, m/s2"]
+    files = []
+    for e, (u, y) in enumerate(data):
+        rows = _text(u, y, names, delim=";", time=True).splitlines()
+        p = tmp_path / f"n{e}.csv"
+        p.write_text("\n".join(rows) + "\n", encoding="utf-8")
+        files.append(p)
+    for spec in ('u1=Force, N,u2=Force2, N,y1=Acc, m/s2,y2=Acc2, m/s2',
+                 'u1="Force, N",u2="Force2, N",y1="Acc, m/s2",y2="Acc2, m/s2"'):
+        assert _lines(_frf(tmp_path, files, ["--columns", spec])) == reference, spec
+    # negative control: a misspelt name is one message listing the columns, with their commas
+    _fails(tmp_path, files, ["--columns", "u1=Force, N,u2=Force2, N,y1=Acc, m/s2,y2=Acc3, m/s2"],
+           "no column 'Acc3, m/s2' (for y2)", "'Acc2, m/s2'")
+
+
 def test_quoted_numbers(tmp_path, data, reference):
     """Every cell quoted, header and numbers ("0.25", as QUOTE_ALL exports write them): the same FRF
     (it used to be "line 2, column Force: '"0.25"' is not a number"). Negative controls: a quote

@@ -76,14 +76,31 @@ ColumnMap parse_column_map(const std::string &spec, bool inputs_optional)
 {
     ColumnMap m;
     m.inputs_optional = inputs_optional;
-    size_t a = 0;
-    for (;;) {
-        const size_t b = spec.find(',', a);
-        const std::string item = trim(std::string_view(spec).substr(a, b == std::string::npos ? std::string::npos : b - a));
+    // Items at the commas outside double quotes; a piece without '=' continues the name before it, so
+    // a column name may hold a comma: u1=Force, N,y1="Acc, m/s^2" maps 'Force, N' and 'Acc, m/s^2'
+    std::vector<std::string> items;
+    {
+        std::string cur;
+        bool quoted = false;
+        auto flush = [&] {
+            if (!items.empty() && cur.find('=') == std::string::npos && !trim(cur).empty()) items.back() += "," + cur;
+            else items.push_back(cur);
+            cur.clear();
+        };
+        for (char ch : spec) {
+            if (ch == '"') quoted = !quoted;
+            if (ch == ',' && !quoted) flush();
+            else cur += ch;
+        }
+        flush();
+    }
+    for (size_t it = 0; it < items.size(); ++it) {
+        const std::string item = trim(items[it]);
         const size_t eq = item.find('=');
         if (eq == std::string::npos || trim(item.substr(0, eq)).empty() || trim(item.substr(eq + 1)).empty())
             throw UsageError("--columns: '" + item + "' is not <u<k>|y<k>>=<column name>");
         std::string dst = trim(item.substr(0, eq)), src = trim(item.substr(eq + 1));
+        if (src.size() >= 2 && src.front() == '"' && src.back() == '"') src = src.substr(1, src.size() - 2);
         if (uy_name(dst).first < 0)
             throw UsageError("--columns: '" + dst + "' is not u<k> or y<k> (k = 1..64)");
         for (auto &ch : dst) ch = (char)std::tolower((unsigned char)ch);
@@ -92,8 +109,6 @@ ColumnMap parse_column_map(const std::string &spec, bool inputs_optional)
             if (e.second == src) throw UsageError("--columns: column '" + src + "' is mapped twice");
         }
         m.map.emplace_back(dst, src);
-        if (b == std::string::npos) break;
-        a = b + 1;
     }
     uint32_t maxu = 0, maxy = 0, cu = 0, cy = 0;
     for (const auto &e : m.map) {
@@ -696,7 +711,11 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
         in_q ^= ch == '"';
         if (!in_q) nc += ch == ',', ns += ch == ';', nt += ch == '\t';
     }
-    const char delim = ns > nc && ns >= nt ? ';' : (nt > nc && nt > ns ? '\t' : ',');
+    char delim = ns > nc && ns >= nt ? ';' : (nt > nc && nt > ns ? '\t' : ',');
+    if (nc == ns && nc > nt && he + 1 < end) {   // "Time;Force, N": as many ',' as ';' - the next row decides
+        const char *n0 = he + 1, *n1 = (const char *)std::memchr(n0, '\n', (size_t)(end - n0));
+        if (n1 && std::count(n0, n1, ';') == ns && std::count(n0, n1, ',') != nc) delim = ';';
+    }
     CsvLayout L;
     L.path = &path;
     L.cells = cells;
