@@ -77,7 +77,14 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
                            " (covariance not positive definite)");
         }
         MatC Lm = llt.matrixL();
-        const double dmin = Lm.diagonal().real().minCoeff(), dmax = Lm.diagonal().real().maxCoeff();
+        // condition of the correlation matrix diag(H)^-1/2 H diag(H)^-1/2 (its Cholesky diagonal is
+        // L_ii / sqrt(H_ii)): outputs in units 1e12 apart (nm and km) are not a singular covariance
+        double dmin = 1e300, dmax = 0;
+        for (Eigen::Index i = 0; i < Lm.rows(); ++i) {
+            const double di = Lm(i, i).real() / std::sqrt(H(i, i).real());
+            dmin = std::min(dmin, di);
+            dmax = std::max(dmax, di);
+        }
         if (!(dmin > 1e-8 * dmax))
             throw FitError("'" + f.path + "': singular weights at line bin " + std::to_string(l.bin) +
                            " (covariance condition number above 1e16)");
@@ -98,16 +105,24 @@ void smooth_weights(std::vector<WeightedLine> &w, int half)
     std::vector<MatC> C(n);
     std::vector<double> dof(n);
     for (size_t k = 0; k < n; ++k) { C[k] = w[cx[k]].cov; dof[k] = w[cx[k]].dof; }
+    // The traces below weigh every entry of vec(G) by its mean variance over the band (tr(N C),
+    // N = diag(1 / mean_l C_l(a, a))): a plain trace is dominated by the channel in the smallest
+    // units, so which neighbours were pooled, hence the fit, depended on the units of the channels.
+    const Eigen::Index g = C[0].rows();
+    VecR nrm = VecR::Zero(g);
+    for (size_t k = 0; k < n; ++k) nrm += C[k].diagonal().real();
+    for (Eigen::Index a = 0; a < g; ++a) nrm(a) = nrm(a) > 0 ? (double)n / nrm(a) : 1.0;
+    auto ntrace = [&](const MatC &M) { return M.diagonal().real().dot(nrm); };
     for (size_t k = 0; k < n; ++k) {
         const size_t lo = std::min(k > (size_t)half ? k - (size_t)half : 0, n - win);
         MatC S = MatC::Zero(C[k].rows(), C[k].cols());
         double nd = 0;
-        const double tk = C[k].trace().real();
+        const double tk = ntrace(C[k]);
         for (size_t j = lo; j < lo + win; ++j) {
-            // a neighbour whose covariance differs from this line's (trace ratio outside the central
-            // 99% of F(2n, 2n)) is not pooled: the noise level changes there (e.g. noisy inputs at a
-            // resonance, a notch in the excitation)
-            const double q = C[j].trace().real() / tk, d = 2.0 * std::min(dof[j], dof[k]);
+            // a neighbour whose covariance differs from this line's (weighted trace ratio outside the
+            // central 99% of F(2n, 2n)) is not pooled: the noise level changes there (e.g. noisy
+            // inputs at a resonance, a notch in the excitation)
+            const double q = ntrace(C[j]) / tk, d = 2.0 * std::min(dof[j], dof[k]);
             if (j != k && (f_sf(d, d, q) < 0.005 || f_sf(d, d, 1.0 / q) < 0.005)) continue;
             S += dof[j] * C[j];
             nd += dof[j];

@@ -156,7 +156,17 @@ double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
     }
     reduce();
     const MatR Rf = S.topRows(have);
-    const VecR th = Rf.leftCols(np).colPivHouseholderQr().solve(Rf.col(np));
+    // Columns scaled to unit norm before the pivoting solve: the B columns scale with the inputs'
+    // units and the D columns with the outputs' over the inputs', so in units where they differ by
+    // 1e9 (nm against m) the pivoting threshold (relative to the largest pivot) dropped whole B
+    // columns and the fit depended on the units. With unit columns the solution is scale free.
+    VecR cs(np);
+    for (Eigen::Index k = 0; k < np; ++k) {
+        const double c = Rf.col(k).norm();
+        cs(k) = c > 0 ? 1.0 / c : 1.0;
+    }
+    VecR th = (Rf.leftCols(np) * cs.asDiagonal()).colPivHouseholderQr().solve(Rf.col(np));
+    th = cs.asDiagonal() * th;
     m.B = Eigen::Map<const MatR>(th.data(), n, nu);
     m.D = estimate_D ? MatR(Eigen::Map<const MatR>(th.data() + nb, ny, nu)) : MatR::Zero(ny, nu);
     // weighted cost: the whitened residual (real lines already carry their 1/2)
@@ -319,8 +329,60 @@ static int auto_order(const std::vector<double> &sv, int rmax_order)
     return best;
 }
 
+static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const std::vector<WeightedLine> &w,
+                                              bool weighted, const SubspaceOptions &o);
+
+// The subspace step is not invariant to the units of the channels: C_Y sums the noise of every input
+// column and its pseudo-inverse square root drops directions below 1e-13 of its largest eigenvalue,
+// and the shift equation for A is a least-squares problem over the outputs' rows. Outputs in units
+// 1e12 apart (m and pm) had the small output ignored, and inputs in units 1e6 apart gave a model
+// 3000 times the noise level (issue 9 item 7). So the algorithm runs on the data in units where every
+// output's and every input column's mean noise variance is 1: G' = diag(1/s_o) G diag(1/s_i) with
+// log s_o(i)^2 + log s_i(j)^2 the two-way (row + column) mean fit of log mean_l Gamma_l(ij, ij), which
+// any change of units shifts by exactly log a_i^2 - log b_j^2 (a global factor left over changes
+// nothing). The model is mapped back (C = diag(s_o) C', B = B' diag(s_i), D = diag(s_o) D' diag(s_i));
+// the whitened residuals, hence every cost and test, are the same in both units. Unweighted fits
+// (unit covariance) are left as they are.
 SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted,
                             const SubspaceOptions &o)
+{
+    if (!weighted || w.empty()) return fit_subspace_normalised(f, d, w, weighted, o);
+    const Eigen::Index ny = w[0].G.rows(), nu = w[0].G.cols();
+    MatR lm = MatR::Zero(ny, nu);
+    for (const auto &l : w)
+        for (Eigen::Index j = 0; j < nu; ++j)
+            for (Eigen::Index i = 0; i < ny; ++i) lm(i, j) += l.cov(i + ny * j, i + ny * j).real();
+    for (Eigen::Index j = 0; j < nu; ++j)
+        for (Eigen::Index i = 0; i < ny; ++i) {
+            if (!(lm(i, j) > 0) || !std::isfinite(lm(i, j))) return fit_subspace_normalised(f, d, w, weighted, o);
+            lm(i, j) = std::log(lm(i, j) / (double)w.size());
+        }
+    const double grand = lm.mean();
+    VecR so(ny), si(nu);   // standard deviations: outputs, inputs
+    for (Eigen::Index i = 0; i < ny; ++i) so(i) = std::exp(0.5 * lm.row(i).mean());
+    for (Eigen::Index j = 0; j < nu; ++j) si(j) = std::exp(0.5 * (lm.col(j).mean() - grand));
+    VecR t(ny * nu);   // vec(G') = t .* vec(G)
+    for (Eigen::Index j = 0; j < nu; ++j)
+        for (Eigen::Index i = 0; i < ny; ++i) t(i + ny * j) = 1.0 / (so(i) * si(j));
+    std::vector<WeightedLine> wn = w;
+    for (auto &l : wn) {
+        l.G = so.cwiseInverse().asDiagonal() * l.G * si.cwiseInverse().asDiagonal();
+        l.cov = t.asDiagonal() * l.cov * t.asDiagonal();
+        l.Linv = l.Linv * t.cwiseInverse().asDiagonal();
+    }
+    SubspaceResult r = fit_subspace_normalised(f, d, wn, weighted, o);
+    auto back = [&](SSModel &m) {
+        if (m.C.rows() == ny) m.C = so.asDiagonal() * m.C;
+        if (m.B.cols() == nu) m.B = m.B * si.asDiagonal();
+        if (m.D.rows() == ny && m.D.cols() == nu) m.D = so.asDiagonal() * m.D * si.asDiagonal();
+    };
+    back(r.model);
+    for (auto &m : r.candidates) back(m);
+    return r;
+}
+
+static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const std::vector<WeightedLine> &w,
+                                              bool weighted, const SubspaceOptions &o)
 {
     (void)f;
     if (w.empty()) throw FitError("no lines");

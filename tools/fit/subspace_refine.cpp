@@ -237,6 +237,25 @@ double residual(const Modal &L, const VecR &th, const std::vector<WeightedLine> 
     return V;
 }
 
+// Marquardt's scaling diag(J^T J), with a floor for (near-)null columns of 1e-12 times the largest
+// diagonal among the parameters in the same units: the poles; B's column j (1/input j); C's row i
+// (output i); each D(i, j) alone (never a null column). A floor relative to the largest diagonal of
+// all parameters made the damping depend on the units: with outputs in 1e-9 of the data's units the
+// C and D columns grew by 1e18 against the poles', whose damping was then lifted 1e6-fold, steps
+// became tiny and the 1e-6 stopping rule ended the refinement after one step.
+void floor_by_units(const Modal &L, VecR &dg)
+{
+    const Eigen::Index n = L.n, nu = L.nu, ny = L.ny;
+    auto floor_group = [&](auto idx, Eigen::Index count) {
+        double mx = 0;
+        for (Eigen::Index k = 0; k < count; ++k) mx = std::max(mx, dg(idx(k)));
+        for (Eigen::Index k = 0; k < count; ++k) dg(idx(k)) = std::max(dg(idx(k)), 1e-12 * mx);
+    };
+    floor_group([&](Eigen::Index k) { return k; }, n);
+    for (Eigen::Index j = 0; j < nu; ++j) floor_group([&](Eigen::Index k) { return n + j * n + k; }, n);
+    for (Eigen::Index i = 0; i < ny; ++i) floor_group([&](Eigen::Index k) { return n + n * nu + k * ny + i; }, n);
+}
+
 }  // namespace
 
 SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D, bool stable, int max_iter)
@@ -258,8 +277,7 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
         JtJ.triangularView<Eigen::StrictlyUpper>() = JtJ.transpose();
         const VecR &Jtr = ne.Jtr;
         VecR dg = JtJ.diagonal();
-        const double dmax = dg.maxCoeff();
-        for (Eigen::Index k = 0; k < dg.size(); ++k) dg(k) = std::max(dg(k), 1e-12 * dmax);
+        floor_by_units(L, dg);
         bool taken = false, done = false;
         for (int tries = 0; tries < 12; ++tries) {
             MatR H = JtJ;
