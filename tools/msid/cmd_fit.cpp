@@ -137,6 +137,11 @@ static Json cost_json(double V, double dof, double nmin, double p)
 // "converged": false (docs/fitting.md). 1 = error, 2 = usage error.
 static const int EXIT_NOT_CONVERGED = 3;
 
+// The order scan (cmd_fit_modal.cpp) runs a fit per order into a temporary file: its warning named that
+// file and an exit status the scan does not return. The scan reports non-convergence itself.
+static bool g_scan_member = false;
+void fit_in_order_scan(bool on) { g_scan_member = on; }
+
 static Json stability_json(const SSModel &ss, bool enforced)
 {
     Json j;
@@ -185,20 +190,32 @@ static bool use_poles(const Args &a, Domain d, size_t nu)
 // The weighted fits invert sample covariances: B, D of subspace need M >= 4 periods (Pintelon 2002
 // Thm 2), and an ny x ny noise covariance from M periods is singular unless M > ny. One message
 // naming the periods and the outputs, for any number of outputs.
-static void check_periods(const std::vector<WeightedLine> &w, size_t ny)
+// `w` are the weights of each line's own covariance (before any pooling: the pooled weights of ml rest
+// on more dof, but the cost block and msid validate use each line's own). With `validating` the message
+// speaks of the cost's law: its F(2, 2n) terms have a finite mean only for n > ny and a finite variance
+// only for n > 2, so with fewer periods no p-value is defined (it came out 0 or NaN for any model).
+static void check_periods(const std::vector<WeightedLine> &w, const FrfData &f, bool validating = false)
 {
+    const size_t ny = f.ny;
     double dmin = 1e300;
     for (const auto &l : w) dmin = std::min(dmin, l.dof);
     if (dmin >= 1e8) return;
     const long M = std::lround(dmin + 1);
     const long need = std::max<long>(4, (long)ny + 2);
-    if (dmin + 1 < (double)need - 1e-9)
-        throw FitError("the weights rest on " + std::to_string(M) + " periods per experiment: weighting by the inverse "
-                       "sample covariance needs M >= 4 (Pintelon 2002, Theorem 2)" +
-                       (need > 4 ? " and, with " + std::to_string(ny) + " outputs, M >= " + std::to_string(need) +
-                                   " for a finite sample-ML covariance"
-                                 : std::string()) +
-                       "; measure more periods or use --weight none");
+    if (!(dmin + 1 < (double)need - 1e-9)) return;
+    const std::string rule = " needs M >= 4 (Pintelon 2002, Theorem 2)" +
+                             (need > 4 ? " and, with " + std::to_string(ny) + " outputs, M >= " + std::to_string(need) +
+                                             " for a finite sample-ML covariance"
+                                       : std::string());
+    const bool periodic = f.method == "periodic" && f.realisations < 2;
+    const std::string what = periodic ? "the weights rest on " + std::to_string(M) + " periods per experiment"
+                                      : fmt("the covariance of '%s' has %g complex degrees of freedom per line (M = dof + 1 = %ld)",
+                                            f.path.c_str(), dmin, M);
+    if (validating)
+        throw FitError(what + ": the cost's law (F(2, 2n) terms with n = M - 1 dof) has no finite mean and variance "
+                       "there, so no p-value; validating with the inverse sample covariance" + rule +
+                       "; measure more periods");
+    throw FitError(what + ": weighting by the inverse sample covariance" + rule + "; measure more periods or use --weight none");
 }
 
 // ML of an LMFD from the subspace (then SK) or the SK start.
@@ -318,7 +335,7 @@ int cmd_fit(int argc, char **argv)
         const Feedthrough ft = parse_feedthrough(a);
         settings["feedthrough"] = a.has("no-d") ? "no" : a.get("feedthrough", "auto");
         const bool weighted = wt != Weight::None;
-        if (method != "lmfd" && weighted) check_periods(w, ny);
+        if (method != "lmfd" && weighted) check_periods(smoothed ? w_line : w, f);
         bool converged = true;
         double grad_norm = 0.0;
         int iterations = 0;
@@ -572,12 +589,13 @@ int cmd_fit(int argc, char **argv)
             std::printf("LPM file: p = %.3g on every %d-th line (independent; the p-value msid validate gives)\n",
                         doc["cost"]["independent_lines"]["p_value"].get<double>(),
                         doc["cost"]["independent_lines"]["line_stride"].get<int>());
-        if (!converged) {
+        if (!converged && !g_scan_member) {
             std::fprintf(stderr, "msid fit: warning: ml did not converge in %d iterations (cost %.6g, gradient norm %.3g): "
                                  "wrote the best iterate to %s marked \"converged\": false (exit status %d)\n",
                          iterations, V, grad_norm, out.c_str(), EXIT_NOT_CONVERGED);
             return EXIT_NOT_CONVERGED;
         }
+        if (!converged) return EXIT_NOT_CONVERGED;
         return 0;
     } catch (const FitError &e) {
         throw Error(e.what());
@@ -614,14 +632,17 @@ int cmd_validate(int argc, char **argv)
         Weight wt = a.enum_<Weight>("weight", mf.weight == "known-input" ? Weight::KnownInput : Weight::Cov, WEIGHTS);
         std::string wname = a.has("weight") ? a.get("weight") : (mf.weight == "known-input" ? "known-input" : "cov");
         std::vector<WeightedLine> w;
-        try {
-            w = weigh(f, mf.domain, wt);
-        } catch (const FitError &) {
-            if (a.has("weight") || wt != Weight::Cov) throw;
-            wname = "none";   // the FRF has no covariance: unit weights (noted below)
+        // unit weights only for a file without covariance (noted below); a covariance that is there but
+        // unusable (too few periods for the outputs, not positive definite) is refused with its cause:
+        // a fall-back to unit weights gave "consistent, p = 1" for any model
+        bool has_cov = false;
+        for (const auto &l : f.lines) has_cov = has_cov || l.cov.size() > 0;
+        if (!has_cov && !a.has("weight") && wt == Weight::Cov) {
+            wname = "none";
             wt = Weight::None;
-            w = weigh(f, mf.domain, wt);
         }
+        w = weigh(f, mf.domain, wt);
+        if (wt != Weight::None) check_periods(w, f, true);
         const size_t stride = lpm_line_stride(f, a.has("lpm-lines") ? a.get("lpm-lines") : "independent");
         std::vector<MatC> Gm;
         for (const auto &l : w) Gm.push_back(mf.lmfd ? lmfd_eval(*mf.lmfd, l.x) : ss_eval(mf.ss, l.x));

@@ -43,31 +43,22 @@ void add_modes(Json &doc, bool print)
     }
 }
 
-// Run `msid fit` with stdout and stderr silenced (its one warning, ml not converged, names the temporary
-// file; the order table marks the order instead); returns its exit status (throws its Error).
+// Run `msid fit` with stdout silenced, marked as a fit of the order scan (its not-converged warning,
+// which would name the temporary file, is left to the scan); returns its exit status (throws its Error).
 static int fit_quiet(std::vector<std::string> args)
 {
     std::vector<char *> av;
     for (auto &s : args) av.push_back(&s[0]);
     av.push_back(nullptr);
     std::fflush(stdout);
-    std::fflush(stderr);
-    const int out = dup(STDOUT_FILENO), err = dup(STDERR_FILENO), null = open("/dev/null", O_WRONLY);
+    const int saved = dup(STDOUT_FILENO), null = open("/dev/null", O_WRONLY);
     dup2(null, STDOUT_FILENO);
-    dup2(null, STDERR_FILENO);
     close(null);
     struct Restore {
-        int out, err;
-        ~Restore()
-        {
-            std::fflush(stdout);
-            std::fflush(stderr);
-            dup2(out, STDOUT_FILENO);
-            dup2(err, STDERR_FILENO);
-            close(out);
-            close(err);
-        }
-    } restore{out, err};
+        int fd;
+        ~Restore() { std::fflush(stdout); dup2(fd, STDOUT_FILENO); close(fd); fit_in_order_scan(false); }
+    } restore{saved};
+    fit_in_order_scan(true);
     return cmd_fit((int)args.size(), av.data());
 }
 
@@ -197,10 +188,18 @@ int cmd_fit_scan(int argc, char **argv)
         if (d["__order"] == sel.chosen) doc = std::move(d);
     doc.erase("__order");
     doc["order_selection"] = order_selection_json(sel);
+    const bool conv = doc.value("converged", true);
     write_json_file(out, doc);
     std::printf("chosen order %d (%s rule); wrote %s\n", sel.chosen, sel.rule.c_str(), out.c_str());
     ModalReport mr = modal_report(doc);
     if (!mr.modes.empty()) std::fputs(modal_text(mr).c_str(), stdout);
+    if (!conv) {   // as a fit at a fixed order: the best iterate is written, exit status 3
+        std::fprintf(stderr, "msid fit: warning: the chosen order %d did not converge (cost %.6g, gradient norm %.3g): "
+                             "wrote its best iterate to %s marked \"converged\": false (exit status 3)\n",
+                     sel.chosen, doc["cost"].value("fit_cost_smoothed_weights", doc["cost"]["value"].get<double>()),
+                     doc.value("gradient_norm", 0.0), out.c_str());
+        return 3;
+    }
     return 0;
 }
 

@@ -11,6 +11,7 @@ int cmd_measure_uri(int argc, char **argv);   // cmd_measure.cpp: msid measure -
 int cmd_bench(int argc, char **argv);
 int cmd_bench_lpm(int argc, char **argv);   // msid bench lpm
 int cmd_fit(int argc, char **argv);
+void fit_in_order_scan(bool on);   // cmd_fit.cpp: no per-order non-convergence warning (the scan reports it)
 int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_modes(int argc, char **argv);

@@ -142,7 +142,7 @@ def pooled_cov(path, half=4):
     """The weights `msid fit --method ml` uses by default (--weight-smooth 4), computed here
     independently of msid: each complex line's covariance averaged, dof-weighted, with those of its
     2 half + 1 neighbouring complex lines (the window shifted at the band's ends), leaving out a
-    neighbour whose trace ratio to the line's is outside the central 99% of F(2d, 2d),
+    neighbour whose trace ratio to the line's (each entry weighed by its mean variance over the band) is outside the central 99% of F(2d, 2d),
     d = min of the two dof (the noise level changes there). Real lines (DC, Nyquist) keep their own.
     Only where msid pools: at least 4 (2 half + 1) lines."""
     from scipy.stats import f as fdist
@@ -163,13 +163,16 @@ def pooled_cov(path, half=4):
     n = len(cx)
     win = min(n, 2 * half + 1)
     out = C.copy()
+    # traces weigh each entry of vec(G) by its mean variance over the band (unit-free, as msid)
+    nrm = 1.0 / np.mean(np.real(np.diagonal(C[cx], axis1=1, axis2=2)), axis=0)
+    ntr = lambda M: float(np.real(np.diagonal(M)) @ nrm)
     for k in range(n):
         lo = min(max(k - half, 0), n - win)
         S = np.zeros_like(C[0])
         nd = 0.0
-        tk = np.trace(C[cx[k]]).real
+        tk = ntr(C[cx[k]])
         for j in range(lo, lo + win):
-            q = np.trace(C[cx[j]]).real / tk
+            q = ntr(C[cx[j]]) / tk
             dd = 2.0 * min(dof[cx[j]], dof[cx[k]])
             if j != k and (fdist.sf(q, dd, dd) < 0.005 or fdist.sf(1.0 / q, dd, dd) < 0.005):
                 continue
