@@ -128,18 +128,6 @@ def test_validate_refuses_too_few_periods(tmp_path, kind, periods):
     h.run_ok("validate", tmp_path / "m.json", good)
 
 
-def test_ml_refuses_three_periods_as_subspace_does(tmp_path):
-    # ml pools the weights over 9 lines (dof 18 at M = 3), and the period check ran on the pooled
-    # weights: old binary wrote a model whose own p-value was 0 (SISO, M = 3); subspace refused.
-    st = S.structure("siso", SEED)
-    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED, periods=3))
-    for method in ("ml", "subspace"):
-        r = h.run("fit", "--method", method, "--order", 24, "--domain", "ct", p, "-o", tmp_path / "o.json")
-        lines = r.stderr.strip().splitlines()
-        assert r.returncode == 1 and len(lines) == 1 and "M >= 4" in lines[0] and "3 periods" in lines[0], r.stderr
-        assert not (tmp_path / "o.json").exists()
-
-
 def test_order_scan_non_convergence(tmp_path):
     # An order range whose chosen order runs out of iterations: exit status 3 as for a fixed order,
     # one warning naming the output file. Old binary: exit 0, and one warning per order naming the

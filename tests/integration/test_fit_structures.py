@@ -239,14 +239,17 @@ def test_unit_invariance(data, tmp_path, args):
     assert abs(p1 - p2) <= 1e-6 + 1e-6 * p1 and abs(vp1 - vp2) <= 1e-6 + 1e-6 * vp1, (p1, p2, vp1, vp2)
 
 
-def test_refusal_three_outputs_two_periods(tmp_path):
-    st = S.structure("1x3", SEED)
-    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED, periods=2))
+@pytest.mark.parametrize("kind,periods", [("1x3", 2), ("siso", 3)])
+def test_refusal_three_outputs_two_periods(tmp_path, kind, periods):
+    # siso at M = 3: ml pools its weights over 9 lines (dof 18) and checked the periods on the pooled
+    # weights, so it wrote a model whose own p-value was 0 while subspace refused (fixed 2026-11-24)
+    st = S.structure(kind, SEED)
+    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED, periods=periods))
     for method in ("ml", "subspace"):
         r = h.run("fit", "--method", method, "--order", 24, "--domain", "ct", p, "-o", tmp_path / "o.json")
         lines = r.stderr.strip().splitlines()
         assert r.returncode == 1 and len(lines) == 1, r.stderr
-        assert "M >= 4" in lines[0] and "2 periods" in lines[0] and "singular weights" not in lines[0], lines[0]
+        assert "M >= 4" in lines[0] and f"{periods} periods" in lines[0] and "singular weights" not in lines[0], lines[0]
         assert not (tmp_path / "o.json").exists()
 
 
