@@ -165,3 +165,42 @@ def test_subspace_stable_under_rounding_perturbations(tmp_path):
         assert v["consistent_at_5pct"], (seed, v["cost"], v["p_value"])
         costs.append(m["cost"]["value"])
     assert max(costs) - min(costs) <= 1e-6 * min(costs), costs
+
+
+def _edit(doc, what):
+    d = json.loads(json.dumps(doc))
+    ln, nxt = d["lines"][5], d["lines"][6]
+    if what == "duplicate":          # a line copied over its neighbour's frequency
+        for k in ("bin", "freq", "omega"):
+            nxt[k] = ln[k]
+    elif what == "negative":
+        ln["cov"]["re"][0][0] = -ln["cov"]["re"][0][0]
+    elif what == "imaginary":        # a variance with an imaginary part: not Hermitian
+        ln["cov"]["im"][0][0] = ln["cov"]["re"][0][0]
+    elif what == "nonhermitian":     # 1x3: [0][1] not the conjugate of [1][0]
+        ln["cov"]["im"][0][1] = ln["cov"]["im"][1][0] = 0.5 * (ln["cov"]["re"][0][0] * ln["cov"]["re"][1][1]) ** 0.5
+    elif what == "huge":             # a corrupt entry, finite in the file
+        ln["G"]["re"][0][0] = 1e308
+    return d
+
+
+@pytest.mark.parametrize("what,kind,words", [
+    ("duplicate", "siso", "same frequency"), ("negative", "siso", "negative variance"),
+    ("imaginary", "siso", "not Hermitian"), ("nonhermitian", "1x3", "not Hermitian"),
+    ("huge", "siso", "overflows")])
+def test_hand_edited_frf_files(tmp_path, what, kind, words):
+    # Old binary: a duplicated line was fitted (ml cost 1.16e6, an UNSTABLE model, exit 0); a
+    # non-Hermitian covariance was taken silently (its Hermitian part); a negative variance was
+    # "singular weights"; G = 1e308 at one line validated as "weighted cost -nan, p-value 1,
+    # consistent". Now one message naming the line and the cause, exit 1, no file, for fit and validate.
+    st = S.structure(kind, SEED)
+    doc = S.frf_doc(st, SEED)
+    good = S.write(tmp_path / "good.json", doc)
+    bad = S.write(tmp_path / "bad.json", _edit(doc, what))
+    h.run_ok("fit", "--method", "ml", "--domain", "ct", "--order", 24, good, "-o", tmp_path / "m.json")   # negative control
+    r = h.run("fit", "--method", "ml", "--domain", "ct", "--order", 24, bad, "-o", tmp_path / "o.json")
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1 and words in lines[0] and not (tmp_path / "o.json").exists(), r.stderr
+    assert "lines[5]" in lines[0] or "bin 21" in lines[0], lines[0]
+    r = h.run("validate", tmp_path / "m.json", bad)
+    assert r.returncode == 1 and words in r.stderr and "verdict" not in r.stdout, (r.stdout, r.stderr)

@@ -89,6 +89,18 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
             throw FitError("'" + f.path + "': singular weights at line bin " + std::to_string(l.bin) +
                            " (covariance condition number above 1e16)");
         wl.Linv = Lm.triangularView<Eigen::Lower>().solve(MatC::Identity(g, g));
+        // the whitened value must be representable: |G| / sd near 1e154 or more (a corrupt entry such
+        // as 1e308) overflowed the cost to inf or NaN, and a NaN cost validated as "consistent, p = 1"
+        if (w != Weight::None) {
+            const VecC z = wl.Linv * Eigen::Map<const VecC>(l.G.data(), l.G.size());
+            if (!std::isfinite(z.squaredNorm()))
+                throw FitError(where(f.path, "G at line bin " + std::to_string(l.bin) +
+                                                 " is beyond 1e150 of its standard deviation: the weighted cost "
+                                                 "overflows (a corrupt value?)"));
+        } else if (!std::isfinite(l.G.squaredNorm())) {
+            throw FitError(where(f.path, "G at line bin " + std::to_string(l.bin) +
+                                             " overflows when squared (|G| beyond 1e154: a corrupt value?)"));
+        }
         wl.cov = H;
         out.push_back(std::move(wl));
     }

@@ -107,6 +107,29 @@ MatC parse_cmat(const Json &v, size_t rows, size_t cols, const std::string &file
     return M;
 }
 
+// A covariance must be Hermitian with non-negative variances: a hand-edited entry that breaks either
+// was taken silently (its Hermitian part) or reported as "singular weights". Tolerance: 1e-6 of the
+// entries' standard deviations, far above the rounding of any writer.
+static void check_covariance(const MatC &C, const std::string &path, const std::string &what)
+{
+    for (Eigen::Index i = 0; i < C.rows(); ++i) {
+        const double v = C(i, i).real();
+        if (v < 0)
+            throw Error(where(path, what + " has a negative variance at [" + std::to_string(i) + "][" +
+                                        std::to_string(i) + "] (" + std::to_string(v) + ")"));
+        for (Eigen::Index j = 0; j <= i; ++j) {
+            const double tol = 1e-6 * std::sqrt(C(i, i).real() * C(j, j).real());
+            if (i == j && std::abs(C(i, i).imag()) > 0.5 * tol)
+                throw Error(where(path, what + " is not Hermitian: its variance [" + std::to_string(i) + "][" +
+                                            std::to_string(i) + "] has an imaginary part"));
+            if (std::abs(C(i, j) - std::conj(C(j, i))) > tol)
+                throw Error(where(path, what + " is not Hermitian: [" + std::to_string(i) + "][" + std::to_string(j) +
+                                            "] is not the conjugate of [" + std::to_string(j) + "][" +
+                                            std::to_string(i) + "]"));
+        }
+    }
+}
+
 FrfData read_frf(const std::string &path)
 {
     const Json j = read_json(path);
@@ -160,8 +183,22 @@ FrfData read_frf(const std::string &path)
             if (!(l.dof_ki >= 1)) throw Error(where(path, ctx + ".dof_known_input must be at least 1"));
         }
         if (e.contains("noise_cov")) l.noise = parse_cmat(e["noise_cov"], f.ny, f.ny, path, ctx + ".noise_cov");
+        check_covariance(l.cov, path, ctx + ".cov");
+        check_covariance(l.cov_ki, path, ctx + ".cov_known_input");
         f.lines.push_back(std::move(l));
     }
+    // Two lines at one frequency (a hand-merged file, a copied line) made the fits interpolate two
+    // different values at one point: a model 4000 times the noise level, written without a word.
+    std::vector<std::pair<double, size_t>> at;
+    for (size_t k = 0; k < f.lines.size(); ++k)
+        at.emplace_back(f.domain == Domain::CT ? f.lines[k].omega : f.lines[k].freq, k);
+    std::sort(at.begin(), at.end());
+    for (size_t k = 1; k < at.size(); ++k)
+        if (at[k].first == at[k - 1].first)
+            throw Error(where(path, "lines[" + std::to_string(std::min(at[k - 1].second, at[k].second)) + "] and lines[" +
+                                        std::to_string(std::max(at[k - 1].second, at[k].second)) +
+                                        "] are at the same frequency (bin " + std::to_string(f.lines[at[k].second].bin) +
+                                        "): one value per line"));
     return f;
 }
 

@@ -650,6 +650,9 @@ int cmd_validate(int argc, char **argv)
         if (!(vs.dof > 0))
             throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(vs.dof) + ")");
         const double V = vs.cost, dof = vs.dof, pv = vs.p_value;
+        if (!std::isfinite(V) || std::isnan(pv))   // never a verdict from a cost that is not a number
+            throw FitError(fmt("the weighted cost of '%s' on '%s' is %g: the model's FRF is not finite at the lines",
+                               mf.path.c_str(), f.path.c_str(), V));
         Json per = Json::array();
         const double g = (double)f.g();
         int worst = -1;
