@@ -208,14 +208,18 @@ static void check_periods(const std::vector<WeightedLine> &w, const FrfData &f, 
                                              " for a finite sample-ML covariance"
                                        : std::string());
     const bool periodic = f.method == "periodic" && f.realisations < 2;
-    const std::string what = periodic ? "the weights rest on " + std::to_string(M) + " periods per experiment"
-                                      : fmt("the covariance of '%s' has %g complex degrees of freedom per line (M = dof + 1 = %ld)",
-                                            f.path.c_str(), dmin, M);
+    const std::string what =
+        periodic ? "the weights rest on " + std::to_string(M) + " periods per experiment"
+        : f.realisations >= 2
+            ? fmt("the total covariance of '%s' rests on %u realisations (its dof R - 1 = %g play the part of M - 1)",
+                  f.path.c_str(), f.realisations, dmin)
+            : fmt("the covariance of '%s' has %g complex degrees of freedom per line (M = dof + 1 = %ld)", f.path.c_str(),
+                  dmin, M);
+    const std::string more = f.realisations >= 2 ? "measure more realisations" : "measure more periods";
     if (validating)
         throw FitError(what + ": the cost's law (F(2, 2n) terms with n = M - 1 dof) has no finite mean and variance "
-                       "there, so no p-value; validating with the inverse sample covariance" + rule +
-                       "; measure more periods");
-    throw FitError(what + ": weighting by the inverse sample covariance" + rule + "; measure more periods or use --weight none");
+                       "there, so no p-value; validating with the inverse sample covariance" + rule + "; " + more);
+    throw FitError(what + ": weighting by the inverse sample covariance" + rule + "; " + more + " or use --weight none");
 }
 
 // ML of an LMFD from the subspace (then SK) or the SK start.
