@@ -204,3 +204,26 @@ def test_hand_edited_frf_files(tmp_path, what, kind, words):
     assert "lines[5]" in lines[0] or "bin 21" in lines[0], lines[0]
     r = h.run("validate", tmp_path / "m.json", bad)
     assert r.returncode == 1 and words in r.stderr and "verdict" not in r.stdout, (r.stdout, r.stderr)
+
+
+def test_dead_output_channel(tmp_path):
+    # 1x3 with output 2 all zero (a disconnected sensor): the weighted fit names the channel, and a
+    # --weight none fit has no p-value. Old binary: "singular weights at line bin 16 (covariance not
+    # positive definite)", and the --weight none fit printed "p = 1" for a unit-weight cost.
+    st = S.structure("1x3", SEED)
+    d = S.frf_doc(st, SEED)
+    for ln in d["lines"]:
+        for p in ("re", "im"):
+            G, C = np.asarray(ln["G"][p]), np.asarray(ln["cov"][p])
+            G[1, :] = 0.0
+            C[1, :] = 0.0
+            C[:, 1] = 0.0
+            ln["G"][p], ln["cov"][p] = G.tolist(), C.tolist()
+    path = S.write(tmp_path / "dead.json", d)
+    r = h.run("fit", "--method", "ml", "--domain", "ct", "--order", 24, path, "-o", tmp_path / "o.json")
+    assert r.returncode == 1 and "output 2" in r.stderr and "zero variance" in r.stderr, r.stderr
+    r = h.run("fit", "--method", "ml", "--domain", "ct", "--order", 24, "--weight", "none", path, "-o", tmp_path / "o.json")
+    assert r.returncode == 0 and "no p-value" in r.stdout, (r.stdout, r.stderr)
+    m = h.load_json(tmp_path / "o.json")
+    h.validate(m, "msid-model-1")
+    assert m["cost"]["p_value"] is None and "note" in m["cost"]

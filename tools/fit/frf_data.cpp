@@ -62,6 +62,16 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
         // Hermitian part; real lines: real covariance
         MatC H = 0.5 * (C + C.adjoint());
         if (l.real) H = H.real().cast<cd>();
+        // a zero variance is a dead (or noise-free) channel, not a "singular" covariance: name the entry
+        if (w != Weight::None)
+            for (Eigen::Index a = 0; a < H.rows(); ++a)
+                if (H(a, a).real() == 0.0 && H.diagonal().real().maxCoeff() > 0)
+                    throw FitError(where(f.path, "G[" + std::to_string(a % f.ny + 1) + "," + std::to_string(a / f.ny + 1) +
+                                                     "] (output " + std::to_string(a % f.ny + 1) + ", input " +
+                                                     std::to_string(a / f.ny + 1) + ") has zero variance at line bin " +
+                                                     std::to_string(l.bin) +
+                                                     ": a dead or noise-free channel cannot be weighted by its inverse "
+                                                     "covariance (leave the channel out, or --weight none)"));
         Eigen::LLT<MatC> llt(H);
         const double scale = H.diagonal().real().cwiseAbs().maxCoeff();
         if (llt.info() != Eigen::Success || !(scale > 0) || !std::isfinite(scale)) {

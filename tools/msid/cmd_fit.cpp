@@ -573,7 +573,10 @@ int cmd_fit(int argc, char **argv)
                     cost["fit_cost_unweighted"] = V;
                 }
             } catch (const FitError &) {
-                // no usable covariance in the file: unit weights, as documented
+                // no usable covariance in the file: the unit-weight cost has no noise scale, so no p-value
+                // (it printed "p = 1" against an expectation of half the real dof)
+                cost["p_value"] = nullptr;
+                cost["note"] = "no usable FRF covariance: unit weights, no p-value";
             }
         }
         if (f.method == "lpm") {   // neighbouring LPM lines are correlated: the p-value of independent lines
