@@ -597,9 +597,11 @@ int cmd_fit(int argc, char **argv)
                         doc["cost"]["independent_lines"]["p_value"].get<double>(),
                         doc["cost"]["independent_lines"]["line_stride"].get<int>());
         if (!converged && !g_scan_member) {
-            std::fprintf(stderr, "msid fit: warning: ml did not converge in %d iterations (cost %.6g, gradient norm %.3g): "
+            // V is the cost the fit minimised: with pooled weights not the cost block's (per-line weights)
+            std::fprintf(stderr, "msid fit: warning: ml did not converge in %d iterations (cost %.6g%s, gradient norm %.3g): "
                                  "wrote the best iterate to %s marked \"converged\": false (exit status %d)\n",
-                         iterations, V, grad_norm, out.c_str(), EXIT_NOT_CONVERGED);
+                         iterations, V, smoothed ? " with the pooled weights it minimises" : "", grad_norm, out.c_str(),
+                         EXIT_NOT_CONVERGED);
             return EXIT_NOT_CONVERGED;
         }
         if (!converged) return EXIT_NOT_CONVERGED;
