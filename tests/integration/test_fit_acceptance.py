@@ -227,3 +227,34 @@ def test_dead_output_channel(tmp_path):
     m = h.load_json(tmp_path / "o.json")
     h.validate(m, "msid-model-1")
     assert m["cost"]["p_value"] is None and "note" in m["cost"]
+
+
+def _dt_frf_doc(bins, period=256, periods=9, sigma=1e-3, seed=3):
+    """SISO DT 4th-order plant (two modes at 0.048 and 0.143 cycles/sample, 6.7% and 3.4% damping) at
+    `bins`, M noisy periods averaged, the sample variance of the mean (dof M - 1): msid-frf/1."""
+    a = np.convolve([1, -2 * 0.98 * np.cos(0.3), 0.98 ** 2], [1, -2 * 0.97 * np.cos(0.9), 0.97 ** 2])
+    b = np.array([0, 0.2, 0.1, -0.05])
+    rng = np.random.default_rng(seed)
+    lines = []
+    for k in bins:
+        z = np.exp(-2j * np.pi * k / period)
+        g0 = np.polyval(b[::-1], z) / np.polyval(a[::-1], z)
+        x = g0 + sigma / np.sqrt(2) * (rng.standard_normal(periods) + 1j * rng.standard_normal(periods))
+        m, v = x.mean(), np.sum(np.abs(x - x.mean()) ** 2) / ((periods - 1) * periods)
+        lines.append({"bin": int(k), "freq": k / period, "G": {"re": [[m.real]], "im": [[m.imag]]},
+                      "cov": {"re": [[v]], "im": [[0.0]]}, "dof": periods - 1})
+    return {"format": "msid-frf/1", "period_samples": period, "n_inputs": 1, "n_outputs": 1, "n_experiments": 1,
+            "domain": "dt", "periods_used": periods, "periods_rejected": 0,
+            "noise_cov": {"re": [[sigma ** 2]], "im": [[0.0]]}, "experiments": [], "lines": lines}
+
+
+def test_order_auto_on_few_lines(tmp_path):
+    # 5 lines of a 4th-order plant: ml fits order 4 (9 parameters, 10 real equations). Old binary:
+    # auto's range ended at neq / (2 (nu + ny)) = 2 and the elbow rule chose order 2 at p = 0 (cost
+    # 4.7e8 against 2.9); `--order 1:4` found 4 (p = 0.9).
+    p = S.write(tmp_path / "few.json", _dt_frf_doc([5, 9, 12, 30, 40]))
+    r = h.run("fit", "--method", "ml", "--order", "auto", p, "-o", tmp_path / "m.json")
+    assert r.returncode == 0, r.stderr
+    m = h.load_json(tmp_path / "m.json")
+    assert m["order_selection"]["chosen"] == 4 and m["order_selection"]["rule"] == "p-value", m["order_selection"]
+    assert m["cost"]["p_value"] > 0.05
