@@ -23,7 +23,11 @@ def _scaled_doc(doc, out_scale, in_scale):
     for ln in d["lines"]:
         for p in ("re", "im"):
             ln["G"][p] = (np.asarray(ln["G"][p]) * s).tolist()
-            ln["cov"][p] = (np.asarray(ln["cov"][p]) * np.outer(v, v)).tolist()
+            for k in ("cov", "cov_known_input"):
+                if k in ln:
+                    ln[k][p] = (np.asarray(ln[k][p]) * np.outer(v, v)).tolist()
+            if "noise_cov" in ln:
+                ln["noise_cov"][p] = (np.asarray(ln["noise_cov"][p]) * np.outer(out_scale, out_scale)).tolist()
     for p in ("re", "im"):
         d["noise_cov"][p] = (np.asarray(d["noise_cov"][p]) * np.outer(out_scale, out_scale)).tolist()
     return d
@@ -258,3 +262,26 @@ def test_order_auto_on_few_lines(tmp_path):
     m = h.load_json(tmp_path / "m.json")
     assert m["order_selection"]["chosen"] == 4 and m["order_selection"]["rule"] == "p-value", m["order_selection"]
     assert m["cost"]["p_value"] > 0.05
+
+
+def test_lmfd_ml_outputs_in_units_1e10_apart(tmp_path):
+    # DT 2x2 (ml's default parametrisation there is the LMFD): outputs in units 1e-6 and 1e4 of the
+    # data's, input 1 in 1e3. Old binary: the Sanathanan-Koerner start and the LM step were pivoting
+    # solves over columns that scale with the outputs' units (D_i(a, b) with output a, N_j not): cost
+    # 3.5e9 (UNSTABLE, p = 0) against 164 (p = 0.38) at order 8 of the d1 bench, and --order auto chose 18.
+    b = h.make_dt_bench(tmp_path, periods=8)
+    h.run_ok(*h.frf_args(b, tmp_path / "frf.json"))
+    doc = h.load_json(tmp_path / "frf.json")
+    sc = S.write(tmp_path / "sc.json", _scaled_doc(doc, [1e-6, 1e4], [1e3, 1.0]))
+    for args in (("--order", 4), ("--order", 4, "--start", "sk"), ("--order", "2:6")):
+        res = []
+        for p in (tmp_path / "frf.json", sc):
+            out = tmp_path / f"m-{p.stem}.json"
+            r = h.run("fit", "--method", "ml", *args, p, "-o", out)
+            assert r.returncode == 0, r.stderr
+            m = h.load_json(out)
+            v = tmp_path / f"v-{p.stem}.json"
+            h.run_ok("validate", out, p, "-o", v)
+            res.append((m, h.load_json(v)))
+        assert res[0][0]["settings"]["param"] == "lmfd"
+        _same(res[0][0], res[0][1], res[1][0], res[1][1], rel=1e-6)

@@ -389,7 +389,15 @@ LmfdModel lmfd_sk(const std::vector<WeightedLine> &w, Domain d, double h, const 
             }
             r0 += l.real ? g : 2 * g;
         }
-        const VecR sol = X.colPivHouseholderQr().solve(y);
+        // unit columns before the pivoting solve: a D_i(a, b) column scales with output a's units, an
+        // N_j column does not; with outputs 1e10 apart the pivot threshold dropped columns and the
+        // start (hence ml) depended on the units
+        VecR cs(X.cols());
+        for (Eigen::Index c = 0; c < X.cols(); ++c) {
+            const double nc = X.col(c).norm();
+            cs(c) = nc > 0 ? 1.0 / nc : 1.0;
+        }
+        const VecR sol = cs.asDiagonal() * (X * cs.asDiagonal()).colPivHouseholderQr().solve(y);
         VecR nth_v = fixed;
         for (size_t f = 0; f < free.size(); ++f) nth_v(free[f]) = sol((Eigen::Index)f);
         const double change = (nth_v - th).norm() / (1.0 + th.norm());
@@ -568,12 +576,15 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
         const VecR dg = J.colwise().squaredNorm().transpose().cwiseMax(1e-300);
         bool stepped = false;
         for (int tries = 0; tries < 30; ++tries) {
-            // (J^T J + lambda diag) delta = -J^T r, via the augmented least squares
+            // (J^T J + lambda diag) delta = -J^T r, via the augmented least squares in the columns
+            // scaled to unit norm (J^ = J diag(dg)^-1/2: the same step, but the pivoting threshold no
+            // longer depends on the units of the outputs, which scale the D_i columns)
+            const VecR ds = dg.cwiseSqrt().cwiseInverse();
             MatR Aug(J.rows() + J.cols(), J.cols());
-            Aug << J, (lambda * dg).cwiseSqrt().asDiagonal().toDenseMatrix();
+            Aug << J * ds.asDiagonal(), std::sqrt(lambda) * MatR::Identity(J.cols(), J.cols());
             VecR rhs = VecR::Zero(Aug.rows());
             rhs.head(r.size()) = -r;
-            const VecR delta = Aug.colPivHouseholderQr().solve(rhs);
+            const VecR delta = ds.asDiagonal() * Aug.colPivHouseholderQr().solve(rhs);
             VecR th2 = th;
             for (size_t f = 0; f < free.size(); ++f) th2(free[f]) += delta((Eigen::Index)f);
             VecR r2;
