@@ -278,3 +278,24 @@ def test_lmfd_ml_outputs_in_units_1e10_apart(tmp_path):
         m2, v2 = _fit(tmp_path, sc, "sc", "--method", "ml", *args, ct=False)
         assert m1["settings"]["param"] == "lmfd"
         _same(m1, v1, m2, v2, rel=1e-6)
+
+
+def test_validate_model_and_frf_on_other_frequencies(tmp_path):
+    # A CT model (rad/s) on a DT file without a sample time (lines in rad/sample), or a DT model fitted
+    # at another sample time: the lines are at other frequencies. Old binary: a verdict ("NOT
+    # consistent", largest normalised residual 2.8e9) with exit 0; now one message, exit 1.
+    st = S.structure("siso", SEED)
+    ct = S.write(tmp_path / "ct.json", S.frf_doc(st, SEED))
+    h.run_ok("fit", "--method", "ml", "--domain", "ct", "--order", 24, ct, "-o", tmp_path / "ct-model.json")
+    dt = S.write(tmp_path / "dt.json", _dt_frf_doc(range(3, 60, 2)))
+    r = h.run("validate", tmp_path / "ct-model.json", dt)
+    assert r.returncode == 1 and "without a sample time" in r.stderr and "verdict" not in r.stdout, (r.stdout, r.stderr)
+    d = _dt_frf_doc(range(3, 60, 2))
+    d["sample_time"] = 1e-3
+    p1 = S.write(tmp_path / "dt1.json", d)
+    d["sample_time"] = 5e-4
+    p2 = S.write(tmp_path / "dt2.json", d)
+    h.run_ok("fit", "--method", "ml", "--order", 4, p1, "-o", tmp_path / "dt-model.json")
+    h.run_ok("validate", tmp_path / "dt-model.json", p1)   # negative control
+    r = h.run("validate", tmp_path / "dt-model.json", p2)
+    assert r.returncode == 1 and "sample time" in r.stderr and "verdict" not in r.stdout, (r.stdout, r.stderr)

@@ -636,6 +636,16 @@ int cmd_validate(int argc, char **argv)
             throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +
                            std::to_string(mf.ss.C.rows()) + " outputs, the FRF " + std::to_string(f.nu) + " and " +
                            std::to_string(f.ny));
+        // A continuous-time model is evaluated at s = j omega (rad/s): an FRF without a sample time has
+        // its lines in rad/sample, where the model was evaluated without a word (a verdict on the wrong
+        // frequencies). A DT model fitted at another sample time describes other frequencies too.
+        if (mf.domain == Domain::CT && f.domain == Domain::DT && f.h <= 0)
+            throw FitError("'" + mf.path + "' is a continuous-time model and '" + f.path +
+                           "' a discrete-time FRF without a sample time: its lines have no frequency in rad/s "
+                           "(give --fs to msid frf)");
+        if (mf.domain == Domain::DT && mf.h > 0 && f.h > 0 && std::abs(mf.h - f.h) > 1e-9 * f.h)
+            throw FitError(fmt("'%s' was fitted at sample time %g s and '%s' has %g s: the lines are at other "
+                               "frequencies", mf.path.c_str(), mf.h, f.path.c_str(), f.h));
         // The verdict comes from the FRF covariance whatever weighting the fit used (a --weight none
         // fit is validated with the covariance: unit weights would make the verdict depend on the units).
         Weight wt = a.enum_<Weight>("weight", mf.weight == "known-input" ? Weight::KnownInput : Weight::Cov, WEIGHTS);
