@@ -299,3 +299,20 @@ def test_validate_model_and_frf_on_other_frequencies(tmp_path):
     h.run_ok("validate", tmp_path / "dt-model.json", p1)   # negative control
     r = h.run("validate", tmp_path / "dt-model.json", p2)
     assert r.returncode == 1 and "sample time" in r.stderr and "verdict" not in r.stdout, (r.stdout, r.stderr)
+
+
+def test_stabilisation_diagram_unit_invariance(tmp_path):
+    # 1x3, outputs in units 1e-3 / 1e3 / 1 of the data's: the same orders, costs and stabilisation
+    # flags. Without the fix (the residue test on a Frobenius norm that the largest units dominate):
+    # 11 of 12 poles of order 24 stable against 8 of 12 with outputs 1e-9 / 1e3 / 1.
+    st = S.structure("1x3", SEED)
+    doc = S.frf_doc(st, SEED)
+    ref = S.write(tmp_path / "ref.json", doc)
+    sc = S.write(tmp_path / "sc.json", _scaled_doc(doc, [1e-3, 1e3, 1.0], [1.0]))
+    m1, _ = _fit(tmp_path, ref, "r", "--method", "subspace", "--order", "20:2:26")
+    m2, _ = _fit(tmp_path, sc, "s", "--method", "subspace", "--order", "20:2:26")
+    o1, o2 = m1["order_selection"]["orders"], m2["order_selection"]["orders"]
+    assert [o["order"] for o in o1] == [o["order"] for o in o2]
+    for a, b in zip(o1, o2):
+        assert abs(a["cost"] - b["cost"]) <= 1e-6 * a["cost"], (a["order"], a["cost"], b["cost"])
+        assert [p["flag"] for p in a["poles"]] == [p["flag"] for p in b["poles"]], a["order"]
