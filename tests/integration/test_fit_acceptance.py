@@ -316,3 +316,19 @@ def test_stabilisation_diagram_unit_invariance(tmp_path):
     for a, b in zip(o1, o2):
         assert abs(a["cost"] - b["cost"]) <= 1e-6 * a["cost"], (a["order"], a["cost"], b["cost"])
         assert [p["flag"] for p in a["poles"]] == [p["flag"] for p in b["poles"]], a["order"]
+
+
+def test_bla_too_few_realisations_message(tmp_path):
+    # 2x2 robust BLA from R = 6 realisations: the weights enter the cost's law with (R - 1)/nu = 2.5 dof,
+    # below the M >= 4 rule, so fit and validate refuse; the message must speak of realisations and
+    # name R >= 7. Old binary: "the weights rest on 4 periods per experiment: ... needs M >= 4" (a
+    # refusal contradicting itself, and the file has no periods rule to follow).
+    from test_modal_cli import frf_realisations, realisation_bench
+    R = 6
+    paths = realisation_bench(tmp_path, R, 0.0)
+    r = frf_realisations(tmp_path, paths, R, tmp_path / "bla.json")
+    assert r.returncode == 0, r.stderr
+    r = h.run("fit", "--method", "ml", "--order", 4, tmp_path / "bla.json", "-o", tmp_path / "m.json")
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1, r.stderr
+    assert "6 realisations" in lines[0] and "R >= 7" in lines[0] and "periods" not in lines[0], lines[0]

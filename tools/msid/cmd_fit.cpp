@@ -203,18 +203,24 @@ static void check_periods(const std::vector<WeightedLine> &w, const FrfData &f, 
     const long M = std::lround(dmin + 1);
     const long need = std::max<long>(4, (long)ny + 2);
     if (!(dmin + 1 < (double)need - 1e-9)) return;
-    const std::string rule = " needs M >= 4 (Pintelon 2002, Theorem 2)" +
-                             (need > 4 ? " and, with " + std::to_string(ny) + " outputs, M >= " + std::to_string(need) +
-                                             " for a finite sample-ML covariance"
-                                       : std::string());
+    std::string rule = " needs M >= 4 (Pintelon 2002, Theorem 2)" +
+                       (need > 4 ? " and, with " + std::to_string(ny) + " outputs, M >= " + std::to_string(need) +
+                                       " for a finite sample-ML covariance"
+                                 : std::string());
     const bool periodic = f.method == "periodic" && f.realisations < 2;
-    const std::string what =
+    std::string what =
         periodic ? "the weights rest on " + std::to_string(M) + " periods per experiment"
-        : f.realisations >= 2
-            ? fmt("the total covariance of '%s' rests on %u realisations (its dof R - 1 = %g play the part of M - 1)",
-                  f.path.c_str(), f.realisations, dmin)
-            : fmt("the covariance of '%s' has %g complex degrees of freedom per line (M = dof + 1 = %ld)", f.path.c_str(),
-                  dmin, M);
+                 : fmt("the covariance of '%s' has %g complex degrees of freedom per line (M = dof + 1 = %ld)",
+                       f.path.c_str(), dmin, M);
+    if (f.realisations >= 2) {
+        // a robust-BLA cov is one sample covariance of the ny nu vector with R - 1 dof, weighed with
+        // n = (R - 1) / nu in the laws written for ny outputs (weigh()): n >= need - 1 means
+        // R >= nu (need - 1) + 1 (4 for SISO, 7 for 2x2); the old message said "4 periods ... needs M >= 4"
+        const long Rneed = (long)f.nu * (need - 1) + 1;
+        what = fmt("the total covariance of '%s' rests on %u realisations", f.path.c_str(), f.realisations);
+        rule = fmt(" needs R >= %ld realisations with %u input(s) and %u output(s) (Pintelon 2002, Theorem 2, on its "
+                   "R - 1 dof)", Rneed, f.nu, f.ny);
+    }
     const std::string more = f.realisations >= 2 ? "measure more realisations" : "measure more periods";
     if (validating)
         throw FitError(what + ": the cost's law (F(2, 2n) terms with n = M - 1 dof) has no finite mean and variance "
