@@ -332,3 +332,21 @@ def test_bla_too_few_realisations_message(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 1 and len(lines) == 1, r.stderr
     assert "6 realisations" in lines[0] and "R >= 7" in lines[0] and "periods" not in lines[0], lines[0]
+
+
+def test_lmfd_ct_stability_label_against_numpy(tmp_path):
+    # 2x2 accelerance, ml --param lmfd at order 24 (the refit `msid modes` points to for standard
+    # deviations of multi-input models): its companion realisation has a condition number near 1e20.
+    # Before the balancing: "UNSTABLE", stability.max_real_pole +0.80 (4.5e9 with the old binary's
+    # iterate), while every pole of the modal table was stable and NumPy's (LAPACK, balanced)
+    # eigenvalues of the written A have max real part -0.18.
+    st = S.structure("2x2", SEED)
+    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED))
+    r = h.run("fit", "--method", "ml", "--param", "lmfd", "--domain", "ct", "--order", 24, p, "-o", tmp_path / "m.json")
+    assert r.returncode == 0, r.stderr
+    m = h.load_json(tmp_path / "m.json")
+    ev = np.linalg.eigvals(np.asarray(m["A"], float))
+    peer = float(np.max(ev.real))
+    assert abs(m["stability"]["max_real_pole"] - peer) <= 1e-6 * abs(peer), (m["stability"], peer)
+    assert m["stable"] == bool(peer < 0) and m["stable"] and "UNSTABLE" not in r.stdout
+    assert all(md["zeta"] > 0 for md in m["modes"]["modes"])

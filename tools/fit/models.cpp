@@ -79,12 +79,41 @@ SSModel lmfd_to_ss(const LmfdModel &m)
     return s;
 }
 
+VecC ss_eigenvalues(const MatR &A0)
+{
+    MatR A = A0;
+    const Eigen::Index n = A.rows();
+    const double radix = 2.0, sqrdx = radix * radix;
+    for (int sweep = 0; sweep < 100; ++sweep) {
+        bool done = true;
+        for (Eigen::Index i = 0; i < n; ++i) {
+            double c = 0, r = 0;
+            for (Eigen::Index j = 0; j < n; ++j)
+                if (j != i) { c += std::abs(A(j, i)); r += std::abs(A(i, j)); }
+            if (!(c > 0) || !(r > 0) || !std::isfinite(c + r)) continue;
+            double g = r / radix, f = 1.0;
+            const double s = c + r;
+            while (c < g) { f *= radix; c *= sqrdx; }
+            g = r * radix;
+            while (c > g) { f /= radix; c /= sqrdx; }
+            if ((c + r) / f < 0.95 * s) {
+                done = false;
+                A.row(i) /= f;
+                A.col(i) *= f;
+            }
+        }
+        if (done) break;
+    }
+    Eigen::EigenSolver<MatR> es(A, false);
+    return es.eigenvalues();
+}
+
 bool ss_stable(const SSModel &m)
 {
     if (m.A.rows() == 0) return true;
-    Eigen::EigenSolver<MatR> es(m.A, false);
+    const VecC ev = ss_eigenvalues(m.A);
     for (Eigen::Index k = 0; k < m.A.rows(); ++k) {
-        const cd l = es.eigenvalues()(k);
+        const cd l = ev(k);
         if (m.domain == Domain::DT ? std::abs(l) >= 1.0 : l.real() >= 0.0) return false;
     }
     return true;

@@ -39,6 +39,12 @@ SSModel lmfd_to_ss(const LmfdModel &m);
 
 // Stable? DT: all |eig(A)| < 1; CT: all Re eig(A) < 0.
 bool ss_stable(const SSModel &m);
+
+// Eigenvalues of A after diagonal balancing by powers of 2 (Parlett & Reinsch 1969, the scaling of
+// LAPACK's gebal: exact in floating point, the same eigenvalues). The companion realisation of a CT
+// LMFD has a condition number near 1e20 (2x2, nD = 12): unbalanced, Eigen put a pole at +0.80 where
+// LAPACK and the balanced matrix give -0.18, and the model was labelled UNSTABLE.
+VecC ss_eigenvalues(const MatR &A);
 // Reflect unstable poles into the stable region, keeping A's eigenvectors
 // (A = V diag(lambda) V^-1, real realisation rebuilt). Returns how many were reflected.
 int ss_reflect_unstable(SSModel &m);

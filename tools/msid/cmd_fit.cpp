@@ -149,9 +149,9 @@ static Json stability_json(const SSModel &ss, bool enforced)
     j["enforced"] = enforced;
     double worst = ss.domain == Domain::CT ? -1e300 : 0.0;
     if (ss.A.rows()) {
-        Eigen::EigenSolver<MatR> es(ss.A, false);
+        const VecC ev = ss_eigenvalues(ss.A);   // balanced: the same poles as the modal table
         for (Eigen::Index k = 0; k < ss.A.rows(); ++k) {
-            const cd l = es.eigenvalues()(k);
+            const cd l = ev(k);
             worst = ss.domain == Domain::CT ? std::max(worst, l.real()) : std::max(worst, std::abs(l));
         }
         j[ss.domain == Domain::CT ? "max_real_pole" : "max_abs_pole"] = worst;
