@@ -350,3 +350,11 @@ def test_lmfd_ct_stability_label_against_numpy(tmp_path):
     assert abs(m["stability"]["max_real_pole"] - peer) <= 1e-6 * abs(peer), (m["stability"], peer)
     assert m["stable"] == bool(peer < 0) and m["stable"] and "UNSTABLE" not in r.stdout
     assert all(md["zeta"] > 0 for md in m["modes"]["modes"])
+
+
+def test_summary_line_names_the_order_asked_for(tmp_path):
+    # 2x3 ml --order 24 (pole-residue, each pole repeated per input): the summary said "order 48" only.
+    st = S.structure("2x3", SEED)
+    p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED))
+    r = h.run("fit", "--method", "ml", "--domain", "ct", "--order", 24, p, "-o", tmp_path / "m.json")
+    assert r.returncode == 0 and "order 24 (24 poles; state order 48" in r.stdout, r.stdout

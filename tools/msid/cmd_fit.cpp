@@ -593,8 +593,17 @@ int cmd_fit(int argc, char **argv)
         doc["frf"] = frf_at_lines(f, Gm, have_cov ? &Gc : nullptr);
         add_modes(doc, true);   // modal parameters with standard deviations (cmd_fit_modal.cpp)
         write_json_file(out, doc, false);   // derived from files: atomic, not fsynced (docs/model-format.md)
-        std::printf("wrote %s: %s fit, order %d, weighted cost %.6g (expected %.6g, %s)%s\n", out.c_str(), method.c_str(),
-                    (int)ss.n(), doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
+        // ml in the pole-residue form with several inputs: --order counts poles, the realisation repeats
+        // each per input (state order n nu); "order 48" alone after --order 24 read as a different model
+        const bool repeated = doc.contains("pole_residue") && nu > 1;
+        int npoles = 0;   // pairs are stored once (Im > 0)
+        if (repeated)
+            for (const auto &p : doc["pole_residue"]["poles"]) npoles += p["im"].get<double>() != 0.0 ? 2 : 1;
+        const std::string order_txt = repeated ? fmt("order %d (%d poles; state order %d: each pole once per input)",
+                                                     npoles, npoles, (int)ss.n())
+                                               : fmt("order %d", (int)ss.n());
+        std::printf("wrote %s: %s fit, %s, weighted cost %.6g (expected %.6g, %s)%s\n", out.c_str(), method.c_str(),
+                    order_txt.c_str(), doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
                     doc["cost"]["p_value"].is_null() ? "no p-value"
                                                      : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
                     doc["stable"].get<bool>() ? "" : ", UNSTABLE");
