@@ -135,6 +135,24 @@ void smooth_weights(std::vector<WeightedLine> &w, int half)
     for (size_t k = 0; k < n; ++k) nrm += C[k].diagonal().real();
     for (Eigen::Index a = 0; a < g; ++a) nrm(a) = nrm(a) > 0 ? (double)n / nrm(a) : 1.0;
     auto ntrace = [&](const MatC &M) { return M.diagonal().real().dot(nrm); };
+    // The F test below costs two incomplete beta functions per neighbour: decided without them when the
+    // ratio lies well inside the central 99% of F(d, d) (its 99.5% quantile u_d, and 1/u_d by the
+    // symmetry of F(d, d), found once per d, with a 1% margin); the exact test decides the rest, so
+    // which neighbours are pooled is the same as testing every one.
+    double last_d = -1, inner = 0;
+    auto surely_pooled = [&](double d, double q) {
+        if (d != last_d) {
+            double lo = 1.0, hi = 2.0;
+            while (f_sf(d, d, hi) >= 0.005 && hi < 1e12) hi *= 2.0;
+            for (int it = 0; it < 60; ++it) {
+                const double mid = std::sqrt(lo * hi);
+                (f_sf(d, d, mid) >= 0.005 ? lo : hi) = mid;
+            }
+            last_d = d;
+            inner = lo / 1.01;
+        }
+        return q < inner && q * inner > 1.0;
+    };
     for (size_t k = 0; k < n; ++k) {
         const size_t lo = std::min(k > (size_t)half ? k - (size_t)half : 0, n - win);
         MatC S = MatC::Zero(C[k].rows(), C[k].cols());
@@ -145,7 +163,7 @@ void smooth_weights(std::vector<WeightedLine> &w, int half)
             // central 99% of F(2n, 2n)) is not pooled: the noise level changes there (e.g. noisy
             // inputs at a resonance, a notch in the excitation)
             const double q = ntrace(C[j]) / tk, d = 2.0 * std::min(dof[j], dof[k]);
-            if (j != k && (f_sf(d, d, q) < 0.005 || f_sf(d, d, 1.0 / q) < 0.005)) continue;
+            if (j != k && !surely_pooled(d, q) && (f_sf(d, d, q) < 0.005 || f_sf(d, d, 1.0 / q) < 0.005)) continue;
             S += dof[j] * C[j];
             nd += dof[j];
         }

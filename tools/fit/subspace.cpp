@@ -373,13 +373,22 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
     VecR t(ny * nu);   // vec(G') = t .* vec(G)
     for (Eigen::Index j = 0; j < nu; ++j)
         for (Eigen::Index i = 0; i < ny; ++i) t(i + ny * j) = 1.0 / (so(i) * si(j));
-    std::vector<WeightedLine> wn = w;
-    for (auto &l : wn) {
-        l.G = so.cwiseInverse().asDiagonal() * l.G * si.cwiseInverse().asDiagonal();
-        l.cov = t.asDiagonal() * l.cov * t.asDiagonal();
-        l.Linv = l.Linv * t.cwiseInverse().asDiagonal();
+    auto normalise = [&](std::vector<WeightedLine> wn) {
+        for (auto &l : wn) {
+            l.G = so.cwiseInverse().asDiagonal() * l.G * si.cwiseInverse().asDiagonal();
+            l.cov = t.asDiagonal() * l.cov * t.asDiagonal();
+            l.Linv = l.Linv * t.cwiseInverse().asDiagonal();
+        }
+        return wn;
+    };
+    const std::vector<WeightedLine> wn = normalise(w);
+    std::vector<WeightedLine> wrn;   // the refinement's weights in the same units
+    SubspaceOptions on = o;
+    if (o.refine_w) {
+        wrn = normalise(*o.refine_w);
+        on.refine_w = &wrn;
     }
-    SubspaceResult r = fit_subspace_normalised(f, d, wn, weighted, o);
+    SubspaceResult r = fit_subspace_normalised(f, d, wn, weighted, on);
     auto back = [&](SSModel &m) {
         if (m.C.rows() == ny) m.C = so.asDiagonal() * m.C;
         if (m.B.cols() == nu) m.B = m.B * si.asDiagonal();
@@ -536,13 +545,16 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
     if (o.refine_iter > 0 || o.stable_auto) {
         res.cost_unrefined = res.cost;
         const int it = std::max(0, o.refine_iter);
+        // the refinement's weights (pooled: sample-ML weights from few periods cost accuracy; docs/fitting.md)
+        const std::vector<WeightedLine> &wr = o.refine_w ? *o.refine_w : w;
+        if (o.refine_w) res.cost = weighted_cost_ss(res.model, wr);
         if (o.stable_auto && !o.stable && !ss_stable(res.model)) {
             // the r scan left unstable poles: the unconstrained and the reflected (constrained) refinements
             SSModel mu = res.model, ms = res.model;
-            const SubspaceRefine ru = refine_subspace(mu, w, res.feedthrough, false, it);
+            const SubspaceRefine ru = refine_subspace(mu, wr, res.feedthrough, false, it);
             int k = ss_reflect_unstable(ms);
-            double Vs = fit_BD(ms, w, res.feedthrough);
-            SubspaceRefine rc = refine_subspace(ms, w, res.feedthrough, true, it);
+            double Vs = fit_BD(ms, wr, res.feedthrough);
+            SubspaceRefine rc = refine_subspace(ms, wr, res.feedthrough, true, it);
             if (rc.refined) Vs = rc.cost;
             const double Vu = ru.refined ? ru.cost : res.cost;
             if (!ss_stable(mu)) {
@@ -550,8 +562,8 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
                 // unstable terms reflected
                 SSModel m2 = mu;
                 const int k2 = ss_reflect_unstable(m2);
-                double V2 = fit_BD(m2, w, res.feedthrough);
-                const SubspaceRefine r2 = refine_subspace(m2, w, res.feedthrough, true, it);
+                double V2 = fit_BD(m2, wr, res.feedthrough);
+                const SubspaceRefine r2 = refine_subspace(m2, wr, res.feedthrough, true, it);
                 if (r2.refined) V2 = r2.cost;
                 if (V2 < Vs) { ms = m2; Vs = V2; k = k2; rc = r2; }
             }
@@ -575,9 +587,10 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
                 }
             }
         } else if (it > 0) {
-            const SubspaceRefine rr = refine_subspace(res.model, w, res.feedthrough, o.stable || o.stable_auto, it);
+            const SubspaceRefine rr = refine_subspace(res.model, wr, res.feedthrough, o.stable || o.stable_auto, it);
             if (rr.refined) { res.cost = rr.cost; res.refine_steps = rr.iterations; }
         }
+        if (o.refine_w) res.cost = weighted_cost_ss(res.model, w);   // reported on the r scan's weights
     }
     std::vector<int> order_idx;
     for (int i = 0; i < nr; ++i) if (std::isfinite(trials[(size_t)i].V)) order_idx.push_back(i);

@@ -19,6 +19,10 @@ struct SubspaceOptions {
     bool estimate_D = true;    // false: D = 0 (strictly proper)
     bool feedthrough_auto = false;   // with estimate_D: keep D only if a likelihood-ratio test at 1% needs it
     double wscale = 0.0;       // CT bilinear frequency scaling (0: geometric mean of the line frequencies)
+    // Weights of the refinement and of its stability test (msid fit: the covariances pooled over
+    // neighbouring lines, as ml's, when the file is dense enough); null: the weights of the r scan.
+    // The reported cost is always on the r scan's weights.
+    const std::vector<WeightedLine> *refine_w = nullptr;
 };
 
 struct SubspaceResult {

@@ -55,9 +55,9 @@ static const char *FIT_HELP =
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
-    "  --weight-smooth H  ml with --weight cov|known-input: weights from the covariance pooled over 2H+1\n"
-    "                neighbouring lines (default H = 4 when the file has at least 4(2H+1) lines, else 0;\n"
-    "                0: each line's own sample covariance)\n"
+    "  --weight-smooth H  ml, and subspace's refinement, with --weight cov|known-input: weights from the\n"
+    "                covariance pooled over 2H+1 neighbouring lines (default H = 4 when the file has at least\n"
+    "                4(2H+1) lines, else 0; 0: each line's own sample covariance)\n"
     "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
     "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
 
@@ -312,15 +312,19 @@ int cmd_fit(int argc, char **argv)
         auto w = weigh(f, d, wt, noise_var);
         const bool known = noise_var > 0;
         const int wsmooth = (int)a.u32("weight-smooth", (uint32_t)ML_WEIGHT_SMOOTH);
-        if (a.has("weight-smooth") && (method != "ml" || wt == Weight::None || known))
-            throw UsageError("--weight-smooth belongs to --method ml with estimated weights (--weight cov|known-input)");
+        if (a.has("weight-smooth") && ((method != "ml" && method != "subspace") || wt == Weight::None || known))
+            throw UsageError("--weight-smooth belongs to --method ml or subspace with estimated weights "
+                             "(--weight cov|known-input)");
         // Pooling needs the window to be a small part of the band: by default only with at least
         // ML_WEIGHT_SMOOTH_MIN_WINDOWS windows of lines (docs/fitting.md, "Pooled weights").
         const bool dense = w.size() >= (size_t)ML_WEIGHT_SMOOTH_MIN_WINDOWS * (size_t)(2 * wsmooth + 1);
-        const bool smoothed = method == "ml" && wt != Weight::None && !known && wsmooth > 0 &&
-                              (a.has("weight-smooth") || dense);
+        const bool pool = wt != Weight::None && !known && wsmooth > 0 && (a.has("weight-smooth") || dense);
+        const bool smoothed = method == "ml" && pool;
         std::vector<WeightedLine> w_line;   // per-line weights, for the cost block of a smoothed fit
         if (smoothed) { w_line = w; smooth_weights(w, wsmooth); }
+        // subspace: the r scan on each line's covariance, the refinement on pooled ones (docs/fitting.md)
+        std::vector<WeightedLine> w_pool;
+        if (method == "subspace" && pool) { w_pool = w; smooth_weights(w_pool, wsmooth); }
         Json doc;
         doc["format"] = "msid-model/1";
         doc["generator"] = std::string("msid ") + MSID_VERSION;
@@ -330,7 +334,7 @@ int cmd_fit(int argc, char **argv)
         doc["method"] = method;
         Json settings;
         settings["weight"] = a.get("weight", "cov");
-        if (smoothed) settings["weight_smooth"] = wsmooth;
+        if (smoothed || !w_pool.empty()) settings["weight_smooth"] = wsmooth;
         if (known) settings["noise_var"] = noise_var;
         const size_t ny = f.ny, nu = f.nu;
         double neq = 0;
@@ -378,6 +382,7 @@ int cmd_fit(int argc, char **argv)
             o.refine_iter = rspec == "ml" ? 30 : rspec == "none" ? 0 : (int)a.u32("refine", 30);
             o.estimate_D = ft != Feedthrough::No;
             o.feedthrough_auto = ft == Feedthrough::Auto;
+            if (!w_pool.empty()) o.refine_w = &w_pool;
             const SubspaceResult r = fit_subspace(f, d, w, weighted, o);
             ss = r.model;
             // auto: the constraint holds unless the LR test kept unstable poles the data need
