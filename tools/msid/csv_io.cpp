@@ -257,15 +257,21 @@ size_t line_of(const CsvLayout &L, const char *p)
     return L.line0 + 1 + (size_t)std::count(L.text, p, '\n');
 }
 
-std::string cell_text(const char *p, char delim)
+// The end of the cell at p (before e): the next delimiter outside double quotes ("Force, N" and "1,5"
+// are one cell), or the line's end; a quote left open ends the cell at the next delimiter instead.
+const char *cell_end(const char *p, const char *e, char delim)
 {
-    const char *e = p;
+    const char *c = p;
     bool quoted = false;
-    for (; *e != '\n' && *e != '\r' && (quoted || *e != delim); ++e)   // "1,5": one cell
-        quoted ^= *e == '"';
-    if (quoted)   // a quote left open: the cell ends at the next delimiter
-        for (e = p; *e != delim && *e != '\n' && *e != '\r';) ++e;
-    return trim(std::string_view(p, (size_t)(e - p)));
+    for (; c < e && *c != '\n' && *c != '\r' && (quoted || *c != delim); ++c) quoted ^= *c == '"';
+    if (quoted)
+        for (c = p; c < e && *c != delim && *c != '\n' && *c != '\r';) ++c;
+    return c;
+}
+
+std::string cell_text(const char *p, const char *e, char delim)
+{
+    return trim(std::string_view(p, (size_t)(cell_end(p, e, delim) - p)));
 }
 
 // A decimal comma ("0,25", as spreadsheets in most European locales write numbers, with ';' or tab
@@ -301,10 +307,8 @@ bool units_row(const CsvLayout &L, const char *b, const char *e)
     size_t c = 0, text = 0;
     for (const char *p = b; p <= le && c < L.dest.size(); ++c) {
         const char *a = p;
-        for (bool quoted = false; p < le && (quoted || *p != L.delim); ++p)
-            if (*p == '"') quoted = !quoted;
+        p = cell_end(p, le, L.delim);
         std::string cell = trim(std::string_view(a, (size_t)(p - a)));
-        if (!cell.empty() && cell.back() == '\r') cell = trim(std::string_view(cell).substr(0, cell.size() - 1));
         if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') cell = cell.substr(1, cell.size() - 2);
         ++p;   // past the delimiter (or the '\n': the loop ends)
         if (L.dest[c] < 0 || cell.empty()) continue;
@@ -367,7 +371,7 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
             if (ok && quoted) ok = *r++ == '"';
             if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
             if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
-                const std::string cell = cell_text(p, d);
+                const std::string cell = cell_text(p, e, d);
                 out.err = cell.empty()
                               ? fmt("'%s' line %zu, column %s: '' is not a number (empty cell)", L.path->c_str(),
                                     line_of(L, ls), L.names[c].c_str())
@@ -723,9 +727,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     {
         size_t a = 0;
         for (;;) {
-            size_t b = a;   // the next delimiter outside quotes ("Force, N" is one name)
-            for (bool quoted = false; b < header.size() && (quoted || header[b] != delim); ++b)
-                if (header[b] == '"') quoted = !quoted;
+            size_t b = (size_t)(cell_end(header.data() + a, header.data() + header.size(), delim) - header.data());
             if (b >= header.size()) b = std::string_view::npos;
             L.names.push_back(trim(header.substr(a, b == std::string_view::npos ? std::string_view::npos : b - a)));
             if (b == std::string_view::npos) break;
