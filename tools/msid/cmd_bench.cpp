@@ -616,12 +616,18 @@ static int bench_fit(int argc, char **argv)
         volatile double sink = 0;
         // as msid fit: the refinement on the covariances pooled over 2H+1 lines (500 lines: dense), the
         // pooling inside the timed fit; ml (--param lmfd, the DT MIMO default) on the pooled weights
-        auto sub_fit = [&](const std::vector<WeightedLine> &w, const FrfData &f) {
-            auto wp = w;
-            smooth_weights(wp, ML_WEIGHT_SMOOTH);
+        auto pooled = [](std::vector<WeightedLine> w) {
+            smooth_weights(w, ML_WEIGHT_SMOOTH);
+            return w;
+        };
+        auto sub_fit_pooled = [&](const std::vector<WeightedLine> &w, const std::vector<WeightedLine> &wp,
+                                  const FrfData &f) {
             SubspaceOptions sp = so;
             sp.refine_w = &wp;
             return fit_subspace(f, Domain::DT, w, true, sp);
+        };
+        auto sub_fit = [&](const std::vector<WeightedLine> &w, const FrfData &f) {
+            return sub_fit_pooled(w, pooled(w), f);
         };
         const double t_sub = best_time([&] { sink = sink + sub_fit(w0, f0).cost; }, min_s);
         // lmfd closed form: the fully/under-constrained case, on as many lines as the LMFD has unknowns / 2
@@ -630,11 +636,10 @@ static int bench_fit(int argc, char **argv)
         const double t_lmfd = best_time([&] { sink = sink + lmfd_closed_form(wfc, Domain::DT, 0, ls).model.Nm[0](0, 0); }, min_s);
         MlOptions mo;
         auto ml_fit = [&](const std::vector<WeightedLine> &w, const FrfData &f) {
-            const SubspaceResult sr = sub_fit(w, f);
+            const auto wp = pooled(w);
+            const SubspaceResult sr = sub_fit_pooled(w, wp, f);
             std::vector<MatC> target;
             for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
-            auto wp = w;
-            smooth_weights(wp, ML_WEIGHT_SMOOTH);
             return lmfd_ml(wp, Domain::DT, 0, ls, lmfd_sk(wp, Domain::DT, 0, ls, 30, &target), mo, false);
         };
         const double t_ml = best_time([&] { sink = sink + ml_fit(w0, f0).cost; }, min_s);
