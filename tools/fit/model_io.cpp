@@ -90,6 +90,18 @@ ModelFile read_model(const std::string &path)
         for (int i = 0; i <= L.nN; ++i) L.Nm.push_back(rmat(l["N"][(size_t)i], ny, nu, path, "lmfd.N"));
         m.lmfd = L;
     }
+    if (j.contains("pole_residue") && j["pole_residue"].is_object() && j["pole_residue"].contains("poles")) {
+        const Json &pl = j["pole_residue"]["poles"];
+        if (!pl.is_array() || (int64_t)pl.size() > n) throw FitError("'" + path + "': pole_residue.poles must be a list of at most 'order' poles");
+        for (const Json &p : pl) {
+            if (!p.is_object() || !p.contains("re") || !p.contains("im") || !p["re"].is_number() || !p["im"].is_number())
+                throw FitError("'" + path + "': pole_residue.poles entries need numbers 're' and 'im'");
+            const cd z(p["re"].get<double>(), p["im"].get<double>());
+            if (!std::isfinite(z.real()) || !std::isfinite(z.imag()) || z.imag() < 0)
+                throw FitError("'" + path + "': pole_residue.poles holds a pole that is not finite or has Im < 0");
+            m.poles.push_back(z);
+        }
+    }
     return m;
 }
 

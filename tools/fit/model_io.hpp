@@ -20,6 +20,8 @@ struct ModelFile {
     std::string method;
     std::string weight;       // "cov", "known-input", "none"
     int n_params = 0;         // free parameters behind the fit (for validation dof)
+    // pole_residue.poles of an ml --param poles model (pairs by their Im > 0 member); empty otherwise
+    std::vector<cd> poles;
 };
 
 ModelFile read_model(const std::string &path);

@@ -489,12 +489,16 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
     // starts: vector fitting, then the subspace models (several block-row counts)
     struct Cand { std::string name; std::vector<cd> poles; };
     std::vector<Cand> cands;
-    cands.push_back({"vector-fitting", vector_fit_poles(w, d, o.order, tryD, o.vf_iter, o.wscale, false)});
-    if (o.rvf_iter > 0)
-        cands.push_back({"vector-fitting-relaxed", vector_fit_poles(w, d, o.order, tryD, o.rvf_iter, o.wscale, true)});
-    for (size_t k = 0; k < o.subspace_starts.size(); ++k) {
-        std::vector<cd> p = ss_poles(o.subspace_starts[k]);
-        if (!p.empty()) cands.push_back({"subspace#" + std::to_string(k + 1), p});
+    // given poles (a model to refine) replace the other starts
+    for (const auto &ps : o.pole_starts) cands.push_back({ps.first, ps.second});
+    if (cands.empty()) {
+        cands.push_back({"vector-fitting", vector_fit_poles(w, d, o.order, tryD, o.vf_iter, o.wscale, false)});
+        if (o.rvf_iter > 0)
+            cands.push_back({"vector-fitting-relaxed", vector_fit_poles(w, d, o.order, tryD, o.rvf_iter, o.wscale, true)});
+        for (size_t k = 0; k < o.subspace_starts.size(); ++k) {
+            std::vector<cd> p = ss_poles(o.subspace_starts[k]);
+            if (!p.empty()) cands.push_back({"subspace#" + std::to_string(k + 1), p});
+        }
     }
     LmOut best;
     best.V = std::numeric_limits<double>::infinity();
@@ -546,6 +550,7 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
 
 PrResult pr_ml_fit(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted, PrOptions o)
 {
+    if (!o.pole_starts.empty()) return pr_ml(w, d, f.h, o);   // a model to refine: its poles are the start
     try {
         SubspaceOptions so;
         so.order = o.order;

@@ -49,6 +49,10 @@ struct PrOptions {
     double wscale = 0.0;           // CT frequency scaling (0: geometric mean of the line frequencies)
     bool known_noise = false;
     std::vector<SSModel> subspace_starts;   // extra starts (subspace at several r), any order
+    // starts given by their poles (msid fit --start MODEL: a previous fit, another tool's model), each
+    // {name, poles as pole_list stores them}; the residues follow by weighted least squares. When given,
+    // they replace the vector-fitting and subspace starts (the model is refined, as MATLAB's ssest(data, sys))
+    std::vector<std::pair<std::string, std::vector<cd>>> pole_starts;
 };
 
 struct PrStart {

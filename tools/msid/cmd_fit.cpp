@@ -27,7 +27,7 @@ using namespace msidfit;
 static const char *FIT_HELP =
     "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
     "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
-    "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk]\n"
+    "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk|MODEL]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
     "                [--allow-unstable] [--refine ml|none|N]\n"
     "       msid fit --method multi --experiment r1.csv ... --order n|auto -o model.json   (time records)\n"
@@ -45,6 +45,9 @@ static const char *FIT_HELP =
     "            --param lmfd: LMFD from subspace (default) or Sanathanan-Koerner, with bounds (45)-(46);\n"
     "            parameter covariance (pseudo-inverse Fisher information with its rank). When the iterations\n"
     "            run out the best iterate is written marked \"converged\": false and the exit status is 3\n"
+    "  --start   ml --param lmfd: subspace (default) | sk; ml --param poles: MODEL.json, refine that model\n"
+    "            (a previous fit, another tool's model): its poles are the only start; its order when --order\n"
+    "            is left out\n"
     "  multi     time records of any lengths (ring-downs, free decays, transients), every record's initial\n"
     "            conditions eliminated (Markovsky & Pintelon): msid fit --method multi --help\n"
     "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
@@ -180,6 +183,33 @@ static Json feedthrough_json(Feedthrough ft, bool included, double p)
     return j;
 }
 
+// --start MODEL.json of ml --param poles: the model's poles (its pole_residue block, else the eigenvalues
+// of A) as pole_list stores them. The model must describe the fit's frequencies: the same domain and, in
+// DT, the same sample time. Its inputs and outputs may differ (the poles are common to every entry).
+static std::vector<cd> model_start_poles(const std::string &path, Domain d, double h)
+{
+    if (path == "subspace" || path == "sk")
+        throw UsageError("--start " + path + " chooses the start of --param lmfd; --param poles runs every start "
+                         "(vector fitting, relaxed vector fitting, subspace at several r) and keeps the best; "
+                         "--start MODEL.json refines a model from its poles");
+    ModelFile mf;
+    try {
+        mf = read_model(path);
+    } catch (const FitError &e) {
+        throw FitError(std::string("--start: ") + e.what());
+    }
+    if (mf.domain != d)
+        throw FitError(fmt("the start model '%s' is %s and the fit %s (--domain): its poles are in another variable",
+                           path.c_str(), mf.domain == Domain::CT ? "continuous-time" : "discrete-time",
+                           d == Domain::CT ? "continuous-time" : "discrete-time"));
+    if (d == Domain::DT && mf.h > 0 && h > 0 && std::abs(mf.h - h) > 1e-9 * h)
+        throw FitError(fmt("the start model '%s' was fitted at sample time %g s and the FRF has %g s", path.c_str(),
+                           mf.h, h));
+    std::vector<cd> p = mf.poles.empty() ? pole_list(ss_eigenvalues(mf.ss.A)) : mf.poles;
+    if (p.empty()) throw FitError("the start model '" + path + "' has no poles (order 0)");
+    return p;
+}
+
 // ml parametrisation: --param poles|lmfd; default poles, except the LMFD for DT with several inputs
 // (full-rank residue matrices would multiply the state order by the number of inputs).
 static bool use_poles(const Args &a, Domain d, size_t nu)
@@ -312,6 +342,8 @@ int cmd_fit(int argc, char **argv)
         auto w = weigh(f, d, wt, noise_var);
         const bool known = noise_var > 0;
         const int wsmooth = (int)a.u32("weight-smooth", (uint32_t)ML_WEIGHT_SMOOTH);
+        if (a.has("start") && method != "ml")
+            throw UsageError("--start belongs to --method ml (subspace|sk for --param lmfd, a model file for --param poles)");
         if (a.has("weight-smooth") && ((method != "ml" && method != "subspace") || wt == Weight::None || known))
             throw UsageError("--weight-smooth belongs to --method ml or subspace with estimated weights "
                              "(--weight cov|known-input)");
@@ -414,10 +446,23 @@ int cmd_fit(int argc, char **argv)
         } else if (method == "ml" && use_poles(a, d, nu)) {
             if (a.has("nd") || a.has("nn") || !a.all("pin").empty())
                 throw UsageError("--nd/--nn/--pin belong to the LMFD parametrisation: add --param lmfd");
-            if (!a.has("order")) throw UsageError("give --order");
             PrOptions po;
-            po.order = (int)parse_u32(a.get("order"), "--order");
-            if (po.order == 0) throw UsageError("--order must be positive");
+            if (a.has("order")) {
+                po.order = (int)parse_u32(a.get("order"), "--order");
+                if (po.order == 0) throw UsageError("--order must be positive");
+            }
+            if (a.has("start")) {   // a model's poles as one more start (docs/fitting.md, "Starting from a model")
+                const std::string sp = a.get("start");
+                po.pole_starts.push_back({"model", model_start_poles(sp, d, f.h)});
+                int cnt = 0;
+                for (const cd &p : po.pole_starts.back().second) cnt += p.imag() > 0 ? 2 : 1;
+                if (!a.has("order")) po.order = cnt;
+                else if (po.order != cnt)
+                    throw UsageError(fmt("--order %d and the start model '%s' has %d poles: give its order or leave "
+                                         "--order out", po.order, sp.c_str(), cnt));
+                settings["start"] = sp;
+            }
+            if (po.order == 0) throw UsageError("give --order");
             po.feedthrough = ft;
             po.stable = a.has("stable");
             po.known_noise = known;
@@ -506,7 +551,9 @@ int cmd_fit(int argc, char **argv)
                 settings["wscale"] = s.wscale;
             } else {
                 const std::string start = a.get("start", "subspace");
-                if (start != "subspace" && start != "sk") throw UsageError("--start must be subspace or sk (got '" + start + "')");
+                if (start != "subspace" && start != "sk")
+                    throw UsageError("--start must be subspace or sk with --param lmfd (got '" + start +
+                                     "'; a model file as the start works with --param poles)");
                 settings["start"] = start;
                 MlResult r = lmfd_ml_from(f, d, w, weighted, s, start, mo, known);
                 double lr_p = -1;

@@ -89,6 +89,13 @@ int cmd_fit_scan(int argc, char **argv)
     }
     if (out.empty()) throw UsageError("missing -o <model.json>");
     if (method == "lmfd") throw UsageError("--order auto/a:b needs --method subspace or ml (lmfd interpolates at every order)");
+    for (size_t i = 2; i < base.size(); ++i) {
+        const std::string v = base[i] == "--start" && i + 1 < base.size() ? base[i + 1]
+                              : base[i].rfind("--start=", 0) == 0 ? base[i].substr(8) : "";
+        if (!v.empty() && v != "subspace" && v != "sk")
+            throw UsageError("--start " + v + " starts one order (the model's): give one --order or leave it out, not " +
+                             range);
+    }
     // the FRF: the one positional argument (the first argument of base after "msid fit" that names a readable file)
     FrfData f;
     bool found = false;
