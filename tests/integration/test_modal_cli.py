@@ -145,3 +145,10 @@ def test_modes_cli(linfrf, tmp_path):
     assert h.load_json(s)["modes"]["modes"][0]["sd_fn"] is None
     bad = h.run("modes", linfrf / "frf.json")
     assert bad.returncode != 0 and "not an msid-model/1 file" in bad.stderr
+    # a real pole (order 5: one pole left over): its damping ratio is +-1 by definition, its sd '-'
+    r5 = tmp_path / "ml5.json"
+    r = h.run("fit", "--method", "ml", "--param", "poles", "--order", 5, linfrf / "frf.json", "-o", r5)
+    assert r.returncode in (0, 3), r.stderr
+    real = [x for x in h.load_json(r5)["modes"]["modes"] if x["real_pole"]]
+    rows = [ln for ln in h.run_ok("modes", r5).stdout.splitlines() if "(real pole)" in ln]
+    assert real and len(rows) == len(real) and all(ln.split()[4] == "-" for ln in rows), rows

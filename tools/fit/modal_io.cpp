@@ -224,7 +224,10 @@ std::string modal_text(const ModalReport &r)
                           m.contrib_with >= 0 ? fmt_with(m.contrib_with).c_str() : "");
             note += t;
         }
-        if (r.have_sd)
+        if (r.have_sd && m.real)   // a real pole's damping ratio is +-1 by definition: no sd
+            std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12.3g %-12.4g %-12s %.4g%s\n", k++, m.fn, m.sd_fn,
+                          100 * m.zeta, "-", rmax, note.c_str());
+        else if (r.have_sd)
             std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12.3g %-12.4g %-12.3g %.4g%s\n", k++, m.fn, m.sd_fn,
                           100 * m.zeta, 100 * m.sd_zeta, rmax, note.c_str());
         else
