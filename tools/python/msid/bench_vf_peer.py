@@ -48,6 +48,7 @@ def monte_carlo(d, runs):
             Gvf, _ = S.vector_fit(files[key], n)
             case["runs"].append({"seed": seed, "file": str(files[key]), "vf_seconds": time.perf_counter() - t0,
                                  "vf_cost": S.weighted_cost(G, Gvf, C), "vf_rel_error": S.rel_error(Gvf, G0),
+                                 "vf_fit_error": S.rel_error(Gvf, G),   # to the measured FRF (scikit-rf's measure)
                                  "vf_cost_pooled": S.weighted_cost(G, Gvf, S.pooled_cov(files[key])),
                                  "G0": _g0_json(G0)})
         out.append(case)
