@@ -643,3 +643,44 @@ def test_start_from_a_model(data, tmp_path):
     S.write(tmp_path / "dt.json", dt)
     r, _ = _fit(tmp_path, p, "refused", "--method", "ml", "--start", tmp_path / "dt.json", ok=False)
     assert r.returncode != 0 and "is discrete-time and the fit continuous-time" in r.stderr, r.stderr
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    """4-mode SISO and 2x2 accelerance structures on 120 lines: quick fits for the start-model checks."""
+    d = tmp_path_factory.mktemp("small")
+    return {kind: S.write(d / f"{kind}.json", S.frf_doc(S.structure(kind, SEED, n_modes=4), SEED, n_lines=120))
+            for kind in ("siso", "2x2")}
+
+
+def test_start_from_a_realisation_takes_each_pole_once(small, tmp_path):
+    # A model with several inputs realised as msid writes it (pole-residue and multi models repeat each
+    # pole once per input in A) and read without its pole_residue block (another tool's A, B, C, D):
+    # each pole once, not a start of twice the order with coincident poles
+    _, m1 = _fit(tmp_path, small["2x2"], "first", "--method", "ml", "--order", 8)
+    assert m1["order"] == 16 and len(m1["pole_residue"]["poles"]) == 4
+    abcd = dict(m1)
+    del abcd["pole_residue"]
+    p = S.write(tmp_path / "abcd.json", abcd)
+    _, m2 = _fit(tmp_path, small["2x2"], "again", "--method", "ml", "--start", p)
+    assert m2["order"] == 16 and len(m2["pole_residue"]["poles"]) == 4 and m2["converged"]
+    assert abs(m2["cost"]["value"] - m1["cost"]["value"]) <= 1e-6 * m1["cost"]["value"]
+    _fit(tmp_path, small["2x2"], "again8", "--method", "ml", "--order", 8, "--start", p)
+    # a pole listed twice (hand-written) is one pole: SISO, three distinct pairs
+    true = _true_poles(S.structure("siso", SEED, n_modes=4))
+    twice = _model_with_poles(tmp_path / "twice.json", [true[0], true[0], true[2], true[3]])
+    _, m3 = _fit(tmp_path, small["siso"], "twice", "--method", "ml", "--start", twice)
+    assert m3["order"] == 6 and m3["converged"]
+    r, out = _fit(tmp_path, small["siso"], "twice8", "--method", "ml", "--order", 8, "--start", twice, ok=False)
+    assert r.returncode == 2 and "has 6 distinct poles" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert out is None
+
+
+def test_model_start_with_the_lmfd_parametrisation_names_param_poles(small, tmp_path):
+    # --param lmfd (explicit, or ml's default for DT with several inputs) with a model file: the cause
+    # named (was "give --order or --nd/--nn" without --order)
+    m = _model_with_poles(tmp_path / "m.json", _true_poles(S.structure("siso", SEED, n_modes=4)))
+    for extra in ((), ("--order", 8)):
+        r, out = _fit(tmp_path, small["siso"], "lmfd", "--method", "ml", "--param", "lmfd", "--start", m, *extra, ok=False)
+        assert r.returncode == 2 and "add --param poles" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert out is None

@@ -207,7 +207,17 @@ static std::vector<cd> model_start_poles(const std::string &path, Domain d, doub
                            mf.h, h));
     std::vector<cd> p = mf.poles.empty() ? pole_list(ss_eigenvalues(mf.ss.A)) : mf.poles;
     if (p.empty()) throw FitError("the start model '" + path + "' has no poles (order 0)");
-    return p;
+    // a pole repeated (to rounding) is one pole of the start: the pole-residue form gives each pole a full
+    // residue matrix, and the realisation of a model with several inputs (msid's pole-residue and multi
+    // models) repeats each pole once per input in A; kept twice, the start would double the order with
+    // coincident poles whose residues no data separate
+    std::vector<cd> u;
+    for (const cd &z : p) {
+        bool seen = false;
+        for (const cd &q : u) seen = seen || std::abs(z - q) <= 1e-9 * std::max(std::abs(z), 1e-300);
+        if (!seen) u.push_back(z);
+    }
+    return u;
 }
 
 // ml parametrisation: --param poles|lmfd; default poles, except the LMFD for DT with several inputs
@@ -458,8 +468,8 @@ int cmd_fit(int argc, char **argv)
                 for (const cd &p : po.pole_starts.back().second) cnt += p.imag() > 0 ? 2 : 1;
                 if (!a.has("order")) po.order = cnt;
                 else if (po.order != cnt)
-                    throw UsageError(fmt("--order %d and the start model '%s' has %d poles: give its order or leave "
-                                         "--order out", po.order, sp.c_str(), cnt));
+                    throw UsageError(fmt("--order %d and the start model '%s' has %d distinct poles (pairs count twice): "
+                                         "give its order or leave --order out", po.order, sp.c_str(), cnt));
                 settings["start"] = sp;
             }
             if (po.order == 0) throw UsageError("give --order");
@@ -494,6 +504,10 @@ int cmd_fit(int argc, char **argv)
         } else {
             if (a.has("stable"))
                 throw UsageError("--stable works with subspace and with ml in the pole-residue parametrisation (--param poles)");
+            if (method == "ml" && a.has("start") && a.get("start") != "subspace" && a.get("start") != "sk")
+                throw UsageError("--start " + a.get("start") + ": --param lmfd starts from subspace or sk; a model file is refined "
+                                 "in the pole-residue form: add --param poles" +
+                                 (a.has("param") ? std::string() : " (ml's default for discrete time with several inputs is lmfd)"));
             LmfdSpec s;
             bool auto_nn = false;
             if (a.has("nd") || a.has("nn")) {
@@ -550,10 +564,7 @@ int cmd_fit(int argc, char **argv)
                 have_cov = true;
                 settings["wscale"] = s.wscale;
             } else {
-                const std::string start = a.get("start", "subspace");
-                if (start != "subspace" && start != "sk")
-                    throw UsageError("--start must be subspace or sk with --param lmfd (got '" + start +
-                                     "'; a model file as the start works with --param poles)");
+                const std::string start = a.get("start", "subspace");   // subspace|sk (others refused above)
                 settings["start"] = start;
                 MlResult r = lmfd_ml_from(f, d, w, weighted, s, start, mo, known);
                 double lr_p = -1;
