@@ -684,3 +684,15 @@ def test_model_start_with_the_lmfd_parametrisation_names_param_poles(small, tmp_
         r, out = _fit(tmp_path, small["siso"], "lmfd", "--method", "ml", "--param", "lmfd", "--start", m, *extra, ok=False)
         assert r.returncode == 2 and "add --param poles" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
         assert out is None
+
+
+@pytest.mark.parametrize("param", ["poles", "lmfd"])
+def test_weight_none_feedthrough_auto_keeps_d(small, tmp_path, param):
+    # docs/fitting.md: with --weight none the likelihood-ratio test has no noise scale and auto keeps D.
+    # ml ran the test on the unweighted cost (units of G squared) and dropped the accelerance's D
+    # (p = 0.27), a cost 260 times the fit with D
+    _, m = _fit(tmp_path, small["siso"], "none", "--method", "ml", "--param", param, "--order", 8, "--weight", "none")
+    _, y = _fit(tmp_path, small["siso"], "yes", "--method", "ml", "--param", param, "--order", 8, "--weight", "none",
+                "--feedthrough", "yes")
+    assert m["feedthrough"] == {"mode": "auto", "included": True, "lr_p_value": None}
+    assert abs(m["cost"]["value"] - y["cost"]["value"]) <= 1e-9 * y["cost"]["value"]

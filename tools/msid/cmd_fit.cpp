@@ -473,7 +473,8 @@ int cmd_fit(int argc, char **argv)
                 settings["start"] = sp;
             }
             if (po.order == 0) throw UsageError("give --order");
-            po.feedthrough = ft;
+            // --weight none: the cost has no noise scale for the likelihood-ratio test, auto keeps D (as subspace)
+            po.feedthrough = ft == Feedthrough::Auto && !weighted ? Feedthrough::Yes : ft;
             po.stable = a.has("stable");
             po.known_noise = known;
             po.max_iter = (int)a.u32("max-iter", (uint32_t)po.max_iter);
@@ -522,7 +523,8 @@ int cmd_fit(int argc, char **argv)
                 // auto -> both, kept by a likelihood-ratio test; DT: the direct term is N_0 (pinned to 0 for no)
                 s.nN = d == Domain::CT && ft == Feedthrough::No ? s.nD - 1 : s.nD;
                 if (d == Domain::DT && ft == Feedthrough::No) s.pins.push_back(parse_pin("N0=0"));
-                auto_nn = d == Domain::CT && ft == Feedthrough::Auto && method == "ml";
+                // --weight none: the cost has no noise scale for the test, auto keeps D (as subspace)
+                auto_nn = d == Domain::CT && ft == Feedthrough::Auto && method == "ml" && weighted;
             } else {
                 throw UsageError("give --order or --nd/--nn");
             }
