@@ -322,7 +322,7 @@ def fit_frf_directory(d):
     # seek "size" is not its content (it once gave basic_string::_M_replace_aux)
     sub = Path(d) / "frf-dir"
     sub.mkdir()
-    return ["fit", sub, "--method", "subspace", "--order", "2"], [f"'{sub}' is empty"]
+    return ["fit", sub, "--method", "subspace", "--order", "2"], [f"'{sub}' is a directory, not a file"]
 
 
 @case

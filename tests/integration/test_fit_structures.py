@@ -676,6 +676,20 @@ def test_start_from_a_realisation_takes_each_pole_once(small, tmp_path):
     assert out is None
 
 
+def test_start_file_refusals_name_the_entry(small, tmp_path):
+    # a directory given as the model (was "'DIR' is empty"); a pole_residue list holding both members
+    # of a pair (another tool's habit) names the entry and what to write (was "not finite or has Im < 0")
+    true = _true_poles(S.structure("siso", SEED, n_modes=4))
+    doc = h.load_json(_model_with_poles(tmp_path / "m.json", true))
+    doc["pole_residue"] = {"poles": [{"re": q.real, "im": s * q.imag} for q in true for s in (1, -1)]}
+    both = S.write(tmp_path / "both.json", doc)
+    for start, msg in ((tmp_path, f"'{tmp_path}' is a directory, not a file"),
+                       (both, "pole_residue.poles[1] has Im < 0: list each complex pair once")):
+        r, out = _fit(tmp_path, small["siso"], "refused", "--method", "ml", "--start", start, ok=False)
+        assert r.returncode == 1 and msg in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert out is None
+
+
 def test_model_start_with_the_lmfd_parametrisation_names_param_poles(small, tmp_path):
     # --param lmfd (explicit, or ml's default for DT with several inputs) with a model file: the cause
     # named (was "give --order or --nd/--nn" without --order)

@@ -94,11 +94,12 @@ ModelFile read_model(const std::string &path)
         const Json &pl = j["pole_residue"]["poles"];
         if (!pl.is_array() || (int64_t)pl.size() > n) throw FitError("'" + path + "': pole_residue.poles must be a list of at most 'order' poles");
         for (const Json &p : pl) {
+            const std::string at = "'" + path + "': pole_residue.poles[" + std::to_string(m.poles.size()) + "]";
             if (!p.is_object() || !p.contains("re") || !p.contains("im") || !p["re"].is_number() || !p["im"].is_number())
-                throw FitError("'" + path + "': pole_residue.poles entries need numbers 're' and 'im'");
+                throw FitError(at + " needs numbers 're' and 'im'");
             const cd z(p["re"].get<double>(), p["im"].get<double>());
-            if (!std::isfinite(z.real()) || !std::isfinite(z.imag()) || z.imag() < 0)
-                throw FitError("'" + path + "': pole_residue.poles holds a pole that is not finite or has Im < 0");
+            if (!std::isfinite(z.real()) || !std::isfinite(z.imag())) throw FitError(at + " is not finite");
+            if (z.imag() < 0) throw FitError(at + " has Im < 0: list each complex pair once, by its Im > 0 member");
             m.poles.push_back(z);
         }
     }

@@ -34,7 +34,9 @@ Json read_json(const std::string &path)
     // whose "size" from seeking is not its content) is read the long way
     std::string s;
     struct stat st;
-    const bool regular = ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+    const bool known = ::stat(path.c_str(), &st) == 0;
+    if (known && S_ISDIR(st.st_mode)) throw Error("'" + path + "' is a directory, not a file");
+    const bool regular = known && S_ISREG(st.st_mode);
     std::streamoff size = -1;
     if (regular) {
         in.seekg(0, std::ios::end);
