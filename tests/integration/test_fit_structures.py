@@ -690,6 +690,22 @@ def test_start_file_refusals_name_the_entry(small, tmp_path):
         assert out is None
 
 
+def test_start_of_order_0_and_scan_usage_errors(small, tmp_path):
+    # an order-0 model (A 0 x 0) as the start crashed (Eigen's eigen-solver on an empty matrix, SIGSEGV)
+    doc = h.load_json(_model_with_poles(tmp_path / "m.json", _true_poles(S.structure("siso", SEED, n_modes=4))))
+    doc.update(order=0, A=[], B=[], C=[[]])
+    r, out = _fit(tmp_path, small["siso"], "o0", "--method", "ml", "--start", S.write(tmp_path / "zero.json", doc), ok=False)
+    assert r.returncode == 1 and "has no poles (order 0)" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert out is None
+    # an order scan whose fit refuses its options (the same at every order): one message, exit 2, no
+    # file (was one "failed:" row per order, 40 here, then exit 1)
+    for args, msg in ((("--param", "poles", "--start", "sk"), "--start sk chooses the start of --param lmfd"),
+                      (("--pin", "N0=0"), "--nd/--nn/--pin belong to the LMFD parametrisation")):
+        r, out = _fit(tmp_path, small["siso"], "scan", "--method", "ml", "--order", "auto", *args, ok=False)
+        assert r.returncode == 2 and msg in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert "failed:" not in r.stdout and out is None and not (tmp_path / "scan.json.order-scan.tmp").exists()
+
+
 def test_model_start_with_the_lmfd_parametrisation_names_param_poles(small, tmp_path):
     # --param lmfd (explicit, or ml's default for DT with several inputs) with a model file: the cause
     # named (was "give --order or --nd/--nn" without --order)

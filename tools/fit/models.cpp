@@ -81,6 +81,7 @@ SSModel lmfd_to_ss(const LmfdModel &m)
 
 VecC ss_eigenvalues(const MatR &A0)
 {
+    if (A0.rows() == 0) return VecC();   // order 0 (Eigen's solver crashes on an empty matrix)
     MatR A = A0;
     const Eigen::Index n = A.rows();
     const double radix = 2.0, sqrdx = radix * radix;

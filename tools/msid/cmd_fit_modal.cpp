@@ -152,7 +152,9 @@ int cmd_fit_scan(int argc, char **argv)
     }
     std::vector<Json> docs;
     const std::string tmp = out + ".order-scan.tmp";
+    std::string usage;   // a usage error of the fit (e.g. --start sk with --param poles) holds at every order
     auto fit_at = [&](int n) {
+        if (!usage.empty()) throw FitError(usage);
         std::vector<std::string> args = base;
         args.push_back("--order");
         args.push_back(std::to_string(n));
@@ -163,6 +165,10 @@ int cmd_fit_scan(int argc, char **argv)
         int rc = 0;
         try {
             rc = fit_quiet(args);
+        } catch (const UsageError &e) {
+            std::remove(tmp.c_str());
+            usage = e.what();
+            throw FitError(usage);
         } catch (const Error &e) {
             std::remove(tmp.c_str());
             throw FitError(e.what());
@@ -205,6 +211,7 @@ int cmd_fit_scan(int argc, char **argv)
         return r;
     };
     OrderSelection sel = select_order(orders, fit_at, f.h, 0.05, StabTol{}, is_auto);
+    if (!usage.empty()) throw UsageError(usage);   // one message, exit 2, not one failed row per order
     sel.line_stride = stride;
     if (stride > 1)
         std::printf("LPM file: cost and p-value over every %zu-th line (2W+1 bins apart: independent), as msid validate\n",
