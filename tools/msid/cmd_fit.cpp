@@ -461,7 +461,7 @@ int cmd_fit(int argc, char **argv)
                 po.order = (int)parse_u32(a.get("order"), "--order");
                 if (po.order == 0) throw UsageError("--order must be positive");
             }
-            if (a.has("start")) {   // a model's poles as one more start (docs/fitting.md, "Starting from a model")
+            if (a.has("start")) {   // refine a model: its poles are the only start (docs/fitting.md, "Starting from a model")
                 const std::string sp = a.get("start");
                 po.pole_starts.push_back({"model", model_start_poles(sp, d, f.h)});
                 int cnt = 0;
