@@ -4,8 +4,8 @@
 // copying and the zero-copy path), .npz (read_record_npz: zip, stored and deflated members, zip64) and
 // .mat (read_record_mat, through libmatio). Seeds: corpus/fuzz_files/ (npy-*, npz-*, mat-* from gen_seeds.py). A reader must return a value or throw its
 // one error; any other exception, a crash or a sanitizer report is a finding.
-#include "csv_io.hpp"
-#include "design_io.hpp"
+#include "msid_records.hpp"
+#include "msid_design_file.hpp"
 #include "frf_data.hpp"
 #include "model_io.hpp"
 
@@ -28,11 +28,11 @@ static std::string tmp_path()
 static void csv_both_paths(const std::string &path)
 {
     std::string err[2];
-    msidcli::Record rec[2];
+    msidrec::Record rec[2];
     for (int k = 0; k < 2; ++k) {
         try {
-            rec[k] = msidcli::read_record_csv(path, {}, true, k == 0);
-        } catch (const msidcli::Error &e) {
+            rec[k] = msidrec::read_record_csv(path, {}, true, k == 0);
+        } catch (const msidutil::Error &e) {
             err[k] = e.what();
         }
     }
@@ -42,7 +42,7 @@ static void csv_both_paths(const std::string &path)
         std::fprintf(stderr, "CSV cell path and general path differ: '%s' / '%s'\n", err[0].c_str(), err[1].c_str());
         std::abort();
     }
-    if (!err[0].empty()) throw msidcli::Error(err[0]);
+    if (!err[0].empty()) throw msidutil::Error(err[0]);
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -54,19 +54,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     std::fwrite(data + 1, 1, size - 1, f);
     std::fclose(f);
     try {
-        static const msidcli::ColumnMap two = msidcli::parse_column_map("u1=1,y1=2");
+        static const msidrec::ColumnMap two = msidrec::parse_column_map("u1=1,y1=2");
         switch (data[0] % 8) {
         case 0: (void)msidfit::read_frf(path); break;
         case 1: (void)msidfit::read_model(path); break;
-        case 2: (void)msidcli::read_design_file(path); break;
+        case 2: (void)msidfmt::read_design_file(path); break;
         case 3: csv_both_paths(path); break;
-        case 4: (void)msidcli::read_record_npy(path, {}, false); break;
-        case 5: (void)msidcli::read_record_npy(path, two, true); break;   // the zero-copy view
-        case 6: (void)msidcli::read_record_npz(path, {}); break;
-        default: (void)msidcli::read_record_mat(path, {}); break;
+        case 4: (void)msidrec::read_record_npy(path, {}, false); break;
+        case 5: (void)msidrec::read_record_npy(path, two, true); break;   // the zero-copy view
+        case 6: (void)msidrec::read_record_npz(path, {}); break;
+        default: (void)msidrec::read_record_mat(path, {}); break;
         }
     } catch (const msidfit::FitError &) {
-    } catch (const msidcli::Error &) {
+    } catch (const msidutil::Error &) {
     }
     return 0;
 }

@@ -11,7 +11,7 @@
 //  - a multisine of period P + 1 read with period P: refused, the phase turn per
 //    period at the strongest line named (about -360 b / (P + 1) degrees).
 #include "periodicity.hpp"
-#include "pipeline.hpp"
+#include "msid_frf_job.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -26,7 +26,7 @@ extern "C" {
 #include <cmocka.h>
 }
 
-using namespace msidcli;
+using namespace msidjob;
 
 namespace {
 

@@ -126,13 +126,13 @@ size_t check(Parser p, const std::vector<std::string> &strs, std::string *first)
 
 const char *parse_ok(const char *p, const char *end, double &v, bool &slow)
 {
-    return msidcli::decimal::parse(p, end, v, slow);
+    return msidrec::decimal::parse(p, end, v, slow);
 }
 
 // The negative control: 1 ulp off when the string's length is a multiple of 64... of its bytes' sum.
 const char *parse_off_by_one_ulp(const char *p, const char *end, double &v, bool &slow)
 {
-    const char *q = msidcli::decimal::parse(p, end, v, slow);
+    const char *q = msidrec::decimal::parse(p, end, v, slow);
     unsigned sum = 0;
     for (const char *c = p; q && c < q; ++c) sum += (unsigned char)*c;
     if (q && sum % 64 == 0 && std::isfinite(v)) v = std::nextafter(v, INFINITY);
@@ -173,13 +173,13 @@ void test_decimal_negative_control(void **)
 #ifdef MSID_DECIMAL_CELL
 using CellParser = bool (*)(const char *, size_t, double &);
 
-bool cell_ok(const char *s, size_t len, double &v) { return msidcli::decimal::parse_cell(s, len, v); }
+bool cell_ok(const char *s, size_t len, double &v) { return msidrec::decimal::parse_cell(s, len, v); }
 
 // Negative controls: 1 ulp off for one cell in 64 (by its bytes' sum); a cell with an exponent read
 // as its mantissa (the parse of a wrong shape).
 bool cell_off_by_one_ulp(const char *s, size_t len, double &v)
 {
-    if (!msidcli::decimal::parse_cell(s, len, v)) return false;
+    if (!msidrec::decimal::parse_cell(s, len, v)) return false;
     unsigned sum = 0;
     for (size_t k = 0; k < len; ++k) sum += (unsigned char)s[k];
     if (sum % 64 == 0) v = std::nextafter(v, INFINITY);
@@ -189,7 +189,7 @@ bool cell_ignores_exponent(const char *s, size_t len, double &v)
 {
     size_t n = 0;
     while (n < len && (s[n] | 0x20) != 'e') ++n;
-    return msidcli::decimal::parse_cell(s, n, v) || msidcli::decimal::parse_cell(s, len, v);
+    return msidrec::decimal::parse_cell(s, n, v) || msidrec::decimal::parse_cell(s, len, v);
 }
 
 // Is s of the cell parser's shape: -?D+.D+ with 2..15 digits?
@@ -201,7 +201,7 @@ bool cell_shape(const std::string &s)
     for (; k < s.size(); ++k) {
         if (s[k] == '.') {
             if (dots++ || k == first || k + 1 == s.size()) return false;
-        } else if (msidcli::decimal::digit(s[k])) {
+        } else if (msidrec::decimal::digit(s[k])) {
             ++digits;
         } else {
             return false;
@@ -264,7 +264,7 @@ std::vector<std::string> cells()
 
 void test_cell_equals_from_chars(void **)
 {
-    if (!msidcli::decimal::cell_available()) skip();
+    if (!msidrec::decimal::cell_available()) skip();
     std::vector<std::string> strs = corpus();
     const std::vector<std::string> c = cells();
     strs.insert(strs.end(), c.begin(), c.end());
@@ -283,7 +283,7 @@ void test_cell_equals_from_chars(void **)
 // '.', and neither parser takes the other separator.
 void test_cell_decimal_comma(void **)
 {
-    if (!msidcli::decimal::cell_available()) skip();
+    if (!msidrec::decimal::cell_available()) skip();
     const std::vector<std::string> c = cells();
     size_t taken = 0, bad = 0;
     std::string buf;
@@ -294,11 +294,11 @@ void test_cell_decimal_comma(void **)
         buf = std::string(16, ';') + t + ";" + std::string(16, ';') + s + ";";
         const char *tc = buf.data() + 16, *sc = tc + t.size() + 1 + 16;
         double a = 0, b = 0;
-        const bool ok = msidcli::decimal::parse_cell(sc, s.size(), a);
-        if (ok != msidcli::decimal::parse_cell(tc, t.size(), b, ',')) ++bad;
+        const bool ok = msidrec::decimal::parse_cell(sc, s.size(), a);
+        if (ok != msidrec::decimal::parse_cell(tc, t.size(), b, ',')) ++bad;
         else if (ok && std::memcmp(&a, &b, 8) != 0) ++bad;
         taken += ok;
-        if (msidcli::decimal::parse_cell(sc, s.size(), a, ',') || msidcli::decimal::parse_cell(tc, t.size(), b)) ++bad;
+        if (msidrec::decimal::parse_cell(sc, s.size(), a, ',') || msidrec::decimal::parse_cell(tc, t.size(), b)) ++bad;
     }
     assert_int_equal(bad, 0);
     assert_true(taken > 170000);
@@ -306,7 +306,7 @@ void test_cell_decimal_comma(void **)
 
 void test_cell_negative_controls(void **)
 {
-    if (!msidcli::decimal::cell_available()) skip();
+    if (!msidrec::decimal::cell_available()) skip();
     const std::vector<std::string> c = cells();
     const std::vector<std::string> strs(c.begin(), c.begin() + 200000);
     size_t taken = 0, missed = 0;

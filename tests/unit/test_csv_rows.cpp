@@ -9,7 +9,7 @@
 // must give the same rows bit for bit or the same one error message.
 // Coverage: on the common shape the cell path must take every row (a reader
 // that always fell back would pass the comparison): Record::general_lines.
-#include "csv_io.hpp"
+#include "msid_records.hpp"
 #include "msid_decimal.hpp"
 
 #include <cmath>
@@ -121,14 +121,14 @@ std::string random_csv(msid_rng &r, bool big)
 struct Outcome {
     bool ok = false;
     std::string err;
-    msidcli::Record rec;
+    msidrec::Record rec;
 };
 
 Outcome read(const std::string &path, bool split, bool cells)
 {
     Outcome o;
     try {
-        o.rec = msidcli::read_record_csv(path, {}, split, cells);
+        o.rec = msidrec::read_record_csv(path, {}, split, cells);
         o.ok = true;
     } catch (const std::exception &e) {
         o.err = e.what();
@@ -195,7 +195,7 @@ void test_comparison_sees_a_changed_cell(void **)
 // general path alone.
 void test_cell_path_takes_the_common_rows(void **)
 {
-    if (!msidcli::decimal::cell_available()) skip();
+    if (!msidrec::decimal::cell_available()) skip();
     const std::string path = tmp_file();
     msid_rng r;
     msid_rng_seed(&r, 7);

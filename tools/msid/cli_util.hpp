@@ -8,20 +8,19 @@
 #include <string_view>
 #include <vector>
 
-extern "C" {
-#include "msid/msid.h"
-}
+#include "msid_host_util.hpp"
 
 namespace msidcli {
 
-// One clear message; main() prints it once and exits non-zero.
-struct Error : std::runtime_error {
-    int code;
-    explicit Error(const std::string &m, int c = 1) : std::runtime_error(m), code(c) {}
-};
-struct UsageError : Error {
-    explicit UsageError(const std::string &m) : Error(m, 2) {}
-};
+// The host libraries' error types (tools/util): main() prints the message once and exits with
+// its code (1, or 2 for a usage error).
+using msidutil::Error;
+using msidutil::UsageError;
+using msidutil::IoError;
+using msidutil::fmt;
+using msidutil::check;
+using msidutil::write_file_atomic;
+using msidutil::Mem;
 
 // `--help` or `-h` was given: main() prints `text` to stdout and exits 0 (thrown by Args).
 struct HelpRequest {
@@ -85,33 +84,6 @@ uint32_t parse_u32(const std::string &s, const std::string &what);
 // Comma list of unsigned ints with ranges a:b and a:step:b (inclusive).
 std::vector<uint32_t> parse_uint_list(const std::string &s, const std::string &what);
 std::vector<double> parse_double_list(const std::string &s, const std::string &what);
-
-// Throw Error with msid_strerror() when st != MSID_OK.
-void check(msid_status st, const std::string &context);
-
-// Write a file atomically: data goes to a temporary next to `path`, then rename.
-// `durable`: fsync the data before the rename (a crash or power loss right after
-// leaves the old file or the whole new one, never an empty one). Off only for
-// results that a re-run reproduces from files (msid frf): it saves the wait for
-// the disk.
-void write_file_atomic(const std::string &path, const std::string &data, bool durable = true);
-// The same file from pieces written one after the other (no copy into one buffer).
-void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable = true);
-
-// Aligned, owned working memory for one msid object.
-struct Mem {
-    void *p = nullptr;
-    size_t n = 0;
-    Mem() = default;
-    explicit Mem(size_t bytes);
-    Mem(const Mem &) = delete;
-    Mem &operator=(const Mem &) = delete;
-    Mem(Mem &&o) noexcept : p(o.p), n(o.n) { o.p = nullptr; o.n = 0; }
-    Mem &operator=(Mem &&o) noexcept;
-    ~Mem();
-};
-
-std::string fmt(const char *f, ...) __attribute__((format(printf, 1, 2)));
 
 // `msid <group> <sub> ...`: prints `help` (stdout for --help/-h, stderr and exit 2 when no
 // subcommand is given) or runs the handler named by argv[2]; an unknown name is a usage

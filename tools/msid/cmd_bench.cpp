@@ -9,7 +9,7 @@ extern "C" {
 }
 #include <fftw3.h>
 
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 #include "frf_file.hpp"
 #include "lmfd_fit.hpp"
 #include "poleres.hpp"

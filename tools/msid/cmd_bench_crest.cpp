@@ -4,7 +4,7 @@
 // input) on the same coefficients in the same run; prints the agreement of the crest factors.
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"

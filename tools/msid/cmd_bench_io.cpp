@@ -5,9 +5,9 @@
 // (tools/python/msid/bench_io_peer.py).
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "csv_io.hpp"
+#include "host_libs.hpp"
 
-#include "matio_dl.hpp"
+#include "matio_dl.hpp"   // libmatio on first use (tools/records)
 
 #include <algorithm>
 #include <chrono>
@@ -23,6 +23,8 @@
 #include <unistd.h>
 
 namespace msidcli {
+using msidrec::matio;
+using msidrec::Matio;
 
 namespace {
 

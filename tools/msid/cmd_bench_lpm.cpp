@@ -4,7 +4,7 @@
 // same samples in the same run; prints the agreement of the two estimates.
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 #include "lpm.hpp"
 

@@ -4,7 +4,7 @@
 // parameters (tools/python/msid/bench_multi_peer.py) on the same records.
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 #include "multi_sim.hpp"
 

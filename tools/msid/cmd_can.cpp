@@ -1,7 +1,7 @@
 // msid can: measure an FRF over SocketCAN from an msid-can/1 device, and
 // replay a candump log through the same decoder (bit-identical FRF).
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 #include "measure.hpp"
 
 extern "C" {

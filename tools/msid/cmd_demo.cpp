@@ -4,7 +4,7 @@
 // then the true poles beside the estimated ones, the fit error, the coverage of the 95% regions and
 // the validation verdict. The simulator is stopped in every case (errors, Ctrl-C included).
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 #include "measure.hpp"
 #include "measure_outputs.hpp"
 

@@ -1,7 +1,6 @@
 // msid excite: design a multisine, write msid-design/1 and optional input CSVs.
 #include "commands.hpp"
-#include "csv_io.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 #include <cerrno>
 #include <cstdio>

@@ -4,7 +4,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "frf_data.hpp"
-#include "matio_dl.hpp"
+#include "matio_dl.hpp"   // libmatio on first use (tools/records)
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +14,8 @@
 #include <vector>
 
 namespace msidcli {
+using msidrec::matio;
+using msidrec::Matio;
 
 static const char *HELP =
     "usage: msid export frf.json (--csv out.csv | --mat out.mat) [--known-input]\n"

@@ -2,8 +2,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "fit_poles.hpp"
-#include "frf_io.hpp"
-#include "nl_verdict.hpp"
+#include "host_libs.hpp"
 #include "validation_stat.hpp"
 
 #include "lmfd_fit.hpp"

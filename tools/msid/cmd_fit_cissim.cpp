@@ -2,9 +2,7 @@
 // with the noise covariances of section 4.3. docs/fitting.md, section "cissim".
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "csv_io.hpp"
-#include "frf_io.hpp"
-#include "periodicity.hpp"
+#include "host_libs.hpp"
 
 #include "cissim.hpp"
 #include "model_io.hpp"

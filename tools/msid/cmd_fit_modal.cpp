@@ -3,7 +3,7 @@
 #include "cli_util.hpp"
 #include "validation_stat.hpp"
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 #include "frf_data.hpp"
 #include "modal_io.hpp"

@@ -4,8 +4,7 @@
 // Pintelon §IV-VI). Writes the normal msid-model/1 file plus a "multi" section.
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "csv_io.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 #include "model_io.hpp"
 #include "models.hpp"

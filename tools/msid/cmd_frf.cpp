@@ -1,10 +1,6 @@
 // msid frf: experiment CSVs -> msid-frf/1.
 #include "commands.hpp"
-#include "frf_io.hpp"
-#include "periodicity.hpp"
-#include "pipeline.hpp"
-#include "frf_bla.hpp"
-#include "fftw_warmup.hpp"
+#include "host_libs.hpp"
 
 #include <cstdio>
 #include <cstring>

@@ -1,14 +1,11 @@
 // msid frf --method lpm|etfe: FRFs from arbitrary records (tools/est) -> msid-frf/1.
 #include "commands.hpp"
-#include "frf_io.hpp"
-#include "periodicity.hpp"
-#include "pipeline.hpp"
+#include "host_libs.hpp"
 #include "frf_file.hpp"
 
 #include "etfe.hpp"
 #include "lpm.hpp"
 #include "lpm_eiv.hpp"
-#include "frf_reference.hpp"
 
 #include <algorithm>
 #include <cmath>

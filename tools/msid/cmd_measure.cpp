@@ -3,7 +3,7 @@
 // fit OUTDIR/model.json, and plot (bode.png, bode.svg, report.html) through the Python package.
 // Ctrl-C keeps every complete period. docs/measure.md.
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 #include "measure.hpp"
 #include "measure_outputs.hpp"
 

@@ -1,7 +1,7 @@
 // msid modbus: measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device
 // (docs/modbus-registers.md) through the shared FRF job; msid bench modbus.
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 #include "measure.hpp"
 
 extern "C" {

@@ -8,10 +8,9 @@
 // --stream-check FILE: the device also streams its samples; the host estimates from them on the same
 // (streaming) DFT path, writes that FRF to FILE and checks that both agree bit for bit.
 #include "commands.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 #include "measure.hpp"
 #include "param_upload.hpp"
-#include "pipeline.hpp"
 
 extern "C" {
 #include "msid_daq/msid_can_session.h"
@@ -117,7 +116,7 @@ Json cplx_matrix(const double *r, uint32_t k, size_t rows, size_t cols)
         v[i].re = finite(r, k + 2 * (uint32_t)i);
         v[i].im = finite(r, k + 2 * (uint32_t)i + 1);
     }
-    return cmat_json(v.data(), rows, cols);
+    return msidjob::cmat_json(v.data(), rows, cols);
 }
 
 Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }

@@ -6,7 +6,7 @@
 #pragma once
 #include "device_uri.hpp"
 #include "param_upload.hpp"
-#include "pipeline.hpp"
+#include "host_libs.hpp"
 #include "progress.hpp"
 
 extern "C" {

@@ -2,7 +2,7 @@
 // experiment loop with live progress, the FRF of what was measured, and the protocol commands'
 // write path. The Modbus session is measure_modbus.cpp, the CAN session cmd_can.cpp.
 #include "measure.hpp"
-#include "frf_io.hpp"
+#include "host_libs.hpp"
 
 #include <algorithm>
 #include <cmath>

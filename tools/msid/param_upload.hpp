@@ -2,7 +2,7 @@
 // CAN upload (CFG frames) and the Modbus upload (parameter mailbox): the device
 // rebuilds the design from these parameters with lib/, never from samples.
 #pragma once
-#include "pipeline.hpp"
+#include "host_libs.hpp"
 
 extern "C" {
 #include "msid_daq/msid_params.h"

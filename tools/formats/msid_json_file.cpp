@@ -1,13 +1,54 @@
-#include "frf_io.hpp"
+// JSON documents on disk: read with the file named in every error, checked accessors, and the
+// atomic writer (no partial file, no NaN or Inf written).
+#include "msid_json_file.hpp"
 #include "frf_file.hpp"
-#include "frf_text.hpp"
-#include "pipeline.hpp"
 
 #include <cmath>
 
-namespace msidcli {
+namespace msidfmt {
 
-// The first number in `j` that is NaN or infinite (JSON would write it as null), by its path; "" if none.
+using msidutil::write_file_atomic;
+
+Json read_json_file(const std::string &path)
+{
+    try {
+        return msidfrf::read_json(path);
+    } catch (const msidfrf::Error &e) {
+        throw Error(e.what());
+    }
+}
+
+const Json &jget(const Json &o, const std::string &key, const std::string &file)
+{
+    if (!o.is_object()) throw Error("'" + file + "': expected a JSON object");
+    auto it = o.find(key);
+    if (it == o.end()) throw Error("'" + file + "': missing '" + key + "'");
+    return *it;
+}
+
+uint64_t juint(const Json &o, const std::string &key, const std::string &file)
+{
+    const Json &v = jget(o, key, file);
+    if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
+        throw Error("'" + file + "': '" + key + "' must be a non-negative integer");
+    return v.get<uint64_t>();
+}
+
+uint32_t juint32(const Json &o, const std::string &key, const std::string &file)
+{
+    const uint64_t v = juint(o, key, file);
+    if (v > 0xFFFFFFFFull) throw Error("'" + file + "': '" + key + "' = " + std::to_string(v) + " is out of range");
+    return (uint32_t)v;
+}
+
+double jnum(const Json &v, const std::string &what, const std::string &file)
+{
+    if (!v.is_number()) throw Error("'" + file + "': " + what + " must be a number");
+    double x = v.get<double>();
+    if (!std::isfinite(x)) throw Error("'" + file + "': " + what + " is not finite");
+    return x;
+}
+
 static std::string nonfinite_at(const Json &j, const std::string &at)
 {
     if (j.is_number_float()) return std::isfinite(j.get<double>()) ? "" : (at.empty() ? "/" : at);
@@ -49,20 +90,4 @@ void write_json_file(const std::string &path, const Json &doc, bool durable, con
     write_file_atomic(path, pieces, durable);
 }
 
-Json cplx_json(const std::complex<double> *a, size_t rows, size_t cols) { return msidfrf::cmat(a, rows, cols); }
-
-Json est_line_json(Json pos, unsigned ny, unsigned nu, const std::complex<double> *G,
-                   const std::complex<double> *cov, double dof, const std::complex<double> *noise,
-                   const std::vector<double> &snr_db)
-{
-    const size_t g = (size_t)ny * nu;
-    msidfrf::LineStats s;
-    s.G = msidfrf::from_row_major(G, ny, nu);
-    s.cov = msidfrf::from_row_major(cov, g, g);
-    s.dof = dof;   // cov_known_input: the same matrix and dof
-    s.noise = msidfrf::from_row_major(noise, ny, ny);
-    s.snr = snr_db;
-    return msidfrf::line(std::move(pos), s);
-}
-
-}  // namespace msidcli
+}  // namespace msidfmt

@@ -1,11 +1,28 @@
-// The FRF job shared by `msid frf`, `msid demo` and `msid bench`:
+// msid_frfjob: the FRF job of every host path (files, arrays from Python, msid measure):
 // records -> msid_meas (line DFT + period statistics) -> msid_frf -> msid-frf/1.
+// No command-line types: errors are msidjob::Error (bad records or request) and
+// msidutil::UsageError (conflicting settings).
 #pragma once
-#include "csv_io.hpp"
-#include "design_io.hpp"
+#include "msid_records.hpp"
+#include "msid_design_file.hpp"
+#include "msid_host_util.hpp"
 #include "frf_text.hpp"
 
-namespace msidcli {
+namespace msidjob {
+
+// A problem with the records or the request: one message naming the source.
+struct Error : msidutil::Error {
+    explicit Error(const std::string &m, msidutil::ErrorKind k = msidutil::ErrorKind::data)
+        : msidutil::Error(m, 1, k) {}
+};
+using msidutil::UsageError;
+using msidrec::Record;
+using msidfmt::Design;
+using msidfmt::Json;
+
+}  // namespace msidjob
+
+namespace msidjob {
 
 struct FrfRequest {
     uint32_t period = 0;
@@ -43,9 +60,6 @@ struct FrfOutcome {
 void request_from_design(FrfRequest &rq, const Design &d);
 // The same from a core design (no file behind it).
 void request_from_core_design(FrfRequest &rq, const msid_design &d);
-
-// --skip-periods, --detect-lines, --transient, --alpha (shared by the estimating commands).
-void parse_estimate_options(const Args &a, FrfRequest &rq);
 
 // The records agree with each other and the request (same columns, m >= nu,
 // the design's inputs and experiments). Throws Error. `count` false: all but the number of
@@ -104,4 +118,4 @@ Json line_position(const FrfRequest &rq, size_t l);
 // {"re": [[...]], "im": [[...]]} of a rows x cols complex matrix (row-major).
 Json cmat_json(const msid_cplx *a, size_t rows, size_t cols);
 
-}  // namespace msidcli
+}  // namespace msidjob

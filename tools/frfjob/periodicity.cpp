@@ -2,8 +2,8 @@
 // name a non-periodic input or a wrong --period. See periodicity.hpp and
 // docs/statistics.md ("Input periodicity").
 #include "periodicity.hpp"
-#include "cli_util.hpp"
-#include "fftw_warmup.hpp"
+#include "frf_job_detail.hpp"
+#include "msid_fftw_planner.hpp"
 
 #include <fftw3.h>
 
@@ -14,7 +14,7 @@
 #include <system_error>
 #include <thread>
 
-namespace msidcli {
+namespace msidjob {
 
 namespace {
 
@@ -359,7 +359,7 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
                     const double e2 = K2 >= 2 ? nonperiodic_fraction(r, Q2, 0, K2) : 1.0;
                     if (e2 < 0.5 * eta) Q = Q2, eta_n = e2;
                 }
-            } catch (const Error &) {
+            } catch (const msidutil::Error &) {
             }
         }
         if (!Q && eta > NONPERIODIC_FRACTION) {
@@ -556,4 +556,4 @@ std::string format_bins(const std::vector<uint32_t> &b)
     return s;
 }
 
-}  // namespace msidcli
+}  // namespace msidjob

@@ -3,7 +3,7 @@
 #pragma once
 #include <matio.h>
 
-namespace msidcli {
+namespace msidrec {
 
 struct Matio {
     decltype(&Mat_Open) Open;
@@ -20,4 +20,4 @@ struct Matio {
 // The loaded library; throws Error if libmatio cannot be loaded.
 const Matio &matio();
 
-}  // namespace msidcli
+}  // namespace msidrec

@@ -1,6 +1,8 @@
-// Experiment records from files as they come: CSV (',', ';' or tab), NumPy
-// .npy/.npz and MATLAB .mat (v5, v7.3). One entry point, read_experiment(),
-// gives every estimator the same samples matrix and column names.
+// msid_records: experiment records from files as they come: CSV (',', ';' or tab), NumPy
+// .npy/.npz and MATLAB .mat (v5, v7.3), and the CSV writer. One entry point, read_experiment(),
+// gives every estimator the same samples matrix and column names. No command-line types: errors
+// are msidrec::Error (a file's contents: ErrorKind::data; a file that cannot be opened or read:
+// ErrorKind::io) and msidrec::ColumnSpecError (a bad column map: ErrorKind::usage).
 #pragma once
 #include <cstdint>
 #include <cstdlib>
@@ -10,7 +12,23 @@
 #include <utility>
 #include <vector>
 
-namespace msidcli {
+#include "msid_host_error.hpp"
+
+namespace msidrec {
+
+// A problem with a record or its file: one message naming the file, the row and the column.
+struct Error : msidutil::Error {
+    explicit Error(const std::string &m, msidutil::ErrorKind k = msidutil::ErrorKind::data)
+        : msidutil::Error(m, 1, k) {}
+};
+// A file that cannot be opened or read.
+struct FileError : Error {
+    explicit FileError(const std::string &m) : Error(m, msidutil::ErrorKind::io) {}
+};
+// A bad `--columns` / `columns=` mapping (a usage error: exit status 2).
+struct ColumnSpecError : msidutil::UsageError {
+    explicit ColumnSpecError(const std::string &m) : msidutil::UsageError(m) {}
+};
 
 // Allocator of the sample matrices: blocks of 2 MiB and more are 2 MiB
 // aligned and marked for transparent huge pages (one page fault per 2 MiB
@@ -64,7 +82,7 @@ struct ColumnMap {
     bool empty() const { return map.empty(); }
 };
 
-// Parse a --columns value; throws UsageError (u<k>/y<k> targets without gaps,
+// Parse a --columns value; throws ColumnSpecError (u<k>/y<k> targets without gaps,
 // each target and each source at most once).
 ColumnMap parse_column_map(const std::string &spec, bool inputs_optional = false);
 
@@ -138,4 +156,4 @@ Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero
 Record read_record_npz(const std::string &path, const ColumnMap &cols);
 Record read_record_mat(const std::string &path, const ColumnMap &cols);
 
-}  // namespace msidcli
+}  // namespace msidrec

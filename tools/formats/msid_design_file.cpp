@@ -1,6 +1,5 @@
-#include "design_io.hpp"
-#include "frf_file.hpp"
-#include "fftw_warmup.hpp"
+#include "msid_design_file.hpp"
+#include "msid_fftw_planner.hpp"
 
 #include "msid/msid_fft_fftw.h"
 
@@ -11,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace msidcli {
+namespace msidfmt {
 
 
 static std::string line_name(const DesignParams &p, int32_t l)
@@ -69,7 +68,7 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
         bool on = false;
         ~Plan() { if (on) msid_fft_fftw_destroy(&f); }   // after fftw_planner_ready() below
     } plan;
-    fftw_planner_ready();
+    msidutil::fftw_planner_ready();
     check(msid_fft_fftw_create(&plan.f, p.period, MSID_FFTW_ESTIMATE), "FFTW plan");
     plan.on = true;
     c.crest = MSID_CREST_FFT;
@@ -181,46 +180,6 @@ Json design_to_json(const Design &D)
     return j;
 }
 
-Json read_json_file(const std::string &path)
-{
-    try {
-        return msidfrf::read_json(path);
-    } catch (const msidfrf::Error &e) {
-        throw Error(e.what());
-    }
-}
-
-const Json &jget(const Json &o, const std::string &key, const std::string &file)
-{
-    if (!o.is_object()) throw Error("'" + file + "': expected a JSON object");
-    auto it = o.find(key);
-    if (it == o.end()) throw Error("'" + file + "': missing '" + key + "'");
-    return *it;
-}
-
-uint64_t juint(const Json &o, const std::string &key, const std::string &file)
-{
-    const Json &v = jget(o, key, file);
-    if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
-        throw Error("'" + file + "': '" + key + "' must be a non-negative integer");
-    return v.get<uint64_t>();
-}
-
-uint32_t juint32(const Json &o, const std::string &key, const std::string &file)
-{
-    const uint64_t v = juint(o, key, file);
-    if (v > 0xFFFFFFFFull) throw Error("'" + file + "': '" + key + "' = " + std::to_string(v) + " is out of range");
-    return (uint32_t)v;
-}
-
-double jnum(const Json &v, const std::string &what, const std::string &file)
-{
-    if (!v.is_number()) throw Error("'" + file + "': " + what + " must be a number");
-    double x = v.get<double>();
-    if (!std::isfinite(x)) throw Error("'" + file + "': " + what + " is not finite");
-    return x;
-}
-
 std::unique_ptr<Design> read_design_file(const std::string &path)
 {
     const Json j = read_json_file(path);
@@ -265,7 +224,7 @@ std::unique_ptr<Design> read_design_file(const std::string &path)
     std::unique_ptr<Design> D;
     try {
         D = build_design(p);
-    } catch (const Error &e) {
+    } catch (const msidutil::Error &e) {
         throw Error("'" + path + "': " + e.what());
     }
     // The file's bins must be the ones the design maps to (catches edited files).
@@ -281,4 +240,4 @@ std::unique_ptr<Design> read_design_file(const std::string &path)
     return D;
 }
 
-}  // namespace msidcli
+}  // namespace msidfmt

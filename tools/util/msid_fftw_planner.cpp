@@ -1,4 +1,4 @@
-#include "fftw_warmup.hpp"
+#include "msid_fftw_planner.hpp"
 
 #include "msid/msid_fft_fftw.h"
 
@@ -7,7 +7,7 @@
 #include <system_error>
 #include <thread>
 
-namespace msidcli {
+namespace msidutil {
 
 namespace {
 std::mutex g_mu;                  // guards g_thread
@@ -37,4 +37,4 @@ void fftw_planner_ready()
     if (g_thread && g_thread->joinable()) g_thread->join();
 }
 
-}  // namespace msidcli
+}  // namespace msidutil

@@ -1,15 +1,15 @@
 // `msid frf --realisations R`: best linear approximation with the noise and
 // nonlinear-distortion variances (robust method), one msid-frf/1 document.
 #pragma once
-#include "pipeline.hpp"
+#include "msid_frf_job.hpp"
 #include "nl_verdict.hpp"
 
-namespace msidcli {
+namespace msidjob {
 
 // The experiments split into R consecutive blocks of equal size, one block per
 // realisation (each block a complete design: m >= nu experiments); each block
 // goes through run_frf, then the BLA and the variance split (tools/fit/bla.hpp).
 FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> &recs, uint32_t R);
 
-}  // namespace msidcli
+}  // namespace msidjob
 

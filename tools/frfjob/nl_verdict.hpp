@@ -2,9 +2,9 @@
 // `msid validate` (noise level vs distortion level). Implemented in frf_bla.cpp.
 #pragma once
 #include "model_io.hpp"
+#include "msid_frf_job.hpp"
 
-namespace msidcli {
-using Json = nlohmann::ordered_json;
+namespace msidjob {
 
 // One realisation with --detect-lines: the distortion level from the output at
 // the non-excited lines (fast method: the nonlinear contributions at detection
@@ -17,4 +17,4 @@ Json detection_distortion(const Json &frf_doc);
 Json distortion_verdict(const std::string &frf_path, const msidfit::ModelFile &mf, const std::string &weight,
                         double p_total);
 
-}  // namespace msidcli
+}  // namespace msidjob

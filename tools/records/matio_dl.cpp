@@ -1,9 +1,9 @@
 #include "matio_dl.hpp"
-#include "cli_util.hpp"
+#include "records_detail.hpp"
 
 #include <dlfcn.h>
 
-namespace msidcli {
+namespace msidrec {
 
 const Matio &matio()
 {
@@ -31,4 +31,4 @@ const Matio &matio()
     return m;
 }
 
-}  // namespace msidcli
+}  // namespace msidrec

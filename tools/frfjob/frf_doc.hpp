@@ -1,15 +1,10 @@
-// JSON documents on disk; msid-frf/1 parts of the host estimators over tools/frffile.
+// msid-frf/1 parts of the host estimators over tools/frffile.
 #pragma once
-#include "design_io.hpp"
+#include "msid_frf_job.hpp"
 #include "frf_text.hpp"
 #include <complex>
 
-namespace msidcli {
-
-// Serialise with a trailing newline and write atomically (no partial file on error);
-// `durable` as write_file_atomic(). `pre`: one member's elements as text (msidfrf::Prerendered).
-void write_json_file(const std::string &path, const Json &doc, bool durable = true,
-                     const msidfrf::Prerendered *pre = nullptr);
+namespace msidjob {
 
 // {"re": [[...]], "im": [[...]]} of a rows x cols complex matrix (row-major).
 Json cplx_json(const std::complex<double> *a, size_t rows, size_t cols);
@@ -23,4 +18,4 @@ Json est_line_json(Json pos, unsigned ny, unsigned nu, const std::complex<double
                    const std::complex<double> *cov, double dof, const std::complex<double> *noise,
                    const std::vector<double> &snr_db);
 
-}  // namespace msidcli
+}  // namespace msidjob

@@ -1,12 +1,13 @@
 // msid frf --direct: the direct time-domain LS FRF (González et al. 2025,
 // eqs. 19-23, Theorem 2; tools/est/direct.cpp) written as msid-frf/1 by tools/frffile.
-#include "pipeline.hpp"
+#include "frf_job_detail.hpp"
+#include "msid_frf_job.hpp"
 #include "direct.hpp"
 #include "frf_file.hpp"
 
 #include <cmath>
 
-namespace msidcli {
+namespace msidjob {
 
 FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vector<Record> &recs)
 {
@@ -91,4 +92,4 @@ FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vect
     return out;
 }
 
-}  // namespace msidcli
+}  // namespace msidjob

@@ -1,12 +1,12 @@
 // msid frf --method lpm --reference r1=COL,...: the reference (command) signals of a
 // record for the noisy-input / closed-loop LPM (tools/est/lpm_eiv.hpp).
 #pragma once
-#include "csv_io.hpp"
+#include "msid_records.hpp"
 
 #include <string>
 #include <vector>
 
-namespace msidcli {
+namespace msidrec {
 
 // Parse `r1=Cmd1,r2=Cmd2` (or `r1,r2`: the record's own columns r1, r2) into the
 // source column names in order r1..rK; throws UsageError for a malformed item, a
@@ -18,4 +18,4 @@ std::vector<std::string> parse_reference(const std::string &spec);
 // same file. Throws Error naming the file and the missing column, or nr != nu.
 std::vector<double> rows_with_reference(const Record &rec, const std::vector<std::string> &ref);
 
-}  // namespace msidcli
+}  // namespace msidrec

@@ -3,7 +3,7 @@
 // non-periodic input or a wrong --period (docs/statistics.md, "Input
 // periodicity").
 #pragma once
-#include "csv_io.hpp"
+#include "msid_frf_job.hpp"
 
 #include <string>
 #include <vector>
@@ -12,7 +12,7 @@ extern "C" {
 #include "msid/msid_pstats.h"
 }
 
-namespace msidcli {
+namespace msidjob {
 
 // A record is called not periodic with period P when more than this fraction
 // of its input power changes from period to period.
@@ -93,4 +93,4 @@ std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, ui
 // "1,3,5:2:11,20:25": a bin list in the --lines syntax.
 std::string format_bins(const std::vector<uint32_t> &bins);
 
-}  // namespace msidcli
+}  // namespace msidjob

@@ -4,7 +4,7 @@
 #pragma once
 #include <cstdint>
 
-namespace msidcli {
+namespace msidutil {
 
 // Plan (and keep, until the exit) a real-to-complex transform of `period` samples on a thread
 // of its own. Nothing else may use FFTW's planner until fftw_planner_ready() returned.
@@ -15,4 +15,4 @@ void fftw_warmup_start(uint32_t period);
 // or destruction). Safe from any thread, any number of times.
 void fftw_planner_ready();
 
-}  // namespace msidcli
+}  // namespace msidutil

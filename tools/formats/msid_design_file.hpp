@@ -1,11 +1,17 @@
-// Excitation designs: build from parameters, and the msid-design/1 JSON file.
+// msid_formats: excitation designs built from parameters, and the msid-design/1 JSON file.
 #pragma once
-#include "cli_util.hpp"
+#include <memory>
+#include <vector>
+
+#include "msid_host_util.hpp"
+#include "msid_json_file.hpp"
 #include <nlohmann/json.hpp>
 
-namespace msidcli { using Json = nlohmann::ordered_json; }
 
-namespace msidcli {
+namespace msidfmt {
+
+using msidutil::check;
+using msidutil::Mem;
 
 struct DesignParams {
     uint32_t period = 0;
@@ -37,13 +43,4 @@ std::unique_ptr<Design> build_design(const DesignParams &p);
 Json design_to_json(const Design &d);
 std::unique_ptr<Design> read_design_file(const std::string &path);
 
-// Read and parse a JSON file, with the file name in every error.
-Json read_json_file(const std::string &path);
-
-// Small JSON accessors with clear messages ("<file>: 'key' must be ...").
-const Json &jget(const Json &o, const std::string &key, const std::string &file);
-uint64_t juint(const Json &o, const std::string &key, const std::string &file);
-uint32_t juint32(const Json &o, const std::string &key, const std::string &file);
-double jnum(const Json &v, const std::string &what, const std::string &file);
-
-}  // namespace msidcli
+}  // namespace msidfmt

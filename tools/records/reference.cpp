@@ -1,8 +1,8 @@
-#include "frf_reference.hpp"
+#include "msid_reference.hpp"
 
-#include "cli_util.hpp"
+#include "records_detail.hpp"
 
-namespace msidcli {
+namespace msidrec {
 
 std::vector<std::string> parse_reference(const std::string &spec)
 {
@@ -57,7 +57,7 @@ std::vector<double> rows_with_reference(const Record &rec, const std::vector<std
     Record rr;
     try {
         rr = read_experiment(rec.path, m);
-    } catch (const Error &e) {   // name the reference, not the reader's stand-in "u<k>"
+    } catch (const msidutil::Error &e) {   // name the reference, not the reader's stand-in "u<k>"
         std::string w = e.what();
         const size_t p = w.find("(for u");
         if (p != std::string::npos) w[p + 5] = 'r';
@@ -78,4 +78,4 @@ std::vector<double> rows_with_reference(const Record &rec, const std::vector<std
     return rows;
 }
 
-}  // namespace msidcli
+}  // namespace msidrec

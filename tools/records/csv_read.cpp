@@ -1,5 +1,4 @@
-// Experiment files -> Record: the CSV reader, the column mapping shared with
-// the binary readers (array_io.cpp), and the format dispatch.
+// The CSV reader (',', ';' or tab; named columns, quoted cells, '#' lines before the header).
 //
 // Speed and memory: the file is streamed in blocks of about 4 MiB (mapped
 // window by window; a pipe by read(2)), never held whole: peak memory is the
@@ -8,8 +7,7 @@
 // file order (values, errors and so every result are independent of the
 // block size and the split). read_experiments() reads two files at once
 // instead (one thread each, no split), reporting the first bad file in order.
-#include "csv_io.hpp"
-#include "cli_util.hpp"
+#include "records_detail.hpp"
 #include "msid_decimal.hpp"
 
 #include <algorithm>
@@ -26,205 +24,9 @@
 #include <thread>
 #include <unistd.h>
 
-namespace msidcli {
-
-void *alloc_big(size_t bytes)
-{
-    constexpr size_t H = (size_t)1 << 21;
-    void *p;
-    if (bytes >= H) {
-        const size_t b = (bytes + H - 1) & ~(H - 1);
-        p = std::aligned_alloc(H, b);
-        if (p) madvise(p, b, MADV_HUGEPAGE);
-    } else {
-        p = std::malloc(bytes ? bytes : 1);
-    }
-    if (!p) throw std::bad_alloc();
-    return p;
-}
-
-// ---------------------------------------------------------------- columns ---
-
-bool is_time_name(const std::string &name)
-{
-    std::string n = name;
-    for (auto &ch : n) ch = (char)std::tolower((unsigned char)ch);
-    return n == "t" || n == "time" || n == "n" || n == "sample" || n == "index";
-}
-
-// "u3" -> (0, 3), "Y12" -> (1, 12); (-1, 0) if not of that form (k in 1..64).
-static std::pair<int, uint32_t> uy_name(const std::string &s)
-{
-    if (s.size() < 2 || s.size() > 3) return {-1, 0};
-    const char c = (char)std::tolower((unsigned char)s[0]);
-    if (c != 'u' && c != 'y') return {-1, 0};
-    uint32_t k = 0;
-    auto res = std::from_chars(s.data() + 1, s.data() + s.size(), k);
-    if (res.ec != std::errc() || res.ptr != s.data() + s.size() || k == 0 || k > 64 || s[1] == '0') return {-1, 0};
-    return {c == 'u' ? 0 : 1, k};
-}
-
-static std::string trim(std::string_view v)
-{
-    size_t a = 0, b = v.size();
-    while (a < b && (v[a] == ' ' || v[a] == '\t')) ++a;
-    while (b > a && (v[b - 1] == ' ' || v[b - 1] == '\t')) --b;
-    return std::string(v.substr(a, b - a));
-}
-
-ColumnMap parse_column_map(const std::string &spec, bool inputs_optional)
-{
-    ColumnMap m;
-    m.inputs_optional = inputs_optional;
-    // Items at the commas outside double quotes; a piece without '=' continues the name before it, so
-    // a column name may hold a comma: u1=Force, N,y1="Acc, m/s^2" maps 'Force, N' and 'Acc, m/s^2'
-    std::vector<std::string> items;
-    {
-        std::string cur;
-        bool quoted = false;
-        auto flush = [&] {
-            if (!items.empty() && cur.find('=') == std::string::npos && !trim(cur).empty()) items.back() += "," + cur;
-            else items.push_back(cur);
-            cur.clear();
-        };
-        for (char ch : spec) {
-            if (ch == '"') quoted = !quoted;
-            if (ch == ',' && !quoted) flush();
-            else cur += ch;
-        }
-        flush();
-    }
-    for (size_t it = 0; it < items.size(); ++it) {
-        const std::string item = trim(items[it]);
-        const size_t eq = item.find('=');
-        if (eq == std::string::npos || trim(item.substr(0, eq)).empty() || trim(item.substr(eq + 1)).empty())
-            throw UsageError("--columns: '" + item + "' is not <u<k>|y<k>>=<column name>");
-        std::string dst = trim(item.substr(0, eq)), src = trim(item.substr(eq + 1));
-        if (src.size() >= 2 && src.front() == '"' && src.back() == '"') src = src.substr(1, src.size() - 2);
-        if (uy_name(dst).first < 0)
-            throw UsageError("--columns: '" + dst + "' is not u<k> or y<k> (k = 1..64)");
-        for (auto &ch : dst) ch = (char)std::tolower((unsigned char)ch);
-        for (const auto &e : m.map) {
-            if (e.first == dst) throw UsageError("--columns: " + dst + " is mapped twice");
-            if (e.second == src) throw UsageError("--columns: column '" + src + "' is mapped twice");
-        }
-        m.map.emplace_back(dst, src);
-    }
-    uint32_t maxu = 0, maxy = 0, cu = 0, cy = 0;
-    for (const auto &e : m.map) {
-        auto [kind, k] = uy_name(e.first);
-        (kind == 0 ? cu : cy)++;
-        uint32_t &mx = kind == 0 ? maxu : maxy;
-        mx = std::max(mx, k);
-    }
-    if ((cu == 0 && !inputs_optional) || cy == 0) throw UsageError("--columns must map at least u1 and y1");
-    if (cu != maxu) throw UsageError(fmt("--columns: inputs must be u1..u%u without gaps", maxu));
-    if (cy != maxy) throw UsageError(fmt("--columns: outputs must be y1..y%u without gaps", maxy));
-    return m;
-}
-
-static std::string list_names(const std::vector<std::string> &names)
-{
-    std::string s;
-    size_t shown = 0;
-    for (const auto &n : names) {
-        if (n.empty()) continue;
-        if (shown == 12) { s += ", ..."; break; }
-        if (shown++) s += ", ";
-        s += "'" + n + "'";
-    }
-    return s.empty() ? "no named columns" : s;
-}
-
-std::vector<size_t> resolve_columns(const std::string &path, const std::vector<std::string> &names,
-                                    const ColumnMap &cols, bool strict, uint32_t &nu, uint32_t &ny)
-{
-    std::vector<std::pair<std::string, size_t>> dst;   // ("u1", index into names)
-    if (!cols.empty()) {
-        for (const auto &[d, s] : cols.map) {
-            size_t hit = SIZE_MAX, nhit = 0;
-            for (size_t i = 0; i < names.size(); ++i)
-                if (names[i] == s) { if (hit == SIZE_MAX) hit = i; ++nhit; }
-            if (nhit == 0) {   // case-insensitive, if unique
-                for (size_t i = 0; i < names.size(); ++i)
-                    if (names[i].size() == s.size() &&
-                        std::equal(s.begin(), s.end(), names[i].begin(), [](char x, char y) {
-                            return std::tolower((unsigned char)x) == std::tolower((unsigned char)y);
-                        })) { if (hit == SIZE_MAX) hit = i; ++nhit; }
-            }
-            if (nhit == 0)
-                throw Error(fmt("'%s': no column '%s' (for %s); the file has %s", path.c_str(), s.c_str(), d.c_str(),
-                                list_names(names).c_str()));
-            if (nhit > 1) throw Error(fmt("'%s': column '%s' appears twice", path.c_str(), s.c_str()));
-            dst.emplace_back(d, hit);
-        }
-    } else {
-        for (size_t i = 0; i < names.size(); ++i) {
-            auto [kind, k] = uy_name(names[i]);
-            if (kind < 0) {
-                // r<k>: reference signals, read only by msid frf --method lpm --reference
-                const bool ref = names[i].size() >= 2 && (names[i][0] == 'r' || names[i][0] == 'R') &&
-                                 uy_name("u" + names[i].substr(1)).first == 0;
-                if (names[i].empty() || is_time_name(names[i]) || ref || !strict) continue;
-                throw Error(fmt("'%s' line 1: column '%s' is not u<k>, y<k> or a time column (t, time, n, sample, "
-                                "index); map named columns with --columns u1=NAME,y1=NAME",
-                                path.c_str(), names[i].c_str()));
-            }
-            std::string d = fmt("%c%u", kind == 0 ? 'u' : 'y', k);
-            for (const auto &e : dst)
-                if (e.first == d) throw Error(fmt("'%s' line 1: column '%s' appears twice", path.c_str(), names[i].c_str()));
-            dst.emplace_back(d, i);
-        }
-    }
-    uint32_t cu = 0, cy = 0, maxu = 0, maxy = 0;
-    for (const auto &e : dst) {
-        auto [kind, k] = uy_name(e.first);
-        if (kind == 0) { ++cu; maxu = std::max(maxu, k); } else { ++cy; maxy = std::max(maxy, k); }
-    }
-    if (cu == 0 && !cols.inputs_optional)
-        throw Error(fmt("'%s' has no input columns (u1, u2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
-                        path.c_str(), list_names(names).c_str()));
-    if (cy == 0)
-        throw Error(fmt("'%s' has no output columns (y1, y2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
-                        path.c_str(), list_names(names).c_str()));
-    if (cu != maxu) throw Error(fmt("'%s': input columns must be u1..u%u without gaps", path.c_str(), maxu));
-    if (cy != maxy) throw Error(fmt("'%s': output columns must be y1..y%u without gaps", path.c_str(), maxy));
-    if (cu > MSID_MAX_INPUTS) throw Error(fmt("'%s': %u inputs, at most %u are supported", path.c_str(), cu, MSID_MAX_INPUTS));
-    if (cy > MSID_MAX_OUTPUTS) throw Error(fmt("'%s': %u outputs, at most %u are supported", path.c_str(), cy, MSID_MAX_OUTPUTS));
-    nu = cu;
-    ny = cy;
-    std::vector<size_t> src(cu + cy);
-    for (const auto &e : dst) {
-        auto [kind, k] = uy_name(e.first);
-        src[kind == 0 ? k - 1 : cu + k - 1] = e.second;
-    }
-    return src;
-}
+namespace msidrec {
 
 // -------------------------------------------------------------------- CSV ---
-
-// The whole file in one buffer, with a '\n' appended so every line ends in one.
-static std::string slurp(const std::string &path)
-{
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    std::string s;
-    char buf[1 << 16];
-    for (;;) {
-        const ssize_t k = ::read(fd, buf, sizeof buf);
-        if (k < 0 && errno == EINTR) continue;
-        if (k < 0) {
-            const int e = errno;
-            ::close(fd);
-            throw Error("cannot read '" + path + "': " + std::strerror(e));
-        }
-        if (k == 0) break;
-        s.append(buf, (size_t)k);
-    }
-    ::close(fd);
-    s.push_back('\n');
-    return s;
-}
 
 namespace {
 
@@ -545,33 +347,6 @@ void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
 
 }  // namespace
 
-FileBytes::FileBytes(const std::string &path)
-{
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
-    struct stat st;
-    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
-        void *m = mmap(nullptr, (size_t)st.st_size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
-        if (m != MAP_FAILED) {
-            map_ = m;
-            p_ = (const char *)m;
-            n_ = (size_t)st.st_size;
-            ::close(fd);
-            return;
-        }
-    }
-    ::close(fd);
-    own_ = slurp(path);
-    own_.pop_back();   // slurp's newline
-    p_ = own_.data();
-    n_ = own_.size();
-}
-
-FileBytes::~FileBytes()
-{
-    if (map_) munmap(map_, n_);
-}
-
 namespace {
 
 // The file read in blocks of whole lines: next() hands out [p, q), q just
@@ -587,7 +362,7 @@ public:
     explicit LineBlocks(const std::string &path) : path_(path)
     {
         fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd_ < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+        if (fd_ < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
         struct stat st;
         if (fstat(fd_, &st) == 0 && S_ISREG(st.st_mode)) size_ = (size_t)st.st_size;
     }
@@ -626,7 +401,7 @@ private:
             void *m = mmap(nullptr, len, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, (off_t)off);
             if (m == MAP_FAILED) {   // a file system without mmap: read(2) from here on
                 if (lseek(fd_, (off_t)pos_, SEEK_SET) < 0)
-                    throw Error("cannot read '" + path_ + "': " + std::strerror(errno));
+                    throw FileError("cannot read '" + path_ + "': " + std::strerror(errno));
                 mapped_ = false;
                 return next_read(p, q);
             }
@@ -665,7 +440,7 @@ private:
             while (!eof_ && have_ < buf_.size() - 1) {
                 const ssize_t k = ::read(fd_, buf_.data() + have_, buf_.size() - 1 - have_);
                 if (k < 0 && errno == EINTR) continue;
-                if (k < 0) throw Error("cannot read '" + path_ + "': " + std::strerror(errno));
+                if (k < 0) throw FileError("cannot read '" + path_ + "': " + std::strerror(errno));
                 if (k == 0) eof_ = true;
                 have_ += (size_t)k;
             }
@@ -811,88 +586,4 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     return r;
 }
 
-static bool ends_with(const std::string &s, const char *suf)
-{
-    const size_t n = std::strlen(suf);
-    if (s.size() < n) return false;
-    for (size_t i = 0; i < n; ++i)
-        if (std::tolower((unsigned char)s[s.size() - n + i]) != suf[i]) return false;
-    return true;
-}
-
-static Record read_one(const std::string &path, const ColumnMap &cols, bool zero_copy, bool split,
-                       bool defer_finite = false)
-{
-    if (ends_with(path, ".npy")) return read_record_npy(path, cols, zero_copy, defer_finite);
-    if (ends_with(path, ".npz")) return read_record_npz(path, cols);
-    if (ends_with(path, ".mat")) return read_record_mat(path, cols);
-    return read_record_csv(path, cols, split);
-}
-
-Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
-{
-    return read_one(path, cols, zero_copy, true);
-}
-
-std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols, bool zero_copy,
-                                     bool defer_finite)
-{
-    // .mat goes through libmatio (and HDF5, not thread-safe), .npz through zlib: serial, as is a
-    // pipe (which might be given twice). Regular CSV and .npy files: one thread per file.
-    bool par = paths.size() >= 2 && std::thread::hardware_concurrency() >= 2;
-    for (const auto &p : paths) {
-        struct stat st;
-        par = par && !ends_with(p, ".npz") && !ends_with(p, ".mat") && ::stat(p.c_str(), &st) == 0 &&
-              S_ISREG(st.st_mode);
-    }
-    std::vector<Record> recs(paths.size());
-    if (!par) {
-        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true, defer_finite);
-        return recs;
-    }
-    // Thread t reads files t, t + 2, ...; a thread stops at its first bad file. The first bad
-    // file in the list is reported: every file before it was read (by one thread or the other).
-    std::vector<std::exception_ptr> err(paths.size());
-    auto work = [&](size_t t) {
-        for (size_t i = t; i < paths.size(); i += 2) {
-            try {
-                recs[i] = read_one(paths[i], cols, zero_copy, false, defer_finite);
-            } catch (...) {
-                err[i] = std::current_exception();
-                return;
-            }
-        }
-    };
-    std::thread th;
-    try {
-        th = std::thread(work, (size_t)1);
-    } catch (const std::system_error &) {   // no thread to be had: one after the other
-        for (size_t i = 0; i < paths.size(); ++i) recs[i] = read_one(paths[i], cols, zero_copy, true, defer_finite);
-        return recs;
-    }
-    work(0);
-    th.join();
-    for (const auto &x : err)
-        if (x) std::rethrow_exception(x);
-    return recs;
-}
-
-std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols)
-{
-    std::string s;
-    for (size_t c = 0; c < header.size(); ++c) { if (c) s += ','; s += header[c]; }
-    s += '\n';
-    s.reserve(s.size() + n * cols * 24);
-    char buf[64];
-    for (size_t k = 0; k < n; ++k) {
-        for (size_t c = 0; c < cols; ++c) {
-            if (c) s += ',';
-            auto res = std::to_chars(buf, buf + sizeof buf, rows[k * cols + c]);  // shortest round-trip
-            s.append(buf, res.ptr);
-        }
-        s += '\n';
-    }
-    return s;
-}
-
-}  // namespace msidcli
+}  // namespace msidrec

@@ -2,6 +2,7 @@
 // the FRF variance into noise (period to period) and nonlinear distortion
 // (realisation to realisation), Pintelon & Schoukens 2012 §4.3.1 (robust
 // method; equations in tools/fit/bla.hpp and docs/statistics.md).
+#include "frf_job_detail.hpp"
 #include "frf_bla.hpp"
 
 #include "bla.hpp"
@@ -12,7 +13,7 @@
 
 #include <cmath>
 
-namespace msidcli {
+namespace msidjob {
 
 using msidfit::MatC;
 using msidfit::cd;
@@ -40,9 +41,10 @@ FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> 
         std::vector<Record> block(recs.begin() + (long)(r * per), recs.begin() + (long)((r + 1) * per));
         try {
             outs.push_back(run_frf(rq, block));
-        } catch (const Error &e) {
-            throw Error("realisation " + std::to_string(r + 1) + " (experiments " + std::to_string(r * per + 1) + ".." +
-                        std::to_string((r + 1) * per) + "): " + e.what(), e.code);
+        } catch (const msidutil::Error &e) {
+            throw msidutil::Error("realisation " + std::to_string(r + 1) + " (experiments " + std::to_string(r * per + 1) +
+                                      ".." + std::to_string((r + 1) * per) + "): " + e.what(),
+                                  e.code, e.kind);
         }
     }
     FrfOutcome o = outs[0];
@@ -123,9 +125,9 @@ FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> 
     return o;
 }
 
-}  // namespace msidcli
+}  // namespace msidjob
 
-namespace msidcli {
+namespace msidjob {
 
 Json detection_distortion(const Json &doc)
 {
@@ -215,4 +217,4 @@ Json distortion_verdict(const std::string &frf_path, const msidfit::ModelFile &m
     return v;
 }
 
-}  // namespace msidcli
+}  // namespace msidjob

@@ -10,8 +10,7 @@
 //    C channels x n samples);
 //  - a .npy file holds one unnamed matrix: its columns are `1` .. `C`.
 // Without --columns, vectors named u<k> / y<k> (and t/time, ignored) are taken.
-#include "csv_io.hpp"
-#include "cli_util.hpp"
+#include "records_detail.hpp"
 
 #include <cctype>
 #include <cerrno>
@@ -24,7 +23,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
-namespace msidcli {
+namespace msidrec {
 
 namespace {
 
@@ -489,7 +488,7 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
 {
     {   // matio prints to stderr on failure; check that the file opens first
         const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+        if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
         ::close(fd);
     }
     check_mat_v4(path);
@@ -587,4 +586,4 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
     return assemble(path, arrs, cols, false);
 }
 
-}  // namespace msidcli
+}  // namespace msidrec

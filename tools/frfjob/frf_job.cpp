@@ -1,7 +1,8 @@
-#include "pipeline.hpp"
+#include "frf_job_detail.hpp"
+#include "msid_frf_job.hpp"
 #include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
 #include "periodicity.hpp"
-#include "fftw_warmup.hpp"
+#include "msid_fftw_planner.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
@@ -12,7 +13,7 @@ extern "C" {
 #include <thread>
 #include <atomic>
 
-namespace msidcli {
+namespace msidjob {
 
 
 static_assert(sizeof(std::complex<double>) == sizeof(msid_cplx), "msid_cplx is {re, im}");
@@ -62,20 +63,6 @@ void request_from_design(FrfRequest &rq, const Design &D)
 {
     request_from_core_design(rq, D.d);
     rq.design = &D;
-}
-
-void parse_estimate_options(const Args &a, FrfRequest &rq)
-{
-    rq.skip = a.u32("skip-periods", rq.skip);
-    if (a.has("detect-lines")) rq.detect = parse_uint_list(a.get("detect-lines"), "--detect-lines");
-    rq.transient = a.enum_<msid_transient_mode>(
-        "transient", MSID_TRANSIENT_FLAG,
-        {{"flag", MSID_TRANSIENT_FLAG}, {"drop", MSID_TRANSIENT_DROP}, {"off", MSID_TRANSIENT_OFF}});
-    rq.alpha = a.f64("alpha", rq.alpha);
-    if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
-    // line DFT path, for commands that list --dft (a device estimates on the stream path)
-    rq.path = a.enum_<msid_dft_path>("dft", rq.path,
-                                     {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});
 }
 
 void request_from_core_design(FrfRequest &rq, const msid_design &d)
@@ -518,4 +505,4 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     return out;
 }
 
-}  // namespace msidcli
+}  // namespace msidjob

@@ -25,7 +25,7 @@
 #include <tmmintrin.h>
 #endif
 
-namespace msidcli {
+namespace msidrec {
 namespace decimal {
 
 /// Exact powers of ten 10^0 .. 10^22 (all exactly representable as doubles).
@@ -191,4 +191,4 @@ inline bool cell_available() { return false; }
 #endif
 
 }  // namespace decimal
-}  // namespace msidcli
+}  // namespace msidrec

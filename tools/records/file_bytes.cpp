@@ -1,0 +1,80 @@
+// The bytes of a file as the readers take them: the whole file mapped read-only (FileBytes), a
+// pipe read into memory, and the allocator of the sample matrices.
+#include "records_detail.hpp"
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace msidrec {
+
+void *alloc_big(size_t bytes)
+{
+    constexpr size_t H = (size_t)1 << 21;
+    void *p;
+    if (bytes >= H) {
+        const size_t b = (bytes + H - 1) & ~(H - 1);
+        p = std::aligned_alloc(H, b);
+        if (p) madvise(p, b, MADV_HUGEPAGE);
+    } else {
+        p = std::malloc(bytes ? bytes : 1);
+    }
+    if (!p) throw std::bad_alloc();
+    return p;
+}
+
+// The whole file in one buffer, with a '\n' appended so every line ends in one.
+std::string slurp(const std::string &path)
+{
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
+    std::string s;
+    char buf[1 << 16];
+    for (;;) {
+        const ssize_t k = ::read(fd, buf, sizeof buf);
+        if (k < 0 && errno == EINTR) continue;
+        if (k < 0) {
+            const int e = errno;
+            ::close(fd);
+            throw FileError("cannot read '" + path + "': " + std::strerror(e));
+        }
+        if (k == 0) break;
+        s.append(buf, (size_t)k);
+    }
+    ::close(fd);
+    s.push_back('\n');
+    return s;
+}
+
+FileBytes::FileBytes(const std::string &path)
+{
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+        void *m = mmap(nullptr, (size_t)st.st_size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+        if (m != MAP_FAILED) {
+            map_ = m;
+            p_ = (const char *)m;
+            n_ = (size_t)st.st_size;
+            ::close(fd);
+            return;
+        }
+    }
+    ::close(fd);
+    own_ = slurp(path);
+    own_.pop_back();   // slurp's newline
+    p_ = own_.data();
+    n_ = own_.size();
+}
+
+FileBytes::~FileBytes()
+{
+    if (map_) munmap(map_, n_);
+}
+
+}  // namespace msidrec
