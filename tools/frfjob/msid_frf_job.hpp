@@ -8,6 +8,8 @@
 #include "msid_host_util.hpp"
 #include "frf_text.hpp"
 
+#include <functional>
+
 namespace msidjob {
 
 // A problem with the records or the request: one message naming the source.
@@ -72,6 +74,26 @@ class FrfJob;
 // leaves it to the process exit (msid frf): freeing mapped blocks while the other threads' CPU
 // still maps the process costs a TLB shootdown each, on the path to the result.
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep = nullptr);
+
+// How estimate_frf() runs the job: what to find from the input, which estimator.
+struct FrfPlan {
+    bool auto_period = false;          // find the period from the inputs' repetition (rq.period ignored)
+    bool auto_lines = false;           // find the excited bins from the input spectrum (rq.bins ignored)
+    bool direct = false;               // the direct time-domain LS estimator (needs `design`)
+    bool bla = false;                  // the best linear approximation over `realisations` blocks
+    uint32_t realisations = 0;         // R (with bla; R < 2 is refused)
+    const Design *design = nullptr;    // the design behind rq, if any
+    // what was found (--period auto, --lines auto), one line or two, as it is found
+    std::function<void(const std::string &)> report;
+};
+
+// The whole FRF job on records, every step once and in one order: the records' shapes, the
+// period (plan.auto_period), the inputs' periodicity, the lines (plan.auto_lines), the estimator
+// (periodic, realisations' BLA or direct), and for one realisation with detection lines the
+// nonlinear distortion level (o.doc["nonlinear_distortion"], a note). Throws msidutil::Error
+// (msidjob::Error, msidrec::Error, UsageError) with one message. `keep` as in run_frf().
+FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan,
+                        std::unique_ptr<FrfJob> *keep = nullptr);
 
 // What the document reports about where each experiment came from.
 struct ExpSource {

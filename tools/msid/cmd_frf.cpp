@@ -94,56 +94,24 @@ int cmd_frf(int argc, char **argv)
     // is scanned for NaN/Inf by the lanes, block by block, while in cache (Record::finite_unchecked)
     const bool plain = !a.has("direct") && !a.has("realisations") && !auto_period && !auto_lines;
     std::vector<Record> recs = read_experiments(a.all("experiment"), cols, true, plain);
+    // option conflicts of the direct estimator (after the files, as every problem with them comes first)
+    if (a.has("direct")) {
+        if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
+        for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
+            if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
+    }
+    if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
+    msidjob::FrfPlan plan;
+    plan.auto_period = auto_period;
+    plan.auto_lines = auto_lines;
+    plan.direct = a.has("direct");
+    plan.bla = a.has("realisations");
+    plan.realisations = a.u32("realisations", 1);
+    plan.design = D.get();
+    plan.report = [](const std::string &s) { std::fputs(s.c_str(), stdout); };
+    rq.lines_as_text = true;   // only written to the file below
     std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)
-    FrfOutcome o;
-    try {
-        // --realisations: R blocks of the design's experiments, each block checked by run_frf itself
-        // the experiment count after the input checks: one record with several inputs that is not
-        // periodic (noise, a sweep) is named as such, with --method lpm, not as too few experiments
-        if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs, false);
-        if (auto_period) {
-            std::string rep;
-            rq.period = find_period(recs, rep);
-            std::printf("--period auto: %s\n", rep.c_str());
-        }
-        if (!a.has("direct") && rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD)
-            check_periodic_inputs(rq.period, rq.skip, rq.bins, recs);
-        if (!a.has("direct") && !a.has("realisations")) check_records(rq, recs);
-        rq.inputs_checked = !a.has("direct");
-        if (auto_lines) {
-            std::string rep;
-            rq.bins = find_lines(recs, rq.period, rq.skip, rep);
-            std::printf("--lines auto: %s:\n  %s\n", rep.c_str(), format_bins(rq.bins).c_str());
-        }
-        if (a.has("direct")) {
-            if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
-            for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
-                if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
-        }
-        const uint32_t R = a.u32("realisations", 1);
-        if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
-        rq.lines_as_text = !a.has("direct") && !a.has("realisations");   // only written to the file below
-        o = a.has("direct")         ? run_frf_direct(rq, *D, recs)
-            : a.has("realisations") ? run_frf_realisations(rq, recs, R)   // BLA + noise/distortion split
-                                    : run_frf(rq, recs, &job);
-    } catch (...) {
-        // a record read without its NaN/Inf scan (plain): the reader's message comes first, as when
-        // the reader scanned, whatever the run found later (file order: the first bad file)
-        for (const Record &r : recs)
-            if (r.finite_unchecked) check_finite(r, 0, r.n_rows);
-        throw;
-    }
-    if (!a.has("realisations") && !a.has("direct")) {
-        const Json nl = detection_distortion(o.doc);   // one realisation: level from the detection lines
-        if (!nl.is_null()) {
-            o.doc["nonlinear_distortion"] = nl;
-            if (nl["distortion_detected"].get<bool>())
-                o.notes.push_back("the detection lines show nonlinear distortion (" +
-                                  (nl["nl_to_noise_db"].is_number() ? fmt("%.1f dB", nl["nl_to_noise_db"].get<double>()) : std::string("?")) +
-                                  " relative to the noise); cov holds the noise only: measure several realisations "
-                                  "(--realisations R) to include it");
-        }
-    }
+    FrfOutcome o = msidjob::estimate_frf(rq, recs, plan, &job);
     // no fsync: the file is reproduced by running msid frf again on the same files
     // (msid measure, whose samples are gone after the run, keeps it)
     write_json_file(out, o.doc, false, o.lines_text.n ? &o.lines_text : nullptr);
