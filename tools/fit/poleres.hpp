@@ -39,7 +39,7 @@ enum class Feedthrough { Auto, Yes, No };
 struct PrOptions {
     int order = 0;                 // number of poles (pairs count twice)
     Feedthrough feedthrough = Feedthrough::Auto;
-    bool stable = false;           // reflect unstable poles after every step (constrained ML)
+    bool stable = true;            // reflect unstable poles after every step (constrained ML; msid fit's default)
     int max_iter = 200;            // LM iterations of the final refinement
     double tol = 1e-10;            // relative cost decrease for convergence
     int vf_iter = 15;              // vector-fitting relocations of the VF start (log-spaced poles)
