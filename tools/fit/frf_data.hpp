@@ -54,7 +54,7 @@ constexpr int ML_WEIGHT_SMOOTH = 4;
 // Without --weight-smooth, ml pools only when the file has at least this many windows of 2H+1 lines.
 constexpr int ML_WEIGHT_SMOOTH_MIN_WINDOWS = 4;
 // A line pools only when its own weights inflate the estimate's variance by more than this
-// (sample-ML factor n/(n - ny - 1) - 1; 2%: n below about 50 (ny + 1) dof).
+// (sample-ML factor n/(n - ny - 1) - 1; 2%: fewer than 51 (ny + 1) dof).
 constexpr double POOL_MIN_INFLATION = 0.02;
 // Level of the equality test of two lines' covariance matrices (g > 1). 5%, not 1%: on covariances whose
 // shape changes from line to line (2x2, 8 dof) the neighbours a 1% test let through made the pooled
