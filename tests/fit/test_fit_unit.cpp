@@ -266,11 +266,16 @@ static void subspace_refine_and_auto_stability(void **)
     so.stable_auto = true;
     so.refine_iter = 30;
     const SubspaceResult r = fit_subspace(f, Domain::DT, w, true, so);
-    std::printf("auto stability, unstable plant: stable %d, LR p %.3g, cost %.3g (r scan %.3g)\n", (int)ss_stable(r.model),
-                r.stable_lr_p, r.cost, r.cost_unrefined);
-    assert_false(ss_stable(r.model));
+    std::printf("stable by default, unstable plant: stable %d, LR p %.3g, cost %.3g (unconstrained %.3g)\n",
+                (int)ss_stable(r.model), r.stable_lr_p, r.cost, r.cost_unconstrained);
+    // stable by default, whatever the likelihood ratio says (it is reported, and tiny here: the data
+    // are an unstable plant's, for which --allow-unstable is meant)
+    assert_true(ss_stable(r.model));
     assert_true(r.stable_lr_p >= 0 && r.stable_lr_p < 0.01);
-    assert_true(r.cost <= r.cost_unrefined * (1 + 1e-9) + 1e-6);   // exact data: both at round-off (1e-10)
+    so.stable_auto = false;   // --allow-unstable: the unconstrained refinement
+    const SubspaceResult ru = fit_subspace(f, Domain::DT, w, true, so);
+    assert_false(ss_stable(ru.model));
+    assert_true(ru.cost <= ru.cost_unrefined * (1 + 1e-9) + 1e-6);   // exact data: both at round-off (1e-10)
 
     const SSModel t = mimo_dt();
     FrfData f2 = exact_data(Domain::DT, 0, om, eval_all(t, om), 1e-6);
@@ -284,6 +289,49 @@ static void subspace_refine_and_auto_stability(void **)
     assert_true(rr.cost < 1e-6 * V0);
     assert_true(ss_stable(m));
     assert_true(weighted_cost_ss(m, w2) == rr.cost);
+}
+
+// A DT state-space model carried over exactly into the LMFD of degree nD = n / ny (ml's LMFD start),
+// and the pooled weights: pooled where the dof are few and the covariances equal, not where a
+// neighbour's correlations differ at the same trace (the whole-matrix test), nor where the dof are many.
+static void lmfd_from_ss_and_pooling(void **)
+{
+    const SSModel t = mimo_dt();
+    LmfdModel l;
+    assert_true(ss_to_lmfd_dt(t, (int)t.n() / (int)t.C.rows(), l));
+    for (double w : {0.05, 0.7, 2.0, 3.1}) {
+        const cd z = std::polar(1.0, w);
+        assert_true((lmfd_eval(l, z) - ss_eval(t, z)).norm() < 1e-10 * ss_eval(t, z).norm());
+    }
+    assert_false(ss_to_lmfd_dt(t, 1, l));   // another order
+
+    // 2 x 1 FRF (g = 2), 40 lines of equal covariance, except line 20 whose correlation flips sign
+    // (the same trace: the trace test pooled it)
+    auto lines = [](double dof) {
+        std::vector<WeightedLine> w(40);
+        for (size_t k = 0; k < w.size(); ++k) {
+            WeightedLine &l = w[k];
+            l.x = std::polar(1.0, 0.05 * (double)(k + 1));
+            l.real = false;
+            l.G = MatC::Zero(2, 1);
+            l.cov = MatC(2, 2);
+            const double c = k == 20 ? -0.8 : 0.8;
+            l.cov << 1.0, c, c, 1.0;
+            l.dof = dof;
+            l.Linv = MatC(Eigen::LLT<MatC>(l.cov).matrixL()).inverse();
+        }
+        return w;
+    };
+    auto w = lines(10);
+    const PoolStats st = smooth_weights(w, 4);
+    std::printf("pooling, 10 dof: %zu of %zu lines pooled, %zu neighbours left out\n", st.pooled, st.lines, st.left_out);
+    assert_true(st.pooled == 39 && st.precise == 0);   // line 20 has no equal neighbour
+    assert_true(st.left_out == 16);   // line 20 refused by its 8 neighbours, and they by it
+    assert_true(std::abs(w[20].dof - 10.0) < 1e-12 && std::abs(w[19].dof - 80.0) < 1e-12);
+    assert_true(std::abs(w[19].cov(0, 1).real() - 0.8) < 1e-12);
+    auto wp = lines(1000);   // 1000/997: precise own weights
+    const PoolStats sp = smooth_weights(wp, 4);
+    assert_true(sp.pooled == 0 && sp.precise == 40 && wp[19].dof == 1000.0);
 }
 
 static void distances(void **)
@@ -393,6 +441,7 @@ int main()
         cmocka_unit_test(lmfd_realisation),
         cmocka_unit_test(stability_enforced),
         cmocka_unit_test(subspace_refine_and_auto_stability),
+        cmocka_unit_test(lmfd_from_ss_and_pooling),
         cmocka_unit_test(distances),
         cmocka_unit_test(errors),
         cmocka_unit_test(option_parsers),

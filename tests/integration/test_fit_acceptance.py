@@ -139,7 +139,9 @@ def test_order_scan_non_convergence(tmp_path):
     st = S.structure("siso", SEED)
     p = S.write(tmp_path / "f.json", S.frf_doc(st, SEED))
     out = tmp_path / "m.json"
-    r = h.run("fit", "--method", "ml", "--domain", "ct", "--order", "20:2:22", "--max-iter", 2, p, "-o", out)
+    # --max-iter 1: since ml also starts from subspace's refined model (2026-11-27), that start
+    # converges in 2 iterations at order 22 here (it needed more from the earlier starts)
+    r = h.run("fit", "--method", "ml", "--domain", "ct", "--order", "20:2:22", "--max-iter", 1, p, "-o", out)
     assert r.returncode == 3, (r.returncode, r.stderr)
     assert "order-scan.tmp" not in r.stderr and "exit status 3" in r.stderr and str(out) in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -542,9 +542,17 @@ def test_ml_cost_reaches_vector_fitting_at_the_nominal_order(tmp_path):
         _, m = _fit(tmp_path, p, f"ml{modes}_{seed}", "--method", "ml", "--order", n)
         Gm = np.array([h.cplx(e["G"]) for e in m["frf"]])
         ratio = S.weighted_cost(G, Gm, C) / V_vf
-        print(f"{modes} modes, seed {seed}, order {n}: ml cost / vector fitting's {ratio:.4f} "
-              f"(best start {m['best_start']})")
-        assert ratio <= 1.0, (modes, seed, ratio)
+        # the cost ml minimises: on the pooled weights (as test_ml_and_subspace_against_vector_fitting)
+        Cp = S.pooled_cov(p)
+        ratio_p = S.weighted_cost(G, Gm, Cp) / S.weighted_cost(G, S.vector_fit(p, n)[0], Cp)
+        print(f"{modes} modes, seed {seed}, order {n}: ml cost / vector fitting's {ratio:.4f}, on the pooled "
+              f"weights {ratio_p:.4f} (best start {m['best_start']})")
+        assert ratio_p <= 1.0, (modes, seed, ratio_p)
+        # On each line's own covariance (which ml does not minimise): 0.9975, 0.9979, 1.0008 since the
+        # subspace starts scan on each line's own covariance, as msid fit --method subspace, and ml is
+        # stable by default (2026-11-27): on (12, 0) they reach a basin 1% lower on the pooled cost and
+        # 0.08% higher on the per-line one (before: 0.9975, 0.9971, 0.9985)
+        assert ratio <= 1.002, (modes, seed, ratio)
 
 
 @pytest.mark.parametrize("kind,modes,lines,order,extra", [("1x3", 5, 10, 10, ("--no-d",)), ("2x3", 12, 15, 24, ())])

@@ -6,6 +6,9 @@ purpose, after a reviewed change of the format). The subspace models and their v
 (periodic-/direct-model.json, -validate.json) were rewritten on 2026-11-24 when subspace began to run
 on noise-normalised channels (unit invariance, issue 9): the same model FRF to 3e-11 and cost to
 1e-13, another state basis (A, B, C are not unique), validate's numbers in the last digits.
+The two model files were rewritten again on 2026-11-27 when stable models became the default of
+subspace and ml: `settings.stability` ("stable (default)") added and `subspace.stable_mode` "auto"
+renamed "default"; no number changed.
 
 Covered writers: the periodic job (msid frf with detection lines, sample rate, a start-up
 transient), the direct time-domain estimator (records cut to partial periods),

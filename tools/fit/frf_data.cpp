@@ -1,5 +1,4 @@
 #include "frf_data.hpp"
-#include "stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -115,64 +114,6 @@ std::vector<WeightedLine> weigh(const FrfData &f, Domain d, Weight w, double noi
         out.push_back(std::move(wl));
     }
     return out;
-}
-
-void smooth_weights(std::vector<WeightedLine> &w, int half)
-{
-    std::vector<size_t> cx;
-    for (size_t i = 0; i < w.size(); ++i)
-        if (!w[i].real) cx.push_back(i);
-    const size_t n = cx.size(), win = std::min(n, (size_t)(2 * std::max(half, 0) + 1));
-    if (win <= 1) return;
-    std::vector<MatC> C(n);
-    std::vector<double> dof(n);
-    for (size_t k = 0; k < n; ++k) { C[k] = w[cx[k]].cov; dof[k] = w[cx[k]].dof; }
-    // The traces below weigh every entry of vec(G) by its mean variance over the band (tr(N C),
-    // N = diag(1 / mean_l C_l(a, a))): a plain trace is dominated by the channel in the smallest
-    // units, so which neighbours were pooled, hence the fit, depended on the units of the channels.
-    const Eigen::Index g = C[0].rows();
-    VecR nrm = VecR::Zero(g);
-    for (size_t k = 0; k < n; ++k) nrm += C[k].diagonal().real();
-    for (Eigen::Index a = 0; a < g; ++a) nrm(a) = nrm(a) > 0 ? (double)n / nrm(a) : 1.0;
-    auto ntrace = [&](const MatC &M) { return M.diagonal().real().dot(nrm); };
-    // The F test below costs two incomplete beta functions per neighbour: decided without them when the
-    // ratio lies well inside the central 99% of F(d, d) (its 99.5% quantile u_d, and 1/u_d by the
-    // symmetry of F(d, d), found once per d, with a 1% margin); the exact test decides the rest, so
-    // which neighbours are pooled is the same as testing every one.
-    double last_d = -1, inner = 0;
-    auto surely_pooled = [&](double d, double q) {
-        if (d != last_d) {
-            double lo = 1.0, hi = 2.0;
-            while (f_sf(d, d, hi) >= 0.005 && hi < 1e12) hi *= 2.0;
-            for (int it = 0; it < 60; ++it) {
-                const double mid = std::sqrt(lo * hi);
-                (f_sf(d, d, mid) >= 0.005 ? lo : hi) = mid;
-            }
-            last_d = d;
-            inner = lo / 1.01;
-        }
-        return q < inner && q * inner > 1.0;
-    };
-    for (size_t k = 0; k < n; ++k) {
-        const size_t lo = std::min(k > (size_t)half ? k - (size_t)half : 0, n - win);
-        MatC S = MatC::Zero(C[k].rows(), C[k].cols());
-        double nd = 0;
-        const double tk = ntrace(C[k]);
-        for (size_t j = lo; j < lo + win; ++j) {
-            // a neighbour whose covariance differs from this line's (weighted trace ratio outside the
-            // central 99% of F(2n, 2n)) is not pooled: the noise level changes there (e.g. noisy
-            // inputs at a resonance, a notch in the excitation)
-            const double q = ntrace(C[j]) / tk, d = 2.0 * std::min(dof[j], dof[k]);
-            if (j != k && !surely_pooled(d, q) && (f_sf(d, d, q) < 0.005 || f_sf(d, d, 1.0 / q) < 0.005)) continue;
-            S += dof[j] * C[j];
-            nd += dof[j];
-        }
-        WeightedLine &l = w[cx[k]];
-        l.cov = S / nd;
-        l.dof = nd;
-        Eigen::LLT<MatC> llt(l.cov);
-        l.Linv = MatC(llt.matrixL()).triangularView<Eigen::Lower>().solve(MatC::Identity(S.rows(), S.cols()));
-    }
 }
 
 }  // namespace msidfit

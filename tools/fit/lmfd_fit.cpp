@@ -564,10 +564,22 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
     if ((Eigen::Index)free.size() >= nres)
         throw FitError("the model has " + std::to_string(free.size()) + " free parameters for " + std::to_string(nres) +
                        " real data: not over-constrained; use --method lmfd");
+    // stable models (msid fit's default): a trial step to an unstable model is refused like one that
+    // raises the cost, so a stable start stays stable
+    const VecR Sf = full_scale(P);
+    auto stable_at = [&](const VecR &t) {
+        try {
+            return ss_stable(lmfd_to_ss(lmfd_unpack(t.cwiseProduct(Sf), s, P.ny, P.nu, d, h)));
+        } catch (const FitError &) {
+            return false;
+        }
+    };
+    const bool constrain = o.stable && stable_at(th);
     VecR r;
     MatR J;
     residual(P, w, th, free, r, &J);
     double V = r.squaredNorm();
+    const double V0 = V;
     double lambda = 1e-3;
     int it = 0;
     bool conv = false;
@@ -587,6 +599,7 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
             const VecR delta = ds.asDiagonal() * Aug.colPivHouseholderQr().solve(rhs);
             VecR th2 = th;
             for (size_t f = 0; f < free.size(); ++f) th2(free[f]) += delta((Eigen::Index)f);
+            if (constrain && !stable_at(th2)) { lambda *= 4.0; continue; }
             VecR r2;
             residual(P, w, th2, free, r2, nullptr);
             const double V2 = r2.squaredNorm();
@@ -614,6 +627,8 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
     MlResult res = evaluate_at(P, w, th, free, o, known_noise, nres);
     res.iterations = std::min(it + 1, o.max_iter);
     res.converged = conv;
+    res.stable_constrained = constrain;
+    res.cost_start = V0;
     return res;
 }
 

@@ -47,6 +47,7 @@ struct MlOptions {
     int sk_iter = 30;
     double beta = 0.8;        // Theorem 5 (46)
     double delta = 0.1;       // bound probability
+    bool stable = false;      // refuse steps to unstable models (when the start is stable)
 };
 
 struct MlResult {
@@ -66,6 +67,8 @@ struct MlResult {
     std::vector<MatC> Gcov;   // its covariance (J Cov J^H)
     double frf_bound = 0.0, theta_bound = 0.0, sigma_min_J = 0.0, lambda_max_cov = 0.0;
     int sigma_rank = 0;      // rank of the FRF Jacobian; sigma_min_J is its smallest non-zero singular value
+    bool stable_constrained = false;   // stable asked and the start stable: every iterate is stable
+    double cost_start = 0.0;  // eq. (40) of the start
 };
 
 // Sanathanan-Koerner starting point (weighted Levy then iterations).

@@ -30,6 +30,37 @@ MatC lmfd_eval(const LmfdModel &m, cd x)
     return Dp.partialPivLu().solve(Np);
 }
 
+bool ss_to_lmfd_dt(const SSModel &m, int nD, LmfdModel &out)
+{
+    const Eigen::Index n = (Eigen::Index)m.n(), ny = m.C.rows(), nu = m.B.cols();
+    if (m.domain != Domain::DT || nD < 1 || n != ny * nD) return false;
+    MatR O(n, n);
+    MatR CA = m.C;
+    for (int i = 0; i < nD; ++i) { O.middleRows(i * ny, ny) = CA; CA = CA * m.A; }
+    // [D_nD .. D_1] = -C A^nD O^-1 (solved as O^T X^T = -(C A^nD)^T)
+    Eigen::FullPivLU<MatR> lu(O.transpose());
+    if (lu.rank() < n) return false;
+    const MatR X = lu.solve(MatR(-CA.transpose())).transpose();
+    if (!X.allFinite()) return false;
+    out = LmfdModel();
+    out.domain = Domain::DT;
+    out.h = m.h;
+    out.nD = nD;
+    out.nN = nD;
+    for (int i = 1; i <= nD; ++i) out.Dm.push_back(X.middleCols((nD - i) * ny, ny));
+    std::vector<MatR> h((size_t)nD + 1);   // Markov parameters h_0 = D, h_k = C A^(k-1) B
+    h[0] = m.D;
+    MatR AkB = m.B;
+    for (int k = 1; k <= nD; ++k) { h[(size_t)k] = m.C * AkB; AkB = m.A * AkB; }
+    for (int j = 0; j <= nD; ++j) {
+        MatR Nj = h[(size_t)j];
+        for (int i = 1; i <= j; ++i) Nj += out.Dm[(size_t)i - 1] * h[(size_t)(j - i)];
+        out.Nm.push_back(Nj);
+    }
+    (void)nu;
+    return true;
+}
+
 SSModel lmfd_to_ss(const LmfdModel &m)
 {
     const Eigen::Index ny = (Eigen::Index)m.ny(), nu = (Eigen::Index)m.nu();

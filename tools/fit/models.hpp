@@ -37,6 +37,11 @@ MatC lmfd_eval(const LmfdModel &m, cd x);
 // invertible). Throws FitError otherwise.
 SSModel lmfd_to_ss(const LmfdModel &m);
 
+// The DT LMFD of degree nD (nN = nD, p = z^-1) with the same FRF as a state-space model of order
+// nD ny: [D_nD .. D_1] O = -C A^nD with O = [C; C A; ..; C A^(nD-1)], N_j = sum_{i<=j} D_i h_(j-i) (h the
+// Markov parameters). False when the order differs or O is singular (observability indices not all nD).
+bool ss_to_lmfd_dt(const SSModel &m, int nD, LmfdModel &out);
+
 // Stable? DT: all |eig(A)| < 1; CT: all Re eig(A) < 0.
 bool ss_stable(const SSModel &m);
 

@@ -497,7 +497,8 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
             cands.push_back({"vector-fitting-relaxed", vector_fit_poles(w, d, o.order, tryD, o.rvf_iter, o.wscale, true)});
         for (size_t k = 0; k < o.subspace_starts.size(); ++k) {
             std::vector<cd> p = ss_poles(o.subspace_starts[k]);
-            if (!p.empty()) cands.push_back({"subspace#" + std::to_string(k + 1), p});
+            const bool refined = o.refined_subspace_start && k + 1 == o.subspace_starts.size();
+            if (!p.empty()) cands.push_back({refined ? "subspace-refined" : "subspace#" + std::to_string(k + 1), p});
         }
     }
     LmOut best;
@@ -555,9 +556,14 @@ PrResult pr_ml_fit(const FrfData &f, Domain d, const std::vector<WeightedLine> &
         SubspaceOptions so;
         so.order = o.order;
         so.estimate_D = o.feedthrough != Feedthrough::No;
-        so.stable = o.stable;
-        const SubspaceResult sr = fit_subspace(f, d, w, weighted, so);
+        so.refine_iter = 30;        // msid fit --method subspace's model: refined ...
+        so.stable_auto = o.stable;  // ... and stable by default
+        const std::vector<WeightedLine> &ws = o.subspace_scan_w ? *o.subspace_scan_w : w;
+        if (&ws != &w) so.refine_w = &w;   // refined on the weights ml minimises
+        const SubspaceResult sr = fit_subspace(f, d, ws, weighted, so);
         o.subspace_starts.insert(o.subspace_starts.end(), sr.candidates.begin(), sr.candidates.end());
+        o.subspace_starts.push_back(sr.model);
+        o.refined_subspace_start = true;
     } catch (const FitError &) {
         // subspace cannot start this order (too few lines for its block rows): vector fitting still does
     }

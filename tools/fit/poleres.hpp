@@ -39,7 +39,7 @@ enum class Feedthrough { Auto, Yes, No };
 struct PrOptions {
     int order = 0;                 // number of poles (pairs count twice)
     Feedthrough feedthrough = Feedthrough::Auto;
-    bool stable = false;           // reflect unstable poles after every step (constrained ML)
+    bool stable = true;            // reflect unstable poles after every step (constrained ML; msid fit's default)
     int max_iter = 200;            // LM iterations of the final refinement
     double tol = 1e-10;            // relative cost decrease for convergence
     int vf_iter = 15;              // vector-fitting relocations of the VF start (log-spaced poles)
@@ -49,6 +49,10 @@ struct PrOptions {
     double wscale = 0.0;           // CT frequency scaling (0: geometric mean of the line frequencies)
     bool known_noise = false;
     std::vector<SSModel> subspace_starts;   // extra starts (subspace at several r), any order
+    // pr_ml_fit: the weights of the subspace r scan (msid fit: each line's own covariance when ml
+    // minimises pooled weights); null: the fit's own weights
+    const std::vector<WeightedLine> *subspace_scan_w = nullptr;
+    bool refined_subspace_start = false;     // the last subspace start is the refined model (named so)
     // starts given by their poles (msid fit --start MODEL: a previous fit, another tool's model), each
     // {name, poles as pole_list stores them}; the residues follow by weighted least squares. When given,
     // they replace the vector-fitting and subspace starts (the model is refined, as MATLAB's ssest(data, sys))
@@ -87,8 +91,10 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
 // orders (more parameters than data) naming the limit.
 PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrOptions &o);
 
-// pr_ml with the subspace starts added: the best models of the block-row scan at the same order
-// (weighted when `weighted`; skipped when subspace cannot fit this order), as `msid fit --method ml` runs it.
+// pr_ml with the subspace starts added, as `msid fit --method ml` runs it (skipped when subspace cannot
+// fit this order; weighted when `weighted`): the best models of the block-row scan at the same order and
+// the model `msid fit --method subspace` writes (refined on the weights ml minimises, stable when
+// o.stable), so ml never ends above that model's cost.
 PrResult pr_ml_fit(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted, PrOptions o);
 
 }  // namespace msidfit

@@ -573,18 +573,15 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
                 res.cost = Vu;
                 res.refine_steps = ru.iterations;
             } else {
-                // stable unless the data need the unstable poles: 2 (Vs - Vu) ~ chi2(k) under a stable plant
+                // stable by default: the constrained model is kept. The likelihood-ratio statistic
+                // 2 (Vs - Vu) ~ chi2(k) is written as a diagnostic only: it assumes the model is right, and
+                // with model error (nonlinear distortion, too low an order) unstable poles lower the cost
+                // of a stable plant's fit as well (docs/fitting.md "Stable by default")
                 res.stable_lr_p = weighted ? chi2_sf((double)k, std::max(0.0, 2.0 * (Vs - Vu))) : 1.0;
-                if (res.stable_lr_p >= 0.01) {
-                    res.model = ms;
-                    res.cost = Vs;
-                    res.reflected = k;
-                    res.refine_steps = rc.iterations;
-                } else {
-                    res.model = mu;
-                    res.cost = Vu;
-                    res.refine_steps = ru.iterations;
-                }
+                res.model = ms;
+                res.cost = Vs;
+                res.reflected = k;
+                res.refine_steps = rc.iterations;
             }
         } else if (it > 0) {
             const SubspaceRefine rr = refine_subspace(res.model, wr, res.feedthrough, o.stable || o.stable_auto, it);

@@ -11,9 +11,10 @@ struct SubspaceOptions {
     int order = 0;             // n; 0: choose from the singular values
     int r = 0;                 // block rows; 0: scan [1.5n, 6n] for the smallest cost (35)
     bool stable = false;       // reflect unstable poles, then re-estimate B, D (and refine constrained)
-    // Stable unless the data need it (msid fit's default): unstable poles are reflected and the
-    // constrained model kept unless a likelihood-ratio test at 1% (one dof per reflected pole)
-    // says the unconstrained model fits significantly better.
+    // Stable by default (msid fit): when the r scan leaves unstable poles, the refinement is constrained
+    // to stable poles from two starts (the reflected r-scan model, the reflected unconstrained
+    // refinement) and the better is kept; the likelihood-ratio p-value of the unconstrained model is
+    // reported (stable_lr_p) but does not decide.
     bool stable_auto = false;
     int refine_iter = 0;       // LM steps of refine_subspace after the r scan (msid fit: 30; 0: none)
     bool estimate_D = true;    // false: D = 0 (strictly proper)
@@ -39,7 +40,7 @@ struct SubspaceResult {
     int refine_steps = 0;
     double cost_unrefined = -1;                   // cost of the best r-scan model before refinement
     double cost_unconstrained = -1;               // stable_auto with unstable poles: the refined unconstrained cost
-    double stable_lr_p = -1;                      // p-value of the stability LR test, -1 if not run
+    double stable_lr_p = -1;                      // LR p-value of the unconstrained model (diagnostic), -1 if not run
     std::vector<SSModel> candidates;              // the best models of the r scan, best first (up to 3): ml starts
 };
 

@@ -35,13 +35,14 @@ static const char *FIT_HELP =
     "            Alg. 2.1) weighted by the FRF covariance; block rows r in {1.5n, 2n, 3n, 4n}, the one with the\n"
     "            smallest weighted cost (35), refined (--refine ml, the default: up to 30 Levenberg-Marquardt\n"
     "            steps; N: up to N steps; none: the bare estimate, as for cissim) on\n"
-    "            that cost (never raising it); stable unless the data need unstable poles (LR test at 1%,\n"
-    "            --allow-unstable: no constraint); order from the singular values when --order is omitted\n"
+    "            that cost (never raising it); stable (constrained refinement); order from the singular values\n"
+    "            when --order is omitted\n"
     "  lmfd      closed-form ML of a left matrix fraction D(p)^-1 N(p), fully or under-constrained\n"
     "            (Gonzalez et al. 2025 Thm 6): minimum-norm solution, kernel basis, --pin to fix entries\n"
     "  ml        weighted maximum likelihood (eq. 40): --param poles (default; dt with several inputs: lmfd)\n"
-    "            pole-residue form from vector-fitting and subspace starts, scaled trust-region LM, order 40+;\n"
-    "            --param lmfd: LMFD from subspace (default) or Sanathanan-Koerner, with bounds (45)-(46);\n"
+    "            pole-residue form from vector-fitting and subspace starts (subspace's refined model among them:\n"
+    "            ml never ends above a start), scaled trust-region LM, order 40+; --param lmfd: LMFD from\n"
+    "            subspace's model (default) or Sanathanan-Koerner, with bounds (45)-(46); stable models;\n"
     "            parameter covariance (pseudo-inverse Fisher information with its rank). When the iterations\n"
     "            run out the best iterate is written marked \"converged\": false and the exit status is 3\n"
     "  --start   ml --param lmfd: subspace (default) | sk; ml --param poles: MODEL.json, refine that model\n"
@@ -50,7 +51,9 @@ static const char *FIT_HELP =
     "  multi     time records of any lengths (ring-downs, free decays, transients), every record's initial\n"
     "            conditions eliminated (Markovsky & Pintelon): msid fit --method multi --help\n"
     "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
-    "  --stable  subspace: reflect unstable poles whatever the test says; ml (poles): constrained to stable poles\n"
+    "  stable models by default (subspace, ml): a stable plant's model is stable, whatever the cost says\n"
+    "  --allow-unstable  no stability constraint: for plants that are unstable (measured in closed loop)\n"
+    "  --stable  the default (subspace: also reflects unstable poles in the r scan)\n"
     "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
     "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md);\n"
     "                on LPM files the cost and p-value of every (2W+1)-th line, as msid validate\n"
@@ -59,7 +62,8 @@ static const char *FIT_HELP =
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
     "  --weight-smooth H  ml, and subspace's refinement, with --weight cov|known-input: weights from the\n"
     "                covariance pooled over 2H+1 neighbouring lines (default H = 4 when the file has at least\n"
-    "                4(2H+1) lines, else 0; 0: each line's own sample covariance)\n"
+    "                4(2H+1) lines, else 0; 0: each line's own sample covariance); only lines whose own dof\n"
+    "                are few, only neighbours whose covariance matrix equals the line's (LR test at 5%)\n"
     "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
     "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
 
@@ -267,20 +271,30 @@ static void check_periods(const std::vector<WeightedLine> &w, const FrfData &f, 
     throw FitError(what + ": weighting by the inverse sample covariance" + rule + "; " + more + " or use --weight none");
 }
 
-// ML of an LMFD from the subspace (then SK) or the SK start.
-static MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted,
-                             const LmfdSpec &s, const std::string &start, const MlOptions &mo, bool known)
+// ML of an LMFD from the subspace or the SK start. The subspace start is the model `msid fit --method
+// subspace` writes at this order (r scan on `w_scan`, each line's own covariance; refined on `w`, the
+// weights ml minimises; stable unless `stable` is off), in DT carried over exactly into the LMFD, so ml
+// never ends above it; in CT (or when the conversion does not exist) fitted by SK to its FRF.
+static MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<WeightedLine> &w,
+                             const std::vector<WeightedLine> &w_scan, bool weighted, const LmfdSpec &s,
+                             const std::string &start, MlOptions mo, bool known, bool stable)
 {
     const size_t ny = f.ny;
     LmfdModel st;
+    mo.stable = stable;
     if (start == "subspace") {
         SubspaceOptions so;
         so.order = s.nD * (int)ny;
         so.estimate_D = !(d == Domain::CT && s.nN < s.nD);
-        const SubspaceResult sr = fit_subspace(f, d, w, weighted && min_dof(w) >= 3, so);
-        std::vector<MatC> target;
-        for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
-        st = lmfd_sk(w, d, f.h, s, 30, &target);
+        so.refine_iter = 30;
+        so.stable_auto = stable;
+        if (&w_scan != &w) so.refine_w = &w;
+        const SubspaceResult sr = fit_subspace(f, d, w_scan, weighted && min_dof(w_scan) >= 3, so);
+        if (!(d == Domain::DT && s.nN == s.nD && ss_to_lmfd_dt(sr.model, s.nD, st))) {
+            std::vector<MatC> target;
+            for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
+            st = lmfd_sk(w, d, f.h, s, 30, &target);
+        }
     } else {
         st = lmfd_sk(w, d, f.h, s, 30);
     }
@@ -360,12 +374,20 @@ int cmd_fit(int argc, char **argv)
         // ML_WEIGHT_SMOOTH_MIN_WINDOWS windows of lines (docs/fitting.md, "Pooled weights").
         const bool dense = w.size() >= (size_t)ML_WEIGHT_SMOOTH_MIN_WINDOWS * (size_t)(2 * wsmooth + 1);
         const bool pool = wt != Weight::None && !known && wsmooth > 0 && (a.has("weight-smooth") || dense);
-        const bool smoothed = method == "ml" && pool;
+        bool smoothed = method == "ml" && pool;
         std::vector<WeightedLine> w_line;   // per-line weights, for the cost block of a smoothed fit
-        if (smoothed) { w_line = w; smooth_weights(w, wsmooth); }
+        PoolStats pstats;
+        const size_t pblock = pool_block(f, wt);
+        if (smoothed) { w_line = w; pstats = smooth_weights(w, wsmooth, pblock); }
         // subspace: the r scan on each line's covariance, the refinement on pooled ones (docs/fitting.md)
         std::vector<WeightedLine> w_pool;
-        if (method == "subspace" && pool) { w_pool = w; smooth_weights(w_pool, wsmooth); }
+        if (method == "subspace" && pool) { w_pool = w; pstats = smooth_weights(w_pool, wsmooth, pblock); }
+        // no line pooled (precise own weights, or covariances that change): the per-line fit, bit for bit
+        if (pool && pstats.pooled == 0) {
+            smoothed = false;
+            w_line.clear();
+            w_pool.clear();
+        }
         Json doc;
         doc["format"] = "msid-model/1";
         doc["generator"] = std::string("msid ") + MSID_VERSION;
@@ -375,7 +397,13 @@ int cmd_fit(int argc, char **argv)
         doc["method"] = method;
         Json settings;
         settings["weight"] = a.get("weight", "cov");
-        if (smoothed || !w_pool.empty()) settings["weight_smooth"] = wsmooth;
+        if (pool && (method == "ml" || method == "subspace")) {
+            settings["weight_smooth"] = wsmooth;
+            // which lines pooled (docs/fitting.md "Pooled weights": imprecise own weights, equal covariance)
+            settings["weight_pooling"] = Json{{"complex_lines", pstats.lines}, {"pooled", pstats.pooled},
+                                              {"precise_own_weights", pstats.precise},
+                                              {"neighbours_left_out", pstats.left_out}};
+        }
         if (known) settings["noise_var"] = noise_var;
         const size_t ny = f.ny, nu = f.nu;
         double neq = 0;
@@ -404,17 +432,26 @@ int cmd_fit(int argc, char **argv)
             grad_norm = r.grad_norm;
             iterations = r.iterations;
         };
-        bool enforced_stable = a.has("stable");
-        if (method != "subspace" && (a.has("allow-unstable") || a.has("refine")))
-            throw UsageError("--allow-unstable and --refine belong to --method subspace");
+        // Stable models by default (subspace and ml, both parametrisations): the test that kept unstable
+        // poles when the data "needed" them assumes the model is right, and a model whose cost is rejected
+        // (nonlinear distortion, an order too low) makes it meaningless. --allow-unstable is for plants
+        // that are unstable (measured in closed loop). settings.stability names the rule that applied.
+        if (a.has("stable") && a.has("allow-unstable")) throw UsageError("--stable contradicts --allow-unstable");
+        const bool allow_unstable = a.has("allow-unstable");
+        settings["stability"] = allow_unstable ? "allow-unstable" : a.has("stable") ? "stable" : "stable (default)";
+        bool enforced_stable = !allow_unstable && method != "lmfd";
+        if (method == "lmfd" && (a.has("stable") || allow_unstable))
+            throw UsageError("--stable and --allow-unstable belong to --method subspace and ml: the closed-form lmfd "
+                             "interpolates the data, whatever its poles");
+        if (method == "lmfd") settings.erase("stability");
+        if (method != "subspace" && a.has("refine")) throw UsageError("--refine belongs to --method subspace");
         if (method == "subspace") {
             SubspaceOptions o;
             o.order = (int)a.u32("order", 0);
             if (a.has("order") && o.order == 0) throw UsageError("--order must be positive");
             o.r = (int)a.u32("r", 0);
             o.stable = a.has("stable");
-            o.stable_auto = !a.has("allow-unstable");
-            if (o.stable && !o.stable_auto) throw UsageError("--stable contradicts --allow-unstable");
+            o.stable_auto = !allow_unstable;
             // --refine ml|none as for cissim (the LM steps lower the weighted cost (35), the ML cost of
             // Gaussian FRF errors); a number is the step budget (ml = 30, none = 0)
             const std::string rspec = a.get("refine", "ml");
@@ -426,8 +463,7 @@ int cmd_fit(int argc, char **argv)
             if (!w_pool.empty()) o.refine_w = &w_pool;
             const SubspaceResult r = fit_subspace(f, d, w, weighted, o);
             ss = r.model;
-            // auto: the constraint holds unless the LR test kept unstable poles the data need
-            enforced_stable = o.stable || (o.stable_auto && ss_stable(ss));
+            enforced_stable = o.stable || o.stable_auto;
             V = r.cost;
             const int n = (int)ss.n();
             nparams = n * (int)(nu + ny) + (r.feedthrough ? (int)(nu * ny) : 0);
@@ -446,10 +482,15 @@ int cmd_fit(int argc, char **argv)
             rf["steps"] = r.refine_steps;
             rf["cost_before"] = r.cost_unrefined >= 0 ? Json(r.cost_unrefined) : Json(nullptr);
             sub["refine"] = rf;
-            sub["stable_mode"] = o.stable ? "yes" : o.stable_auto ? "auto" : "no";
+            sub["stable_mode"] = o.stable ? "yes" : o.stable_auto ? "default" : "no";
             sub["unconstrained_cost"] = r.cost_unconstrained >= 0 ? Json(r.cost_unconstrained) : Json(nullptr);
             sub["stability_lr_p_value"] = r.stable_lr_p >= 0 ? Json(r.stable_lr_p) : Json(nullptr);
             extra["subspace"] = sub;
+            if (r.stable_lr_p >= 0 && r.stable_lr_p < 0.01)
+                std::fprintf(stderr, "msid fit: note: the unconstrained model (unstable) has a significantly lower cost "
+                                     "(likelihood ratio p = %.3g); for a stable plant that is model error (nonlinear "
+                                     "distortion, the order), for an unstable one (measured in closed loop) refit with "
+                                     "--allow-unstable\n", r.stable_lr_p);
             extra["feedthrough"] = feedthrough_json(ft, r.feedthrough, r.feedthrough_p);
             for (const auto &l : w) Gm.push_back(ss_eval(ss, l.x));
         } else if (method == "ml" && use_poles(a, d, nu)) {
@@ -474,9 +515,10 @@ int cmd_fit(int argc, char **argv)
             if (po.order == 0) throw UsageError("give --order");
             // --weight none: the cost has no noise scale for the likelihood-ratio test, auto keeps D (as subspace)
             po.feedthrough = ft == Feedthrough::Auto && !weighted ? Feedthrough::Yes : ft;
-            po.stable = a.has("stable");
+            po.stable = !allow_unstable;
             po.known_noise = known;
             po.max_iter = (int)a.u32("max-iter", (uint32_t)po.max_iter);
+            if (smoothed) po.subspace_scan_w = &w_line;   // subspace's r scan on each line's own weights, as msid fit
             const PrResult r = fit_ml_poles(f, d, w, weighted, po);   // cmd_fit_poles.cpp (not in the demo build)
             ss = pr_to_ss(r.model);
             settings["param"] = "poles";
@@ -502,8 +544,6 @@ int cmd_fit(int argc, char **argv)
             take(r);
             V = r.cost;
         } else {
-            if (a.has("stable"))
-                throw UsageError("--stable works with subspace and with ml in the pole-residue parametrisation (--param poles)");
             if (method == "ml" && a.has("start") && a.get("start") != "subspace" && a.get("start") != "sk")
                 throw UsageError("--start " + a.get("start") + ": --param lmfd starts from subspace or sk; a model file is refined "
                                  "in the pole-residue form: add --param poles" +
@@ -567,18 +607,27 @@ int cmd_fit(int argc, char **argv)
             } else {
                 const std::string start = a.get("start", "subspace");   // subspace|sk (others refused above)
                 settings["start"] = start;
-                MlResult r = lmfd_ml_from(f, d, w, weighted, s, start, mo, known);
+                const std::vector<WeightedLine> &w_scan = smoothed ? w_line : w;
+                MlResult r = lmfd_ml_from(f, d, w, w_scan, weighted, s, start, mo, known, !allow_unstable);
                 double lr_p = -1;
                 if (auto_nn) {
                     LmfdSpec s0 = s;
                     s0.nN = s.nD - 1;
-                    const MlResult r0 = lmfd_ml_from(f, d, w, weighted, s0, start, mo, known);
+                    const MlResult r0 = lmfd_ml_from(f, d, w, w_scan, weighted, s0, start, mo, known, !allow_unstable);
                     lr_p = chi2_sf((double)(ny * nu), std::max(0.0, 2.0 * (r0.cost - r.cost)));
                     if (lr_p >= 0.01) { r = r0; s = s0; }
                 }
                 settings["nD"] = s.nD;
                 settings["nN"] = s.nN;
                 extra["feedthrough"] = feedthrough_json(ft, s.nN == s.nD, lr_p);
+                extra["cost_start"] = r.cost_start;
+                if (!allow_unstable && !r.stable_constrained) {
+                    // the start (SK, or an SK fit to the subspace model) has unstable poles: no stable path
+                    enforced_stable = false;
+                    settings["stability"] = "not enforced: unstable start";
+                    std::fprintf(stderr, "msid fit: warning: the LMFD start is unstable, so ml could not keep the model "
+                                         "stable; --param poles constrains every start\n");
+                }
                 lm = r.model;
                 extra["parameters"] = params_json(r.names, r.theta, r.cov, r.cov_factor, r.cov_rank);
                 Json b;

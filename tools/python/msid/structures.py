@@ -141,20 +141,28 @@ def weighted_cost(G, Gm, C):
 def pooled_cov(path, half=4):
     """The weights `msid fit --method ml` uses by default (--weight-smooth 4), computed here
     independently of msid: each complex line's covariance averaged, dof-weighted, with those of its
-    2 half + 1 neighbouring complex lines (the window shifted at the band's ends), leaving out a
-    neighbour whose trace ratio to the line's (each entry weighed by its mean variance over the band) is outside the central 99% of F(2d, 2d),
-    d = min of the two dof (the noise level changes there). Real lines (DC, Nyquist) keep their own.
-    Only where msid pools: at least 4 (2 half + 1) lines."""
+    2 half + 1 neighbouring complex lines (the window shifted at the band's ends), where
+    - the line's own weights are imprecise: its n dof give a sample-ML factor n/(n - ny - 1) above 1.02;
+    - the neighbour's covariance equals the line's: one entry (g = 1), the variance ratio inside the
+      central 99% of F(2d, 2d), d = min of the two dof; a matrix, the Bartlett-corrected likelihood-ratio
+      statistic of two complex Wishart matrices below chi2's 95% quantile with g b dof (b the Wishart
+      block: ny for several experiments, else g).
+    Real lines (DC, Nyquist) keep their own. Only where msid pools: at least 4 (2 half + 1) lines."""
+    from scipy.stats import chi2
     from scipy.stats import f as fdist
     d = json.load(open(path))
     C = np.array([np.asarray(ln["cov"]["re"]) + 1j * np.asarray(ln["cov"]["im"]) for ln in d["lines"]])
     C = 0.5 * (C + np.conj(np.transpose(C, (0, 2, 1))))                  # the Hermitian part, as msid weighs
     dof = np.array([float(ln["dof"]) for ln in d["lines"]])
+    ny = d["n_outputs"]
+    g = C.shape[1]
     # several inputs from several experiments (periodic, no realisations): msid's weights take the
-    # dof of one experiment's Wishart, dof / m (tools/fit/frf_data.cpp, weigh)
-    if (d["n_inputs"] > 1 and d.get("n_experiments", 1) > 1 and d.get("method", "periodic") not in ("lpm", "etfe")
-            and d.get("nonlinear_distortion", {}).get("realisations", 1) < 2):
+    # dof of one experiment's Wishart, dof / m (tools/fit/frf_data.cpp, weigh), and its blocks are ny x ny
+    multi = (d["n_inputs"] > 1 and d.get("n_experiments", 1) > 1 and d.get("method", "periodic") not in ("lpm", "etfe")
+             and d.get("nonlinear_distortion", {}).get("realisations", 1) < 2)
+    if multi:
         dof = dof / d["n_experiments"]
+    b = ny if multi and ny < g else g
     real = np.array([bool(ln.get("real", False)) for ln in d["lines"]])
     C[real] = C[real].real
     if len(C) < 4 * (2 * half + 1):
@@ -163,18 +171,29 @@ def pooled_cov(path, half=4):
     n = len(cx)
     win = min(n, 2 * half + 1)
     out = C.copy()
-    # traces weigh each entry of vec(G) by its mean variance over the band (unit-free, as msid)
-    nrm = 1.0 / np.mean(np.real(np.diagonal(C[cx], axis1=1, axis2=2)), axis=0)
-    ntr = lambda M: float(np.real(np.diagonal(M)) @ nrm)
+    ld = np.array([np.linalg.slogdet(C[i])[1] for i in range(len(C))])
+    qa = chi2.isf(0.05, g * b)
+
+    def equal(k, j):
+        if g == 1:
+            q = float(np.real(C[j][0, 0] / C[k][0, 0]))
+            dd = 2.0 * min(dof[j], dof[k])
+            return not (fdist.sf(q, dd, dd) < 0.005 or fdist.sf(1.0 / q, dd, dd) < 0.005)
+        nk, nj = dof[k], dof[j]
+        npool = nk + nj
+        lp = np.linalg.slogdet((nk * C[k] + nj * C[j]) / npool)[1]
+        rho = 1.0 - (2.0 * b * b - 1.0) / (6.0 * b) * (1.0 / nk + 1.0 / nj - 1.0 / npool)
+        return rho * 2.0 * (npool * lp - nk * ld[k] - nj * ld[j]) <= qa
+
     for k in range(n):
+        nk = dof[cx[k]]
+        if nk > ny + 1 and nk / (nk - ny - 1) - 1.0 <= 0.02:
+            continue
         lo = min(max(k - half, 0), n - win)
         S = np.zeros_like(C[0])
         nd = 0.0
-        tk = ntr(C[cx[k]])
         for j in range(lo, lo + win):
-            q = ntr(C[cx[j]]) / tk
-            dd = 2.0 * min(dof[cx[j]], dof[cx[k]])
-            if j != k and (fdist.sf(q, dd, dd) < 0.005 or fdist.sf(1.0 / q, dd, dd) < 0.005):
+            if j != k and not equal(cx[k], cx[j]):
                 continue
             S += dof[cx[j]] * C[cx[j]]
             nd += dof[cx[j]]
