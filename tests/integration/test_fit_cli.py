@@ -49,6 +49,37 @@ def test_fit_recovers_plant(bench, method):
         assert len(doc["parameters"]["names"]) == doc["n_params"] == 20
 
 
+@pytest.mark.parametrize("method", ["ml", "subspace"])
+def test_fit_without_order_chooses_it(bench, method):
+    """No --order: the order scan (--order auto), as msid measure --fit does; the same model as with
+    --order auto given (negative control: a fixed --order writes no order_selection)."""
+    out, ref = bench["dir"] / f"noorder-{method}.json", bench["dir"] / f"auto-{method}.json"
+    r = h.run_ok("fit", "--method", method, bench["frf"], "-o", out)
+    assert "chosen order" in r.stdout and "stabilised" in r.stdout and "stable poles" not in r.stdout, r.stdout
+    doc = h.load_json(out)
+    assert doc["order_selection"]["chosen"] == doc["order"]
+    h.run_ok("fit", "--method", method, "--order", "auto", bench["frf"], "-o", ref)
+    a, b = h.load_json(ref), doc
+    assert a["A"] == b["A"] and a["order_selection"]["chosen"] == b["order_selection"]["chosen"]
+    fixed = bench["dir"] / f"fixed-{method}.json"
+    h.run_ok("fit", "--method", method, "--order", 4, bench["frf"], "-o", fixed)
+    assert "order_selection" not in h.load_json(fixed)
+
+
+def test_fit_method_error_lists_every_method_and_help_says_which(bench, tmp_path):
+    r = h.run("fit", "--method", "magic", bench["frf"], "-o", tmp_path / "o.json")
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    for m in ("subspace", "lmfd", "ml", "multi", "cissim"):
+        assert m in r.stderr, m
+    r = h.run_ok("fit", "--help")
+    first = r.stdout.lstrip().splitlines()[0]
+    assert first.startswith("Which method: ml for the model you report"), first
+    assert r.stdout.index("Which method") < r.stdout.index("usage: msid fit")
+    # lmfd without --order or --nd/--nn still asks for them (it interpolates at every order)
+    r = h.run("fit", "--method", "lmfd", bench["frf"], "-o", tmp_path / "l.json")
+    assert r.returncode == 2 and "give --order or --nd/--nn" in r.stderr and not (tmp_path / "l.json").exists()
+
+
 def test_g1_closed_form_through_the_cli(tmp_path):
     # Gonzalez §V-B(1): one CT line at w1 = 1/sqrt(2); lmfd with nD = 1, nN = 0 gives eq. (56)
     w1 = 1 / math.sqrt(2)

@@ -216,7 +216,8 @@ int cmd_fit_scan(int argc, char **argv)
     if (stride > 1)
         std::printf("LPM file: cost and p-value over every %zu-th line (2W+1 bins apart: independent), as msid validate\n",
                     stride);
-    std::printf("order  cost          expected      p-value     stable poles  not identified\n");
+    // "stabilised": poles that repeat from the order below (the diagram's sense, not the model's stability)
+    std::printf("order  cost          expected      p-value     stabilised    not identified\n");
     for (const auto &r : sel.rows) {
         if (!r.fit.ok) {
             std::printf("%-6d failed: %s\n", r.order, r.fit.error.c_str());
