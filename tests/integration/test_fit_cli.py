@@ -80,6 +80,21 @@ def test_fit_method_error_lists_every_method_and_help_says_which(bench, tmp_path
     assert r.returncode == 2 and "give --order or --nd/--nn" in r.stderr and not (tmp_path / "l.json").exists()
 
 
+def test_weight_none_on_a_three_period_covariance_writes_the_model(tmp_path):
+    """3 periods per experiment: the weighted fit is refused (M >= 4) and says to use --weight none; that fit
+    is written with the unit-weight cost, p_value null and a note (the covariance's 2 dof, at most the 2
+    outputs, give the weighted cost no finite expectation: it stopped with "not finite at /cost/expected")."""
+    b = h.make_dt_bench(tmp_path, periods=3)
+    h.run_ok(*h.frf_args(b, tmp_path / "frf.json"))
+    r = h.run("fit", "--method", "ml", "--order", 4, tmp_path / "frf.json", "-o", tmp_path / "m.json")
+    assert r.returncode == 1 and "--weight none" in r.stderr and not (tmp_path / "m.json").exists()
+    h.run_ok("fit", "--method", "ml", "--order", 4, "--weight", "none", tmp_path / "frf.json", "-o", tmp_path / "n.json")
+    doc = h.load_json(tmp_path / "n.json")
+    h.validate(doc, "msid-model-1")
+    assert doc["cost"]["p_value"] is None and "no finite expectation" in doc["cost"]["note"], doc["cost"]
+    assert doc["cost"]["weight"] == "none" and doc["order"] == 4
+
+
 def test_g1_closed_form_through_the_cli(tmp_path):
     # Gonzalez §V-B(1): one CT line at w1 = 1/sqrt(2); lmfd with nD = 1, nN = 0 gives eq. (56)
     w1 = 1 / math.sqrt(2)

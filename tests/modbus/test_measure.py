@@ -182,11 +182,10 @@ def test_measure_sigint_skips_the_fit_in_one_line(tmp_path):
         assert "skipped" in out_text
     no_temporaries(out)
     # the kept FRF fits later with the command the line gives, unweighted (2 periods: see msid fit's message)
-    # (it failed with "not finite at /cost/expected": the covariance of 2 periods has no finite cost law)
+    # (with few periods it failed with "not finite at /cost/expected"; test_fit_cli.py checks that case on
+    # fixed data, here the periods acquired before the signal depend on the machine's load)
     r = run("fit", "--method", "ml", "--order", "2", "--weight", "none", out / "frf.json", "-o", out / "model.json")
     assert r.returncode == 0, r.stderr
-    cost = json.loads((out / "model.json").read_text())["cost"]
-    assert cost["p_value"] is None and "no finite expectation" in cost["note"], cost
 
 
 @pytest.mark.parametrize("device, needle", [
