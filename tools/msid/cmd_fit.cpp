@@ -33,7 +33,7 @@ static const char *FIT_HELP =
     "  measure --fit does). Check any model with msid validate model.json frf.json.\n"
     "\n"
     "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
-    "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
+    "                [--order n|auto|a:b (default auto) | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk|MODEL]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
     "                [--allow-unstable] [--refine ml|none|N]\n"
