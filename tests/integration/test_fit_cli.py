@@ -88,6 +88,10 @@ def test_weight_none_on_a_three_period_covariance_writes_the_model(tmp_path):
     h.run_ok(*h.frf_args(b, tmp_path / "frf.json"))
     r = h.run("fit", "--method", "ml", "--order", 4, tmp_path / "frf.json", "-o", tmp_path / "m.json")
     assert r.returncode == 1 and "--weight none" in r.stderr and not (tmp_path / "m.json").exists()
+    # the order scan (no --order) fails at every order for this one reason: said once, no table row per order
+    r = h.run("fit", "--method", "ml", tmp_path / "frf.json", "-o", tmp_path / "m.json")
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and "--weight none" in r.stderr, r.stderr
+    assert "failed" not in r.stdout and not (tmp_path / "m.json").exists()
     h.run_ok("fit", "--method", "ml", "--order", 4, "--weight", "none", tmp_path / "frf.json", "-o", tmp_path / "n.json")
     doc = h.load_json(tmp_path / "n.json")
     h.validate(doc, "msid-model-1")
