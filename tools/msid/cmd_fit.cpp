@@ -29,11 +29,11 @@ static const char *FIT_HELP =
     "  noise, parameter standard deviations, modes with their uncertainty); subspace for a quick,\n"
     "  non-iterative model or a start; lmfd for a closed-form fit of a fraction D^-1 N (fixed entries with\n"
     "  --pin); multi for time records (ring-downs, free decays) without an FRF; cissim for periodic time\n"
-    "  records in closed form. Without --order the order is chosen (auto: stabilisation diagram, as msid\n"
-    "  measure --fit does). Check any model with msid validate model.json frf.json.\n"
+    "  records in closed form. Without --order ml chooses the order (auto: stabilisation diagram, as msid\n"
+    "  measure --fit does), subspace from its singular values. Check any model with msid validate.\n"
     "\n"
     "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
-    "                [--order n|auto|a:b (default auto) | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
+    "                [--order n|auto|a:b | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk|MODEL]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
     "                [--allow-unstable] [--refine ml|none|N]\n"
@@ -44,7 +44,7 @@ static const char *FIT_HELP =
     "            smallest weighted cost (35), refined (--refine ml, the default: up to 30 Levenberg-Marquardt\n"
     "            steps; N: up to N steps; none: the bare estimate, as for cissim) on\n"
     "            that cost (never raising it); stable unless the data need unstable poles (LR test at 1%,\n"
-    "            --allow-unstable: no constraint)\n"
+    "            --allow-unstable: no constraint); order from the singular values when --order is omitted\n"
     "  lmfd      closed-form ML of a left matrix fraction D(p)^-1 N(p), fully or under-constrained\n"
     "            (Gonzalez et al. 2025 Thm 6): minimum-norm solution, kernel basis, --pin to fix entries\n"
     "  ml        weighted maximum likelihood (eq. 40): --param poles (default; dt with several inputs: lmfd)\n"
@@ -60,7 +60,7 @@ static const char *FIT_HELP =
     "  --feedthrough auto (LR test at 1%, default) | yes | no: the direct term D (accelerations need it)\n"
     "  --stable  subspace: reflect unstable poles whatever the test says; ml (poles): constrained to stable poles\n"
     "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
-    "                auto (the default of subspace and ml), a:b or a:step:b: order selection with a\n"
+    "                auto (ml's default), a:b or a:step:b: order selection with a\n"
     "                stabilisation diagram (docs/fitting.md);\n"
     "                on LPM files the cost and p-value of every (2W+1)-th line, as msid validate\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
@@ -72,11 +72,13 @@ static const char *FIT_HELP =
     "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
     "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
 
-// No --order: subspace and ml choose it (--order auto), unless --nd/--nn give LMFD degrees or --start
-// MODEL.json gives the model's order; lmfd, which interpolates at every order, still asks for it.
+// No --order: ml chooses it (--order auto, as msid measure --fit), unless --nd/--nn give LMFD degrees or
+// --start MODEL.json gives the model's order. subspace keeps its own default (the singular-value gap: its
+// scan's model at the chosen order 26 of the 1x3 structure moved by 1.7e-5 in cost between units, where the
+// unit-invariance test asks 1e-6); lmfd, which interpolates at every order, still asks for it.
 static bool order_defaults_to_auto(int argc, char **argv)
 {
-    if (!fit_method_is(argc, argv, "subspace") && !fit_method_is(argc, argv, "ml")) return false;
+    if (!fit_method_is(argc, argv, "ml")) return false;
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
         for (const char *k : {"--order", "--nd", "--nn"})
