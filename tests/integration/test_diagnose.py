@@ -152,6 +152,33 @@ def test_period_auto_and_lines_auto(tmp_path):
     assert h.load_json(out2)["lines"] == doc["lines"]
 
 
+def test_wrong_lines_are_named_as_wrong_lines(tmp_path):
+    """Excited at 1:2:41, analysed at 2:2:40: the input is periodic and the lines are wrong. The message says
+    so and names the bins that hold the input's power (not "not periodic ... use --method lpm"); with the
+    named lines the FRF is estimated (negative control), and a list that partly overlaps the excited one is
+    not called wrong (it goes to the estimator, whose checks judge the lines one by one)."""
+    rng = np.random.default_rng(11)
+    exc = list(range(1, 42, 2))
+    u = np.tile(_multisine(P, exc, rng), 8) + 1e-3 * rng.standard_normal(8 * P)
+    f = _write(tmp_path / "odd.csv", u, _siso(u, rng))
+    r, out = _frf(tmp_path, f, lines="2:2:40")
+    assert r.returncode == 1 and len(r.stderr.splitlines()) == 1, r.stderr
+    assert "the input is periodic with period 256, but not at the given lines" in r.stderr
+    assert "periodic power is at bins 1:2:41" in r.stderr and "--lines 1:2:41" in r.stderr
+    assert "not periodic" not in r.stderr and "lpm" not in r.stderr and not out.exists()
+    r, out = _frf(tmp_path, f, lines="1:2:41")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    r, out = _frf(tmp_path, f, lines="1:2:41,44")
+    assert "not at the given lines" not in r.stderr
+    # a noisy input (0 dB input SNR: more than half of its power changes from period to period) at the wrong
+    # lines is named the same way, not "not periodic"
+    un = u + np.std(u) * rng.standard_normal(u.size)
+    g = _write(tmp_path / "odd_noisy.csv", un, _siso(un, rng))
+    r, out = _frf(tmp_path, g, lines="2:2:40")
+    assert r.returncode == 1 and "but not at the given lines" in r.stderr and "--lines 1:2:41" in r.stderr, r.stderr
+    assert "not periodic" not in r.stderr
+
+
 def test_lines_auto_without_excitation_says_so(tmp_path):
     rng = np.random.default_rng(5)
     u = np.tile(np.zeros(P), 8) + 0.1 * rng.standard_normal(8 * P)

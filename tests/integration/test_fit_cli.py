@@ -49,6 +49,60 @@ def test_fit_recovers_plant(bench, method):
         assert len(doc["parameters"]["names"]) == doc["n_params"] == 20
 
 
+@pytest.mark.parametrize("method", ["ml"])
+def test_fit_without_order_chooses_it(bench, method):
+    """ml without --order: the order scan (--order auto), as msid measure --fit does; the same model as with
+    --order auto given (negative controls: a fixed --order writes no order_selection, nor does subspace
+    without --order, which keeps its singular-value order)."""
+    out, ref = bench["dir"] / f"noorder-{method}.json", bench["dir"] / f"auto-{method}.json"
+    r = h.run_ok("fit", "--method", method, bench["frf"], "-o", out)
+    assert "chosen order" in r.stdout and "stabilised" in r.stdout and "stable poles" not in r.stdout, r.stdout
+    doc = h.load_json(out)
+    assert doc["order_selection"]["chosen"] == doc["order"]
+    h.run_ok("fit", "--method", method, "--order", "auto", bench["frf"], "-o", ref)
+    a, b = h.load_json(ref), doc
+    assert a["A"] == b["A"] and a["order_selection"]["chosen"] == b["order_selection"]["chosen"]
+    fixed = bench["dir"] / f"fixed-{method}.json"
+    h.run_ok("fit", "--method", method, "--order", 4, bench["frf"], "-o", fixed)
+    assert "order_selection" not in h.load_json(fixed)
+    sv = bench["dir"] / "sv-subspace.json"
+    h.run_ok("fit", "--method", "subspace", bench["frf"], "-o", sv)
+    assert "order_selection" not in h.load_json(sv)
+
+
+def test_fit_method_error_lists_every_method_and_help_says_which(bench, tmp_path):
+    r = h.run("fit", "--method", "magic", bench["frf"], "-o", tmp_path / "o.json")
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    for m in ("subspace", "lmfd", "ml", "multi", "cissim"):
+        assert m in r.stderr, m
+    r = h.run_ok("fit", "--help")
+    first = r.stdout.lstrip().splitlines()[0]
+    assert first.startswith("Which method: ml for the model you report"), first
+    assert r.stdout.index("Which method") < r.stdout.index("usage: msid fit")
+    # lmfd without --order or --nd/--nn still asks for them (it interpolates at every order)
+    r = h.run("fit", "--method", "lmfd", bench["frf"], "-o", tmp_path / "l.json")
+    assert r.returncode == 2 and "give --order or --nd/--nn" in r.stderr and not (tmp_path / "l.json").exists()
+
+
+def test_weight_none_on_a_three_period_covariance_writes_the_model(tmp_path):
+    """3 periods per experiment: the weighted fit is refused (M >= 4) and says to use --weight none; that fit
+    is written with the unit-weight cost, p_value null and a note (the covariance's 2 dof, at most the 2
+    outputs, give the weighted cost no finite expectation: it stopped with "not finite at /cost/expected")."""
+    b = h.make_dt_bench(tmp_path, periods=3)
+    h.run_ok(*h.frf_args(b, tmp_path / "frf.json"))
+    r = h.run("fit", "--method", "ml", "--order", 4, tmp_path / "frf.json", "-o", tmp_path / "m.json")
+    assert r.returncode == 1 and "--weight none" in r.stderr and not (tmp_path / "m.json").exists()
+    # the order scan (no --order) fails at every order for this one reason: said once, no table row per order
+    r = h.run("fit", "--method", "ml", tmp_path / "frf.json", "-o", tmp_path / "m.json")
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and "--weight none" in r.stderr, r.stderr
+    assert "failed" not in r.stdout and not (tmp_path / "m.json").exists()
+    h.run_ok("fit", "--method", "ml", "--order", 4, "--weight", "none", tmp_path / "frf.json", "-o", tmp_path / "n.json")
+    doc = h.load_json(tmp_path / "n.json")
+    h.validate(doc, "msid-model-1")
+    assert doc["cost"]["p_value"] is None and "no finite expectation" in doc["cost"]["note"], doc["cost"]
+    assert doc["cost"]["weight"] == "none" and doc["order"] == 4
+
+
 def test_g1_closed_form_through_the_cli(tmp_path):
     # Gonzalez §V-B(1): one CT line at w1 = 1/sqrt(2); lmfd with nD = 1, nN = 0 gives eq. (56)
     w1 = 1 / math.sqrt(2)

@@ -76,6 +76,78 @@ def test_frf_to_control_and_back(demo, tmp_path):
     assert c1 == pytest.approx(c2, rel=1e-9)
 
 
+def test_control_plots_of_frf_and_model(demo):
+    """python-control's own plots take what to_control() gives: a named FRD with the file's dt and signal
+    names (bode_plot needs a name, nyquist_plot a DT FRD that evaluates on the unit circle), the model's
+    StateSpace with the same names (step_response against a state recursion of the file's A, B, C, D)."""
+    mpl = pytest.importorskip("matplotlib")
+    mpl.use("Agg")
+    import matplotlib.pyplot as plt
+    f = pkg.read_frf(demo / "frf.json")
+    m = pkg.read_model(demo / "model.json")
+    frd = f.to_control()
+    assert frd.dt == f.sample_time and frd.isdtime(strict=True) and frd.name
+    assert frd.input_labels == ["u1", "u2"] and frd.output_labels == ["y1", "y2"]
+    try:
+        cp = control.bode_plot(frd)
+        assert cp.axes.shape == (4, 2)   # magnitude and phase per output, one column per input
+        mag = cp.lines[0, 1][0].get_ydata()   # y1 / u2 magnitude: the data, not a re-evaluation
+        assert np.allclose(mag, np.abs(f.G[:, 0, 1]), rtol=1e-12)
+        assert frd.name in cp.figure._suptitle.get_text()
+        # Nyquist of one SISO path at the measured lines (an FRD has no other points)
+        g = frd[1, 0]
+        cp = control.nyquist_plot(g, g.omega)
+        drawn = [ln for group in cp.lines[0] for ln in group if ln is not None and len(ln.get_xdata()) == f.n_lines]
+        xy = drawn[0].get_xydata()   # the primary curve: the lines in order
+        assert np.allclose(xy[:, 0] + 1j * xy[:, 1], f.G[:, 1, 0], rtol=1e-9, atol=0)
+        # the model: Bode, Nyquist and step response with its names and dt
+        ss = m.to_control()
+        assert ss.name and ss.dt == m.sample_time and ss.input_labels == ["u1", "u2"]
+        control.bode_plot(ss)
+        control.nyquist_plot(ss[0, 0])
+        n = 200
+        r = control.step_response(ss, T=np.arange(n) * ss.dt)
+        y = np.asarray(r.outputs)             # (ny, nu, n): output i for a unit step on input j
+        x = np.zeros((m.order, m.n_inputs))
+        want = np.empty((m.n_outputs, m.n_inputs, n))
+        for k in range(n):                    # x[k+1] = A x[k] + B, y[k] = C x[k] + D (zero initial state)
+            want[:, :, k] = m.C @ x + m.D
+            x = m.A @ x + m.B
+        assert np.allclose(y, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+        assert r.output_labels == ["y1", "y2"]
+    finally:
+        plt.close("all")
+    # the names come from the file when it carries them
+    f.meta.update(input_names=["force", "torque"], output_names=["acc", "vel"])
+    frd = f.to_control(name="bench")
+    assert frd.name == "bench" and frd.input_labels == ["force", "torque"] and frd.output_labels == ["acc", "vel"]
+
+
+def test_control_round_trips_keep_dt_and_names(demo):
+    f = pkg.read_frf(demo / "frf.json")
+    m = pkg.read_model(demo / "model.json")
+    # FRF -> FRD -> FRF: the lines and G bit for bit, the sample time from the FRD's dt
+    frd = f.to_control()
+    g = pkg.FRF.from_control(frd, f.meta["period_samples"], frd.dt)
+    assert np.array_equal(g.G, f.G) and np.array_equal(g.bins, f.bins) and g.sample_time == f.sample_time
+    # Model -> StateSpace -> Model: the same matrices, dt and response at the lines
+    ss = m.to_control()
+    back = pkg.Model.from_control(ss, f)
+    for k in "ABCD":
+        assert np.array_equal(getattr(back, k), getattr(m, k)), k
+    assert back.sample_time == m.sample_time
+    assert np.allclose(back.frf_G, m.frf_G, rtol=0, atol=1e-10 * np.abs(m.frf_G).max())
+    tf = m.to_control("tf")
+    assert tf.dt == m.sample_time and tf.name == ss.name and tf.output_labels == ss.output_labels
+    # a DT file without a sample time: dt True, frequencies in rad/sample
+    f.meta.pop("sample_time")
+    f.freq_hz = None
+    frd = f.to_control()
+    assert frd.dt is True and np.allclose(frd.omega, 2 * np.pi * f.freq)
+    v = frd(np.exp(1j * frd.omega[:3]))   # z on the unit circle: the lines' G (the Nyquist contour of DT)
+    assert np.array_equal(np.transpose(v, (2, 0, 1)), f.G[:3])
+
+
 def test_frd_off_bin_refused():
     frd = control.frd(np.ones((1, 1, 2)), [0.1, 0.2])
     with pytest.raises(ValueError, match="DFT bins"):

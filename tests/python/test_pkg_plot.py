@@ -78,9 +78,9 @@ def test_stabilisation_diagram_when_the_model_has_one(demo):
     m = pkg.read_model(demo / "auto.json")
     assert m.stabilisation is not None
     fig = plot.bode(demo / "frf.json", m)
-    assert len(fig.axes) == 13
-    st = fig.axes[-1]
-    assert st.get_title() == "stabilisation diagram" and st.get_ylabel() == "order"
+    assert len(fig.axes) == 14   # 12 Bode/residual axes, the diagram and its mode-indicator axis
+    st, mif = fig.axes[-2], fig.axes[-1]
+    assert st.get_title().startswith("stabilisation diagram") and st.get_ylabel() == "order"
     orders = {o["order"] for o in m.stabilisation["orders"] if o["ok"] and o["poles"]}
     ys = {int(y) for ln in st.get_lines() for y in ln.get_ydata() if ln.get_linestyle() == "None"}
     assert ys == orders
@@ -161,3 +161,111 @@ def test_saved_files_are_reproducible(siso, tmp_path):
         plot.save(plot.bode(siso / "frf.json", siso / "model.json"), a)
         plot.save(plot.bode(siso / "frf.json", siso / "model.json"), b)
         assert a.read_bytes() == b.read_bytes(), ext
+
+
+def test_interrupted_run_is_marked_incomplete(siso, tmp_path):
+    """An FRF written after a stop ("complete": false, msid measure) says INCOMPLETE in the Bode title and in
+    report.html (title, heading, banner, table); the same FRF without the key says nothing of the kind."""
+    import json
+    d = tmp_path / "out"
+    d.mkdir()
+    doc = json.loads((siso / "frf.json").read_text())
+    doc.update({"complete": False, "experiments_completed": 1, "experiments_planned": 2,
+                "incomplete_reason": "stopped by signal 2 during experiment 2 of 2"})
+    (d / "frf.json").write_text(json.dumps(doc))
+    f = pkg.read_frf(d / "frf.json")
+    assert plot.bode(f)._suptitle.get_text().startswith("INCOMPLETE: ")
+    r = subprocess.run([sys.executable, "-m", "msid.report", str(d)], env=ENV, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    html = (d / "report.html").read_text()
+    assert "<title>INCOMPLETE msid report" in html and "<h1>INCOMPLETE msid report" in html
+    assert "stopped by signal 2 during experiment 2 of 2" in html and "1 of 2 experiments complete" in html
+    # negative control: the complete file
+    assert "INCOMPLETE" not in plot.bode(siso / "frf.json")._suptitle.get_text()
+    e = tmp_path / "complete"
+    e.mkdir()
+    (e / "frf.json").write_bytes((siso / "frf.json").read_bytes())
+    assert subprocess.run([sys.executable, "-m", "msid.report", str(e)], env=ENV).returncode == 0
+    assert "INCOMPLETE" not in (e / "report.html").read_text()
+
+
+def test_stabilisation_diagram_reads_like_the_bode_plot(demo, tmp_path):
+    """The diagram spans the Bode plot's frequency range, has integer order ticks, draws the FRF's mode
+    indicator (the singular values of G, dB) behind the poles, and its x tick labels do not overlap
+    (checked on the drawn text boxes); the rendered PNG holds the grey curve's pixels."""
+    f = pkg.read_frf(demo / "frf.json")
+    m = pkg.read_model(demo / "auto.json")
+    fig = plot.bode(f, m)
+    st, mif = fig.axes[-2], fig.axes[-1]
+    hz = f.hz_axis()[0]
+    assert st.get_xlim() == pytest.approx((hz.min(), hz.max()))
+    assert all(float(t).is_integer() for t in st.get_yticks())
+    sv = np.linalg.svd(f.G, compute_uv=False)
+    curves = [ln for ln in mif.get_lines()]
+    assert len(curves) == sv.shape[1]
+    assert np.allclose(curves[0].get_ydata(), 20 * np.log10(sv[:, 0]), rtol=1e-12)
+    assert np.allclose(curves[0].get_xdata(), hz)
+    assert st.get_zorder() > mif.get_zorder()   # the poles above the curve
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    FigureCanvasAgg(fig).draw()
+    xr = st.get_xlim()
+    labels = [t for t in st.get_xticklabels() + st.get_xticklabels(minor=True)
+              if t.get_text() and t.get_visible() and xr[0] <= t.get_position()[0] <= xr[1]]
+    inside = [t.get_window_extent() for t in labels]
+    assert len(inside) >= 2
+    for i in range(len(inside)):
+        for j in range(i + 1, len(inside)):
+            assert not inside[i].overlaps(inside[j]), (i, j)
+    plot.save(fig, tmp_path / "stab.png")
+    img = imread(tmp_path / "stab.png")[..., :3]
+    grey = np.all(np.abs(img - 0.55) < 0.04, axis=-1)
+    h = img.shape[0]
+    assert grey[int(0.75 * h):].sum() > 200   # the mode indicator in the diagram's (lowest) part
+
+
+def test_report_says_when_what_how_and_stability(demo, tmp_path):
+    """report.html carries the run (dates, msid version, the command line given with --command), the design
+    (period, rate, lines, amplitudes from design.json), the channels (names and units from the file, else
+    u1.. with "unit not recorded"), and one unambiguous sentence on the model's stability; an unstable model
+    (one pole moved outside the unit circle) says UNSTABLE (negative control)."""
+    import json
+    import re
+    d = tmp_path / "out"
+    d.mkdir()
+    doc = json.loads((demo / "frf.json").read_text())
+    (d / "frf.json").write_text(json.dumps(doc))
+    (d / "model.json").write_bytes((demo / "model.json").read_bytes())
+    (d / "design.json").write_bytes((demo / "design.json").read_bytes())
+    cmd = "msid measure --device modbus-tcp://127.0.0.1:1502 --design 'my design.json' -o out"
+    r = subprocess.run([sys.executable, "-m", "msid.report", str(d), "--command", cmd], env=ENV, capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    page = (d / "report.html").read_text()
+    text = re.sub(r"<[^>]+>", " ", page)
+    import html as h
+    text = h.unescape(text)
+    assert cmd in text
+    assert re.search(r"FRF written\s+\d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC", text)
+    assert doc["generator"] in text and f"Python package {pkg.__version__}" in text
+    assert re.search(r"period\s+1024 samples", text)
+    assert re.search(r"sample rate\s+1000 Hz", text)
+    assert "2,3,5,8,12,17,20,25,35,50,80,92,150,300 (14 lines)" in text
+    assert re.search(r"amplitudes \(peak\)\s+0\.5 \(every line and input\)", text)
+    assert re.search(r"input 1\s+u1 \(unit not recorded\)", text) and re.search(r"output 2\s+y2 \(unit not recorded\)", text)
+    assert re.search(r"stability of the model\s+stable: all 4 poles inside the unit circle", text)
+    assert "stable poles" not in text and "INCOMPLETE" not in text
+    # names and units from the file; an unstable model
+    doc.update(input_names=["force", "torque"], output_names=["acc", "vel"], input_units=["N", "N m"],
+               output_units=["m/s^2", "m/s"])
+    (d / "frf.json").write_text(json.dumps(doc))
+    m = pkg.read_model(demo / "model.json")
+    w, V = np.linalg.eig(m.A)
+    w2 = w.copy()
+    w2[np.abs(w) == np.abs(w).max()] *= 1.05 / np.abs(w).max()
+    m.A = np.real(V @ np.diag(w2) @ np.linalg.inv(V))
+    pkg.write_model(d / "model.json", m)
+    assert subprocess.run([sys.executable, "-m", "msid.report", str(d)], env=ENV).returncode == 0
+    text = h.unescape(re.sub(r"<[^>]+>", " ", (d / "report.html").read_text()))
+    assert re.search(r"input 2\s+torque \[N m\]", text) and re.search(r"output 1\s+acc \[m/s\^2\]", text)
+    assert re.search(r"UNSTABLE: [12] of 4 poles not inside the unit circle \(largest \|pole\| 1\.05\)", text)
+    assert "not recorded (msid measure passes it)" in text

@@ -287,6 +287,34 @@ void check_periodic_lines(const msid_pstats *const *ps, uint32_t m, uint32_t nu,
     }
 }
 
+// An input that repeats with period P but carries no periodic component at the given lines: the lines are
+// wrong, not the input. Throws naming the bins that hold the input's power (find_lines over the whole
+// record) when the lines show no stable period mean (the test check_periodic_lines applies later, here on
+// at most 4 of the checking window's K periods: a few FFTs of P per input on every record, and a weak
+// right line that 4 periods miss is found among the bins below, so it is never called wrong) and none of
+// them is among the bins found; otherwise returns, and a partly wrong list is left to the later checks.
+static void check_lines_hold_input(const Record &r, uint32_t P, uint32_t skip, size_t K, const std::vector<uint32_t> &bins)
+{
+    if (bins.empty()) return;
+    const PeriodicEvidence ev = periodic_evidence(r, P, skip, std::min<size_t>(K, 4), bins);
+    if (ev.periodic() || ev.tested == 0) return;   // none between DC and Nyquist: the line checks name it
+    std::vector<uint32_t> found;
+    std::string rep;   // find_lines' description of its test: not repeated in the message
+    try {
+        found = find_lines(std::vector<Record>{r}, P, skip, rep);
+    } catch (const Error &) {
+        return;   // no periodic component anywhere: the non-periodic input message says so
+    }
+    for (uint32_t b : bins)
+        if (std::binary_search(found.begin(), found.end(), b)) return;
+    throw Error(fmt("'%s': the input is periodic with period %u, but not at the given lines: %zu of %zu line/input "
+                    "pairs show a period mean beyond its standard error (chance alone gives %.1f), and the input's "
+                    "periodic power is at bins %s (%zu bins, the --lines auto test). Give those lines (--lines %s, or "
+                    "--lines auto)",
+                    r.path.c_str(), P, ev.shown, ev.tested, PERIODIC_BIN_ALPHA * (double)ev.tested,
+                    format_bins(found).c_str(), found.size(), format_bins(found).c_str()));
+}
+
 void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &recs)
 {
     // The time-domain part of every record's check (the non-periodic fraction at P and at the
@@ -372,7 +400,8 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
                             "%u, %s. Use --period %u",
                             r.path.c_str(), P, Q, 100 * eta_n, Q, 100 * eta, P, P,
                             wrong_period_symptoms(r, P, skip, bins).c_str(), Q));
-        if (eta > NONPERIODIC_FRACTION)
+        if (eta > NONPERIODIC_FRACTION) {
+            check_lines_hold_input(r, P, skip, K, bins);   // a noisy periodic input analysed at the wrong lines
             throw Error(fmt("'%s': the input is not periodic with period %u: %.0f%% of its power changes from period to "
                             "period (its spectrum differs between periods), %zu of %zu %s show a period mean beyond "
                             "its standard error (chance alone gives %.1f; a periodic input with noise shows many), and "
@@ -381,6 +410,8 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
                             r.path.c_str(), P, 100 * eta, ev.shown, ev.tested,
                             bins.empty() ? "bin/input pairs" : "excited line/input pairs",
                             PERIODIC_BIN_ALPHA * (double)ev.tested));
+        }
+        check_lines_hold_input(r, P, skip, K, bins);
     }
 }
 

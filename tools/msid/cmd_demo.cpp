@@ -197,6 +197,7 @@ int cmd_demo(int argc, char **argv)
     Args ma((int)av.size(), av.data(), 2, measure_keys(), {"no-plots", "quiet"});
     MeasureOptions mo = parse_measure_command(ma);
     mo.quiet_fit = true;
+    mo.command_line = shell_line(argc, argv);
     Progress pg(stderr, is_terminal(stderr), o.quiet);
     MeasureRun run = run_measure(mo, pg);
     sim.stop();

@@ -4,7 +4,10 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "frf_data.hpp"
+#include "host_libs.hpp"
 #include "matio_dl.hpp"   // libmatio on first use (tools/records)
+#include "model_io.hpp"
+#include "stats.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -19,6 +22,7 @@ using msidrec::Matio;
 
 static const char *HELP =
     "usage: msid export frf.json (--csv out.csv | --mat out.mat) [--known-input]\n"
+    "       msid export model.json --mat out.mat\n"
     "Frequencies, G and standard deviations of an msid-frf/1 file for spreadsheets and MATLAB.\n"
     "  --csv   one row per line: bin, freq (cycles/sample), freq_hz (when the rate is known), omega\n"
     "          (rad/s; rad/sample without a sample time), then per output i / input j the columns\n"
@@ -27,8 +31,14 @@ static const char *HELP =
     "          Ts (sample time; 0 for a continuous-time file, 1 when unknown), CovarianceData\n"
     "          (ny x nu x L x 2 x 2: covariance of [Re Im], circular noise: v/2 on the diagonal; DC lines\n"
     "          v and 0), SD (ny x nu x L), dof (L x 1), Bin, FrequencyHz (when known), FrequencyUnit:\n"
-    "          idfrd(ResponseData, Frequency, Ts, 'CovarianceData', CovarianceData, 'FrequencyUnit', FrequencyUnit)\n"
-    "  --known-input   standard deviations from cov_known_input instead of cov\n";
+    "          idfrd(ResponseData, Frequency, Ts, 'CovarianceData', CovarianceData, 'FrequencyUnit', FrequencyUnit);\n"
+    "          and for exact 95% regions with few periods (showConfidence assumes a Gaussian, too narrow at\n"
+    "          low dof): CovarianceData95 = CovarianceData .* ConfidenceScale95 (per line, from the dof:\n"
+    "          F(2, 2 dof), DC lines F(1, dof)) drawn with showConfidence(h, SD95), SD95 = sqrt(-2 log 0.05)\n"
+    "  --known-input   standard deviations from cov_known_input instead of cov\n"
+    "An msid-model/1 file (--mat only): A, B, C, D, Ts (0: continuous time; 1 when unknown), InputName,\n"
+    "OutputName (cell arrays of char), Domain, Method, Order: ss(A, B, C, D, Ts, 'InputName', InputName,\n"
+    "'OutputName', OutputName) or idss(A, B, C, D, zeros(size(A, 1), size(C, 1)), zeros(size(A, 1), 1), Ts).\n";
 
 namespace {
 
@@ -95,6 +105,27 @@ public:
         std::string copy = s;
         put(M_.VarCreate(name, MAT_C_CHAR, MAT_T_UINT8, 2, dims, copy.data(), 0), name);
     }
+    // A column cell array of char rows ({'u1'; 'u2'}: the InputName/OutputName of ss and idss).
+    void cellstr(const char *name, const std::vector<std::string> &items)
+    {
+        std::vector<std::string> copies(items);
+        std::vector<matvar_t *> cells;
+        for (auto &c : copies) {
+            size_t d[2] = {1, c.size()};
+            matvar_t *v = M_.VarCreate(nullptr, MAT_C_CHAR, MAT_T_UINT8, 2, d, c.data(), 0);
+            if (!v) {
+                for (matvar_t *x : cells) M_.VarFree(x);
+                throw Error("cannot write variable " + std::string(name) + " to '" + path_ + "'");
+            }
+            cells.push_back(v);
+        }
+        size_t dims[2] = {cells.size(), 1};
+        // the cell takes the element variables (it copies the pointers): VarFree of the cell frees them
+        matvar_t *cell = M_.VarCreate(name, MAT_C_CELL, MAT_T_CELL, 2, dims, cells.data(), 0);
+        if (!cell)
+            for (matvar_t *x : cells) M_.VarFree(x);
+        put(cell, name);
+    }
     void close()
     {
         if (M_.Close(m_) != 0) { m_ = nullptr; throw Error("cannot write '" + path_ + "'"); }
@@ -114,18 +145,46 @@ private:
     mat_t *m_ = nullptr;
 };
 
+// Variance factor of line k that makes showConfidence's Gaussian region at SD95 standard deviations
+// (Mahalanobis radius sqrt(chi2_2 quantile) = sqrt(-2 log 0.05)) the exact 95% region of the file:
+// |e|^2 / v ~ F(2, 2 dof) on complex lines (radius^2 = v dof (0.05^(-1/dof) - 1)), e^2 / v ~ F(1, dof) on DC
+// lines (docs/statistics.md). It tends to 1 as the dof grow; no dof (infinite) is 1.
+constexpr double CONF_ALPHA = 0.05;
+double sd95() { return std::sqrt(-2.0 * std::log(CONF_ALPHA)); }
+
+double f1_quantile(double n, double alpha)
+{
+    double lo = 0, hi = 1;
+    while (msidfit::f_sf(1, n, hi) > alpha && hi < 1e300) hi *= 2;
+    for (int it = 0; it < 200 && hi - lo > 1e-15 * hi; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (msidfit::f_sf(1, n, mid) > alpha ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+double confidence_scale95(double dof, bool dc)
+{
+    if (!(dof > 0) || !std::isfinite(dof)) return 1.0;
+    const double s2 = sd95() * sd95();
+    if (dc) return f1_quantile(dof, CONF_ALPHA) / s2;          // Re only, all of v: SD95^2 c v = v q1
+    return 2.0 * dof * std::expm1(-std::log(CONF_ALPHA) / dof) / s2;   // v/2 per axis: SD95^2 c v/2 = v q2
+}
+
 void write_mat(const Exported &e, const std::string &tmp)
 {
     const auto &f = e.f;
     const size_t L = f.lines.size(), ny = f.ny, nu = f.nu;
     const size_t n3 = ny * nu * L;
-    std::vector<double> re(n3), im(n3), sd(n3), cov(n3 * 4, 0.0), om(L), hz(L), dof(L), bin(L);
+    std::vector<double> re(n3), im(n3), sd(n3), cov(n3 * 4, 0.0), cov95(n3 * 4, 0.0), om(L), hz(L), dof(L), bin(L),
+        scale(L);
     for (size_t k = 0; k < L; ++k) {
         const auto &l = f.lines[k];
         om[k] = l.omega;
         hz[k] = f.domain == msidfit::Domain::CT ? l.omega / (2 * M_PI) : l.freq / f.h;
         dof[k] = e.dof(k);
         bin[k] = l.bin;
+        scale[k] = confidence_scale95(dof[k], l.real);
         for (size_t j = 0; j < nu; ++j)
             for (size_t i = 0; i < ny; ++i) {
                 const size_t a = i + ny * (j + nu * k);   // column-major (MATLAB) index of (i, j, k)
@@ -137,6 +196,8 @@ void write_mat(const Exported &e, const std::string &tmp)
                 const double vr = l.real ? v : v / 2, vi = l.real ? 0.0 : v / 2;
                 cov[a + n3 * (0 + 2 * 0)] = vr;
                 cov[a + n3 * (1 + 2 * 1)] = vi;
+                cov95[a + n3 * (0 + 2 * 0)] = vr * scale[k];
+                cov95[a + n3 * (1 + 2 * 1)] = vi * scale[k];
             }
     }
     MatWriter w(matio(), tmp);
@@ -146,10 +207,81 @@ void write_mat(const Exported &e, const std::string &tmp)
     w.real("CovarianceData", {ny, nu, L, 2, 2}, cov);
     w.real("SD", {ny, nu, L}, sd);
     w.real("dof", {L, 1}, dof);
+    w.real("ConfidenceScale95", {L, 1}, scale);
+    w.real("CovarianceData95", {ny, nu, L, 2, 2}, cov95);
+    w.real("SD95", {1, 1}, {sd95()});
     w.real("Bin", {L, 1}, bin);
     if (f.h > 0) w.real("FrequencyHz", {L, 1}, hz);
     w.text("FrequencyUnit", f.h > 0 ? "rad/s" : "rad/TimeUnit");
     w.close();
+}
+
+// Names of a model's inputs or outputs: the file's `key` list when it has n non-empty strings, else
+// <prefix>1 .. <prefix>n (the names msid prints).
+std::vector<std::string> signal_names(const Json &doc, const char *key, size_t n, const char *prefix)
+{
+    std::vector<std::string> out;
+    if (doc.contains(key) && doc[key].is_array() && doc[key].size() == n)
+        for (const auto &x : doc[key])
+            if (x.is_string() && !x.get<std::string>().empty()) out.push_back(x.get<std::string>());
+    if (out.size() == n) return out;
+    out.clear();
+    for (size_t k = 0; k < n; ++k) out.push_back(fmt("%s%zu", prefix, k + 1));
+    return out;
+}
+
+// A file whose "format" is msid-model/1 (anything else goes to the FRF reader, which names the problem).
+bool is_model_file(const std::string &path)
+{
+    try {
+        const Json d = read_json_file(path);
+        return d.is_object() && d.value("format", std::string()) == "msid-model/1";
+    } catch (const std::exception &) {
+        return false;
+    }
+}
+
+// MATLAB column-major copy of a real matrix.
+std::vector<double> col_major(const msidfit::MatR &M)
+{
+    std::vector<double> v((size_t)(M.rows() * M.cols()));
+    for (Eigen::Index c = 0; c < M.cols(); ++c)
+        for (Eigen::Index r = 0; r < M.rows(); ++r) v[(size_t)(r + M.rows() * c)] = M(r, c);
+    return v;
+}
+
+void write_model_mat(const std::string &path, const std::string &tmp)
+{
+    const msidfit::ModelFile mf = msidfit::read_model(path);
+    const Json doc = read_json_file(path);
+    const auto &m = mf.ss;
+    const size_t n = (size_t)m.A.rows(), nu = (size_t)m.D.cols(), ny = (size_t)m.D.rows();
+    MatWriter w(matio(), tmp);
+    w.real("A", {n, n}, col_major(m.A));
+    w.real("B", {n, nu}, col_major(m.B));
+    w.real("C", {ny, n}, col_major(m.C));
+    w.real("D", {ny, nu}, col_major(m.D));
+    w.real("Ts", {1, 1}, {mf.domain == msidfit::Domain::CT ? 0.0 : (mf.h > 0 ? mf.h : 1.0)});
+    w.cellstr("InputName", signal_names(doc, "input_names", nu, "u"));
+    w.cellstr("OutputName", signal_names(doc, "output_names", ny, "y"));
+    w.text("Domain", mf.domain == msidfit::Domain::CT ? "ct" : "dt");
+    w.text("Method", mf.method);
+    w.real("Order", {1, 1}, {(double)n});
+    w.close();
+}
+
+// Write `out` through a temporary file: a failed run leaves no file.
+template <class F> void write_atomically(const std::string &out, F write)
+{
+    const std::string tmp = out + fmt(".tmp.%d", (int)getpid());
+    try {
+        write(tmp);
+        if (std::rename(tmp.c_str(), out.c_str()) != 0)
+            throw Error("cannot write '" + out + "': " + std::strerror(errno));
+    } catch (...) {
+        std::remove(tmp.c_str());
+        throw;
+    }
 }
 
 }  // namespace
@@ -159,6 +291,14 @@ int cmd_export(int argc, char **argv)
     Args a(argc, argv, 2, HELP, {"csv", "mat"}, {"known-input"});
     if (a.positional().size() != 1) throw UsageError("give one FRF file (msid export frf.json --csv out.csv | --mat out.mat)");
     if (a.has("csv") == a.has("mat")) throw UsageError("give exactly one of --csv out.csv and --mat out.mat");
+    const std::string in = a.positional()[0];
+    if (is_model_file(in)) {
+        if (a.has("csv")) throw UsageError("a model file exports to --mat only (A, B, C, D, Ts and names)");
+        if (a.has("known-input")) throw UsageError("--known-input is for an FRF file, not a model");
+        write_atomically(a.get("mat"), [&](const std::string &tmp) { write_model_mat(in, tmp); });
+        std::printf("wrote %s: A, B, C, D, Ts, InputName, OutputName (ss, idss)\n", a.get("mat").c_str());
+        return 0;
+    }
     Exported e;
     e.f = msidfit::read_frf(a.positional()[0]);
     e.known_input = a.has("known-input");
@@ -173,15 +313,8 @@ int cmd_export(int argc, char **argv)
         std::printf("wrote %s: %zu lines, %ux%u\n", a.get("csv").c_str(), e.f.lines.size(), e.f.ny, e.f.nu);
         return 0;
     }
-    const std::string out = a.get("mat"), tmp = out + fmt(".tmp.%d", (int)getpid());
-    try {
-        write_mat(e, tmp);
-        if (std::rename(tmp.c_str(), out.c_str()) != 0)
-            throw Error("cannot write '" + out + "': " + std::strerror(errno));
-    } catch (...) {
-        std::remove(tmp.c_str());
-        throw;
-    }
+    const std::string out = a.get("mat");
+    write_atomically(out, [&](const std::string &tmp) { write_mat(e, tmp); });
     std::printf("wrote %s: %zu lines, %ux%u (idfrd: ResponseData, Frequency, Ts, CovarianceData)\n", out.c_str(),
                 e.f.lines.size(), e.f.ny, e.f.nu);
     return 0;

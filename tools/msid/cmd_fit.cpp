@@ -24,8 +24,15 @@ namespace msidcli {
 using namespace msidfit;
 
 static const char *FIT_HELP =
+    "Which method: ml for the model you report (weighted maximum likelihood: the best fit to the data's\n"
+    "  noise, parameter standard deviations, modes with their uncertainty); subspace for a quick,\n"
+    "  non-iterative model or a start; lmfd for a closed-form fit of a fraction D^-1 N (fixed entries with\n"
+    "  --pin); multi for time records (ring-downs, free decays) without an FRF; cissim for periodic time\n"
+    "  records in closed form. Without --order ml chooses the order (auto: stabilisation diagram, as msid\n"
+    "  measure --fit does), subspace from its singular values. Check any model with msid validate.\n"
+    "\n"
     "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
-    "                [--order n | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
+    "                [--order n|auto|a:b | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk|MODEL]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
     "                [--allow-unstable] [--refine ml|none|N]\n"
@@ -55,7 +62,8 @@ static const char *FIT_HELP =
     "  --allow-unstable  no stability constraint: for plants that are unstable (measured in closed loop)\n"
     "  --stable  the default (subspace: also reflects unstable poles in the r scan)\n"
     "  --order n     state order (ml poles: number of poles); LMFD degrees nD = n/ny, nN from --feedthrough;\n"
-    "                auto, a:b or a:step:b: order selection with a stabilisation diagram (docs/fitting.md);\n"
+    "                auto (ml's default), a:b or a:step:b: order selection with a\n"
+    "                stabilisation diagram (docs/fitting.md);\n"
     "                on LPM files the cost and p-value of every (2W+1)-th line, as msid validate\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
     "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
@@ -66,6 +74,25 @@ static const char *FIT_HELP =
     "                are few, only neighbours whose covariance matrix equals the line's (LR test at 5%)\n"
     "  --method cissim  discrete-cISSIM (You et al. 2023) from periodic time records, no FRF file:\n"
     "                --period P --lines .. --experiment e.csv; `msid fit --method cissim --help`\n";
+
+// No --order: ml chooses it (--order auto, as msid measure --fit), unless --nd/--nn give LMFD degrees or
+// --start MODEL.json gives the model's order. subspace keeps its own default (the singular-value gap: its
+// scan's model at the chosen order 26 of the 1x3 structure moved by 1.7e-5 in cost between units, where the
+// unit-invariance test asks 1e-6); lmfd, which interpolates at every order, still asks for it.
+static bool order_defaults_to_auto(int argc, char **argv)
+{
+    if (!fit_method_is(argc, argv, "ml")) return false;
+    for (int i = 2; i < argc; ++i) {
+        const std::string a = argv[i];
+        for (const char *k : {"--order", "--nd", "--nn"})
+            if (a == k || a.rfind(std::string(k) + "=", 0) == 0) return false;
+        std::string start;
+        if (a == "--start" && i + 1 < argc) start = argv[i + 1];
+        else if (a.rfind("--start=", 0) == 0) start = a.substr(8);
+        if (!start.empty() && start != "subspace" && start != "sk") return false;
+    }
+    return true;
+}
 
 // --domain dt|ct (default: the file's domain); a CT model needs the file's sample time.
 static Domain parse_domain(const Args &a, const FrfData &f)
@@ -348,6 +375,13 @@ int cmd_fit(int argc, char **argv)
     if (cissim_requested(argc, argv)) return cmd_fit_cissim(argc, argv);
     help_if_asked(argc, argv, 2, FIT_HELP);
     if (fit_order_is_scan(argc, argv)) return cmd_fit_scan(argc, argv);   // --order auto | a:b (cmd_fit_modal.cpp)
+    if (order_defaults_to_auto(argc, argv)) {   // no --order: chosen, as msid measure --fit does
+        std::vector<char *> av(argv, argv + argc);
+        char order_key[] = "--order", order_auto[] = "auto";
+        av.push_back(order_key);
+        av.push_back(order_auto);
+        return cmd_fit_scan((int)av.size(), av.data());
+    }
     Args a(argc, argv, 2, FIT_HELP,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
             "feedthrough", "param", "output", "refine", "weight-smooth"},
@@ -355,7 +389,8 @@ int cmd_fit(int argc, char **argv)
     if (a.positional().size() != 1) throw UsageError("give exactly one msid-frf/1 file");
     const std::string out = a.require("output");
     const std::string method = a.require("method");
-    parse_enum(method, "--method", {"subspace", "lmfd", "ml"});
+    // multi and cissim went their own ways above: listed so that a wrong name shows every method
+    parse_enum(method, "--method", {"subspace", "lmfd", "ml", "multi", "cissim"});
     try {
         const FrfData f = read_frf(a.positional()[0]);
         const Domain d = parse_domain(a, f);
@@ -686,7 +721,14 @@ int cmd_fit(int argc, char **argv)
         } else if (wt == Weight::None) {
             try {
                 const auto wc = weigh(f, d, Weight::Cov);
-                if (Gm.size() == wc.size()) {
+                if (Gm.size() == wc.size() && min_dof(wc) <= (double)ny) {
+                    // a covariance from too few periods (dof <= outputs: the weighted cost has no finite
+                    // expectation, which is why --weight none was needed): no p-value, said so
+                    cost["p_value"] = nullptr;
+                    cost["note"] = fmt("the FRF covariance has %.3g dof at the fewest, at most the %zu outputs: the "
+                                       "weighted cost has no finite expectation; unit weights, no p-value",
+                                       min_dof(wc), ny);
+                } else if (Gm.size() == wc.size()) {
                     cost = cost_json(cost_at(wc, Gm), dof, min_dof(wc), (double)ny);
                     cost["weight"] = "cov";
                     cost["fit_cost_unweighted"] = V;

@@ -11,6 +11,7 @@
 #include "stats.hpp"
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -216,10 +217,20 @@ int cmd_fit_scan(int argc, char **argv)
     if (stride > 1)
         std::printf("LPM file: cost and p-value over every %zu-th line (2W+1 bins apart: independent), as msid validate\n",
                     stride);
-    std::printf("order  cost          expected      p-value     stable poles  not identified\n");
+    // Every order failed for the same reason (the data's, e.g. too few periods for the weighting): that one
+    // message, not one table row per order and the same again below.
+    const bool same_failure = !sel.rows.empty() && std::all_of(sel.rows.begin(), sel.rows.end(), [&](const auto &r) {
+        return !r.fit.ok && r.fit.error == sel.rows.front().fit.error;
+    });
+    if (same_failure) throw Error(sel.rows.front().fit.error);
+    // "stabilised": poles that repeat from the order below (the diagram's sense, not the model's stability)
+    std::printf("order  cost          expected      p-value     stabilised    not identified\n");
+    std::map<std::string, int> failed_first;   // error -> the first order that printed it
     for (const auto &r : sel.rows) {
         if (!r.fit.ok) {
-            std::printf("%-6d failed: %s\n", r.order, r.fit.error.c_str());
+            const auto seen = failed_first.emplace(r.fit.error, r.order);
+            if (seen.second) std::printf("%-6d failed: %s\n", r.order, r.fit.error.c_str());
+            else std::printf("%-6d failed: as order %d\n", r.order, seen.first->second);
             continue;
         }
         const std::string sp = std::to_string(r.n_stable) + "/" + std::to_string(r.poles.size());

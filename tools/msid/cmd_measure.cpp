@@ -27,7 +27,8 @@ static const char *HELP =
     "OUTDIR/model.json (msid fit), and the Bode plots OUTDIR/bode.png, bode.svg and report.html\n"
     "(Python package msid: tools/python). Progress goes to stderr: one rewritten line on a terminal,\n"
     "one line per event otherwise. Ctrl-C stops cleanly: the FRF of the complete periods is written\n"
-    "marked \"complete\": false (exit status 130). Every file is written atomically.\n"
+    "marked \"complete\": false, --fit is skipped with one line saying how to fit it later, the plots\n"
+    "say INCOMPLETE (exit status 130). Every file is written atomically.\n"
     "\n"
     "  --device URI      modbus-tcp://HOST[:PORT][?unit=N]               (port 502 by default)\n"
     "                    modbus-rtu:///dev/ttyX?baud=N[&parity=N|E|O&unit=N&data-bits=8&stop-bits=1]\n"
@@ -114,12 +115,18 @@ MeasureRun run_measure(const MeasureOptions &opt, Progress &pg)
     write_json_file(outdir + "/frf.json", run.m.o.doc);
     run.frf = outdir + "/frf.json";
     for (const auto &n : run.m.o.notes) std::fprintf(stderr, "msid measure: note: %s\n", n.c_str());
-    if (!opt.fit.empty()) {
+    if (!opt.fit.empty() && !run.m.complete) {
+        // a stop asks msid to end: no fit (seconds to minutes, and on the few periods of a cut-short
+        // experiment often no fit at all); the FRF is kept and says how to fit it later
+        run.fit_skipped = fmt("the run was stopped, so no fit was made; to fit the kept FRF: msid fit --method %s "
+                              "--order %s %s -o %s/model.json",
+                              opt.fit.c_str(), opt.order.c_str(), run.frf.c_str(), outdir.c_str());
+    } else if (!opt.fit.empty()) {
         run.model = outdir + "/model.json";
         run.fit_error = fit_model(run.frf, run.model, opt.fit, opt.order, opt.quiet_fit);
         if (!run.fit_error.empty()) run.model.clear();
     }
-    if (opt.plots) run.plot_note = make_plots(outdir, run.frf, run.model);
+    if (opt.plots) run.plot_note = make_plots(outdir, run.frf, run.model, opt.command_line);
     return run;
 }
 
@@ -160,6 +167,7 @@ int cmd_measure_uri(int argc, char **argv)
     Args a(argc, argv, 2, HELP, measure_keys(), {"no-plots", "quiet"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     MeasureOptions opt = parse_measure_command(a);
+    opt.command_line = shell_line(argc, argv);
     Progress pg(stderr, is_terminal(stderr), a.has("quiet"));
     MeasureRun run = run_measure(opt, pg);
     std::printf("wrote %s: %s\n", run.frf.c_str(), run.m.summary.c_str());
@@ -169,6 +177,7 @@ int cmd_measure_uri(int argc, char **argv)
         std::fprintf(stderr, "msid measure: error: the fit failed (the FRF is kept): %s\n", run.fit_error.c_str());
         return 1;
     }
+    if (!run.fit_skipped.empty()) std::fprintf(stderr, "msid measure: fit skipped: %s\n", run.fit_skipped.c_str());
     if (!run.m.complete) {
         std::fprintf(stderr, "msid measure: interrupted: %s is the FRF of the complete periods (\"complete\": false)\n",
                      run.frf.c_str());

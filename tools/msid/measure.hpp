@@ -136,11 +136,13 @@ struct MeasureOptions {
     std::string fit, order;       // --fit subspace|ml, --order n|auto ("" : no fit)
     bool plots = true;
     bool quiet_fit = false;       // silence msid fit's table
+    std::string command_line;     // as typed (shell-quoted), for the report
 };
 struct MeasureRun {
     MeasureResult m;
     std::string frf, model;       // paths written ("" : none)
     std::string fit_error;        // the fit failed (the FRF is kept)
+    std::string fit_skipped;      // why --fit did not run (the run was stopped: the user asked to end)
     std::string plot_note;        // "wrote ..." or "plots skipped: why"
 };
 // The options and flags of `msid measure` (for Args).

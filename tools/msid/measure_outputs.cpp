@@ -121,7 +121,22 @@ static std::string last_line(const std::string &s)
     return nl == std::string::npos ? t : t.substr(nl + 1);
 }
 
-std::string make_plots(const std::string &outdir, const std::string &frf, const std::string &model)
+std::string shell_line(int argc, char **argv)
+{
+    std::string line;
+    for (int i = 0; i < argc; ++i) {
+        const std::string a = i == 0 ? "msid" : argv[i];
+        const bool plain = !a.empty() && a.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                                               "0123456789-_./:=,@%+") == std::string::npos;
+        std::string q = "'";
+        for (char c : a) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+        line += (i ? " " : "") + (plain ? a : q + "'");
+    }
+    return line;
+}
+
+std::string make_plots(const std::string &outdir, const std::string &frf, const std::string &model,
+                       const std::string &command_line)
 {
     const std::vector<std::string> env = {"PYTHONPATH=" + python_path(), "MPLBACKEND=Agg"};
     std::string out;
@@ -151,7 +166,9 @@ std::string make_plots(const std::string &outdir, const std::string &frf, const 
         wrote.push_back(dst);
     }
     out.clear();
-    const int rc = run_capture({"python3", "-m", "msid.report", outdir}, env, out);
+    std::vector<std::string> rep = {"python3", "-m", "msid.report", outdir};
+    if (!command_line.empty()) { rep.push_back("--command"); rep.push_back(command_line); }
+    const int rc = run_capture(rep, env, out);
     if (rc != 0)
         return fmt("wrote %s and %s; report skipped: python3 -m msid.report failed (exit status %d): %s",
                    wrote[0].c_str(), wrote[1].c_str(), rc, last_line(out).c_str());

@@ -27,9 +27,14 @@ private:
     int saved_ = -1;
 };
 
-// OUTDIR/bode.png, bode.svg (model overlay when `model` is not empty) and report.html. Never fails:
-// returns "wrote ..." or one line saying the plots were skipped and why.
-std::string make_plots(const std::string &outdir, const std::string &frf, const std::string &model);
+// OUTDIR/bode.png, bode.svg (model overlay when `model` is not empty) and report.html (which shows
+// `command_line` when not empty). Never fails: returns "wrote ..." or one line saying the plots were
+// skipped and why.
+std::string make_plots(const std::string &outdir, const std::string &frf, const std::string &model,
+                       const std::string &command_line = "");
+
+// argv[0..argc-1] as one shell line ("msid measure --device ... -o 'my dir'"), argv[0] shown as "msid".
+std::string shell_line(int argc, char **argv);
 
 // Start argv (PATH lookup) with the environment plus `env` ("K=V"), its stdout and stderr on a pipe
 // (*out, to read). detach: own process group, SIGTERM when this process dies. -1 if it cannot start.

@@ -206,11 +206,21 @@ class FRF:
                    cov_known_input=sub(self.cov_known_input), dof_known_input=self.dof_known_input,
                    freq_hz=self.freq_hz, omega=self.omega, real=self.real, meta=meta, line_extra=extra)
 
+    def signal_names(self):
+        """(input names, output names): the file's `input_names`/`output_names` when it has them, else
+        u1.., y1.. (the names msid prints)."""
+        return _signal_names(self.meta, self.n_inputs, self.n_outputs)
+
     # python-control
-    def to_control(self):
-        """python-control FRD of G (frequencies in rad/s, or rad/sample without a sample time)."""
-        import control
-        return control.frd(np.transpose(self.G, (1, 2, 0)), self.omega_axis())
+    def to_control(self, name=None):
+        """python-control FRD of G (frequencies in rad/s, or rad/sample without a sample time) with a name
+        (`name`, else the file's source), dt (the sample time of a DT file, True when it has none; 0 for CT)
+        and the signal names. A DT FRD also evaluates at points z on the unit circle, at its own lines
+        (python-control's Nyquist contour of a DT system): control.nyquist_plot(frd, frd.omega)."""
+        ins, outs = self.signal_names()
+        dt = 0 if self.domain == "ct" else (self.sample_time or True)
+        return _frd_class()(np.transpose(self.G, (1, 2, 0)), self.omega_axis(), dt=dt,
+                            name=name or _system_name(self.meta.get("source"), "msid_frf"), inputs=ins, outputs=outs)
 
     @classmethod
     def from_control(cls, frd, period_samples, sample_time=None, cov=None, dof=None, **meta):
@@ -379,17 +389,23 @@ class Model:
             return self.response_at(1j * frf.omega_axis())
         return self.response_at(np.exp(2j * np.pi * frf.freq))
 
-    def to_control(self, form="ss"):
+    def signal_names(self):
+        """(input names, output names): the file's `input_names`/`output_names` when it has them, else
+        u1.., y1.."""
+        return _signal_names(self.doc, self.n_inputs, self.n_outputs)
+
+    def to_control(self, form="ss", name=None):
         """python-control StateSpace (form='ss') or TransferFunction (form='tf'); DT models carry dt =
-        sample_time (True when unknown), CT models dt = 0."""
+        sample_time (True when unknown), CT models dt = 0; the system is named (`name`, else
+        "msid_<method>_order_<n>") and so are its inputs and outputs (signal_names())."""
         import control
+        if form not in ("ss", "tf"):
+            raise ValueError("form must be 'ss' or 'tf'")
         dt = 0 if self.domain == "ct" else (self.sample_time or True)
-        sys = control.ss(self.A, self.B, self.C, self.D, dt)
-        if form == "ss":
-            return sys
-        if form == "tf":
-            return control.ss2tf(sys)
-        raise ValueError("form must be 'ss' or 'tf'")
+        ins, outs = self.signal_names()
+        name = name or f"msid_{self.doc.get('method', 'model')}_order_{self.order}"
+        sys = control.ss(self.A, self.B, self.C, self.D, dt, name=name, inputs=ins, outputs=outs)
+        return sys if form == "ss" else control.ss2tf(sys, name=name, inputs=ins, outputs=outs)
 
     @classmethod
     def from_control(cls, sys, frf, source=None, n_params=0):
@@ -447,6 +463,60 @@ class Model:
             e["cov"] = None
             doc["frf"].append(e)
         return cls(doc)
+
+
+def _signal_names(doc, nu, ny):
+    """(inputs, outputs) names of a file: its `input_names`/`output_names` lists when they have the right
+    lengths, else u1..u<nu>, y1..y<ny>."""
+    def pick(key, n, prefix):
+        v = doc.get(key)
+        if isinstance(v, list) and len(v) == n and all(isinstance(x, str) and x for x in v):
+            return list(v)
+        return [f"{prefix}{k + 1}" for k in range(n)]
+    return pick("input_names", nu, "u"), pick("output_names", ny, "y")
+
+
+def _system_name(source, default):
+    """A python-control system name from a file's `source` (its base name without extension; python-control
+    refuses '.' in names), else `default`."""
+    if isinstance(source, str) and source.strip():
+        base = os.path.splitext(os.path.basename(source.strip().split()[0].rstrip("/")))[0]
+        return base.replace(".", "_") or default
+    return default
+
+
+_FRD = None
+
+
+def _frd_class():
+    """control.FrequencyResponseData whose DT systems also evaluate at z = exp(j omega dt) on the unit
+    circle, at their own lines: python-control 0.10 evaluates an FRD at j omega only, so its Nyquist
+    contour of a DT FRD (points z) raised ValueError."""
+    global _FRD
+    if _FRD is None:
+        import control
+
+        class FRD(control.FrequencyResponseData):
+            def __call__(self, x=None, squeeze=None, return_magphase=None):
+                if x is not None and self.isdtime(strict=True):
+                    z = np.atleast_1d(np.asarray(x, complex))
+                    if z.ndim == 1 and np.all(np.abs(np.abs(z) - 1) < 1e-9):
+                        h = 1.0 if self.dt is True else float(self.dt)
+                        w = np.angle(z) / h
+                        # the round trip exp/angle moves omega by an ulp: snap to the line within 1e-9
+                        k = np.clip(np.searchsorted(self.omega, w), 1, len(self.omega) - 1)
+                        near = np.where(np.abs(self.omega[k - 1] - w) <= np.abs(self.omega[k] - w),
+                                        self.omega[k - 1], self.omega[k]) if len(self.omega) > 1 else self.omega[:1]
+                        w = np.where(np.abs(near - w) <= 1e-9 * np.maximum(np.abs(near), 1e-300), near, w)
+                        x = 1j * (w if np.ndim(x) else w[0])
+                return super().__call__(x, squeeze=squeeze, return_magphase=return_magphase)
+
+            def __getitem__(self, key):   # frd[i, j] (a SISO path, for nyquist_plot) keeps the DT evaluation
+                sub = super().__getitem__(key)
+                sub.__class__ = type(self)
+                return sub
+        _FRD = FRD
+    return _FRD
 
 
 def _cost_law(frf, rdof, value):

@@ -31,11 +31,12 @@ from .files import FRF, Model, FormatError, read_frf, read_model
 REGION_LABEL = "95% region"
 BOUND_LABEL = "ETFE bound"
 NOISE_LABEL = "noise-dominated line"
-FLAG_STYLE = {  # stabilisation flags of docs/fitting.md: s stable pole, d damping, f frequency, o new
-    "s": ("o", "tab:green", "stable (f, zeta)"),
-    "d": ("D", "tab:blue", "stable f, zeta moved"),
+FLAG_STYLE = {  # stabilisation flags of docs/fitting.md: s stabilised pole, d damping, f frequency, o new
+    # "stabilised": the pole repeats from the order below; it says nothing of the system's stability
+    "s": ("o", "tab:green", "f, zeta stabilised"),
+    "d": ("D", "tab:blue", "f stabilised, zeta moved"),
     "f": ("s", "tab:orange", "f moved"),
-    "o": ("+", "tab:red", "new"),
+    "o": ("+", "tab:red", "new pole"),
 }
 
 
@@ -135,7 +136,9 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
     height = 1.35 * sum(ratios) + 0.8
     fig = Figure(figsize=(4.2 * nu + 1.0, height))
     # fixed margins (a constrained layout costs a second draw)
-    gs = fig.add_gridspec(nrows, nu, height_ratios=ratios, left=0.9 / (4.2 * nu + 1.0), right=0.98,
+    # the stabilisation diagram's right axis (mode indicator) needs a margin for its labels
+    right = 1 - (0.75 if stab else 0.1) / (4.2 * nu + 1.0)
+    gs = fig.add_gridspec(nrows, nu, height_ratios=ratios, left=0.9 / (4.2 * nu + 1.0), right=right,
                           bottom=0.55 / height, top=1 - 0.8 / height, hspace=0.45, wspace=0.25)
     mag = np.abs(frf.G)
     noisy = (r >= mag) if r is not None else np.zeros(mag.shape, bool)
@@ -199,43 +202,108 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
     for a in bottom.values():
         a.set_xlabel(f"frequency ({unit})")
     if stab:
-        stabilisation(stab, fig.add_subplot(gs[-1, :]), model)
+        stabilisation(stab, fig.add_subplot(gs[-1, :]), model, frf=frf)
     fig.suptitle(title or _title(frf, model), fontsize=10)
     return fig
 
 
-def stabilisation(block, ax, model=None):
+def mode_indicator(frf):
+    """The complex mode indicator function of an FRF: the singular values of G at every line, (L, min(ny, nu)),
+    largest first. Peaks of the first mark the modes (a SISO FRF: |G|)."""
+    return np.linalg.svd(frf.G, compute_uv=False)
+
+
+def stabilisation(block, ax, model=None, frf=None):
     """Draw an `order_selection` block (docs/fitting.md) on `ax`: pole frequency against model order,
-    one marker per stabilisation flag, the chosen order marked."""
+    one marker per stabilisation flag, the chosen order marked. With `frf` the axis spans the Bode plot's
+    frequency range (poles outside it are counted in the title) and the FRF's mode indicator function
+    (singular values of G, dB, right axis) is drawn in grey behind the poles."""
+    from matplotlib.ticker import LogFormatter, MaxNLocator, NullFormatter
     orders = block.get("orders", [])
     seen = set()
+    f_lo = f_hi = None
+    if frf is not None:
+        fa, _ = frf.hz_axis()
+        f_lo, f_hi = float(np.min(fa)), float(np.max(fa))
+    outside = 0
     for o in orders:
         if not o.get("ok"):
             continue
         for p in o.get("poles", []):
+            if f_lo is not None and not (f_lo <= p["fn"] <= f_hi):
+                outside += 1
+                continue
             fl = p.get("flag", "o")
             mk, col, lab = FLAG_STYLE.get(fl, FLAG_STYLE["o"])
             ax.plot(p["fn"], o["order"], mk, color=col, ms=5, mfc="none" if mk != "+" else None,
-                    label=None if fl in seen else lab)
+                    label=None if fl in seen else lab, zorder=3)
             seen.add(fl)
     ch = block.get("chosen")
     if ch is not None:
-        ax.axhline(ch, color="k", lw=0.8, ls=":", label=f"chosen order {ch}")
+        ax.axhline(ch, color="k", lw=0.8, ls=":", label=f"chosen order {ch}", zorder=2)
     unit = "Hz"
     if model is not None:
         unit = (model.doc.get("modes") or {}).get("frequency_unit") or ("Hz" if model.sample_time else "cycles/sample")
+    logx = any(p["fn"] > 0 for o in orders if o.get("ok") for p in o.get("poles", []))
+    if frf is not None:
+        logx = f_lo > 0
+        # the mode indicator behind the poles, on its own (right) axis
+        mif = ax.twinx()
+        sv = mode_indicator(frf)
+        for k in range(sv.shape[1]):
+            mif.plot(fa, _db(sv[:, k]), "-", color="0.55" if k == 0 else "0.8", lw=1.0,
+                     label="mode indicator (sv of G)" if k == 0 else None)
+        mif.set_ylabel("sv(G) (dB)", color="0.4")
+        mif.tick_params(axis="y", colors="0.4", labelsize=8)
+        ax.set_zorder(mif.get_zorder() + 1)   # the poles above the grey curves
+        ax.patch.set_visible(False)
+        ax.set_xlim(f_lo, f_hi)
     ax.set_xlabel(f"pole frequency ({unit})")
     ax.set_ylabel("order")
-    ax.set_title("stabilisation diagram", fontsize=10)
+    title = "stabilisation diagram"
+    if outside:
+        title += f" ({outside} poles outside the measured band not shown)"
+    ax.set_title(title, fontsize=10)
     ax.grid(True, alpha=0.3)
-    if any(p["fn"] > 0 for o in orders if o.get("ok") for p in o.get("poles", [])):
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    ok_orders = [o["order"] for o in orders if o.get("ok")]
+    if ok_orders:
+        lo, hi = min(ok_orders) - 0.5, max(ok_orders) + 0.5
+        ax.set_ylim(lo, hi + 0.35 * (hi - lo))   # headroom: the legend sits above the highest order
+    if logx:
         ax.set_xscale("log")
-    ax.legend(fontsize=7, loc="best")
+        # a band of less than a decade labels its minor ticks: keep the labels apart
+        ax.xaxis.set_major_formatter(LogFormatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+        ax.xaxis.set_minor_formatter(NullFormatter() if _decades(ax) > 1.5 else
+                                     LogFormatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+    handles, labels = ax.get_legend_handles_labels()
+    if frf is not None:
+        h2, l2 = mif.get_legend_handles_labels()
+        handles, labels = handles + h2, labels + l2
+    ax.legend(handles, labels, fontsize=7, loc="upper left", ncol=2, framealpha=0.85)
     return ax
 
 
+def _decades(ax):
+    lo, hi = ax.get_xlim()
+    return np.log10(hi / lo) if lo > 0 and hi > lo else 0.0
+
+
+def incomplete_note(frf):
+    """'' for a complete measurement, else 'INCOMPLETE (reason; k of m experiments)': `msid measure`
+    writes "complete": false when it was stopped (docs/frf-format.md)."""
+    m = frf.meta
+    if m.get("complete", True) is not False:
+        return ""
+    parts = [str(m["incomplete_reason"])] if m.get("incomplete_reason") else []
+    if m.get("experiments_planned") is not None:
+        parts.append(f"{m.get('experiments_completed', '?')} of {m['experiments_planned']} experiments complete")
+    return "INCOMPLETE" + (f" ({'; '.join(parts)})" if parts else "")
+
+
 def _title(frf, model):
-    t = f"{frf.meta.get('method', 'periodic')} FRF, {frf.n_outputs}x{frf.n_inputs}, {frf.n_lines} lines"
+    inc = incomplete_note(frf)
+    t = ("INCOMPLETE: " if inc else "") + f"{frf.meta.get('method', 'periodic')} FRF, {frf.n_outputs}x{frf.n_inputs}, {frf.n_lines} lines"
     if frf.dof is not None:
         t += f", dof {np.min(frf.dof):.3g}" + (f"..{np.max(frf.dof):.3g}" if np.ptp(frf.dof) > 0 else "")
     if model is not None:
