@@ -1,0 +1,24 @@
+# Shared part of the Linux cross toolchains (aarch64-linux-gnu.cmake, arm-linux-gnueabihf.cmake): Debian's
+# cross compiler for MSID_CROSS_TRIPLET and the target's libraries from the multiarch archive
+# (/usr/lib/<triplet>, /usr/include/<triplet>; `scripts/deps.sh cross-arm64|cross-armhf` installs both).
+# No sysroot: Debian's cross gcc already searches the multiarch directories.
+# Tests run through qemu-user, named on every command (CMAKE_CROSSCOMPILING_EMULATOR): no binfmt_misc needed.
+# -L points the emulator's dynamic loader at the cross libc; the multiarch libraries are found under /usr/lib/<triplet>.
+set(CMAKE_SYSTEM_NAME Linux)
+set(CMAKE_C_COMPILER ${MSID_CROSS_TRIPLET}-gcc)
+set(CMAKE_CXX_COMPILER ${MSID_CROSS_TRIPLET}-g++)
+set(CMAKE_AR ${MSID_CROSS_TRIPLET}-ar)
+set(CMAKE_RANLIB ${MSID_CROSS_TRIPLET}-ranlib)
+set(CMAKE_NM ${MSID_CROSS_TRIPLET}-nm)
+set(CMAKE_STRIP ${MSID_CROSS_TRIPLET}-strip)
+find_program(MSID_CROSS_QEMU_PATH ${MSID_CROSS_QEMU})
+if(MSID_CROSS_QEMU_PATH)
+  set(CMAKE_CROSSCOMPILING_EMULATOR ${MSID_CROSS_QEMU_PATH} -L /usr/${MSID_CROSS_TRIPLET})
+endif()
+# pkg-config sees the target's .pc files only, and matio's headers (matio.pc in cross-pkgconfig/: the
+# headers are the same on every architecture; libmatio-dev:<arch> cannot be installed beside the host's,
+# and msid loads libmatio.so.11 with dlopen, so nothing links it).
+set(ENV{PKG_CONFIG_LIBDIR} "/usr/lib/${MSID_CROSS_TRIPLET}/pkgconfig:/usr/share/pkgconfig:${CMAKE_CURRENT_LIST_DIR}/cross-pkgconfig")
+set(ENV{PKG_CONFIG_PATH} "")
+set(CMAKE_LIBRARY_ARCHITECTURE ${MSID_CROSS_TRIPLET})
+set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
