@@ -11,6 +11,11 @@ set(CMAKE_AR ${MSID_CROSS_TRIPLET}-ar)
 set(CMAKE_RANLIB ${MSID_CROSS_TRIPLET}-ranlib)
 set(CMAKE_NM ${MSID_CROSS_TRIPLET}-nm)
 set(CMAKE_STRIP ${MSID_CROSS_TRIPLET}-strip)
+# No contraction into fused multiply-add anywhere (lib/ sets it for itself): ARM has FMA in its base ISA and
+# GCC fuses a*b+c in C++ by default, which would change the last bits of the command line's numbers
+# against x86-64's (docs/target.md "Linux bench controller": what is bit-identical across architectures).
+set(CMAKE_C_FLAGS_INIT "-ffp-contract=off")
+set(CMAKE_CXX_FLAGS_INIT "-ffp-contract=off")
 find_program(MSID_CROSS_QEMU_PATH ${MSID_CROSS_QEMU})
 if(MSID_CROSS_QEMU_PATH)
   set(CMAKE_CROSSCOMPILING_EMULATOR ${MSID_CROSS_QEMU_PATH} -L /usr/${MSID_CROSS_TRIPLET})
