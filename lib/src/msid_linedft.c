@@ -187,9 +187,9 @@ static void kernel1(const msid_cplx *w, uint32_t P, uint32_t k, uint32_t idx,
     }
 }
 
-#ifndef MSID_LINEDFT_VEC
-/* Two lines, all channels, ns samples (targets without the vector kernel, e.g. a Cortex-M7 or 32-bit ARM
- * with 16 double registers): a channel pair shares each twiddle load and index
+/* Two lines, all channels, ns samples: every line pair where there is no vector kernel (a Cortex-M7 or
+ * 32-bit ARM with 16 double registers), the pair left after the vector kernel's groups of four
+ * elsewhere. A channel pair shares each twiddle load and index
  * step, 8 accumulators in registers. Each accumulator still adds its terms in
  * sample order, so the sums equal kernel1's bit for bit. acc is [2][C]. */
 static void kernel2(const msid_cplx *w, uint32_t P, const uint32_t *k, const uint32_t *idx,
@@ -228,7 +228,6 @@ static void kernel2(const msid_cplx *w, uint32_t P, const uint32_t *k, const uin
         }
     }
 }
-#endif
 
 static void stream_block(msid_linedft *d, const double *x, uint32_t n)
 {
@@ -240,9 +239,8 @@ static void stream_block(msid_linedft *d, const double *x, uint32_t n)
         uint32_t l = 0;
 #ifdef MSID_LINEDFT_VEC
         for (; l + 4u <= L; l += 4u) kernel4(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
-#else
-        for (; l + 2u <= L; l += 2u) kernel2(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
 #endif
+        for (; l + 2u <= L; l += 2u) kernel2(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
         for (; l < L; ++l) kernel1(w, P, d->bins[l], d->idx[l], d->acc + (size_t)l * C, C, xs, ns);
         /* (idx + b*ns) mod P in 32 bits (no 64-bit division on a Cortex-M): b <= P/2 <= 2^23
          * and ns <= CHUNK = 2^8, so b*ns < 2^32; idx + (b*ns mod P) < 2P < 2^32. Same integers. */

@@ -22,18 +22,19 @@ def _is_script(path):
         return f.read(2) == b"#!"
 
 
-def wrap_binaries(env=None):
-    """Point the MSID_* binaries of `env` (default os.environ) at emulator scripts; returns the prefix
-    (a list, empty without MSID_EMULATOR)."""
+def wrap_binaries(keys=BINARIES, emulator="MSID_EMULATOR", env=None):
+    """Point the binaries that the variables `keys` of `env` (default os.environ) name at scripts that run
+    them through the prefix in the variable `emulator`; returns the prefix (a list, empty when unset).
+    tests/modbus/test_mb_cross_arch.py wraps another build's binaries with MSID_OTHER_EMULATOR."""
     env = os.environ if env is None else env
-    emu = shlex.split(env.get("MSID_EMULATOR", ""))
+    emu = shlex.split(env.get(emulator, ""))
     if not emu:
         return []
     if shutil.which(emu[0]) is None:
-        raise RuntimeError(f"MSID_EMULATOR={env['MSID_EMULATOR']!r}: {emu[0]} is not on PATH "
+        raise RuntimeError(f"{emulator}={env[emulator]!r}: {emu[0]} is not on PATH "
                            "(scripts/deps.sh cross-arm64 or cross-armhf installs qemu-user)")
     d = None
-    for key in BINARIES:
+    for key in keys:
         b = env.get(key)
         if not b or not os.path.isfile(b) or _is_script(b):   # unset, a test's stand-in, or wrapped already
             continue
