@@ -41,7 +41,7 @@ def golden():
     if WRITE:
         doc = {}
         yield doc
-        GOLDEN.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n")
+        GOLDEN.write_text(json.dumps(doc, indent=1) + "\n")
     else:
         yield json.loads(GOLDEN.read_text())
 
