@@ -3,7 +3,10 @@
 # (/usr/lib/<triplet>, /usr/include/<triplet>; `scripts/deps.sh cross-arm64|cross-armhf` installs both).
 # No sysroot: Debian's cross gcc already searches the multiarch directories.
 # Tests run through qemu-user, named on every command (CMAKE_CROSSCOMPILING_EMULATOR): no binfmt_misc needed.
-# -L points the emulator's dynamic loader at the cross libc; the multiarch libraries are found under /usr/lib/<triplet>.
+# -L makes the program's loader the cross toolchain's (/usr/<triplet>/lib/ld-linux-*), and LD_LIBRARY_PATH makes
+# its libc the same build's: without it the loader finds the multiarch libc (libc6:<arch>, another Debian
+# revision) through /etc/ld.so.cache, and the mismatched pair loops forever in the first pthread_create.
+# The multiarch libraries (FFTW, libmodbus, ...) are found under /usr/lib/<triplet> as usual.
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_C_COMPILER ${MSID_CROSS_TRIPLET}-gcc)
 set(CMAKE_CXX_COMPILER ${MSID_CROSS_TRIPLET}-g++)
@@ -18,7 +21,8 @@ set(CMAKE_C_FLAGS_INIT "-ffp-contract=off")
 set(CMAKE_CXX_FLAGS_INIT "-ffp-contract=off")
 find_program(MSID_CROSS_QEMU_PATH ${MSID_CROSS_QEMU})
 if(MSID_CROSS_QEMU_PATH)
-  set(CMAKE_CROSSCOMPILING_EMULATOR ${MSID_CROSS_QEMU_PATH} -L /usr/${MSID_CROSS_TRIPLET})
+  set(CMAKE_CROSSCOMPILING_EMULATOR ${MSID_CROSS_QEMU_PATH} -L /usr/${MSID_CROSS_TRIPLET}
+      -E LD_LIBRARY_PATH=/usr/${MSID_CROSS_TRIPLET}/lib)
 endif()
 # pkg-config sees the target's .pc files only, and matio's headers (matio.pc in cross-pkgconfig/: the
 # headers are the same on every architecture; libmatio-dev:<arch> cannot be installed beside the host's,

@@ -53,6 +53,7 @@ if [ "$subset" = ci ]; then
   sel=(-R '^(test_(status|design|gen|linedft|linedft_scalar|linedft_f32|spread|meas|frf|plant|determinism|golden|can_decoder|mb_proto|stream|can_session|mb_est|mb_acq|mbap|daq_noalloc|noalloc)|target_linux_bits)$')
 fi
 cd "$dir"
-# the prefix of cmake/linux-cross.cmake, for the pytest files registered without msid_add_pytests
-export MSID_EMULATOR="$qemu -L /usr/$triplet"
+# the prefix of cmake/linux-cross.cmake (why LD_LIBRARY_PATH: there), for the pytest files registered
+# without msid_add_pytests
+export MSID_EMULATOR="$qemu -L /usr/$triplet -E LD_LIBRARY_PATH=/usr/$triplet/lib"
 exec ctest --output-on-failure -j "$jobs" -E "$exclude" "${sel[@]}" "$@"

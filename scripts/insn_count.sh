@@ -16,8 +16,8 @@ N1=1024 N2=2048
 emulator() {   # the qemu-user command for an executable's architecture
   case "$(readelf -h "$1" | sed -n 's/^ *Machine: *//p')" in
     *X86-64*) echo qemu-x86_64 ;;
-    *AArch64*) echo "qemu-aarch64 -L /usr/aarch64-linux-gnu" ;;
-    ARM) echo "qemu-arm -L /usr/arm-linux-gnueabihf" ;;
+    *AArch64*) echo "qemu-aarch64 -L /usr/aarch64-linux-gnu -E LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib" ;;
+    ARM) echo "qemu-arm -L /usr/arm-linux-gnueabihf -E LD_LIBRARY_PATH=/usr/arm-linux-gnueabihf/lib" ;;
     *) echo "insn_count: unknown architecture of $1" >&2; return 1 ;;
   esac
 }

@@ -1,7 +1,7 @@
 """Cross builds: the pytest harnesses run the target's executables through an emulator.
 
 MSID_EMULATOR is the command prefix that runs one of the target's executables on this machine, e.g.
-"qemu-aarch64 -L /usr/aarch64-linux-gnu" (a cross build's ctest sets it from CMAKE_CROSSCOMPILING_EMULATOR;
+"qemu-aarch64 -L /usr/aarch64-linux-gnu -E LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib" (a cross build's ctest sets it from CMAKE_CROSSCOMPILING_EMULATOR;
 docs/target.md "Linux bench controller"). Each binary named by MSID_BIN, MSID_DEVSIM or MSID_CANDUMP_COPY
 is then replaced, in this process's environment, by a two-line shell script that execs it through the
 emulator: every caller runs it unchanged, the tests as well as msid itself when it starts the msid-devsim

@@ -3,7 +3,8 @@
 Run through ctest (label `integration`), or by hand:
   PYTHONDONTWRITEBYTECODE=1 MSID_BIN=<build>/tools/msid \
     python3 -m pytest -q -p no:cacheprovider tests/integration
-A cross build's msid runs through MSID_EMULATOR (e.g. "qemu-aarch64 -L /usr/aarch64-linux-gnu").
+A cross build's msid runs through MSID_EMULATOR (the prefix of cmake/linux-cross.cmake, e.g.
+"qemu-aarch64 -L /usr/aarch64-linux-gnu -E LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib").
 """
 import sys
 from pathlib import Path

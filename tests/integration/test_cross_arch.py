@@ -5,7 +5,8 @@ the one golden file golden/cross_arch.json written on x86-64:
     patterns, bins and continuous-time lines);
   * the FRF of the streaming line DFT byte for byte (lib/ adds each term in sample order with no
     fused multiply-add, and prints with the same digits);
-  * the FRF of the FFT path (FFTW picks other codelets on another CPU) within 1e-12 relative.
+  * the FRF of the FFT path (FFTW picks other codelets on another CPU) within 1e-12 of each array's
+    largest magnitude (G, each covariance matrix, ...).
 The input records are simulated by NumPy on the machine that runs pytest, so they are the same bytes
 for every architecture under test. MSID_GOLDEN_WRITE=1 rewrites the golden file (on x86-64 only, after a
 reviewed change of what msid writes). Negative control: a one-byte change is told apart."""
@@ -81,12 +82,43 @@ def test_frf_stream_bytes(golden, bench):
     assert got == golden["frf/stream.json"], "the streaming FRF differs from the x86-64 bytes"
 
 
+def _numeric(x):
+    return isinstance(x, list) and all(_numeric(v) if isinstance(v, list) else
+                                       isinstance(v, (int, float)) and not isinstance(v, bool) for v in x)
+
+
+def _flat(x):
+    return [w for v in x for w in (_flat(v) if isinstance(v, list) else [v])]
+
+
+def _close_normwise(a, b, tol, where="$"):
+    """Same structure and strings; each numeric array (a vector or matrix: G, a covariance, ...) within
+    tol of the largest magnitude in it, |a - b| <= tol * max|b|: an element that is a small difference of
+    large terms (an off-diagonal covariance) carries the rounding of those terms, not of itself."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and list(a) == list(b), f"{where}: keys {list(a)} vs {list(b)}"
+        for k in a:
+            _close_normwise(a[k], b[k], tol, f"{where}.{k}")
+    elif _numeric(a) and a:
+        fa, fb = _flat(a), _flat(b) if isinstance(b, list) else None
+        assert fb is not None and len(fa) == len(fb), f"{where}: shapes differ"
+        scale = max(abs(v) for v in fb)
+        err = max(abs(x - y) for x, y in zip(fa, fb))
+        assert err <= tol * scale, f"{where}: max difference {err:.3g} > {tol:g} * {scale:.3g}"
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), f"{where}: lengths differ"
+        for i, (x, y) in enumerate(zip(a, b)):
+            _close_normwise(x, y, tol, f"{where}[{i}]")
+    else:
+        _close(a, b, tol, where)
+
+
 def test_frf_fft_within_1e12(golden, bench):
     doc = json.loads(_frf(bench, "fft", "fft.json").read_text())
     if WRITE:
         golden["frf/fft.json"] = doc
         return
-    _close(doc, golden["frf/fft.json"], 1e-12)
+    _close_normwise(doc, golden["frf/fft.json"], 1e-12)
 
 
 def test_negative_control(golden, bench, tmp_path):
@@ -102,4 +134,4 @@ def test_negative_control(golden, bench, tmp_path):
     p.write_text(bad)
     assert _sha(p) != golden["frf/stream.json"]
     with pytest.raises(AssertionError):
-        _close(json.loads(bad), json.loads(text), 1e-12)
+        _close_normwise(json.loads(bad), json.loads(text), 1e-12)
