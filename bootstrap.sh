@@ -5,13 +5,17 @@
 #                         measure, fit, validate, plot into ./msid-demo/
 #   ./bootstrap.sh build  install what is missing, build every target (a demo build directory is switched back)
 #   ./bootstrap.sh test   install what is missing, build, run every test (ctest: unit, stats, integration)
+#   ./bootstrap.sh test-aarch64 | test-armhf
+#                         cross-build for a 64-bit or 32-bit ARM Linux bench controller into build-aarch64/ or
+#                         build-armhf/ and run the suites under qemu-user (scripts/cross_test.sh, docs/target.md)
 set -euo pipefail
 trap 'echo "bootstrap: failed (exit $?) at line $LINENO: $BASH_COMMAND" >&2' ERR
 cd "$(dirname "$0")"
 mode=${1:-}
 case "$mode" in
   demo|test|build) ;;
-  *) echo "usage: $0 demo|test|build" >&2; exit 2 ;;
+  test-aarch64|test-armhf) exec scripts/cross_test.sh "${mode#test-}" all ;;
+  *) echo "usage: $0 demo|test|build|test-aarch64|test-armhf" >&2; exit 2 ;;
 esac
 
 jobs=$(nproc 2>/dev/null || echo 2)

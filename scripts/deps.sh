@@ -30,6 +30,23 @@ if [ "${1:-}" = demo ]; then
   PY_MODS=(numpy matplotlib)
 fi
 
+# `scripts/deps.sh cross-arm64|cross-armhf` (scripts/cross_test.sh, docs/target.md "Linux bench controller"):
+# everything above (the tests' python3 runs on this machine) plus the cross compiler, qemu-user (no
+# binfmt_misc is assumed: the emulator is named on each command line) and the target's libraries from Debian's
+# multiarch archive. libmatio-dev:<arch> cannot sit beside the host's (its libhdf5-dev is not multiarch): only
+# the run-time libmatio11:<arch>, which msid loads with dlopen; its headers are the host's, the same on every
+# architecture (cmake/cross-pkgconfig/matio.pc).
+CROSS_ARCH=""
+CROSS_PKGS=()
+case "${1:-}" in
+  ""|demo) ;;
+  cross-arm64|cross-armhf)
+    CROSS_ARCH=${1#cross-}
+    APT_PKGS+=("crossbuild-essential-$CROSS_ARCH" qemu-user)
+    for p in libfftw3-dev libmodbus-dev libcmocka-dev zlib1g-dev libmatio11; do CROSS_PKGS+=("$p:$CROSS_ARCH"); done ;;
+  *) echo "usage: $0 [demo|cross-arm64|cross-armhf]" >&2; exit 2 ;;
+esac
+
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else
   echo "deps: need root (or sudo) to run: $*" >&2; return 1; fi; }
 
@@ -41,10 +58,24 @@ installed=" $({ dpkg-query -W -f='${Package} ${Status}\n' "${APT_PKGS[@]}" 2>/de
 for p in "${APT_PKGS[@]}"; do
   case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
 done
+# The target's packages carry their architecture (binary:Package prints it, e.g. libfftw3-dev:arm64).
+if [ ${#CROSS_PKGS[@]} -gt 0 ]; then
+  installed=" $({ dpkg-query -W -f='${binary:Package} ${Status}\n' "${CROSS_PKGS[@]}" 2>/dev/null || true; } |
+               awk '$NF == "installed" && $(NF-1) == "ok" {printf "%s ", $1}')"
+  for p in "${CROSS_PKGS[@]}"; do
+    case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
+  done
+  if [ ${#missing[@]} -gt 0 ] && ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
+    as_root dpkg --add-architecture "$CROSS_ARCH"
+  fi
+fi
 if [ ${#missing[@]} -gt 0 ]; then
   echo "deps: installing ${missing[*]} (log: deps.log)"
   export DEBIAN_FRONTEND=noninteractive
-  { as_root apt-get update -qq && as_root apt-get install -y -qq --no-install-recommends "${missing[@]}"; } \
+  # An index that fails to download (a mirror in sync) leaves apt the lists it had: the install says
+  # whether those were enough.
+  as_root apt-get update -qq >> deps.log 2>&1 || echo "deps: apt-get update reported errors (deps.log); installing from the lists apt has" >&2
+  as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" \
     >> deps.log 2>&1 || { tail -30 deps.log; echo "deps: apt-get failed (see deps.log)" >&2; exit 1; }
 fi
 

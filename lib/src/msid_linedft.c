@@ -3,10 +3,7 @@
  * per period (Pintelon 2002 eq. 4 without the 1/sqrt(N) factor). */
 #include "msid/msid_linedft.h"
 #include "msid_internal.h"
-#if defined(__SSE2__) && !defined(MSID_NO_SIMD)
-#include <emmintrin.h>
-#define MSID_SSE2 1
-#endif
+#include "msid_linedft_kern.h"
 
 /* Per-period cost model in nanoseconds, from `msid bench frf` on the
  * reference machine (see docs/benchmarks.md). Only ratios matter. */
@@ -139,45 +136,17 @@ msid_status msid_linedft_init(msid_linedft *d, const msid_linedft_cfg *c, void *
 
 #define CHUNK 256u
 
-static inline uint32_t step(uint32_t i, uint32_t k, uint32_t P)
-{
-    i += k;
-    return i >= P ? i - P : i;
-}
+static inline uint32_t step(uint32_t i, uint32_t k, uint32_t P) { return msid__ldft_step(i, k, P); }
 
-#ifdef MSID_SSE2
-/* Four lines, all channels, ns samples. acc is [4][C] (line stride C). */
+#ifdef MSID_LINEDFT_VEC
+/* Four lines, all channels, ns samples: the channel pairs in the vector kernel (msid_linedft_vec.c),
+ * an odd last channel here. acc is [4][C] (line stride C). */
 static void kernel4(const msid_cplx *w, uint32_t P, const uint32_t *k, const uint32_t *idx,
                     msid_cplx *acc, uint32_t C, const double *x, uint32_t ns)
 {
     const uint32_t k0 = k[0], k1 = k[1], k2 = k[2], k3 = k[3];
-    uint32_t c = 0;
-#ifdef MSID_SSE2
-    for (; c + 2u <= C; c += 2u) {
-        uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
-        double *A = &acc[0].re;
-        __m128d a00 = _mm_load_pd(A + 2 * (0 * C + c)), a01 = _mm_load_pd(A + 2 * (0 * C + c + 1));
-        __m128d a10 = _mm_load_pd(A + 2 * (1 * C + c)), a11 = _mm_load_pd(A + 2 * (1 * C + c + 1));
-        __m128d a20 = _mm_load_pd(A + 2 * (2 * C + c)), a21 = _mm_load_pd(A + 2 * (2 * C + c + 1));
-        __m128d a30 = _mm_load_pd(A + 2 * (3 * C + c)), a31 = _mm_load_pd(A + 2 * (3 * C + c + 1));
-        const double *row = x + c;
-        for (uint32_t s = 0; s < ns; ++s, row += C) {
-            const __m128d x0 = _mm_set1_pd(row[0]), x1 = _mm_set1_pd(row[1]);
-            const __m128d t0 = _mm_load_pd(&w[i0].re), t1 = _mm_load_pd(&w[i1].re);
-            const __m128d t2 = _mm_load_pd(&w[i2].re), t3 = _mm_load_pd(&w[i3].re);
-            a00 = _mm_add_pd(a00, _mm_mul_pd(x0, t0)); a01 = _mm_add_pd(a01, _mm_mul_pd(x1, t0));
-            a10 = _mm_add_pd(a10, _mm_mul_pd(x0, t1)); a11 = _mm_add_pd(a11, _mm_mul_pd(x1, t1));
-            a20 = _mm_add_pd(a20, _mm_mul_pd(x0, t2)); a21 = _mm_add_pd(a21, _mm_mul_pd(x1, t2));
-            a30 = _mm_add_pd(a30, _mm_mul_pd(x0, t3)); a31 = _mm_add_pd(a31, _mm_mul_pd(x1, t3));
-            i0 = step(i0, k0, P); i1 = step(i1, k1, P); i2 = step(i2, k2, P); i3 = step(i3, k3, P);
-        }
-        _mm_store_pd(A + 2 * (0 * C + c), a00); _mm_store_pd(A + 2 * (0 * C + c + 1), a01);
-        _mm_store_pd(A + 2 * (1 * C + c), a10); _mm_store_pd(A + 2 * (1 * C + c + 1), a11);
-        _mm_store_pd(A + 2 * (2 * C + c), a20); _mm_store_pd(A + 2 * (2 * C + c + 1), a21);
-        _mm_store_pd(A + 2 * (3 * C + c), a30); _mm_store_pd(A + 2 * (3 * C + c + 1), a31);
-    }
-#endif
-    for (; c < C; ++c) {
+    const uint32_t c = msid__ldft_pairs4(w, P, k, idx, acc, C, x, ns);
+    if (c < C) {
         uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
         double r0 = acc[0 * C + c].re, q0 = acc[0 * C + c].im;
         double r1 = acc[1 * C + c].re, q1 = acc[1 * C + c].im;
@@ -198,7 +167,6 @@ static void kernel4(const msid_cplx *w, uint32_t P, const uint32_t *k, const uin
         acc[3 * C + c].re = r3; acc[3 * C + c].im = q3;
     }
 }
-
 #endif
 
 static void kernel1(const msid_cplx *w, uint32_t P, uint32_t k, uint32_t idx,
@@ -219,9 +187,9 @@ static void kernel1(const msid_cplx *w, uint32_t P, uint32_t k, uint32_t idx,
     }
 }
 
-#ifndef MSID_SSE2
-/* Two lines, all channels, ns samples (targets without SSE2, e.g. a Cortex-M7
- * with 16 double registers): a channel pair shares each twiddle load and index
+/* Two lines, all channels, ns samples: every line pair where there is no vector kernel (a Cortex-M7 or
+ * 32-bit ARM with 16 double registers), the pair left after the vector kernel's groups of four
+ * elsewhere. A channel pair shares each twiddle load and index
  * step, 8 accumulators in registers. Each accumulator still adds its terms in
  * sample order, so the sums equal kernel1's bit for bit. acc is [2][C]. */
 static void kernel2(const msid_cplx *w, uint32_t P, const uint32_t *k, const uint32_t *idx,
@@ -260,7 +228,6 @@ static void kernel2(const msid_cplx *w, uint32_t P, const uint32_t *k, const uin
         }
     }
 }
-#endif
 
 static void stream_block(msid_linedft *d, const double *x, uint32_t n)
 {
@@ -270,11 +237,10 @@ static void stream_block(msid_linedft *d, const double *x, uint32_t n)
         const uint32_t ns = (n - s0) < CHUNK ? (n - s0) : CHUNK;
         const double *xs = x + (size_t)s0 * C;
         uint32_t l = 0;
-#ifdef MSID_SSE2
+#ifdef MSID_LINEDFT_VEC
         for (; l + 4u <= L; l += 4u) kernel4(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
-#else
-        for (; l + 2u <= L; l += 2u) kernel2(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
 #endif
+        for (; l + 2u <= L; l += 2u) kernel2(w, P, d->bins + l, d->idx + l, d->acc + (size_t)l * C, C, xs, ns);
         for (; l < L; ++l) kernel1(w, P, d->bins[l], d->idx[l], d->acc + (size_t)l * C, C, xs, ns);
         /* (idx + b*ns) mod P in 32 bits (no 64-bit division on a Cortex-M): b <= P/2 <= 2^23
          * and ns <= CHUNK = 2^8, so b*ns < 2^32; idx + (b*ns mod P) < 2P < 2^32. Same integers. */

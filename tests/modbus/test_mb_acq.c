@@ -55,8 +55,14 @@ static int sim_start(sim *s, const char *extra)
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_adddup2(&fa, fd[1], 1);
     posix_spawn_file_actions_addclose(&fa, fd[0]);
-    char *argv[16];
+    /* a cross build runs the simulator through MSID_EMULATOR ("qemu-aarch64 -L ..."): its words first */
+    char emu[256] = "";
+    const char *e = getenv("MSID_EMULATOR");
+    if (e) snprintf(emu, sizeof emu, "%s", e);
+    char *argv[32];
     int n = 0;
+    for (char *w = strtok(emu, " "); w && n < 8; w = strtok(NULL, " ")) argv[n++] = w;
+    const char *prog = n ? argv[0] : bin;
     argv[n++] = (char *)bin;
     argv[n++] = "--modbus-tcp"; argv[n++] = "127.0.0.1:0";
     argv[n++] = "--noise-y"; argv[n++] = "0";
@@ -65,7 +71,7 @@ static int sim_start(sim *s, const char *extra)
     argv[n++] = "--truth"; argv[n++] = s->truth;
     if (extra) { argv[n++] = (char *)extra; }
     argv[n] = NULL;
-    const int r = posix_spawn(&s->pid, bin, &fa, NULL, argv, environ);
+    const int r = posix_spawnp(&s->pid, prog, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     close(fd[1]);
     if (r != 0) { close(fd[0]); return -1; }

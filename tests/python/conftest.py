@@ -11,6 +11,9 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "integration"))
 sys.path.insert(0, str(ROOT / "tools" / "python"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "common"))
+import msid_emulator  # noqa: E402
+msid_emulator.wrap_binaries()   # cross builds: MSID_EMULATOR runs the binaries (tests/common/msid_emulator.py)
 
 
 def msid(*args, cwd=None, check=True):
