@@ -69,3 +69,28 @@ def test_typed_options_one_message(tmp_path, args, msg):
 def test_unknown_option_still_refused():
     r = h.run("validate", "--bogus")
     assert r.returncode == 2 and "unknown option --bogus" in r.stderr
+
+
+def test_usage_lists_every_command_of_the_table():
+    # the usage text is made from the command table: every command runs, every listed one exists
+    r = h.run("--help")
+    assert r.returncode == 0
+    listed = [ln.split()[0] for ln in r.stdout.splitlines() if ln.startswith("  ") and not ln.startswith("   ")]
+    assert listed == ["measure", "excite", "frf", "demo", "fit", "modes", "validate", "compare", "can", "modbus",
+                      "plot", "export", "bench", "version"]
+    for name in listed:
+        if name in ("version", "demo", "measure"):
+            continue
+        assert h.run(name, "--help").returncode == 0, name
+
+
+@pytest.mark.parametrize("typo, meant", [("fti", "fit"), ("frff", "frf"), ("mesure", "measure"), ("validat", "validate")])
+def test_misspelt_command_gets_did_you_mean(typo, meant):
+    r = h.run(typo)
+    assert r.returncode == 2
+    assert f"unknown command '{typo}' (did you mean '{meant}'?)" in r.stderr
+
+
+def test_unrelated_command_gets_no_guess():
+    r = h.run("xyzzyq")
+    assert r.returncode == 2 and "did you mean" not in r.stderr and "unknown command 'xyzzyq'" in r.stderr

@@ -2,38 +2,102 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
-static const char *USAGE =
-    "usage: msid <command> [options]\n"
-    "\n"
-    "commands:\n"
-    "  measure  measure a device (modbus-tcp://, modbus-rtu://, can://): FRF, model, plots in one directory\n"
-    "  excite   design a multisine (msid-design/1) and optionally write its input samples as CSV\n"
-    "  frf      estimate the MIMO FRF and its covariance from experiment CSVs (msid-frf/1);\n"
-    "           --method lpm|etfe for records that are not steady-state multisines\n"
-    "  demo     design, simulate a built-in 2x2 plant, estimate, and compare with the truth\n"
-    "  fit      parametric models from an FRF file: --method subspace | lmfd | ml (msid-model/1)\n"
-    "           --method cissim: discrete-cISSIM straight from periodic time records (`msid fit --method cissim --help`)\n"
-    "  modes    natural frequencies, damping ratios, residues of a model with standard deviations\n"
-    "  validate a model against an FRF file: weighted residual cost, p-value, verdict\n"
-    "  compare  relative H2 and Hinf distance between two models\n"
-    "  can      measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log\n"
-    "  modbus   measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device\n"
-    "  plot     Bode plot of an FRF file with 95% regions, model overlay and residuals (PNG/SVG/PDF)\n"
-    "  export   an FRF file as CSV or MATLAB .mat (idfrd shape) with standard deviations\n"
-    "  bench    benchmarks against peers: frf, fit, lpm, io, can, modbus, target, wcet (`msid bench --help`)\n"
-    "  version  print the version\n"
-    "\n"
-    "`msid <command> --help` (or -h) shows the options of a command. See README.md and docs/.\n";
+namespace {
+
+// One row per command, as git's builtin table: its name, the summary `msid --help` shows, its
+// handler. The usage text and the dispatch are both made from it.
+struct Command {
+    const char *name;
+    const char *summary;
+    int (*run)(int argc, char **argv);
+};
+
+int cmd_version(int, char **)
+{
+    std::printf("msid %s\n", MSID_VERSION);
+    return 0;
+}
+
+const Command COMMANDS[] = {
+    {"measure", "measure a device (modbus-tcp://, modbus-rtu://, can://): FRF, model, plots in one directory",
+     msidcli::cmd_measure_uri},
+    {"excite", "design a multisine (msid-design/1) and optionally write its input samples as CSV", msidcli::cmd_excite},
+    {"frf",
+     "estimate the MIMO FRF and its covariance from experiment CSVs (msid-frf/1);\n"
+     "           --method lpm|etfe for records that are not steady-state multisines",
+     msidcli::cmd_frf},
+    {"demo", "design, simulate a built-in 2x2 plant, estimate, and compare with the truth", msidcli::cmd_demo},
+    {"fit",
+     "parametric models from an FRF file: --method subspace | lmfd | ml (msid-model/1)\n"
+     "           --method cissim: discrete-cISSIM straight from periodic time records (`msid fit --method cissim --help`)",
+     msidcli::cmd_fit},
+    {"modes", "natural frequencies, damping ratios, residues of a model with standard deviations", msidcli::cmd_modes},
+    {"validate", "a model against an FRF file: weighted residual cost, p-value, verdict", msidcli::cmd_validate},
+    {"compare", "relative H2 and Hinf distance between two models", msidcli::cmd_compare},
+    {"can", "measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log", msidcli::cmd_can},
+    {"modbus", "measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device", msidcli::cmd_modbus},
+    {"plot", "Bode plot of an FRF file with 95% regions, model overlay and residuals (PNG/SVG/PDF)", msidcli::cmd_plot},
+    {"export", "an FRF file as CSV or MATLAB .mat (idfrd shape) with standard deviations", msidcli::cmd_export},
+    {"bench", "benchmarks against peers: frf, fit, lpm, io, can, modbus, target, wcet (`msid bench --help`)",
+     msidcli::cmd_bench},
+    {"version", "print the version", cmd_version},
+};
+
+std::string usage()
+{
+    std::string u = "usage: msid <command> [options]\n\ncommands:\n";
+    for (const Command &c : COMMANDS) {
+        char name[16];
+        std::snprintf(name, sizeof name, "  %-9s", c.name);
+        u += name;
+        u += c.summary;
+        u += '\n';
+    }
+    u += "\n`msid <command> --help` (or -h) shows the options of a command. See README.md and docs/.\n";
+    return u;
+}
+
+// Edit distance of two short words (command names): insertions, deletions, substitutions and
+// swaps of two neighbouring letters ("fti" is one swap from "fit"), each counting 1.
+size_t edit_distance(const std::string &a, const std::string &b)
+{
+    const size_t n = a.size(), m = b.size();
+    std::vector<std::vector<size_t>> d(n + 1, std::vector<size_t>(m + 1));
+    for (size_t i = 0; i <= n; ++i) d[i][0] = i;
+    for (size_t j = 0; j <= m; ++j) d[0][j] = j;
+    for (size_t i = 1; i <= n; ++i)
+        for (size_t j = 1; j <= m; ++j) {
+            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
+            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+        }
+    return d[n][m];
+}
+
+// " (did you mean 'fit'?)" for a name at most two edits from one command, else "".
+std::string did_you_mean(const std::string &name)
+{
+    const Command *best = nullptr;
+    size_t bd = 3;
+    for (const Command &c : COMMANDS) {
+        const size_t d = edit_distance(name, c.name);
+        if (d < bd) { bd = d; best = &c; }
+    }
+    return best ? std::string(" (did you mean '") + best->name + "'?)" : std::string();
+}
+
+}  // namespace
 
 int main(int argc, char **argv)
 {
     if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
-        std::fputs(USAGE, argc < 2 ? stderr : stdout);
+        std::fputs(usage().c_str(), argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
     }
     const std::string cmd = argv[1];
@@ -41,27 +105,14 @@ int main(int argc, char **argv)
     for (int i = 2; i < argc; ++i)
         if (!std::strcmp(argv[i], "-h")) argv[i] = const_cast<char *>("--help");
     // A file size limit (ulimit -f) must end a run with an error, not SIGXFSZ: then write() fails with
-    // EFBIG and the temporary file is removed (issue 15 #10: out.json.tmp.PID was left behind).
+    // EFBIG and the temporary file is removed (no out.json.tmp.PID is left behind).
     std::signal(SIGXFSZ, SIG_IGN);
     try {
-        if (cmd == "excite") return msidcli::cmd_excite(argc, argv);
-        if (cmd == "frf") return msidcli::cmd_frf(argc, argv);
-        if (cmd == "measure") return msidcli::cmd_measure_uri(argc, argv);
-        if (cmd == "demo") return msidcli::cmd_demo(argc, argv);
-        if (cmd == "bench") return msidcli::cmd_bench(argc, argv);
-        if (cmd == "fit") return msidcli::cmd_fit(argc, argv);
-        if (cmd == "validate") return msidcli::cmd_validate(argc, argv);
-        if (cmd == "compare") return msidcli::cmd_compare(argc, argv);
-        if (cmd == "modes") return msidcli::cmd_modes(argc, argv);
-        if (cmd == "can") return msidcli::cmd_can(argc, argv);
-        if (cmd == "modbus") return msidcli::cmd_modbus(argc, argv);
-        if (cmd == "plot") return msidcli::cmd_plot(argc, argv);
-        if (cmd == "export") return msidcli::cmd_export(argc, argv);
-        if (cmd == "version" || cmd == "--version") {
-            std::printf("msid %s\n", MSID_VERSION);
-            return 0;
-        }
-        std::fprintf(stderr, "msid: error: unknown command '%s' (try msid --help)\n", cmd.c_str());
+        for (const Command &c : COMMANDS)
+            if (cmd == c.name) return c.run(argc, argv);
+        if (cmd == "--version") return cmd_version(argc, argv);
+        std::fprintf(stderr, "msid: error: unknown command '%s'%s (try msid --help)\n", cmd.c_str(),
+                     did_you_mean(cmd).c_str());
         return 2;
     } catch (const msidcli::HelpRequest &h) {
         std::fputs(h.text, stdout);
