@@ -122,8 +122,8 @@ int cmd_frf(int argc, char **argv)
                 (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
                 (unsigned long long)o.doc["periods_rejected"].get<uint64_t>(), o.dft_path.c_str());
     // The process ends now: the document's tree (some 10^5 nodes), the records and the job's
-    // measurement memory are left to the exit instead of being freed node by node (~1.5 ms CPU on
-    // the 2 x 262,144-row bench) and block by block (munmap while threads ran elsewhere).
+    // measurement memory are left to the exit instead of being freed node by node and block by
+    // block (munmap while threads ran elsewhere): nothing would use the freed memory.
     // Still reachable (not a leak for LeakSanitizer): held by a volatile global with external linkage,
     // which no optimiser may drop (a function-local static was dropped at -O1 and LeakSanitizer failed
     // every msid frf run); cmd_frf runs once per process (main.cpp).
