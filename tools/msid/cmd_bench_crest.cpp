@@ -1,6 +1,6 @@
 // msid bench crest: the design's set-up time for large P (issue 15 #6) -- crest factors by two real
 // DFTs per input and experiment (MSID_CREST_FFT, O(m nu P log P)) against direct synthesis
-// (MSID_CREST_DIRECT, O(m nu P L)) and a NumPy peer (tools/python/msid/crest_peer.py: one irfft per
+// (MSID_CREST_DIRECT, O(m nu P L)) and a NumPy peer (tools/peers/msid_peers/crest_peer.py: one irfft per
 // input) on the same coefficients in the same run; prints the agreement of the crest factors.
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -109,8 +109,8 @@ int cmd_bench_crest(int argc, char **argv)
                         std::fwrite(&c, sizeof c, 1, f);
                     }
             std::fclose(f);
-            const std::string pydir = bench_python_dir();
-            const std::string cmd = fmt("python3 '%s/msid/crest_peer.py' '%s' %u %u %u %u 2>&1", pydir.c_str(), tmpl, P,
+            const std::string pydir = bench_peers_dir();
+            const std::string cmd = fmt("python3 '%s/msid_peers/crest_peer.py' '%s' %u %u %u %u 2>&1", pydir.c_str(), tmpl, P,
                                         L, S.m, S.nu);
             FILE *p = popen(cmd.c_str(), "r");
             std::string out;
