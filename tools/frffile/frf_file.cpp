@@ -218,6 +218,10 @@ Json header(const Header &h)
     doc["domain"] = h.ct ? "ct" : "dt";
     if (h.ct || h.fs > 0) doc["sample_time"] = h.ct ? h.sample_time : 1.0 / h.fs;
     if (h.fs > 0) doc["fs_hz"] = h.fs;
+    if (!h.input_names.empty()) doc["input_names"] = h.input_names;
+    if (!h.output_names.empty()) doc["output_names"] = h.output_names;
+    if (!h.input_units.empty()) doc["input_units"] = h.input_units;
+    if (!h.output_units.empty()) doc["output_units"] = h.output_units;
     return doc;
 }
 
