@@ -489,10 +489,10 @@ void bench_structures_mc(const Json &mc)
                 "ml and vector fitting agree. docs/benchmarks.md)\n\n");
 }
 
-// Issue 9: the simulated structures against vector fitting (scikit-rf), and the order-20 ml timing.
+// The simulated structures against vector fitting (scikit-rf), and the order-20 ml timing.
 void bench_structures(const std::string &dir, double min_s, uint32_t runs)
 {
-    std::printf("structures (issue 9): accelerances, rigid-body + elastic modes with 0.5-2%% damping, 267 lines, "
+    std::printf("structures: accelerances, rigid-body + elastic modes with 0.5-2%% damping, 267 lines, "
                 "0.2%% noise, 16 periods; peer: scikit-rf VectorFitting at the same order\n");
     std::string outp;
     const std::string js = dir + "/vf.json";
@@ -581,7 +581,7 @@ static int bench_fit(int argc, char **argv)
         "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
         "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
         "error against the true system) over N random systems (default 50); 3: the simulated\n"
-        "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
+        "structures (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
         "--runs N (default 3, 0: none): with 3, also a Monte Carlo over N noise seeds of the SISO 10- and\n"
         "12-mode structures (nominal order and the order the data identify) and the 2x3 one: ml's error\n"
         "against the truth over vector fitting's, mean, median and standard error (vector fitting takes\n"
