@@ -171,6 +171,40 @@ def mat_v73_huge(path, kind):
     return claimed
 
 
+def mat_v73_unlinked_cell(path):
+    """A v7.3 file whose only variable, a 1x1 cell 'c', references a cell dataset of 2^16 x 2^16 (32 GiB of
+    references) that no link names: kept alive by its reference count (H5Oincr_refcount, through ctypes
+    into h5py's own HDF5) when its link is deleted. libmatio follows the reference while it lists the
+    variables. Needs h5py; returns the claimed bytes, or None when h5py's HDF5 cannot be called."""
+    import ctypes
+    import glob
+    import os
+    import h5py
+    import numpy as np
+    libs = glob.glob(os.path.join(os.path.dirname(h5py.__file__), "..", "h5py.libs", "libhdf5-*.so*"))
+    libs += glob.glob(os.path.join(os.path.dirname(h5py.__file__), "..", "h5py.libs", "libhdf5.so*"))
+    if not libs:
+        return None
+    lib = ctypes.CDLL(libs[0])
+    with h5py.File(path, "w", userblock_size=512) as f:
+        x = f.create_dataset("#refs#/x", shape=(1 << 16, 1 << 16), dtype=h5py.ref_dtype, chunks=(16, 16))
+        c = f.create_dataset("c", shape=(1, 1), dtype=h5py.ref_dtype)
+        c[0, 0] = x.ref
+        for ds, kind in ((x, "cell"), (c, "cell")):
+            tid = h5py.h5t.C_S1.copy()
+            tid.set_size(len(kind))
+            tid.set_strpad(h5py.h5t.STR_NULLTERM)
+            a = h5py.h5a.create(ds.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
+            a.write(np.array(kind.encode(), dtype=f"S{len(kind)}"), mtype=tid)
+        if lib.H5Oincr_refcount(ctypes.c_int64(x.id.id)) < 0:
+            return None
+        del f["#refs#/x"]
+    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Fri Nov 27 00:00:00 2026 HDF5 schema 1.00 ."
+    with open(path, "r+b") as f:
+        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+    return (1 << 32) * 8
+
+
 if __name__ == "__main__":
     out = Path(sys.argv[1])
     for seed, _, sel, make in FILES:

@@ -1,5 +1,6 @@
 """Every experiment-file reader is bounded by its file's size: small crafted files whose sizes claim
-gigabytes to terabytes (tests/fuzz/hostile_files.py: compressed and uncompressed .mat v5, v7.3/HDF5,
+gigabytes to terabytes (tests/fuzz/hostile_files.py: compressed and uncompressed .mat v5, v7.3/HDF5
+(datasets never written, a reference to an object no link names),
 .npz, .npy, CSV) each give one message naming the file, a non-zero exit, nothing on stdout, and a peak
 RSS of a few MB through `msid frf`. Peak RSS is msid's own ru_maxrss (wait4, in peak_rss_run.c), a
 bound of 64 MB that a busy machine does not move (it is memory, not time). Negative control: the same measurement of
@@ -99,6 +100,17 @@ def test_mat_v73_dataset_claiming_more_than_the_file(tmp_path, kind):
     name = "u1" if kind == "double" else "c"
     assert p.stat().st_size < 64 * 1024
     _assert_bounded(p, f"'{{f}}' variable '{name}' claims {claimed} bytes, more than 1032 x the file's", claimed)
+
+
+def test_mat_v73_reference_to_an_unlinked_object(tmp_path):
+    """A v7.3 cell whose reference points at a dataset no link names (32 GiB of references): the check
+    follows references as libmatio does; the message names the variable that refers to it."""
+    pytest.importorskip("h5py")
+    p = tmp_path / "unlinked.mat"
+    claimed = hf.mat_v73_unlinked_cell(p)
+    if claimed is None:
+        pytest.skip("h5py's HDF5 library cannot be called to keep an unlinked object")
+    _assert_bounded(p, f"'{{f}}' variable 'c' refers to an object that claims {claimed} bytes, more than 1032 x", claimed)
 
 
 def test_negative_control_the_bound_sees_a_large_allocation(tmp_path):
