@@ -260,8 +260,10 @@ void MatV5::parse_matrix(MatVarInfo &v)
     name_ = v.name;
     data_at_ = nullptr;
     if (!v.numeric || v.rank != 2 || v.complex || v.logical) return;
-    // the real part: its dimensions times the stored element size must fit in it
-    if (!tag(data_) || (data_.small && data_.bytes > 4)) throw bad("has a malformed data element");
+    // the real part: its dimensions times the stored element size must fit in it (an empty matrix may
+    // end before it)
+    if (elems == 0 && used_ + 8 > limit_) data_ = Tag{9, 0, false, {}};
+    else if (!tag(data_) || (data_.small && data_.bytes > 4)) throw bad("has a malformed data element");
     const Stored s = stored_type(data_.type);
     if (m_.in_place()) data_at_ = m_.here();
     elems_ = elems;
