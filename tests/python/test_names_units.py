@@ -86,10 +86,12 @@ def test_mapped_names_without_units(tmp_path):
     assert m["InputUnit"][0, 0].size == 0   # an empty unit, as idfrd has by default
 
 
-@pytest.mark.parametrize("kind", ["csv", "npy"])
+@pytest.mark.parametrize("kind", ["csv", "CSV", "npy"])
 def test_default_columns_add_no_keys(tmp_path, kind):
-    """u1/y1 columns (and a .npy's columns 1, 2) are the defaults: no names or units are written."""
-    rec = _csv(tmp_path / "r.csv", ["u1", "y1"]) if kind == "csv" else tmp_path / "r.npy"
+    """u1/y1 columns (in either case, as the readers match them; and a .npy's columns 1, 2) are the
+    defaults: no names or units are written."""
+    rec = (_csv(tmp_path / "r.csv", ["u1", "y1"] if kind == "csv" else ["U1", "Y1"]) if kind != "npy"
+           else tmp_path / "r.npy")
     if kind == "npy":
         np.save(rec, _record())
     extra = ("--columns", "u1=1,y1=2") if kind == "npy" else ()

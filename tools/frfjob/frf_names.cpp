@@ -7,10 +7,13 @@
 
 namespace msidjob {
 
-// "u3" for (u, 3): the name a column gets when the file says nothing else.
+// "u3" (or "U3", as the readers match it) for (u, 3): the name a column gets when the file says
+// nothing else.
 static bool default_name(const std::string &s, char kind, size_t k)
 {
-    if (s == std::string(1, kind) + std::to_string(k)) return true;
+    const std::string d = std::string(1, kind) + std::to_string(k);
+    if (s.size() == d.size() && std::tolower((unsigned char)s[0]) == kind && s.compare(1, std::string::npos, d, 1) == 0)
+        return true;
     // a bare column number (a .npy matrix's columns are 1..C)
     return !s.empty() && s.find_first_not_of("0123456789") == std::string::npos;
 }
