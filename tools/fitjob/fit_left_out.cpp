@@ -1,6 +1,7 @@
-// The demo build (MSID_DEMO=ON, cmake/msid_demo.cmake) fits an LMFD only: the pole-residue ML,
-// cissim and multi (and the sources of tools/fit behind them) are left out. Asked for, each is one
-// message naming how to get it.
+// The demo build (MSID_DEMO=ON, cmake/msid_demo.cmake) fits an LMFD only: cissim and multi (and
+// the sources of tools/fit behind them) are left out; asked for, each is one message naming how to
+// get it. The pole-residue ML likewise (fit_poles_left_out.cpp: its own object, which the demo
+// msid's tools/msid/left_out.cpp replaces).
 #include "fit_job_detail.hpp"
 
 namespace msidfitjob {
@@ -10,11 +11,6 @@ namespace msidfitjob {
     throw msidutil::Error(std::string("this msid was built by `./bootstrap.sh demo` without `") + what +
                               "`; build everything with `./bootstrap.sh build`",
                           2, msidutil::ErrorKind::usage);
-}
-
-PrResult fit_ml_poles(const FrfData &, Domain, const std::vector<WeightedLine> &, bool, const PrOptions &)
-{
-    left_out("fit --method ml --param poles");
 }
 
 void check_cissim(const CissimRequest &) { left_out("fit --method cissim"); }
