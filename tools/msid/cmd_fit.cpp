@@ -176,6 +176,25 @@ static const char *VAL_HELP =
     "LPM files: neighbouring lines share 2W of their 2W+1 window bins, so the cost is summed over every\n"
     "(2W+1)-th line, which are independent (--lpm-lines all: every line, an optimistic p-value).\n";
 
+// The model describes the FRF's channels and frequencies.
+static void check_model_matches_frf(const ModelFile &mf, const FrfData &f)
+{
+    if (mf.ss.B.cols() != (Eigen::Index)f.nu || mf.ss.C.rows() != (Eigen::Index)f.ny)
+        throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +
+                       std::to_string(mf.ss.C.rows()) + " outputs, the FRF " + std::to_string(f.nu) + " and " +
+                       std::to_string(f.ny));
+    // A continuous-time model is evaluated at s = j omega (rad/s): an FRF without a sample time has
+    // its lines in rad/sample, where the model was evaluated without a word (a verdict on the wrong
+    // frequencies). A DT model fitted at another sample time describes other frequencies too.
+    if (mf.domain == Domain::CT && f.domain == Domain::DT && f.h <= 0)
+        throw FitError("'" + mf.path + "' is a continuous-time model and '" + f.path +
+                       "' a discrete-time FRF without a sample time: its lines have no frequency in rad/s "
+                       "(give --fs to msid frf)");
+    if (mf.domain == Domain::DT && mf.h > 0 && f.h > 0 && std::abs(mf.h - f.h) > 1e-9 * f.h)
+        throw FitError(fmt("'%s' was fitted at sample time %g s and '%s' has %g s: the lines are at other "
+                           "frequencies", mf.path.c_str(), mf.h, f.path.c_str(), f.h));
+}
+
 int cmd_validate(int argc, char **argv)
 {
     if (validate_on_records(argc, argv)) return cmd_validate_multi(argc, argv);   // time records (cmd_fit_multi.cpp)
@@ -187,20 +206,7 @@ int cmd_validate(int argc, char **argv)
             throw FitError("'" + mf.path + "' is a free-response model (no inputs, from msid fit --method multi): it has no "
                            "FRF; validate it on time records with --experiment FILE");
         const FrfData f = read_frf(a.positional()[1]);
-        if (mf.ss.B.cols() != (Eigen::Index)f.nu || mf.ss.C.rows() != (Eigen::Index)f.ny)
-            throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +
-                           std::to_string(mf.ss.C.rows()) + " outputs, the FRF " + std::to_string(f.nu) + " and " +
-                           std::to_string(f.ny));
-        // A continuous-time model is evaluated at s = j omega (rad/s): an FRF without a sample time has
-        // its lines in rad/sample, where the model was evaluated without a word (a verdict on the wrong
-        // frequencies). A DT model fitted at another sample time describes other frequencies too.
-        if (mf.domain == Domain::CT && f.domain == Domain::DT && f.h <= 0)
-            throw FitError("'" + mf.path + "' is a continuous-time model and '" + f.path +
-                           "' a discrete-time FRF without a sample time: its lines have no frequency in rad/s "
-                           "(give --fs to msid frf)");
-        if (mf.domain == Domain::DT && mf.h > 0 && f.h > 0 && std::abs(mf.h - f.h) > 1e-9 * f.h)
-            throw FitError(fmt("'%s' was fitted at sample time %g s and '%s' has %g s: the lines are at other "
-                               "frequencies", mf.path.c_str(), mf.h, f.path.c_str(), f.h));
+        check_model_matches_frf(mf, f);
         // The verdict comes from the FRF covariance whatever weighting the fit used (a --weight none
         // fit is validated with the covariance: unit weights would make the verdict depend on the units).
         Weight wt = a.enum_<Weight>("weight", mf.weight == "known-input" ? Weight::KnownInput : Weight::Cov, WEIGHTS);
