@@ -9,19 +9,6 @@
 
 namespace msidfit {
 
-Json rmat_json(const MatR &M)
-{
-    Json a = Json::array();
-    for (Eigen::Index r = 0; r < M.rows(); ++r) {
-        Json row = Json::array();
-        for (Eigen::Index c = 0; c < M.cols(); ++c) row.push_back(M(r, c));
-        a.push_back(row);
-    }
-    return a;
-}
-
-Json cmat_json(const MatC &M) { return Json{{"re", rmat_json(M.real())}, {"im", rmat_json(M.imag())}}; }
-
 static MatR rmat(const Json &v, Eigen::Index rows, Eigen::Index cols, const std::string &file, const std::string &what)
 {
     if (!v.is_array() || (Eigen::Index)v.size() != rows)

@@ -49,7 +49,7 @@ double jnum(const Json &v, const std::string &what, const std::string &file)
     return x;
 }
 
-static std::string nonfinite_at(const Json &j, const std::string &at)
+std::string nonfinite_at(const Json &j, const std::string &at)
 {
     if (j.is_number_float()) return std::isfinite(j.get<double>()) ? "" : (at.empty() ? "/" : at);
     if (j.is_object())

@@ -28,6 +28,9 @@ uint64_t juint(const Json &o, const std::string &key, const std::string &file);
 uint32_t juint32(const Json &o, const std::string &key, const std::string &file);
 double jnum(const Json &v, const std::string &what, const std::string &file);
 
+// The first place ("/key/index...") below `at` where `j` holds a NaN or Inf; "" if none.
+std::string nonfinite_at(const Json &j, const std::string &at = "");
+
 // Serialise with a trailing newline and write atomically (no partial file on error);
 // `durable` as msidutil::write_file_atomic(). `pre`: one member's elements as text
 // (msidfrf::Prerendered). A NaN or Inf anywhere is an error naming its place.

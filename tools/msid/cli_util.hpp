@@ -32,7 +32,7 @@ struct HelpRequest {
 void help_if_asked(int argc, char **argv, int first, const char *help);
 
 // One of `names` (UsageError "--what must be a, b or c (got 'v')" otherwise): its index.
-uint32_t parse_enum(const std::string &value, const std::string &what, const std::vector<std::string> &names);
+using msidutil::parse_enum;
 
 // Parsed command line: --key value, --key=value, flags, positionals.
 class Args {
@@ -78,9 +78,10 @@ private:
 };
 
 // Strict number parsing; `what` names the option in messages.
-double parse_double(const std::string &s, const std::string &what);
-uint64_t parse_u64(const std::string &s, const std::string &what);
-uint32_t parse_u32(const std::string &s, const std::string &what);
+using msidutil::parse_double;
+using msidutil::parse_u64;
+using msidutil::parse_u32;
+using msidutil::trim;
 // Comma list of unsigned ints with ranges a:b and a:step:b (inclusive).
 std::vector<uint32_t> parse_uint_list(const std::string &s, const std::string &what);
 std::vector<double> parse_double_list(const std::string &s, const std::string &what);

@@ -2,6 +2,9 @@
 #pragma once
 #include <string>
 #include <vector>
+namespace msidfitjob {
+struct FitOutcome;
+}
 namespace msidcli {
 int cmd_excite(int argc, char **argv);
 int cmd_frf(int argc, char **argv);
@@ -11,13 +14,13 @@ int cmd_measure_uri(int argc, char **argv);   // cmd_measure.cpp: msid measure -
 int cmd_bench(int argc, char **argv);
 int cmd_bench_lpm(int argc, char **argv);   // msid bench lpm
 int cmd_fit(int argc, char **argv);
-void fit_in_order_scan(bool on);   // cmd_fit.cpp: no per-order non-convergence warning (the scan reports it)
+// cmd_fit.cpp: a fit's model file and what msid prints of it (exit status 0, or 3 when the
+// iterations ran out); its notes on stderr as they arise.
+int write_fit(const msidfitjob::FitOutcome &o, const std::string &out, bool durable);
+void print_fit_note(const std::string &note);
 int cmd_validate(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_modes(int argc, char **argv);
-// cmd_fit_modal.cpp: --order auto|a:b scan, modal parameters of a model document
-bool fit_order_is_scan(int argc, char **argv);
-int cmd_fit_scan(int argc, char **argv);
 // cmd_fit_cissim.cpp: msid fit --method cissim (time records, You et al. 2023)
 bool cissim_requested(int argc, char **argv);
 int cmd_fit_cissim(int argc, char **argv);
@@ -49,7 +52,6 @@ int cmd_validate_multi(int argc, char **argv);
 #include <vector>
 #include <nlohmann/json.hpp>
 namespace msidcli {
-void add_modes(nlohmann::ordered_json &doc, bool print);
 // Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
 int exec_with_build(std::vector<std::string> args);
 // The machine line of the benchmarks (CPU, cores, kernel), and the directory holding the Python

@@ -1,13 +1,13 @@
 // The demo build (MSID_DEMO=ON, `./bootstrap.sh demo`, cmake/msid_demo.cmake) compiles only what
 // `msid demo` runs. The handlers it leaves out (every `msid bench`, `fit --method cissim`,
 // `fit --method multi` with its validate and modes forms, `fit --method ml --param poles` (the ML of
-// pole-residue models, poleres.cpp; the demo fits an LMFD), `modbus|can measure --on-device`,
+// pole-residue models; the demo fits an LMFD), `modbus|can measure --on-device`,
 // `frf --method lpm|etfe`, and `frf --direct` (tools/frfjob/frf_direct_left_out.cpp),
 // and the cissim, multi and tools/est sources behind them) are replaced by these: one message
 // naming the command and how to get it, exit status 2.
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "fit_poles.hpp"
+#include "fit_job_detail.hpp"
 
 #include <string>
 
@@ -27,11 +27,18 @@ int cmd_validate_multi(int, char **) { left_out("validate --experiment"); }
 int cmd_modbus_ondevice(int, char **) { left_out("modbus measure --on-device"); }
 int cmd_can_ondevice(int, char **) { left_out("can measure --on-device"); }
 int cmd_frf_est(int, char **) { left_out("frf --method lpm|etfe"); }
-msidfit::PrResult fit_ml_poles(const msidfit::FrfData &, msidfit::Domain, const std::vector<msidfit::WeightedLine> &, bool,
-                               const msidfit::PrOptions &)
+}  // namespace msidcli
+
+// The pole-residue ML of the fit job: this definition comes first on the link line of the demo
+// build's msid, so tools/fitjob/fit_poles.cpp (its only definition there) is not linked.
+msidfitjob::PrResult msidfitjob::fit_ml_poles(const FrfData &, Domain, const std::vector<WeightedLine> &, bool,
+                                              const PrOptions &)
 {
-    left_out("fit --method ml --param poles");
+    msidcli::left_out("fit --method ml --param poles");
 }
+
+namespace msidcli {
+
 int cmd_modes_multi(const nlohmann::ordered_json &, const std::string &, const std::string &)
 {
     left_out("modes of a --method multi model");

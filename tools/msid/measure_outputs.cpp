@@ -2,6 +2,7 @@
 #include "measure_outputs.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "msid_fit_job.hpp"
 
 #include <cerrno>
 #include <cstdio>
@@ -43,14 +44,19 @@ SilenceStdout::~SilenceStdout()
 std::string fit_model(const std::string &frf, const std::string &model, const std::string &method,
                       const std::string &order, bool quiet)
 {
-    std::vector<std::string> args = {"msid", "fit", "--method", method, "--order", order, frf, "-o", model};
-    std::vector<char *> av;
-    for (auto &s : args) av.push_back(&s[0]);
-    av.push_back(nullptr);
+    msidfitjob::FitRequest rq;
+    rq.method = method;
+    rq.order = order;
     try {
+        const msidfrf::FrfData f = msidfrf::read_frf(frf);
         SilenceStdout s(quiet);
-        const int rc = cmd_fit((int)args.size(), av.data());
-        if (rc != 0 && rc != 3) return fmt("msid fit exit status %d", rc);
+        try {
+            const int rc = write_fit(msidfitjob::fit_frf(f, rq, print_fit_note), model, msidfitjob::order_is_scan(rq));
+            if (rc != 0 && rc != 3) return fmt("msid fit exit status %d", rc);
+        } catch (const msidfitjob::Error &e) {
+            std::fputs(e.before.c_str(), stdout);   // the order table of a scan that kept no order
+            throw;
+        }
     } catch (const std::exception &e) {
         return e.what();
     }

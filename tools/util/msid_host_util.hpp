@@ -2,6 +2,7 @@
 // exception, atomic file writes and aligned working memory for the core's objects.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -41,5 +42,14 @@ struct Mem {
     Mem &operator=(Mem &&o) noexcept;
     ~Mem();
 };
+
+// Strict number parsing (the whole text, blanks around it allowed); `what` names the value in the
+// UsageError ("--order: 'x' is not a non-negative integer", "... is too large", "... is not finite").
+std::string trim(const std::string &s);
+double parse_double(const std::string &s, const std::string &what);
+uint64_t parse_u64(const std::string &s, const std::string &what);
+uint32_t parse_u32(const std::string &s, const std::string &what);
+// One of `names` (UsageError "--what must be a, b or c (got 'v')" otherwise): its index.
+uint32_t parse_enum(const std::string &value, const std::string &what, const std::vector<std::string> &names);
 
 }  // namespace msidutil

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace msidcli {
+namespace msidfitjob {
 
 // Lines in the statistic: every line (stride 1), or for an LPM file (`"method": "lpm"`; neighbouring
 // lines share 2W of their 2W+1 window bins) every (2W+1)-th line, which are independent.
@@ -30,4 +30,9 @@ struct ValidationStat {
 ValidationStat validation_stat(const std::vector<msidfit::WeightedLine> &w, const std::vector<msidfit::MatC> &Gm,
                                double n_params, size_t stride, double ny, bool unit_weights);
 
-}  // namespace msidcli
+// The weighted fits invert sample covariances: refused, with the periods (or realisations) the
+// data would need, when the covariance of `w` (each line's own) rests on too few for the weights
+// (or, `validating`, for the cost's law). Throws FitError.
+void check_weight_periods(const std::vector<msidfit::WeightedLine> &w, const msidfit::FrfData &f, bool validating);
+
+}  // namespace msidfitjob

@@ -1,0 +1,29 @@
+// Inside msid_fitjob: the steps the entry points share.
+#pragma once
+#include "msid_fit_job.hpp"
+#include "msid_host_util.hpp"
+
+#include "frf_data.hpp"
+#include "model_io.hpp"
+#include "poleres.hpp"
+
+namespace msidfitjob {
+
+using namespace msidfit;
+using msidutil::UsageError;
+using msidutil::fmt;
+
+// Pass a note to the caller now and keep it in the outcome.
+void add_note(FitOutcome &out, const Report &report, const std::string &note);
+
+// One fit at one order (fit_frf.cpp); the scan (fit_scan.cpp) calls it at every order.
+FitOutcome fit_frf_at_order(const FrfData &f, const FitRequest &rq, const Report &report);
+// The order scan of subspace and ml (fit_scan.cpp).
+FitOutcome fit_frf_scan(const FrfData &f, const FitRequest &rq, const Report &report);
+
+// ml in the pole-residue form (pr_ml_fit of poleres.cpp; the demo build leaves it out:
+// fit_left_out.cpp answers with one message).
+PrResult fit_ml_poles(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted,
+                      const PrOptions &o);
+
+}  // namespace msidfitjob
