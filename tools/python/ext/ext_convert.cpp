@@ -6,18 +6,43 @@
 
 namespace msidpy {
 
+static py::object to_py(const Json &j);
+
+// The collector paused while a document becomes Python objects: tens of thousands of new
+// containers, none in a cycle, would start many collections (each walking the interpreter's objects)
+// that can free nothing.
 py::object json_to_py(const Json &j)
+{
+    py::module_ gc = py::module_::import("gc");
+    const bool was = gc.attr("isenabled")().cast<bool>();
+    gc.attr("disable")();
+    struct Resume {
+        py::module_ &gc;
+        bool was;
+        ~Resume()
+        {
+            if (!was) return;
+            try {   // a destructor must not throw (the interpreter would abort); gc.enable() does not fail
+                gc.attr("enable")();
+            } catch (const py::error_already_set &) {
+            }
+        }
+    } resume{gc, was};
+    return to_py(j);
+}
+
+static py::object to_py(const Json &j)
 {
     switch (j.type()) {
     case Json::value_t::object: {
         py::dict d;
-        for (auto it = j.begin(); it != j.end(); ++it) d[py::str(it.key())] = json_to_py(it.value());
+        for (auto it = j.begin(); it != j.end(); ++it) d[py::str(it.key())] = to_py(it.value());
         return std::move(d);
     }
     case Json::value_t::array: {
         py::list l(j.size());
         size_t k = 0;
-        for (const auto &x : j) l[k++] = json_to_py(x);
+        for (const auto &x : j) l[k++] = to_py(x);
         return std::move(l);
     }
     case Json::value_t::string: return py::str(j.get_ref<const std::string &>());

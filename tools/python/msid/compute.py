@@ -12,10 +12,14 @@ Only the compiled functions need msid._msid; the rest of the package imports wit
 """
 import os
 import warnings
+from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from .files import frf_from_doc
+from .files import FRF, frf_from_doc
+
+PathLike = Union[str, "os.PathLike[str]"]
+Bins = Union[str, Sequence[int], np.ndarray]
 
 __all__ = ["frf", "Measurement", "Design", "design", "read_design", "NoteWarning"]
 
@@ -166,9 +170,11 @@ def _result(res, where):
 
 # ---- the FRF of records ----
 
-def frf(records, *, design=None, period=None, lines=None, skip_periods=0, fs=None, method="periodic", columns=None,
-        n_inputs=None, detect_lines=None, transient="flag", alpha=0.01, dft="auto", block=None, realisations=None,
-        direct=False):
+def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period: Union[int, str, None] = None,
+        lines: Optional[Bins] = None, skip_periods: int = 0, fs: Optional[float] = None, method: str = "periodic",
+        columns: Union[str, Dict[str, str], None] = None, n_inputs: Optional[int] = None,
+        detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
+        block: Optional[int] = None, realisations: Optional[int] = None, direct: bool = False) -> FRF:
     """The FRF of multisine records, as `msid frf` estimates it from files: the same request gives the
     same bits (docs/statistics.md for the estimator and its exact statistics).
 
@@ -228,8 +234,9 @@ class Measurement:
     keeps none. Options as msid.frf.
     """
 
-    def __init__(self, design, *, skip_periods=0, fs=None, detect_lines=None, transient="flag", alpha=0.01,
-                 dft="auto", max_periods=None):
+    def __init__(self, design: Union["Design", PathLike], *, skip_periods: int = 0, fs: Optional[float] = None,
+                 detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
+                 max_periods: Optional[int] = None):
         D = _design_arg(design)
         if D is None:
             raise ValueError("a Measurement needs a design (period, lines, inputs and experiments)")
@@ -239,7 +246,7 @@ class Measurement:
             max_periods = 4 * (D.periods or 64) + 8
         self._m = _ext().Measurement(D._impl, opts, _uint(max_periods, "max_periods"))
 
-    def push(self, block, experiment=0):
+    def push(self, block: np.ndarray, experiment: int = 0) -> None:
         """Push rows of experiment `experiment` (counted from 0): a 2-D array (a 1-D one is one row)."""
         e = _uint(experiment, "experiment")
         a = np.asarray(block)
@@ -251,11 +258,11 @@ class Measurement:
         self._m.push(_real_samples(a, f"experiment {e}"), e)
 
     @property
-    def progress(self):
+    def progress(self) -> List[int]:
         """Whole periods received per experiment (a list, experiment 0 first)."""
         return list(self._m.progress())
 
-    def frf(self):
+    def frf(self) -> FRF:
         """Close the measurement and estimate: an msid.FRF (ValueError if an experiment has too few periods)."""
         return _result(self._m.frf(), "msid.Measurement")
 
@@ -296,18 +303,18 @@ class Design:
         """Recommended periods per experiment (None if the design does not say)."""
         return self._impl.doc.get("periods")
 
-    def crest_factor(self, experiment, inp):
+    def crest_factor(self, experiment: int, inp: int) -> float:
         """max|u|/rms(u) of input `inp` in `experiment` (both from 0)."""
         return self._impl.crest_factor(_uint(experiment, "experiment"), _uint(inp, "input"))
 
-    def samples(self, experiment=0, periods=None):
+    def samples(self, experiment: int = 0, periods: Optional[int] = None) -> np.ndarray:
         """The inputs of `experiment` (from 0) over `periods` periods (default: the design's, else 1):
         a (periods * period, n_inputs) float64 array, the samples `msid excite --csv` writes."""
         if periods is None:
             periods = self.periods or 1
         return self._impl.samples(_uint(experiment, "experiment"), _uint(periods, "periods"))
 
-    def save(self, path):
+    def save(self, path: PathLike) -> None:
         """Write the design as an msid-design/1 file (atomic), as `msid excite -o` does."""
         self._impl.save(os.fspath(path))
 
@@ -317,8 +324,10 @@ class Design:
                 f"{self.n_inputs} input(s) x {self.n_experiments} experiment(s), max cond {self.cond_max:.4g}>")
 
 
-def design(period, lines=None, *, omega=None, sample_time=None, amplitudes=None, phases="random", seed=1, inputs=1,
-           experiments=None, pattern="dft", periods=8):
+def design(period: int, lines: Optional[Bins] = None, *, omega: Optional[Sequence[float]] = None,
+           sample_time: Optional[float] = None, amplitudes: Union[float, Sequence[float], None] = None,
+           phases: str = "random", seed: int = 1, inputs: int = 1, experiments: Optional[int] = None,
+           pattern: str = "dft", periods: int = 8) -> "Design":
     """A multisine design with the options of `msid excite`: `lines` (bins, or msid's string form
     "1:200") or `omega` (rad/s) with `sample_time` (s); amplitudes (one value, one per line, or
     inputs x lines), phases "random" (seeded) or "schroeder", inputs and experiments (default = inputs),
@@ -331,6 +340,6 @@ def design(period, lines=None, *, omega=None, sample_time=None, amplitudes=None,
                                 str(pattern), _uint(periods, "periods")))
 
 
-def read_design(path):
+def read_design(path: PathLike) -> "Design":
     """Read an msid-design/1 file (OSError if it cannot be read, ValueError if it is not a valid design)."""
     return Design(_ext().read_design(os.fspath(path)))
