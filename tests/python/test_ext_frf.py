@@ -178,6 +178,33 @@ def test_frf_starts_no_process(monkeypatch, d2, recs):
     assert_same_bits(m.frf(), f)
 
 
+def test_frf_threads_same_bits(d2, recs):
+    """Jobs on several Python threads at once (the GIL is released; FFTW's planner is shared) give the
+    bits of one job alone."""
+    import threading
+    want = msid.frf(recs, design=d2, dft="fft")
+    got, errors = [], []
+
+    def run():
+        try:
+            for _ in range(5):
+                got.append(msid.frf(recs, design=d2, dft="fft"))
+                m = msid.Measurement(design=d2, dft="fft")
+                for e, r in enumerate(recs):
+                    m.push(r, experiment=e)
+                got.append(m.frf())
+        except Exception as e:   # reported below, on the main thread
+            errors.append(e)
+    th = [threading.Thread(target=run) for _ in range(3)]
+    for t in th:
+        t.start()
+    for t in th:
+        t.join()
+    assert not errors and len(got) == 30
+    for f in got:
+        assert_same_bits(f, want)
+
+
 # ---- bad input: msid's messages ----
 
 def test_frf_nan_message_as_cli(tmp_path, d2, recs):

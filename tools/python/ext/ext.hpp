@@ -8,6 +8,7 @@
 
 #include <initializer_list>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +35,11 @@ py::object json_to_py(const Json &j);
 // The options every estimating call shares (a dict put in order by compute.py: skip_periods,
 // fs, detect_lines, transient, alpha, dft) into the request; a bad value is a UsageError.
 void request_options(const py::dict &opts, FrfRequest &rq, const Design *D);
+
+// FFTW's planner is not thread-safe, and the GIL is released while a job runs: every job that plans
+// or frees FFTW plans (msid.frf; a Measurement's start and end) holds this, so two Python threads
+// never plan at once. Taken with the GIL released (a holder never needs the GIL).
+std::mutex &fftw_jobs();
 
 // A keyword's value among named choices (e.g. transient: flag, drop, off); else a UsageError listing them.
 template <class E>

@@ -6,6 +6,12 @@
 
 namespace msidpy {
 
+std::mutex &fftw_jobs()
+{
+    static std::mutex m;
+    return m;
+}
+
 static py::object to_py(const Json &j);
 
 // The collector paused while a document becomes Python objects: tens of thousands of new

@@ -85,6 +85,7 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
     {
         // The arrays stay alive in the caller's list; nothing here touches a Python object.
         py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
         // As `msid frf` reads its files: the plain periodic job scans each block for NaN/Inf just
         // before it uses it; every other path reads samples first, so they are scanned first.
         const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;

@@ -32,6 +32,16 @@ public:
             throw UsageError("max_periods must be at least 3 (the transient test compares periods), or transient='off'");
     }
 
+    // The job frees its FFTW plans. With the GIL held (also at the interpreter's exit): the holder of
+    // fftw_jobs() never waits for the GIL, so this waits at most for one job.
+    ~Measurement()
+    {
+        std::lock_guard<std::mutex> planner(fftw_jobs());
+        job_.reset();
+    }
+    Measurement(const Measurement &) = delete;
+    Measurement &operator=(const Measurement &) = delete;
+
     // Rows [u1..u_nu, y1..y_ny] of experiment e, any number.
     void push(const py::array &a, uint32_t e)
     {
@@ -116,6 +126,7 @@ private:
             throw msidjob::Error(fmt("a block of %zu columns: the design's %u inputs leave no output column", C, nu_));
         ny_ = (uint32_t)(C - nu_);
         const uint32_t hist = rq_.transient == MSID_TRANSIENT_OFF ? 0 : max_periods_;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
         job_ = std::make_unique<FrfJob>(rq_, nu_, ny_, m_, hist, hist, 1);
     }
 
