@@ -39,6 +39,7 @@ scripts/deps.sh
 cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DMSID_DEMO=OFF -DMSID_BUILD_TESTS=ON \
   > build.log 2>&1 || { cat build.log; exit 1; }
 cmake --build build -j "$jobs" >> build.log 2>&1 || { tail -50 build.log; exit 1; }
+echo "bootstrap: built in $SECONDS s with $jobs jobs (log: build.log)" >&2
 
 case "$mode" in
   test) cd build && exec ctest --output-on-failure -j "$jobs" ;;

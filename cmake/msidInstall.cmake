@@ -1,6 +1,8 @@
 # `cmake --install build --prefix P` (docs/install.md): headers, static libraries, `msid` and `msid-devsim`,
 # the Python package (P/share/msid/python, found by `msid plot`), P/lib/cmake/msid/msidConfig.cmake
-# exporting msid::core, msid::daq, msid::fit, and P/lib/pkgconfig/msid.pc (core + daq, C).
+# exporting msid::core, msid::daq, msid::fit and the host libraries (msid::hostutil, msid::records,
+# msid::formats, msid::frfjob, with msid::fftw and msid::est beneath them), and P/lib/pkgconfig/msid.pc
+# (core + daq, C).
 include(CMakePackageConfigHelpers)
 set(MSID_CMAKE_DIR lib/cmake/msid)
 
@@ -17,8 +19,35 @@ if(TARGET msid_fit)
   # msid::fit reads FRF files through msid_frffile (tools/frffile), exported beside it as msid::frffile
   set_target_properties(msid_frffile PROPERTIES EXPORT_NAME frffile)
   install(TARGETS msid_fit msid_frffile EXPORT msidTargets ARCHIVE DESTINATION lib)
-  install(FILES ${PROJECT_SOURCE_DIR}/tools/frffile/frf_file.hpp DESTINATION include/msid_fit)
+  install(FILES ${PROJECT_SOURCE_DIR}/tools/frffile/frf_file.hpp ${PROJECT_SOURCE_DIR}/tools/frffile/frf_text.hpp
+          DESTINATION include/msid_fit)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/tools/fit/ DESTINATION include/msid_fit FILES_MATCHING PATTERN "*.hpp")
+endif()
+# The host libraries (tools/util, records, formats, frfjob; docs/architecture.md): the FRF job on
+# records in memory or in files, without the command line. Their public headers go to include/msid_host;
+# the libraries they link privately (FFTW's backend, the estimators) are exported too, a static
+# library's consumer links them.
+set(MSID_HAVE_HOST OFF)
+if(TARGET msid_frfjob)
+  set(MSID_HAVE_HOST ON)
+  set(_host msid_hostutil msid_records msid_formats msid_frfjob msid_fftw)
+  set_target_properties(msid_hostutil PROPERTIES EXPORT_NAME hostutil)
+  set_target_properties(msid_records PROPERTIES EXPORT_NAME records)
+  set_target_properties(msid_formats PROPERTIES EXPORT_NAME formats)
+  set_target_properties(msid_frfjob PROPERTIES EXPORT_NAME frfjob)
+  set_target_properties(msid_fftw PROPERTIES EXPORT_NAME fftw)
+  if(TARGET msid_est)
+    set_target_properties(msid_est PROPERTIES EXPORT_NAME est)
+    list(APPEND _host msid_est)
+    install(DIRECTORY ${PROJECT_SOURCE_DIR}/tools/est/ DESTINATION include/msid_est FILES_MATCHING PATTERN "*.hpp")
+  endif()
+  install(TARGETS ${_host} EXPORT msidTargets ARCHIVE DESTINATION lib)
+  install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
+                ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp
+                ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp
+                ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
+                ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp
+          DESTINATION include/msid_host)
 endif()
 foreach(t msid_cli msid_devsim)
   if(TARGET ${t})

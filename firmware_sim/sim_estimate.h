@@ -1,6 +1,6 @@
 /**
  * @file sim_estimate.h
- * @brief On-device estimation (issue 12): the device runs lib/'s msid_meas on
+ * @brief On-device estimation: the device runs lib/'s msid_meas on
  *        every sample it produces, as encoded for the link (the ADC's codes:
  *        int16/int32 scaled or float32, decoded back to doubles), and solves
  *        msid_frf on request. Fixed memory from the device's arena, bounded by

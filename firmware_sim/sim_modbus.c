@@ -439,7 +439,7 @@ static int send_corrupt(sim_mb *m, const uint8_t *q, int hl, uint32_t addr, uint
 
 enum { HOSTILE_SENT = 1, HOSTILE_UNUSABLE = 2 };
 
-/* The adversarial replies (issue 15): HOSTILE_SENT when a reply was sent in place of the honest one
+/* The adversarial replies (tests of the host's defences): HOSTILE_SENT when a reply was sent in place of the honest one
    (a write was still applied to the map), HOSTILE_UNUSABLE when the host cannot use what it got (the
    ring slots it asked for are not marked read). At most one per request. */
 static int hostile_reply(sim_mb *m, const uint8_t *q, int len, int hl, uint64_t k, uint32_t fc, uint32_t addr, uint32_t cnt)

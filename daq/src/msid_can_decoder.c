@@ -53,7 +53,7 @@ size_t msid_can_decoder_mem_size(const msid_can_decoder_cfg *c)
 }
 
 /* The decimal an int16 step uploaded as float32 stands for (0.001f -> 0.001): the DBC, and so cantools,
- * scale by that decimal; decoding with it makes every sample agree bit for bit (issue 13). The shortest
+ * scale by that decimal; decoding with it makes every sample agree bit for bit with them. The shortest
  * %.{1..9}g that reads back as the same float32; a step that is not a float32 value is kept. */
 double msid_can_step_decimal(double s)
 {
@@ -242,7 +242,7 @@ static void on_status(msid_can_decoder *d, const msid_can_frame *f)
                 }
                 if (d->seen && d->last_s >= n) {
                     /* a DONE counting no more samples than have arrived is stale (a replay of an earlier
-                       run's DONE): ignored, or it would close the experiment and drop the rest (issue 15) */
+                       run's DONE): ignored, or it would close the experiment and drop the rest */
                     d->cnt.malformed++;
                     break;
                 }

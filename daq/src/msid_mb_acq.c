@@ -105,7 +105,7 @@ static int call(msid_mb_client *a, int kind, uint32_t addr, uint32_t n, uint16_t
                framed. RTU, which has no transaction id: possibly a stale duplicate or bytes left over from
                an oversized frame, with the real reply still in flight. Either way the backoff lets it
                arrive, the flush drops it, and the request is issued once more even when the caller allows
-               no retry; from now on the link is drained before every request (issue 15 #8) */
+               no retry; from now on the link is drained before every request */
             a->cnt.bad_replies++;
             a->drain = 1;
             if (!reissued) {
@@ -316,7 +316,8 @@ static int check_state(msid_mb_acq *a)
 /* Device restarts that may happen between two polls (each at most K P samples after the segment before it). */
 #define MAX_RESTARTS_PER_POLL 2u
 
-/* The header's counts against what the design and the samples read so far allow (issue 15 #2, #7). */
+/* The header's counts against what the design and the samples read so far allow: a header that
+   contradicts them is refused, not trusted. */
 static int check_counts(msid_mb_acq *a)
 {
     const msid_mb_header *h = &a->cl->h;

@@ -66,7 +66,7 @@ static int wr_holding(void *ctx, uint32_t addr, uint32_t n, const uint16_t *src)
 }
 
 /* ---- TCP: our own MBAP framing (msid_mbap.c), so that a stale or foreign reply is skipped, not taken
-   for the answer (issue 15). Request PDUs as the Modbus Application Protocol v1.1b3 specifies them:
+   for the answer. Request PDUs as the Modbus Application Protocol v1.1b3 specifies them:
    FC 03/04 section 6.3/6.4 (address, count), FC 16 section 6.12 (address, count, byte count, values). */
 static int tcp_exchange(msid_modbus *m, const char *what, const uint8_t *req, size_t req_n, uint8_t *rsp, size_t *rsp_n)
 {

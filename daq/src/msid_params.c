@@ -222,5 +222,5 @@ void msid_params_design_cfg(const msid_params *c, msid_design_cfg *dc, const msi
     dc->n_experiments = c->n_experiments;
     dc->pattern = (msid_pattern)c->pattern;
     dc->twiddle = tw;
-    dc->crest = MSID_CREST_NONE;   /* a device never reports them: O(1), not O(m nu P L) (issue 15 #6) */
+    dc->crest = MSID_CREST_NONE;   /* a device never reports them: O(1), not O(m nu P L) */
 }

@@ -152,7 +152,7 @@ static msid_status check_stats(msid_frf *f, const msid_pstats *const *stats, uin
 }
 
 /* Step: scale of the excitation, the largest |Ubar|_F^2 over the lines; MSID_E_RANGE when
- * |U|^2 overflowed or underflowed (every product below would too, issue 15 #5, #8). */
+ * |U|^2 overflowed or underflowed (every product below would too). */
 static msid_status input_scale(msid_frf *f, const msid_pstats *const *stats, double *uscale)
 {
     const uint32_t nu = f->n_inputs, m = f->n_experiments;
@@ -231,7 +231,7 @@ static int line_qr(const msid_frf *f, const frf_scratch *w, double *smin_out, do
     if (nu == 2u) {
         /* R = [a b; 0 d]: singular values^2 are the roots of s^2 - t s + |a|^2 |d|^2 */
         /* R scaled by a power of two 2^-ex (exact: same bits) so that |R|^4 cannot overflow for
-           inputs near 1e78 (issue 15 #5) */
+           inputs near 1e78 */
         int ex = 0;
         (void)frexp(fmax(fmax(fabs(R[0].re), fabs(R[0].im)), fmax(fmax(fabs(R[1].re), fabs(R[1].im)),
                                                                  fmax(fabs(R[3].re), fabs(R[3].im)))), &ex);

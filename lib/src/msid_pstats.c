@@ -203,19 +203,19 @@ static double pc_result(const pcomb *c, const double *logj)
  * -log P(F(2, 2n) > tmax) (Pintelon 2002 eq. 34 form: (1 + t/n)^-n) and qt
  * tested channels, the line's Bonferroni p-value is pl = min(1, qt e^-a),
  * so its Fisher term -log pl = max(0, a - log qt): one log1p per line, no exp
- * and no log. The Bonferroni minimum over lines takes the old form
+ * and no log. The Bonferroni minimum over lines takes the direct form
  * min(1, qt exp(-a)) on every line whose term comes within 1e-9 of the
  * largest so far (-log pl and a - log qt agree to ~1e-13 while pl is normal),
- * so the minimum is the old value bit for bit at about log L exps per
+ * so the minimum is the direct form's value bit for bit at about log L exps per
  * period. Lines with a real or deterministic channel, and terms above
- * MSID_PSTATS_LOG_FAST_MAX, go through pc_channel / pc_line_end unchanged. */
+ * MSID_PSTATS_LOG_FAST_MAX, go through the direct form (pc_channel / pc_line_end). */
 static double period_pvalue(const msid_pstats *ps, uint32_t p, const msid_cplx *mean, const double *m2d, uint32_t K,
                             const double *logq)
 {
     const size_t L = ps->n_lines, q = ps->n_channels;
     const msid_cplx *zp = ps->hist + (size_t)p * L * q;
     const double Kd = (double)K, n = (double)(K - 2u);
-    /* the old expressions' constant factors, the same bits hoisted */
+    /* the direct expressions' constant factors, hoisted out of the loops (the same bits) */
     const double KK = Kd / (Kd - 1.0), kf = 1.0 + 1.0 / (Kd - 1.0), rK1 = 1.0 / (Kd - 1.0);
     pcomb pc = {0.0, 1.0, 1.0, 0u, 0u};
     double best = -1.0;                              /* largest log-domain term so far */
@@ -503,7 +503,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         for (uint32_t p = 0; p < ps->nhist; ++p)
             if (!ps->hdrop[p]) welford(ps, ps->hist + (size_t)p * n);
     }
-    /* Nothing dropped now: mean, m2 and K are the Welford statistics of the
+    /* Nothing dropped: mean, m2 and K are the Welford statistics of the
      * kept periods in order already (the streaming updates are the rebuild's,
      * line by line; tests/unit test_pstats checks the bits). */
     ps->cnt.used = ps->K;

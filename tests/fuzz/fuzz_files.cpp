@@ -2,8 +2,10 @@
 // the reader, the rest is the file. msid-frf/1 (read_frf), msid-model/1 (read_model), msid-design/1
 // (read_design_file), experiment CSV (read_record_csv) and the binary records: .npy (read_record_npy, the
 // copying and the zero-copy path), .npz (read_record_npz: zip, stored and deflated members, zip64) and
-// .mat (read_record_mat, through libmatio). Seeds: corpus/fuzz_files/ (npy-*, npz-*, mat-* from gen_seeds.py). A reader must return a value or throw its
-// one error; any other exception, a crash or a sanitizer report is a finding.
+// .mat (read_record_mat: v5 by msid's own reader, v4 and v7.3 through libmatio). Seeds: corpus/fuzz_files/ (npy-*,
+// npz-*, mat-* from gen_file_seeds.py; regress-* crafted by hostile_files.py or found by fuzzing). A reader must
+// return a value or throw its one error; any other exception, a crash, a sanitizer report or (run_fuzz.sh) a
+// single allocation of 512 MiB or more is a finding.
 #include "msid_records.hpp"
 #include "msid_design_file.hpp"
 #include "frf_data.hpp"

@@ -41,3 +41,13 @@ for kw, tag in (({"do_compression": True}, "v5z"), ({}, "v5"), ({"format": "4"},
     b = io.BytesIO()
     scipy.io.savemat(b, {"u1": x[:, :1], "y1": x[:, 1:]}, **kw)
     put(f"mat-{tag}", 7, b.getvalue())
+# every MATLAB class msid's v5 reader skips (cell, struct, char, sparse, logical, complex) beside the numeric
+# ones it reads, compressed and not; and a small v7.3 file (HDF5) with one double vector
+import scipy.sparse  # noqa: E402
+others = {"u1": x[:, :1], "y1": x[:, 1:], "c": np.array([[x[:2, 0], "ab"]], dtype=object),
+          "s": {"a": 1.0, "b": x[:2, 1]}, "t": "text", "sp": scipy.sparse.csc_matrix(np.eye(3)),
+          "l": np.array([True, False]), "z": x[:2, 0] + 1j}
+for kw, tag in (({"do_compression": True}, "v5z-every-class"), ({}, "v5-every-class")):
+    b = io.BytesIO()
+    scipy.io.savemat(b, others, **kw)
+    put(f"mat-{tag}", 7, b.getvalue())

@@ -9,9 +9,13 @@
 # `run` fuzzes for SECONDS from the seed corpus tests/fuzz/corpus/HARNESS (copied: the repository's
 # corpus is never changed) and fails on any crash, leak, timeout or sanitizer report; exit 77 (skipped)
 # only if clang is missing (scripts/deps.sh installs it). Used by ctest (label fuzz) and docs/reliability.md.
+# Both modes fail on any single allocation of MSID_FUZZ_MALLOC_MB (default 512) MiB or more
+# (-malloc_limit_mb): an input no larger than a few KB that makes a reader ask for that much sized
+# memory from a lie (a reader's memory is bounded by its file's size, docs/reliability.md).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 cmd=${1:?usage}; bdir=${2:?usage}
+malloc_mb=${MSID_FUZZ_MALLOC_MB:-512}
 command -v clang >/dev/null && command -v clang++ >/dev/null || { echo "run_fuzz: clang not found: skipped"; exit 77; }
 case "$cmd" in
 build)
@@ -26,7 +30,7 @@ run)
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
   "$bdir/$h" "$work/corpus" "$here/corpus/$h" -max_total_time="$secs" -seed="${MSID_FUZZ_SEED:-1}" -timeout=10 -rss_limit_mb=2048 \
-      -artifact_prefix="$work/" -print_final_stats=1 "$@" 2>"$work/log" || {
+      -malloc_limit_mb="$malloc_mb" -artifact_prefix="$work/" -print_final_stats=1 "$@" 2>"$work/log" || {
     tail -60 "$work/log"; for a in "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-*; do
       [ -e "$a" ] && { echo "run_fuzz: reproducer (base64) $a:"; base64 -w0 "$a"; echo; }; done; exit 1; }
   grep -E '^(#[0-9]+.*DONE|stat::number_of_executed_units|stat::peak_rss_mb|Done )|cov:' "$work/log" | tail -4 ;;
@@ -40,7 +44,7 @@ cpu)
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
   "$bdir/$h" "$work/corpus" "$here/corpus/$h" -seed="${MSID_FUZZ_SEED:-1}" -timeout=10 -rss_limit_mb=2048 \
-      -artifact_prefix="$work/" -print_final_stats=1 "$@" 2>"$log" &
+      -malloc_limit_mb="$malloc_mb" -artifact_prefix="$work/" -print_final_stats=1 "$@" 2>"$log" &
   pid=$!; tick=$(getconf CLK_TCK)
   while kill -0 "$pid" 2>/dev/null; do
     used=$(awk -v t="$tick" '{print int(($14 + $15) / t)}' "/proc/$pid/stat" 2>/dev/null || echo 0)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install and reuse (docs/install.md), run by ctest (label integration):
 #   install  BUILD WORK: cmake --install BUILD --prefix WORK/prefix, then an out-of-tree C consumer built
-#            with CMake (find_package(msid)) and with pkg-config (msid.pc, --static), both run; the installed
+#            with CMake (find_package(msid)) and with pkg-config (msid.pc, --static), both run, and a C++ consumer
+#            of the host libraries (msid::frfjob: the FRF job on samples in memory) runs; the installed
 #            msid and msid-devsim run, and the installed msid finds its Python package (share/msid/python).
 #   nomodbus SRC WORK: a configure without libmodbus visible to pkg-config builds the daq library and the
 #            device simulator without any libmodbus symbol, and both name the option when Modbus is asked for.
@@ -18,7 +19,8 @@ install)
   cmake --install "$build" --prefix "$P" > "$work/install.log"
   for f in include/msid/msid.h include/msid_daq/msid_daq.h include/msid_fit/frf_data.hpp lib/libmsid.a \
            lib/libmsid_daq.a lib/libmsid_fit.a bin/msid bin/msid-devsim lib/cmake/msid/msidConfig.cmake \
-           lib/cmake/msid/msidConfigVersion.cmake lib/pkgconfig/msid.pc share/msid/python/msid/plot.py; do
+           lib/cmake/msid/msidConfigVersion.cmake lib/pkgconfig/msid.pc share/msid/python/msid/plot.py \
+           include/msid_host/msid_frf_job.hpp lib/libmsid_records.a lib/libmsid_frfjob.a; do
     [ -e "$P/$f" ] || fail "$P/$f was not installed"
   done
   [ "$("$P/bin/msid" version | cut -d' ' -f1)" = msid ] || fail "installed msid does not run"
@@ -29,6 +31,8 @@ install)
         > "$work/consumer-configure.log" 2>&1 || { cat "$work/consumer-configure.log"; fail "consumer configure failed"; }
   cmake --build "$work/cmake-build" > "$work/consumer-build.log" 2>&1 || { cat "$work/consumer-build.log"; fail "consumer build failed"; }
   "$work/cmake-build/consumer" || fail "the CMake consumer failed"
+  [ -x "$work/cmake-build/host_consumer" ] || fail "find_package(msid) did not define msid::frfjob"
+  "$work/cmake-build/host_consumer" || fail "the host-library consumer failed"
   # pkg-config consumer (static libraries: --static pulls libmodbus and libm)
   export PKG_CONFIG_PATH=$P/lib/pkgconfig
   [ "$(pkg-config --modversion msid)" = "$("$P/bin/msid" version | cut -d' ' -f2)" ] || fail "msid.pc version differs"

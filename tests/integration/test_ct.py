@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import helpers as h
-from msid import frf_peer
+from msid_peers import frf_peer
 
 H = 0.005                  # s; P*h = 1 s, Nyquist 100 Hz
 P = 200

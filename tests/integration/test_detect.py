@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import helpers as h
-from msid import frf_peer
+from msid_peers import frf_peer
 
 P = 256
 # odd multisine with every third odd line left out: 5, 11, 17, ... stay free

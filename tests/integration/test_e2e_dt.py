@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import helpers as h
-from msid import frf_peer
+from msid_peers import frf_peer
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +68,7 @@ def test_noise_level(dt_run):
 
 
 def test_peer_cli_matches_function(dt_run, tmp_path):
-    """`python3 -m msid.frf_peer` gives the same numbers as the function."""
+    """`python3 -m msid_peers.frf_peer` gives the same numbers as the function."""
     b = dt_run["bench"]
     out = tmp_path / "peer.json"
     args = ["--design", str(b["design"]), "-o", str(out)]

@@ -269,6 +269,49 @@ def test_mat_v5_scipy(tmp_path, data, reference):
     assert _lines(doc) == reference
 
 
+def _mat_v5_by_hand(path, variables, big_endian, compress):
+    """A MATLAB v5 file written element by element (MathWorks "MAT-File Format", Level 5), in either
+    byte order, with names of up to 4 characters in small elements, a 1x1 value in a small data
+    element and each variable's samples stored as int16 (MATLAB stores a double class in a narrower
+    type when its values fit): the layouts scipy does not write."""
+    import struct
+    import zlib
+    o = ">" if big_endian else "<"
+
+    def el(t, data):
+        if len(data) <= 4:   # a small element: the byte count in the upper half of the type word
+            return struct.pack(o + "I", len(data) << 16 | t) + data.ljust(4, b"\0")
+        return struct.pack(o + "II", t, len(data)) + data + b"\0" * (-len(data) % 8)
+
+    text = b"MATLAB 5.0 MAT-file, written by hand for msid's tests".ljust(116, b" ")
+    out = text + b"\0" * 8 + struct.pack(o + "H", 0x0100) + (b"MI" if big_endian else b"IM")
+    for name, v in variables.items():
+        v = np.atleast_2d(np.asarray(v))
+        body = (el(6, struct.pack(o + "II", 6, 0)) + el(5, struct.pack(o + "2i", *v.shape)) + el(1, name.encode())
+                + el(3 if v.dtype == np.int16 else 9, v.astype(o + ("i2" if v.dtype == np.int16 else "f8")).tobytes("F")))
+        m = struct.pack(o + "II", 14, len(body)) + body
+        out += struct.pack(o + "II", 15, len(zlib.compress(m))) + zlib.compress(m) if compress else m
+    path.write_bytes(out)
+
+
+@pytest.mark.parametrize("big_endian", [False, True])
+@pytest.mark.parametrize("compress", [False, True])
+def test_mat_v5_byte_order_small_elements_and_packed_types(tmp_path, data, big_endian, compress):
+    """msid's own v5 reader: either byte order, compressed or not, small elements (names, a 1x1 int16),
+    samples stored as int16 for a double class: the FRF equals the CSV reader's of the same integers."""
+    files, csvs = [], []
+    for e, (u, y) in enumerate(data):
+        ui, yi = np.round(u * 1000).astype(np.int16), np.round(y * 1000).astype(np.int16)
+        p = tmp_path / f"h{e}.mat"
+        _mat_v5_by_hand(p, {"u1": ui[:, 0], "u2": ui[:, 1], "y1": yi[:, 0], "y2": yi[:, 1], "fs": np.array([[1e3]]),
+                            "n": np.array([[7]], dtype=np.int16)}, big_endian, compress)
+        files.append(p)
+        c = tmp_path / f"h{e}.csv"
+        c.write_text(_text(ui.astype(float), yi.astype(float), ["u1", "u2", "y1", "y2"]))
+        csvs.append(c)
+    assert _lines(_frf(tmp_path, files, name="mat.json")) == _lines(_frf(tmp_path, csvs, name="csv.json"))
+
+
 def test_mat_names_case_insensitive_and_a_typo_lists_every_variable(tmp_path, data, reference):
     """A .mat variable maps case-insensitively, as a CSV header or an .npz member does; a misspelt
     name lists every variable of the file (it used to list only those the mapping named, so the

@@ -1,7 +1,7 @@
 """Defaults of `msid fit` that must hold without asking (docs/fitting.md, "Defaults and their rules"):
 stable models under model error, pooled weights that never make ml worse than per-line weights,
 and ml that never ends above a start it had. Monte Carlo with fixed seeds on simulated plants:
-the structures of tools/python/msid/structures.py with nonlinear distortion added, and DT plants
+the structures of tools/peers/msid_peers/structures.py with nonlinear distortion added, and DT plants
 (2x2 and SISO, orders 2-10) with per-line covariances of a chosen shape and dof."""
 import json
 import math
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import helpers as h
-from msid import structures as S
+from msid_peers import structures as S
 
 
 # --- simulated files ---------------------------------------------------------------------------

@@ -3,7 +3,7 @@
 60-80 dB dynamic range, 267 lines, SISO, 1x3 and 2x3 — against vector fitting
 (scikit-rf's VectorFitting, the independent peer) at the same order; feedthrough
 choice, stability, non-convergence, unit invariance of fit and validate, and the
-M >= 4 refusal for any number of outputs. Generator: tools/python/msid/structures.py."""
+M >= 4 refusal for any number of outputs. Generator: tools/peers/msid_peers/structures.py."""
 import functools
 import json
 import os
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import helpers as h
-from msid import structures as S
+from msid_peers import structures as S
 
 SEED = 2          # dynamic range 65 dB (SISO), 77 dB (1x3), 78 dB (2x3)
 # The peer comparison in ctest: SISO and 2x3 (scikit-rf needs ~30 s on the 1x3 case, where the

@@ -1,11 +1,11 @@
 """`msid frf --method lpm|etfe` end to end: the file validates against the
 msid-frf/1 schema, records the method, agrees with the independent NumPy peer
-(tools/python/msid/lpm_peer.py), covers the true FRF, feeds `msid fit` and
+(tools/peers/msid_peers/lpm_peer.py), covers the true FRF, feeds `msid fit` and
 `msid validate` unchanged; bad requests give one message and no file."""
 import numpy as np
 import pytest
 import helpers as h
-from msid import lpm_peer
+from msid_peers import lpm_peer
 
 # 2nd-order DT sections, pole radius 0.95
 A = [1.0, -2 * 0.95 * np.cos(0.3), 0.95 ** 2]

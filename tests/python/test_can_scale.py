@@ -3,7 +3,7 @@
 The design uploads the int16 step as a float32 parameter (0.001f = 0.0010000000474974513); the DBC
 (daq/can/msid.dbc) and so cantools scale by the decimal 0.001. A candump log of a 1x1 int16 device is
 replayed by `msid can replay`; the same frames decoded by cantools go through the independent NumPy
-peer (msid.frf_peer). The FRF is scale-free, so the check is on the absolute levels: the noise
+peer (msid_peers.frf_peer). The FRF is scale-free, so the check is on the absolute levels: the noise
 covariance (scale^2) and the output spectrum of a detection line agree to 1e-12 — with the float32
 value they differ by 9.5e-8 relative (the negative control computes that gap)."""
 import json
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from conftest import ROOT, msid
 
-from msid import frf_peer
+from msid_peers import frf_peer
 
 sys.path.insert(0, str(ROOT / "tests" / "vcan"))
 from test_can_host import _cfg_frames  # noqa: E402  (the design upload of a msid-can/1 log)

@@ -218,6 +218,10 @@ Json header(const Header &h)
     doc["domain"] = h.ct ? "ct" : "dt";
     if (h.ct || h.fs > 0) doc["sample_time"] = h.ct ? h.sample_time : 1.0 / h.fs;
     if (h.fs > 0) doc["fs_hz"] = h.fs;
+    if (!h.input_names.empty()) doc["input_names"] = h.input_names;
+    if (!h.output_names.empty()) doc["output_names"] = h.output_names;
+    if (!h.input_units.empty()) doc["input_units"] = h.input_units;
+    if (!h.output_units.empty()) doc["output_units"] = h.output_units;
     return doc;
 }
 
@@ -446,7 +450,7 @@ void dump_element(const Json &e, size_t i, int indent, int level, std::string &o
 // indent * (level + 1) spaces; it closes with "\n", indent * level spaces and "}" or "]".
 namespace {
 // Writes through a raw pointer into room reserved for the whole line (line_element sizes it from
-// an upper bound of every token: no capacity check per append; ~70,000 appends per 200 lines).
+// an upper bound of every token): no capacity check per append, of which a line has hundreds).
 struct LineWriter {
     char *w;
     char *end;   // the scratch's end: every element checks its room first (sep)
@@ -502,8 +506,8 @@ struct LineWriter {
     // cmat(): {"re": [[...], ...], "im": [[...], ...]} of a row-major rows x cols array at `level`.
     // A covariance is Hermitian: an element below the diagonal whose value is, bit for bit, the
     // conjugate of its mirror above takes the mirror's text (re as is, im with its sign flipped:
-    // format_double writes '-' exactly when the sign bit is set), not a second formatting (the
-    // shortest digits of a double cost ~50 ns; half of a line's numbers are such mirrors).
+    // format_double writes '-' exactly when the sign bit is set), not a second formatting (finding
+    // the shortest digits is the dear part of writing a number; half of a line's numbers are mirrors).
     void cmat(const cd *a, size_t rows, size_t cols, int level)
     {
         constexpr size_t MAXM = 256;   // mirrors kept for matrices of up to 256 elements
@@ -629,8 +633,7 @@ void line_element(const Position &p, const LineArrays &a, size_t i, int indent, 
 // The largest array's text in two halves on two threads, appended in order: the same bytes as
 // one thread writes. An exception (NonFinite) of either half is rethrown after both are done.
 // Both strings are sized once from the first element's text (elements of an FRF file's lines
-// are alike): growing by doubling copied each string into fresh pages four times (~330 page
-// faults of the 2 x 262,144-row bench's 0.6 MB file).
+// are alike): growing by doubling would copy each string into fresh pages several times.
 static void dump_elements_split(const Json &v, int indent, int level, std::string &out)
 {
     const size_t n = v.size(), h = n / 2;

@@ -83,6 +83,9 @@ struct Header {
     bool ct = false;
     double sample_time = 0.0;   // s (CT)
     double fs = 0.0;            // Hz, 0: not given
+    // The signals' names (nu and ny of them, or empty: u1.., y1.. are meant) and units (the same
+    // counts, "" where unknown, or empty: none known); written only when not empty.
+    std::vector<std::string> input_names, output_names, input_units, output_units;
 };
 Json header(const Header &h);
 

@@ -56,6 +56,7 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
     if (plan.direct && !plan.design) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
     if (plan.direct && plan.bla) throw UsageError("--realisations does not apply to --direct");
     FrfOutcome o;
+    names_from_records(rq, recs);
     try {
         check_inputs(rq, recs, plan);
         find_lines_if_asked(rq, recs, plan);

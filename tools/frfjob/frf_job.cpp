@@ -39,6 +39,10 @@ Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
     h.ct = !rq.omega.empty();
     h.sample_time = rq.sample_time;
     h.fs = rq.fs;
+    h.input_names = rq.input_names;
+    h.output_names = rq.output_names;
+    h.input_units = rq.input_units;
+    h.output_units = rq.output_units;
     return msidfrf::header(h);
 }
 

@@ -40,6 +40,9 @@ struct FrfRequest {
     msid_dft_path path = MSID_DFT_AUTO;
     size_t block = 0;                    // rows per push (0: whole record)
     const Design *design = nullptr;      // optional
+    // The signals' names and units for the document's header (msidfrf::Header); empty: from the
+    // records' column names (names_from_records), or none when those are u1.., y1..
+    std::vector<std::string> input_names, output_names, input_units, output_units;
     // check_periodic_inputs() (periodicity.hpp) already ran on the records (msid frf runs it
     // before --lines auto); else run_frf() runs it. FrfJob::finish() always runs
     // check_periodic_lines() on the core's period statistics (every host path).
@@ -57,6 +60,11 @@ struct FrfOutcome {
     std::string dft_path;                // "stream" or "fft"
     msidfrf::Prerendered lines_text;     // FrfRequest::lines_as_text: key "lines", n = 0 if not used
 };
+
+// The signals' names and units from the records' column names (the file's, or those --columns
+// mapped), when the request has none: a name "Force [N]" (or "Force (N)") is the signal Force in
+// unit N. Nothing is set when every column is u<k>/y<k> or a bare column number (.npy).
+void names_from_records(FrfRequest &rq, const std::vector<Record> &recs);
 
 // Fill period/bins/folded/omega/sample_time from a design.
 void request_from_design(FrfRequest &rq, const Design &d);

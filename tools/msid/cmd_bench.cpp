@@ -130,7 +130,7 @@ std::string machine()
     return cpu + ", " + std::to_string(n) + " cores, " + u.sysname + " " + u.release;
 }
 
-std::string peer_script() { return bench_python_dir() + "/msid/bench_peer.py"; }
+std::string peer_script() { return bench_peers_dir() + "/msid_peers/bench_peer.py"; }
 
 double run_peer(const Config &c, double min_s, std::string &note)
 {
@@ -157,10 +157,10 @@ double run_peer(const Config &c, double min_s, std::string &note)
 
 std::string bench_machine() { return machine(); }
 
-std::string bench_python_dir()
+std::string bench_peers_dir()
 {
-    const char *env = std::getenv("MSID_PYTHON_DIR");
-    return env ? env : std::string(MSID_SOURCE_DIR) + "/tools/python";
+    const char *env = std::getenv("MSID_PEERS_DIR");
+    return env ? env : std::string(MSID_SOURCE_DIR) + "/tools/peers";
 }
 
 static const char *HELP =
@@ -368,11 +368,6 @@ struct FitCfg {
 
 namespace {
 
-std::string python_dir()
-{
-    const char *env = std::getenv("MSID_PYTHON_DIR");
-    return env ? env : std::string(MSID_SOURCE_DIR) + "/tools/python";
-}
 
 // Run a shell command, capture stdout+stderr; returns the exit status.
 int run_capture(const std::string &cmd, std::string &out)
@@ -494,14 +489,14 @@ void bench_structures_mc(const Json &mc)
                 "ml and vector fitting agree. docs/benchmarks.md)\n\n");
 }
 
-// Issue 9: the simulated structures against vector fitting (scikit-rf), and the order-20 ml timing.
+// The simulated structures against vector fitting (scikit-rf), and the order-20 ml timing.
 void bench_structures(const std::string &dir, double min_s, uint32_t runs)
 {
-    std::printf("structures (issue 9): accelerances, rigid-body + elastic modes with 0.5-2%% damping, 267 lines, "
+    std::printf("structures: accelerances, rigid-body + elastic modes with 0.5-2%% damping, 267 lines, "
                 "0.2%% noise, 16 periods; peer: scikit-rf VectorFitting at the same order\n");
     std::string outp;
     const std::string js = dir + "/vf.json";
-    const int rc = run_capture("cd '" + dir + "' && PYTHONPATH='" + python_dir() + "' python3 -m msid.bench_vf_peer '" + dir +
+    const int rc = run_capture("cd '" + dir + "' && PYTHONPATH='" + bench_peers_dir() + "' python3 -m msid_peers.bench_vf_peer '" + dir +
                                    "' '" + js + "' --runs " + std::to_string(runs), outp);
     if (rc != 0) {
         std::printf("  peer unavailable (scripts/deps.sh installs scikit-rf): %s\n\n", outp.substr(0, 300).c_str());
@@ -559,7 +554,7 @@ void bench_process(const std::string &dir)
     if (k <= 0) return;
     self[k] = 0;
     const std::string msid_cmd = std::string("'") + self + "' fit --method subspace --order 6 '" + frf + "' -o '" + dir + "/proc-model.json'";
-    const std::string peer_cmd = "python3 '" + python_dir() + "/msid/bench_fit_peer.py' 6 '" + dir + "/proc-peer.json' '" + frf + "' --r 12";
+    const std::string peer_cmd = "python3 '" + bench_peers_dir() + "/msid_peers/bench_fit_peer.py' 6 '" + dir + "/proc-peer.json' '" + frf + "' --r 12";
     const double t_msid = process_time(msid_cmd, 15), t_peer = process_time(peer_cmd, 5);
     std::printf("whole process: 2x2, order 6, 202 lines (wall time, median)\n");
     std::printf("  msid fit --method subspace   %8.1f ms\n", t_msid * 1e3);
@@ -586,7 +581,7 @@ static int bench_fit(int argc, char **argv)
         "(random stable DT systems, 40 dB SNR, covariance from 10 repetitions per line), the NumPy\n"
         "peer of the weighted subspace algorithm on the same files, and the accuracy (relative H2\n"
         "error against the true system) over N random systems (default 50); 3: the simulated\n"
-        "structures of issue 9 (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
+        "structures (ml and subspace against scikit-rf vector fitting, ml at order 20);\n"
         "--runs N (default 3, 0: none): with 3, also a Monte Carlo over N noise seeds of the SISO 10- and\n"
         "12-mode structures (nominal order and the order the data identify) and the 2x3 one: ml's error\n"
         "against the truth over vector fitting's, mean, median and standard error (vector fitting takes\n"
@@ -677,8 +672,7 @@ static int bench_fit(int argc, char **argv)
         double t_peer = -1, ep_mean = NAN, ep_med = NAN;
         std::string note;
         if (!a.has("no-peer")) {
-            std::string cmd = "python3 '" + std::string(std::getenv("MSID_PYTHON_DIR") ? std::getenv("MSID_PYTHON_DIR") : MSID_SOURCE_DIR "/tools/python") +
-                              "/msid/bench_fit_peer.py' " + std::to_string(c.n) + " '" + dir + "/peer.json'";
+            std::string cmd = "python3 '" + bench_peers_dir() + "/msid_peers/bench_fit_peer.py' " + std::to_string(c.n) + " '" + dir + "/peer.json'";
             for (auto &fl : files) cmd += " '" + fl + "'";
             cmd += " 2>&1";
             FILE *p = popen(cmd.c_str(), "r");

@@ -1,6 +1,6 @@
-// msid bench crest: the design's set-up time for large P (issue 15 #6) -- crest factors by two real
+// msid bench crest: the design's set-up time for large P -- crest factors by two real
 // DFTs per input and experiment (MSID_CREST_FFT, O(m nu P log P)) against direct synthesis
-// (MSID_CREST_DIRECT, O(m nu P L)) and a NumPy peer (tools/python/msid/crest_peer.py: one irfft per
+// (MSID_CREST_DIRECT, O(m nu P L)) and a NumPy peer (tools/peers/msid_peers/crest_peer.py: one irfft per
 // input) on the same coefficients in the same run; prints the agreement of the crest factors.
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -69,7 +69,7 @@ int cmd_bench_crest(int argc, char **argv)
 {
     static const char *HELP =
         "usage: msid bench crest [--quick] [--no-peer] [--direct-max P]\n"
-        "Design set-up time for large periods (issue 15 #6): msid_design_init of a 2-input,\n"
+        "Design set-up time for large periods: msid_design_init of a 2-input,\n"
         "2-experiment Schroeder multisine with 1000 lines at P = 2^12 ... 2^22, the crest factors\n"
         "computed by FFT (MSID_CREST_FFT, what the host uses) and by direct synthesis\n"
         "(MSID_CREST_DIRECT, only up to --direct-max, default 2^18: it is O(m nu P L)), beside a NumPy\n"
@@ -109,8 +109,8 @@ int cmd_bench_crest(int argc, char **argv)
                         std::fwrite(&c, sizeof c, 1, f);
                     }
             std::fclose(f);
-            const std::string pydir = bench_python_dir();
-            const std::string cmd = fmt("python3 '%s/msid/crest_peer.py' '%s' %u %u %u %u 2>&1", pydir.c_str(), tmpl, P,
+            const std::string pydir = bench_peers_dir();
+            const std::string cmd = fmt("python3 '%s/msid_peers/crest_peer.py' '%s' %u %u %u %u 2>&1", pydir.c_str(), tmpl, P,
                                         L, S.m, S.nu);
             FILE *p = popen(cmd.c_str(), "r");
             std::string out;

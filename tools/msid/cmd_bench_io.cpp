@@ -2,7 +2,7 @@
 // files, FRF job, writing msid-frf/1) on CSV, .npy and .mat records of
 // 2 experiments x 262,144 rows x 4 columns (2 inputs, 2 outputs), against a
 // pandas/NumPy/SciPy peer reading the same files in the same run
-// (tools/python/msid/bench_io_peer.py).
+// (tools/peers/msid_peers/bench_io_peer.py).
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "host_libs.hpp"
@@ -203,7 +203,7 @@ int cmd_bench_io(int argc, char **argv)
     }
     std::string out, note;
     if (!a.has("no-peer")) {
-        const std::string cmd = "python3 '" + bench_python_dir() + "/msid/bench_io_peer.py' '" + dir + "' " +
+        const std::string cmd = "python3 '" + bench_peers_dir() + "/msid_peers/bench_io_peer.py' '" + dir + "' " +
                                 std::to_string(P) + " '" + dir + "/bins.txt' " + std::to_string(m) + " " +
                                 fmt("%g", min_s) + " 2>&1";
         FILE *p = popen(cmd.c_str(), "r");

@@ -1,6 +1,6 @@
 // msid bench lpm: the local polynomial method (tools/est) on a 2x2 record of
 // 10^6 samples -- one FFT per channel plus the local LS at every bin -- with one
-// and two threads, against the NumPy peer (tools/python/msid/lpm_peer.py) on the
+// and two threads, against the NumPy peer (tools/peers/msid_peers/lpm_peer.py) on the
 // same samples in the same run; prints the agreement of the two estimates.
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -91,9 +91,7 @@ int cmd_bench_lpm(int argc, char **argv)
         if (!f || std::fwrite(rows.data(), sizeof(double), rows.size(), f) != rows.size()) throw Error("cannot write " + file);
         std::fclose(f);
     }
-    const char *env = std::getenv("MSID_PYTHON_DIR");
-    const std::string pydir = env ? env : std::string(MSID_SOURCE_DIR) + "/tools/python";
-    const std::string cmd = "python3 '" + pydir + "/msid/lpm_peer.py' '" + file + "' " + std::to_string(N) + " 2 2 " +
+    const std::string cmd = "python3 '" + bench_peers_dir() + "/msid_peers/lpm_peer.py' '" + file + "' " + std::to_string(N) + " 2 2 " +
                             std::to_string(res.R) + " " + std::to_string(res.W) + " 2>&1";
     FILE *p = popen(cmd.c_str(), "r");
     std::string out;

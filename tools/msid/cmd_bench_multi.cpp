@@ -1,7 +1,7 @@
 // msid bench fit --only multi: the multiple-experiment ML (tools/fit/multi.hpp) on case M1
 // of shared/reference-cases.md (Markovsky & Pintelon §VII, K runs per N as in the paper),
 // and its speed against the SciPy peer that estimates every record's initial conditions as
-// parameters (tools/python/msid/bench_multi_peer.py) on the same records.
+// parameters (tools/peers/msid_peers/bench_multi_peer.py) on the same records.
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "host_libs.hpp"
@@ -150,7 +150,7 @@ int cmd_bench_fit_multi(int argc, char **argv)
         if (!mkdtemp(tmpl)) throw Error("cannot create a temporary directory");
         const std::string dir = tmpl;
         write_json_file(dir + "/in.json", in);
-        const std::string cmd = "python3 '" + bench_python_dir() + "/msid/bench_multi_peer.py' '" + dir + "/in.json' '" + dir +
+        const std::string cmd = "python3 '" + bench_peers_dir() + "/msid_peers/bench_multi_peer.py' '" + dir + "/in.json' '" + dir +
                                 "/out.json' 2>&1";
         const int rc = std::system(cmd.c_str());
         if (rc == 0) {

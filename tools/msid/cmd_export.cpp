@@ -30,20 +30,23 @@ static const char *HELP =
     "  --mat   MATLAB v5: ResponseData (ny x nu x L complex), Frequency (L x 1, rad/s or rad/sample),\n"
     "          Ts (sample time; 0 for a continuous-time file, 1 when unknown), CovarianceData\n"
     "          (ny x nu x L x 2 x 2: covariance of [Re Im], circular noise: v/2 on the diagonal; DC lines\n"
-    "          v and 0), SD (ny x nu x L), dof (L x 1), Bin, FrequencyHz (when known), FrequencyUnit:\n"
+    "          v and 0), SD (ny x nu x L), dof (L x 1), Bin, FrequencyHz (when known), FrequencyUnit,\n"
+    "          InputName, OutputName, InputUnit, OutputUnit (cell arrays of char; u1.., y1.. and empty units\n"
+    "          when the file names none):\n"
     "          idfrd(ResponseData, Frequency, Ts, 'CovarianceData', CovarianceData, 'FrequencyUnit', FrequencyUnit);\n"
     "          and for exact 95% regions with few periods (showConfidence assumes a Gaussian, too narrow at\n"
     "          low dof): CovarianceData95 = CovarianceData .* ConfidenceScale95 (per line, from the dof:\n"
     "          F(2, 2 dof), DC lines F(1, dof)) drawn with showConfidence(h, SD95), SD95 = sqrt(-2 log 0.05)\n"
     "  --known-input   standard deviations from cov_known_input instead of cov\n"
     "An msid-model/1 file (--mat only): A, B, C, D, Ts (0: continuous time; 1 when unknown), InputName,\n"
-    "OutputName (cell arrays of char), Domain, Method, Order: ss(A, B, C, D, Ts, 'InputName', InputName,\n"
+    "OutputName, InputUnit, OutputUnit (cell arrays of char), Domain, Method, Order: ss(A, B, C, D, Ts, 'InputName', InputName,\n"
     "'OutputName', OutputName) or idss(A, B, C, D, zeros(size(A, 1), size(C, 1)), zeros(size(A, 1), 1), Ts).\n";
 
 namespace {
 
 struct Exported {
     msidfit::FrfData f;
+    Json doc;   // the file's document: the signals' names and units
     bool known_input = false;
     // complex variance of element (i, j) of line k: cov[i + ny j][i + ny j]
     double var(size_t k, uint32_t i, uint32_t j) const
@@ -171,6 +174,41 @@ double confidence_scale95(double dof, bool dc)
     return 2.0 * dof * std::expm1(-std::log(CONF_ALPHA) / dof) / s2;   // v/2 per axis: SD95^2 c v/2 = v q2
 }
 
+// Names of the inputs or outputs: the file's `key` list when it has n non-empty strings, else
+// <prefix>1 .. <prefix>n (the names msid prints).
+std::vector<std::string> signal_names(const Json &doc, const char *key, size_t n, const char *prefix)
+{
+    std::vector<std::string> out;
+    if (doc.contains(key) && doc[key].is_array() && doc[key].size() == n)
+        for (const auto &x : doc[key])
+            if (x.is_string() && !x.get<std::string>().empty()) out.push_back(x.get<std::string>());
+    if (out.size() == n) return out;
+    out.clear();
+    for (size_t k = 0; k < n; ++k) out.push_back(fmt("%s%zu", prefix, k + 1));
+    return out;
+}
+
+// Units of the inputs or outputs: the file's `key` list when it has n strings ("" where unknown),
+// else n empty strings (idfrd's and ss's InputUnit/OutputUnit take empty units).
+std::vector<std::string> signal_units(const Json &doc, const char *key, size_t n)
+{
+    std::vector<std::string> out;
+    if (doc.contains(key) && doc[key].is_array() && doc[key].size() == n)
+        for (const auto &x : doc[key])
+            if (x.is_string()) out.push_back(x.get<std::string>());
+    if (out.size() != n) out.assign(n, "");
+    return out;
+}
+
+// InputName, OutputName, InputUnit, OutputUnit (cell arrays of char) as idfrd, ss and idss take them.
+void write_signals(MatWriter &w, const Json &doc, size_t nu, size_t ny)
+{
+    w.cellstr("InputName", signal_names(doc, "input_names", nu, "u"));
+    w.cellstr("OutputName", signal_names(doc, "output_names", ny, "y"));
+    w.cellstr("InputUnit", signal_units(doc, "input_units", nu));
+    w.cellstr("OutputUnit", signal_units(doc, "output_units", ny));
+}
+
 void write_mat(const Exported &e, const std::string &tmp)
 {
     const auto &f = e.f;
@@ -213,21 +251,8 @@ void write_mat(const Exported &e, const std::string &tmp)
     w.real("Bin", {L, 1}, bin);
     if (f.h > 0) w.real("FrequencyHz", {L, 1}, hz);
     w.text("FrequencyUnit", f.h > 0 ? "rad/s" : "rad/TimeUnit");
+    write_signals(w, e.doc, nu, ny);
     w.close();
-}
-
-// Names of a model's inputs or outputs: the file's `key` list when it has n non-empty strings, else
-// <prefix>1 .. <prefix>n (the names msid prints).
-std::vector<std::string> signal_names(const Json &doc, const char *key, size_t n, const char *prefix)
-{
-    std::vector<std::string> out;
-    if (doc.contains(key) && doc[key].is_array() && doc[key].size() == n)
-        for (const auto &x : doc[key])
-            if (x.is_string() && !x.get<std::string>().empty()) out.push_back(x.get<std::string>());
-    if (out.size() == n) return out;
-    out.clear();
-    for (size_t k = 0; k < n; ++k) out.push_back(fmt("%s%zu", prefix, k + 1));
-    return out;
 }
 
 // A file whose "format" is msid-model/1 (anything else goes to the FRF reader, which names the problem).
@@ -262,8 +287,7 @@ void write_model_mat(const std::string &path, const std::string &tmp)
     w.real("C", {ny, n}, col_major(m.C));
     w.real("D", {ny, nu}, col_major(m.D));
     w.real("Ts", {1, 1}, {mf.domain == msidfit::Domain::CT ? 0.0 : (mf.h > 0 ? mf.h : 1.0)});
-    w.cellstr("InputName", signal_names(doc, "input_names", nu, "u"));
-    w.cellstr("OutputName", signal_names(doc, "output_names", ny, "y"));
+    write_signals(w, doc, nu, ny);
     w.text("Domain", mf.domain == msidfit::Domain::CT ? "ct" : "dt");
     w.text("Method", mf.method);
     w.real("Order", {1, 1}, {(double)n});
@@ -296,11 +320,12 @@ int cmd_export(int argc, char **argv)
         if (a.has("csv")) throw UsageError("a model file exports to --mat only (A, B, C, D, Ts and names)");
         if (a.has("known-input")) throw UsageError("--known-input is for an FRF file, not a model");
         write_atomically(a.get("mat"), [&](const std::string &tmp) { write_model_mat(in, tmp); });
-        std::printf("wrote %s: A, B, C, D, Ts, InputName, OutputName (ss, idss)\n", a.get("mat").c_str());
+        std::printf("wrote %s: A, B, C, D, Ts, InputName, OutputName, InputUnit, OutputUnit (ss, idss)\n", a.get("mat").c_str());
         return 0;
     }
     Exported e;
     e.f = msidfit::read_frf(a.positional()[0]);
+    e.doc = read_json_file(a.positional()[0]);
     e.known_input = a.has("known-input");
     for (size_t k = 0; k < e.f.lines.size(); ++k) {
         const auto &l = e.f.lines[k];

@@ -83,7 +83,8 @@ int cmd_frf(int argc, char **argv)
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
-    // FFTW's first plan (~1.6 ms CPU) on another thread while the files are read (fftw_warmup.hpp);
+    // FFTW's first plan (the planner's own set-up, far dearer than later plans) on another thread
+    // while the files are read (msid_fftw_planner.hpp);
     // the line DFT path does not depend on the channel count (msid_linedft_choose)
     if (!a.has("direct") && rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD && rq.path != MSID_DFT_STREAM &&
         (auto_lines || rq.path == MSID_DFT_FFT ||

@@ -234,6 +234,7 @@ int cmd_frf_est(int argc, char **argv)
                                  k + 1, ref[k].c_str()));
     for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols));
     const unsigned nu = recs[0].nu, ny = recs[0].ny, m = (unsigned)recs.size();
+    msidjob::names_from_records(rq, recs);
     std::vector<msidest::RecordView> views;
     for (const auto &r : recs) {
         if (r.nu != nu || r.ny != ny)

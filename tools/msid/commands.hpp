@@ -52,8 +52,9 @@ namespace msidcli {
 void add_modes(nlohmann::ordered_json &doc, bool print);
 // Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
 int exec_with_build(std::vector<std::string> args);
-// The machine line of the benchmarks (CPU, cores, kernel) and the directory of the Python peers.
+// The machine line of the benchmarks (CPU, cores, kernel), and the directory holding the Python
+// package msid_peers (the independent peers, tools/peers): $MSID_PEERS_DIR, else the source tree's.
 std::string bench_machine();
-std::string bench_python_dir();
+std::string bench_peers_dir();
 int cmd_modes_multi(const nlohmann::ordered_json &doc, const std::string &path, const std::string &out);   // msid modes of a multi model (cmd_fit_multi.cpp)
 }  // namespace msidcli

@@ -174,11 +174,14 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
             if (ok) while (*r == ' ' || (*r == '\t' && d != '\t')) ++r;
             if (!ok || (*r != d && *r != '\n' && *r != '\r')) {
                 const std::string cell = cell_text(p, e, d);
+                // a long cell is quoted by its start: the message stays one line a person reads
+                const std::string shown =
+                    cell.size() > 48 ? cell.substr(0, 40) + fmt("... (%zu characters)", cell.size()) : cell;
                 out.err = cell.empty()
                               ? fmt("'%s' line %zu, column %s: '' is not a number (empty cell)", L.path->c_str(),
                                     line_of(L, ls), L.names[c].c_str())
                               : fmt("'%s' line %zu, column %s: '%s' is not a number%s", L.path->c_str(),
-                                    line_of(L, ls), L.names[c].c_str(), cell.c_str(),
+                                    line_of(L, ls), L.names[c].c_str(), shown.c_str(),
                                     cell.find(',') != std::string::npos && (d != ',' || cell[0] == '"')
                                         ? " (read with ',' as the decimal separator: one ',' and no '.')" : "");
                 return nullptr;

@@ -27,6 +27,7 @@ const Matio &matio()
     sym(m.CreateVer, "Mat_CreateVer");
     sym(m.VarCreate, "Mat_VarCreate");
     sym(m.VarWrite, "Mat_VarWrite");
+    m.lib = h;
     loaded = true;
     return m;
 }

@@ -15,6 +15,7 @@ struct Matio {
     decltype(&Mat_CreateVer) CreateVer;
     decltype(&Mat_VarCreate) VarCreate;
     decltype(&Mat_VarWrite) VarWrite;
+    void *lib;   // the dlopen handle (dlsym on it also finds the HDF5 libmatio links)
 };
 
 // The loaded library; throws Error if libmatio cannot be loaded.

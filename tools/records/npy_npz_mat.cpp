@@ -10,7 +10,7 @@
 //    C channels x n samples);
 //  - a .npy file holds one unnamed matrix: its columns are `1` .. `C`.
 // Without --columns, vectors named u<k> / y<k> (and t/time, ignored) are taken.
-#include "records_detail.hpp"
+#include "binary_detail.hpp"
 
 #include <cctype>
 #include <cerrno>
@@ -27,38 +27,6 @@ namespace msidrec {
 
 namespace {
 
-// One source array: name, dims (rows x cols in samples x channels after any
-// transpose), and an element accessor over raw bytes.
-struct Array {
-    std::string name;      // variable name ("" for .npy)
-    size_t n = 0, C = 0;   // samples, channels
-    // element (i, c) as double, from the raw buffer
-    const unsigned char *data = nullptr;
-    size_t esize = 8;
-    char kind = 'f';       // 'f' float, 'i' signed, 'u' unsigned
-    bool swap = false;     // big-endian
-    size_t si = 0, sc = 0; // element strides (in elements) for sample and channel
-    double at(size_t i, size_t c) const
-    {
-        const unsigned char *p = data + (i * si + c * sc) * esize;
-        unsigned char b[8];
-        for (size_t k = 0; k < esize; ++k) b[k] = swap ? p[esize - 1 - k] : p[k];
-        switch (kind) {
-        case 'f': if (esize == 8) { double v; std::memcpy(&v, b, 8); return v; }
-                  else { float v; std::memcpy(&v, b, 4); return v; }
-        case 'i': switch (esize) {
-                  case 1: { int8_t v; std::memcpy(&v, b, 1); return v; }
-                  case 2: { int16_t v; std::memcpy(&v, b, 2); return v; }
-                  case 4: { int32_t v; std::memcpy(&v, b, 4); return v; }
-                  default: { int64_t v; std::memcpy(&v, b, 8); return (double)v; } }
-        default: switch (esize) {
-                  case 1: return b[0];
-                  case 2: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-                  case 4: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-                  default: { uint64_t v; std::memcpy(&v, b, 8); return (double)v; } }
-        }
-    }
-};
 
 // Parse one .npy image (whole file, or a .npz member) into an Array viewing `buf`.
 Array parse_npy(const std::string &where, std::string_view buf, const std::string &name)
@@ -139,6 +107,8 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
 // Names of the columns of the arrays: see the file comment.
 struct Source { size_t arr, col; };
 
+}  // namespace
+
 Record assemble(const std::string &path, const std::vector<Array> &arrs, const ColumnMap &cols, bool npy_file)
 {
     std::vector<std::string> names;
@@ -200,9 +170,8 @@ Record assemble(const std::string &path, const std::vector<Array> &arrs, const C
     return r;
 }
 
-uint32_t le32(const unsigned char *p) { return p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
-uint16_t le16(const unsigned char *p) { return (uint16_t)(p[0] | p[1] << 8); }
-uint64_t le64(const unsigned char *p) { return le32(p) | (uint64_t)le32(p + 4) << 32; }
+
+namespace {
 
 std::string g_mat_msg;   // matio's last log message
 void mat_log(int, char *msg) { g_mat_msg = msg ? msg : ""; }
@@ -297,6 +266,7 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
     std::vector<Array> arrs;
     bufs.reserve(nent);
     size_t p = cdoff;
+    uint64_t members_bytes = 0;   // compressed bytes of the .npy members so far
     for (uint64_t e = 0; e < nent; ++e) {
         if (!within(p, 46, N) || le32(b + p) != 0x02014b50u) throw Error("'" + path + "': corrupt zip central directory");
         const unsigned method = le16(b + p + 10);
@@ -324,6 +294,13 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
         if (!within(loff, 30, N) || le32(b + loff) != 0x04034b50u) throw Error("'" + where + "': corrupt zip member");
         const size_t data = loff + 30 + le16(b + loff + 26) + le16(b + loff + 28);
         if (!within(data, csize, N)) throw Error("'" + where + "': truncated zip member");
+        // members share no bytes: directory entries pointing at one member's data would each inflate
+        // it again (21,907 bytes whose 256 entries name one 8 MiB member asked for 2 GiB), so the
+        // members' compressed bytes together fit in the file, and what they inflate to in 1032 x it
+        members_bytes += csize;
+        if (members_bytes > N)
+            throw Error(fmt("'%s': corrupt zip: its members claim %llu bytes of data in a file of %zu (members that "
+                            "overlap)", path.c_str(), (unsigned long long)members_bytes, N));
         std::string m;
         if (method == 0) {   // stored: parse in place
             arrs.push_back(parse_npy(where, std::string_view((const char *)b + data, csize), var));
@@ -331,7 +308,10 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
         } else if (method == 8) {
             // deflate expands at most 1032:1: a larger uncompressed size would size memory from a lie
             // (issue 15: a 100-byte member claiming 4 GiB; seed corpus/fuzz_files/regress-npz-huge-uncompressed-size)
-            if (usize > csize * 1032 + 1024) throw Error("'" + where + "': corrupt zip member (uncompressed size)");
+            if (usize > csize * DEFLATE_MAX_RATIO + 1024)
+                throw Error(fmt("'%s': corrupt zip member: it claims %llu bytes inflated from %llu (deflate expands "
+                                "at most %llu:1)", where.c_str(), (unsigned long long)usize,
+                                (unsigned long long)csize, (unsigned long long)DEFLATE_MAX_RATIO));
             m.resize(usize);
             z_stream zs{};
             if (inflateInit2(&zs, -MAX_WBITS) != Z_OK) throw Error("zlib: inflateInit2 failed");
@@ -355,23 +335,10 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
 // length; the name; the data). libmatio sizes its work from a header before checking it against the file
 // (issue 15, found by fuzz_files: a 297-byte v4 file kept it clearing memory past libFuzzer's 10 s timeout;
 // seed corpus/fuzz_files/regress-mat-v4-header-beyond-file), so each record is checked against the bytes
-// the file holds first. v5 and v7.3 files are left to check_mat_v5 and matio.
-// The version of a v5/v7.3 header (a 128-byte header ending in "IM", or "MI" when written big-endian:
-// 0x0100 v5, 0x0200 v7.3), 0 when the file has none. libmatio reads any other file, an "IM" header with
-// another version included, as v4 (fuzz_files, 2026-11-23: version 0 and a v4 name length of 2 GB).
-static unsigned mat_v5_version(const unsigned char *b, size_t N)
+// the file holds first. v5 files are read by our own code (mat_v5.cpp), v7.3 by libmatio after
+// check_mat_hdf5.
+static void check_mat_v4(const std::string &path, const unsigned char *b, size_t N)
 {
-    if (N < 128 || !((b[126] == 'I' && b[127] == 'M') || (b[126] == 'M' && b[127] == 'I'))) return 0;
-    const unsigned v = b[126] == 'M' ? (unsigned)b[124] << 8 | b[125] : (unsigned)b[125] << 8 | b[124];
-    return v == 0x0100 || v == 0x0200 ? v : 0;
-}
-
-static void check_mat_v4(const std::string &path)
-{
-    const FileBytes f(path);
-    const auto *b = (const unsigned char *)f.data();
-    const size_t N = f.size();
-    if (mat_v5_version(b, N)) return;
     static const unsigned esize[6] = {8, 4, 4, 2, 2, 1};   // P: double, single, int32, int16, uint16, uint8
     for (size_t p = 0, k = 1; p < N; ++k) {
         if (N - p < 20) throw Error(fmt("'%s': variable %zu of the MATLAB v4 file is truncated", path.c_str(), k));
@@ -389,171 +356,69 @@ static void check_mat_v4(const std::string &path)
     }
 }
 
-// A MATLAB v5 file is a run of elements after its 128-byte header; a matrix (miMATRIX, or one inside
-// miCOMPRESSED) starts with its array flags and its dimensions. libmatio allocates the dimensions (and
-// then the data) from these before checking them (issue 15, found by fuzz_files: a 333-byte file made it
-// ask for 3 GB; seed corpus/fuzz_files/regress-mat-v5-rank-beyond-file). So every top-level element's
-// size, the rank (at most MAX_RANK) and the number of elements (at most what the element's bytes, at
-// zlib's largest ratio, can hold) are checked first, inflating only the first bytes of a compressed one.
-static void check_mat_v5(const std::string &path)
-{
-    const FileBytes f(path);
-    const auto *b = (const unsigned char *)f.data();
-    const size_t N = f.size();
-    // 0x0200: v7.3, an HDF5 file after the header (HDF5 checks its own); 0: a v4 file (check_mat_v4)
-    if (mat_v5_version(b, N) != 0x0100) return;
-    const bool swap = b[126] == 'M';   // "MI": written on a big-endian machine
-    auto u32 = [swap](const unsigned char *q) {
-        return swap ? (uint32_t)q[0] << 24 | (uint32_t)q[1] << 16 | (uint32_t)q[2] << 8 | q[3] : le32(q);
-    };
-    constexpr uint32_t MAX_RANK = 32;
-    const auto bad = [&](size_t k, const char *what) {
-        return Error(fmt("'%s' is not a MATLAB .mat file or is corrupt: variable %zu %s", path.c_str(), k, what));
-    };
-    for (size_t p = 128, k = 1; p + 8 <= N; ++k) {
-        const uint32_t type = u32(b + p), nbytes = u32(b + p + 4);
-        if (type >> 16) { p += 8; continue; }   // a small element: its data is in the tag
-        if (nbytes > N - p - 8) throw bad(k, "claims more bytes than the file holds");
-        unsigned char head[8 + 16 + 8 + 4 * MAX_RANK + 8];
-        size_t hn = 0, o = 0;
-        uint64_t room = nbytes;   // the most data bytes the element can stand for
-        if (type == 15) {   // miCOMPRESSED: inflate the matrix's tag, flags and dimensions only
-            z_stream zs{};
-            if (inflateInit(&zs) != Z_OK) break;
-            zs.next_in = const_cast<unsigned char *>(b + p + 8);
-            zs.avail_in = nbytes;
-            zs.next_out = head;
-            zs.avail_out = sizeof head;
-            (void)inflate(&zs, Z_SYNC_FLUSH);
-            hn = zs.total_out;
-            inflateEnd(&zs);
-            if (hn < 8 || u32(head) != 14) { p += 8 + (size_t)nbytes; continue; }   // not a matrix: matio decides
-            o = 8;
-            room = (uint64_t)nbytes * 1032u;   // deflate's largest expansion ratio
-        } else if (type == 14) {
-            hn = std::min<size_t>(sizeof head, nbytes);
-            std::memcpy(head, b + p + 8, hn);
-        }
-        if ((type == 14 || type == 15) && hn >= o + 24) {
-            const uint32_t dt = u32(head + o + 16);
-            const uint32_t dbytes = dt >> 16 ? dt >> 16 : u32(head + o + 20);
-            // a small data element (its byte count in the tag's upper half) holds at most 4 bytes; more
-            // made libmatio misread what follows and ask for gigabytes (fuzz_files, 2026-11-23)
-            if (dt >> 16 > 4) throw bad(k, "has a malformed dimensions element");
-            const size_t d0 = dt >> 16 ? o + 20 : o + 24;
-            if (dbytes % 4 != 0 || dbytes / 4 > MAX_RANK)
-                throw bad(k, fmt("claims %u bytes of dimensions (at most %u dimensions are read)", dbytes,
-                                 MAX_RANK).c_str());
-            // the name follows the dimensions (padded to 8 bytes); its length sizes an allocation too
-            const size_t nt = dt >> 16 ? o + 24 : d0 + ((size_t)dbytes + 7) / 8 * 8;
-            if (nt + 8 <= hn && u32(head + nt) >> 16 == 0 && u32(head + nt + 4) > room)
-                throw bad(k, "claims a name longer than its bytes");
-            if (nt + 4 <= hn && u32(head + nt) >> 16 > 4) throw bad(k, "has a malformed name element");
-            const uint32_t nd = std::min<uint32_t>(dbytes / 4, (uint32_t)((hn - std::min(hn, d0)) / 4));
-            const uint32_t cls = u32(head + o + 8) & 0xFFu;   // mxSPARSE_CLASS (5): dims say nothing of its bytes
-            bool empty = cls == 5;
-            for (uint32_t i = 0; i < nd; ++i) empty = empty || u32(head + d0 + 4 * i) == 0;
-            uint64_t elems = 1;
-            for (uint32_t i = 0; i < nd && !empty; ++i) {
-                const uint32_t dim = u32(head + d0 + 4 * i);
-                if (elems > room / dim) throw bad(k, "claims more elements than its bytes can hold");
-                elems *= dim;
-            }
-        }
-        if (type == 14) {
-            // every part of an uncompressed matrix (flags, dimensions, name, then the data: real and
-            // imaginary, or a sparse matrix's ir, jc, pr and pi) fits in the matrix's bytes; libmatio sizes
-            // a part's buffer from its tag (fuzz_files, 2026-11-23: a sparse matrix whose data part claimed
-            // 2 GB in a 112-byte matrix; the sparse class is exempt from the element count above)
-            const unsigned char *e = b + p + 8;
-            for (size_t q = 0; q + 8 <= nbytes;) {
-                const uint32_t t = u32(e + q), sb = u32(e + q + 4);
-                if (t >> 16) { q += 8; continue; }   // a small part: its data is in the tag
-                if (sb > nbytes - q - 8) throw bad(k, "holds a part longer than the variable");
-                q += 8 + ((size_t)sb + 7) / 8 * 8;
-            }
-        }
-        p += 8 + (size_t)nbytes;
-        if (type != 15) p = (p + 7) / 8 * 8;   // uncompressed elements are padded to 8 bytes
-    }
-}
-
 static std::string lower(std::string s)
 {
     for (auto &ch : s) ch = (char)std::tolower((unsigned char)ch);
     return s;
 }
 
-Record read_record_mat(const std::string &path, const ColumnMap &cols)
-{
-    {   // matio prints to stderr on failure; check that the file opens first
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
-        ::close(fd);
+namespace {
+
+// v4 and v7.3 through libmatio, variable by variable. A variable's dimensions are checked against what
+// the file can hold (the caller) before Mat_VarRead allocates its data: v4 stores it uncompressed
+// (check_mat_v4 bounds each record by the file), v7.3 at most deflate's ratio (check_mat_hdf5 bounds
+// every dataset before libmatio opens the file).
+class MatioFile : public MatReader {
+  public:
+    MatioFile(const std::string &path, uint64_t holds) : path_(path), holds_(holds)
+    {
+        M_.LogInitFunc("msid", mat_log);   // matio's messages go to the one error, not to stderr
+        mf_ = M_.Open(path.c_str(), MAT_ACC_RDONLY);
+        if (!mf_)
+            throw Error("'" + path + "' is not a MATLAB .mat file (v4, v5 or v7.3) or is corrupt" +
+                        (g_mat_msg.empty() ? std::string() : " (matio: " + g_mat_msg + ")"));
     }
-    check_mat_v4(path);
-    check_mat_v5(path);
-    const Matio &M = matio();
-    M.LogInitFunc("msid", mat_log);   // matio's messages go to the one error, not to stderr
-    mat_t *mf = M.Open(path.c_str(), MAT_ACC_RDONLY);
-    if (!mf)
-        throw Error("'" + path + "' is not a MATLAB .mat file (v4, v5 or v7.3) or is corrupt" +
-                    (g_mat_msg.empty() ? std::string() : " (matio: " + g_mat_msg + ")"));
-    struct Closer {
-        const Matio &M;
-        mat_t *m;
-        std::vector<matvar_t *> v;
-        ~Closer() { for (auto *x : v) M.VarFree(x); M.Close(m); }
-    } cl{M, mf, {}};
-    std::vector<Array> arrs;
-    std::vector<std::string> skipped, all;
-    while (matvar_t *info = M.VarReadNextInfo(mf)) {
-        const std::string name = info->name ? info->name : "";
-        const bool numeric = info->class_type == MAT_C_DOUBLE || info->class_type == MAT_C_SINGLE ||
-                             (info->class_type >= MAT_C_INT8 && info->class_type <= MAT_C_UINT64);
-        // the column names the variable gives (as assemble() names them), for the message of a
-        // mapping that names none; a mapping matches a name as resolve_columns() does, so also
-        // case-insensitively: 'force' reads variable Force, as a CSV header or an .npz member
-        if (numeric && info->rank == 2 && !info->isComplex && !info->isLogical) {
-            const size_t C = info->dims[1] > info->dims[0] ? info->dims[0] : info->dims[1];
-            if (C == 1) all.push_back(name);
-            for (size_t c = 0; C != 1 && c < C; ++c) all.push_back(name + ":" + std::to_string(c + 1));
-        }
-        const std::string lname = lower(name);
-        const bool wanted = cols.empty() || [&] {
-            for (const auto &e : cols.map) {
-                const std::string s = lower(e.second);
-                if (s == lname || s.rfind(lname + ":", 0) == 0) return true;
-            }
-            return false;
-        }();
-        if (!wanted) { M.VarFree(info); continue; }
-        if (!numeric || info->rank != 2 || info->isComplex || info->isLogical) {
-            const bool needed = !cols.empty();
-            // class "empty" with elements: an HDF5 dataset (v7.3) whose MATLAB_class attribute libmatio does
-            // not read, e.g. h5py's default NUL-padded string (it reads "doubl"), not a non-numeric variable
-            const bool unclassed = info->class_type == MAT_C_EMPTY && info->rank == 2 && info->dims &&
-                                   info->dims[0] > 0 && info->dims[1] > 0;
-            std::string why = info->isComplex ? "complex" : info->rank != 2 ? fmt("%d-dimensional", info->rank)
-                              : unclassed ? "an array without a MATLAB class that libmatio reads (a v7.3 dataset whose "
-                                            "MATLAB_class attribute is not a NUL-terminated string such as 'double', "
-                                            "as h5py writes it by default; write it with MATLAB, hdf5storage, "
-                                            "scipy.io.savemat or as .npz)"
-                                          : "not a numeric array";
-            M.VarFree(info);
-            if (needed) throw Error("'" + path + "' variable '" + name + "' is " + why + ": expected a real vector or matrix");
-            skipped.push_back(unclassed ? name + ": " + why : name);
-            continue;
-        }
-        M.VarFree(info);
-        matvar_t *v = M.VarRead(mf, name.c_str());
+    ~MatioFile() override
+    {
+        for (auto *x : read_) M_.VarFree(x);
+        M_.Close(mf_);
+    }
+    bool next(MatVarInfo &v) override
+    {
+        matvar_t *info = M_.VarReadNextInfo(mf_);
+        if (!info) return false;
+        v = MatVarInfo{};
+        v.name = name_ = info->name ? info->name : "";
+        v.numeric = info->class_type == MAT_C_DOUBLE || info->class_type == MAT_C_SINGLE ||
+                    (info->class_type >= MAT_C_INT8 && info->class_type <= MAT_C_UINT64);
+        v.complex = info->isComplex;
+        v.logical = info->isLogical;
+        v.rank = info->rank;
+        v.d0 = info->dims && info->rank > 0 ? info->dims[0] : 0;
+        v.d1 = info->dims && info->rank > 1 ? info->dims[1] : 0;
+        // class "empty" with elements: an HDF5 dataset (v7.3) whose MATLAB_class attribute libmatio does
+        // not read, e.g. h5py's default NUL-padded string (it reads "doubl"), not a non-numeric variable
+        v.unclassed = info->class_type == MAT_C_EMPTY && info->rank == 2 && info->dims && v.d0 > 0 && v.d1 > 0;
+        const unsigned cs = info->class_type == MAT_C_DOUBLE || info->class_type == MAT_C_INT64 ||
+                                    info->class_type == MAT_C_UINT64 ? 8
+                            : info->class_type == MAT_C_SINGLE || info->class_type == MAT_C_INT32 ||
+                                    info->class_type == MAT_C_UINT32 ? 4
+                            : info->class_type == MAT_C_INT16 || info->class_type == MAT_C_UINT16 ? 2 : 1;
+        v.claimed = v.d1 && v.d0 > UINT64_MAX / cs / v.d1 ? UINT64_MAX : v.d0 * v.d1 * cs;
+        v.holds = holds_;
+        M_.VarFree(info);
+        return true;
+    }
+    Array read() override
+    {
+        matvar_t *v = M_.VarRead(mf_, name_.c_str());
         if (!v || !v->data) {
-            if (v) M.VarFree(v);
-            throw Error("'" + path + "' variable '" + name + "': cannot read its data (truncated or corrupt file)");
+            if (v) M_.VarFree(v);
+            throw Error("'" + path_ + "' variable '" + name_ + "': cannot read its data (truncated or corrupt file)");
         }
-        cl.v.push_back(v);
+        read_.push_back(v);
         Array a;
-        a.name = name;
+        a.name = name_;
         switch (v->data_type) {
         case MAT_T_DOUBLE: a.kind = 'f'; a.esize = 8; break;
         case MAT_T_SINGLE: a.kind = 'f'; a.esize = 4; break;
@@ -565,16 +430,84 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         case MAT_T_UINT32: a.kind = 'u'; a.esize = 4; break;
         case MAT_T_INT64: a.kind = 'i'; a.esize = 8; break;
         case MAT_T_UINT64: a.kind = 'u'; a.esize = 8; break;
-        default: throw Error("'" + path + "' variable '" + name + "': unsupported element type");
+        default: throw Error("'" + path_ + "' variable '" + name_ + "': unsupported element type");
         }
         const size_t R = v->dims[0], Cc = v->dims[1];
-        if (v->nbytes < R * Cc * a.esize)
-            throw Error("'" + path + "' variable '" + name + "': truncated data");
+        if (v->nbytes < R * Cc * a.esize) throw Error("'" + path_ + "' variable '" + name_ + "': truncated data");
         a.data = (const unsigned char *)v->data;
         // MATLAB is column-major: (r, c) at r + c*R
         if (Cc > R) { a.n = Cc; a.C = R; a.si = R; a.sc = 1; }
         else { a.n = R; a.C = Cc; a.si = 1; a.sc = R; }
-        arrs.push_back(a);
+        return a;
+    }
+
+  private:
+    const Matio &M_ = matio();
+    std::string path_, name_;
+    uint64_t holds_;
+    mat_t *mf_ = nullptr;
+    std::vector<matvar_t *> read_;
+};
+
+}  // namespace
+
+Record read_record_mat(const std::string &path, const ColumnMap &cols)
+{
+    std::unique_ptr<MatReader> mr = open_mat_v5(path);   // opens the file (its one error if it cannot)
+    if (!mr) {
+        const FileBytes f(path);
+        const auto *b = (const unsigned char *)f.data();
+        if (mat_header_version(b, f.size()) == 0x0200) {   // v7.3: HDF5
+            check_mat_hdf5(path, f.size());
+            mr = std::make_unique<MatioFile>(path, (uint64_t)f.size() * DEFLATE_MAX_RATIO);
+        } else {
+            check_mat_v4(path, b, f.size());
+            mr = std::make_unique<MatioFile>(path, (uint64_t)f.size());
+        }
+    }
+    std::vector<Array> arrs;
+    std::vector<std::string> skipped, all;
+    MatVarInfo info;
+    while (mr->next(info)) {
+        const std::string &name = info.name;
+        const bool real2d = info.numeric && info.rank == 2 && !info.complex && !info.logical;
+        // nothing is sized from the dimensions (not even the column names below) before they are
+        // checked against what the file can hold for the variable
+        if (real2d && info.claimed > info.holds)
+            throw Error(fmt("'%s' variable '%s' claims %llu x %llu values (%llu bytes) but the file can hold at most "
+                            "%llu bytes of it: corrupt or not a MATLAB file", path.c_str(), name.c_str(),
+                            (unsigned long long)info.d0, (unsigned long long)info.d1,
+                            (unsigned long long)info.claimed, (unsigned long long)info.holds));
+        // the column names the variable gives (as assemble() names them), for the message of a
+        // mapping that names none; a mapping matches a name as resolve_columns() does, so also
+        // case-insensitively: 'force' reads variable Force, as a CSV header or an .npz member
+        if (real2d) {
+            const size_t C = (size_t)std::min(info.d0, info.d1);
+            if (C == 1) all.push_back(name);
+            for (size_t c = 0; C != 1 && c < C; ++c) all.push_back(name + ":" + std::to_string(c + 1));
+        }
+        const std::string lname = lower(name);
+        const bool wanted = cols.empty() || [&] {
+            for (const auto &e : cols.map) {
+                const std::string s = lower(e.second);
+                if (s == lname || s.rfind(lname + ":", 0) == 0) return true;
+            }
+            return false;
+        }();
+        if (!wanted) continue;
+        if (!real2d) {
+            const std::string why = info.complex ? "complex" : info.rank != 2 ? fmt("%d-dimensional", info.rank)
+                                    : info.unclassed ? "an array without a MATLAB class that libmatio reads (a v7.3 "
+                                                       "dataset whose MATLAB_class attribute is not a NUL-terminated "
+                                                       "string such as 'double', as h5py writes it by default; write "
+                                                       "it with MATLAB, hdf5storage, scipy.io.savemat or as .npz)"
+                                                     : "not a numeric array";
+            if (!cols.empty())
+                throw Error("'" + path + "' variable '" + name + "' is " + why + ": expected a real vector or matrix");
+            skipped.push_back(info.unclassed ? name + ": " + why : name);
+            continue;
+        }
+        arrs.push_back(mr->read());
     }
     if (!cols.empty()) {   // a mapped name the file lacks: the message lists every variable, not the read ones
         uint32_t nu = 0, ny = 0;

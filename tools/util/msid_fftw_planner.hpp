@@ -1,6 +1,6 @@
-// FFTW's first plan in a process costs ~1.6 ms of CPU (the planner registers its solvers and
-// hashes the problem), later plans of the same length ~0.02 ms. msid frf makes that first plan
-// on a second thread while the experiment files are read, instead of after.
+// FFTW's first plan in a process is far dearer than the next ones (the planner registers its
+// solvers and hashes the problem). msid frf makes that first plan on a second thread while the
+// experiment files are read, instead of after.
 #pragma once
 #include <cstdint>
 

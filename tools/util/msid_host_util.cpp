@@ -49,9 +49,9 @@ void write_file_atomic(const std::string &path, const std::vector<std::string_vi
     }
     // The file replaced, if any, is held open (O_PATH: no read access, no blocking on a FIFO) so that
     // rename() only unlinks it, and its blocks are freed when that descriptor is closed by a thread
-    // of its own, beside the rest of the command, instead of inside rename() (0.5-0.9 ms of ext4
-    // for the bench's 0.6 MB FRF file). Nothing a reader sees changes: the path still switches
-    // from the whole old file to the whole new one.
+    // of its own, beside the rest of the command, instead of inside rename() (where ext4 would free
+    // them while the command waits). Nothing a reader sees changes: the path still switches from
+    // the whole old file to the whole new one.
     const int old = ::open(path.c_str(), O_PATH | O_CLOEXEC);
     if (::rename(tmp.c_str(), path.c_str()) != 0) {
         int e = errno;

@@ -1,6 +1,6 @@
 /**
  * @file msid_mbap.h
- * @brief Modbus TCP client framing of our own: one request, the matching MBAP reply (issue 15).
+ * @brief Modbus TCP client framing of our own: one request, the matching MBAP reply.
  *
  * libmodbus 3.1.6 reads exactly one frame after a request and rejects it when
  * its transaction id differs, so a stale reply (a device that answers twice,

@@ -47,8 +47,8 @@ typedef enum msid_pattern {
 } msid_pattern;
 
 /**
- * How ::msid_design_init computes the crest factors max|u|/rms(u) (issue 15 #6: direct synthesis is
- * O(m nu P L), 26 s for P = 2^20 with 1000 lines).
+ * How ::msid_design_init computes the crest factors max|u|/rms(u) (direct synthesis is O(m nu P L):
+ * too slow for a host design of large P with many lines, fine for a small firmware design).
  */
 typedef enum msid_crest_mode {
     MSID_CREST_DIRECT = 0, /**< direct synthesis of every sample, O(m nu P L), no extra memory (small designs) */

@@ -23,8 +23,8 @@ typedef enum msid_fftw_effort {
      * For msid_linedft's lines (msid frf): with P even, one complex DFT of P/2
      * points of the samples taken as (x[2n], x[2n+1]) pairs, split into the
      * real DFT at the wanted bins only (be.r2c_bins; twiddles from
-     * ::msid_cis_turns). FFTW_ESTIMATE plans it in ~0.05 ms where the real
-     * plan of P = 4096 takes ~1.2 ms; a transform costs about the same. be.r2c
+     * ::msid_cis_turns). Planning it is a small fraction of planning FFTW's
+     * real transform of the same P, and a transform costs about the same. be.r2c
      * (the whole spectrum) then splits every bin: slower than ESTIMATE's plan,
      * so take ESTIMATE for whole spectra. Odd P: ESTIMATE's real plan.
      */

@@ -8,10 +8,6 @@ File access (NumPy only, no compiled module needed): read_frf / write_frf (msid-
 write_model (msid-model/1), FRF.to_control() / Model.to_control() (python-control FRD, StateSpace, TransferFunction) and back
 (FRF.from_control, Model.from_control). Plots (matplotlib): msid.plot (python3 -m msid.plot) and the
 HTML report msid.report (python3 -m msid.report OUTDIR). Exact regions: msid.regions. See docs/python.md.
-
-Also here, for the tests and benchmarks of the C tools: independent NumPy peers of `msid frf`
-(frf_peer), `msid frf --method lpm` (lpm_peer), the benchmark peers (bench_*_peer) and the simulated
-structures of the fitting tests (structures).
 """
 from .files import FRF, Model, FormatError, frf_from_doc, read_frf, read_model, write_frf, write_model  # noqa: F401
 # msid._msid is imported by these on their first call, so the file functions work without it

@@ -236,6 +236,16 @@ class FRF:
         u1.., y1.. (the names msid prints)."""
         return _signal_names(self.meta, self.n_inputs, self.n_outputs)
 
+    def signal_units(self):
+        """(input units, output units): the file's `input_units`/`output_units` when it has them ("" where
+        a unit is unknown), else "" for every signal."""
+        return _signal_units(self.meta, self.n_inputs, self.n_outputs)
+
+    def gain_unit(self, output, input):
+        """The unit of G[output, input] ("m/s^2/N"), or "" when either unit is unknown."""
+        ui, uo = self.signal_units()
+        return f"{uo[output]}/{ui[input]}" if uo[output] and ui[input] else ""
+
     # python-control
     def to_control(self, name=None):
         """python-control FRD of G (frequencies in rad/s, or rad/sample without a sample time) with a name
@@ -421,6 +431,10 @@ class Model:
         u1.., y1.."""
         return _signal_names(self.doc, self.n_inputs, self.n_outputs)
 
+    def signal_units(self):
+        """(input units, output units) as FRF.signal_units: carried from the FRF it was fitted to."""
+        return _signal_units(self.doc, self.n_inputs, self.n_outputs)
+
     def to_control(self, form="ss", name=None):
         """python-control StateSpace (form='ss') or TransferFunction (form='tf'); DT models carry dt =
         sample_time (True when unknown), CT models dt = 0; the system is named (`name`, else
@@ -501,6 +515,17 @@ def _signal_names(doc, nu, ny):
             return list(v)
         return [f"{prefix}{k + 1}" for k in range(n)]
     return pick("input_names", nu, "u"), pick("output_names", ny, "y")
+
+
+def _signal_units(doc, nu, ny):
+    """(inputs, outputs) units of a file: its `input_units`/`output_units` lists when they have the right
+    lengths, else "" for each signal (unknown)."""
+    def pick(key, n):
+        v = doc.get(key)
+        if isinstance(v, list) and len(v) == n and all(isinstance(x, str) for x in v):
+            return list(v)
+        return [""] * n
+    return pick("input_units", nu), pick("output_units", ny)
 
 
 def _system_name(source, default):

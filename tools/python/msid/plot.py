@@ -125,6 +125,7 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
         raise FormatError(f"the model is {model.n_outputs}x{model.n_inputs} but the FRF is "
                           f"{frf.n_outputs}x{frf.n_inputs}")
     ny, nu = frf.n_outputs, frf.n_inputs
+    ins, outs = frf.signal_names()
     f, unit = frf.hz_axis()
     logx = bool(np.all(f > 0))
     r = frf.radius(level, which)
@@ -190,9 +191,10 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
                 bottom[j] = ar
             else:
                 bottom[j] = ap
-            am.set_ylabel("|G| (dB)")
+            gunit = frf.gain_unit(i, j)
+            am.set_ylabel(f"|G| (dB re 1 {gunit})" if gunit else "|G| (dB)")
             ap.set_ylabel("phase (deg)")
-            am.set_title(f"y{i + 1} / u{j + 1}", fontsize=10)
+            am.set_title(f"{outs[i]} / {ins[j]}", fontsize=10)
             for a in (am, ap):
                 a.grid(True, alpha=0.3)
                 if logx:

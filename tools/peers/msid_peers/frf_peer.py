@@ -35,7 +35,7 @@ The transient test of `msid frf` is not reproduced: the peer matches
 
 Use:  estimate(experiments, period, bins, ...) -> dict shaped like msid-frf/1
       estimate_files(paths, design=..., ...) reads CSVs and a design file.
-CLI:  python3 -m msid.frf_peer (--design D | --period P --lines L) \
+CLI:  python3 -m msid_peers.frf_peer (--design D | --period P --lines L) \
           --experiment e1.csv [--experiment e2.csv ...] [-o out.json]
 """
 import argparse
@@ -292,7 +292,7 @@ def parse_uint_list(s):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python3 -m msid.frf_peer", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python3 -m msid_peers.frf_peer", description=__doc__.split("\n")[0])
     ap.add_argument("--design")
     ap.add_argument("--period", type=int)
     ap.add_argument("--lines")

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from msid import structures as S
+from msid_peers import structures as S
 
 CASES = [("siso", 12), ("1x3", 12), ("2x3", 12), ("siso", 10)]
 SEED = 2
