@@ -10,9 +10,11 @@ PY_MODS=(numpy jsonschema pytest)
 # Experiment-file tests and `msid bench io`: scipy (writes .mat v5), h5py (writes .mat v7.3), pandas (the CSV peer).
 PY_MODS+=(scipy h5py pandas)
 # The Python package (tools/python, docs/python.md): matplotlib draws `msid plot` and the reports
-# (Debian python3-matplotlib; pip for another python3); wheel lets pip build it offline (tests/python).
+# (Debian python3-matplotlib; pip for another python3).
 APT_PKGS+=(python3-matplotlib)
-PY_MODS+=(matplotlib wheel)
+PY_MODS+=(matplotlib)
+# The compiled module msid._msid (tools/python/CMakeLists.txt): Python's headers and pybind11.
+APT_PKGS+=(python3-dev pybind11-dev)
 # CAN tests in the vcan VM (tests/vcan): qemu, busybox for its initramfs, can-utils as the reference.
 APT_PKGS+=(qemu-system-x86 busybox-static can-utils iproute2 xz-utils zstd)
 # On target (tests/target, firmware_sim/baremetal): Cortex-M cross compiler, newlib, MPS2 boards in qemu.
@@ -111,6 +113,16 @@ if [ -n "$need" ]; then
   { python3 -m pip install -q $need || python3 -m pip install -q --break-system-packages $need; } >> deps.log 2>&1 || {
     tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
   [ -z "$(can_missing)" ] || { echo "deps: python modules still missing: $(can_missing)" >&2; exit 1; }
+fi
+
+# scikit-build-core (PyPI; not in bookworm): the build backend of tools/python/pyproject.toml, which
+# tests/python's offline `pip install ./tools/python` (files only: -C wheel.cmake=false) needs.
+skb_missing() { python3 -c "import scikit_build_core" 2>/dev/null || echo scikit-build-core; }
+need=$(skb_missing)
+if [ -n "$need" ]; then
+  echo "deps: pip installing $need"
+  { python3 -m pip install -q $need || python3 -m pip install -q --break-system-packages $need; } >> deps.log 2>&1 || {
+    tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
 fi
 
 # pip_pinned CHECK-FUNCTION NAME: install what CHECK-FUNCTION prints (a pinned spec) unless it prints nothing.

@@ -10,7 +10,9 @@ import pytest
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "integration"))
-sys.path.insert(0, str(ROOT / "tools" / "python"))
+# the package from the source tree; the compiled module's tests name the staged package instead
+# (MSID_PYTHON_DIR=build/python: the .py files beside msid/_msid*.so)
+sys.path.insert(0, os.environ.get("MSID_PYTHON_DIR") or str(ROOT / "tools" / "python"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "common"))
 import msid_emulator  # noqa: E402
 msid_emulator.wrap_binaries()   # cross builds: MSID_EMULATOR runs the binaries (tests/common/msid_emulator.py)

@@ -281,7 +281,8 @@ def test_subsystem_keeps_the_right_covariance(demo, tmp_path):
 
 def test_pip_install(demo, tmp_path):
     """`pip install ./tools/python` gives `import msid` outside the source tree (a copy of the package is
-    built, offline: --no-build-isolation, so the source tree gets no build/ or egg-info)."""
+    built, offline: --no-build-isolation, so the source tree gets no build/ or egg-info). Files only
+    (-C wheel.cmake=false): the compiled module's build is the repository's (docs/python.md)."""
     import shutil
     import subprocess
     import sys
@@ -289,10 +290,8 @@ def test_pip_install(demo, tmp_path):
     src = tmp_path / "src"
     shutil.copytree(ROOT / "tools" / "python", src, ignore=shutil.ignore_patterns("__pycache__"))
     r = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-build-isolation", "--no-deps",
-                        "--no-index", "--target", str(tmp_path / "site"), str(src)],
+                        "--no-index", "-C", "wheel.cmake=false", "--target", str(tmp_path / "site"), str(src)],
                        capture_output=True, text=True, timeout=240)
-    if r.returncode != 0 and "bdist_wheel" in r.stderr:
-        pytest.skip("setuptools without bdist_wheel: install the wheel package (scripts/deps.sh does)")
     assert r.returncode == 0, r.stderr
     code = ("import msid, sys; f = msid.read_frf(sys.argv[1]); "
             "print(msid.__file__, f.G.shape, msid.plot.__name__, msid.report.__name__)")

@@ -4,6 +4,7 @@
 // first problem named is the same whoever asks.
 #include "frf_job_detail.hpp"
 #include "frf_bla.hpp"
+#include "frf_distortion.hpp"
 #include "periodicity.hpp"
 
 namespace msidjob {
@@ -35,7 +36,7 @@ static void find_lines_if_asked(FrfRequest &rq, const std::vector<Record> &recs,
 }
 
 // Step 4: one realisation with detection lines: the distortion level beside the noise.
-static void add_detection_distortion(FrfOutcome &o)
+void add_detection_distortion(FrfOutcome &o)
 {
     const Json nl = detection_distortion(o.doc);
     if (nl.is_null()) return;

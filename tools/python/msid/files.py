@@ -37,6 +37,22 @@ def _cmat(obj, shape, where):
     return re + 1j * im
 
 
+def _cmats(objs, shape, where, key):
+    """One complex matrix {re, im} per line, stacked (L, *shape) by one NumPy call per part; when any
+    is bad, the first bad one is named as _cmat names it."""
+    shape = tuple(shape)
+    try:
+        re = np.array([o["re"] for o in objs], dtype=float)
+        im = np.array([o["im"] for o in objs], dtype=float)
+        if re.shape == (len(objs),) + shape and im.shape == re.shape:
+            return re + 1j * im
+    except (TypeError, KeyError, ValueError):
+        pass
+    for k, o in enumerate(objs):
+        _cmat(o, shape, f"{where}: lines[{k}].{key}")
+    raise FormatError(f"{where}: lines[*].{key}: expected shape {shape}")
+
+
 def _cmat_json(a):
     a = np.asarray(a)
     return {"re": np.real(a).tolist(), "im": np.imag(a).tolist()}
@@ -114,6 +130,15 @@ class FRF:
         self.real = np.zeros(L, bool) if real is None else np.asarray(real, dtype=bool).reshape(L)
         self.meta = dict(meta or {})
         self.line_extra = [dict(e) for e in line_extra] if line_extra is not None else [{} for _ in range(L)]
+        self.notes = []     # msid.frf / Measurement.frf: msid's notes on the estimate
+        self.reports = []   # msid.frf: what period="auto" / lines="auto" found
+
+    def __repr__(self):
+        P = self.meta.get("period_samples")
+        where = f", bins {self.bins[0]}..{self.bins[-1]}" if self.bins is not None and self.n_lines else ""
+        dof = "" if self.dof is None or not self.n_lines else f", dof {float(np.min(self.dof)):g}"
+        return (f"<msid.FRF {self.n_outputs} output(s) x {self.n_inputs} input(s), {self.n_lines} lines{where}"
+                f"{f' of P = {P}' if P else ''}, {self.domain}{dof}>")
 
     # sizes and axes
     @property
@@ -256,29 +281,31 @@ class FRF:
 
 def read_frf(path):
     """Read an msid-frf/1 file (docs/frf-format.md) into an FRF."""
-    doc = _load(path, FRF_FORMAT)
+    return frf_from_doc(_load(path, FRF_FORMAT), f"'{path}'")
+
+
+def frf_from_doc(doc, where="document"):
+    """An FRF from an msid-frf/1 document already in memory (a dict, as json.load gives it): the one
+    converter of read_frf and msid.frf. `where` names the document in errors."""
+    if not isinstance(doc, dict) or doc.get("format") != FRF_FORMAT:
+        got = doc.get("format") if isinstance(doc, dict) else None
+        raise FormatError(f"{where}: format is {json.dumps(got)}, expected \"{FRF_FORMAT}\"")
     try:
         ny, nu = int(doc["n_outputs"]), int(doc["n_inputs"])
         lines = doc["lines"]
     except (KeyError, TypeError, ValueError) as e:
-        raise FormatError(f"'{path}': missing or bad {e}") from None
+        raise FormatError(f"{where}: missing or bad {e}") from None
     if not isinstance(lines, list) or not lines:
-        raise FormatError(f"'{path}': 'lines' must be a non-empty array")
+        raise FormatError(f"{where}: 'lines' must be a non-empty array")
     g = ny * nu
-    L = len(lines)
-    G = np.empty((L, ny, nu), complex)
+    if not all(isinstance(ln, dict) for ln in lines):
+        raise FormatError(f"{where}: every entry of 'lines' must be an object")
     have = {k: all(k in ln for ln in lines) for k in _LINE_ARRAYS}
-    cov = np.empty((L, g, g), complex) if have["cov"] else None
-    cki = np.empty((L, g, g), complex) if have["cov_known_input"] else None
-    extra = []
-    for k, ln in enumerate(lines):
-        where = f"'{path}': lines[{k}]"
-        G[k] = _cmat(ln.get("G"), (ny, nu), where + ".G")
-        if cov is not None:
-            cov[k] = _cmat(ln["cov"], (g, g), where + ".cov")
-        if cki is not None:
-            cki[k] = _cmat(ln["cov_known_input"], (g, g), where + ".cov_known_input")
-        extra.append({a: b for a, b in ln.items() if a not in _LINE_ARRAYS})
+    G = _cmats([ln.get("G") for ln in lines], (ny, nu), where, "G")
+    cov = _cmats([ln["cov"] for ln in lines], (g, g), where, "cov") if have["cov"] else None
+    cki = _cmats([ln["cov_known_input"] for ln in lines], (g, g), where, "cov_known_input") \
+        if have["cov_known_input"] else None
+    extra = [{a: b for a, b in ln.items() if a not in _LINE_ARRAYS} for ln in lines]
 
     def col(key, dtype=float):
         return np.array([ln[key] for ln in lines], dtype=dtype) if have[key] else None

@@ -1,0 +1,64 @@
+// msid._msid: what the extension's files share. The public API is Python (tools/python/msid/
+// compute.py); this module takes arrays and options already put in order there and runs the host
+// libraries on them, with the GIL released while they work.
+#pragma once
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <initializer_list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "msid_design_file.hpp"
+#include "msid_frf_job.hpp"
+#include "msid_records.hpp"
+
+namespace msidpy {
+
+namespace py = pybind11;
+using msidfmt::Design;
+using msidfmt::Json;
+using msidjob::FrfRequest;
+
+// A design held by Python (msid.Design wraps it): FrfRequest::design points into it.
+struct PyDesign {
+    std::unique_ptr<Design> d;
+};
+
+// An msid document as Python objects (dict, list, float, int, str, bool, None), keys in order.
+py::object json_to_py(const Json &j);
+
+// The options every estimating call shares (a dict put in order by compute.py: skip_periods,
+// fs, detect_lines, transient, alpha, dft) into the request; a bad value is a UsageError.
+void request_options(const py::dict &opts, FrfRequest &rq, const Design *D);
+
+// FFTW's planner is not thread-safe, and the GIL is released while a job runs: every job that plans
+// or frees FFTW plans (msid.frf; a Measurement's start and end) holds this, so two Python threads
+// never plan at once. Taken with the GIL released (a holder never needs the GIL).
+std::mutex &fftw_jobs();
+
+// A keyword's value among named choices (e.g. transient: flag, drop, off); else a UsageError listing them.
+template <class E>
+E choose(const std::string &what, const std::string &v, std::initializer_list<std::pair<const char *, E>> choices)
+{
+    std::string names;
+    for (const auto &c : choices) {
+        if (v == c.first) return c.second;
+        names += (names.empty() ? "'" : ", '") + std::string(c.first) + "'";
+    }
+    throw msidutil::UsageError(what + " must be one of " + names + ", not '" + v + "'");
+}
+
+// A samples array that compute.py made C-contiguous float64 with rows x columns: its data, or an
+// internal error (the Python layer converts; this is the check that it did).
+const double *samples_of(const py::array &a, size_t &rows, size_t &cols);
+
+void register_frf(py::module_ &m);
+void register_measurement(py::module_ &m);
+void register_design(py::module_ &m);
+
+}  // namespace msidpy

@@ -1,0 +1,97 @@
+// The extension's conversions: msid documents to Python objects, the shared estimating options,
+// and the check on the arrays the Python layer hands over.
+#include "ext.hpp"
+
+#include "msid_host_util.hpp"
+
+namespace msidpy {
+
+std::mutex &fftw_jobs()
+{
+    static std::mutex m;
+    return m;
+}
+
+static py::object to_py(const Json &j);
+
+// The collector paused while a document becomes Python objects: tens of thousands of new
+// containers, none in a cycle, would start many collections (each walking the interpreter's objects)
+// that can free nothing.
+py::object json_to_py(const Json &j)
+{
+    py::module_ gc = py::module_::import("gc");
+    const bool was = gc.attr("isenabled")().cast<bool>();
+    gc.attr("disable")();
+    struct Resume {
+        py::module_ &gc;
+        bool was;
+        ~Resume()
+        {
+            if (!was) return;
+            try {   // a destructor must not throw (the interpreter would abort); gc.enable() does not fail
+                gc.attr("enable")();
+            } catch (const py::error_already_set &) {
+            }
+        }
+    } resume{gc, was};
+    return to_py(j);
+}
+
+static py::object to_py(const Json &j)
+{
+    switch (j.type()) {
+    case Json::value_t::object: {
+        py::dict d;
+        for (auto it = j.begin(); it != j.end(); ++it) d[py::str(it.key())] = to_py(it.value());
+        return std::move(d);
+    }
+    case Json::value_t::array: {
+        py::list l(j.size());
+        size_t k = 0;
+        for (const auto &x : j) l[k++] = to_py(x);
+        return std::move(l);
+    }
+    case Json::value_t::string: return py::str(j.get_ref<const std::string &>());
+    case Json::value_t::boolean: return py::bool_(j.get<bool>());
+    case Json::value_t::number_integer: return py::int_(j.get<int64_t>());
+    case Json::value_t::number_unsigned: return py::int_(j.get<uint64_t>());
+    case Json::value_t::number_float: return py::float_(j.get<double>());
+    default: return py::none();
+    }
+}
+
+void request_options(const py::dict &opts, FrfRequest &rq, const Design *D)
+{
+    using msidutil::UsageError;
+    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
+    if (has("skip_periods")) rq.skip = opts["skip_periods"].cast<uint32_t>();
+    if (has("fs")) {
+        rq.fs = opts["fs"].cast<double>();
+        if (!(rq.fs > 0)) throw UsageError("fs must be positive");
+        if (D && D->is_ct()) throw UsageError("fs does not apply to a continuous-time design (it has a sample time)");
+    }
+    if (has("detect_lines")) rq.detect = opts["detect_lines"].cast<std::vector<uint32_t>>();
+    if (has("transient"))
+        rq.transient = choose<msid_transient_mode>(
+            "transient", opts["transient"].cast<std::string>(),
+            {{"flag", MSID_TRANSIENT_FLAG}, {"drop", MSID_TRANSIENT_DROP}, {"off", MSID_TRANSIENT_OFF}});
+    if (has("alpha")) rq.alpha = opts["alpha"].cast<double>();
+    if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("alpha must be in (0, 1)");
+    if (has("dft"))
+        rq.path = choose<msid_dft_path>("dft", opts["dft"].cast<std::string>(),
+                                        {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});
+}
+
+const double *samples_of(const py::array &a, size_t &rows, size_t &cols)
+{
+    const bool dense = a.ndim() == 2 && a.dtype().is(py::dtype::of<double>()) &&
+                       (a.shape(1) <= 1 || a.strides(1) == (py::ssize_t)sizeof(double)) &&
+                       (a.shape(0) <= 1 || a.strides(0) == a.shape(1) * (py::ssize_t)sizeof(double)) &&
+                       reinterpret_cast<uintptr_t>(a.data()) % alignof(double) == 0;
+    if (!dense) throw std::logic_error("internal error: msid._msid takes C-contiguous float64 matrices (msid/compute.py)");
+    rows = (size_t)a.shape(0);
+    cols = (size_t)a.shape(1);
+    return static_cast<const double *>(a.data());
+}
+
+}  // namespace msidpy

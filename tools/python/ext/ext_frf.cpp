@@ -1,0 +1,121 @@
+// msid._msid.frf: records held by NumPy through the FRF job (msidjob::estimate_frf), as `msid frf`
+// runs it on files: the same request, the same steps, the same bits. The samples are read in place.
+#include "ext.hpp"
+
+#include "msid_host_util.hpp"
+
+namespace msidpy {
+
+using msidjob::FrfOutcome;
+using msidjob::FrfPlan;
+using msidrec::Record;
+using msidutil::UsageError;
+
+// The period and lines: from the design, or given (either may be "auto"), as `msid frf` takes them.
+static void request_lines(const py::dict &opts, FrfRequest &rq, FrfPlan &plan, const Design *D)
+{
+    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
+    plan.auto_period = has("auto_period") && opts["auto_period"].cast<bool>();
+    plan.auto_lines = has("auto_lines") && opts["auto_lines"].cast<bool>();
+    const bool period = has("period") || plan.auto_period, lines = has("lines") || plan.auto_lines;
+    if (D) {
+        if (period || lines) throw UsageError("give either design or period/lines, not both");
+        request_from_design(rq, *D);
+        return;
+    }
+    if (!period || !lines) throw UsageError("give design, or both period and lines");
+    if (has("period")) rq.period = opts["period"].cast<uint32_t>();
+    if (has("lines")) rq.bins = opts["lines"].cast<std::vector<uint32_t>>();
+}
+
+// The estimator: periodic (default), realisations' BLA, or direct.
+static void request_estimator(const py::dict &opts, FrfRequest &rq, FrfPlan &plan, const Design *D)
+{
+    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
+    plan.direct = has("direct") && opts["direct"].cast<bool>();
+    plan.bla = has("realisations");
+    plan.realisations = plan.bla ? opts["realisations"].cast<uint32_t>() : 1;
+    plan.design = D;
+    if (has("block")) {
+        rq.block = opts["block"].cast<size_t>();
+        if (rq.block == 0) throw UsageError("block must be positive");
+    }
+    if (plan.direct) {
+        if (plan.auto_period || plan.auto_lines) throw UsageError("direct needs design (no auto period/lines)");
+        if (!D) throw UsageError("direct needs design (the input is the design's exact multisine)");
+        for (const char *k : {"detect_lines", "dft", "block", "transient", "alpha"})
+            if (has(k)) throw UsageError(std::string(k) + " does not apply to direct");
+        if (plan.bla) throw UsageError("realisations does not apply to direct");
+    }
+}
+
+// The arrays as records: read in place (Record::view), kept alive by the caller's list.
+static std::vector<Record> records_of(const py::list &arrays, const py::list &names, const py::list &columns,
+                                      const std::vector<uint32_t> &nu)
+{
+    std::vector<Record> recs(arrays.size());
+    for (size_t k = 0; k < recs.size(); ++k) {
+        Record &r = recs[k];
+        size_t rows = 0, cols = 0;
+        r.view = samples_of(arrays[k].cast<py::array>(), rows, cols);
+        r.path = names[k].cast<std::string>();
+        r.columns = columns[k].cast<std::vector<std::string>>();
+        if (nu.at(k) == 0 || nu[k] >= cols || r.columns.size() != cols)
+            throw std::logic_error("internal error: columns of " + r.path);
+        r.nu = nu[k];
+        r.ny = (uint32_t)(cols - nu[k]);
+        r.n_rows = rows;
+    }
+    return recs;
+}
+
+static py::dict frf(const py::list &arrays, const py::list &names, const py::list &columns,
+                    const std::vector<uint32_t> &nu, const py::dict &opts, const py::object &design)
+{
+    const Design *D = design.is_none() ? nullptr : design.cast<const PyDesign &>().d.get();
+    FrfRequest rq;
+    FrfPlan plan;
+    request_lines(opts, rq, plan, D);
+    request_options(opts, rq, D);
+    request_estimator(opts, rq, plan, D);
+    std::vector<Record> recs = records_of(arrays, names, columns, nu);
+    std::vector<std::string> reports;
+    plan.report = [&](const std::string &s) { reports.push_back(s); };
+    FrfOutcome o;
+    {
+        // The arrays stay alive in the caller's list; nothing here touches a Python object.
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
+        // As `msid frf` reads its files: the plain periodic job scans each block for NaN/Inf just
+        // before it uses it; every other path reads samples first, so they are scanned first.
+        const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;
+        for (Record &r : recs)
+            if (plain) r.finite_unchecked = true;
+            else msidrec::check_finite(r, 0, r.n_rows);
+        o = msidjob::estimate_frf(rq, recs, plan);
+    }
+    py::dict out;
+    out["doc"] = json_to_py(o.doc);
+    out["notes"] = o.notes;
+    out["reports"] = reports;
+    return out;
+}
+
+void register_frf(py::module_ &m)
+{
+    m.def("frf", &frf, py::arg("arrays"), py::arg("names"), py::arg("columns"), py::arg("n_inputs"), py::arg("opts"),
+          py::arg("design"), "The FRF job on C-contiguous float64 records (use msid.frf).");
+    m.def(
+        "resolve_columns",
+        [](const std::string &where, const std::vector<std::string> &names, const std::string &spec) {
+            msidrec::ColumnMap cm;
+            if (!spec.empty()) cm = msidrec::parse_column_map(spec);
+            uint32_t nu = 0, ny = 0;
+            std::vector<size_t> src = msidrec::resolve_columns(where, names, cm, false, nu, ny);
+            return py::make_tuple(src, nu, ny);
+        },
+        py::arg("where"), py::arg("names"), py::arg("spec"),
+        "Which of `names` feed u1.., y1.. (a --columns spec, or the u<k>/y<k> names): (indices, nu, ny).");
+}
+
+}  // namespace msidpy
