@@ -156,6 +156,21 @@ def test_frf_dataframe_and_copies_same_bits(d2, recs):
     assert_same_bits(msid.frf(extra, design=d2, columns="u1=3,u2=4,y1=1,y2=2"), want)
 
 
+
+def test_frf_dataframe_names_and_units(d2, recs):
+    """A DataFrame's column names are the signals' names, "Force [N]" a name and a unit, as in a CSV."""
+    pd = pytest.importorskip("pandas")
+    frames = [pd.DataFrame({"Force1 [N]": r[:, 0], "Force2 [N]": r[:, 1], "Acc1 [m/s^2]": r[:, 2],
+                            "Acc2": r[:, 3]}) for r in recs]
+    f = msid.frf(frames, design=d2, columns="u1=Force1 [N],u2=Force2 [N],y1=Acc1 [m/s^2],y2=Acc2")
+    assert f.signal_names() == (["Force1", "Force2"], ["Acc1", "Acc2"])
+    assert f.signal_units() == (["N", "N"], ["m/s^2", ""])
+    assert f.gain_unit(0, 1) == "m/s^2/N" and f.gain_unit(1, 0) == ""
+    # plain arrays say nothing: the default names, no units
+    g = msid.frf(recs, design=d2)
+    assert g.signal_names() == (["u1", "u2"], ["y1", "y2"]) and "input_units" not in g.meta
+
+
 def test_frf_reads_c_float64_in_place(d2, recs):
     from msid import compute
     for r in recs:

@@ -66,6 +66,13 @@ def test_header_names_and_units_reach_every_output(tmp_path):
     m = sio.loadmat(tmp_path / "frf.mat")
     assert str(m["InputName"][0, 0][0]) == "Force" and str(m["OutputName"][0, 0][0]) == "Acc"
     assert str(m["InputUnit"][0, 0][0]) == "N" and str(m["OutputUnit"][0, 0][0]) == "m/s^2"
+    # the model carries them on (the names of the FRF it was fitted to), and its .mat export
+    msid("fit", "--method", "subspace", "--order", 1, out, "-o", tmp_path / "model.json")
+    mod = pkg.read_model(tmp_path / "model.json")
+    assert mod.signal_names() == (["Force"], ["Acc"]) and mod.signal_units() == (["N"], ["m/s^2"])
+    msid("export", tmp_path / "model.json", "--mat", tmp_path / "model.mat")
+    mm = sio.loadmat(tmp_path / "model.mat")
+    assert str(mm["InputName"][0, 0][0]) == "Force" and str(mm["OutputUnit"][0, 0][0]) == "m/s^2"
     # python-control
     ct = pytest.importorskip("control")
     frd = f.to_control()

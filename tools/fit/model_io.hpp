@@ -23,6 +23,11 @@ Json model_head(const Json &source, Domain d, double h, const std::string &metho
 
 // The state-space model: order, n_inputs, n_outputs, settings, A, B, C, D, stable.
 void model_put_ss(Json &doc, const SSModel &ss, int order, size_t nu, size_t ny, const Json &settings);
+// The signals' names and units of the data the model was fitted to (msid-frf/1's keys of the same
+// names), each written only when not empty.
+void model_put_signals(Json &doc, const std::vector<std::string> &input_names,
+                       const std::vector<std::string> &output_names, const std::vector<std::string> &input_units,
+                       const std::vector<std::string> &output_units);
 
 // "stability": stable, enforced (a constraint of the fit kept it stable), and the largest real part
 // (CT) or modulus (DT) of `poles`, the eigenvalues of A as the method computes them (null for no states).

@@ -51,6 +51,16 @@ void model_put_ss(Json &doc, const SSModel &ss, int order, size_t nu, size_t ny,
     doc["stable"] = ss_stable(ss);
 }
 
+void model_put_signals(Json &doc, const std::vector<std::string> &input_names,
+                       const std::vector<std::string> &output_names, const std::vector<std::string> &input_units,
+                       const std::vector<std::string> &output_units)
+{
+    if (!input_names.empty()) doc["input_names"] = input_names;
+    if (!output_names.empty()) doc["output_names"] = output_names;
+    if (!input_units.empty()) doc["input_units"] = input_units;
+    if (!output_units.empty()) doc["output_units"] = output_units;
+}
+
 Json model_stability(const SSModel &ss, bool enforced, const VecC &poles)
 {
     Json j;

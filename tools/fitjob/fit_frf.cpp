@@ -584,6 +584,7 @@ void finish_document(Fit &c)
         c.extra["iterations"] = c.iterations;
     }
     model_put_ss(doc, c.ss, (int)c.ss.n(), f.nu, f.ny, c.settings);
+    model_put_signals(doc, f.input_names, f.output_names, f.input_units, f.output_units);
     // balanced eigenvalues: the same poles as the modal table
     doc["stability"] = model_stability(c.ss, c.enforced_stable, c.ss.A.rows() ? ss_eigenvalues(c.ss.A) : VecC());
     doc["n_params"] = c.nparams;

@@ -156,6 +156,20 @@ FrfData read_frf(const std::string &path)
     }
     if (f.domain == Domain::CT && f.h <= 0) throw Error(where(path, "a continuous-time file needs 'sample_time'"));
     if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
+    // names and units: kept when they are lists of strings of the right length (readers fall back to
+    // u1.., y1.. otherwise, as the Python package does)
+    auto strings = [&](const char *key, size_t n) {
+        std::vector<std::string> v;
+        if (j.contains(key) && j[key].is_array() && j[key].size() == n)
+            for (const auto &x : j[key])
+                if (x.is_string()) v.push_back(x.get<std::string>());
+        if (v.size() != n) v.clear();
+        return v;
+    };
+    f.input_names = strings("input_names", f.nu);
+    f.output_names = strings("output_names", f.ny);
+    f.input_units = strings("input_units", f.nu);
+    f.output_units = strings("output_units", f.ny);
     if (j.contains("nonlinear_distortion") && j["nonlinear_distortion"].is_object() &&
         j["nonlinear_distortion"].contains("realisations") && j["nonlinear_distortion"]["realisations"].is_number_integer())
         f.realisations = (uint32_t)std::max<int64_t>(1, j["nonlinear_distortion"]["realisations"].get<int64_t>());

@@ -54,6 +54,8 @@ struct FrfData {
     // covariance per line (cov = M^T kron C_v, one Wishart with `dof`), so their dof is
     // not split over the experiments like the periodic nonparametric covariance's
     std::string method = "periodic";
+    // the signals' names and units (msid-frf/1 input_names .. output_units), empty when the file has none
+    std::vector<std::string> input_names, output_names, input_units, output_units;
     std::vector<Line> lines;
     size_t g() const { return (size_t)nu * ny; }
 };
