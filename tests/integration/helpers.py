@@ -21,7 +21,7 @@ def msid_bin():
     return b
 
 
-def run(*args, cwd=None, timeout=60):
+def run(*args, cwd=None, timeout=600):
     """Run `msid args...`; returns CompletedProcess with text stdout/stderr."""
     cmd = [msid_bin()] + [str(a) for a in args]
     return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=timeout)

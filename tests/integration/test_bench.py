@@ -19,7 +19,7 @@ def test_bench_bad_option():
 
 
 def test_bench_fit_siso_runs():
-    r = h.run("bench", "fit", "--only", "1", "--systems", "1", "--min-seconds", "0.01", timeout=120)
+    r = h.run("bench", "fit", "--only", "1", "--systems", "1", "--min-seconds", "0.01", timeout=600)
     assert r.returncode == 0, r.stderr
     assert "SISO n=4, 1000 lines" in r.stdout
     for m in ("subspace", "lmfd", "ml", "peer"):
@@ -36,7 +36,7 @@ def test_bench_fit_runs_bad_input():
 def test_bench_io_times_every_format(tmp_path):
     # each timed `msid frf` is started by posix_spawn with stdout on /dev/null; the kept files
     # are the timed job's, so its FRF file must be a whole msid-frf/1 document
-    r = h.run("bench", "io", "--no-peer", "--min-seconds", "0", "--keep", str(tmp_path), timeout=120)
+    r = h.run("bench", "io", "--no-peer", "--min-seconds", "0", "--keep", str(tmp_path), timeout=600)
     assert r.returncode == 0, r.stderr
     rows = [l.split() for l in r.stdout.splitlines() if l.split()[:1] in (["csv"], ["npy"], ["mat"])]
     assert [x[0] for x in rows] == ["csv", "npy", "mat"]

@@ -743,7 +743,7 @@ def test_csv_memory_is_the_samples_plus_a_constant(tmp_path):
             "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
     out = subprocess.run([sys.executable, "-c", code, h.msid_bin(), "frf", "--period", str(P), "--lines", "3",
                           "--columns", "u1=u1,y1=y1", "--experiment", str(f), "-o", str(tmp_path / "o.json")],
-                         capture_output=True, text=True, timeout=120, check=True).stdout.split()
+                         capture_output=True, text=True, timeout=600, check=True).stdout.split()
     rc, kib = int(out[0]), int(out[1])
     samples = 8 * 2 * n
     assert rc == 0
@@ -792,7 +792,7 @@ def test_files_read_in_parallel_report_the_first_bad_file(tmp_path, data):
     r = subprocess.run([h.msid_bin(), "frf", "--period", str(P), "--lines", ",".join(map(str, BINS)),
                         "--experiment", str(good[0]), "--experiment", str(good[1]),
                         "--experiment", "/dev/stdin", "-o", str(tmp_path / "ser.json")],
-                       input=third.read_bytes(), capture_output=True, timeout=60)   # stdin: a pipe
+                       input=third.read_bytes(), capture_output=True, timeout=600)   # stdin: a pipe
     assert r.returncode == 0, r.stderr.decode()
     ser = h.load_json(tmp_path / "ser.json")
     assert _lines(par) == _lines(ser)

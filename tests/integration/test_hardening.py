@@ -131,7 +131,7 @@ def test_file_size_limit_leaves_no_temporary(bench, tmp_path):
         resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
 
     r = subprocess.run([h.msid_bin()] + [str(a) for a in args] + ["-o", str(out)], capture_output=True, text=True,
-                       preexec_fn=limit, timeout=60)
+                       preexec_fn=limit, timeout=600)
     fails(tmp_path, r, "cannot write", out=out)
 
 

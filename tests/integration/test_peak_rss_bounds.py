@@ -34,7 +34,7 @@ def _frf(path):
     if not runner:
         pytest.skip("set MSID_PEAK_RSS_RUN to tests/integration/peak_rss_run (ctest does this)")
     r = subprocess.run([runner, str(rss_file), h.msid_bin(), "frf", "--period", "64", "--lines", "1,3",
-                        "--experiment", str(path), "-o", str(out_json)], capture_output=True, text=True, timeout=120)
+                        "--experiment", str(path), "-o", str(out_json)], capture_output=True, text=True, timeout=600)
     if r.returncode != 0:
         assert not out_json.exists(), f"{path.name}: an output was written"
     return r.returncode, r.stdout, r.stderr, int(rss_file.read_text())

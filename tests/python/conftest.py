@@ -18,11 +18,21 @@ import msid_emulator  # noqa: E402
 msid_emulator.wrap_binaries()   # cross builds: MSID_EMULATOR runs the binaries (tests/common/msid_emulator.py)
 
 
+def refuse_processes(monkeypatch):
+    """Make every way of starting a process fail the test (subprocess, os spawn/fork/exec)."""
+    def refuse(*a, **k):
+        raise AssertionError("a process was started")
+    monkeypatch.setattr(subprocess, "Popen", refuse)
+    for name in ("posix_spawn", "posix_spawnp", "fork", "system", "execv", "execve", "execvp"):
+        if hasattr(os, name):
+            monkeypatch.setattr(os, name, refuse)
+
+
 def msid(*args, cwd=None, check=True):
     b = os.environ.get("MSID_BIN")
     if not b:
         pytest.skip("MSID_BIN not set (ctest sets it)")
-    r = subprocess.run([b] + [str(a) for a in args], cwd=cwd, capture_output=True, text=True, timeout=120)
+    r = subprocess.run([b] + [str(a) for a in args], cwd=cwd, capture_output=True, text=True, timeout=600)
     if check:
         assert r.returncode == 0, f"msid {' '.join(map(str, args))} failed ({r.returncode}):\n{r.stderr}"
     return r

@@ -291,7 +291,7 @@ def test_pip_install(demo, tmp_path):
     shutil.copytree(ROOT / "tools" / "python", src, ignore=shutil.ignore_patterns("__pycache__"))
     r = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-build-isolation", "--no-deps",
                         "--no-index", "-C", "wheel.cmake=false", "--target", str(tmp_path / "site"), str(src)],
-                       capture_output=True, text=True, timeout=240)
+                       capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     code = ("import msid, sys; f = msid.read_frf(sys.argv[1]); "
             "print(msid.__file__, f.G.shape, msid.plot.__name__, msid.report.__name__)")

@@ -36,7 +36,11 @@ static int64_t ival(const Json &o, const char *k, const std::string &file)
 
 ModelFile read_model(const std::string &path)
 {
-    const Json j = read_json(path);
+    return parse_model(read_json(path), path);
+}
+
+ModelFile parse_model(const Json &j, const std::string &path)
+{
     if (!j.is_object() || !j.contains("format") || j["format"] != "msid-model/1")
         throw FitError("'" + path + "': format is " + (j.is_object() && j.contains("format") ? j["format"].dump() : "missing") +
                        ", expected \"msid-model/1\"");

@@ -68,5 +68,7 @@ struct ModelFile {
 };
 
 ModelFile read_model(const std::string &path);
+// The same on a document already in memory; `name` stands for the file in messages and ModelFile::path.
+ModelFile parse_model(const Json &doc, const std::string &name);
 
 }  // namespace msidfit

@@ -12,7 +12,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "frf_data.hpp"
 #include "frf_file.hpp"
+#include "model_io.hpp"
 #include "msid_host_error.hpp"
 #include "msid_records.hpp"
 #include "multi.hpp"
@@ -111,6 +113,29 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
 void check_multi(const MultiRequest &rq, bool noise_records);
 FitOutcome fit_multi(const std::vector<Record> &recs, const std::vector<Record> &noise_recs, const MultiRequest &rq,
                      const Report &report = {});
+
+// `msid validate MODEL FRF`: the weighted residual cost of the model on the FRF against its law, a
+// p-value, per-line normalised residuals, the verdict at 5% and, when the FRF carries it, the noise
+// level against the nonlinear distortion level (docs/fitting.md, "Validation").
+struct ValidateRequest {
+    // cov | known-input | none; unset: known-input for a model fitted with it, else cov, and unit
+    // weights only for an FRF without any covariance
+    std::optional<msidfit::Weight> weight;
+    std::string lpm_lines = "independent";   // independent | all (LPM files)
+};
+struct ValidateOutcome {
+    Json report;                     // the msid-validation/1 document (msid validate -o)
+    std::vector<std::string> text;   // what msid validate prints, one line each
+    bool consistent = false;         // p-value >= 0.05
+};
+// The FRF's document (frf_doc, from which f was parsed) carries what the FRF data do not hold: its
+// nonlinear-distortion block and detection lines. Throws FitError (the data cannot validate the model)
+// or UsageError (lpm_lines).
+ValidateOutcome validate_frf(const msidfit::ModelFile &mf, const FrfData &f, const Json &frf_doc,
+                             const ValidateRequest &rq = {});
+// A free-response model (no inputs, msid fit --method multi) has no FRF: FitError naming the way it is
+// validated (on records). validate_frf checks it first; a caller may before it reads the FRF.
+void check_model_has_frf(const msidfit::ModelFile &mf);
 
 // The records of a multi fit or its validation as its u, y matrices (the same channels in every one).
 std::vector<msidfit::MultiRecord> multi_records(const std::vector<Record> &recs);

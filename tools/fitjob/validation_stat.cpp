@@ -18,15 +18,13 @@ size_t lpm_line_stride(const FrfData &f, const std::string &mode)
     if (mode != "independent" && mode != "all")
         throw UsageError("--lpm-lines must be independent or all (got '" + mode + "')");
     if (f.method != "lpm" || mode == "all") return 1;
-    const Json j = read_json(f.path);
-    if (!j.contains("lpm") || !j["lpm"].contains("window") || !j["lpm"]["window"].is_number_unsigned() ||
-        j["lpm"]["window"].get<uint64_t>() < 1 || j["lpm"]["window"].get<uint64_t>() > 1000000)
+    if (f.lpm_window < 1 || f.lpm_window > 1000000)
         throw FitError("'" + f.path + "' is an LPM file without a valid lpm.window: cannot tell which lines are independent");
     for (size_t l = 1; l < f.lines.size(); ++l)
         if (f.lines[l].bin != f.lines[l - 1].bin + 1)
             throw FitError("'" + f.path + "': LPM lines are not consecutive bins (bin " + std::to_string(f.lines[l].bin) +
                            " after " + std::to_string(f.lines[l - 1].bin) + "): cannot tell which lines are independent");
-    return 2 * (size_t)j["lpm"]["window"].get<uint64_t>() + 1;
+    return 2 * (size_t)f.lpm_window + 1;
 }
 
 ValidationStat validation_stat(const std::vector<WeightedLine> &w, const std::vector<MatC> &Gm, double n_params,

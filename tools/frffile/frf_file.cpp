@@ -134,7 +134,11 @@ static void check_covariance(const MatC &C, const std::string &path, const std::
 
 FrfData read_frf(const std::string &path)
 {
-    const Json j = read_json(path);
+    return parse_frf(read_json(path), path);
+}
+
+FrfData parse_frf(const Json &j, const std::string &path)
+{
     const Json &fm = need(j, "format", path);
     if (!fm.is_string() || fm.get<std::string>() != "msid-frf/1")
         throw Error(where(path, "format is " + fm.dump() + ", expected \"msid-frf/1\""));
@@ -156,6 +160,8 @@ FrfData read_frf(const std::string &path)
     }
     if (f.domain == Domain::CT && f.h <= 0) throw Error(where(path, "a continuous-time file needs 'sample_time'"));
     if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
+    if (j.contains("lpm") && j["lpm"].is_object() && j["lpm"].contains("window") && j["lpm"]["window"].is_number_unsigned())
+        f.lpm_window = j["lpm"]["window"].get<uint64_t>();
     // names and units: kept when they are lists of strings of the right length (readers fall back to
     // u1.., y1.. otherwise, as the Python package does)
     auto strings = [&](const char *key, size_t n) {

@@ -54,6 +54,9 @@ struct FrfData {
     // covariance per line (cov = M^T kron C_v, one Wishart with `dof`), so their dof is
     // not split over the experiments like the periodic nonparametric covariance's
     std::string method = "periodic";
+    // LPM files: lpm.window W as written (lines share 2W of their 2W+1 bins); 0 when absent or not an
+    // unsigned integer (validation_stat.hpp refuses such an LPM file)
+    uint64_t lpm_window = 0;
     // the signals' names and units (msid-frf/1 input_names .. output_units), empty when the file has none
     std::vector<std::string> input_names, output_names, input_units, output_units;
     std::vector<Line> lines;
@@ -68,6 +71,10 @@ Json read_json(const std::string &path);
 // Read and validate an msid-frf/1 file (format, shapes, finiteness, dof >= 1). Throws
 // Error naming the file and the offending entry.
 FrfData read_frf(const std::string &path);
+
+// The same checks on a document already in memory (the Python extension's FRFs); `name` stands for
+// the file in messages and in FrfData::path.
+FrfData parse_frf(const Json &doc, const std::string &name);
 
 // A rows x cols {"re", "im"} matrix of a document (finite numbers of that shape); `file`
 // and `what` name it in the message.

@@ -4,7 +4,6 @@
 #include "commands.hpp"
 #include "host_libs.hpp"
 #include "msid_fit_job.hpp"
-#include "validation_stat.hpp"
 
 #include "model_io.hpp"
 #include "stats.hpp"
@@ -19,10 +18,6 @@
 namespace msidcli {
 
 using namespace msidfit;
-using msidfitjob::check_weight_periods;
-using msidfitjob::lpm_line_stride;
-using msidfitjob::validation_stat;
-using msidfitjob::ValidationStat;
 
 static const char *FIT_HELP =
     "Which method: ml for the model you report (weighted maximum likelihood: the best fit to the data's\n"
@@ -176,25 +171,6 @@ static const char *VAL_HELP =
     "LPM files: neighbouring lines share 2W of their 2W+1 window bins, so the cost is summed over every\n"
     "(2W+1)-th line, which are independent (--lpm-lines all: every line, an optimistic p-value).\n";
 
-// The model describes the FRF's channels and frequencies.
-static void check_model_matches_frf(const ModelFile &mf, const FrfData &f)
-{
-    if (mf.ss.B.cols() != (Eigen::Index)f.nu || mf.ss.C.rows() != (Eigen::Index)f.ny)
-        throw FitError("the model has " + std::to_string(mf.ss.B.cols()) + " inputs and " +
-                       std::to_string(mf.ss.C.rows()) + " outputs, the FRF " + std::to_string(f.nu) + " and " +
-                       std::to_string(f.ny));
-    // A continuous-time model is evaluated at s = j omega (rad/s): an FRF without a sample time has
-    // its lines in rad/sample, where the model was evaluated without a word (a verdict on the wrong
-    // frequencies). A DT model fitted at another sample time describes other frequencies too.
-    if (mf.domain == Domain::CT && f.domain == Domain::DT && f.h <= 0)
-        throw FitError("'" + mf.path + "' is a continuous-time model and '" + f.path +
-                       "' a discrete-time FRF without a sample time: its lines have no frequency in rad/s "
-                       "(give --fs to msid frf)");
-    if (mf.domain == Domain::DT && mf.h > 0 && f.h > 0 && std::abs(mf.h - f.h) > 1e-9 * f.h)
-        throw FitError(fmt("'%s' was fitted at sample time %g s and '%s' has %g s: the lines are at other "
-                           "frequencies", mf.path.c_str(), mf.h, f.path.c_str(), f.h));
-}
-
 int cmd_validate(int argc, char **argv)
 {
     if (validate_on_records(argc, argv)) return cmd_validate_multi(argc, argv);   // time records (cmd_fit_multi.cpp)
@@ -202,81 +178,15 @@ int cmd_validate(int argc, char **argv)
     if (a.positional().size() != 2) throw UsageError("give a model file and an FRF file");
     try {
         const ModelFile mf = read_model(a.positional()[0]);
-        if (mf.ss.B.cols() == 0)
-            throw FitError("'" + mf.path + "' is a free-response model (no inputs, from msid fit --method multi): it has no "
-                           "FRF; validate it on time records with --experiment FILE");
-        const FrfData f = read_frf(a.positional()[1]);
-        check_model_matches_frf(mf, f);
-        // The verdict comes from the FRF covariance whatever weighting the fit used (a --weight none
-        // fit is validated with the covariance: unit weights would make the verdict depend on the units).
-        Weight wt = a.enum_<Weight>("weight", mf.weight == "known-input" ? Weight::KnownInput : Weight::Cov, WEIGHTS);
-        std::string wname = a.has("weight") ? a.get("weight") : (mf.weight == "known-input" ? "known-input" : "cov");
-        std::vector<WeightedLine> w;
-        // unit weights only for a file without covariance (noted below); a covariance that is there but
-        // unusable (too few periods for the outputs, not positive definite) is refused with its cause:
-        // a fall-back to unit weights gave "consistent, p = 1" for any model
-        bool has_cov = false;
-        for (const auto &l : f.lines) has_cov = has_cov || l.cov.size() > 0;
-        if (!has_cov && !a.has("weight") && wt == Weight::Cov) {
-            wname = "none";
-            wt = Weight::None;
-        }
-        w = weigh(f, mf.domain, wt);
-        if (wt != Weight::None) check_weight_periods(w, f, true);
-        const size_t stride = lpm_line_stride(f, a.has("lpm-lines") ? a.get("lpm-lines") : "independent");
-        std::vector<MatC> Gm;
-        for (const auto &l : w) Gm.push_back(mf.lmfd ? lmfd_eval(*mf.lmfd, l.x) : ss_eval(mf.ss, l.x));
-        const ValidationStat vs = validation_stat(w, Gm, mf.n_params, stride, (double)f.ny, wt == Weight::None);
-        if (!(vs.dof > 0))
-            throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(vs.dof) + ")");
-        const double V = vs.cost, dof = vs.dof, pv = vs.p_value;
-        if (!std::isfinite(V) || std::isnan(pv))   // never a verdict from a cost that is not a number
-            throw FitError(fmt("the weighted cost of '%s' on '%s' is %g: the model's FRF is not finite at the lines",
-                               mf.path.c_str(), f.path.c_str(), V));
-        Json per = Json::array();
-        const double g = (double)f.g();
-        int worst = -1;
-        double worst_q = -1;
-        for (size_t l = 0; l < w.size(); ++l) {
-            const double q = vs.q[l];
-            // per line: q / (expected under the model) ~ 1
-            const double ex = (w[l].real ? 0.5 : 1.0) * g * (w[l].dof < 1e8 && w[l].dof > f.ny ? w[l].dof / (w[l].dof - f.ny) : 1.0);
-            Json pl;
-            pl["bin"] = f.lines[l].bin;
-            pl["freq"] = f.lines[l].freq;
-            pl["normalised_residual"] = q / ex;
-            per.push_back(pl);
-            if (q / ex > worst_q) { worst_q = q / ex; worst = (int)l; }
-        }
-        const bool ok = pv >= 0.05;
-        std::printf("model %s on %s: weighted cost %.6g, expected %.6g (dof %.0f), p-value %.4g\n", mf.path.c_str(),
-                    f.path.c_str(), V, vs.expected, dof, pv);
-        if (worst >= 0)
-            std::printf("largest normalised residual %.3g at bin %u (1 expected on average)\n", worst_q, f.lines[(size_t)worst].bin);
-        if (stride > 1)
-            std::printf("LPM file: the cost sums every %zu-th line (2W+1 bins apart: independent), %zu of %zu lines\n",
-                        stride, (w.size() + stride - 1) / stride, w.size());
-        std::printf("verdict: %s\n", ok ? "consistent with the data at 5%" : "NOT consistent with the data at 5%");
-        if (wt == Weight::None) std::printf("note: unweighted residuals: the p-value assumes unit noise\n");
-        const Json nlv = distortion_verdict(f.path, mf, wname, pv);   // noise vs distortion level (frf_bla.cpp)
-        if (a.has("output")) {
-            Json r;
-            r["format"] = "msid-validation/1";
-            r["model"] = mf.path;
-            r["frf"] = f.path;
-            r["weight"] = wname;
-            r["cost"] = V;
-            r["expected"] = vs.expected;
-            r["dof"] = dof;
-            r["p_value"] = pv;
-            r["consistent_at_5pct"] = ok;
-            r["lines_in_statistic"] = stride > 1 ? fmt("every %zu-th line (2W+1, independent LPM lines)", stride)
-                                                 : std::string("all");
-            r["line_stride"] = stride;
-            if (!nlv.is_null()) r["nonlinear_distortion"] = nlv;
-            r["lines"] = per;
-            write_json_file(a.get("output"), r, false);
-        }
+        msidfitjob::check_model_has_frf(mf);
+        const Json frf_doc = read_json(a.positional()[1]);
+        const FrfData f = msidfrf::parse_frf(frf_doc, a.positional()[1]);
+        msidfitjob::ValidateRequest rq;
+        if (a.has("weight")) rq.weight = a.enum_<Weight>("weight", Weight::Cov, WEIGHTS);
+        if (a.has("lpm-lines")) rq.lpm_lines = a.get("lpm-lines");
+        const msidfitjob::ValidateOutcome v = msidfitjob::validate_frf(mf, f, frf_doc, rq);
+        for (const std::string &line : v.text) std::printf("%s\n", line.c_str());
+        if (a.has("output")) write_json_file(a.get("output"), v.report, false);
         return 0;
     } catch (const FitError &e) {
         throw Error(e.what());

@@ -64,7 +64,6 @@ using msidjob::line_position;
 using msidjob::cplx_json;
 using msidjob::est_line_json;
 using msidjob::detection_distortion;
-using msidjob::distortion_verdict;
 using msidjob::find_period;
 using msidjob::find_lines;
 using msidjob::format_bins;

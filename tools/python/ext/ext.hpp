@@ -57,8 +57,15 @@ E choose(const std::string &what, const std::string &v, std::initializer_list<st
 // internal error (the Python layer converts; this is the check that it did).
 const double *samples_of(const py::array &a, size_t &rows, size_t &cols);
 
+// The arrays compute.py put in order (C-contiguous float64, columns u1.., y1..) as records read in
+// place (Record::view), kept alive by the caller's list; nu[k] = 0 only where inputs are optional
+// (free responses of msid fit --method multi).
+std::vector<msidrec::Record> records_of(const py::list &arrays, const py::list &names, const py::list &columns,
+                                        const std::vector<uint32_t> &nu, bool inputs_optional);
+
 void register_frf(py::module_ &m);
 void register_measurement(py::module_ &m);
 void register_design(py::module_ &m);
+void register_fit(py::module_ &m);
 
 }  // namespace msidpy

@@ -94,4 +94,23 @@ const double *samples_of(const py::array &a, size_t &rows, size_t &cols)
     return static_cast<const double *>(a.data());
 }
 
+std::vector<msidrec::Record> records_of(const py::list &arrays, const py::list &names, const py::list &columns,
+                                        const std::vector<uint32_t> &nu, bool inputs_optional)
+{
+    std::vector<msidrec::Record> recs(arrays.size());
+    for (size_t k = 0; k < recs.size(); ++k) {
+        msidrec::Record &r = recs[k];
+        size_t rows = 0, cols = 0;
+        r.view = samples_of(arrays[k].cast<py::array>(), rows, cols);
+        r.path = names[k].cast<std::string>();
+        r.columns = columns[k].cast<std::vector<std::string>>();
+        if ((nu.at(k) == 0 && !inputs_optional) || nu[k] >= cols || r.columns.size() != cols)
+            throw std::logic_error("internal error: columns of " + r.path);
+        r.nu = nu[k];
+        r.ny = (uint32_t)(cols - nu[k]);
+        r.n_rows = rows;
+    }
+    return recs;
+}
+
 }  // namespace msidpy

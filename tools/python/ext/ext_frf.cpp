@@ -49,26 +49,6 @@ static void request_estimator(const py::dict &opts, FrfRequest &rq, FrfPlan &pla
     }
 }
 
-// The arrays as records: read in place (Record::view), kept alive by the caller's list.
-static std::vector<Record> records_of(const py::list &arrays, const py::list &names, const py::list &columns,
-                                      const std::vector<uint32_t> &nu)
-{
-    std::vector<Record> recs(arrays.size());
-    for (size_t k = 0; k < recs.size(); ++k) {
-        Record &r = recs[k];
-        size_t rows = 0, cols = 0;
-        r.view = samples_of(arrays[k].cast<py::array>(), rows, cols);
-        r.path = names[k].cast<std::string>();
-        r.columns = columns[k].cast<std::vector<std::string>>();
-        if (nu.at(k) == 0 || nu[k] >= cols || r.columns.size() != cols)
-            throw std::logic_error("internal error: columns of " + r.path);
-        r.nu = nu[k];
-        r.ny = (uint32_t)(cols - nu[k]);
-        r.n_rows = rows;
-    }
-    return recs;
-}
-
 static py::dict frf(const py::list &arrays, const py::list &names, const py::list &columns,
                     const std::vector<uint32_t> &nu, const py::dict &opts, const py::object &design)
 {
@@ -78,7 +58,7 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
     request_lines(opts, rq, plan, D);
     request_options(opts, rq, D);
     request_estimator(opts, rq, plan, D);
-    std::vector<Record> recs = records_of(arrays, names, columns, nu);
+    std::vector<Record> recs = records_of(arrays, names, columns, nu, false);
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
     FrfOutcome o;
@@ -107,14 +87,15 @@ void register_frf(py::module_ &m)
           py::arg("design"), "The FRF job on C-contiguous float64 records (use msid.frf).");
     m.def(
         "resolve_columns",
-        [](const std::string &where, const std::vector<std::string> &names, const std::string &spec) {
+        [](const std::string &where, const std::vector<std::string> &names, const std::string &spec, bool free) {
             msidrec::ColumnMap cm;
-            if (!spec.empty()) cm = msidrec::parse_column_map(spec);
+            if (!spec.empty()) cm = msidrec::parse_column_map(spec, free);
+            cm.inputs_optional = free;
             uint32_t nu = 0, ny = 0;
             std::vector<size_t> src = msidrec::resolve_columns(where, names, cm, false, nu, ny);
             return py::make_tuple(src, nu, ny);
         },
-        py::arg("where"), py::arg("names"), py::arg("spec"),
+        py::arg("where"), py::arg("names"), py::arg("spec"), py::arg("inputs_optional") = false,
         "Which of `names` feed u1.., y1.. (a --columns spec, or the u<k>/y<k> names): (indices, nu, ny).");
 }
 

@@ -3,6 +3,8 @@
 
 #include <new>
 
+#include "frf_file.hpp"
+
 namespace msidpy {
 
 // msidutil::Error's kind decides the exception: a file or device that cannot be used is an
@@ -14,6 +16,9 @@ static void translate(std::exception_ptr p)
         if (p) std::rethrow_exception(p);
     } catch (const msidutil::Error &e) {
         PyErr_SetString(e.kind == msidutil::ErrorKind::io ? PyExc_OSError : PyExc_ValueError, e.what());
+    } catch (const msidfrf::Error &e) {
+        // the FRF and model documents and the fits (msidfit::FitError): the data cannot give a result
+        PyErr_SetString(PyExc_ValueError, e.what());
     }
 }
 
@@ -21,9 +26,10 @@ static void translate(std::exception_ptr p)
 
 PYBIND11_MODULE(_msid, m)
 {
-    m.doc() = "msid's host libraries in process (use the msid package: msid.frf, msid.Measurement, msid.design)";
+    m.doc() = "msid's host libraries in process (use the msid package: msid.frf, msid.Measurement, msid.design, msid.fit)";
     pybind11::register_exception_translator(&msidpy::translate);
     msidpy::register_design(m);
     msidpy::register_frf(m);
     msidpy::register_measurement(m);
+    msidpy::register_fit(m);
 }

@@ -2,20 +2,24 @@
 
 In process, over the C++ libraries of the msid command line (the compiled module msid._msid, built by
 the msid build or pip install ./tools/python): msid.frf (arrays -> FRF, the bits of `msid frf`),
-msid.Measurement (samples pushed block by block), msid.design / msid.read_design (msid-design/1).
+msid.Measurement (samples pushed block by block), msid.design / msid.read_design (msid-design/1),
+msid.fit (FRF -> Model, the model of `msid fit`) and msid.validate / Model.validate (`msid validate`).
 
 File access (NumPy only, no compiled module needed): read_frf / write_frf (msid-frf/1), read_model /
 write_model (msid-model/1), FRF.to_control() / Model.to_control() (python-control FRD, StateSpace, TransferFunction) and back
 (FRF.from_control, Model.from_control). Plots (matplotlib): msid.plot (python3 -m msid.plot) and the
 HTML report msid.report (python3 -m msid.report OUTDIR). Exact regions: msid.regions. See docs/python.md.
 """
-from .files import FRF, Model, FormatError, frf_from_doc, read_frf, read_model, write_frf, write_model  # noqa: F401
+from .files import (FRF, Model, FormatError, frf_from_doc, frf_to_doc, read_frf, read_model, write_frf,  # noqa: F401
+                    write_model)
 # msid._msid is imported by these on their first call, so the file functions work without it
-from .compute import Design, Measurement, NoteWarning, design, frf, read_design  # noqa: F401
+from .compute import (ConvergenceWarning, Design, Measurement, NoteWarning, Validation, design, fit, frf,  # noqa: F401
+                      read_design, validate)
 
 __version__ = "0.1.0"
-__all__ = ["frf", "Measurement", "Design", "design", "read_design", "NoteWarning",
-           "FRF", "Model", "FormatError", "frf_from_doc", "read_frf", "read_model", "write_frf", "write_model",
+__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "NoteWarning",
+           "ConvergenceWarning", "FRF", "Model", "FormatError", "frf_from_doc", "frf_to_doc", "read_frf", "read_model",
+           "write_frf", "write_model",
            "plot", "report", "regions"]
 
 

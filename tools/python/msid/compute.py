@@ -16,16 +16,22 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from .files import FRF, frf_from_doc
+from .files import FRF, Model, frf_from_doc, frf_to_doc, model_to_doc
 
 PathLike = Union[str, "os.PathLike[str]"]
 Bins = Union[str, Sequence[int], np.ndarray]
 
-__all__ = ["frf", "Measurement", "Design", "design", "read_design", "NoteWarning"]
+__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "NoteWarning",
+           "ConvergenceWarning"]
 
 
 class NoteWarning(UserWarning):
     """A note msid prints beside a result (a start-up transient, samples after the last whole period, distortion)."""
+
+
+class ConvergenceWarning(UserWarning):
+    """A fit whose iterations ran out before convergence (`msid fit` exits with status 3); the model is
+    kept and marked "converged": false."""
 
 
 def _ext():
@@ -117,13 +123,13 @@ def _real_samples(a, where):
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def _record(r, where, spec, n_inputs):
+def _record(r, where, spec, n_inputs, free=False):
     """One experiment's record as (samples, column names, nu): a 2-D array (rows are samples; columns
     u1..u_nu then y1..y_ny, numbered from 1 as in a .npy) or a pandas DataFrame (named columns)."""
     ext = _ext()
     if hasattr(r, "columns") and hasattr(r, "iloc"):     # a pandas DataFrame
         names = [str(c) for c in r.columns]
-        idx, nu, _ = ext.resolve_columns(where, names, spec)
+        idx, nu, _ = ext.resolve_columns(where, names, spec, free)
         a = _real_samples(r.iloc[:, list(idx)].to_numpy(), where)
         return a, [names[i] for i in idx], nu
     a = np.asarray(r)
@@ -138,10 +144,10 @@ def _record(r, where, spec, n_inputs):
         nu = _uint(n_inputs, "n_inputs")
         spec = ",".join([f"u{k + 1}={k + 1}" for k in range(min(nu, C))] +
                         [f"y{k + 1}={nu + k + 1}" for k in range(max(C - nu, 0))])
-        if nu == 0 or C <= nu:
+        if (nu == 0 and not free) or C <= nu:
             raise ValueError(f"'{where}' has {C} column(s): {nu} input(s) leave no output column")
     names = [str(k + 1) for k in range(C)]
-    idx, nu, _ = ext.resolve_columns(where, names, spec)
+    idx, nu, _ = ext.resolve_columns(where, names, spec, free)
     idx = list(idx)
     if idx != list(range(C)):
         a = a[:, idx]
@@ -150,13 +156,13 @@ def _record(r, where, spec, n_inputs):
     return _real_samples(a, where), [names[i] for i in idx], nu
 
 
-def _records(records, columns, n_inputs):
+def _records(records, columns, n_inputs, free=False, label="records"):
     items = list(records) if isinstance(records, (list, tuple)) else [records]
     if not items:
-        raise ValueError("no records given: one 2-D array (or DataFrame) per experiment")
+        raise ValueError(f"no {label} given: one 2-D array (or DataFrame) per experiment")
     spec = _column_spec(columns)
-    out = [_record(r, f"records[{k}]", spec, n_inputs) for k, r in enumerate(items)]
-    return [o[0] for o in out], [f"records[{k}]" for k in range(len(out))], [o[1] for o in out], [o[2] for o in out]
+    out = [_record(r, f"{label}[{k}]", spec, n_inputs, free) for k, r in enumerate(items)]
+    return [o[0] for o in out], [f"{label}[{k}]" for k in range(len(out))], [o[1] for o in out], [o[2] for o in out]
 
 
 def _result(res, where):
@@ -343,3 +349,206 @@ def design(period: int, lines: Optional[Bins] = None, *, omega: Optional[Sequenc
 def read_design(path: PathLike) -> "Design":
     """Read an msid-design/1 file (OSError if it cannot be read, ValueError if it is not a valid design)."""
     return Design(_ext().read_design(os.fspath(path)))
+
+
+# ---- fits and validation ----
+
+def _frf_json(frf, what):
+    """An FRF (msid.FRF, or an msid-frf/1 file's path) as JSON text and the name msid gives it: a file
+    is handed over as written, so the fit reads the bytes `msid fit` reads and names it by its path."""
+    if isinstance(frf, (str, os.PathLike)):
+        path = os.fspath(frf)
+        try:
+            with open(path, "r", encoding="utf-8") as fh:
+                return fh.read(), path
+        except OSError as e:
+            raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
+    if not isinstance(frf, FRF):
+        raise TypeError(f"{what} must be an msid.FRF or an msid-frf/1 file's path, not {type(frf).__name__}")
+    import json
+    try:
+        return json.dumps(frf_to_doc(frf, complete=False), allow_nan=False), "(in-memory FRF)"
+    except ValueError as e:
+        raise ValueError(f"{what}: {e} (an FRF holds finite numbers only)") from None
+
+
+def _order(order):
+    if order is None:
+        return None
+    if isinstance(order, str):
+        return order
+    if isinstance(order, range):
+        if order.step != 1 or len(order) == 0:
+            raise ValueError(f"order range must be consecutive and non-empty, not {order!r}")
+        return f"{order.start}:{order.stop - 1}"
+    return str(_uint(order, "order"))
+
+
+_FRF_FIT_OPTIONS = {"nd", "nn", "domain", "weight", "noise_var", "r", "stable", "allow_unstable", "no_d", "pins", "start",
+                    "max_iter", "delta", "beta", "feedthrough", "param", "refine", "weight_smooth"}
+_CISSIM_OPTIONS = {"period", "lines", "design", "max_order", "block_rows", "lags", "skip_periods", "reduced", "no_d",
+                   "no_covariance", "unweighted", "allow_unstable", "isp", "refine", "columns", "n_inputs"}
+_MULTI_OPTIONS = {"order_rule", "noise_ar", "noise_ar_order", "input_noise_ratio", "fs", "feedthrough", "start",
+                  "max_iter", "columns", "n_inputs", "noise_records"}
+
+
+def _frf_fit_opts(method, order, o):
+    u = lambda k: None if o.get(k) is None else _uint(o[k], k)          # noqa: E731
+    f = lambda k: None if o.get(k) is None else _float(o[k], k)         # noqa: E731
+    t = lambda k: None if o.get(k) is None else str(o[k])               # noqa: E731
+    pins = o.get("pins", ())
+    return {"method": method, "order": _order(order), "nd": u("nd"), "nn": u("nn"), "domain": t("domain"),
+            "weight": str(o.get("weight", "cov")), "noise_var": f("noise_var"), "r": u("r"),
+            "stable": bool(o.get("stable", False)), "allow_unstable": bool(o.get("allow_unstable", False)),
+            "no_d": bool(o.get("no_d", False)), "pins": [str(p) for p in ([pins] if isinstance(pins, str) else pins)],
+            "start": None if o.get("start") is None else os.fspath(o["start"]), "max_iter": u("max_iter"),
+            "delta": f("delta"), "beta": f("beta"), "feedthrough": t("feedthrough"), "param": t("param"),
+            "refine": t("refine"), "weight_smooth": u("weight_smooth")}
+
+
+def _cissim_opts(order, o):
+    D = _design_arg(o.get("design"))
+    period, lines = o.get("period"), o.get("lines")
+    if D is not None:
+        if period is not None or lines is not None:
+            raise ValueError("give either design or period/lines, not both")
+        period, lines = D.period, list(D.bins)
+    u = lambda k: None if o.get(k) is None else _uint(o[k], k)          # noqa: E731
+    return {"period": None if period is None else _uint(period, "period"),
+            "lines": None if lines is None else _uint_list(lines, "lines"),
+            "order": None if order is None else _uint(order, "order"), "max_order": u("max_order"),
+            "block_rows": u("block_rows"), "lags": u("lags"), "skip_periods": _uint(o.get("skip_periods", 1), "skip_periods"),
+            "reduced": bool(o.get("reduced", False)), "no_d": bool(o.get("no_d", False)),
+            "no_covariance": bool(o.get("no_covariance", False)), "unweighted": bool(o.get("unweighted", False)),
+            "allow_unstable": bool(o.get("allow_unstable", False)), "isp": str(o.get("isp", "auto")),
+            "refine": str(o.get("refine", "ml"))}, (None if D is None else D.n_inputs)
+
+
+def _multi_opts(order, o):
+    ar = o.get("noise_ar")
+    return {"order": _order(order), "order_rule": None if o.get("order_rule") is None else str(o["order_rule"]),
+            "noise_ar": None if ar is None else [_float(c, "noise_ar") for c in np.asarray(ar, dtype=float).reshape(-1)],
+            "noise_ar_order": None if o.get("noise_ar_order") is None else _uint(o["noise_ar_order"], "noise_ar_order"),
+            "input_noise_ratio": None if o.get("input_noise_ratio") is None else _float(o["input_noise_ratio"], "input_noise_ratio"),
+            "fs": None if o.get("fs") is None else _float(o["fs"], "fs"),
+            "feedthrough": str(o.get("feedthrough", "no")), "start": str(o.get("start", "auto")),
+            "max_iter": None if o.get("max_iter") is None else _uint(o["max_iter"], "max_iter"),
+            "columns": _column_spec(o.get("columns")) or None}
+
+
+def fit(data: Any, method: str = "subspace", order: Union[int, str, range, None] = None, **options) -> Model:
+    """A parametric model, as `msid fit` fits it from files: the same data and options give the same model
+    document (docs/fitting.md for the methods, their defaults and options).
+
+    method "subspace", "lmfd", "ml": data is an msid.FRF (msid.frf, read_frf) or an msid-frf/1 file's path.
+      order: an integer, "auto" or a range "a:b" / "a:step:b" (also range(a, b + 1)): the order scan fits every
+      order and keeps one, with the scan in model.stabilisation. None: the method's default (ml: auto;
+      subspace: from the singular values). Options: nd, nn (LMFD degrees), domain ("dt", "ct"), weight ("cov",
+      "known-input", "none"), noise_var, r, stable, allow_unstable, no_d, pins (["N0=0", ...]), start, max_iter,
+      delta, beta, feedthrough ("auto", "yes", "no"), param ("poles", "lmfd"), refine ("ml", "none" or a number
+      of steps), weight_smooth.
+    method "cissim": data is periodic time records as msid.frf takes them (one 2-D array or DataFrame per
+      experiment; columns u1.., y1..). Options: design, or period and lines; max_order, block_rows, lags,
+      skip_periods (default 1), reduced, no_d, no_covariance, unweighted, allow_unstable, isp, refine,
+      columns, n_inputs.
+    method "multi": data is records of any lengths (inputs may be left out: free responses, n_inputs=0).
+      order is required. Options: order_rule ("mdl", "aic"), noise_ar (c1..cp), noise_ar_order,
+      noise_records (noise-only records, same columns), input_noise_ratio, fs, feedthrough ("no", "yes"),
+      start ("auto", "kung", "prony", "sm"), max_iter, columns, n_inputs.
+    The option names are `msid fit`'s with underscores for dashes.
+
+    Returns an msid.Model (model.notes: msid's notes, also issued as NoteWarning). Iterations that ran out
+    give the best iterate marked "converged": false and a ConvergenceWarning (`msid fit` exits with 3).
+    Raises ValueError with msid's message when the data cannot give the model or an option is bad, OSError
+    for a file it cannot read, TypeError for an option the method does not take.
+    """
+    method = str(method)
+    allowed = {"subspace": _FRF_FIT_OPTIONS, "lmfd": _FRF_FIT_OPTIONS, "ml": _FRF_FIT_OPTIONS,
+               "cissim": _CISSIM_OPTIONS, "multi": _MULTI_OPTIONS}.get(method)
+    if allowed is None:
+        raise ValueError(f"method must be one of 'subspace', 'lmfd', 'ml', 'cissim', 'multi', not '{method}'")
+    bad = sorted(set(options) - allowed)
+    if bad:
+        raise TypeError(f"msid.fit(method='{method}') takes no option {', '.join(bad)} "
+                        f"(its options: {', '.join(sorted(allowed))})")
+    if method == "cissim":
+        opts, nu = _cissim_opts(order, options)
+        n_inputs = options.get("n_inputs", nu)
+        recs = _records(data, options.get("columns"), n_inputs)
+        res = _ext().fit_records(method, recs, ([], [], [], []), opts)
+    elif method == "multi":
+        opts = _multi_opts(order, options)
+        recs = _records(data, options.get("columns"), options.get("n_inputs"), free=True)
+        nr = options.get("noise_records")
+        noise = ([], [], [], []) if nr is None else _records(nr, options.get("columns"), options.get("n_inputs"),
+                                                             free=True, label="noise_records")
+        res = _ext().fit_records(method, recs, noise, opts)
+    else:
+        text, name = _frf_json(data, "frf")
+        res = _ext().fit(text, name, _frf_fit_opts(method, order, options))
+    m = Model(res["model"])
+    m.notes = list(res["notes"])
+    for n in m.notes:
+        warnings.warn(n, NoteWarning, stacklevel=2)
+    if not res["converged"]:
+        why = res["not_converged"]   # msid's "...: wrote the best iterate to " (and the file's path)
+        why = why[:why.rfind(": wrote")] if ": wrote" in why else why.rstrip()
+        warnings.warn(why + ": the model is the best iterate, marked \"converged\": false", ConvergenceWarning,
+                      stacklevel=2)
+    return m
+
+
+class Validation:
+    """What `msid validate MODEL FRF` reports: the weighted residual cost of the model on the FRF against
+    its law (docs/fitting.md, "Validation").
+
+    cost, expected, dof, p_value; consistent (p_value >= 0.05); report: the msid-validation/1 document
+    (`msid validate -o`), with per-line normalised residuals in report["lines"] and, when the FRF carries
+    it, the noise level against the nonlinear distortion in report["nonlinear_distortion"]; text: the
+    lines msid prints.
+    """
+
+    def __init__(self, res):
+        self.report = res["report"]
+        self.text = list(res["text"])
+        self.consistent = bool(res["consistent"])
+        self.cost = self.report["cost"]
+        self.expected = self.report["expected"]
+        self.dof = self.report["dof"]
+        self.p_value = self.report["p_value"]
+
+    @property
+    def normalised_residuals(self):
+        """Per line: the residual over its expectation under the model (about 1), an array."""
+        return np.array([ln["normalised_residual"] for ln in self.report["lines"]], dtype=float)
+
+    def __str__(self):
+        return "\n".join(self.text)
+
+    def __repr__(self):
+        verdict = "consistent" if self.consistent else "NOT consistent"
+        return (f"<msid.Validation cost {self.cost:.6g}, expected {self.expected:.6g} (dof {self.dof:.0f}), "
+                f"p-value {self.p_value:.4g}: {verdict} at 5%>")
+
+
+def validate(model: Union[Model, PathLike], frf: Union[FRF, PathLike], *, weight: Optional[str] = None,
+             lpm_lines: str = "independent") -> Validation:
+    """`msid validate MODEL FRF` in process: the model (msid.Model or a model file) on the FRF (msid.FRF or
+    an FRF file). weight: "cov", "known-input" or "none" (default: the model's fit weight, known-input or
+    cov); lpm_lines: "independent" (LPM files: every (2W+1)-th line) or "all". Returns a Validation;
+    ValueError with msid's message when the model does not fit the FRF's channels or frequencies."""
+    import json
+    if isinstance(model, (str, os.PathLike)):
+        path = os.fspath(model)
+        try:
+            with open(path, "r", encoding="utf-8") as fh:
+                mtext, mname = fh.read(), path
+        except OSError as e:
+            raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
+    elif isinstance(model, Model):
+        mtext, mname = json.dumps(model_to_doc(model), allow_nan=False), os.fspath(model.path or "(in-memory model)")
+    else:
+        raise TypeError(f"model must be an msid.Model or an msid-model/1 file's path, not {type(model).__name__}")
+    ftext, fname = _frf_json(frf, "frf")
+    opts = {"weight": None if weight is None else str(weight), "lpm_lines": str(lpm_lines)}
+    return Validation(_ext().validate(mtext, mname, ftext, fname, opts))

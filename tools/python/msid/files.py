@@ -319,6 +319,13 @@ def frf_from_doc(doc, where="document"):
 def write_frf(path, frf):
     """Write an FRF as msid-frf/1. Keys the FRF does not know (from its meta) are kept as read;
     a new FRF (FRF(...) or FRF.from_control) gets the schema's required keys with neutral values."""
+    _write_atomic(path, frf_to_doc(frf))
+
+
+def frf_to_doc(frf, complete=True):
+    """The msid-frf/1 document of an FRF (a dict), as write_frf writes it. complete=False leaves out
+    what the FRF does not hold (a line's cov, dof, cov_known_input, snr) instead of neutral values:
+    the document msid.fit hands to the fit, which then weighs exactly as `msid fit` on the file."""
     L, ny, nu = frf.G.shape
     g = ny * nu
     doc = {"format": FRF_FORMAT}
@@ -347,21 +354,23 @@ def write_frf(path, frf):
         if frf.real[k]:
             ln["real"] = True
         ln["G"] = _cmat_json(frf.G[k])
-        c = frf.cov[k] if frf.cov is not None else np.zeros((g, g))
-        ln["cov"] = _cmat_json(c)
-        ln["dof"] = float(frf.dof[k]) if frf.dof is not None else 1.0
+        if frf.cov is not None or complete:
+            c = frf.cov[k] if frf.cov is not None else np.zeros((g, g))
+            ln["cov"] = _cmat_json(c)
+            ln["dof"] = float(frf.dof[k]) if frf.dof is not None else 1.0
         if frf.cov_known_input is not None:
             ln["cov_known_input"] = _cmat_json(frf.cov_known_input[k])
-        else:
-            ln["cov_known_input"] = _cmat_json(c)
+        elif complete:
+            ln["cov_known_input"] = ln["cov"]
         if frf.dof_known_input is not None:
             ln["dof_known_input"] = float(frf.dof_known_input[k])
         extra = frf.line_extra[k] if k < len(frf.line_extra) else {}
         ln.update(extra)
-        ln.setdefault("snr", [None] * ny)
+        if complete:
+            ln.setdefault("snr", [None] * ny)
         lines.append(ln)
     doc["lines"] = lines
-    _write_atomic(path, doc)
+    return doc
 
 
 class Model:
@@ -371,6 +380,7 @@ class Model:
     def __init__(self, doc, path=None):
         self.doc = doc
         self.path = path
+        self.notes = []     # msid.fit: msid's notes on the fit
         where = f"'{path}'" if path else "model"
         try:
             n, nu, ny = int(doc["order"]), int(doc["n_inputs"]), int(doc["n_outputs"])
@@ -425,6 +435,11 @@ class Model:
         if self.domain == "ct":
             return self.response_at(1j * frf.omega_axis())
         return self.response_at(np.exp(2j * np.pi * frf.freq))
+
+    def validate(self, frf, weight=None, lpm_lines="independent"):
+        """`msid validate` of this model on an FRF (msid.FRF or file): an msid.Validation (msid.validate)."""
+        from .compute import validate
+        return validate(self, frf, weight=weight, lpm_lines=lpm_lines)
 
     def signal_names(self):
         """(input names, output names): the file's `input_names`/`output_names` when it has them, else
@@ -613,6 +628,11 @@ def read_model(path):
 
 def write_model(path, model):
     """Write a Model as msid-model/1 (its doc, with A..D from the arrays)."""
+    _write_atomic(path, model_to_doc(model))
+
+
+def model_to_doc(model):
+    """The msid-model/1 document of a Model (its doc, with A..D from the arrays), as write_model writes it."""
     doc = dict(model.doc)
     doc["format"] = MODEL_FORMAT
     for k in ("A", "B", "C", "D"):
@@ -620,4 +640,4 @@ def write_model(path, model):
     for k in ("A", "B", "C", "D"):
         if not all(math.isfinite(x) for row in doc[k] for x in row):
             raise ValueError(f"model {k} is not finite")
-    _write_atomic(path, doc)
+    return doc
