@@ -32,6 +32,12 @@ struct PyDesign {
 // An msid document as Python objects (dict, list, float, int, str, bool, None), keys in order.
 py::object json_to_py(const Json &j);
 
+// An msid-frf/1 document (one the FRF job wrote) as what msid.FRF holds: NumPy arrays for the per-line
+// values every line has (bin, freq, freq_hz, omega, real, G, cov, dof, cov_known_input, dof_known_input:
+// L x ny x nu and L x g x g complex, L-vectors), "meta" (every top-level key but lines) and
+// "line_extra" (per line, the other keys). The numbers keep their bits.
+py::dict frf_to_py(const Json &doc);
+
 // The options every estimating call shares (a dict put in order by compute.py: skip_periods,
 // fs, detect_lines, transient, alpha, dft) into the request; a bad value is a UsageError.
 void request_options(const py::dict &opts, FrfRequest &rq, const Design *D);

@@ -4,6 +4,9 @@
 
 #include "msid_host_util.hpp"
 
+#include <algorithm>
+#include <complex>
+
 namespace msidpy {
 
 std::mutex &fftw_jobs()
@@ -17,23 +20,35 @@ static py::object to_py(const Json &j);
 // The collector paused while a document becomes Python objects: tens of thousands of new
 // containers, none in a cycle, would start many collections (each walking the interpreter's objects)
 // that can free nothing.
+namespace {
+#if PY_VERSION_HEX >= 0x030A0000
+struct GcPause {
+    bool was = PyGC_Disable() != 0;
+    ~GcPause()
+    {
+        if (was) PyGC_Enable();
+    }
+};
+#else
+struct GcPause {   // Python < 3.10: the gc module's switches
+    py::module_ gc = py::module_::import("gc");
+    bool was = gc.attr("isenabled")().cast<bool>();
+    GcPause() { gc.attr("disable")(); }
+    ~GcPause()
+    {
+        if (!was) return;
+        try {   // a destructor must not throw (the interpreter would abort); gc.enable() does not fail
+            gc.attr("enable")();
+        } catch (const py::error_already_set &) {
+        }
+    }
+};
+#endif
+}  // namespace
+
 py::object json_to_py(const Json &j)
 {
-    py::module_ gc = py::module_::import("gc");
-    const bool was = gc.attr("isenabled")().cast<bool>();
-    gc.attr("disable")();
-    struct Resume {
-        py::module_ &gc;
-        bool was;
-        ~Resume()
-        {
-            if (!was) return;
-            try {   // a destructor must not throw (the interpreter would abort); gc.enable() does not fail
-                gc.attr("enable")();
-            } catch (const py::error_already_set &) {
-            }
-        }
-    } resume{gc, was};
+    GcPause pause;
     return to_py(j);
 }
 
@@ -111,6 +126,86 @@ std::vector<msidrec::Record> records_of(const py::list &arrays, const py::list &
         r.n_rows = rows;
     }
     return recs;
+}
+
+// ---- an msid-frf/1 document as the arrays of msid.FRF ----
+
+namespace {
+
+// Every line of the document holds `key` (msid.FRF keeps an array only then, as frf_from_doc does).
+bool all_lines_have(const Json &lines, const char *key)
+{
+    for (const auto &l : lines)
+        if (!l.contains(key)) return false;
+    return true;
+}
+
+// lines[*][key], each an r x c {"re", "im"} matrix, as an L x r x c complex array.
+py::array_t<std::complex<double>> stack_cmats(const Json &lines, const char *key, size_t r, size_t c)
+{
+    py::array_t<std::complex<double>> a({lines.size(), r, c});
+    auto v = a.mutable_unchecked<3>();
+    for (size_t l = 0; l < lines.size(); ++l) {
+        const Json &m = lines[l][key];
+        const Json &re = m.at("re"), &im = m.at("im");
+        if (re.size() != r || im.size() != r) throw std::logic_error(std::string("internal error: the shape of ") + key);
+        for (size_t i = 0; i < r; ++i) {
+            if (re[i].size() != c || im[i].size() != c) throw std::logic_error(std::string("internal error: the shape of ") + key);
+            for (size_t j = 0; j < c; ++j)
+                v((py::ssize_t)l, (py::ssize_t)i, (py::ssize_t)j) = {re[i][j].get<double>(), im[i][j].get<double>()};
+        }
+    }
+    return a;
+}
+
+template <class T>
+py::array_t<T> column(const Json &lines, const char *key)
+{
+    py::array_t<T> a((py::ssize_t)lines.size());
+    auto v = a.template mutable_unchecked<1>();
+    for (size_t l = 0; l < lines.size(); ++l) v((py::ssize_t)l) = lines[l][key].get<T>();
+    return a;
+}
+
+}  // namespace
+
+py::dict frf_to_py(const Json &doc)
+{
+    const Json &lines = doc.at("lines");
+    const size_t ny = doc.at("n_outputs").get<size_t>(), nu = doc.at("n_inputs").get<size_t>(), g = ny * nu;
+    static const char *const ARRAYS[] = {"bin", "freq", "freq_hz", "omega", "real", "G", "cov", "dof",
+                                         "cov_known_input", "dof_known_input"};
+    py::dict out;
+    for (const char *k : ARRAYS) {
+        if (!all_lines_have(lines, k)) continue;
+        const std::string key(k);
+        if (key == "G") out[k] = stack_cmats(lines, k, ny, nu);
+        else if (key == "cov" || key == "cov_known_input") out[k] = stack_cmats(lines, k, g, g);
+        else if (key == "bin") out[k] = column<int64_t>(lines, k);
+        else if (key == "real") out[k] = column<bool>(lines, k);
+        else out[k] = column<double>(lines, k);
+    }
+    if (!out.contains("real")) {   // a line without "real" is not a DC line
+        py::array_t<bool> re((py::ssize_t)lines.size());
+        auto v = re.mutable_unchecked<1>();
+        for (size_t l = 0; l < lines.size(); ++l) v((py::ssize_t)l) = lines[l].value("real", false);
+        out["real"] = re;
+    }
+    GcPause pause;
+    py::dict meta;
+    for (auto it = doc.begin(); it != doc.end(); ++it)
+        if (it.key() != "lines") meta[py::str(it.key())] = to_py(it.value());
+    py::list extra(lines.size());
+    for (size_t l = 0; l < lines.size(); ++l) {
+        py::dict e;
+        for (auto it = lines[l].begin(); it != lines[l].end(); ++it)
+            if (std::find(std::begin(ARRAYS), std::end(ARRAYS), it.key()) == std::end(ARRAYS))
+                e[py::str(it.key())] = to_py(it.value());
+        extra[l] = std::move(e);
+    }
+    out["meta"] = std::move(meta);
+    out["line_extra"] = std::move(extra);
+    return out;
 }
 
 }  // namespace msidpy

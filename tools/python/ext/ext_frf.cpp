@@ -75,7 +75,7 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
         o = msidjob::estimate_frf(rq, recs, plan);
     }
     py::dict out;
-    out["doc"] = json_to_py(o.doc);
+    out["frf"] = frf_to_py(o.doc);
     out["notes"] = o.notes;
     out["reports"] = reports;
     return out;

@@ -96,7 +96,7 @@ public:
             msidjob::add_detection_distortion(o);
         }
         py::dict out;
-        out["doc"] = json_to_py(o.doc);
+        out["frf"] = frf_to_py(o.doc);
         out["notes"] = o.notes;
         return out;
     }

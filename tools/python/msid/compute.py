@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from .files import FRF, Model, frf_from_doc, frf_to_doc, model_to_doc
+from .files import FRF, Model, frf_to_doc, model_to_doc
 
 PathLike = Union[str, "os.PathLike[str]"]
 Bins = Union[str, Sequence[int], np.ndarray]
@@ -34,7 +34,13 @@ class ConvergenceWarning(UserWarning):
     kept and marked "converged": false."""
 
 
+_MODULE = None
+
+
 def _ext():
+    global _MODULE
+    if _MODULE is not None:
+        return _MODULE
     try:
         from . import _msid
     except ImportError as e:
@@ -42,6 +48,7 @@ def _ext():
             f"this needs msid's compiled extension msid._msid, which this msid package does not have ({e}); build "
             "it with the msid build (./bootstrap.sh build, then PYTHONPATH=build/python) or install the package "
             "with it: pip install ./tools/python (docs/python.md)") from None
+    _MODULE = _msid
     return _msid
 
 
@@ -137,16 +144,17 @@ def _record(r, where, spec, n_inputs, free=False):
         raise ValueError(f"'{where}': a {a.ndim}-dimensional array of shape {a.shape}; expected a samples x "
                          "channels matrix (rows are samples; columns u1..u_nu, y1..y_ny)")
     C = a.shape[1]
+    names = [str(k + 1) for k in range(C)]
     if not spec:
         if n_inputs is None:
             raise ValueError(f"'{where}' holds one {a.shape[0]} x {C} matrix without column names: give n_inputs "
                              "(or design), or map its columns (numbered from 1) with columns='u1=1,y1=2,...'")
         nu = _uint(n_inputs, "n_inputs")
-        spec = ",".join([f"u{k + 1}={k + 1}" for k in range(min(nu, C))] +
-                        [f"y{k + 1}={nu + k + 1}" for k in range(max(C - nu, 0))])
         if (nu == 0 and not free) or C <= nu:
             raise ValueError(f"'{where}' has {C} column(s): {nu} input(s) leave no output column")
-    names = [str(k + 1) for k in range(C)]
+        if a.shape[0] == 0:
+            raise ValueError(f"'{where}' holds no samples")
+        return _real_samples(a, where), names, nu   # the columns in order: u1..u_nu, then y1..
     idx, nu, _ = ext.resolve_columns(where, names, spec, free)
     idx = list(idx)
     if idx != list(range(C)):
@@ -166,7 +174,11 @@ def _records(records, columns, n_inputs, free=False, label="records"):
 
 
 def _result(res, where):
-    f = frf_from_doc(res["doc"], where)
+    a = res["frf"]   # the arrays of the FRF document (msid._msid: frf_to_py), numbers with their bits
+    f = FRF(a["G"], a["freq"], bins=a.get("bin"), cov=a.get("cov"), dof=a.get("dof"),
+            cov_known_input=a.get("cov_known_input"), dof_known_input=a.get("dof_known_input"),
+            freq_hz=a.get("freq_hz"), omega=a.get("omega"), real=a["real"], meta=a["meta"],
+            line_extra=a["line_extra"])
     f.notes = list(res["notes"])
     f.reports = list(res.get("reports", []))
     for n in f.notes:
