@@ -26,13 +26,84 @@ static void check_inputs(FrfRequest &rq, const std::vector<Record> &recs, const 
     rq.inputs_checked = !plan.direct;
 }
 
-// Step 2: the lines, from the input when asked.
-static void find_lines_if_asked(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan)
+// The reference columns of each record's file as the "inputs" of a record (with its first output,
+// which a reader needs): what --lines auto tests when the file holds the excitation's reference.
+static std::vector<Record> reference_records(const std::vector<Record> &recs, const std::vector<std::string> &ref)
 {
-    if (!plan.auto_lines) return;
+    std::vector<Record> out;
+    for (const Record &r : recs) {
+        if (ref.size() != r.nu)
+            throw UsageError(fmt("--reference names %zu column(s) for %u input(s): one reference per input",
+                                 ref.size(), r.nu));
+        msidrec::ColumnMap m;
+        for (size_t k = 0; k < ref.size(); ++k) m.map.emplace_back(fmt("u%zu", k + 1), ref[k]);
+        m.map.emplace_back("y1", r.columns.at(r.nu));
+        Record rr = msidrec::read_experiment(r.path, m);
+        if (rr.n_rows != r.n_rows)
+            throw Error(fmt("'%s': the reference columns have %zu rows, the inputs and outputs %zu", r.path.c_str(),
+                            rr.n_rows, r.n_rows));
+        out.push_back(std::move(rr));
+    }
+    return out;
+}
+
+// Where the found lines leave bins of their grid undecided: said on the report and kept for the
+// document (lines_auto) and a note.
+static Json lines_auto_block(const FrfRequest &rq, const FrfPlan &plan, const UndecidedLines &u, std::string &text)
+{
+    Json j;
+    std::string from = "the inputs";
+    if (!plan.reference.empty()) {
+        from = "the reference";
+        for (size_t k = 0; k < plan.reference.size(); ++k) from += fmt(k ? ", r%zu=%s" : " r%zu=%s", k + 1, plan.reference[k].c_str());
+    }
+    j["from"] = from;
+    j["test"] = fmt("F test of the period mean against the period-to-period variation, family-wise false alarm %g",
+                    LINES_AUTO_ALPHA);
+    j["found"] = rq.bins.size();
+    if (u.step) j["grid"] = Json{{"step", u.step}, {"first", u.first}, {"last", u.last}};
+    j["undecided_bins"] = u.bins;
+    j["undecided_alpha"] = UNDECIDED_ALPHA;
+    j["silent_grid_bins"] = u.silent;
+    if (u.bins.empty()) return j;
+    std::string where;
+    if (rq.fs > 0) {   // runs of neighbouring grid bins as frequency ranges
+        for (size_t i = 0; i < u.bins.size();) {
+            size_t e = i;
+            while (e + 1 < u.bins.size() && u.bins[e + 1] - u.bins[e] == u.step) ++e;
+            const double f0 = u.bins[i] * rq.fs / rq.period, f1 = u.bins[e] * rq.fs / rq.period;
+            where += (where.empty() ? "" : ", ") + (e > i ? fmt("%.4g-%.4g Hz", f0, f1) : fmt("%.4g Hz", f0));
+            i = e + 1;
+        }
+        where = " at " + where;
+    }
+    text = fmt("%zu bin(s) of the excitation's grid (every %u-th bin from %u to %u) show input power at %g but not at "
+               "the family-wise level, and are left out%s: %s. The input is weak there over these periods (a force "
+               "that drops at a resonance or near the mains); give the bins with --lines, more periods, or the "
+               "excitation's reference (--reference r1=COLUMN)",
+               u.bins.size(), u.step, u.first, u.last, UNDECIDED_ALPHA, where.c_str(), format_bins(u.bins).c_str());
+    return j;
+}
+
+// Step 2: the lines, from the input (or the excitation's reference) when asked.
+static void find_lines_if_asked(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan, Json &lines_auto,
+                                std::string &undecided)
+{
+    if (!plan.auto_lines) {
+        if (!plan.reference.empty()) throw UsageError("--reference applies to --lines auto (and --method lpm)");
+        return;
+    }
     std::string rep;
-    rq.bins = find_lines(recs, rq.period, rq.skip, rep);
+    std::vector<double> p_min;
+    if (plan.reference.empty()) {
+        rq.bins = find_lines(recs, rq.period, rq.skip, rep, &p_min);
+    } else {
+        rq.bins = find_lines(reference_records(recs, plan.reference), rq.period, rq.skip, rep, &p_min);
+        rep += " of the reference";
+    }
     if (plan.report) plan.report("--lines auto: " + rep + ":\n  " + format_bins(rq.bins) + "\n");
+    lines_auto = lines_auto_block(rq, plan, undecided_lines(rq.bins, p_min), undecided);
+    if (plan.report && !undecided.empty()) plan.report("--lines auto: " + undecided + "\n");
 }
 
 // Step 4: one realisation with detection lines: the distortion level beside the noise.
@@ -56,10 +127,12 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
     if (plan.direct && !plan.design) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
     if (plan.direct && plan.bla) throw UsageError("--realisations does not apply to --direct");
     FrfOutcome o;
+    Json lines_auto;
+    std::string undecided;
     names_from_records(rq, recs);
     try {
         check_inputs(rq, recs, plan);
-        find_lines_if_asked(rq, recs, plan);
+        find_lines_if_asked(rq, recs, plan, lines_auto, undecided);
         // Step 3: the estimator
         rq.lines_as_text = rq.lines_as_text && !plan.direct && !plan.bla;
         o = plan.direct             ? run_frf_direct(rq, *plan.design, recs)
@@ -73,6 +146,8 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
         throw;
     }
     if (!plan.direct && !plan.bla) add_detection_distortion(o);
+    if (!lines_auto.is_null()) o.doc["lines_auto"] = lines_auto;
+    if (!undecided.empty()) o.notes.push_back("--lines auto: " + undecided);
     return o;
 }
 

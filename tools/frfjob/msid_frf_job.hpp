@@ -91,6 +91,9 @@ struct FrfPlan {
     bool bla = false;                  // the best linear approximation over `realisations` blocks
     uint32_t realisations = 0;         // R (with bla; R < 2 is refused)
     const Design *design = nullptr;    // the design behind rq, if any
+    // --lines auto from the excitation's reference instead of the inputs: the columns r1..r_nu of each
+    // record's file (names as in the file; one per input), read with the record's first output
+    std::vector<std::string> reference;
     // what was found (--period auto, --lines auto), one line or two, as it is found
     std::function<void(const std::string &)> report;
 };

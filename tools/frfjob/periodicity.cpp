@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <numeric>
 #include <exception>
 #include <system_error>
 #include <thread>
@@ -512,7 +513,8 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     return P;
 }
 
-std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report)
+std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report,
+                                 std::vector<double> *p_min)
 {
     if (P < 3) throw Error(fmt("period %u has no bins between DC and Nyquist for --lines auto", P));
     const size_t M = (P + 1) / 2 - 1;
@@ -520,6 +522,7 @@ std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, ui
     for (const auto &r : recs) J += r.nu;
     const double level = LINES_AUTO_ALPHA / ((double)M * (double)J);
     std::vector<uint8_t> exc(M + 1, 0);
+    if (p_min) p_min->assign(M, 1.0);
     R2c f((int)P);
     size_t Kmin = SIZE_MAX;
     for (const auto &r : recs) {
@@ -550,6 +553,7 @@ std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, ui
                 const double F = v[k] > 0 ? (double)K * m2[k] / v[k] : HUGE_VAL;
                 const double pv = std::isinf(F) ? 0.0 : std::exp(-n * std::log1p(F / n));
                 if (pv < level) exc[k + 1] = 1;
+                if (p_min) (*p_min)[k] = std::min((*p_min)[k], pv);
             }
         }
     }
@@ -563,6 +567,25 @@ std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, ui
                  "periods, each bin at %.2g so that a record without excitation reports any bin with probability <= %g)",
                  bins.size(), M, Kmin, level, LINES_AUTO_ALPHA);
     return bins;
+}
+
+UndecidedLines undecided_lines(const std::vector<uint32_t> &found, const std::vector<double> &p_min)
+{
+    UndecidedLines u;
+    if (found.size() < 2) return u;
+    uint32_t g = 0;
+    for (size_t i = 1; i < found.size(); ++i) g = std::gcd(g, found[i] - found[0]);
+    u.step = g;
+    u.first = found.front();
+    u.last = found.back();
+    size_t next = 0;
+    for (uint32_t k = u.first; k <= u.last; k += g) {
+        while (next < found.size() && found[next] < k) ++next;
+        if (next < found.size() && found[next] == k) continue;
+        if (k - 1 < p_min.size() && p_min[k - 1] < UNDECIDED_ALPHA) u.bins.push_back(k);
+        else ++u.silent;
+    }
+    return u;
 }
 
 std::string format_bins(const std::vector<uint32_t> &b)

@@ -88,7 +88,21 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report);
 // periods after `skip` (F(2, 2(K-1)) without excitation) beyond its
 // Bonferroni level LINES_AUTO_ALPHA / (bins x channels x records), and above
 // a round-off floor 1e-20 x the strongest bin. `report` describes the test.
-std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report);
+std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report,
+                                 std::vector<double> *p_min = nullptr);
+
+// The bins --lines auto could not decide: where the excitation's grid (the found bins' common step
+// from the first to the last found bin) has bins the test did not take although some input shows
+// power there at UNDECIDED_ALPHA (its smallest p-value over inputs and records, p_min[k - 1]): a
+// force that drops at a resonance or near the mains, too weak over the periods at hand for the
+// family-wise level. A grid bin with no such evidence (a detection line) is not named.
+constexpr double UNDECIDED_ALPHA = 0.05;
+struct UndecidedLines {
+    uint32_t step = 0, first = 0, last = 0;   // the grid: first, first + step, ..., last
+    std::vector<uint32_t> bins;               // grid bins left out with p_min < UNDECIDED_ALPHA
+    size_t silent = 0;                        // grid bins left out without it
+};
+UndecidedLines undecided_lines(const std::vector<uint32_t> &found, const std::vector<double> &p_min);
 
 // "1,3,5:2:11,20:25": a bin list in the --lines syntax.
 std::string format_bins(const std::vector<uint32_t> &bins);

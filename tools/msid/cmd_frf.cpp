@@ -13,13 +13,17 @@ static const char *HELP =
     "usage: msid frf (--design design.json | --period P|auto --lines L1,L2,...|auto) --experiment e1.csv\n"
     "                [--experiment e2.csv ...] [--columns u1=NAME,y1=NAME,...] [--skip-periods K] [--fs HZ]\n"
     "                [--detect-lines D1,...] [--transient flag|drop|off] [--alpha A] [--dft auto|stream|fft]\n"
-    "                -o frf.json\n"
+    "                [--reference r1=COL,...] -o frf.json\n"
     "\n"
     "  --design          take period, lines (and CT frequencies) from an msid-design/1 file\n"
     "  --period, --lines samples per period and excited DFT bins (ranges a:b, a:step:b)\n"
     "  --period auto     find the period from the input's repetition (says so when there is none)\n"
     "  --lines auto      find the excited bins from the input spectrum (F test, 1% family-wise false\n"
-    "                    alarm; the bins are printed)\n"
+    "                    alarm; the bins are printed, and the bins of the excitation's grid where the input\n"
+    "                    is too weak to decide are named)\n"
+    "  --reference r1=COL,...  with --lines auto: find the bins from the excitation's reference (the\n"
+    "                    generator's signal, one column per input) instead of the inputs; a CSV whose\n"
+    "                    header has r1.. is used so without asking\n"
     "  --experiment      one record per experiment (m >= nu files), periods back to back, one sample\n"
     "                    per row: CSV (',', ';' or tab; header u1..u<nu>, y1..y<ny>, optional time\n"
     "                    column), NumPy .npy/.npz or MATLAB .mat (v5, v7.3); see README \"CSV records\"\n"
@@ -53,7 +57,7 @@ int cmd_frf(int argc, char **argv)
             return cmd_frf_est(argc, argv);
     Args a(argc, argv, 2, HELP,
            {"design", "period", "lines", "skip-periods", "fs", "detect-lines", "transient", "alpha", "dft", "block",
-            "output", "method", "columns", "realisations"},
+            "output", "method", "columns", "realisations", "reference"},
            {"direct"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
@@ -109,6 +113,9 @@ int cmd_frf(int argc, char **argv)
     plan.bla = a.has("realisations");
     plan.realisations = a.u32("realisations", 1);
     plan.design = D.get();
+    // --lines auto from the excitation's reference: named, or the file's own r1.. columns
+    if (a.has("reference")) plan.reference = parse_reference(a.get("reference"));
+    else if (auto_lines) plan.reference = msidrec::own_reference_columns(recs[0]);
     plan.report = [](const std::string &s) { std::fputs(s.c_str(), stdout); };
     rq.lines_as_text = true;   // only written to the file below
     std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)

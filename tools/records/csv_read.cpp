@@ -517,6 +517,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
         if (n.size() >= 2 && n.front() == '"' && n.back() == '"') n = n.substr(1, n.size() - 2);
     Record r;
     r.path = path;
+    r.file_columns = L.names;
     const std::vector<size_t> src = resolve_columns(path, L.names, cols, true, r.nu, r.ny);
     const size_t C = L.C = r.nu + r.ny;
     L.dest.assign(L.names.size(), -1);

@@ -58,6 +58,9 @@ struct Record {
     size_t n_rows = 0;
     Samples rows;                        // n_rows * (nu + ny), row-major (empty only when `view` is set)
     std::vector<std::string> columns;    // nu + ny names in the file, in row order (u1.., y1..)
+    // every column the file names, mapped or not (a CSV's header; empty for the binary formats): where
+    // `msid frf --lines auto` looks for the excitation's reference r1.. (own_reference_columns)
+    std::vector<std::string> file_columns;
     // Zero-copy records (read_experiment(..., zero_copy = true) of a C-order
     // float64 .npy whose columns are u1.., y1.. in order): the samples stay in
     // the mapped file, kept alive by `keep`, and `rows` is empty.

@@ -18,4 +18,8 @@ std::vector<std::string> parse_reference(const std::string &spec);
 // same file. Throws Error naming the file and the missing column, or nr != nu.
 std::vector<double> rows_with_reference(const Record &rec, const std::vector<std::string> &ref);
 
+// The record's own reference columns: r1..r_nu (or R1..) among the file's columns
+// (Record::file_columns), as named there; empty unless the file names all of them.
+std::vector<std::string> own_reference_columns(const Record &rec);
+
 }  // namespace msidrec

@@ -2,6 +2,8 @@
 
 #include "records_detail.hpp"
 
+#include <algorithm>
+
 namespace msidrec {
 
 std::vector<std::string> parse_reference(const std::string &spec)
@@ -76,6 +78,19 @@ std::vector<double> rows_with_reference(const Record &rec, const std::vector<std
         for (unsigned j = 0; j < nu; ++j) o[nr + ny + j] = d[t * cin + j];
     }
     return rows;
+}
+
+std::vector<std::string> own_reference_columns(const Record &rec)
+{
+    std::vector<std::string> out;
+    for (uint32_t k = 1; k <= rec.nu; ++k) {
+        const std::string lo = fmt("r%u", k), up = fmt("R%u", k);
+        const auto it = std::find_if(rec.file_columns.begin(), rec.file_columns.end(),
+                                     [&](const std::string &n) { return n == lo || n == up; });
+        if (it == rec.file_columns.end()) return {};
+        out.push_back(*it);
+    }
+    return out;
 }
 
 }  // namespace msidrec
