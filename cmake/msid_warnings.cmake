@@ -1,4 +1,4 @@
-# One warning set for every msid target (issue 11). msid_strict_warnings(target) adds:
+# One warning set for every msid target. msid_strict_warnings(target) adds:
 #   C:   -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
 #        (the set lib/ always had: every implicit narrowing of a value is written out)
 #   C++: -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Woverloaded-virtual

@@ -6,7 +6,9 @@ import pty
 import re
 import select
 import signal
+import socket
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -291,6 +293,27 @@ def test_demo_end_to_end(tmp_path):
     v = json.loads((d / "validation.json").read_text())
     assert re.search(r"^validation: .*p-value .*: the model is (NOT )?consistent", r.stdout, re.M)
     assert ("NOT consistent" in r.stdout) == (not v["consistent_at_5pct"])
+    assert not devsims_using(d)
+    # the "measure it yourself" line runs as printed in a shell (on a free port instead of 1502, which
+    # another test may hold), writes the FRF in Hz, and leaves no simulator behind
+    m = re.search(r"^measure it yourself .*:\n  (.*)$", r.stdout, re.M)
+    assert m, r.stdout
+    if os.environ.get("MSID_EMULATOR"):
+        return   # a cross build: the printed binaries are the target's, which this shell cannot start
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    cmd = m[1].replace("127.0.0.1:1502", f"127.0.0.1:{port}")
+    assert cmd.startswith(DEVSIM + " ")
+    h = subprocess.run(["bash", "-c", cmd], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert h.returncode == 0, h.stdout + h.stderr
+    mine = json.loads((tmp_path / "out" / "frf.json").read_text())
+    assert mine["complete"] is True and "freq_hz" in mine["lines"][0]
+    assert (tmp_path / "out" / "model.json").exists()
+    for _ in range(600):   # kill $! has sent SIGTERM; the simulator exits on it
+        if not devsims_using(d):
+            break
+        time.sleep(0.1)
     assert not devsims_using(d)
 
 

@@ -2,6 +2,7 @@
 on the same samples: the same FRF bits, the same design file and samples, the same error messages;
 block-size invariance of Measurement; no process started. Fixed seeds; ctest runs this file with
 MSID_PYTHON_DIR = the staged package (build/python)."""
+import json
 import os
 import re
 import subprocess
@@ -372,3 +373,16 @@ def test_import_without_extension_names_the_build(tmp_path):
                        env={**os.environ, "PYTHONPATH": str(src)}, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "msid._msid" in r.stdout and "pip install ./tools/python" in r.stdout
+
+
+def test_bench_script_runs(tmp_path):
+    """scripts/bench_python_frf.py (docs/benchmarks.md) runs on this package and reports every figure;
+    its times are not checked (a bench, not a test)."""
+    src = Path(msid.__file__).resolve().parents[1]
+    script = Path(__file__).resolve().parents[2] / "scripts" / "bench_python_frf.py"
+    r = subprocess.run([sys.executable, str(script), "--min-seconds", "0", "--json"], capture_output=True, text=True,
+                       timeout=600, env={**os.environ, "PYTHONPATH": str(src)}, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    res = json.loads(r.stdout)
+    for k in ("peer_cpu_s", "msid_frf_cpu_s", "ext_cpu_s", "tiny_call_cpu_s", "tiny_ext_cpu_s"):
+        assert res[k] > 0, k

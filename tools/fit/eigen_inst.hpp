@@ -1,6 +1,6 @@
 // The Eigen decompositions the fitting library shares, instantiated once (eigen_inst_linear.cpp,
-// eigen_inst_eigen.cpp) instead of in every file that uses them: issue 13, Eigen template
-// instantiation is most of the build time (models.cpp: 44.1 s of CPU at -O3, 12.7 s with these).
+// eigen_inst_eigen.cpp) instead of in every file that uses them: Eigen's template instantiation is
+// most of the fitting library's build time.
 // The extern declarations hold only inside msid_fit (MSID_FIT_EIGEN_EXTERN, tools/fit/CMakeLists.txt):
 // its sources share its flags (-fcx-limited-range), so an instance is the code each file made itself.
 // A call with an expression argument (not a plain MatrixXd/MatrixXcd) still instantiates locally.

@@ -73,7 +73,7 @@ ModalReport modal_report(const Json &j)
     const bool pars = j.contains("parameters") && j["parameters"].is_object() && j["parameters"].contains("cov");
     const bool prf = j.contains("pole_residue") && j["pole_residue"].is_object() && n > 0;
     if (prf && pars && nu == 1) {
-        // ml in pole-residue form (issue 9 item 5): the delta method through the same finite
+        // ml in pole-residue form: the delta method through the same finite
         // differences, on the realisation of the parameters (p_k, R_k, D) as pr_to_ss builds it
         const Json &p = j["parameters"];
         std::vector<std::string> names;

@@ -345,7 +345,7 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
 // column and its pseudo-inverse square root drops directions below 1e-13 of its largest eigenvalue,
 // and the shift equation for A is a least-squares problem over the outputs' rows. Outputs in units
 // 1e12 apart (m and pm) had the small output ignored, and inputs in units 1e6 apart gave a model
-// 3000 times the noise level (issue 9 item 7). So the algorithm runs on the data in units where every
+// 3000 times the noise level. So the algorithm runs on the data in units where every
 // output's and every input column's mean noise variance is 1: G' = diag(1/s_o) G diag(1/s_i) with
 // log s_o(i)^2 + log s_i(j)^2 the two-way (row + column) mean fit of log mean_l Gamma_l(ij, ij), which
 // any change of units shifts by exactly log a_i^2 - log b_j^2 (a global factor left over changes
@@ -454,7 +454,7 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
         n = auto_order(sv, std::min(r0 - 1, max_order));
     }
     // Block-row counts tried: r in {1.5n, 2n, 3n, 4n} within [n + 1, rmax] (a scan of every r in
-    // [1.5n, 6n] cost 30-100 fits; these four bracket the best r on the structures of issue 9;
+    // [1.5n, 6n] cost 30-100 fits; these four bracket the best r on the simulated structures;
     // the trials run in parallel).
     std::vector<int> rs;
     if (o.r) {

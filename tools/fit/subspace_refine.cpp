@@ -1,4 +1,4 @@
-// Weighted refinement of a subspace model at its order (issue 9 item 3): a few
+// Weighted refinement of a subspace model at its order: a few
 // Levenberg-Marquardt steps on the weighted cost (35) = eq. (40) of González et
 // al. 2025 in the real modal realisation
 //   A = blkdiag([[s_k, w_k], [-w_k, s_k]], ..., l_j, ...),  B, C, D free,

@@ -1,6 +1,6 @@
 // Scanners for the short fixed patterns of option values and parameter names (`--pin D1[1,2]=0.5`,
-// `--order a:step:b`, LMFD coefficient names): in place of <regex>, which costs about 2 s of compile
-// time in every file that uses it (issue 13, the demo build). Each advances the position `i` in `s`
+// `--order a:step:b`, LMFD coefficient names): in place of <regex>, whose templates are compiled
+// again in every file that uses it. Each advances the position `i` in `s`
 // past what it accepted and leaves it where it stopped otherwise.
 #pragma once
 #include <cctype>

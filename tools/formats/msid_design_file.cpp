@@ -62,7 +62,7 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
     c.pattern = p.pattern;
     c.twiddle = &D->tw;
     // Crest factors by two real DFTs per input (O(m nu P log P)), not direct synthesis (O(m nu P L): 26 s
-    // for P = 2^20 with 1000 lines; issue 15 #6). The plan lives only for the init.
+    // for P = 2^20 with 1000 lines). The plan lives only for the init.
     struct Plan {
         msid_fft_fftw f{};
         bool on = false;

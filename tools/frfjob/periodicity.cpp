@@ -27,7 +27,7 @@ struct R2c {
     fftw_plan plan;
     explicit R2c(int n_) : n(n_)
     {
-        fftw_planner_ready();   // msid frf's warm-up plan (fftw_warmup.hpp) is made on another thread
+        fftw_planner_ready();   // msid frf's warm-up plan (msid_fftw_planner.hpp) is made on another thread
         in = fftw_alloc_real((size_t)n);
         out = fftw_alloc_complex((size_t)n / 2 + 1);
         if (!in || !out) throw Error("out of memory for an FFT of length " + std::to_string(n));

@@ -71,17 +71,27 @@ struct DemoPlant {
     }
 };
 
+// This msid's own path ("msid" when the system does not say).
+static std::string self_path()
+{
+    char self[4096];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0) return "msid";
+    self[n] = 0;
+    return self;
+}
+
 // msid-devsim: the environment's MSID_DEVSIM, next to msid, in the build tree, or on PATH.
 static std::string find_devsim()
 {
     if (const char *e = std::getenv("MSID_DEVSIM"); e && *e) return e;
-    char self[4096];
-    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n > 0) {
-        self[n] = 0;
-        const std::string dir = std::string(self).substr(0, std::string(self).rfind('/'));
-        for (const std::string &p : {dir + "/msid-devsim", dir + "/../firmware_sim/msid-devsim"})
-            if (access(p.c_str(), X_OK) == 0) return p;
+    const std::string self = self_path();
+    if (self.find('/') != std::string::npos) {
+        const std::string dir = self.substr(0, self.rfind('/'));
+        for (const std::string &p : {dir + "/msid-devsim", dir + "/../firmware_sim/msid-devsim"}) {
+            char real[4096];
+            if (access(p.c_str(), X_OK) == 0) return realpath(p.c_str(), real) ? std::string(real) : p;
+        }
     }
     return "msid-devsim";
 }
@@ -294,9 +304,12 @@ int cmd_demo(int argc, char **argv)
     if (!run.plot_note.empty()) std::printf("%s\n", run.plot_note.c_str());
     std::printf("files: %s/{plant.txt,truth.json,design.json,frf.json%s}\n", o.dir.c_str(),
                 mf ? ",model.json,validation.json" : "");
-    std::printf("measure it yourself: msid-devsim --modbus-tcp 127.0.0.1:1502 --plant %s & msid measure --device "
-                "modbus-tcp://127.0.0.1:1502 --design %s/design.json --skip-periods 1 --fit ml -o out\n",
-                plant_file.c_str(), o.dir.c_str());
+    // the same measurement by hand, as a shell runs it: the binaries by their paths (they need not be
+    // on PATH), the sample rate (modes in Hz), and the simulator stopped at the end
+    std::printf("measure it yourself (the simulator in the background, msid against it, the simulator stopped):\n"
+                "  %s --modbus-tcp 127.0.0.1:1502 --plant %s & %s measure --device modbus-tcp://127.0.0.1:1502 "
+                "--design %s/design.json --skip-periods 1 --fs %g --fit ml -o out; kill $!\n",
+                find_devsim().c_str(), plant_file.c_str(), self_path().c_str(), o.dir.c_str(), fs);
     if (!run.fit_error.empty()) rc = 1;
     // A demo that misses badly is a failure, not a success.
     if ((double)inside + 4 * sd < expct) {

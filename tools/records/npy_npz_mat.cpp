@@ -186,7 +186,7 @@ void check_finite(const Record &r, size_t row0, size_t n)
     // NaN/Inf: exponent bits all ones. Integer OR-reduction over the bit patterns, no branch per
     // sample, no floating-point compare: (b & E) + 2^52 reaches bit 63 exactly when the exponent is
     // all ones; and, add and or on 64-bit lanes are SSE2, so the loop vectorises at the x86-64
-    // baseline (a == compare of 64-bit lanes, SSE4.1, kept it scalar: 1.2 ms per 8 MiB file)
+    // baseline (a == compare of 64-bit lanes is SSE4.1, which kept the loop scalar)
     const uint64_t E = 0x7ff0000000000000ull, ONE_EXP = 1ull << 52;
     uint64_t bad = 0;
     const size_t nx = n * C;
@@ -258,7 +258,7 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
         nent = le64(b + z64 + 32);
         cdoff = le64(b + z64 + 48);
     }
-    // every central directory entry takes at least 46 bytes: a larger count is a lie (issue 15: a zip64
+    // every central directory entry takes at least 46 bytes: a larger count is a lie (a zip64
     // record claiming 2^60 entries made reserve() throw; seed corpus/fuzz_files/regress-npz-zip64-entry-count)
     if (nent > N / 46) throw Error(fmt("'%s': corrupt zip directory (%llu entries in %zu bytes)", path.c_str(),
                                        (unsigned long long)nent, N));
@@ -307,7 +307,7 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
             continue;
         } else if (method == 8) {
             // deflate expands at most 1032:1: a larger uncompressed size would size memory from a lie
-            // (issue 15: a 100-byte member claiming 4 GiB; seed corpus/fuzz_files/regress-npz-huge-uncompressed-size)
+            // (a 100-byte member claiming 4 GiB; seed corpus/fuzz_files/regress-npz-huge-uncompressed-size)
             if (usize > csize * DEFLATE_MAX_RATIO + 1024)
                 throw Error(fmt("'%s': corrupt zip member: it claims %llu bytes inflated from %llu (deflate expands "
                                 "at most %llu:1)", where.c_str(), (unsigned long long)usize,
@@ -333,7 +333,7 @@ Record read_record_npz(const std::string &path, const ColumnMap &cols)
 
 // A MATLAB v4 file is a run of records (a 20-byte header: type MOPT, rows, columns, imaginary flag, name
 // length; the name; the data). libmatio sizes its work from a header before checking it against the file
-// (issue 15, found by fuzz_files: a 297-byte v4 file kept it clearing memory past libFuzzer's 10 s timeout;
+// (found by fuzz_files: a 297-byte v4 file kept it clearing memory past libFuzzer's 10 s timeout;
 // seed corpus/fuzz_files/regress-mat-v4-header-beyond-file), so each record is checked against the bytes
 // the file holds first. v5 files are read by our own code (mat_v5.cpp), v7.3 by libmatio after
 // check_mat_hdf5.

@@ -1,4 +1,4 @@
-"""Vector-fitting peer for `msid bench fit` (issue 9): writes the simulated
+"""Vector-fitting peer for `msid bench fit`: writes the simulated
 structures of msid.structures (SISO, 1x3, 2x3 accelerances, 12 modes, 267 lines,
 and a 10-mode SISO for the order-20 timing) as msid-frf/1 files, fits each with
 scikit-rf's VectorFitting at the same order, and reports its weighted cost
