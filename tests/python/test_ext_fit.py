@@ -200,3 +200,64 @@ def test_multi_records_same_model_as_cli(tmp_path, bench):
         bad = r.copy()
         bad[100, 1] = np.inf
         msid.fit(bad, method="multi", order=2, n_inputs=1)
+
+
+def test_modes_same_report_and_text_as_cli(tmp_path, frf_path):
+    cli("fit", "--method", "ml", "--order", "6", frf_path, "-o", tmp_path / "m.json")
+    r = cli("modes", tmp_path / "m.json", "-o", tmp_path / "modes.json")
+    m = msid.read_model(tmp_path / "m.json").modes()
+    assert m.report == json.loads((tmp_path / "modes.json").read_text())
+    assert m.text == r.stdout and str(m) == r.stdout
+    assert len(m.modes) == len(m.report["modes"]) >= 1
+    with pytest.raises(ValueError, match="not an msid-model/1 file"):
+        bad = tmp_path / "bad.json"
+        bad.write_text('{"format": "msid-frf/1"}')
+        msid.modes(bad)
+
+
+def siso_record(seed, n=1500):
+    """A white input through the FIR path u1 -> y1 of the plant, output noise: columns u1, y1."""
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal(n)
+    return np.column_stack([u, np.convolve(u, TAPS[0][0])[:n] + 0.02 * rng.standard_normal(n)])
+
+
+def test_multi_validate_on_records_and_modes_as_cli(tmp_path, bench):
+    r, fresh = siso_record(11), siso_record(12)
+    np.save(tmp_path / "siso.npy", r)
+    np.save(tmp_path / "fresh.npy", fresh)
+    cli("fit", "--method", "multi", "--order", "2", "--experiment", tmp_path / "siso.npy", "--columns", "u1=1,y1=2",
+        "-o", tmp_path / "multi.json")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", msid.NoteWarning)
+        m = msid.fit(r, method="multi", order=2, columns="u1=1,y1=2")
+    # on its own records (named alike: the file, the array) and on a fresh one: the same numbers as the CLI
+    for cli_rec, py_rec, own in (("siso.npy", r, True), ("fresh.npy", fresh, False)):
+        c = cli("validate", tmp_path / "multi.json", "--experiment", tmp_path / cli_rec, "--columns", "u1=1,y1=2",
+                "-o", tmp_path / "v.json")
+        want = json.loads((tmp_path / "v.json").read_text())
+        v = m.validate(records=[py_rec], columns="u1=1,y1=2", own_records=own)
+        assert want["own_records"] is own and v.report["own_records"] is own
+        for k in ("cost", "dof", "noise_variance", "p_value_cost", "p_value_whiteness", "p_value", "autocorrelation",
+                  "consistent_at_5pct"):
+            assert v.report[k] == want[k], k
+        assert v.text[1:] == c.stdout.splitlines()[1:]
+    # msid modes of the multi model
+    c = cli("modes", tmp_path / "multi.json", "-o", tmp_path / "mm.json")
+    mm = msid.modes(str(tmp_path / "multi.json"))
+    assert mm.report == json.loads((tmp_path / "mm.json").read_text()) and mm.text == c.stdout
+    # a model whose prediction diverges on the records (u1 -> y1 of the 2x2 plant, u2 left out: model
+    # error, an unstable fit): no verdict from residuals that are not numbers, from either
+    bad = np.load(bench / "e0.npy")[:1500][:, [0, 2]].copy()
+    np.save(tmp_path / "bad.npy", bad)
+    cli("fit", "--method", "multi", "--order", "2", "--experiment", tmp_path / "bad.npy", "--columns", "u1=1,y1=2",
+        "-o", tmp_path / "bad_model.json")
+    want = cli_error("validate", tmp_path / "bad_model.json", "--experiment", tmp_path / "bad.npy", "--columns", "u1=1,y1=2")
+    assert "not finite" in want and "no verdict" in want
+    with pytest.raises(ValueError, match="not finite .* no verdict"):
+        msid.validate(str(tmp_path / "bad_model.json"), records=[bad], columns="u1=1,y1=2")
+    # an FRF model on records, and records and an FRF at once: refused
+    with pytest.raises(ValueError, match="validation on records needs a model written by msid fit --method multi"):
+        msid.validate(msid.fit(bench / "frf.json", method="ml", order=4), records=[r], n_inputs=1)
+    with pytest.raises(ValueError, match="not both"):
+        m.validate(bench / "frf.json", records=[r], n_inputs=1)

@@ -26,4 +26,18 @@ FitOutcome fit_frf_scan(const FrfData &f, const FitRequest &rq, const Report &re
 PrResult fit_ml_poles(const FrfData &f, Domain d, const std::vector<WeightedLine> &w, bool weighted,
                       const PrOptions &o);
 
+// The model of a --method multi file: poles, numerator, noise AR, noise variance and its dof
+// (multi_model.cpp). Throws Error naming `path` for another model or a malformed multi section.
+struct MultiModelDoc {
+    VecR alpha, noise;
+    std::vector<MatR> beta;
+    int d0 = 1, nu = 0, ny = 0;
+    double s2 = 0, dof = 0, h = 0;
+    std::vector<std::string> sources;
+};
+MultiModelDoc multi_model_doc(const Json &j, const std::string &path);
+
+// msid modes of a multi model (modes_multi.cpp; the demo build: fit_left_out.cpp).
+ModesOutcome modes_of_multi(const Json &model_doc, const std::string &path);
+
 }  // namespace msidfitjob

@@ -21,5 +21,11 @@ FitOutcome fit_multi(const std::vector<Record> &, const std::vector<Record> &, c
     left_out("fit --method multi");
 }
 std::vector<MultiRecord> multi_records(const std::vector<Record> &) { left_out("validate --experiment"); }
+ValidateOutcome validate_records(const Json &, const std::string &, const std::vector<Record> &, int, std::optional<bool>)
+{
+    left_out("validate --experiment");
+}
+void check_multi_model(const Json &, const std::string &) { left_out("validate --experiment"); }
+ModesOutcome modes_of_multi(const Json &, const std::string &) { left_out("modes of a --method multi model"); }
 
 }  // namespace msidfitjob

@@ -137,6 +137,25 @@ ValidateOutcome validate_frf(const msidfit::ModelFile &mf, const FrfData &f, con
 // validated (on records). validate_frf checks it first; a caller may before it reads the FRF.
 void check_model_has_frf(const msidfit::ModelFile &mf);
 
+// `msid validate MODEL --experiment ...`: a model of --method multi (model_doc, named `name`) on time
+// records, `lags` (>= 1) lags in the whiteness test. The report is msid-validation/1 with kind
+// "records". On the model's own records only the whiteness test counts: `own` says whether they are
+// (unset: records named as the model's sources, in order, are).
+ValidateOutcome validate_records(const Json &model_doc, const std::string &name, const std::vector<Record> &recs,
+                                 int lags = 10, std::optional<bool> own = std::nullopt);
+// The model check validate_records() starts with (a multi model with a usable multi section), for a
+// caller that reads the records after it.
+void check_multi_model(const Json &model_doc, const std::string &name);
+
+// `msid modes MODEL`: natural frequencies, damping ratios and residues of the model's pole pairs
+// with standard deviations (a multi model: its shared poles). report: msid-modes/1 (msid modes -o);
+// text: what msid modes prints.
+struct ModesOutcome {
+    Json report;
+    std::string text;
+};
+ModesOutcome modes_of(const Json &model_doc, const std::string &name);
+
 // The records of a multi fit or its validation as its u, y matrices (the same channels in every one).
 std::vector<msidfit::MultiRecord> multi_records(const std::vector<Record> &recs);
 

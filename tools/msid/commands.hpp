@@ -58,5 +58,4 @@ int exec_with_build(std::vector<std::string> args);
 // package msid_peers (the independent peers, tools/peers): $MSID_PEERS_DIR, else the source tree's.
 std::string bench_machine();
 std::string bench_peers_dir();
-int cmd_modes_multi(const nlohmann::ordered_json &doc, const std::string &path, const std::string &out);   // msid modes of a multi model (cmd_fit_multi.cpp)
 }  // namespace msidcli

@@ -36,12 +36,3 @@ msidfitjob::PrResult msidfitjob::fit_ml_poles(const FrfData &, Domain, const std
 {
     msidcli::left_out("fit --method ml --param poles");
 }
-
-namespace msidcli {
-
-int cmd_modes_multi(const nlohmann::ordered_json &, const std::string &, const std::string &)
-{
-    left_out("modes of a --method multi model");
-}
-
-}  // namespace msidcli

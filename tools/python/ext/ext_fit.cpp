@@ -172,8 +172,46 @@ static py::dict fit_records(const std::string &method, const py::tuple &recs, co
     return outcome(o);
 }
 
+// msid modes: the report and the text of a model document.
+static py::dict modes(const std::string &model_text, const std::string &name)
+{
+    msidfitjob::ModesOutcome o;
+    {
+        py::gil_scoped_release nogil;
+        o = msidfitjob::modes_of(parse_doc(model_text, "model"), name);
+    }
+    py::dict out;
+    out["report"] = json_to_py(o.report);
+    out["text"] = o.text;
+    return out;
+}
+
+// msid validate MODEL --experiment ...: a multi model on records (read in place, scanned for NaN/Inf).
+static py::dict validate_records(const std::string &model_text, const std::string &name, const py::tuple &recs, int lags,
+                                 bool own)
+{
+    const std::vector<msidrec::Record> r = records_of(recs[0].cast<py::list>(), recs[1].cast<py::list>(),
+                                                      recs[2].cast<py::list>(), recs[3].cast<std::vector<uint32_t>>(), true);
+    msidfitjob::ValidateOutcome v;
+    {
+        py::gil_scoped_release nogil;
+        const Json doc = parse_doc(model_text, "model");
+        msidfitjob::check_multi_model(doc, name);
+        for (const auto &x : r) msidrec::check_finite(x, 0, x.n_rows);
+        v = msidfitjob::validate_records(doc, name, r, lags, own);
+    }
+    py::dict out;
+    out["report"] = json_to_py(v.report);
+    out["text"] = v.text;
+    out["consistent"] = v.consistent;
+    return out;
+}
+
 void register_fit(py::module_ &m)
 {
+    m.def("modes", &modes, py::arg("model_json"), py::arg("name"), "msid modes of an msid-model/1 document (use Model.modes).");
+    m.def("validate_records", &validate_records, py::arg("model_json"), py::arg("name"), py::arg("records"),
+          py::arg("lags"), py::arg("own"), "msid validate --experiment of a multi model on records (use msid.validate).");
     m.def("fit_records", &fit_records, py::arg("method"), py::arg("records"), py::arg("noise_records"), py::arg("opts"),
           "msid fit --method cissim|multi on C-contiguous float64 records (use msid.fit).");
     m.def("fit", &fit, py::arg("frf_json"), py::arg("name"), py::arg("opts"),

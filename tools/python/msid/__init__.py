@@ -13,11 +13,12 @@ HTML report msid.report (python3 -m msid.report OUTDIR). Exact regions: msid.reg
 from .files import (FRF, Model, FormatError, frf_from_doc, frf_to_doc, read_frf, read_model, write_frf,  # noqa: F401
                     write_model)
 # msid._msid is imported by these on their first call, so the file functions work without it
-from .compute import (ConvergenceWarning, Design, Measurement, NoteWarning, Validation, design, fit, frf,  # noqa: F401
-                      read_design, validate)
+from .compute import (ConvergenceWarning, Design, Measurement, Modes, NoteWarning, Validation, design, fit,  # noqa: F401
+                      frf, modes, read_design, validate)
 
 __version__ = "0.1.0"
-__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "NoteWarning",
+__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "modes", "Modes",
+           "NoteWarning",
            "ConvergenceWarning", "FRF", "Model", "FormatError", "frf_from_doc", "frf_to_doc", "read_frf", "read_model",
            "write_frf", "write_model",
            "plot", "report", "regions"]

@@ -21,8 +21,8 @@ from .files import FRF, Model, frf_to_doc, model_to_doc
 PathLike = Union[str, "os.PathLike[str]"]
 Bins = Union[str, Sequence[int], np.ndarray]
 
-__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "NoteWarning",
-           "ConvergenceWarning"]
+__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "modes", "Modes",
+           "NoteWarning", "ConvergenceWarning"]
 
 
 class NoteWarning(UserWarning):
@@ -525,42 +525,82 @@ class Validation:
         self.text = list(res["text"])
         self.consistent = bool(res["consistent"])
         self.cost = self.report["cost"]
-        self.expected = self.report["expected"]
+        self.expected = self.report.get("expected")     # on records: the model's noise variance is the reference
         self.dof = self.report["dof"]
         self.p_value = self.report["p_value"]
 
     @property
     def normalised_residuals(self):
-        """Per line: the residual over its expectation under the model (about 1), an array."""
-        return np.array([ln["normalised_residual"] for ln in self.report["lines"]], dtype=float)
+        """Per line: the residual over its expectation under the model (about 1), an array (FRF validation)."""
+        return np.array([ln["normalised_residual"] for ln in self.report.get("lines", [])], dtype=float)
 
     def __str__(self):
         return "\n".join(self.text)
 
     def __repr__(self):
         verdict = "consistent" if self.consistent else "NOT consistent"
-        return (f"<msid.Validation cost {self.cost:.6g}, expected {self.expected:.6g} (dof {self.dof:.0f}), "
-                f"p-value {self.p_value:.4g}: {verdict} at 5%>")
+        ref = f", expected {self.expected:.6g}" if self.expected is not None else ""
+        return (f"<msid.Validation cost {self.cost:.6g}{ref} (dof {self.dof:.0f}), p-value {self.p_value:.4g}: "
+                f"{verdict} at 5%>")
 
 
-def validate(model: Union[Model, PathLike], frf: Union[FRF, PathLike], *, weight: Optional[str] = None,
-             lpm_lines: str = "independent") -> Validation:
-    """`msid validate MODEL FRF` in process: the model (msid.Model or a model file) on the FRF (msid.FRF or
-    an FRF file). weight: "cov", "known-input" or "none" (default: the model's fit weight, known-input or
-    cov); lpm_lines: "independent" (LPM files: every (2W+1)-th line) or "all". Returns a Validation;
-    ValueError with msid's message when the model does not fit the FRF's channels or frequencies."""
+def _model_json(model):
+    """A model (msid.Model, or an msid-model/1 file's path) as JSON text and the name msid gives it."""
     import json
     if isinstance(model, (str, os.PathLike)):
         path = os.fspath(model)
         try:
             with open(path, "r", encoding="utf-8") as fh:
-                mtext, mname = fh.read(), path
+                return fh.read(), path
         except OSError as e:
             raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
-    elif isinstance(model, Model):
-        mtext, mname = json.dumps(model_to_doc(model), allow_nan=False), os.fspath(model.path or "(in-memory model)")
-    else:
-        raise TypeError(f"model must be an msid.Model or an msid-model/1 file's path, not {type(model).__name__}")
+    if isinstance(model, Model):
+        return json.dumps(model_to_doc(model), allow_nan=False), os.fspath(model.path or "(in-memory model)")
+    raise TypeError(f"model must be an msid.Model or an msid-model/1 file's path, not {type(model).__name__}")
+
+
+def validate(model: Union[Model, PathLike], frf: Union[FRF, PathLike, None] = None, *, weight: Optional[str] = None,
+             lpm_lines: str = "independent", records: Any = None, lags: int = 10, own_records: bool = False,
+             columns: Union[str, Dict[str, str], None] = None, n_inputs: Optional[int] = None) -> Validation:
+    """`msid validate` in process. The model (msid.Model or a model file) on the FRF (msid.FRF or an FRF
+    file): weight "cov", "known-input" or "none" (default: the model's fit weight, known-input or cov),
+    lpm_lines "independent" (LPM files: every (2W+1)-th line) or "all". Or a model of method="multi" on
+    time records (records=: arrays or DataFrames as msid.fit takes them, columns / n_inputs as there;
+    lags: the whiteness test's lags; own_records=True: the records the model was fitted to, on which only
+    the whiteness test counts), as `msid validate MODEL --experiment ...`. Returns a Validation;
+    ValueError with msid's message when the model does not fit the data's channels or frequencies."""
+    mtext, mname = _model_json(model)
+    if records is not None:
+        if frf is not None:
+            raise ValueError("give an FRF or records, not both")
+        recs = _records(records, columns, n_inputs, free=True)
+        return Validation(_ext().validate_records(mtext, mname, recs, _uint(lags, "lags"), bool(own_records)))
+    if frf is None:
+        raise ValueError("give the FRF (or, for a multi model, records=) to validate the model on")
     ftext, fname = _frf_json(frf, "frf")
     opts = {"weight": None if weight is None else str(weight), "lpm_lines": str(lpm_lines)}
     return Validation(_ext().validate(mtext, mname, ftext, fname, opts))
+
+
+class Modes:
+    """What `msid modes MODEL` reports: per pole pair (or real pole) the natural frequency, damping ratio
+    (and for FRF models the residues) with standard deviations. report: the msid-modes/1 document
+    (`msid modes -o`); modes: its list of modes (dicts); text: what msid prints."""
+
+    def __init__(self, res):
+        self.report = res["report"]
+        self.text = res["text"]
+        self.modes = list(self.report.get("modes", []))
+
+    def __str__(self):
+        return self.text
+
+    def __repr__(self):
+        return f"<msid.Modes {len(self.modes)} mode(s) of {self.report.get('model')}>"
+
+
+def modes(model: Union[Model, PathLike]) -> Modes:
+    """`msid modes MODEL` in process (Model.modes()): an msid.Modes; ValueError with msid's message for a
+    model without poles to report."""
+    mtext, mname = _model_json(model)
+    return Modes(_ext().modes(mtext, mname))

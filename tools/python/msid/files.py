@@ -436,10 +436,17 @@ class Model:
             return self.response_at(1j * frf.omega_axis())
         return self.response_at(np.exp(2j * np.pi * frf.freq))
 
-    def validate(self, frf, weight=None, lpm_lines="independent"):
-        """`msid validate` of this model on an FRF (msid.FRF or file): an msid.Validation (msid.validate)."""
+    def validate(self, frf=None, **options):
+        """`msid validate` of this model on an FRF (msid.FRF or file), or for a multi model on records=
+        (msid.validate's options): an msid.Validation."""
         from .compute import validate
-        return validate(self, frf, weight=weight, lpm_lines=lpm_lines)
+        return validate(self, frf, **options)
+
+    def modes(self):
+        """`msid modes` of this model: natural frequencies, damping ratios (residues) with standard
+        deviations, an msid.Modes."""
+        from .compute import modes
+        return modes(self)
 
     def signal_names(self):
         """(input names, output names): the file's `input_names`/`output_names` when it has them, else
