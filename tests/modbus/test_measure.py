@@ -116,6 +116,23 @@ def test_measure_rtu_uri(tmp_path):
     check_coverage(doc, truth)
 
 
+def test_values_beyond_the_encoding_named_as_the_cause(tmp_path):
+    """A multisine too large for int16 at the device's scale: the device sends its invalid value for every
+    clipped sample, every period is rejected, and the message names that cause (not only a count)."""
+    out = tmp_path / "out"
+    with Sim(tmp_path, "--seed", 3) as sim:
+        r = run("measure", "--device", f"modbus-tcp://127.0.0.1:{sim.port}", "--period", 1024, "--lines", "2:300",
+                "--periods", 3, "--no-plots", "-o", out)
+    assert r.returncode == 1, r.stderr
+    assert "rejecting 3: 3 with NaN/Inf samples (a device sends those for values its sample encoding cannot carry" \
+        in r.stderr, r.stderr
+    # the same design at a tenth of the amplitude goes through
+    with Sim(tmp_path, "--seed", 3) as sim:
+        r = run("measure", "--device", f"modbus-tcp://127.0.0.1:{sim.port}", "--period", 1024, "--lines", "2:300",
+                "--amplitudes", 0.1, "--periods", 3, "--no-plots", "-o", out)
+    assert r.returncode == 0, r.stderr
+
+
 @pytest.mark.parametrize("form", ["measure", "modbus"])
 def test_measure_sigint_keeps_complete_periods(tmp_path, form):
     """SIGINT after 5 periods of experiment 2 (seen in the progress output): exit 130, the FRF written

@@ -364,7 +364,8 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                 if (n) why += fmt("%s%u %s", why.empty() ? ": " : ", ", n, what);
             };
             add(c.gap, "with samples missing or out of order");
-            add(c.nonfinite, "with NaN/Inf samples");
+            add(c.nonfinite, "with NaN/Inf samples (a device sends those for values its sample encoding cannot "
+                             "carry, e.g. beyond the int16 range at its scale: a larger scale or smaller amplitudes)");
             add(c.transient_dropped, "dropped by the transient test");
             throw Error(fmt("'%s': only %u usable period(s) after skipping %u and rejecting %u%s: at least 2 are needed",
                             r.source.c_str(), c.used, c.skipped, c.gap + c.nonfinite + c.transient_dropped, why.c_str()));
