@@ -66,22 +66,31 @@ static Json lines_auto_block(const FrfRequest &rq, const FrfPlan &plan, const Un
     j["undecided_alpha"] = UNDECIDED_ALPHA;
     j["silent_grid_bins"] = u.silent;
     if (u.bins.empty()) return j;
-    std::string where;
-    if (rq.fs > 0) {   // runs of neighbouring grid bins as frequency ranges
-        for (size_t i = 0; i < u.bins.size();) {
-            size_t e = i;
-            while (e + 1 < u.bins.size() && u.bins[e + 1] - u.bins[e] == u.step) ++e;
+    // runs of neighbouring grid bins, as frequency ranges when the rate is known (else as bins); a long
+    // list is cut after its first runs: the file holds every bin
+    constexpr size_t SHOWN = 12;
+    std::vector<std::string> runs;
+    for (size_t i = 0; i < u.bins.size();) {
+        size_t e = i;
+        while (e + 1 < u.bins.size() && u.bins[e + 1] - u.bins[e] == u.step) ++e;
+        if (rq.fs > 0) {
             const double f0 = u.bins[i] * rq.fs / rq.period, f1 = u.bins[e] * rq.fs / rq.period;
-            where += (where.empty() ? "" : ", ") + (e > i ? fmt("%.4g-%.4g Hz", f0, f1) : fmt("%.4g Hz", f0));
-            i = e + 1;
+            runs.push_back(e > i ? fmt("%.4g-%.4g Hz", f0, f1) : fmt("%.4g Hz", f0));
+        } else {
+            runs.push_back(e > i ? fmt("bins %u-%u", u.bins[i], u.bins[e]) : fmt("bin %u", u.bins[i]));
         }
-        where = " at " + where;
+        i = e + 1;
     }
-    text = fmt("%zu bin(s) of the excitation's grid (every %u-th bin from %u to %u) show input power at %g but not at "
-               "the family-wise level, and are left out%s: %s. The input is weak there over these periods (a force "
-               "that drops at a resonance or near the mains); give the bins with --lines, more periods, or the "
-               "excitation's reference (--reference r1=COLUMN)",
-               u.bins.size(), u.step, u.first, u.last, UNDECIDED_ALPHA, where.c_str(), format_bins(u.bins).c_str());
+    std::string where;
+    for (size_t k = 0; k < std::min(runs.size(), SHOWN); ++k) where += (k ? ", " : "") + runs[k];
+    if (runs.size() > SHOWN) where += fmt(" and %zu more ranges (every bin in the file's lines_auto.undecided_bins)", runs.size() - SHOWN);
+    const std::string grid = u.step == 1 ? fmt("bins %u to %u", u.first, u.last)
+                                         : fmt("bins %u to %u in steps of %u", u.first, u.last, u.step);
+    text = fmt("%zu bin(s) of the excitation's grid (%s) show input power at %g but not at the family-wise level, and "
+               "are left out: %s. The input is weak there over these periods (a force that drops at a resonance or "
+               "near the mains), or holds periodic power beyond the excitation (a force with nonlinear distortion); "
+               "give the bins with --lines, more periods, or the excitation's reference (--reference r1=COLUMN)",
+               u.bins.size(), grid.c_str(), UNDECIDED_ALPHA, where.c_str());
     return j;
 }
 
