@@ -111,8 +111,7 @@ static void find_lines_if_asked(FrfRequest &rq, const std::vector<Record> &recs,
         rep += " of the reference";
     }
     if (plan.report) plan.report("--lines auto: " + rep + ":\n  " + format_bins(rq.bins) + "\n");
-    lines_auto = lines_auto_block(rq, plan, undecided_lines(rq.bins, p_min), undecided);
-    if (plan.report && !undecided.empty()) plan.report("--lines auto: " + undecided + "\n");
+    lines_auto = lines_auto_block(rq, plan, undecided_lines(rq.bins, p_min), undecided);   // a note (estimate_frf)
 }
 
 // Step 4: one realisation with detection lines: the distortion level beside the noise.
