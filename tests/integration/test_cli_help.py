@@ -68,7 +68,18 @@ def test_typed_options_one_message(tmp_path, args, msg):
 
 def test_unknown_option_still_refused():
     r = h.run("validate", "--bogus")
-    assert r.returncode == 2 and "unknown option --bogus" in r.stderr
+    assert r.returncode == 2 and "unknown option --bogus" in r.stderr and "did you mean" not in r.stderr
+
+
+@pytest.mark.parametrize("args,near", [(["fit", "--methd", "ml"], "--method"),
+                                       (["frf", "--skip-period", "1"], "--skip-periods"),
+                                       (["frf", "--experimnet", "e.csv"], "--experiment"),
+                                       (["fit", "--allow-unstabel"], "--allow-unstable")])
+def test_misspelt_option_gets_did_you_mean(args, near):
+    r = h.run(*args)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert f"unknown option {args[1]} (did you mean {near}?)" in lines[0]
 
 
 def test_usage_lists_every_command_of_the_table():

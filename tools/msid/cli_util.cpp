@@ -1,5 +1,7 @@
 #include "cli_util.hpp"
 
+#include <algorithm>
+
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -34,6 +36,36 @@ void help_if_asked(int argc, char **argv, int first, const char *help)
         if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) throw HelpRequest{help};
 }
 
+// Edit distance of two short words: insertions, deletions, substitutions and swaps of two
+// neighbouring letters ("fti" is one swap from "fit"), each counting 1.
+static size_t edit_distance(const std::string &a, const std::string &b)
+{
+    const size_t n = a.size(), m = b.size();
+    std::vector<std::vector<size_t>> d(n + 1, std::vector<size_t>(m + 1));
+    for (size_t i = 0; i <= n; ++i) d[i][0] = i;
+    for (size_t j = 0; j <= m; ++j) d[0][j] = j;
+    for (size_t i = 1; i <= n; ++i)
+        for (size_t j = 1; j <= m; ++j) {
+            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
+            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+        }
+    return d[n][m];
+}
+
+std::string closest_word(const std::string &word, const std::vector<std::string> &words)
+{
+    std::string best;
+    size_t bd = 3;
+    for (const std::string &w : words) {
+        const size_t d = edit_distance(word, w);
+        if (d < bd) {
+            bd = d;
+            best = w;
+        }
+    }
+    return best;
+}
+
 void Args::parse(int argc, char **argv, int first, const std::vector<std::string> &valued,
                  const std::vector<std::string> &flags, const std::vector<std::string> &repeatable)
 {
@@ -59,8 +91,12 @@ void Args::parse(int argc, char **argv, int first, const std::vector<std::string
                 if (kv_.count(key) && !in(repeatable, key))
                     throw UsageError("option --" + key + " is given twice");
                 kv_[key].push_back(val);
-            } else {
-                throw UsageError("unknown option --" + key);
+            } else {   // a misspelt option: the nearest one this command takes
+                std::vector<std::string> all(valued);
+                all.insert(all.end(), flags.begin(), flags.end());
+                all.insert(all.end(), repeatable.begin(), repeatable.end());
+                const std::string near = closest_word(key, all);
+                throw UsageError("unknown option --" + key + (near.empty() ? "" : " (did you mean --" + near + "?)"));
             }
         } else if (a == "-o") {
             if (i + 1 >= argc) throw UsageError("option -o needs a value");

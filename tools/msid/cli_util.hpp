@@ -29,6 +29,10 @@ struct HelpRequest {
 
 // Throws HelpRequest{help} if `--help` or `-h` is among argv[first..] (what Args does first;
 // for a command that looks at argv before it builds its Args).
+// The word of `words` at most two edits from `word` (insertions, deletions, substitutions, swaps of
+// neighbours), the nearest; "" if none is that near. For "did you mean" in messages.
+std::string closest_word(const std::string &word, const std::vector<std::string> &words);
+
 void help_if_asked(int argc, char **argv, int first, const char *help);
 
 // One of `names` (UsageError "--what must be a, b or c (got 'v')" otherwise): its index.

@@ -64,32 +64,13 @@ std::string usage()
     return u;
 }
 
-// Edit distance of two short words (command names): insertions, deletions, substitutions and
-// swaps of two neighbouring letters ("fti" is one swap from "fit"), each counting 1.
-size_t edit_distance(const std::string &a, const std::string &b)
-{
-    const size_t n = a.size(), m = b.size();
-    std::vector<std::vector<size_t>> d(n + 1, std::vector<size_t>(m + 1));
-    for (size_t i = 0; i <= n; ++i) d[i][0] = i;
-    for (size_t j = 0; j <= m; ++j) d[0][j] = j;
-    for (size_t i = 1; i <= n; ++i)
-        for (size_t j = 1; j <= m; ++j) {
-            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
-            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
-        }
-    return d[n][m];
-}
-
 // " (did you mean 'fit'?)" for a name at most two edits from one command, else "".
 std::string did_you_mean(const std::string &name)
 {
-    const Command *best = nullptr;
-    size_t bd = 3;
-    for (const Command &c : COMMANDS) {
-        const size_t d = edit_distance(name, c.name);
-        if (d < bd) { bd = d; best = &c; }
-    }
-    return best ? std::string(" (did you mean '") + best->name + "'?)" : std::string();
+    std::vector<std::string> names;
+    for (const Command &c : COMMANDS) names.push_back(c.name);
+    const std::string best = msidcli::closest_word(name, names);
+    return best.empty() ? std::string() : " (did you mean '" + best + "'?)";
 }
 
 }  // namespace
