@@ -365,16 +365,21 @@ def read_design(path: PathLike) -> "Design":
 
 # ---- fits and validation ----
 
+def _file_text(path):
+    """A document file's text and its path as msid names it (OSError with msid's wording)."""
+    path = os.fspath(path)
+    try:
+        with open(path, "r", encoding="utf-8") as fh:
+            return fh.read(), path
+    except OSError as e:
+        raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
+
+
 def _frf_json(frf, what):
     """An FRF (msid.FRF, or an msid-frf/1 file's path) as JSON text and the name msid gives it: a file
     is handed over as written, so the fit reads the bytes `msid fit` reads and names it by its path."""
     if isinstance(frf, (str, os.PathLike)):
-        path = os.fspath(frf)
-        try:
-            with open(path, "r", encoding="utf-8") as fh:
-                return fh.read(), path
-        except OSError as e:
-            raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
+        return _file_text(frf)
     if not isinstance(frf, FRF):
         raise TypeError(f"{what} must be an msid.FRF or an msid-frf/1 file's path, not {type(frf).__name__}")
     import json
@@ -548,12 +553,7 @@ def _model_json(model):
     """A model (msid.Model, or an msid-model/1 file's path) as JSON text and the name msid gives it."""
     import json
     if isinstance(model, (str, os.PathLike)):
-        path = os.fspath(model)
-        try:
-            with open(path, "r", encoding="utf-8") as fh:
-                return fh.read(), path
-        except OSError as e:
-            raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
+        return _file_text(model)
     if isinstance(model, Model):
         return json.dumps(model_to_doc(model), allow_nan=False), os.fspath(model.path or "(in-memory model)")
     raise TypeError(f"model must be an msid.Model or an msid-model/1 file's path, not {type(model).__name__}")
