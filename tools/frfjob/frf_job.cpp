@@ -92,7 +92,7 @@ struct Fftw {
     }
 };
 
-static void validate_lines(const FrfRequest &rq)
+void validate_lines(const FrfRequest &rq)
 {
     if (rq.period < MSID_MIN_PERIOD || rq.period > MSID_MAX_PERIOD)
         throw Error(fmt("period %u is outside [%u, %u] samples", rq.period, MSID_MIN_PERIOD, MSID_MAX_PERIOD));
@@ -134,6 +134,33 @@ void check_records(const FrfRequest &rq, const std::vector<Record> &recs, bool c
     }
 }
 
+void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane, uint32_t e)> &one)
+{
+    std::vector<std::exception_ptr> err(m);
+    auto lane_run = [&](uint32_t lane) {
+        for (uint32_t e = lane; e < m; e += lanes) {
+            try {
+                one(lane, e);
+            } catch (...) {
+                err[e] = std::current_exception();
+                return;   // this lane's later experiments are never reported
+            }
+        }
+    };
+    std::thread th;
+    if (lanes == 2) {
+        try {
+            th = std::thread(lane_run, 1u);
+        } catch (const std::system_error &) {   // no thread to be had: lane 1 after lane 0
+        }
+    }
+    lane_run(0);
+    if (th.joinable()) th.join();
+    else if (lanes == 2) lane_run(1);
+    for (const auto &x : err)
+        if (x) std::rethrow_exception(x);
+}
+
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep)
 {
     std::vector<std::string> notes;
@@ -151,7 +178,7 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
         if (left)
             notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", r.path.c_str(),
                                 (unsigned long long)left));
-        if (K > 0xFFFFFFu) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
+        if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
         if (K > maxK) maxK = (uint32_t)K;
     }
     // The input diagnostics on the samples (non-periodic input, wrong period; docs/statistics.md
@@ -163,46 +190,26 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
     auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
     FrfJob &job = *jobp;
     const size_t C = nu + ny;
-    std::vector<std::exception_ptr> err(m);
-    auto measure = [&](uint32_t lane) {
+    on_lanes(m, lanes, [&](uint32_t lane, uint32_t e) {
         msid_meas &ms = *job.meas(lane);
-        for (uint32_t e = lane; e < m; e += lanes) {
-            try {
-                const Record &r = recs[e];
-                check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
-                const size_t nwhole = r.n_rows / P * P;
-                // A record read without its NaN/Inf scan (read_experiments' defer_finite) is scanned
-                // block by block just before the block is pushed, while it is in cache (256 KiB
-                // blocks; the results do not depend on the block size), the rows after the last
-                // whole period at the end: the reader's message, no sample used unchecked.
-                const size_t blk = r.finite_unchecked ? std::min<size_t>(rq.block ? rq.block : nwhole,
-                                                                         std::max<size_t>(1, ((size_t)256 << 10) / (8 * C)))
-                                                      : (rq.block ? rq.block : nwhole);
-                for (size_t k = 0; k < nwhole; k += blk) {
-                    const size_t n = std::min(blk, nwhole - k);
-                    if (r.finite_unchecked) check_finite(r, k, n);
-                    check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
-                }
-                if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
-                check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
-            } catch (...) {
-                err[e] = std::current_exception();
-                return;   // this lane's later experiments are never reported
-            }
+        const Record &r = recs[e];
+        check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
+        const size_t nwhole = r.n_rows / P * P;
+        // A record read without its NaN/Inf scan (read_experiments' defer_finite) is scanned
+        // block by block just before the block is pushed, while it is in cache (256 KiB
+        // blocks; the results do not depend on the block size), the rows after the last
+        // whole period at the end: the reader's message, no sample used unchecked.
+        const size_t blk = r.finite_unchecked ? std::min<size_t>(rq.block ? rq.block : nwhole,
+                                                                 std::max<size_t>(1, ((size_t)256 << 10) / (8 * C)))
+                                              : (rq.block ? rq.block : nwhole);
+        for (size_t k = 0; k < nwhole; k += blk) {
+            const size_t n = std::min(blk, nwhole - k);
+            if (r.finite_unchecked) check_finite(r, k, n);
+            check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
         }
-    };
-    std::thread th;
-    if (lanes == 2) {
-        try {
-            th = std::thread(measure, 1u);
-        } catch (const std::system_error &) {   // no thread to be had: lane 1 after lane 0
-        }
-    }
-    measure(0);
-    if (th.joinable()) th.join();
-    else if (lanes == 2) measure(1);
-    for (const auto &x : err)
-        if (x) std::rethrow_exception(x);
+        if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
+        check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
+    });
     std::vector<ExpSource> src;
     for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
     FrfOutcome out = job.finish(src, notes);

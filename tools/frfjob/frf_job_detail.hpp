@@ -4,6 +4,8 @@
 #include "msid_fftw_planner.hpp"
 #include "msid_host_util.hpp"
 
+#include <functional>
+
 namespace msidjob {
 
 using msidutil::check;
@@ -11,5 +13,14 @@ using msidutil::fmt;
 using msidutil::Mem;
 using msidutil::fftw_planner_ready;
 using msidutil::fftw_warmup_start;
+
+// The period and the lines (and detection lines) of a request are valid: throws Error.
+void validate_lines(const FrfRequest &rq);
+// Experiments 0 .. m-1 on `lanes` (1 or 2) threads, experiment e on lane e % lanes by one(lane, e);
+// a lane stops at its first failing experiment. Rethrows the error of the first failing experiment in
+// file order: every experiment before it ran to its end on one lane or the other.
+void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane, uint32_t e)> &one);
+// The periods a record may hold (the core's period counters and history, 24 bits).
+constexpr uint64_t MAX_RECORD_PERIODS = 0xFFFFFFu;
 
 }  // namespace msidjob

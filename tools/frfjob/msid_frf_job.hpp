@@ -106,6 +106,25 @@ struct FrfPlan {
 FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan,
                         std::unique_ptr<FrfJob> *keep = nullptr);
 
+// The FRF job on experiment files (msid frf): what estimate_frf() gives on the records the files
+// hold. Regular CSV files on the plain path (period and lines known, one realisation, not
+// --direct) pass through the core block by block (CsvStream): memory is one block per file, the
+// first input_check_rows() rows of each (the input checks), and the core's per-period statistics
+// (the transient test's history: L x (nu + ny) complex values per period, none with --transient off),
+// never the samples; the document is the same bits as from the records read whole. Everything else
+// (.npy/.npz/.mat, a pipe, --period/--lines auto, --realisations, --direct), and a record whose input
+// check needs the whole record (an input that is not periodic with the period: its period is searched
+// for), is read whole first. `plan.auto_lines` without `plan.reference`: the files' own r1.. columns
+// (own_reference_columns) when they name one per input. Throws as estimate_frf() and read_experiments().
+struct FilesOutcome {
+    FrfOutcome o;
+    uint32_t nu = 0, ny = 0, m = 0;
+    bool streamed = false;          // the records passed through the core block by block
+    std::vector<Record> recs;       // the records read whole (empty when streamed)
+};
+FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
+                                FrfPlan plan, std::unique_ptr<FrfJob> *keep = nullptr);
+
 // What the document reports about where each experiment came from.
 struct ExpSource {
     std::string source;        // file name, or e.g. "can:vcan0 experiment 1"

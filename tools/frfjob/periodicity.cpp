@@ -416,6 +416,29 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
     }
 }
 
+size_t input_check_rows(uint32_t P, uint32_t skip)
+{
+    // window_periods() periods after the skipped ones, at P and at the neighbours up to P + 2, and a
+    // period more
+    const size_t want = std::max<size_t>(4, ((size_t)1 << 14) / P + 1);
+    return ((size_t)skip + want + 1) * ((size_t)P + 2);
+}
+
+bool input_check_needs_whole(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const Record &r)
+{
+    const size_t K = window_periods(r, P, skip);
+    if (K < 2) return false;
+    const double eta = nonperiodic_fraction(r, P, skip, K);
+    double eta_n = 0;
+    uint32_t Q = eta > 1e-9 ? better_neighbour(r, P, skip, eta, eta_n) : 0;
+    if (Q && !(eta_n < 0.5 * eta)) Q = 0;
+    if (!Q && eta > NONPERIODIC_FRACTION) return true;   // the whole record is searched for its period
+    if (Q || bins.empty()) return false;
+    // check_lines_hold_input(): lines without the input's power are named from the whole record's
+    const PeriodicEvidence ev = periodic_evidence(r, P, skip, std::min<size_t>(K, 4), bins);
+    return !ev.periodic() && ev.tested > 0;
+}
+
 uint32_t find_period(const std::vector<Record> &recs, std::string &report)
 {
     const Record &r = recs.at(0);

@@ -78,6 +78,14 @@ double nonperiodic_fraction(const Record &r, uint32_t P, size_t first, size_t co
 void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins,
                            const std::vector<Record> &recs);
 
+// check_periodic_inputs() reads at most the first input_check_rows(P, skip) rows of a record,
+// unless input_check_needs_whole() of those rows (an input that is not periodic with P, nor with
+// a neighbour, whose period the whole record is searched for; lines that show no input power,
+// named from the whole record's). The FRF job's streaming
+// path (estimate_frf_files) runs the check on that prefix and reads the whole record otherwise.
+size_t input_check_rows(uint32_t P, uint32_t skip);
+bool input_check_needs_whole(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const Record &prefix);
+
 // --period auto: the period of the inputs of the first record (autocorrelation,
 // refined by nonperiodic_fraction). Throws Error saying so when the input does
 // not repeat (at least twice). `report` describes what was found.

@@ -94,12 +94,7 @@ int cmd_frf(int argc, char **argv)
         (auto_lines || rq.path == MSID_DFT_FFT ||
          msid_linedft_choose(rq.period, (uint32_t)(rq.bins.size() + rq.detect.size()), 1, 1) == MSID_DFT_FFT))
         fftw_warmup_start(rq.period);
-    // read via data(); on the plain path (run_frf's lanes read every sample; before them only the
-    // input checks read samples, and any error there is preceded by the scan below) a .npy in place
-    // is scanned for NaN/Inf by the lanes, block by block, while in cache (Record::finite_unchecked)
-    const bool plain = !a.has("direct") && !a.has("realisations") && !auto_period && !auto_lines;
-    std::vector<Record> recs = read_experiments(a.all("experiment"), cols, true, plain);
-    // option conflicts of the direct estimator (after the files, as every problem with them comes first)
+    // option conflicts of the direct estimator
     if (a.has("direct")) {
         if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
         for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
@@ -115,18 +110,18 @@ int cmd_frf(int argc, char **argv)
     plan.design = D.get();
     // --lines auto from the excitation's reference: named, or the file's own r1.. columns
     if (a.has("reference")) plan.reference = parse_reference(a.get("reference"));
-    else if (auto_lines) plan.reference = msidrec::own_reference_columns(recs[0]);
     plan.report = [](const std::string &s) { std::fputs(s.c_str(), stdout); };
     rq.lines_as_text = true;   // only written to the file below
     std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)
-    FrfOutcome o = msidjob::estimate_frf(rq, recs, plan, &job);
+    msidjob::FilesOutcome fo = msidjob::estimate_frf_files(rq, a.all("experiment"), cols, plan, &job);
+    FrfOutcome &o = fo.o;
     // no fsync: the file is reproduced by running msid frf again on the same files
     // (msid measure, whose samples are gone after the run, keeps it)
     write_json_file(out, o.doc, false, o.lines_text.n ? &o.lines_text : nullptr);
     for (const auto &n : o.notes) std::fprintf(stderr, "msid frf: note: %s\n", n.c_str());
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %zu experiment(s), %llu periods used, %llu rejected "
                 "(%s)\n",
-                out.c_str(), rq.bins.size(), recs[0].ny, recs[0].nu, recs.size(),
+                out.c_str(), rq.bins.size(), fo.ny, fo.nu, (size_t)fo.m,
                 (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
                 (unsigned long long)o.doc["periods_rejected"].get<uint64_t>(), o.dft_path.c_str());
     // The process ends now: the document's tree (some 10^5 nodes), the records and the job's
@@ -135,7 +130,7 @@ int cmd_frf(int argc, char **argv)
     // Still reachable (not a leak for LeakSanitizer): held by a volatile global with external linkage,
     // which no optimiser may drop (a function-local static was dropped at -O1 and LeakSanitizer failed
     // every msid frf run); cmd_frf runs once per process (main.cpp).
-    frf_left_to_exit = new std::tuple<Json, std::vector<Record>, std::unique_ptr<FrfJob>>(std::move(o.doc), std::move(recs),
+    frf_left_to_exit = new std::tuple<Json, std::vector<Record>, std::unique_ptr<FrfJob>>(std::move(o.doc), std::move(fo.recs),
                                                                                           std::move(job));
     return 0;
 }

@@ -463,9 +463,29 @@ private:
 
 }  // namespace
 
-Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split, bool cells)
+// The header, the layout and the parse state of one CSV file read block by block.
+struct CsvStream::Impl {
+    LineBlocks in;
+    CsvLayout L;
+    Record info;                 // the header's fields, no samples
+    std::string path;
+    const char *b = nullptr, *end = nullptr;   // the next block's text [b, end), b == end: none
+    bool have = false;           // a block is pending
+    bool done = false;           // the end-of-file checks have run
+    bool two = false;            // a block over 1 MiB parsed by two threads
+    size_t row_min = 1;          // a row's fewest bytes (the room bound)
+    Samples half;                // the second half of a split block
+    size_t blank_line = 0, blank_err = 0;   // first blank line; first blank line followed by data
+    size_t lines = 0;            // lines before the pending block
+    size_t rows = 0, general = 0;
+    explicit Impl(const std::string &p) : in(p), path(p) {}
+};
+
+CsvStream::CsvStream(const std::string &path, const ColumnMap &cols, bool split, bool cells)
+    : p_(std::make_unique<Impl>(path))
 {
-    LineBlocks in(path);
+    Impl &I = *p_;
+    LineBlocks &in = I.in;
     const char *t0 = nullptr, *end = nullptr;
     const bool any = in.next(t0, end);
     const char *p = t0;
@@ -498,8 +518,8 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
         const char *n0 = he + 1, *n1 = (const char *)std::memchr(n0, '\n', (size_t)(end - n0));
         if (n1 && std::count(n0, n1, ';') == ns && std::count(n0, n1, ',') != nc) delim = ';';
     }
-    CsvLayout L;
-    L.path = &path;
+    CsvLayout &L = I.L;
+    L.path = &I.path;
     L.cells = cells;
     L.delim = delim;
     {
@@ -515,7 +535,7 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     }
     for (auto &n : L.names)   // quoted header names ("Force")
         if (n.size() >= 2 && n.front() == '"' && n.back() == '"') n = n.substr(1, n.size() - 2);
-    Record r;
+    Record &r = I.info;
     r.path = path;
     r.file_columns = L.names;
     const std::vector<size_t> src = resolve_columns(path, L.names, cols, true, r.nu, r.ny);
@@ -525,68 +545,126 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
         L.dest[src[k]] = (int)k;
         r.columns.push_back(L.names[src[k]]);
     }
-
-    // Room by an upper bound, without a counting pass: a row holds at least
-    // max(cells, 2 C) bytes (each mapped number a character and a delimiter or
-    // newline). Sized from the file's size (pages never written are never
-    // touched: no zero fill), grown for a pipe. The first half of a block is
-    // parsed into the record, the second (by a thread) into `half`, appended.
-    const size_t row_min = std::max(L.names.size(), 2 * C);
-    const bool two = split && std::thread::hardware_concurrency() >= 2;
-    r.rows.resize((in.file_size() / row_min + 1) * C);
-    Samples half;
-    size_t blank_line = 0, blank_err = 0;   // first blank line; first blank line followed by data
-    size_t lines = 1 + comments;            // lines before the next block (comments, the header)
-    L.text = t0;                            // block 0 counts lines from the file's start
+    // A row holds at least max(cells, 2 C) bytes (each mapped number a character and a delimiter
+    // or newline): the room a block's rows can need, without a counting pass.
+    I.row_min = std::max(L.names.size(), 2 * C);
+    I.two = split && std::thread::hardware_concurrency() >= 2;
+    I.lines = 1 + comments;   // lines before the next block (comments, the header)
+    L.text = t0;              // block 0 counts lines from the file's start
     const char *b = he + 1;
     if (b < end && units_row(L, b, end)) {   // units under the header: skipped, counted in line numbers
         b = (const char *)std::memchr(b, '\n', (size_t)(end - b)) + 1;
-        ++lines;
+        ++I.lines;
     }
     // A ',' in the first data row of a ';' or tab file: decimal commas, which the cell parser then takes
     // as its point (a cell with the other separator goes to the general path, which reads both)
     if (delim != ',' && b < end && std::memchr(b, ',', (size_t)((const char *)std::memchr(b, '\n', (size_t)(end - b)) - b)))
         L.point = ',';
-    for (;;) {
-        const size_t bytes = (size_t)(end - b);
-        const char *mid = b + bytes / 2;
-        mid = two && bytes > ((size_t)1 << 20) ? (const char *)std::memchr(mid, '\n', (size_t)(end - mid)) + 1 : end;
-        Chunk ch[2];
-        ch[0].cap = (size_t)(mid - b) / row_min + 1;
-        ch[1].cap = (size_t)(end - mid) / row_min + 1;
-        if (r.rows.size() < (r.n_rows + ch[0].cap + ch[1].cap) * C)
-            r.rows.resize(std::max(2 * r.rows.size(), (r.n_rows + ch[0].cap + ch[1].cap) * C));
-        ch[0].rows = r.rows.data() + r.n_rows * C;
-        if (mid < end) {
-            if (half.size() < ch[1].cap * C) half.resize(ch[1].cap * C);
-            ch[1].rows = half.data();
-            std::thread th([&] { parse_chunk(L, mid, end, ch[1]); });
-            parse_chunk(L, b, mid, ch[0]);
-            th.join();
-        } else {
-            parse_chunk(L, b, end, ch[0]);
-        }
-        // A bad cell is reported first (the first in the file); an empty line
-        // inside the data only when the whole file has no bad cell.
-        for (Chunk &c : ch) {
-            if (!c.err.empty()) throw Error(c.err);
-            if (blank_line && c.n && !blank_err) blank_err = blank_line;
-            const size_t fb = c.first_blank ? line_of(L, c.first_blank) : 0;
-            if (fb && c.row_after_blank && !blank_err) blank_err = fb;
-            if (fb && !blank_line) blank_line = fb;
-            if (c.n && c.rows != r.rows.data() + r.n_rows * C)
-                std::memcpy(r.rows.data() + r.n_rows * C, c.rows, c.n * C * sizeof(double));
-            r.n_rows += c.n;
-            r.general_lines += c.general;
-            lines += c.lines;
-        }
-        if (!in.next(b, end)) break;
-        L.text = b;   // both halves count lines from the block's start
-        L.line0 = lines;
+    I.b = b;
+    I.end = end;
+    I.have = any;
+    if (!any) finish_checks();
+}
+
+CsvStream::~CsvStream() = default;
+const Record &CsvStream::info() const { return p_->info; }
+size_t CsvStream::rows() const { return p_->rows; }
+size_t CsvStream::general_lines() const { return p_->general; }
+bool CsvStream::at_end() const { return p_->done; }
+size_t CsvStream::file_size() const { return p_->in.file_size(); }
+
+void CsvStream::finish_checks()
+{
+    Impl &I = *p_;
+    I.done = true;
+    if (I.blank_err) throw Error(fmt("'%s' line %zu: empty line inside the data", I.path.c_str(), I.blank_err));
+    if (I.rows == 0) throw Error("'" + I.path + "' has a header but no samples");
+}
+
+size_t CsvStream::max_block_rows() const
+{
+    const Impl &I = *p_;
+    return I.have ? (size_t)(I.end - I.b) / I.row_min + 2 : 0;
+}
+
+size_t CsvStream::next(const std::function<double *(size_t max_rows)> &room)
+{
+    Impl &I = *p_;
+    if (!I.have) return 0;
+    CsvLayout &L = I.L;
+    const size_t C = L.C;
+    const char *b = I.b, *end = I.end;
+    const size_t bytes = (size_t)(end - b);
+    const char *mid = b + bytes / 2;
+    mid = I.two && bytes > ((size_t)1 << 20) ? (const char *)std::memchr(mid, '\n', (size_t)(end - mid)) + 1 : end;
+    Chunk ch[2];
+    ch[0].cap = (size_t)(mid - b) / I.row_min + 1;
+    ch[1].cap = (size_t)(end - mid) / I.row_min + 1;
+    double *dst = room(ch[0].cap + ch[1].cap);
+    ch[0].rows = dst;
+    if (mid < end) {
+        if (I.half.size() < ch[1].cap * C) I.half.resize(ch[1].cap * C);
+        ch[1].rows = I.half.data();
+        std::thread th([&] { parse_chunk(L, mid, end, ch[1]); });
+        parse_chunk(L, b, mid, ch[0]);
+        th.join();
+    } else {
+        parse_chunk(L, b, end, ch[0]);
     }
-    if (blank_err) throw Error(fmt("'%s' line %zu: empty line inside the data", path.c_str(), blank_err));
+    // A bad cell is reported first (the first in the file); an empty line
+    // inside the data only when the whole file has no bad cell.
+    size_t n = 0;
+    for (Chunk &c : ch) {
+        if (!c.err.empty()) throw Error(c.err);
+        if (I.blank_line && c.n && !I.blank_err) I.blank_err = I.blank_line;
+        const size_t fb = c.first_blank ? line_of(L, c.first_blank) : 0;
+        if (fb && c.row_after_blank && !I.blank_err) I.blank_err = fb;
+        if (fb && !I.blank_line) I.blank_line = fb;
+        if (c.n && c.rows != dst + n * C) std::memcpy(dst + n * C, c.rows, c.n * C * sizeof(double));
+        n += c.n;
+        I.general += c.general;
+        I.lines += c.lines;
+    }
+    I.rows += n;
+    I.have = I.in.next(I.b, I.end);
+    if (I.have) {
+        L.text = I.b;   // both halves count lines from the block's start
+        L.line0 = I.lines;
+    } else {
+        finish_checks();
+    }
+    return n;
+}
+
+size_t csv_line_count(const std::string &path)
+{
+    size_t n = 0;
+    char last = '\n';
+    read_chunks(path, [&](const char *p, size_t k) {
+        n += (size_t)std::count(p, p + k, '\n');
+        last = p[k - 1];
+    });
+    return n + (last != '\n');
+}
+
+Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split, bool cells)
+{
+    CsvStream s(path, cols, split, cells);
+    Record r = s.info();
+    const size_t C = r.nu + r.ny;
+    // Room by the stream's bound, sized from the file's size (pages never written are never
+    // touched: no zero fill), grown for a pipe; each block parsed in place at the end.
+    r.rows.resize((s.file_size() / std::max<size_t>(2 * C, r.file_columns.size()) + 1) * C);
+    while (!s.at_end()) {
+        s.next([&](size_t max_rows) {
+            if (r.rows.size() < (r.n_rows + max_rows) * C)
+                r.rows.resize(std::max(2 * r.rows.size(), (r.n_rows + max_rows) * C));
+            return r.rows.data() + r.n_rows * C;
+        });
+        r.n_rows = s.rows();
+    }
+    r.general_lines = s.general_lines();
     r.rows.resize(r.n_rows * C);   // shrinks in place; the untouched tail was never faulted in
-    if (r.n_rows == 0) throw Error("'" + path + "' has a header but no samples");
     return r;
 }
 

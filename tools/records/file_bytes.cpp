@@ -27,15 +27,13 @@ void *alloc_big(size_t bytes)
     return p;
 }
 
-// The whole file in one buffer, with a '\n' appended so every line ends in one.
-std::string slurp(const std::string &path)
+void read_chunks(const std::string &path, const std::function<void(const char *, size_t)> &take)
 {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
-    std::string s;
-    char buf[1 << 16];
+    std::vector<char> buf((size_t)1 << 20);
     for (;;) {
-        const ssize_t k = ::read(fd, buf, sizeof buf);
+        const ssize_t k = ::read(fd, buf.data(), buf.size());
         if (k < 0 && errno == EINTR) continue;
         if (k < 0) {
             const int e = errno;
@@ -43,9 +41,21 @@ std::string slurp(const std::string &path)
             throw FileError("cannot read '" + path + "': " + std::strerror(e));
         }
         if (k == 0) break;
-        s.append(buf, (size_t)k);
+        try {
+            take(buf.data(), (size_t)k);
+        } catch (...) {
+            ::close(fd);
+            throw;
+        }
     }
     ::close(fd);
+}
+
+// The whole file in one buffer, with a '\n' appended so every line ends in one.
+std::string slurp(const std::string &path)
+{
+    std::string s;
+    read_chunks(path, [&](const char *p, size_t n) { s.append(p, n); });
     s.push_back('\n');
     return s;
 }

@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <cstdlib>
+#include <functional>
 #include <memory>
 #include <new>
 #include <string>
@@ -98,6 +99,9 @@ ColumnMap parse_column_map(const std::string &spec, bool inputs_optional = false
 // may be used in place (read the samples through data()).
 Record read_experiment(const std::string &path, const ColumnMap &cols = {}, bool zero_copy = false);
 
+// Is the file read as CSV by read_experiment() (its name does not end in .npy, .npz or .mat)?
+bool is_csv_path(const std::string &path);
+
 // Several experiment files, as read_experiment() of each in turn: the same
 // records and, when files are bad, the message of the first bad file in the
 // list. Two regular CSV/.npy files or more are read by two threads, one file
@@ -118,6 +122,41 @@ void check_finite(const Record &r, size_t row0, size_t n);
 // of the common shape by the cell parser (decimal::parse_cell) where the CPU has
 // it; false: every line by the general parser (the same values and errors).
 Record read_record_csv(const std::string &path, const ColumnMap &cols = {}, bool split = true, bool cells = true);
+
+// A CSV record read block by block (about 4 MiB of text at a time): memory that does not grow
+// with the record, for a caller that passes each block on (the FRF job's streaming path).
+// read_record_csv() is this loop appending every block: the same values, the same messages, in
+// the same order (a bad cell is named where the stream reaches it; an empty line inside the data
+// once the whole file has no bad cell, when the last block is read).
+class CsvStream {
+public:
+    // Opens the file and reads its header; throws Error (FileError, ColumnSpecError) as read_record_csv.
+    CsvStream(const std::string &path, const ColumnMap &cols = {}, bool split = true, bool cells = true);
+    ~CsvStream();
+    CsvStream(const CsvStream &) = delete;
+    CsvStream &operator=(const CsvStream &) = delete;
+    // path, nu, ny, columns, file_columns of the record (no samples: n_rows 0, rows empty)
+    const Record &info() const;
+    // Parses the next block. `room(max_rows)` returns room for max_rows rows of nu + ny doubles
+    // (max_rows <= max_block_rows()); the block's n rows are written there, row-major, and n is
+    // returned (0 is possible: a block of blank lines). After the last block the end-of-file
+    // checks run (an empty line inside the data, no samples at all: Error) and at_end() is true.
+    size_t next(const std::function<double *(size_t max_rows)> &room);
+    bool at_end() const;
+    size_t max_block_rows() const;   // the next block's room bound (0 at the end)
+    size_t rows() const;             // rows read so far
+    size_t general_lines() const;    // as Record::general_lines
+    size_t file_size() const;        // bytes (0 for a pipe)
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> p_;
+    void finish_checks();
+};
+
+// The lines of a text file (a last line without its newline counted): an upper bound of a CSV
+// record's rows, read with read(2) 1 MiB at a time (nothing of the file stays in memory).
+size_t csv_line_count(const std::string &path);
 
 // Format rows (n x cols) with a header; values printed to round-trip exactly.
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols);

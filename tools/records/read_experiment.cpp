@@ -29,6 +29,11 @@ static Record read_one(const std::string &path, const ColumnMap &cols, bool zero
     return read_record_csv(path, cols, split);
 }
 
+bool is_csv_path(const std::string &path)
+{
+    return !ends_with(path, ".npy") && !ends_with(path, ".npz") && !ends_with(path, ".mat");
+}
+
 Record read_experiment(const std::string &path, const ColumnMap &cols, bool zero_copy)
 {
     return read_one(path, cols, zero_copy, true);

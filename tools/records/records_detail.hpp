@@ -16,5 +16,7 @@ std::string trim(std::string_view v);
 
 // The whole file in one buffer, with a '\n' appended so every line ends in one (a pipe).
 std::string slurp(const std::string &path);
+// A file read with read(2) 1 MiB at a time, each piece handed to `take` (FileError naming the file).
+void read_chunks(const std::string &path, const std::function<void(const char *, size_t)> &take);
 
 }  // namespace msidrec

@@ -1,0 +1,159 @@
+"""`msid frf` on CSV records streams them through the core block by block (estimate_frf_files,
+README "CSV records", docs/reliability.md): the document is the same bits as from the same samples read whole (a
+.npy file, which takes the whole-record path), every problem gets the same message, and peak memory
+does not grow with the samples.
+
+Peak RSS is msid's own ru_maxrss (peak_rss_run.c): memory, not time, so a busy machine does not move
+it. The negative control is the whole-record path on the same samples, which must exceed the bound."""
+import os
+import subprocess
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+import helpers as h
+
+SANITIZED = os.environ.get("MSID_SANITIZED") == "1"
+P = 1000
+BINS = "1:7:300"            # 43 lines
+FMT = "%.17g"               # every double written exactly: the CSV and the .npy hold the same samples
+
+
+def _plant_rows(periods, seed, nu=1, ny=1, extra=0):
+    """`periods` periods (+ `extra` samples) of a random-phase multisine per input through a first-order
+    filter per output, with white noise: rows of [u.., y..]."""
+    rng = np.random.default_rng(seed)
+    n = np.arange(P)
+    bins = np.arange(1, 300, 7)
+    N = periods * P + extra
+    cols = []
+    for j in range(nu):
+        ph = rng.uniform(0, 2 * np.pi, bins.size)
+        u1 = np.cos(2 * np.pi * np.outer(n, bins) / P + ph).sum(axis=1) / np.sqrt(bins.size)
+        cols.append(u1[np.arange(N) % P])
+    u = np.column_stack(cols)
+    ys = []
+    for i in range(ny):
+        a = 0.8 + 0.05 * i
+        y = lfilter([1 - a], [1, -a], u.sum(axis=1) * (1 + 0.5 * i))   # y[t] = a y[t-1] + (1-a) x[t]
+        ys.append(y + 0.01 * rng.standard_normal(N))
+    return np.column_stack([u] + ys)
+
+
+def _write(d, name, rows, nu, ny):
+    hdr = ",".join([f"u{j+1}" for j in range(nu)] + [f"y{i+1}" for i in range(ny)])
+    np.savetxt(d / f"{name}.csv", rows, delimiter=",", fmt=FMT, header=hdr, comments="")
+    np.save(d / f"{name}.npy", rows)
+    return d / f"{name}.csv", d / f"{name}.npy"
+
+
+def _same_doc(a, b):
+    """The two documents agree in every member, the sources' names aside."""
+    a, b = dict(a), dict(b)
+    ea, eb = a.pop("experiments"), b.pop("experiments")
+    assert a == b
+    for x, y in zip(ea, eb):
+        x, y = dict(x), dict(y)
+        x.pop("source")
+        y.pop("source")
+        assert x == y
+
+
+@pytest.mark.parametrize("block", [None, 777])
+def test_streamed_csv_is_the_whole_record_bits_mimo(tmp_path, block):
+    """2 inputs, 2 outputs, 2 experiments (two lanes), ~12 MB of CSV each (several 4 MiB blocks and
+    a partial period at the end), detection lines, optional --block: the same document as the .npy."""
+    csv, npy = [], []
+    for e in range(2):
+        rows = _plant_rows(130, seed=10 + e, nu=2, ny=2, extra=321)
+        c, n = _write(tmp_path, f"e{e+1}", rows, 2, 2)
+        csv.append(c)
+        npy.append(n)
+    args = ["--period", P, "--lines", BINS, "--skip-periods", 1, "--detect-lines", "2,4,6"]
+    if block:
+        args += ["--block", block]
+    a = ["--experiment"] * 2
+    r1 = h.run_ok("frf", *args, *[x for p in zip(a, csv) for x in p], "-o", tmp_path / "s.json")
+    r2 = h.run_ok("frf", *args, *[x for p in zip(a, npy) for x in p], "--columns", "u1=1,u2=2,y1=3,y2=4",
+                  "-o", tmp_path / "w.json")
+    _same_doc(h.load_json(tmp_path / "s.json"), h.load_json(tmp_path / "w.json"))
+    assert "321 samples after the last whole period are not used" in r1.stderr
+    assert r1.stderr.replace(".csv", "") == r2.stderr.replace(".npy", "")
+
+
+def _peak(tmp_path, *args):
+    runner = os.environ.get("MSID_PEAK_RSS_RUN")
+    if not runner:
+        pytest.skip("set MSID_PEAK_RSS_RUN to tests/integration/peak_rss_run (ctest does this)")
+    rss = tmp_path / "peak_kb"
+    r = subprocess.run([runner, str(rss), h.msid_bin(), *map(str, args)], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    return int(rss.read_text())
+
+
+@pytest.mark.skipif(SANITIZED, reason="ASan's shadow memory is not msid's")
+def test_peak_memory_does_not_grow_with_the_record(tmp_path):
+    """A 3,000-period SISO record (3e6 rows: 48 MB of doubles, 60 MB of CSV): streamed, msid's peak RSS
+    stays under 40 MB (measured 2026-11-28: about 19 MB: the binary, one 4 MiB window, the blocks and
+    the transient test's 3,000 x 43 x 2 spectra); the same samples read whole need more than the
+    samples (the control)."""
+    one = _plant_rows(100, seed=3)
+    text = "".join(f"{a:.6g},{b:.6g}\n" for a, b in one)
+    path = tmp_path / "long.csv"
+    with open(path, "w") as f:
+        f.write("u1,y1\n")
+        for _ in range(30):
+            f.write(text)
+    args = ("frf", "--period", P, "--lines", BINS, "--experiment")
+    streamed = _peak(tmp_path, *args, path, "-o", tmp_path / "s.json")
+    assert streamed < 40 * 1024, f"streamed: {streamed} kB"
+    doc = h.load_json(tmp_path / "s.json")
+    assert doc["experiments"][0]["samples"] == 3_000_000
+    # the control: the same samples from a .npy, read whole
+    np.save(tmp_path / "long.npy", np.loadtxt(path, delimiter=",", skiprows=1))
+    whole = _peak(tmp_path, *args, tmp_path / "long.npy", "--columns", "u1=1,y1=2", "-o", tmp_path / "w.json")
+    assert whole > 46 * 1024, f"whole: {whole} kB (the control must see the 45.8 MiB of samples)"
+    _same_doc(doc, h.load_json(tmp_path / "w.json"))
+
+
+def _long_bad(tmp_path, name, bad_row, cell=None, blank=False):
+    rows = _plant_rows(60, seed=5)
+    lines = [f"{a!r},{b!r}" for a, b in rows.tolist()]
+    if cell is not None:
+        lines[bad_row] = cell
+    if blank:
+        lines.insert(bad_row, "")
+    p = tmp_path / name
+    p.write_text("u1,y1\n" + "\n".join(lines) + "\n")
+    return p
+
+
+@pytest.mark.parametrize("what", ["cell", "blank"])
+def test_a_problem_deep_in_a_streamed_file_is_named_and_nothing_written(tmp_path, what):
+    """A bad cell or an empty line at row 50,000 (far beyond the first block): one message naming the
+    line, exit 1, no output; the message is the reader's (read_record_csv, the same as before)."""
+    p = _long_bad(tmp_path, "bad.csv", 50_000, cell="0.5,x1" if what == "cell" else None, blank=what == "blank")
+    out = tmp_path / "frf.json"
+    r = h.run("frf", "--period", P, "--lines", BINS, "--experiment", p, "-o", out)
+    assert r.returncode == 1 and not out.exists()
+    line = 50_002   # the header, then rows from line 2
+    want = (f"'{p}' line {line}, column y1: 'x1' is not a number" if what == "cell"
+            else f"'{p}' line {line}: empty line inside the data")
+    assert want in r.stderr, r.stderr
+    assert r.stderr.count("error") == 1
+
+
+def test_a_long_record_whose_input_is_not_periodic_is_read_whole_for_the_message(tmp_path):
+    """Noise through the input of a 60-period record (beyond the rows the input checks read): the whole
+    record is read to search its period, and the message is the one the .npy gets."""
+    rng = np.random.default_rng(9)
+    rows = np.column_stack([rng.standard_normal(60 * P), rng.standard_normal(60 * P)])
+    c, n = _write(tmp_path, "noise", rows, 1, 1)
+    r1 = h.run("frf", "--period", P, "--lines", BINS, "--experiment", c, "-o", tmp_path / "a.json")
+    r2 = h.run("frf", "--period", P, "--lines", BINS, "--experiment", n, "--columns", "u1=1,y1=2",
+               "-o", tmp_path / "b.json")
+    assert r1.returncode == r2.returncode == 1
+    assert "is not periodic" in r1.stderr
+    assert r1.stderr.replace(".csv", "") == r2.stderr.replace(".npy", "")

@@ -1,0 +1,248 @@
+// The FRF job on experiment files: CSV records streamed through the core block by block where the
+// job allows it (estimate_frf_files in msid_frf_job.hpp), else the records read whole and
+// estimate_frf(). Either way the same checks run in the same order on the same rows, and the core
+// gives the same bits whatever block sizes are pushed (lib/: msid_meas), so the document is the
+// same.
+#include "frf_job_detail.hpp"
+#include "frf_distortion.hpp"
+#include "msid_reference.hpp"
+#include "periodicity.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <exception>
+#include <sys/stat.h>
+#include <system_error>
+#include <thread>
+
+namespace msidjob {
+
+namespace {
+
+// A history the file-size bound may reserve (virtual memory, touched only as periods arrive); a
+// larger bound is replaced by the file's line count (one more read of the file, nothing kept).
+constexpr double HISTORY_RESERVE_BYTES = 1024.0 * 1024 * 1024;
+
+bool regular_file(const std::string &p)
+{
+    struct stat st;
+    return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+// One experiment file on the streaming path: its stream and its first rows.
+struct Source {
+    std::unique_ptr<msidrec::CsvStream> in;
+    Record head;   // info() and the first input_check_rows() rows (the whole record when short)
+};
+
+// The rest of sources [0, n) read to their ends, in file order, the rows dropped: a problem in
+// the files is named before any other (the first bad file in --experiment order), as when the
+// records are read whole before anything else happens. Only on the way to an error.
+void read_rest(std::vector<Source> &src, size_t n)
+{
+    msidrec::Samples scratch;
+    for (size_t e = 0; e < n && e < src.size(); ++e) {
+        msidrec::CsvStream *in = src[e].in.get();
+        if (!in) continue;
+        const size_t C = in->info().nu + in->info().ny;
+        while (!in->at_end())
+            in->next([&](size_t max_rows) {
+                if (scratch.size() < max_rows * C) scratch.resize(max_rows * C);
+                return scratch.data();
+            });
+    }
+}
+
+// Step 1: every file's header and first rows, in file order (the first bad file is named first).
+std::vector<Source> open_sources(const std::vector<std::string> &paths, const msidrec::ColumnMap &cols, size_t want)
+{
+    // one file: each block parsed by two threads; several: one file per lane thread (as read_experiments)
+    const bool split = paths.size() < 2 || std::thread::hardware_concurrency() < 2;
+    std::vector<Source> src(paths.size());
+    for (size_t e = 0; e < paths.size(); ++e) try {
+        Source &s = src[e];
+        s.in = std::make_unique<msidrec::CsvStream>(paths[e], cols, split);
+        s.head = s.in->info();
+        const size_t C = s.head.nu + s.head.ny;
+        while (!s.in->at_end() && s.head.n_rows < want) {
+            s.in->next([&](size_t max_rows) {
+                s.head.rows.resize((s.head.n_rows + max_rows) * C);
+                return s.head.rows.data() + s.head.n_rows * C;
+            });
+            s.head.n_rows = s.in->rows();
+        }
+        s.head.rows.resize(s.head.n_rows * C);
+        s.head.general_lines = s.in->general_lines();
+    } catch (...) {
+        const std::exception_ptr x = std::current_exception();
+        read_rest(src, e);   // an earlier file's problem further on comes first
+        std::rethrow_exception(x);
+    }
+    return src;
+}
+
+// The periods the core's history must hold for a record still being read: a bound from the
+// file's size (every row takes at least max(columns, 2 C) bytes) or, when that bound would
+// reserve too much, from its lines.
+uint64_t period_bound(const Source &s, const FrfRequest &rq)
+{
+    const Record &h = s.head;
+    const size_t C = h.nu + h.ny, P = rq.period;
+    const uint64_t row_min = std::max<size_t>(2 * C, h.file_columns.size());
+    uint64_t K = (s.in->file_size() / row_min + 1) / P + 1;
+    const double per_period = 16.0 * (double)(rq.bins.size() + rq.detect.size()) * (double)C;
+    if ((double)K * per_period > HISTORY_RESERVE_BYTES) K = msidrec::csv_line_count(h.path) / P + 1;
+    return std::min<uint64_t>(K, MAX_RECORD_PERIODS);
+}
+
+// Step 2: the checks of the whole path on the first rows (they read no further: periodicity.hpp),
+// and the period counts of the records read to their end. Returns the history the core needs, or 0 when the whole records are needed after all.
+uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src)
+{
+    std::vector<Record> heads;
+    for (Source &s : src) heads.push_back(std::move(s.head));
+    struct Restore {   // the first rows go back to their sources, whatever is thrown
+        std::vector<Record> &h;
+        std::vector<Source> &s;
+        ~Restore()
+        {
+            for (size_t e = 0; e < s.size(); ++e) s[e].head = std::move(h[e]);
+        }
+    } restore{heads, src};
+    const uint32_t P = rq.period;
+    names_from_records(rq, heads);
+    check_records(rq, heads, false);
+    for (size_t e = 0; e < src.size(); ++e)
+        if (!src[e].in->at_end() && input_check_needs_whole(P, rq.skip, rq.bins, heads[e])) return 0;
+    check_periodic_inputs(P, rq.skip, rq.bins, heads);
+    rq.inputs_checked = true;
+    check_records(rq, heads);
+    validate_lines(rq);
+    uint64_t maxK = 0;
+    for (size_t e = 0; e < src.size(); ++e) {
+        const Record &r = heads[e];
+        uint64_t K = r.n_rows / P;
+        if (src[e].in->at_end()) {   // run_frf's checks of a record read whole
+            if (K < 2 + (uint64_t)rq.skip)
+                throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least 2 usable "
+                                "periods are needed to estimate a covariance",
+                                r.path.c_str(), (unsigned long long)K, P, r.n_rows,
+                                rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
+            if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
+        } else {
+            K = period_bound(src[e], rq);
+        }
+        maxK = std::max(maxK, K);
+    }
+    return (uint32_t)maxK;
+}
+
+// Pushes whole periods of `buf` (rows x C) to the core in pushes of at most `block` rows (0: all);
+// returns the rows pushed.
+size_t push_periods(msid_meas &ms, const double *buf, size_t rows, size_t C, uint32_t P, size_t block,
+                    const std::string &path)
+{
+    const size_t w = rows / P * P, blk = block ? block : std::max<size_t>(w, 1);
+    for (size_t k = 0; k < w; k += blk)
+        check(msid_meas_push(&ms, buf + k * C, std::min(blk, w - k)), "'" + path + "'");
+    return w;
+}
+
+// Step 3: one experiment through the core: its first rows, then block by block to the file's end;
+// the rows after the last whole period are held back (never pushed), as run_frf() does.
+ExpSource measure_source(msid_meas &ms, uint32_t e, Source &s, const FrfRequest &rq)
+{
+    const Record &h = s.head;
+    const uint32_t P = rq.period;
+    const size_t C = h.nu + h.ny;
+    const std::string &path = h.path;
+    check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
+    msidrec::Samples buf;
+    size_t carry = h.n_rows, periods = 0;   // rows read, not yet pushed
+    {
+        const size_t w = push_periods(ms, h.data(), h.n_rows, C, P, rq.block, path);
+        periods = w / P;
+        carry -= w;
+        buf.assign(h.data() + w * C, h.data() + h.n_rows * C);
+        s.head.rows = msidrec::Samples();   // the first rows are no longer needed
+    }
+    while (!s.in->at_end()) {
+        const size_t n = s.in->next([&](size_t max_rows) {
+            if (buf.size() < (carry + max_rows) * C) {   // a new buffer: only the rows held back move
+                msidrec::Samples more;
+                more.resize((carry + max_rows + max_rows / 4) * C);
+                std::copy(buf.data(), buf.data() + carry * C, more.data());
+                buf.swap(more);
+            }
+            return buf.data() + carry * C;
+        });
+        const size_t w = push_periods(ms, buf.data(), carry + n, C, P, rq.block, path);
+        periods += w / P;
+        if (periods > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", path.c_str()));
+        carry = carry + n - w;
+        if (w && carry) std::memmove(buf.data(), buf.data() + w * C, carry * C * sizeof(double));
+    }
+    check(msid_meas_end(&ms, nullptr), "'" + path + "'");
+    const size_t rows = s.in->rows();
+    s.in.reset();   // the file's window is unmapped now
+    return {path, rows, rows / P, rows % P};
+}
+
+// The streaming path; false when the whole records are needed (nothing reported yet).
+bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
+                std::unique_ptr<FrfJob> *keep, FilesOutcome &out)
+{
+    const uint32_t P = rq.period;
+    std::vector<Source> src = open_sources(paths, cols, input_check_rows(P, rq.skip));
+    uint32_t maxK;
+    try {
+        maxK = check_sources(rq, src);
+    } catch (...) {
+        read_rest(src, src.size());   // a bad cell anywhere comes first
+        throw;
+    }
+    if (maxK == 0) return false;
+    std::vector<std::string> notes;
+    const uint32_t m = (uint32_t)src.size(), nu = src[0].head.nu, ny = src[0].head.ny;
+    // Two experiments at once on two lanes (threads), as run_frf(): each experiment's statistics the
+    // same bits on either lane; an error is that of the first failing experiment in file order.
+    const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
+    auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
+    std::vector<ExpSource> done(m);
+    on_lanes(m, lanes, [&](uint32_t lane, uint32_t e) { done[e] = measure_source(*jobp->meas(lane), e, src[e], rq); });
+    for (const ExpSource &x : done)
+        if (x.leftover)
+            notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", x.source.c_str(),
+                                (unsigned long long)x.leftover));
+    out.o = jobp->finish(done, notes);
+    add_detection_distortion(out.o);
+    out.nu = nu;
+    out.ny = ny;
+    out.m = m;
+    out.streamed = true;
+    if (keep) *keep = std::move(jobp);
+    return true;
+}
+
+}  // namespace
+
+FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
+                                FrfPlan plan, std::unique_ptr<FrfJob> *keep)
+{
+    FilesOutcome out;
+    const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;
+    bool stream = plain && !paths.empty() && plan.reference.empty() && rq.period >= MSID_MIN_PERIOD &&
+                  rq.period <= MSID_MAX_PERIOD;
+    for (const auto &p : paths) stream = stream && msidrec::is_csv_path(p) && regular_file(p);
+    if (stream && stream_frf(rq, paths, cols, keep, out)) return out;
+    // the records whole: a .npy used in place, scanned for NaN/Inf block by block on the plain path
+    out.recs = msidrec::read_experiments(paths, cols, true, plain);
+    if (plan.auto_lines && plan.reference.empty()) plan.reference = msidrec::own_reference_columns(out.recs.at(0));
+    out.o = estimate_frf(rq, out.recs, plan, keep);
+    out.nu = out.recs[0].nu;
+    out.ny = out.recs[0].ny;
+    out.m = (uint32_t)out.recs.size();
+    return out;
+}
+
+}  // namespace msidjob
