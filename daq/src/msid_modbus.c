@@ -7,6 +7,7 @@
 #include <modbus/modbus.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 const char *msid_mb_exception_name(uint32_t code)
 {
@@ -147,9 +148,19 @@ static uint64_t tcp_skipped(void *ctx) { return ((msid_modbus *)ctx)->mbap.skipp
 
 static void flush_(void *ctx) { modbus_flush(((msid_modbus *)ctx)->mb); }
 
-static int connect_(msid_modbus *m)
+/* wait: the first connection, where a refused TCP connection (nothing listens yet: a device starting
+ * up) is tried again; a reconnection during a run has the transport's own retries. */
+static int connect_(msid_modbus *m, int wait)
 {
-    if (modbus_connect(m->mb) == 0) {
+    int rc = modbus_connect(m->mb);
+    for (int waited = 0; wait && rc != 0 && !m->cfg.rtu && errno == ECONNREFUSED && waited < MSID_MODBUS_CONNECT_WAIT_MS;
+         waited += 50) {
+        const struct timespec t = {0, 50L * 1000 * 1000};
+        nanosleep(&t, NULL);
+        modbus_close(m->mb);
+        rc = modbus_connect(m->mb);
+    }
+    if (rc == 0) {
         modbus_flush(m->mb);
         return 0;
     }
@@ -164,7 +175,7 @@ static int reconnect_(void *ctx)
 {
     msid_modbus *m = ctx;
     modbus_close(m->mb);
-    return connect_(m);
+    return connect_(m, 0);
 }
 
 static uint32_t exc_(void *ctx) { return ((msid_modbus *)ctx)->exc; }
@@ -222,7 +233,7 @@ int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *c)
     m->mbap.byte_timeout_ms = c->byte_timeout_ms ? c->byte_timeout_ms : 1;
     m->tr.be = c->rtu ? &RTU : &TCP;
     m->tr.ctx = m;
-    const int r = connect_(m);
+    const int r = connect_(m, 1);
     if (r < 0) {
         modbus_free(m->mb);
         m->mb = NULL;

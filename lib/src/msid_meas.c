@@ -19,6 +19,7 @@ static void sub_cfgs(const msid_meas_cfg *c, const uint32_t *bins, msid_linedft_
     pc->n_channels = c->n_inputs + c->n_outputs;
     pc->skip_periods = c->skip_periods;
     pc->max_periods = c->max_periods;
+    pc->beyond_history = c->beyond_history;
     pc->transient = c->transient;
     pc->alpha = c->alpha;
 }

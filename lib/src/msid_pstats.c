@@ -15,6 +15,7 @@ static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
     ps->mean = (msid_cplx *)msid__lay(&y, L * q, sizeof(msid_cplx));
     ps->m2 = (msid_cplx *)msid__lay(&y, msid__mul(L * q, q), sizeof(msid_cplx));
     ps->hist = 0; ps->hflag = 0; ps->hdrop = 0; ps->hpval = 0; ps->hidx = 0; ps->scr = 0;
+    ps->tmean = 0; ps->tm2 = 0;
     if (H) {
         ps->hist = (msid_cplx *)msid__lay(&y, msid__mul(H, L * q), sizeof(msid_cplx));
         ps->hflag = (uint8_t *)msid__lay(&y, H, 1);
@@ -22,6 +23,10 @@ static size_t layout(msid_pstats *ps, const msid_pstats_cfg *c, void *mem)
         ps->hpval = (double *)msid__lay(&y, H, sizeof(double));
         ps->hidx = (uint32_t *)msid__lay(&y, H, sizeof(uint32_t));
         ps->scr = (double *)msid__lay(&y, msid__mul(L * q, 5u), sizeof(double));
+        if (c->beyond_history) {
+            ps->tmean = (msid_cplx *)msid__lay(&y, L * q, sizeof(msid_cplx));
+            ps->tm2 = (msid_cplx *)msid__lay(&y, msid__mul(L * q, q), sizeof(msid_cplx));
+        }
     }
     return y.size;
 }
@@ -33,20 +38,27 @@ size_t msid_pstats_mem_size(const msid_pstats_cfg *c)
     return layout(&tmp, c, 0);
 }
 
+static void clear_moments(msid_cplx *mean, msid_cplx *m2, size_t L, size_t q)
+{
+    for (size_t k = 0; k < L * q; ++k) mean[k] = msid__c(0.0, 0.0);
+    for (size_t k = 0; k < L * q * q; ++k) m2[k] = msid__c(0.0, 0.0);
+}
+
 static void clear_stats(msid_pstats *ps)
 {
-    const size_t L = ps->n_lines, q = ps->n_channels;
     ps->K = 0;
-    for (size_t k = 0; k < L * q; ++k) ps->mean[k] = msid__c(0.0, 0.0);
-    for (size_t k = 0; k < L * q * q; ++k) ps->m2[k] = msid__c(0.0, 0.0);
+    clear_moments(ps->mean, ps->m2, ps->n_lines, ps->n_channels);
 }
 
 void msid_pstats_reset(msid_pstats *ps)
 {
     clear_stats(ps);
+    ps->tK = 0;
+    ps->beyond = 0;
+    if (ps->tmean) clear_moments(ps->tmean, ps->tm2, ps->n_lines, ps->n_channels);
     ps->nhist = 0;
     ps->seg_skipped = 0;
-    msid_pstats_counts z = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    msid_pstats_counts z = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
     ps->cnt = z;
     ps->drift_pval = NAN;
 }
@@ -77,14 +89,14 @@ msid_status msid_pstats_init(msid_pstats *ps, const msid_pstats_cfg *c, void *me
  * Hermitian scatter of lines [l0, l1) with period z; ps->K already counts z.
  * The upper triangle is computed and mirrored, so m2 is exactly Hermitian.
  * Lines are independent, so updating them in any split gives the same bits. */
-static void welford_lines(msid_pstats *ps, const msid_cplx *z, size_t l0, size_t l1)
+static void welford_into(msid_cplx *mean, msid_cplx *m2, uint32_t Kn, size_t q, const msid_cplx *z, size_t l0,
+                         size_t l1)
 {
-    const size_t q = ps->n_channels;
-    const double K = (double)ps->K, invK = 1.0 / K, f = (K - 1.0) / K;
+    const double K = (double)Kn, invK = 1.0 / K, f = (K - 1.0) / K;
     msid_cplx dl[MSID_MAX_CHANNELS];
     for (size_t l = l0; l < l1; ++l) {
-        msid_cplx *mu = ps->mean + l * q;
-        msid_cplx *M = ps->m2 + l * q * q;
+        msid_cplx *mu = mean + l * q;
+        msid_cplx *M = m2 + l * q * q;
         const msid_cplx *zl = z + l * q;
         msid_cplx al[MSID_MAX_CHANNELS];
         for (size_t c = 0; c < q; ++c) {
@@ -105,6 +117,41 @@ static void welford_lines(msid_pstats *ps, const msid_cplx *z, size_t l0, size_t
     }
 }
 
+static void welford_lines(msid_pstats *ps, const msid_cplx *z, size_t l0, size_t l1)
+{
+    welford_into(ps->mean, ps->m2, ps->K, ps->n_channels, z, l0, l1);
+}
+
+/* Chan, Golub & LeVeque's pairwise update: the statistics of the periods beyond the history
+ * (tmean, tm2, tK) merged into mean, m2, K: mean += d Kb/K, M += Mb + d d^H Ka Kb / K with
+ * d = mean_b - mean_a (upper triangle computed and mirrored, as welford_into). */
+static void merge_beyond(msid_pstats *ps)
+{
+    if (!ps->tK) return;
+    const size_t L = ps->n_lines, q = ps->n_channels;
+    const double Ka = (double)ps->K, Kb = (double)ps->tK, K = Ka + Kb, wb = Kb / K, f = Ka * Kb / K;
+    msid_cplx d[MSID_MAX_CHANNELS];
+    for (size_t l = 0; l < L; ++l) {
+        msid_cplx *mu = ps->mean + l * q, *M = ps->m2 + l * q * q;
+        const msid_cplx *mb = ps->tmean + l * q, *Mb = ps->tm2 + l * q * q;
+        for (size_t c = 0; c < q; ++c) {
+            d[c] = msid__csub(mb[c], mu[c]);
+            mu[c] = msid__cadd(mu[c], msid__cscale(d[c], wb));
+        }
+        for (size_t r = 0; r < q; ++r) {
+            M[r * q + r].re += Mb[r * q + r].re + f * (d[r].re * d[r].re + d[r].im * d[r].im);
+            M[r * q + r].im = 0.0;
+            for (size_t c = r + 1; c < q; ++c) {
+                const double vr = M[r * q + c].re + Mb[r * q + c].re + f * (d[r].re * d[c].re + d[r].im * d[c].im);
+                const double vi = M[r * q + c].im + Mb[r * q + c].im + f * (d[r].im * d[c].re - d[r].re * d[c].im);
+                M[r * q + c].re = vr; M[r * q + c].im = vi;
+                M[c * q + r].re = vr; M[c * q + r].im = -vi;
+            }
+        }
+    }
+    ps->K += ps->tK;
+}
+
 static void welford(msid_pstats *ps, const msid_cplx *z)
 {
     ps->K++;
@@ -118,8 +165,13 @@ msid_status msid_pstats_add_begin(msid_pstats *ps, uint32_t flags, int *use)
     if (flags & MSID_PERIOD_GAP) { ps->cnt.gap++; return MSID_OK; }
     if (flags & MSID_PERIOD_NONFINITE) { ps->cnt.nonfinite++; return MSID_OK; }
     if (ps->seg_skipped < ps->skip_periods) { ps->seg_skipped++; ps->cnt.skipped++; return MSID_OK; }
-    if (ps->max_periods) {
-        if (ps->nhist >= ps->max_periods) { ps->cnt.offered--; return MSID_E_CAPACITY; }
+    ps->beyond = 0;
+    if (ps->max_periods && ps->nhist >= ps->max_periods) {
+        if (!ps->tmean) { ps->cnt.offered--; return MSID_E_CAPACITY; }
+        ps->beyond = 1;   /* used without a history entry: in the statistics, not tested */
+        ps->tK++;
+        ps->cnt.untested++;
+    } else if (ps->max_periods) {
         ps->hflag[ps->nhist] = 0;
         ps->hdrop[ps->nhist] = 0;
         ps->hpval[ps->nhist] = NAN;
@@ -137,7 +189,9 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
     if (l1 > ps->n_lines) l1 = ps->n_lines;
     if (l0 >= l1) return;
     const size_t q = ps->n_channels;
-    if (ps->max_periods) {
+    if (ps->beyond) {
+        welford_into(ps->tmean, ps->tm2, ps->tK, q, z, l0, l1);
+    } else if (ps->max_periods) {
         msid_cplx *dst = ps->hist + ((size_t)(ps->nhist - 1u) * ps->n_lines + l0) * q;
         for (size_t k = 0; k < (size_t)(l1 - l0) * q; ++k) dst[k] = z[(size_t)l0 * q + k];
     }
@@ -502,6 +556,7 @@ msid_status msid_pstats_detect(msid_pstats *ps)
         const size_t n = (size_t)ps->n_lines * ps->n_channels;
         for (uint32_t p = 0; p < ps->nhist; ++p)
             if (!ps->hdrop[p]) welford(ps, ps->hist + (size_t)p * n);
+        merge_beyond(ps);   /* the periods beyond the history, never tested, are kept */
     }
     /* Nothing dropped: mean, m2 and K are the Welford statistics of the
      * kept periods in order already (the streaming updates are the rebuild's,

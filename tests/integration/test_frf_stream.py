@@ -95,10 +95,10 @@ def _peak(tmp_path, *args):
 
 @pytest.mark.skipif(SANITIZED, reason="ASan's shadow memory is not msid's")
 def test_peak_memory_does_not_grow_with_the_record(tmp_path):
-    """A 3,000-period SISO record (3e6 rows: 48 MB of doubles, 60 MB of CSV): streamed, msid's peak RSS
-    stays under 40 MB (measured 2026-11-28: about 19 MB: the binary, one 4 MiB window, the blocks and
-    the transient test's 3,000 x 43 x 2 spectra); the same samples read whole need more than the
-    samples (the control)."""
+    """A 3,000-period SISO record (3e6 rows: 46 MiB of doubles, 40 MB of CSV): streamed, msid's peak RSS
+    stays under 40 MB (the binary, one 4 MiB window, the blocks and the transient test's 3,000 x 43 x 2
+    spectra; 39 MiB was measured for a 10 M-row file); the same samples read whole from a .npy need more
+    than the samples (the control), and the two documents are the same bits."""
     one = _plant_rows(100, seed=3)
     text = "".join(f"{a:.6g},{b:.6g}\n" for a, b in one)
     path = tmp_path / "long.csv"

@@ -29,7 +29,7 @@ typedef struct {
 
 static void make(pst *o, uint32_t skip, msid_transient_mode mode)
 {
-    msid_pstats_cfg c = {L, Q, skip, 64, mode, ALPHA};
+    msid_pstats_cfg c = {L, Q, skip, 64, mode, ALPHA, 0};
     const size_t n = msid_pstats_mem_size(&c);
     o->mem = aligned_alloc(64, (n + 63) & ~(size_t)63);
     assert_non_null(o->mem);

@@ -235,7 +235,7 @@ static void test_singular_one_line(void **state)
     msid_pstats ps[3];
     void *mem[3];
     const msid_pstats *st[3];
-    msid_pstats_cfg pc = {L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0};
+    msid_pstats_cfg pc = {L, q, 0, 0, MSID_TRANSIENT_OFF, 0.0, 0};
     for (uint32_t e = 0; e < m; ++e) {
         mem[e] = tsim_alloc(msid_pstats_mem_size(&pc));
         UT_STATUS(msid_pstats_init(&ps[e], &pc, mem[e], msid_pstats_mem_size(&pc)), MSID_OK);

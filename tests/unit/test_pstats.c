@@ -13,7 +13,7 @@ typedef struct {
 
 static msid_status ps_make(pst *o, uint32_t L, uint32_t q, uint32_t skip, uint32_t maxp, msid_transient_mode mode, double alpha)
 {
-    msid_pstats_cfg c = {L, q, skip, maxp, mode, alpha};
+    msid_pstats_cfg c = {L, q, skip, maxp, mode, alpha, 0};
     const size_t n = msid_pstats_mem_size(&c);
     o->mem = tsim_alloc(n);
     return msid_pstats_init(&o->ps, &c, o->mem, n);
@@ -191,11 +191,66 @@ static void test_capacity(void **state)
     free(z);
 }
 
+/* beyond_history: with the history full, later periods go into the statistics untested. Before the
+ * test the statistics are the bits of a history that holds every period; FLAG keeps them; the test
+ * covers the first max_periods (it flags the start-up transient of period 0). DROP rebuilds from the
+ * kept history merged with the later periods: the two-pass statistics of the kept periods. */
+static void test_beyond_history(void **state)
+{
+    (void)state;
+    msid_rng r;
+    msid_rng_seed(&r, 7u);
+    const uint32_t L = 3, q = 2, K = 40, H = 10;
+    msid_cplx *z = make_periods(K, L, q, 1.0, 1.0, &r);
+    for (uint32_t k = 0; k < L * q; ++k) z[k].re += 40.0;   /* a start-up transient in period 0 */
+    for (int mode = MSID_TRANSIENT_FLAG; mode <= MSID_TRANSIENT_DROP; ++mode) {
+        pst a, full;
+        msid_pstats_cfg c = {L, q, 0, H, (msid_transient_mode)mode, 0.01, 1};
+        const size_t n = msid_pstats_mem_size(&c);
+        msid_pstats_cfg c0 = c;
+        c0.beyond_history = 0;
+        UT_CHECK(n > msid_pstats_mem_size(&c0), "mem %zu", n);   /* the later periods' own moments */
+        a.mem = tsim_alloc(n);
+        UT_STATUS(msid_pstats_init(&a.ps, &c, a.mem, n), MSID_OK);
+        UT_STATUS(ps_make(&full, L, q, 0, K, (msid_transient_mode)mode, 0.01), MSID_OK);
+        ps_add_periods(&a, z, 0, K, NULL);
+        ps_add_periods(&full, z, 0, K, NULL);
+        msid_pstats_counts ca = msid_pstats_get_counts(&a.ps);
+        UT_CHECK(ca.untested == K - H && ca.used == K && msid_pstats_history(&a.ps) == H, "untested %u used %u",
+                 ca.untested, ca.used);
+        for (uint32_t l = 0; l < L; ++l) {
+            UT_CHECK(!memcmp(msid_pstats_mean(&a.ps, l), msid_pstats_mean(&full.ps, l), q * sizeof(msid_cplx)), "mean %u", l);
+            UT_CHECK(!memcmp(msid_pstats_scatter(&a.ps, l), msid_pstats_scatter(&full.ps, l), q * q * sizeof(msid_cplx)),
+                     "scatter %u", l);
+        }
+        UT_STATUS(msid_pstats_detect(&a.ps), MSID_OK);
+        ca = msid_pstats_get_counts(&a.ps);
+        UT_CHECK(msid_pstats_period_state(&a.ps, 0, NULL) >= 1 && ca.transient_flagged == 1, "flagged %u",
+                 ca.transient_flagged);
+        if (mode == MSID_TRANSIENT_FLAG) {
+            UT_STATUS(msid_pstats_detect(&full.ps), MSID_OK);
+            for (uint32_t l = 0; l < L; ++l)
+                UT_CHECK(!memcmp(msid_pstats_mean(&a.ps, l), msid_pstats_mean(&full.ps, l), q * sizeof(msid_cplx)),
+                         "FLAG keeps the bits, line %u", l);
+            UT_CHECK(ca.used == K, "used %u", ca.used);
+        } else {
+            uint32_t use[40];
+            for (uint32_t p = 1; p < K; ++p) use[p - 1] = p;
+            UT_CHECK(ca.used == K - 1 && ca.transient_dropped == 1 && msid_pstats_period_state(&a.ps, 0, NULL) == 2,
+                     "used %u dropped %u", ca.used, ca.transient_dropped);
+            check_against_two_pass(&a.ps, z, use, K - 1, 1e-12);
+        }
+        tsim_free(a.mem);
+        tsim_free(full.mem);
+    }
+    free(z);
+}
+
 static void test_init_errors(void **state)
 {
     (void)state;
     msid_pstats ps;
-    msid_pstats_cfg c = {4, 3, 0, 10, MSID_TRANSIENT_DROP, 0.01};
+    msid_pstats_cfg c = {4, 3, 0, 10, MSID_TRANSIENT_DROP, 0.01, 0};
     const size_t need = msid_pstats_mem_size(&c);
     msid_pstats_cfg c0 = c;
     c0.max_periods = 0;
@@ -912,6 +967,7 @@ int main(void)
         cmocka_unit_test(test_transient_floor_boundary),
         cmocka_unit_test(test_detect_no_drop_keeps_stats),
         cmocka_unit_test(test_detect_per_segment_equals_one_call),
+        cmocka_unit_test(test_beyond_history),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

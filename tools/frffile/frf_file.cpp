@@ -332,6 +332,7 @@ Json experiment(const Experiment &x)
     je["periods_gap"] = x.periods_gap;
     je["periods_nonfinite"] = x.periods_nonfinite;
     if (x.transient_tested) je["transient_tested"] = *x.transient_tested;
+    if (x.periods_untested) je["periods_untested"] = x.periods_untested;
     je["transient_flagged"] = x.transient_flagged;
     je["transient_dropped"] = x.transient_dropped;
     if (x.drift_block) {

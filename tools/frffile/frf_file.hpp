@@ -141,6 +141,7 @@ struct Experiment {
     uint64_t samples = 0, periods_total = 0, periods_skipped = 0, periods_used = 0;
     uint64_t periods_gap = 0, periods_nonfinite = 0;
     std::optional<bool> transient_tested;
+    uint64_t periods_untested = 0;   // used after the test's history filled (written when > 0)
     std::vector<uint32_t> transient_flagged, transient_dropped;   // period numbers from 1
     bool drift_block = false;   // write drift_tested, drift, drift_p_value
     bool drift_tested = false, drift = false;

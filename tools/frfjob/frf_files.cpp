@@ -19,10 +19,6 @@ namespace msidjob {
 
 namespace {
 
-// A history the file-size bound may reserve (virtual memory, touched only as periods arrive); a
-// larger bound is replaced by the file's line count (one more read of the file, nothing kept).
-constexpr double HISTORY_RESERVE_BYTES = 1024.0 * 1024 * 1024;
-
 bool regular_file(const std::string &p)
 {
     struct stat st;
@@ -81,18 +77,13 @@ std::vector<Source> open_sources(const std::vector<std::string> &paths, const ms
     return src;
 }
 
-// The periods the core's history must hold for a record still being read: a bound from the
-// file's size (every row takes at least max(columns, 2 C) bytes) or, when that bound would
-// reserve too much, from its lines.
+// The periods a record still being read may hold: a bound from the file's size (every row takes at
+// least max(columns, 2 C) bytes). The core's history is the smaller of this and its cap (FrfJob).
 uint64_t period_bound(const Source &s, const FrfRequest &rq)
 {
     const Record &h = s.head;
-    const size_t C = h.nu + h.ny, P = rq.period;
-    const uint64_t row_min = std::max<size_t>(2 * C, h.file_columns.size());
-    uint64_t K = (s.in->file_size() / row_min + 1) / P + 1;
-    const double per_period = 16.0 * (double)(rq.bins.size() + rq.detect.size()) * (double)C;
-    if ((double)K * per_period > HISTORY_RESERVE_BYTES) K = msidrec::csv_line_count(h.path) / P + 1;
-    return std::min<uint64_t>(K, MAX_RECORD_PERIODS);
+    const uint64_t row_min = std::max<size_t>(2 * (h.nu + h.ny), h.file_columns.size());
+    return std::min<uint64_t>((s.in->file_size() / row_min + 1) / rq.period + 1, MAX_RECORD_PERIODS);
 }
 
 // Step 2: the checks of the whole path on the first rows (they read no further: periodicity.hpp),

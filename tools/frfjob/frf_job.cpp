@@ -221,6 +221,7 @@ struct FrfJob::Impl {
     FrfRequest rq;
     uint32_t nu, ny, m;
     Mem mtw, mm;
+    uint32_t history = 0;   // the transient test's periods per experiment
     msid_twiddle tw{};
     std::string dft_path;
     struct Lane {
@@ -272,6 +273,14 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
     mc.fft = nullptr;   // per lane
     mc.skip_periods = rq.skip;
     mc.transient = maxK >= (uint64_t)rq.skip + 3 ? rq.transient : MSID_TRANSIENT_OFF;
+    // The history holds at most HISTORY_BYTES per experiment: a longer record's later periods are
+    // used untested (beyond_history), so memory does not grow with the record.
+    const uint32_t cap = (uint32_t)std::max(3.0, std::floor(HISTORY_BYTES / (16.0 * (double)(L + Ld) * (nu + ny))));
+    if (history > cap) {
+        history = cap;
+        mc.beyond_history = 1;
+    }
+    I.history = history;
     mc.max_periods = mc.transient != MSID_TRANSIENT_OFF ? history : 0;
     mc.alpha = rq.alpha;
     if (path == MSID_DFT_FFT) fftw_planner_ready();   // msid frf's warm-up plan (msid_fftw_planner.hpp) has set the planner up
@@ -355,6 +364,12 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         x.periods_gap = c.gap;
         x.periods_nonfinite = c.nonfinite;
         x.transient_tested = c.tested != 0;
+        x.periods_untested = c.untested;
+        if (c.untested)
+            out.notes.push_back(fmt("'%s': the transient and drift tests covered the first %u of %u used periods (their "
+                                    "history holds %.0f MiB per experiment); the last %u are in the FRF untested",
+                                    r.source.c_str(), msid_pstats_history(ps[e]), c.used, HISTORY_BYTES / 1048576.0,
+                                    c.untested));
         x.transient_flagged = flagged;
         x.transient_dropped = dropped;
         x.drift_block = true;

@@ -20,6 +20,9 @@ void validate_lines(const FrfRequest &rq);
 // a lane stops at its first failing experiment. Rethrows the error of the first failing experiment in
 // file order: every experiment before it ran to its end on one lane or the other.
 void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane, uint32_t e)> &one);
+// The transient test's history per experiment (16 bytes x lines x channels per period) holds at
+// most this: the periods after it are used untested (msid_pstats beyond_history).
+constexpr double HISTORY_BYTES = 32.0 * 1024 * 1024;
 // The periods a record may hold (the core's period counters and history, 24 bits).
 constexpr uint64_t MAX_RECORD_PERIODS = 0xFFFFFFu;
 

@@ -636,17 +636,6 @@ size_t CsvStream::next(const std::function<double *(size_t max_rows)> &room)
     return n;
 }
 
-size_t csv_line_count(const std::string &path)
-{
-    size_t n = 0;
-    char last = '\n';
-    read_chunks(path, [&](const char *p, size_t k) {
-        n += (size_t)std::count(p, p + k, '\n');
-        last = p[k - 1];
-    });
-    return n + (last != '\n');
-}
-
 Record read_record_csv(const std::string &path, const ColumnMap &cols, bool split, bool cells)
 {
     CsvStream s(path, cols, split, cells);

@@ -154,10 +154,6 @@ private:
     void finish_checks();
 };
 
-// The lines of a text file (a last line without its newline counted): an upper bound of a CSV
-// record's rows, read with read(2) 1 MiB at a time (nothing of the file stays in memory).
-size_t csv_line_count(const std::string &path);
-
 // Format rows (n x cols) with a header; values printed to round-trip exactly.
 std::string format_csv(const std::vector<std::string> &header, const double *rows, size_t n, size_t cols);
 

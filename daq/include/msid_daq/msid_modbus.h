@@ -49,8 +49,13 @@ typedef struct msid_modbus {
     char err[400];
 } msid_modbus;
 
+/** A first TCP connection the device refuses is tried again for this long (ms), every 50 ms: a
+ *  device (or msid-devsim started in the same shell line) that is still starting up. */
+#define MSID_MODBUS_CONNECT_WAIT_MS 2000
+
 /**
- * @brief Create the libmodbus context and connect.
+ * @brief Create the libmodbus context and connect (TCP: a refused connection is retried for
+ *        ::MSID_MODBUS_CONNECT_WAIT_MS).
  * @return 0, -MSID_DAQ_E_ARG or -MSID_DAQ_E_CONNECT; m->err holds the detail.
  */
 int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *cfg);

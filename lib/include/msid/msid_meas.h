@@ -45,6 +45,8 @@ typedef struct msid_meas_cfg {
     const msid_fft_backend *fft;   /**< FFT backend or NULL */
     uint32_t skip_periods;         /**< leading periods of each experiment (segment) to ignore */
     uint32_t max_periods;          /**< per-experiment history for the transient test (0: none) */
+    uint32_t beyond_history;       /**< ::msid_pstats_cfg beyond_history: periods after a full history
+                                        are used untested instead of refused */
     msid_transient_mode transient; /**< transient test mode */
     double alpha;                  /**< transient test level per experiment (0: 0.01) */
     int spread;                    /**< 1: bounded per-sample time. The period-end work (spectra

@@ -38,6 +38,9 @@ typedef struct msid_pstats_cfg {
     uint32_t max_periods;   /**< history capacity in periods (>= 3 when transient != OFF); 0 = none */
     msid_transient_mode transient; /**< transient test mode */
     double alpha;           /**< family-wise false-alarm probability of the test per experiment, (0,1); 0 selects 0.01 */
+    uint32_t beyond_history; /**< 1: with the history full, later periods are used without an entry
+                                  (counted in `untested`; the transient and drift tests cover the first
+                                  max_periods periods); 0: they are refused (MSID_E_CAPACITY) */
 } msid_pstats_cfg;
 
 /** Period counters of one experiment. */
@@ -52,6 +55,7 @@ typedef struct msid_pstats_counts {
     int tested;              /**< 1 if the transient test ran (needs >= 3 periods) */
     int drift_tested;        /**< 1 if the drift test ran (needs >= 6 stored periods) */
     int drift;               /**< 1 if the drift test fired (then nothing is dropped) */
+    uint32_t untested;       /**< used beyond a full history (beyond_history): in the statistics, not tested */
 } msid_pstats_counts;
 
 /** Instance (caller-owned). */
@@ -68,6 +72,10 @@ typedef struct msid_pstats {
     double *hpval;          /**< [max_periods] test p-value per accepted period (NaN if untested) */
     uint32_t *hidx;         /**< [max_periods] 0-based number of each accepted period among all offered */
     double *scr;            /**< [5*L*q] scratch of msid_pstats_detect (with a history only) */
+    msid_cplx *tmean;       /**< [L*q] mean of the periods beyond the history (beyond_history only) */
+    msid_cplx *tm2;         /**< [L*q*q] their scatter (DROP rebuilds from the kept history plus these) */
+    uint32_t tK;            /**< periods beyond the history */
+    int beyond;             /**< 1: the period begun last has no history entry */
     double drift_pval;      /**< p-value of the drift test (NaN if untested) */
     uint32_t nhist;         /**< accepted periods stored */
     uint32_t seg_skipped;   /**< periods skipped in the current segment */
@@ -98,7 +106,8 @@ void msid_pstats_new_segment(msid_pstats *ps);
  * @brief Offer one completed period.
  * @param z spectra [L*q], index l*q + c (the layout of ::msid_linedft_spectra)
  * @param flags ::MSID_PERIOD_GAP / ::MSID_PERIOD_NONFINITE; a flagged period is counted and discarded
- * @return MSID_OK, or MSID_E_CAPACITY if the history is full (the period is not used).
+ * @return MSID_OK, or MSID_E_CAPACITY if the history is full and beyond_history is 0 (the period is
+ *         not used).
  */
 msid_status msid_pstats_add(msid_pstats *ps, const msid_cplx *z, uint32_t flags);
 
@@ -154,6 +163,12 @@ void msid_pstats_add_lines(msid_pstats *ps, const msid_cplx *z, uint32_t l0, uin
  * periods the transient test flags in one pass against all periods are kept
  * (never dropped: dropping early periods of a drifting record only moves the
  * estimate towards the late state).
+ *
+ * With beyond_history, the periods used after the history filled are in the
+ * statistics but neither tested nor dropped: the tests see the first
+ * max_periods kept periods. A DROP rebuild is then the Welford statistics of
+ * the kept history merged with those of the later periods (Chan et al.'s
+ * pairwise update); without drops the statistics are the streaming ones.
  * @return MSID_OK.
  */
 msid_status msid_pstats_detect(msid_pstats *ps);
