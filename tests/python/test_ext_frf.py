@@ -189,6 +189,34 @@ def test_frf_starts_no_process(monkeypatch, d2, recs):
     assert_same_bits(m.frf(), f)
 
 
+def test_frf_of_files_same_bits_as_cli(tmp_path, monkeypatch, d2, recs):
+    """Experiment files given as paths: msid.frf runs the job `msid frf --experiment` runs (a CSV record
+    streamed through the core), in process: the same bits as the command line on the same files and as
+    the arrays; a missing file is an OSError with msid's message, a bad cell a ValueError."""
+    csvs = []
+    for k, r in enumerate(recs):
+        p = tmp_path / f"e{k + 1}.csv"
+        np.savetxt(p, r, delimiter=",", fmt="%.17g", header="u1,u2,y1,y2", comments="")
+        csvs.append(p)
+    d2.save(tmp_path / "design.json")
+    cli("frf", "--design", tmp_path / "design.json", "--experiment", csvs[0], "--experiment", csvs[1],
+        "--skip-periods", 1, "-o", tmp_path / "cli.json")
+    want = msid.read_frf(tmp_path / "cli.json")
+    refuse_processes(monkeypatch)
+    got = msid.frf(csvs, design=d2, skip_periods=1)
+    assert_same_bits(got, want)
+    assert_same_bits(got, msid.frf(recs, design=d2, skip_periods=1))
+    assert_same_bits(msid.frf([str(p) for p in csvs], period=P, lines=LINES, skip_periods=1), got)
+    with pytest.raises(OSError, match="cannot open .*nope.csv"):
+        msid.frf([tmp_path / "nope.csv", csvs[1]], design=d2)
+    bad = tmp_path / "bad.csv"
+    lines = csvs[0].read_text().split("\n")
+    lines[5] = "x" + lines[5][lines[5].index(","):]
+    bad.write_text("\n".join(lines))
+    with pytest.raises(ValueError, match=r"bad.csv' line 6, column u1: 'x' is not a number"):
+        msid.frf([bad, csvs[1]], design=d2)
+
+
 def test_frf_threads_same_bits(d2, recs):
     """Jobs on several Python threads at once (the GIL is released; FFTW's planner is shared) give the
     bits of one job alone."""

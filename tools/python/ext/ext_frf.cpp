@@ -81,8 +81,38 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
     return out;
 }
 
+// Experiment files (CSV, .npy, .npz, .mat) through the job `msid frf` runs on them
+// (msidjob::estimate_frf_files): a CSV record streamed through the core where the plan allows it.
+static py::dict frf_files(const std::vector<std::string> &paths, const std::string &columns, const py::dict &opts,
+                          const py::object &design)
+{
+    const Design *D = design.is_none() ? nullptr : design.cast<const PyDesign &>().d.get();
+    FrfRequest rq;
+    FrfPlan plan;
+    request_lines(opts, rq, plan, D);
+    request_options(opts, rq, D);
+    request_estimator(opts, rq, plan, D);
+    const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
+    std::vector<std::string> reports;
+    plan.report = [&](const std::string &s) { reports.push_back(s); };
+    msidjob::FilesOutcome o;
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
+        o = msidjob::estimate_frf_files(rq, paths, cols, plan);
+    }
+    py::dict out;
+    out["frf"] = frf_to_py(o.o.doc);
+    out["notes"] = o.o.notes;
+    out["reports"] = reports;
+    out["streamed"] = o.streamed;
+    return out;
+}
+
 void register_frf(py::module_ &m)
 {
+    m.def("frf_files", &frf_files, py::arg("paths"), py::arg("columns"), py::arg("opts"), py::arg("design"),
+          "The FRF job on experiment files, as msid frf (use msid.frf with file paths).");
     m.def("frf", &frf, py::arg("arrays"), py::arg("names"), py::arg("columns"), py::arg("n_inputs"), py::arg("opts"),
           py::arg("design"), "The FRF job on C-contiguous float64 records (use msid.frf).");
     m.def(

@@ -199,7 +199,10 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
     records: one experiment's samples, or a list with one per experiment. Each is a 2-D array (rows are
       samples, periods back to back; columns u1..u_nu then y1..y_ny, numbered from 1 for `columns`) or a
       pandas DataFrame (its column names, u1.. y1.. or mapped by `columns`). C-contiguous float64 arrays
-      are read in place; other real dtypes and layouts are copied once.
+      are read in place; other real dtypes and layouts are copied once. Or experiment files (a path, or a
+      list of paths: CSV, .npy, .npz, .mat), read as `msid frf --experiment` reads them: a CSV record
+      passes through the core block by block when the period and lines are known, so a file far larger
+      than memory is estimated in a few tens of MB (README "CSV records").
     design: an msid.Design or a design file (period, lines, inputs, experiments), or else
     period, lines: samples per period and excited bins; either may be "auto" (found from the inputs).
       lines takes integers or msid's string form ("1:200", "1,3,5:2:21").
@@ -232,8 +235,24 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
     if realisations is not None:
         opts["realisations"] = _uint(realisations, "realisations")
     opts["direct"] = bool(direct)
+    paths = _file_paths(records)
+    if paths is not None:
+        if n_inputs is not None and design is None:
+            raise ValueError("n_inputs applies to plain arrays: a file names its columns (u1.., y1.. or columns=)")
+        spec = columns if isinstance(columns, str) else ",".join(f"{k}={v}" for k, v in (columns or {}).items())
+        return _result(_ext().frf_files(paths, spec, opts, None if D is None else D._impl), "msid.frf")
     arrays, names, colnames, nus = _records(records, columns, n_inputs)
     return _result(_ext().frf(arrays, names, colnames, nus, opts, None if D is None else D._impl), "msid.frf")
+
+
+def _file_paths(records) -> Optional[List[str]]:
+    """records as experiment files: a path or a list of paths (str or os.PathLike); None for samples."""
+    one = isinstance(records, (str, os.PathLike))
+    many = isinstance(records, (list, tuple)) and len(records) > 0 and \
+        all(isinstance(r, (str, os.PathLike)) for r in records)
+    if not (one or many):
+        return None
+    return [os.fspath(r) for r in ([records] if one else records)]
 
 
 # ---- a measurement fed block by block ----
@@ -248,8 +267,9 @@ class Measurement:
 
     Any block sizes give the same bits, equal to msid.frf on the whole records. Experiments are measured
     one after another: pushing to another experiment closes the open one. The transient test keeps up
-    to `max_periods` periods per experiment (default 4 x the design's periods + 8); transient="off"
-    keeps none. Options as msid.frf.
+    to `max_periods` periods per experiment (default 4 x the design's periods + 8; a period more is an
+    error), at most 32 MiB of them: beyond that, later periods are used untested (docs/statistics.md
+    "Long records"); transient="off" keeps none. Options as msid.frf.
     """
 
     def __init__(self, design: Union["Design", PathLike], *, skip_periods: int = 0, fs: Optional[float] = None,
