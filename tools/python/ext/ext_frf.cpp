@@ -49,15 +49,21 @@ static void request_estimator(const py::dict &opts, FrfRequest &rq, FrfPlan &pla
     }
 }
 
-static py::dict frf(const py::list &arrays, const py::list &names, const py::list &columns,
-                    const std::vector<uint32_t> &nu, const py::dict &opts, const py::object &design)
+// The whole request of msid.frf's options and design (an msid.Design or None).
+static void request_of(const py::dict &opts, const py::object &design, FrfRequest &rq, FrfPlan &plan)
 {
     const Design *D = design.is_none() ? nullptr : design.cast<const PyDesign &>().d.get();
-    FrfRequest rq;
-    FrfPlan plan;
     request_lines(opts, rq, plan, D);
     request_options(opts, rq, D);
     request_estimator(opts, rq, plan, D);
+}
+
+static py::dict frf(const py::list &arrays, const py::list &names, const py::list &columns,
+                    const std::vector<uint32_t> &nu, const py::dict &opts, const py::object &design)
+{
+    FrfRequest rq;
+    FrfPlan plan;
+    request_of(opts, design, rq, plan);
     std::vector<Record> recs = records_of(arrays, names, columns, nu, false);
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
@@ -86,12 +92,9 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
 static py::dict frf_files(const std::vector<std::string> &paths, const std::string &columns, const py::dict &opts,
                           const py::object &design)
 {
-    const Design *D = design.is_none() ? nullptr : design.cast<const PyDesign &>().d.get();
     FrfRequest rq;
     FrfPlan plan;
-    request_lines(opts, rq, plan, D);
-    request_options(opts, rq, D);
-    request_estimator(opts, rq, plan, D);
+    request_of(opts, design, rq, plan);
     const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
