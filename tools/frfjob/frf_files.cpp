@@ -53,25 +53,37 @@ void read_rest(std::vector<Source> &src, size_t n)
 std::vector<Source> open_sources(const std::vector<std::string> &paths, const msidrec::ColumnMap &cols, size_t want)
 {
     // one file: each block parsed by two threads; several: one file per lane thread (as read_experiments)
-    const bool split = paths.size() < 2 || std::thread::hardware_concurrency() < 2;
-    std::vector<Source> src(paths.size());
-    for (size_t e = 0; e < paths.size(); ++e) try {
-        Source &s = src[e];
-        s.in = std::make_unique<msidrec::CsvStream>(paths[e], cols, split);
-        s.head = s.in->info();
-        const size_t C = s.head.nu + s.head.ny;
-        while (!s.in->at_end() && s.head.n_rows < want) {
-            s.in->next([&](size_t max_rows) {
-                s.head.rows.resize((s.head.n_rows + max_rows) * C);
-                return s.head.rows.data() + s.head.n_rows * C;
-            });
-            s.head.n_rows = s.in->rows();
-        }
-        s.head.rows.resize(s.head.n_rows * C);
-        s.head.general_lines = s.in->general_lines();
+    const uint32_t m = (uint32_t)paths.size();
+    const bool two = m >= 2 && std::thread::hardware_concurrency() >= 2;
+    std::vector<Source> src(m);
+    std::vector<uint8_t> failed(m, 0);
+    try {
+        on_lanes(m, two ? 2 : 1, [&](uint32_t, uint32_t e) {
+            try {
+                Source &s = src[e];
+                s.in = std::make_unique<msidrec::CsvStream>(paths[e], cols, !two);
+                s.head = s.in->info();
+                const size_t C = s.head.nu + s.head.ny;
+                while (!s.in->at_end() && s.head.n_rows < want) {
+                    s.in->next([&](size_t max_rows) {
+                        s.head.rows.resize((s.head.n_rows + max_rows) * C);
+                        return s.head.rows.data() + s.head.n_rows * C;
+                    });
+                    s.head.n_rows = s.in->rows();
+                }
+                s.head.rows.resize(s.head.n_rows * C);
+                s.head.general_lines = s.in->general_lines();
+            } catch (...) {
+                failed[e] = 1;
+                throw;
+            }
+        });
     } catch (...) {
+        // the first failing file in order: every file before it was opened; a problem further on in
+        // one of them comes first
         const std::exception_ptr x = std::current_exception();
-        read_rest(src, e);   // an earlier file's problem further on comes first
+        const size_t first = (size_t)(std::find(failed.begin(), failed.end(), 1) - failed.begin());
+        read_rest(src, first);
         std::rethrow_exception(x);
     }
     return src;
