@@ -124,18 +124,8 @@ uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src)
     uint64_t maxK = 0;
     for (size_t e = 0; e < src.size(); ++e) {
         const Record &r = heads[e];
-        uint64_t K = r.n_rows / P;
-        if (src[e].in->at_end()) {   // run_frf's checks of a record read whole
-            if (K < 2 + (uint64_t)rq.skip)
-                throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least 2 usable "
-                                "periods are needed to estimate a covariance",
-                                r.path.c_str(), (unsigned long long)K, P, r.n_rows,
-                                rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
-            if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
-        } else {
-            K = period_bound(src[e], rq);
-        }
-        maxK = std::max(maxK, K);
+        // a record read to its end: run_frf's checks; else a bound
+        maxK = std::max(maxK, src[e].in->at_end() ? record_periods(r, rq) : period_bound(src[e], rq));
     }
     return (uint32_t)maxK;
 }

@@ -134,6 +134,19 @@ void check_records(const FrfRequest &rq, const std::vector<Record> &recs, bool c
     }
 }
 
+uint64_t record_periods(const Record &r, const FrfRequest &rq)
+{
+    const uint32_t P = rq.period;
+    const uint64_t K = r.n_rows / P;
+    if (K < 2 + (uint64_t)rq.skip)
+        throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least 2 usable periods "
+                        "are needed to estimate a covariance",
+                        r.path.c_str(), (unsigned long long)K, P, r.n_rows,
+                        rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
+    if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
+    return K;
+}
+
 void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane, uint32_t e)> &one)
 {
     std::vector<std::exception_ptr> err(m);
@@ -169,16 +182,10 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
     const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size(), P = rq.period;
     uint32_t maxK = 0;
     for (const auto &r : recs) {
-        const uint64_t K = r.n_rows / P, left = r.n_rows % P;
-        if (K < 2 + (uint64_t)rq.skip)
-            throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least 2 usable periods "
-                            "are needed to estimate a covariance",
-                            r.path.c_str(), (unsigned long long)K, P, r.n_rows,
-                            rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
+        const uint64_t K = record_periods(r, rq), left = r.n_rows % P;
         if (left)
             notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", r.path.c_str(),
                                 (unsigned long long)left));
-        if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
         if (K > maxK) maxK = (uint32_t)K;
     }
     // The input diagnostics on the samples (non-periodic input, wrong period; docs/statistics.md

@@ -16,6 +16,9 @@ using msidutil::fftw_warmup_start;
 
 // The period and the lines (and detection lines) of a request are valid: throws Error.
 void validate_lines(const FrfRequest &rq);
+// The whole periods of a record: throws Error when fewer than 2 are left after rq.skip, or more than
+// MAX_RECORD_PERIODS.
+uint64_t record_periods(const Record &r, const FrfRequest &rq);
 // Experiments 0 .. m-1 on `lanes` (1 or 2) threads, experiment e on lane e % lanes by one(lane, e);
 // a lane stops at its first failing experiment. Rethrows the error of the first failing experiment in
 // file order: every experiment before it ran to its end on one lane or the other.
