@@ -99,7 +99,8 @@ uint64_t period_bound(const Source &s, const FrfRequest &rq)
 }
 
 // Step 2: the checks of the whole path on the first rows (they read no further: periodicity.hpp),
-// and the period counts of the records read to their end. Returns the history the core needs, or 0 when the whole records are needed after all.
+// and the period counts of the records read to their end. Returns the history the core needs, or 0
+// when the whole records are needed after all.
 uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src)
 {
     std::vector<Record> heads;
