@@ -3,9 +3,9 @@
 #include "commands.hpp"
 #include "host_libs.hpp"
 #include "measure.hpp"
+#include "msid_can_acq.hpp"
 
 extern "C" {
-#include "msid_daq/msid_can_decoder.h"
 #include "msid_daq/msid_can_session.h"
 #include "msid_daq/msid_params.h"
 #include "msid_daq/msid_candump.h"
@@ -65,175 +65,6 @@ static const char *HELP =
 
 static std::string hex(uint32_t v) { return fmt("0x%X", v); }
 
-static double can_frame_seconds(bool fd, double bitrate, double data_bitrate)
-{
-    // Worst case with bit stuffing. Classic 8-byte data frame, 11-bit id:
-    // 111 bits incl. 3 bits interframe space, +24 stuff bits.
-    if (!fd) return 135.0 / bitrate;
-    // FD, 64 bytes: arbitration and end at the nominal rate (30 bits + 5 stuff),
-    // data phase ESI..CRC (548 bits incl. fixed stuff bits) + 129 dynamic stuff bits.
-    return 35.0 / bitrate + 677.0 / data_bitrate;
-}
-
-// ---- acquisition: decoder + FRF job -----------------------------------------
-
-struct Acq {
-    std::unique_ptr<FrfJob> job;
-    Mem mdec;
-    msid_can_decoder dec{};
-    FILE *log = nullptr;
-    std::string log_path, log_tmp, iface;
-    std::string error;     // first device or protocol error
-    ~Acq()
-    {
-        if (log) { std::fclose(log); ::unlink(log_tmp.c_str()); }
-    }
-    void open_log(const std::string &path)
-    {
-        log_path = path;
-        log_tmp = path + ".tmp." + std::to_string(getpid());
-        log = std::fopen(log_tmp.c_str(), "w");
-        if (!log) throw Error("cannot write '" + path + "': " + std::strerror(errno));
-    }
-    void log_frame(const msid_can_frame &f)
-    {
-        if (!log) return;
-        char buf[256];
-        msid_can_frame g = f;
-        if (!g.t_ns) {
-            timespec ts;
-            clock_gettime(CLOCK_REALTIME, &ts);
-            g.t_ns = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-        }
-        const int n = msid_candump_format(buf, sizeof buf, &g, iface.c_str());
-        if (n < 0 || std::fwrite(buf, 1, (size_t)n, log) != (size_t)n) throw Error("cannot write '" + log_path + "'");
-    }
-    void close_log()
-    {
-        if (!log) return;
-        const bool ok = std::fflush(log) == 0 && fsync(fileno(log)) == 0;
-        std::fclose(log);
-        log = nullptr;
-        if (!ok || std::rename(log_tmp.c_str(), log_path.c_str()) != 0) {
-            ::unlink(log_tmp.c_str());
-            throw Error("cannot write '" + log_path + "'");
-        }
-    }
-    // history: periods kept per experiment for the transient test (room for a device restart or two)
-    void init(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t periods, uint32_t base,
-              const msid_params &c, uint32_t window, uint32_t history)
-    {
-        job = std::make_unique<FrfJob>(rq, nu, ny, m, periods, history);
-        msid_can_decoder_cfg dc{};
-        dc.base = base;
-        dc.n_inputs = nu;
-        dc.n_outputs = ny;
-        dc.encoding = c.encoding;
-        dc.fd = c.fd;
-        dc.scale = (double)c.scale;
-        dc.period = c.period;
-        dc.window = window;
-        dc.meas = job->meas();
-        dc.samples_total = (uint64_t)periods * c.period;   // a DONE count beyond K P is not trusted
-        const size_t n = msid_can_decoder_mem_size(&dc);
-        if (!n) throw Error(fmt("%u inputs + %u outputs do not fit the %s %s sample frames", nu, ny,
-                                c.fd ? "CAN FD" : "classic", c.encoding ? "float32" : "int16"));
-        mdec = Mem(n);
-        check(msid_can_decoder_init(&dec, &dc, mdec.p, mdec.n), "decoder setup");
-    }
-    void feed(const msid_can_frame &f)
-    {
-        const msid_status st = msid_can_decoder_feed(&dec, &f);
-        if (st == MSID_E_CAPACITY)
-            throw Error("more periods arrived than the measurement holds (device restarted too often?)");
-        check(st, "decoder");
-    }
-};
-
-static std::string fmt_name(const msid_params &c)
-{
-    return std::string(c.fd ? "fd" : "classic") + "/" + (c.encoding ? "float32" : "int16");
-}
-
-// The `acquisition` block of the FRF document.
-static Json acquisition_json(const Acq &a, const msid_can_link_stats &ls, const std::string &transport, uint32_t base,
-                             const msid_params &cfg, uint32_t crc)
-{
-    const msid_can_decoder &d = a.dec;
-    const msid_can_counters &c = d.cnt;
-    Json j;
-    j["transport"] = transport;
-    j["interface"] = a.iface;
-    j["protocol"] = fmt("msid-can/%u", MSID_CAN_PROTO_VERSION);
-    j["base_id"] = base;
-    j["frame_format"] = fmt_name(cfg);
-    j["scale"] = (double)cfg.scale;
-    j["rate_hz"] = cfg.rate_hz;
-    j["config_crc"] = crc;
-    j["frames"] = c.frames;
-    j["sample_frames"] = c.sample_frames;
-    j["samples"] = c.samples;
-    j["samples_lost"] = c.samples_lost;
-    j["frames_missing"] = c.frames_missing;
-    j["gap_events"] = c.gap_events;
-    j["duplicates"] = c.duplicates;
-    j["reordered"] = c.reordered;
-    j["late"] = c.late;
-    j["malformed"] = c.malformed;
-    j["foreign"] = c.foreign;
-    j["status_frames"] = c.status_frames;
-    j["error_frames"] = c.error_frames;
-    j["errors_by_class"] = {{"warning", c.err_warning}, {"passive", c.err_passive}, {"bus_off", c.err_bus_off},
-                            {"restarted", c.err_restarted}, {"protocol", c.err_protocol}, {"ack", c.err_ack},
-                            {"controller_overflow", c.err_ctrl_overflow}, {"other", c.err_other}};
-    j["bus_state"] = msid_can_bus_state_name(d.bus);
-    j["device_restarts"] = c.restarts;
-    j["periods_marked"] = c.periods_marked;
-    j["kernel_drops"] = ls.kernel_drops;
-    j["bad_length_reads"] = ls.bad_length;
-    j["send_retries"] = ls.send_retries;
-    j["timestamped_frames"] = ls.timestamps;
-    j["stream_seconds"] = 1e-9 * (double)c.stream_ns;
-    if (d.dev.have_counters) j["device_tx_dropped"] = d.dev.tx_dropped;
-    return j;
-}
-
-static std::vector<ExpSource> sources(const Acq &a, uint32_t m, uint32_t P)
-{
-    std::vector<ExpSource> src;
-    const msid_meas *ms = a.dec.cfg.meas;
-    for (uint32_t e = 0; e < m; ++e) {
-        const msid_pstats_counts c = msid_pstats_get_counts(msid_meas_stats(ms, e));
-        (void)P;
-        src.push_back({fmt("can:%s experiment %u", a.iface.c_str(), e + 1), ms->samples[e], c.offered,
-                       msid_meas_leftover(ms, e)});
-    }
-    return src;
-}
-
-static std::vector<std::string> loss_notes(const msid_can_decoder &d, const msid_can_link_stats &ls)
-{
-    std::vector<std::string> n;
-    const msid_can_counters &c = d.cnt;
-    if (c.samples_lost)
-        n.push_back(fmt("%llu sample(s) missing in %llu gap(s) (%llu frames): the periods they touch were rejected",
-                        (unsigned long long)c.samples_lost, (unsigned long long)c.gap_events,
-                        (unsigned long long)c.frames_missing));
-    if (ls.kernel_drops)
-        n.push_back(fmt("the kernel dropped %llu frame(s) for a full socket queue (raise --rcvbuf)",
-                        (unsigned long long)ls.kernel_drops));
-    if (c.done_beyond)
-        n.push_back(fmt("%llu DONE frame(s) announced more samples than the design's periods x period: the "
-                        "experiment was closed at the design's count", (unsigned long long)c.done_beyond));
-    if (c.malformed) n.push_back(fmt("%llu malformed frame(s) ignored", (unsigned long long)c.malformed));
-    if (c.duplicates) n.push_back(fmt("%llu duplicate frame(s) ignored", (unsigned long long)c.duplicates));
-    if (c.restarts) n.push_back(fmt("the device restarted %llu time(s)", (unsigned long long)c.restarts));
-    if (c.error_frames)
-        n.push_back(fmt("%llu error frame(s); bus state now %s", (unsigned long long)c.error_frames,
-                        msid_can_bus_state_name(d.bus)));
-    return n;
-}
-
 static uint32_t parse_base(const Args &a)
 {
     uint64_t b = MSID_CAN_DEFAULT_BASE;
@@ -258,159 +89,6 @@ static uint32_t parse_window(const Args &a)
 
 // ---- measure: parse options -> open transport -> session -> estimation job ----
 
-// The session's frame hook: every frame sent and received into the --log file.
-static int log_hook(void *user, const msid_can_frame *f)
-{
-    try {
-        static_cast<Acq *>(user)->log_frame(*f);
-        return 0;
-    } catch (const Error &) {
-        return -1;
-    }
-}
-
-// A failed session step: one message (the session decoded the device's error), the log's when it failed.
-[[noreturn]] static void session_failed(const Acq &acq, const msid_can_session &s, int rc)
-{
-    if (rc == -MSID_DAQ_E_HOOK) throw Error("cannot write '" + acq.log_path + "'");
-    const msid_status st = msid_daq_core_status(rc);
-    if (st != MSID_OK && st != MSID_E_CAPACITY) check(st, "decoder");   // the core's reason, as every command reports it
-    throw Error(s.err);
-}
-
-CanLink can_link_from_uri(const DeviceUri &dev)
-{
-    CanLink l;
-    l.iface = dev.iface;
-    l.base = dev.base;
-    l.fd = dev.fd;
-    return l;
-}
-
-// The session as the shared loop of `msid measure` sees it: msid_can_session_run, tick() after every batch.
-struct CanRunner : ExperimentRunner {
-    msid_can_session &s;
-    const Acq &acq;
-    const std::function<bool()> *tick = nullptr;
-    CanRunner(msid_can_session &s_, const Acq &a) : s(s_), acq(a) {}
-    static int on_poll(void *u) { return (*static_cast<CanRunner *>(u)->tick)() ? 1 : 0; }
-    bool run(uint32_t e, uint32_t periods, const std::function<bool()> &t) override
-    {
-        tick = &t;
-        s.cfg.on_poll = on_poll;
-        s.cfg.poll_user = this;
-        const int rc = msid_can_session_run(&s, e, periods);
-        if (rc == -MSID_DAQ_E_STOPPED) return false;
-        if (rc < 0) session_failed(acq, s, rc);
-        return true;
-    }
-    uint64_t samples() const override { return acq.dec.cnt.samples; }
-    uint64_t lost() const override { return acq.dec.cnt.samples_lost; }
-    uint64_t link_errors() const override { return acq.dec.cnt.error_frames; }
-};
-
-// The CAN session of `msid measure` and `msid can measure` (measure.hpp): open the socket, identify
-// the device, plan, upload with flow control, every experiment through the shared loop, the FRF.
-MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Progress &pg)
-{
-    const std::string &iface = l.iface;
-    msid_socketcan sc;
-    msid_socketcan_cfg scc{};
-    scc.iface = iface.c_str();
-    scc.fd_frames = l.fd ? 1 : 0;
-    scc.n_filters = 1;
-    scc.filter_id[0] = l.base;   // the device's 128 identifiers
-    scc.filter_mask[0] = 0x780u | MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG;
-    scc.err_frames = 1;
-    scc.rcvbuf = l.rcvbuf;
-    const int r = msid_socketcan_open(&sc, &scc);
-    if (r < 0) throw Error(sc.err);
-    struct Closer { msid_socketcan &s; ~Closer() { msid_can_close(&s.tr); } } closer{sc};
-
-    Acq acq;
-    acq.iface = iface;
-    if (!l.log.empty()) acq.open_log(l.log);
-
-    // the session: who is there?
-    auto s = std::make_unique<msid_can_session>();
-    msid_can_session_cfg ssc{};
-    ssc.tr = &sc.tr;
-    ssc.base = l.base;
-    ssc.on_frame = log_hook;
-    ssc.user = &acq;
-    if (msid_can_session_init(s.get(), &ssc) < 0) throw Error("CAN session setup");
-    int rc = msid_can_session_identify(s.get(), 2000);
-    if (rc == -MSID_DAQ_E_TIMEOUT)
-        throw Error(fmt("no msid-can device answered at base %s on %s within 2 s", hex(l.base).c_str(), iface.c_str()));
-    if (rc == -MSID_DAQ_E_PROTOCOL)
-        throw Error(fmt("protocol version mismatch: the device on %s speaks msid-can/%u, this host msid-can/%u",
-                        iface.c_str(), s->dev.version, MSID_CAN_PROTO_VERSION));
-    if (rc < 0) session_failed(acq, *s, rc);
-    const msid_can_device &dev = s->dev;
-    MeasurePlan P;
-    plan(dev.nu, P);
-    P.sf.fd = l.fd ? 1 : 0;
-    P.sf.encoding = l.encoding;
-    s->cfg.silence_ms = (uint32_t)std::ceil(P.timeout * 1000.0);
-    s->cfg.query_ms = s->cfg.silence_ms / 4 ? s->cfg.silence_ms / 4 : 1;
-    const msid_design &d = P.D->d;
-    if (dev.nu != d.n_inputs)
-        throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs));
-    const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
-    if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("the device reports %u outputs", ny));
-    const uint32_t chunks = msid_can_chunks(C, P.sf.encoding, P.sf.fd);
-    if (l.bitrate > 0 && P.sf.rate > 0) {
-        const double tf = can_frame_seconds(P.sf.fd, l.bitrate, l.data_bitrate > 0 ? l.data_bitrate : l.bitrate);
-        const double rate = P.sf.rate, load = rate * chunks * tf;
-        if (load > 1.0)
-            throw Error(fmt("the bus cannot carry %u channels at %g Hz: %u %s frame(s) per sample, %.0f frames/s, "
-                            "need %.2f times the bus capacity at %g bit/s (worst-case bit stuffing); lower --rate%s",
-                            C, rate, chunks, P.sf.fd ? "CAN FD" : "classic", rate * chunks, load, l.bitrate,
-                            P.sf.fd ? "" : ", or use --fd"));
-    }
-
-    // the estimation job and its decoder, then the design upload as parameters
-    auto cfg = config_from_design(*P.D, P.sf);
-    const size_t nf = msid_params_frames(cfg.get(), nullptr, 0);
-    std::vector<uint8_t> cf(nf * 8);
-    msid_params_frames(cfg.get(), reinterpret_cast<uint8_t(*)[8]>(cf.data()), nf);
-    acq.init(P.rq, nu, ny, m, P.sf.periods, l.base, *cfg, l.window, 4 * P.sf.periods + 8);
-    if ((rc = msid_can_session_attach(s.get(), &acq.dec)) < 0) session_failed(acq, *s, rc);
-    rc = msid_can_session_upload(s.get(), reinterpret_cast<const uint8_t(*)[8]>(cf.data()), nf);
-    if (rc < 0) session_failed(acq, *s, rc);
-    const uint32_t crc = s->crc;
-
-    // run the experiments through the shared loop (progress, Ctrl-C)
-    CanRunner runner(*s, acq);
-    const LoopResult lr = run_experiments(runner, acq.job->meas(), P, pg);
-    msid_can_link_stats ls;
-    msid_can_get_stats(&sc.tr, &ls);
-    auto notes = loss_notes(acq.dec, ls);
-    if (s->cnt.done_recovered)
-        notes.push_back(fmt("%llu DONE frame(s) lost: the experiment(s) were closed by the device's answer to a QUERY",
-                            (unsigned long long)s->cnt.done_recovered));
-    if (s->cnt.early_dropped)
-        notes.push_back(fmt("%llu frame(s) before the upload were not decoded (more than %u)",
-                            (unsigned long long)s->cnt.early_dropped, MSID_CAN_SESSION_EARLY));
-    MeasureResult R = finish_measure(*acq.job, P, lr, "can:" + iface, notes);
-    Json aj = acquisition_json(acq, ls, "socketcan", l.base, *cfg, crc);
-    aj["queries"] = s->cnt.queries;
-    aj["done_recovered"] = s->cnt.done_recovered;
-    R.o.doc["acquisition"] = aj;
-    acq.close_log();
-    R.summary = fmt("%zu lines, %u x %u, %u%s experiment(s) over %s (%s), %llu samples, %llu missing, "
-                    "%llu periods used, %llu rejected%s",
-                    P.rq.bins.size(), ny, nu, lr.done, R.complete ? "" : fmt(" of %u", m).c_str(), iface.c_str(),
-                    fmt_name(*cfg).c_str(), (unsigned long long)acq.dec.cnt.samples,
-                    (unsigned long long)acq.dec.cnt.samples_lost,
-                    (unsigned long long)R.o.doc["periods_used"].get<uint64_t>(),
-                    (unsigned long long)R.o.doc["periods_rejected"].get<uint64_t>(),
-                    R.complete ? "" : " (INCOMPLETE: stopped)");
-    R.D = std::move(P.D);
-    return R;
-}
-
-// Options -> the CAN session of `msid measure` (the same code, progress and Ctrl-C handling).
 static int cmd_measure(int argc, char **argv)
 {
     for (int i = 3; i < argc; ++i) if (!std::strcmp(argv[i], "--on-device")) return cmd_can_ondevice(argc, argv);
@@ -705,7 +383,7 @@ static int cmd_replay(int argc, char **argv)
         throw Error(fmt("--skip-periods %u leaves fewer than 2 of the %u periods", rq.skip, got->periods));
 
     // Pass 3: the selected sessions' frames through the decoder, as live.
-    Acq acq;
+    msidacq::CanAcq acq;
     acq.iface = sc.iface;
     // The history is sized by what the log can hold, not by the periods its upload asks for (a 7 KB log
     // must not size gigabytes): no experiment has more periods than the log has frames for.
@@ -736,10 +414,10 @@ static int cmd_replay(int argc, char **argv)
         notes.push_back(fmt("%zu sessions of the same design pooled (--session N replays one)", sel.size()));
     msid_can_link_stats ls;
     msid_can_get_stats(&t, &ls);
-    auto ln = loss_notes(acq.dec, ls);
+    auto ln = msidacq::can_loss_notes(acq.dec, ls);
     notes.insert(notes.end(), ln.begin(), ln.end());
-    FrfOutcome o = acq.job->finish(sources(acq, m, rq.period), notes);
-    Json acqj = acquisition_json(acq, ls, "candump", base, *got, got->crc);
+    FrfOutcome o = acq.job->finish(msidacq::can_sources(acq, m), notes);
+    Json acqj = msidacq::can_acquisition_json(acq, ls, "candump", base, *got, got->crc);
     acqj["log"] = path;
     acqj["sessions_in_log"] = ns;
     Json sj = Json::array();

@@ -105,8 +105,7 @@ MeasureRun run_measure(const MeasureOptions &opt, Progress &pg)
     };
     {
         StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
-        run.m = opt.dev.kind == DeviceUri::CAN ? measure_can(can_link_from_uri(opt.dev), plan, pg)
-                                               : measure_modbus(modbus_link_from_uri(opt.dev), plan, pg);
+        run.m = measure_device(opt.dev, plan, pg);
     }
     if (::mkdir(outdir.c_str(), 0755) != 0 && errno != EEXIST)
         throw Error("cannot create directory '" + outdir + "': " + std::strerror(errno));
@@ -181,7 +180,7 @@ int cmd_measure_uri(int argc, char **argv)
     if (!run.m.complete) {
         std::fprintf(stderr, "msid measure: interrupted: %s is the FRF of the complete periods (\"complete\": false)\n",
                      run.frf.c_str());
-        return 128 + (measure_stop_signal() ? measure_stop_signal() : SIGINT);
+        return 128 + (run.m.stop_reason ? run.m.stop_reason : SIGINT);
     }
     return 0;
 }

@@ -10,7 +10,6 @@
 #include "commands.hpp"
 #include "host_libs.hpp"
 #include "measure.hpp"
-#include "param_upload.hpp"
 
 extern "C" {
 #include "msid_daq/msid_can_session.h"

@@ -1,6 +1,8 @@
-// Model and plots of `msid measure` (measure_outputs.hpp).
+// Model and plots of `msid measure` (measure_outputs.hpp), and the protocol commands' write path
+// (measure.hpp).
 #include "measure_outputs.hpp"
 #include "cli_util.hpp"
+#include "measure.hpp"
 #include "commands.hpp"
 #include "msid_fit_job.hpp"
 
@@ -179,6 +181,20 @@ std::string make_plots(const std::string &outdir, const std::string &frf, const 
         return fmt("wrote %s and %s; report skipped: python3 -m msid.report failed (exit status %d): %s",
                    wrote[0].c_str(), wrote[1].c_str(), rc, last_line(out).c_str());
     return fmt("wrote %s, %s and %s/report.html", wrote[0].c_str(), wrote[1].c_str(), outdir.c_str());
+}
+
+int write_measure_result(MeasureResult &R, const std::string &out, const std::string &cmd)
+{
+    Json doc = R.o.doc;
+    if (R.complete)
+        for (const char *k : {"complete", "experiments_completed", "experiments_planned"}) doc.erase(k);
+    write_json_file(out, doc);
+    for (const auto &n : R.o.notes) std::fprintf(stderr, "msid %s: note: %s\n", cmd.c_str(), n.c_str());
+    std::printf("wrote %s: %s\n", out.c_str(), R.summary.c_str());
+    if (R.complete) return 0;
+    std::fprintf(stderr, "msid %s: interrupted: %s is the FRF of the complete periods (\"complete\": false)\n",
+                 cmd.c_str(), out.c_str());
+    return 128 + (R.stop_reason ? R.stop_reason : SIGINT);
 }
 
 }  // namespace msidcli

@@ -1,6 +1,7 @@
 // Live progress of `msid measure` (progress.hpp).
 #include "progress.hpp"
 #include "cli_util.hpp"
+#include "stop_signal.hpp"
 
 #include <cstdlib>
 #include <cstring>
@@ -81,5 +82,7 @@ void Progress::done()
         live_ = false;
     }
 }
+
+int Progress::stop() { return measure_stop_signal(); }
 
 }  // namespace msidcli

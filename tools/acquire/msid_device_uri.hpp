@@ -1,4 +1,4 @@
-// Device addresses of `msid measure --device URI` (docs/measure.md):
+// Device addresses (docs/measure.md), as `msid measure --device` and msid.measure take them:
 //   modbus-tcp://HOST[:PORT][?unit=N]                      Modbus TCP, port 502 by default
 //   modbus-rtu:///dev/ttyX[?baud=N&parity=N|E|O&unit=N&data-bits=7|8&stop-bits=1|2]   Modbus RTU
 //   can://IFACE[?fd=0|1&base=ID]                           SocketCAN (msid-can/1)
@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string>
 
-namespace msidcli {
+namespace msidacq {
 
 struct DeviceUri {
     enum Kind { MODBUS_TCP, MODBUS_RTU, CAN } kind = MODBUS_TCP;
@@ -26,7 +26,7 @@ struct DeviceUri {
     std::string name() const;
 };
 
-// Parse and check a device URI; every problem is one UsageError naming the URI and the part at fault.
+// Parse and check a device URI; every problem is one msidutil::UsageError naming the URI and the part at fault.
 DeviceUri parse_device_uri(const std::string &uri);
 
-}  // namespace msidcli
+}  // namespace msidacq

@@ -1,40 +1,16 @@
-// What every protocol session of `msid measure` shares (measure.hpp): stop requests, the
-// experiment loop with live progress, the FRF of what was measured, and the protocol commands'
-// write path. The Modbus session is measure_modbus.cpp, the CAN session cmd_can.cpp.
-#include "measure.hpp"
-#include "host_libs.hpp"
+// What every protocol session shares (session_loop.hpp): the experiment loop with progress and
+// stop requests, the FRF of what was measured, and the checks of a plan. The Modbus session is
+// modbus_session.cpp, the CAN session can_session.cpp.
+#include "session_loop.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <ctime>
 
-namespace msidcli {
+namespace msidacq {
 
-// ---- stop requests -------------------------------------------------------------
-
-static volatile sig_atomic_t g_stop_signal = 0;
-
-static void on_stop_signal(int sig) { g_stop_signal = sig; }
-
-StopOnSignal::StopOnSignal()
-{
-    g_stop_signal = 0;
-    struct sigaction sa{};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = 0;   // no SA_RESTART: a sleep or a blocking read returns at once
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
-}
-
-StopOnSignal::~StopOnSignal()
-{
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-}
-
-bool measure_stop_requested() { return g_stop_signal != 0; }
-int measure_stop_signal() { return (int)g_stop_signal; }
+using msidutil::fmt;
 
 void mark_completeness(Json &doc, bool complete, uint32_t experiments_done, uint32_t experiments,
                        const std::string &reason)
@@ -43,6 +19,24 @@ void mark_completeness(Json &doc, bool complete, uint32_t experiments_done, uint
     doc["experiments_completed"] = experiments_done;
     doc["experiments_planned"] = experiments;
     if (!complete) doc["incomplete_reason"] = reason;
+}
+
+void check_plan(MeasurePlan &P, const char *periods_name, const char *skip_name)
+{
+    if (P.sf.periods < 2 || P.sf.periods > MSID_PARAMS_MAX_PERIODS)
+        throw UsageError(fmt("%s must be 2..%u", periods_name, MSID_PARAMS_MAX_PERIODS));
+    if ((uint64_t)P.rq.skip + 2 > P.sf.periods)   // 64-bit: a huge skip must not wrap
+        throw UsageError(fmt("%s %u with %s %u leaves fewer than 2 periods", periods_name, P.sf.periods, skip_name,
+                             P.rq.skip));
+    if (!(P.sf.scale > 0 && std::isfinite(P.sf.scale))) throw UsageError("the scale must be positive");
+    if (!(P.timeout > 0 && P.timeout <= 86400)) throw UsageError("the timeout must be positive (at most 86400 s)");
+    if (P.sf.rate > 0 && !P.D->d.is_ct) P.rq.fs = P.sf.rate;
+}
+
+MeasureResult measure_device(const DeviceUri &dev, const PlanFn &plan, Control &ctl)
+{
+    return dev.kind == DeviceUri::CAN ? measure_can(can_link_from_uri(dev), plan, ctl)
+                                      : measure_modbus(modbus_link_from_uri(dev), plan, ctl);
 }
 
 // ---- the experiment loop -----------------------------------------------------------
@@ -72,7 +66,7 @@ static double running_snr_db(const msid_pstats *ps, uint32_t nu, uint32_t ny, ui
     return n ? sum / n : NAN;
 }
 
-LoopResult run_experiments(ExperimentRunner &r, const msid_meas *ms, const MeasurePlan &P, Progress &pg)
+LoopResult run_experiments(ExperimentRunner &r, const msid_meas *ms, const MeasurePlan &P, Control &ctl)
 {
     const msid_design &d = P.D->d;
     const uint32_t m = d.n_experiments, nu = d.n_inputs, ny = ms->n_outputs;
@@ -99,27 +93,27 @@ LoopResult run_experiments(ExperimentRunner &r, const msid_meas *ms, const Measu
     };
     LoopResult L;
     for (uint32_t e = 0; e < m; ++e) {
-        if (measure_stop_requested()) { L.stopped = true; break; }
-        pg.update(state(e));
+        if ((L.reason = ctl.stop()) != 0) { L.stopped = true; break; }
+        ctl.update(state(e));
         const bool ended = r.run(e, P.sf.periods, [&] {
-            pg.update(state(e));
-            return measure_stop_requested();
+            ctl.update(state(e));
+            return (L.reason = ctl.stop()) != 0;
         });
-        pg.update(state(e));
+        ctl.update(state(e));
         if (!ended) { L.stopped = true; break; }
         ++L.done;
-        pg.note(fmt("experiment %u/%u done", e + 1, m));
+        ctl.note(fmt("experiment %u/%u done", e + 1, m));
     }
-    pg.done();
+    ctl.done();
     return L;
 }
 
-MeasureResult finish_measure(FrfJob &job, const MeasurePlan &P, const LoopResult &L, const std::string &src,
+MeasureResult finish_measure(msidjob::FrfJob &job, const MeasurePlan &P, const LoopResult &L, const std::string &src,
                              std::vector<std::string> notes)
 {
     const uint32_t m = P.D->d.n_experiments;
     const msid_meas *ms = job.meas();
-    std::vector<ExpSource> sources;
+    std::vector<msidjob::ExpSource> sources;
     std::string short_of;
     uint64_t periods = 0;
     for (uint32_t e = 0; e < m; ++e) {
@@ -129,34 +123,34 @@ MeasureResult finish_measure(FrfJob &job, const MeasurePlan &P, const LoopResult
         periods += k.offered;
         if (k.used < 2 && short_of.empty()) short_of = fmt("experiment %u has %u usable period(s)", e + 1, k.used);
     }
-    const int sig = measure_stop_signal() ? measure_stop_signal() : SIGINT;
+    const int sig = L.reason;
     const std::string why =
         L.stopped ? fmt("stopped by signal %d during experiment %u of %u", sig, std::min(L.done + 1, m), m) : "";
     if (L.stopped && !short_of.empty())
         throw Error(fmt("%s after %llu complete period(s): %s, and the FRF needs at least 2 of every experiment "
-                        "(%u): nothing written",
+                        "(%u): no FRF exists",
                         why.c_str(), (unsigned long long)periods, short_of.c_str(), m),
                     128 + sig);
     if (L.stopped) notes.push_back(why + ": the FRF uses the complete periods acquired before the stop");
     MeasureResult R;
     R.o = job.finish(sources, notes);
     R.complete = !L.stopped;
+    R.stop_reason = L.reason;
     mark_completeness(R.o.doc, R.complete, L.done, m, why);
     return R;
 }
 
-int write_measure_result(MeasureResult &R, const std::string &out, const std::string &cmd)
+void set_summary(MeasureResult &R, const MeasurePlan &P, uint32_t ny, uint32_t nu, uint32_t done,
+                 const std::string &link, uint64_t samples, uint64_t lost)
 {
-    Json doc = R.o.doc;
-    if (R.complete)
-        for (const char *k : {"complete", "experiments_completed", "experiments_planned"}) doc.erase(k);
-    write_json_file(out, doc);
-    for (const auto &n : R.o.notes) std::fprintf(stderr, "msid %s: note: %s\n", cmd.c_str(), n.c_str());
-    std::printf("wrote %s: %s\n", out.c_str(), R.summary.c_str());
-    if (R.complete) return 0;
-    std::fprintf(stderr, "msid %s: interrupted: %s is the FRF of the complete periods (\"complete\": false)\n",
-                 cmd.c_str(), out.c_str());
-    return 128 + (measure_stop_signal() ? measure_stop_signal() : SIGINT);
+    const uint32_t m = P.D->d.n_experiments;
+    R.summary = fmt("%zu lines, %u x %u, %u%s experiment(s) over %s, %llu samples, %llu missing, "
+                    "%llu periods used, %llu rejected%s",
+                    P.rq.bins.size(), ny, nu, done, R.complete ? "" : fmt(" of %u", m).c_str(), link.c_str(),
+                    (unsigned long long)samples, (unsigned long long)lost,
+                    (unsigned long long)R.o.doc["periods_used"].get<uint64_t>(),
+                    (unsigned long long)R.o.doc["periods_rejected"].get<uint64_t>(),
+                    R.complete ? "" : " (INCOMPLETE: stopped)");
 }
 
-}  // namespace msidcli
+}  // namespace msidacq

@@ -1,8 +1,8 @@
-// The Modbus session of `msid measure` and `msid modbus measure` (measure.hpp): open the link,
-// identify the device, upload the design, run every experiment with daq's msid_mb_acq_run (retried
-// requests, ring polling, stream into msid_meas) through the shared loop, and the FRF with its
-// `acquisition` block. docs/modbus-registers.md, docs/measure.md.
-#include "measure.hpp"
+// The Modbus session (msid_acquire.hpp): open the link, identify the device, upload the design, run
+// every experiment with daq's msid_mb_acq_run (retried requests, ring polling, stream into msid_meas)
+// through the shared loop, and the FRF with its `acquisition` block. docs/modbus-registers.md,
+// docs/measure.md.
+#include "session_loop.hpp"
 
 extern "C" {
 #include "msid_daq/msid_mb_acq.h"
@@ -13,7 +13,12 @@ extern "C" {
 #include <cmath>
 #include <ctime>
 
-namespace msidcli {
+namespace msidacq {
+
+using msidutil::check;
+using msidutil::fmt;
+using msidutil::Mem;
+using msidjob::FrfJob;
 
 ModbusLink modbus_link_from_uri(const DeviceUri &dev)
 {
@@ -157,7 +162,7 @@ struct MbRunner : ExperimentRunner {
     uint64_t link_errors() const override { return cl.cnt.retries; }
 };
 
-MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Progress &pg)
+MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Control &ctl)
 {
     MbLink L;
     open_modbus_link(l, L);
@@ -220,7 +225,7 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Progress &
     msid_mb_acq q;
     check(msid_daq_core_status(msid_mb_acq_init(&q, &qc, mq.p, mq.n)), "Modbus adapter setup");
     MbRunner runner(q, cl, l, (uint32_t)std::ceil(P.timeout * 1000.0), P.sf.rate ? 2000u : 200u);
-    const LoopResult lr = run_experiments(runner, job.meas(), P, pg);
+    const LoopResult lr = run_experiments(runner, job.meas(), P, ctl);
 
     // 5. the FRF of what was measured
     std::vector<std::string> notes;
@@ -243,16 +248,11 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Progress &
                             (unsigned long long)cl.cnt.skipped_replies));
     MeasureResult R = finish_measure(job, P, lr, "modbus:" + l.name, notes);
     R.o.doc["acquisition"] = acquisition_json(l, cl, q, (double)P.sf.scale, P.sf.rate, crc, lrate);
-    R.summary = fmt("%zu lines, %u x %u, %u%s experiment(s) over %s (%s %s), %llu samples, %llu missing, "
-                    "%llu periods used, %llu rejected%s",
-                    P.rq.bins.size(), ny, nu, lr.done, R.complete ? "" : fmt(" of %u", m).c_str(), l.name.c_str(),
-                    msid_mb_encoding_name(l.encoding), msid_mb_word_order_name(l.word_order),
-                    (unsigned long long)q.st.cnt.samples, (unsigned long long)q.st.cnt.samples_lost,
-                    (unsigned long long)R.o.doc["periods_used"].get<uint64_t>(),
-                    (unsigned long long)R.o.doc["periods_rejected"].get<uint64_t>(),
-                    R.complete ? "" : " (INCOMPLETE: stopped)");
+    set_summary(R, P, ny, nu, lr.done,
+                fmt("%s (%s %s)", l.name.c_str(), msid_mb_encoding_name(l.encoding), msid_mb_word_order_name(l.word_order)),
+                q.st.cnt.samples, q.st.cnt.samples_lost);
     R.D = std::move(P.D);
     return R;
 }
 
-}  // namespace msidcli
+}  // namespace msidacq
