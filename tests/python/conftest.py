@@ -15,17 +15,8 @@ sys.path.insert(0, str(ROOT / "tests" / "integration"))
 sys.path.insert(0, os.environ.get("MSID_PYTHON_DIR") or str(ROOT / "tools" / "python"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "common"))
 import msid_emulator  # noqa: E402
+from no_process import refuse_processes  # noqa: E402,F401
 msid_emulator.wrap_binaries()   # cross builds: MSID_EMULATOR runs the binaries (tests/common/msid_emulator.py)
-
-
-def refuse_processes(monkeypatch):
-    """Make every way of starting a process fail the test (subprocess, os spawn/fork/exec)."""
-    def refuse(*a, **k):
-        raise AssertionError("a process was started")
-    monkeypatch.setattr(subprocess, "Popen", refuse)
-    for name in ("posix_spawn", "posix_spawnp", "fork", "system", "execv", "execve", "execvp"):
-        if hasattr(os, name):
-            monkeypatch.setattr(os, name, refuse)
 
 
 def msid(*args, cwd=None, check=True):

@@ -125,7 +125,8 @@ MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Control &ctl)
     s->cfg.query_ms = s->cfg.silence_ms / 4 ? s->cfg.silence_ms / 4 : 1;
     const msid_design &d = P.D->d;
     if (dev.nu != d.n_inputs)
-        throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs));
+        throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs), 1,
+                    msidutil::ErrorKind::data);
     const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("the device reports %u outputs", ny));
     const uint32_t chunks = msid_can_chunks(C, P.sf.encoding, P.sf.fd);

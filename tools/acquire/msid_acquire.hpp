@@ -59,7 +59,7 @@ struct Control {
 
 // What to run, decided once the device has said how many inputs it has.
 struct MeasurePlan {
-    std::unique_ptr<msidfmt::Design> D;
+    std::shared_ptr<const msidfmt::Design> D;   // shared: a caller may keep its own design object
     StreamFmt sf;
     FrfRequest rq;
     double timeout = 10.0;     // seconds without a new sample before giving up
@@ -72,7 +72,7 @@ struct MeasureResult {
     bool complete = true;      // false: stopped, the FRF of the complete periods
     int stop_reason = 0;       // Control::stop()'s answer when stopped
     std::string summary;       // one line: lines, size, experiments, link, samples, periods
-    std::unique_ptr<msidfmt::Design> D;   // the design that ran
+    std::shared_ptr<const msidfmt::Design> D;   // the design that ran
 };
 
 // The checks of a plan that every caller shares: 2..MSID_PARAMS_MAX_PERIODS periods, skip leaves 2,

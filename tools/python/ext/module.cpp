@@ -32,4 +32,5 @@ PYBIND11_MODULE(_msid, m)
     msidpy::register_frf(m);
     msidpy::register_measurement(m);
     msidpy::register_fit(m);
+    msidpy::register_measure(m);
 }

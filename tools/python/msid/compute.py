@@ -12,7 +12,7 @@ Only the compiled functions need msid._msid; the rest of the package imports wit
 """
 import os
 import warnings
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from .files import FRF, Model, frf_to_doc, model_to_doc
 PathLike = Union[str, "os.PathLike[str]"]
 Bins = Union[str, Sequence[int], np.ndarray]
 
-__all__ = ["frf", "Measurement", "Design", "design", "read_design", "fit", "validate", "Validation", "modes", "Modes",
+__all__ = ["frf", "Measurement", "measure", "MeasurementInterrupted", "Design", "design", "read_design", "fit", "validate", "Validation", "modes", "Modes",
            "NoteWarning", "ConvergenceWarning"]
 
 
@@ -32,6 +32,21 @@ class NoteWarning(UserWarning):
 class ConvergenceWarning(UserWarning):
     """A fit whose iterations ran out before convergence (`msid fit` exits with status 3); the model is
     kept and marked "converged": false."""
+
+
+class MeasurementInterrupted(KeyboardInterrupt):
+    """Ctrl-C (KeyboardInterrupt) during msid.measure: .frf is the FRF of every complete period
+    measured before it (meta["complete"] is False), as `msid measure` keeps it on Ctrl-C.
+
+        try:
+            f = msid.measure("modbus-tcp://192.168.1.20", design=d)
+        except msid.MeasurementInterrupted as stop:
+            f = stop.frf
+    """
+
+    def __init__(self, message, frf):
+        super().__init__(message)
+        self.frf = frf
 
 
 _MODULE = None
@@ -307,6 +322,54 @@ class Measurement:
     def __repr__(self):
         return (f"<msid.Measurement P = {self.design.period}, {self.design.n_lines} lines, "
                 f"{self.design.n_experiments} experiment(s), periods received {self.progress}>")
+
+
+# ---- a device measured in process ----
+
+def measure(device: str, design: Union["Design", PathLike], *, periods: Optional[int] = None, skip_periods: int = 0,
+            rate: float = 0, fs: Optional[float] = None, scale: float = 0.001, timeout: float = 10.0,
+            detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
+            progress: Optional[Callable[[Dict[str, Any]], None]] = None) -> FRF:
+    """Measure a device as `msid measure` does, in process: identify it, upload the design as
+    parameters (the device regenerates the multisine with msid's core), run every experiment, and
+    return the FRF of what was measured (docs/measure.md). No process is started.
+
+    device: a device URI: "modbus-tcp://HOST[:PORT][?unit=N]", "modbus-rtu:///dev/ttyX?baud=N[&parity=E...]"
+      or "can://IFACE[?fd=1&base=0x200]" (SocketCAN).
+    design: an msid.Design or a design file; its inputs must be the device's.
+    periods: periods per experiment (default: the design's, else 8); skip_periods: leading periods left
+      out (transient). rate: the device's sample rate in whole Hz (0: as fast as the link carries; a rate
+      also sets the frequency axis of a DT design); fs: the axis's rate for an unpaced device.
+    scale: value of one int16 step; timeout: seconds without a new sample before giving up.
+    detect_lines, transient, alpha, dft: as msid.frf.
+    progress: called with a dict (experiment, experiments, periods, periods_target, periods_total,
+      rejected, samples_lost, link_errors, snr_db, eta_s) after every event and at most every 20 ms
+      between them, from the calling thread. An exception it raises ends the run and is raised again.
+
+    Returns an msid.FRF with the `acquisition` block in .meta (counts of samples, losses, retries).
+    Ctrl-C ends the run after the complete periods and raises msid.MeasurementInterrupted (a
+    KeyboardInterrupt) holding their FRF; a Ctrl-C before every experiment has 2 periods raises a plain
+    KeyboardInterrupt. Raises OSError when the device cannot be reached or fails, ValueError for a bad
+    request. The GIL is released while the device runs.
+    """
+    D = _design_arg(design)
+    if D is None:
+        raise ValueError("msid.measure needs a design (msid.design or a design file)")
+    opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft)
+    if fs is not None and rate:
+        raise ValueError("fs is for an unpaced device; rate already sets the sample rate")
+    r = _float(rate, "rate")
+    if not (0 <= r <= 4e9 and r == int(r)):
+        raise ValueError(f"rate must be a whole number of Hz (0: unpaced), not {rate!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, not {type(progress).__name__}")
+    K = (D.periods or 8) if periods is None else _uint(periods, "periods")
+    res = _ext().measure(str(device), D._impl, opts, K, int(r), _float(scale, "scale"), _float(timeout, "timeout"),
+                         progress)
+    f = _result(res, "msid.measure")
+    if res["interrupted"]:
+        raise MeasurementInterrupted(f"msid.measure: interrupted: {res['summary']}", f)
+    return f
 
 
 # ---- designs ----

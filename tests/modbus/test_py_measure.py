@@ -1,0 +1,160 @@
+"""msid.measure: a device measured in process from Python (tools/acquire under the compiled module),
+against the real msid-devsim over Modbus TCP on 127.0.0.1 and against `msid measure` on the same
+samples. No timing assertions; fixed seeds. docs/python.md."""
+import json
+import os
+import signal
+import socket
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, os.environ.get("MSID_PYTHON_DIR", ""))
+sys.path.insert(0, str(HERE.parent / "common"))
+from mblib import Sim, check_coverage, run  # noqa: E402
+from no_process import refuse_processes  # noqa: E402
+import msid  # noqa: E402
+
+DESIGN = dict(period=256, lines="1:3:120", amplitudes=0.2, seed=7, inputs=2, experiments=2)
+
+
+def uri(sim):
+    return f"modbus-tcp://127.0.0.1:{sim.port}"
+
+
+def same_bits(a, b):
+    for k in ("G", "cov", "dof", "cov_known_input", "freq", "bins"):
+        x, y = getattr(a, k), getattr(b, k)
+        assert (x is None) == (y is None), k
+        if x is not None:
+            assert x.shape == y.shape and np.array_equal(x, y), k
+    for k in ("periods_used", "periods_rejected", "noise_cov", "experiments"):
+        ka, kb = a.meta.get(k), b.meta.get(k)
+        if k == "experiments":   # the sources name the link (another port)
+            ka = [{x: v for x, v in e.items() if x != "source"} for e in ka]
+            kb = [{x: v for x, v in e.items() if x != "source"} for e in kb]
+        assert ka == kb, k
+
+
+def test_measure_in_process_same_bits_as_cli(tmp_path, monkeypatch):
+    """The FRF of msid.measure equals `msid measure`'s on a second simulator with the same seed (the same
+    samples) bit for bit, covers the simulator's true plant (exact regions, binomial interval), carries
+    the acquisition block, and no process is started."""
+    d = msid.design(**DESIGN)
+    d.save(tmp_path / "design.json")
+    states = []
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+    with Sim(tmp_path / "a", "--seed", 5, "--noise-y", 0.02) as sim:
+        with monkeypatch.context() as mp:
+            refuse_processes(mp)
+            f = msid.measure(uri(sim), d, periods=6, skip_periods=1, progress=states.append)
+        truth = sim.truth()
+    out = tmp_path / "cli"
+    with Sim(tmp_path / "b", "--seed", 5, "--noise-y", 0.02) as sim2:
+        r = run("measure", "--device", uri(sim2), "--design", tmp_path / "design.json", "--periods", 6,
+                "--skip-periods", 1, "--no-plots", "--quiet", "-o", out)
+        assert r.returncode == 0, r.stderr
+    same_bits(f, msid.read_frf(out / "frf.json"))
+    assert f.meta["complete"] is True and f.meta["experiments_completed"] == 2
+    acq = f.meta["acquisition"]
+    assert acq["transport"] == "modbus-tcp" and acq["samples_lost"] == 0 and acq["device"] == uri(sim)
+    inside, n = check_coverage(msid.frf_to_doc(f), truth)
+    assert n == 40 * 2
+    # progress: both experiments, periods counted up to the last one (a poll of a fast link can bring several)
+    seen = [(s["experiment"], s["periods"]) for s in states]
+    assert seen == sorted(seen) and {e for e, _ in seen} == {1, 2}, seen
+    assert max(k for e, k in seen if e == 1) == 6 and states[-1]["periods"] == 6, seen
+    assert states[-1]["periods_total"] == 12 and states[-1]["experiments"] == 2
+    assert set(states[0]) == {"experiment", "experiments", "periods", "periods_target", "periods_total", "rejected",
+                              "samples_lost", "link_errors", "snr_db", "eta_s"}
+
+
+@pytest.mark.parametrize("how", ["raise", "signal"])
+def test_ctrl_c_keeps_the_complete_periods(tmp_path, how):
+    """Ctrl-C during the second experiment: MeasurementInterrupted (a KeyboardInterrupt) holds the FRF of
+    every complete period, marked incomplete, as `msid measure` keeps it. Both ways Python sees Ctrl-C:
+    KeyboardInterrupt raised inside the progress callable, and a real SIGINT seen between polls."""
+    d = msid.design(**DESIGN)
+
+    def progress(s):
+        if s["experiment"] == 2 and s["periods"] >= 3:
+            if how == "raise":
+                raise KeyboardInterrupt
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with Sim(tmp_path, "--seed", 5, "--noise-y", 0.02) as sim:
+        with pytest.raises(msid.MeasurementInterrupted) as stop:
+            msid.measure(uri(sim), d, periods=40, skip_periods=1, progress=progress)
+    f = stop.value.frf
+    assert isinstance(stop.value, KeyboardInterrupt)
+    assert f.meta["complete"] is False and f.meta["experiments_completed"] == 1
+    assert "stopped by signal 2 during experiment 2 of 2" in f.meta["incomplete_reason"]
+    used = [e["periods_used"] for e in f.meta["experiments"]]
+    assert used[0] == 39 and 2 <= used[1] < 39, used
+    assert any("complete periods acquired before the stop" in n for n in f.notes)
+    assert np.all(np.isfinite(f.G)) and np.all(np.isfinite(f.cov))
+
+
+def test_ctrl_c_before_two_periods_is_a_plain_interrupt(tmp_path):
+    """Stopped before the first experiment has 2 usable periods: no FRF exists, KeyboardInterrupt with msid's
+    reason (not MeasurementInterrupted)."""
+    d = msid.design(**DESIGN)
+
+    def progress(s):
+        raise KeyboardInterrupt
+
+    with Sim(tmp_path, "--seed", 5) as sim:
+        with pytest.raises(KeyboardInterrupt, match="usable period") as stop:
+            msid.measure(uri(sim), d, periods=6, skip_periods=1, progress=progress)
+    assert not isinstance(stop.value, msid.MeasurementInterrupted)
+
+
+def test_progress_exception_is_raised_again(tmp_path):
+    """An error in the progress callable ends the run, and it is that error the caller gets."""
+    d = msid.design(**DESIGN)
+
+    def progress(s):
+        if s["periods_total"] >= 4:
+            raise RuntimeError("my progress bar broke")
+
+    with Sim(tmp_path, "--seed", 5) as sim:
+        with pytest.raises(RuntimeError, match="my progress bar broke"):
+            msid.measure(uri(sim), d, periods=6, progress=progress)
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def test_bad_requests(tmp_path):
+    """One exception each, with msid's message: ValueError for a bad request, OSError for a device that
+    cannot be reached."""
+    d = msid.design(**DESIGN)
+    with pytest.raises(ValueError, match="is not a device URI"):
+        msid.measure("192.168.1.20", d)
+    with pytest.raises(ValueError, match="unknown parameter 'bogus'"):
+        msid.measure("modbus-tcp://127.0.0.1:502?bogus=1", d)
+    with pytest.raises(ValueError, match="periods must be 2"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, periods=1)
+    with pytest.raises(ValueError, match="periods 4 with skip_periods 3 leaves fewer than 2 periods"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, periods=4, skip_periods=3)
+    with pytest.raises(ValueError, match="rate must be a whole number"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, rate=10.5)
+    with pytest.raises(TypeError, match="progress must be callable"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, progress=3)
+    with pytest.raises(OSError, match="127.0.0.1"):
+        msid.measure(f"modbus-tcp://127.0.0.1:{free_port()}", d, periods=4)
+    with Sim(tmp_path, "--seed", 5) as sim:
+        with pytest.raises(ValueError, match="the device has 2 input\\(s\\) but the design has 1"):
+            msid.measure(uri(sim), msid.design(period=256, lines="1:3:120", amplitudes=0.2), periods=4)
+        # the simulator still serves a good request after the refusals
+        f = msid.measure(uri(sim), d, periods=3, skip_periods=1)
+        assert f.meta["complete"] is True

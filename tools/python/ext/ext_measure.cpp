@@ -1,0 +1,160 @@
+// msid._msid.measure: one measurement of a device (msidacq::measure_device, the session `msid measure`
+// runs) with the GIL released. The acquisition asks its Control after every poll: that is where a
+// Python progress callable is called and where Ctrl-C is seen, both with the GIL taken back.
+#include "ext.hpp"
+
+#include "msid_acquire.hpp"
+
+#include <chrono>
+#include <csignal>
+#include <cmath>
+
+namespace msidpy {
+
+using msidutil::fmt;
+using msidutil::UsageError;
+
+// What msid.measure's caller sees while the device runs. Every call comes from the measuring thread
+// without the GIL; a call into Python takes it for that call only.
+class PyControl : public msidacq::Control {
+public:
+    explicit PyControl(py::object progress) : progress_(std::move(progress)) {}
+
+    void update(const msidacq::ProgressState &s) override
+    {
+        const double t = now();
+        const bool event = s.exp != last_.exp || s.periods != last_.periods || s.rejected != last_.rejected ||
+                           s.lost != last_.lost || s.link_errors != last_.link_errors;
+        // Python at most every 20 ms between events: a poll can come every few hundred microseconds
+        if (!event && t - last_call_ < 0.02) return;
+        last_call_ = t;
+        last_ = s;
+        py::gil_scoped_acquire gil;
+        if (stop_) return;
+        if (PyErr_CheckSignals() != 0) { caught(); return; }   // Ctrl-C (the main thread only sees signals)
+        if (progress_.is_none()) return;
+        try {
+            progress_(state_dict(s));
+        } catch (py::error_already_set &e) {
+            e.restore();
+            caught();
+        }
+    }
+
+    int stop() override { return stop_; }
+
+    // KeyboardInterrupt stopped the run (its complete periods are kept).
+    bool interrupted() const { return interrupted_; }
+    // Another exception of the progress callable stopped the run: raised again once the run ended.
+    void raise_pending()
+    {
+        if (!pending_) return;
+        PyErr_Restore(pending_type_, pending_value_, pending_tb_);
+        pending_ = false;
+        throw py::error_already_set();
+    }
+
+private:
+    py::object progress_;
+    msidacq::ProgressState last_{};
+    double last_call_ = -1;
+    int stop_ = 0;
+    bool interrupted_ = false, pending_ = false;
+    PyObject *pending_type_ = nullptr, *pending_value_ = nullptr, *pending_tb_ = nullptr;
+
+    static double now()
+    {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    }
+
+    // The Python error just raised ends the run: KeyboardInterrupt as Ctrl-C does in `msid measure`
+    // (SIGINT), any other one to be raised again after the acquisition is closed.
+    void caught()
+    {
+        stop_ = SIGINT;
+        if (PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) {
+            interrupted_ = true;
+            PyErr_Clear();
+            return;
+        }
+        PyErr_Fetch(&pending_type_, &pending_value_, &pending_tb_);
+        pending_ = true;
+    }
+
+    static py::dict state_dict(const msidacq::ProgressState &s)
+    {
+        py::dict d;
+        d["experiment"] = s.exp;               // 1-based, as the command line shows it
+        d["experiments"] = s.n_exp;
+        d["periods"] = s.periods;
+        d["periods_target"] = s.periods_target;
+        d["periods_total"] = s.periods_total;
+        d["rejected"] = s.rejected;
+        d["samples_lost"] = s.lost;
+        d["link_errors"] = s.link_errors;
+        d["snr_db"] = std::isnan(s.snr_db) ? py::object(py::none()) : py::object(py::float_(s.snr_db));
+        d["eta_s"] = std::isnan(s.eta_s) ? py::object(py::none()) : py::object(py::float_(s.eta_s));
+        return d;
+    }
+};
+
+// measure(device, design, opts, periods, rate, scale, timeout, progress) -> {"frf", "notes", "complete",
+// "summary", "interrupted"}. opts: the estimating options (request_options).
+static py::dict measure(const std::string &device, py::object design, const py::dict &opts, uint32_t periods,
+                        uint32_t rate, double scale, double timeout, py::object progress)
+{
+    const msidacq::DeviceUri dev = msidacq::parse_device_uri(device);
+    msidacq::MeasurePlan plan;
+    // the design stays Python's: `design` holds it for the whole call
+    plan.D = std::shared_ptr<const Design>(design.cast<const PyDesign &>().d.get(), [](const Design *) {});
+    request_from_design(plan.rq, *plan.D);
+    request_options(opts, plan.rq, plan.D.get());
+    plan.sf.periods = periods;
+    plan.sf.rate = rate;
+    plan.sf.scale = (float)scale;
+    plan.sf.fd = dev.fd ? 1 : 0;
+    plan.timeout = timeout;
+    msidacq::check_plan(plan, "periods", "skip_periods");
+    PyControl ctl(std::move(progress));
+    msidacq::MeasureResult R;
+    bool stopped_empty = false;
+    std::string why;
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
+        try {
+            R = msidacq::measure_device(dev, [&](uint32_t, msidacq::MeasurePlan &P) { P = std::move(plan); }, ctl);
+        } catch (const msidutil::Error &e) {
+            // stopped before every experiment had 2 periods: no FRF; Ctrl-C stays Ctrl-C, and an
+            // exception of the progress callable is the one raised
+            if (!(ctl.stop() && e.code > 128)) {
+                py::gil_scoped_acquire gil;
+                ctl.raise_pending();
+                throw;
+            }
+            stopped_empty = true;
+            why = e.what();
+        }
+    }
+    ctl.raise_pending();
+    if (stopped_empty) {
+        PyErr_SetString(PyExc_KeyboardInterrupt, why.c_str());
+        throw py::error_already_set();
+    }
+    py::dict out;
+    out["frf"] = frf_to_py(R.o.doc);
+    out["notes"] = R.o.notes;
+    out["complete"] = R.complete;
+    out["summary"] = R.summary;
+    out["interrupted"] = ctl.interrupted();
+    return out;
+}
+
+void register_measure(py::module_ &m)
+{
+    m.def("measure", &measure, py::arg("device"), py::arg("design"), py::arg("opts"), py::arg("periods"),
+          py::arg("rate"), py::arg("scale"), py::arg("timeout"), py::arg("progress"),
+          "One measurement of a device (use msid.measure).");
+}
+
+}  // namespace msidpy
