@@ -1,7 +1,7 @@
 # `cmake --install build --prefix P` (docs/install.md): headers, static libraries, `msid` and `msid-devsim`,
 # the Python package (P/share/msid/python, found by `msid plot`), P/lib/cmake/msid/msidConfig.cmake
 # exporting msid::core, msid::daq, msid::fit and the host libraries (msid::hostutil, msid::records,
-# msid::formats, msid::frfjob, with msid::fftw and msid::est beneath them), and P/lib/pkgconfig/msid.pc
+# msid::formats, msid::frfjob, msid::acquire, with msid::fftw and msid::est beneath them), and P/lib/pkgconfig/msid.pc
 # (core + daq, C).
 include(CMakePackageConfigHelpers)
 set(MSID_CMAKE_DIR lib/cmake/msid)
@@ -48,6 +48,14 @@ if(TARGET msid_frfjob)
                 ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp
           DESTINATION include/msid_host)
+  # the acquisition of a device (tools/acquire, over msid::daq)
+  if(TARGET msid_acquire)
+    set_target_properties(msid_acquire PROPERTIES EXPORT_NAME acquire)
+    install(TARGETS msid_acquire EXPORT msidTargets ARCHIVE DESTINATION lib)
+    install(FILES ${PROJECT_SOURCE_DIR}/tools/acquire/msid_acquire.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_device_uri.hpp
+                  ${PROJECT_SOURCE_DIR}/tools/acquire/msid_param_upload.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_can_acq.hpp
+            DESTINATION include/msid_host)
+  endif()
 endif()
 foreach(t msid_cli msid_devsim)
   if(TARGET ${t})

@@ -2,7 +2,8 @@
 # Install and reuse (docs/install.md), run by ctest (label integration):
 #   install  BUILD WORK: cmake --install BUILD --prefix WORK/prefix, then an out-of-tree C consumer built
 #            with CMake (find_package(msid)) and with pkg-config (msid.pc, --static), both run, and a C++ consumer
-#            of the host libraries (msid::frfjob: the FRF job on samples in memory) runs; the installed
+#            of the host libraries (msid::frfjob: the FRF job on samples in memory) and one of msid::acquire
+#            (a device URI, a device that is not there) run; the installed
 #            msid and msid-devsim run, and the installed msid finds its Python package (share/msid/python).
 #   nomodbus SRC WORK: a configure without libmodbus visible to pkg-config builds the daq library and the
 #            device simulator without any libmodbus symbol, and both name the option when Modbus is asked for.
@@ -33,6 +34,8 @@ install)
   "$work/cmake-build/consumer" || fail "the CMake consumer failed"
   [ -x "$work/cmake-build/host_consumer" ] || fail "find_package(msid) did not define msid::frfjob"
   "$work/cmake-build/host_consumer" || fail "the host-library consumer failed"
+  [ -x "$work/cmake-build/acquire_consumer" ] || fail "find_package(msid) did not define msid::acquire"
+  "$work/cmake-build/acquire_consumer" || fail "the acquisition-library consumer failed"
   # pkg-config consumer (static libraries: --static pulls libmodbus and libm)
   export PKG_CONFIG_PATH=$P/lib/pkgconfig
   [ "$(pkg-config --modversion msid)" = "$("$P/bin/msid" version | cut -d' ' -f2)" ] || fail "msid.pc version differs"
