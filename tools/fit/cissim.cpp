@@ -1,13 +1,14 @@
 // Discrete-cISSIM system identification: ISP regression (Alg. 1 and 3), A, C, n
 // (Alg. 4), B, D (Alg. 5). You, Huang, Zhang 2023; see cissim.hpp.
 #include "cissim.hpp"
+#include "real_dft.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <Eigen/SVD>
-#include <unsupported/Eigen/FFT>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace msidfit {
 
@@ -77,9 +78,11 @@ static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint3
     r.line_cov.assign(q, MatC::Zero(C, C));
     const double scale = 2.0 / T;
     MatC P(C, q);
-    Eigen::FFT<double> fft;
+    std::unique_ptr<RealDft> fft;
     std::vector<double> x(T), c, sn;
-    std::vector<cd> X;
+    std::vector<cd> X(T / 2 + 1);
+    VecC d(C);
+    if (!direct) fft = std::make_unique<RealDft>(T);
     if (direct) {
         c.resize(T), sn.resize(T);
         for (uint32_t n = 0; n < T; ++n) c[n] = std::cos(2.0 * M_PI * n / T), sn[n] = std::sin(2.0 * M_PI * n / T);
@@ -101,12 +104,12 @@ static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint3
                 }
             } else {
                 for (uint32_t n = 0; n < T; ++n) x[n] = pr[(size_t)n * C + j];
-                fft.fwd(X, x);
+                fft->forward(x.data(), X.data());
                 for (size_t l = 0; l < q; ++l) P(j, (Eigen::Index)l) = X[r.bins[l]] * scale;
             }
         }
         for (size_t l = 0; l < q; ++l) {
-            const VecC d = P.col((Eigen::Index)l) - mean.col((Eigen::Index)l);
+            d.noalias() = P.col((Eigen::Index)l) - mean.col((Eigen::Index)l);
             r.line_cov[l].noalias() += d * d.adjoint();
         }
     }
@@ -155,12 +158,12 @@ IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny
         }
     } else {
         // Alg. 3: one FFT of length T of the period sum per channel
-        Eigen::FFT<double> fft;
+        RealDft fft(T);
         std::vector<double> x(T);
-        std::vector<cd> X;
+        std::vector<cd> X(T / 2 + 1);
         for (uint32_t j = 0; j < C; ++j) {
             for (uint32_t n = 0; n < T; ++n) x[n] = s[(size_t)n * C + j];
-            fft.fwd(X, x);
+            fft.forward(x.data(), X.data());
             for (size_t l = 0; l < q; ++l) P(j, l) = X[bins[l]] * scale;
         }
     }

@@ -2,10 +2,10 @@
 // correlations (Alg. 6, eq. 32-33), Xi_zz by autocovariance least squares (35)
 // under the PSD constraints of (36) with a small ADMM solver, covariances (Alg. 7).
 #include "cissim.hpp"
+#include "real_dft.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-#include <unsupported/Eigen/FFT>
 #include <algorithm>
 #include <cmath>
 
@@ -32,14 +32,13 @@ static MatR residuals(const double *rows, size_t n_rows, uint32_t C, uint32_t T,
     return r;
 }
 
+// The padded length of the correlations: the power of two at or above n. Every call of a fit (the
+// noise covariance's M lags, the cost's one lag) then shares one DFT length, planned once.
 static size_t fast_len(size_t n)
 {
-    for (size_t L = n;; ++L) {
-        size_t x = L;
-        for (size_t f : {2, 3, 5})
-            while (x % f == 0) x /= f;
-        if (x == 1) return L;
-    }
+    size_t L = 1;
+    while (L < n) L <<= 1;
+    return L;
 }
 
 Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
@@ -53,34 +52,38 @@ Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu,
     if (M < 1 || (size_t)M >= N) throw FitError("the number of correlation lags must be in [1, N)");
     // Alg. 6: spectra of the residuals (zero padded to L >= N + M so that the products give the
     // linear correlations of (32), not circular ones), cross-spectra, inverse transforms
-    const size_t L = fast_len(N + (size_t)M);
-    Eigen::FFT<double> fft;
-    std::vector<std::vector<cd>> X(C);
+    const size_t L = fast_len(N + (size_t)M), H = L / 2 + 1;
+    RealDft fft(L);
+    std::vector<std::vector<cd>> X(C, std::vector<cd>(H));
     std::vector<double> x(L, 0.0);
     for (uint32_t j = 0; j < C; ++j) {
         for (size_t k = 0; k < N; ++k) x[k] = r(k, j);
-        fft.fwd(X[j], x);
+        fft.forward(x.data(), X[j].data());
     }
     c.Xi_rr.assign((size_t)M, MatR::Zero(ny, ny));
-    std::vector<cd> S(L);
-    std::vector<cd> s;
+    std::vector<cd> S(H);
+    std::vector<double> s(L);
     for (uint32_t i = 0; i < ny; ++i)
         for (uint32_t j = i; j < ny; ++j) {
             const auto &a = X[nu + i], &b = X[nu + j];
-            for (size_t f = 0; f < L; ++f) S[f] = a[f] * std::conj(b[f]);
-            fft.inv(s, S);   // s[l] = sum_k r_i(k + l) r_j(k); s[L - l] = sum_k r_j(k + l) r_i(k)
+            for (size_t f = 0; f < H; ++f) S[f] = a[f] * std::conj(b[f]);
+            fft.inverse(S.data(), s.data());   // L s[l] = sum_k r_i(k + l) r_j(k); L s[L - l] = sum_k r_j(k + l) r_i(k)
             for (int l = 0; l < M; ++l) {
-                c.Xi_rr[(size_t)l](i, j) = s[(size_t)l].real() / (double)(N - (size_t)l);
-                c.Xi_rr[(size_t)l](j, i) = s[(L - (size_t)l) % L].real() / (double)(N - (size_t)l);
+                c.Xi_rr[(size_t)l](i, j) = s[(size_t)l] / (double)L / (double)(N - (size_t)l);
+                c.Xi_rr[(size_t)l](j, i) = s[(L - (size_t)l) % L] / (double)L / (double)(N - (size_t)l);
             }
         }
-    // eq. (33) by Parseval: sum_k tau_i tau_j = (1/L) sum_f T_i conj(T_j)
+    // eq. (33) by Parseval: sum_k tau_i tau_j = (1/L) sum_f T_i conj(T_j), the real parts of the bins
+    // above L/2 mirror those below (a real signal's spectrum is Hermitian)
     c.Xi_tt = MatR(nu, nu);
     for (uint32_t i = 0; i < nu; ++i)
         for (uint32_t j = 0; j < nu; ++j) {
-            cd acc = 0;
-            for (size_t f = 0; f < L; ++f) acc += X[i][f] * std::conj(X[j][f]);
-            c.Xi_tt(i, j) = acc.real() / (double)L / (double)N;
+            double acc = 0;
+            for (size_t f = 0; f < H; ++f) {
+                const double w = (f == 0 || 2 * f == L) ? 1.0 : 2.0;
+                acc += w * (X[i][f] * std::conj(X[j][f])).real();
+            }
+            c.Xi_tt(i, j) = acc / (double)L / (double)N;
         }
     return c;
 }

@@ -11,6 +11,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 
@@ -124,25 +125,66 @@ std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp
     return t;
 }
 
+// One evaluation of G(z) U and its Jacobian over the terms, with the matrices of one model and
+// working memory reused from term to term (a fit evaluates hundreds of terms per step).
+struct TermEval {
+    Dims d;
+    MatC A, B, C, D, Mz, XB, CXt, Jc;
+    VecC XBU, GU;
+    Eigen::PartialPivLU<MatC> lu;
+    explicit TermEval(const SSModel &m)
+        : d(m), A(m.A.cast<cd>()), B(m.B.cast<cd>()), C(m.C.cast<cd>()), D(m.D.cast<cd>()), Mz(d.n, d.n),
+          XB(d.n, d.nu), CXt(d.n, d.ny), Jc(d.ny, d.p), XBU(d.n), GU(d.ny), lu(d.n)
+    {
+    }
+    // GU = C (z I - A)^-1 B U + D U; with `jac`, Jc = d(GU)/d(vec A, vec B, vec C, vec D) as jac_GU
+    // orders the parameters. One LU of z I - A serves X B and, transposed, C X.
+    void at(cd z, const VecC &U, bool jac)
+    {
+        Mz = -A;
+        Mz.diagonal().array() += z;
+        lu.compute(Mz);
+        XB = lu.solve(B);
+        XBU.noalias() = XB * U;
+        GU.noalias() = C * XBU;
+        GU.noalias() += D * U;
+        if (!jac) return;
+        CXt = lu.transpose().solve(C.transpose());   // (C X)^T
+        Jc.setZero();
+        const Eigen::Index n = d.n;
+        for (Eigen::Index j = 0; j < n; ++j)
+            for (Eigen::Index i = 0; i < n; ++i) Jc.col(i + n * j) = CXt.row(i).transpose() * XBU(j);
+        for (Eigen::Index j = 0; j < d.nu; ++j)
+            for (Eigen::Index i = 0; i < n; ++i) Jc.col(d.pA + i + n * j) = CXt.row(i).transpose() * U(j);
+        for (Eigen::Index j = 0; j < n; ++j)
+            for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
+        for (Eigen::Index j = 0; j < d.nu; ++j)
+            for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + d.pC + i + d.ny * j) = U(j);
+    }
+};
+
 // Real residual r (components of variance 1/2 under the model) and optionally its Jacobian.
 void residual(const SSModel &m, const std::vector<Term> &terms, VecR &r, MatR *J)
 {
-    const Dims d(m);
+    TermEval ev(m);
+    const Dims &d = ev.d;
     Eigen::Index rows = 0;
     for (const auto &t : terms) rows += t.dc ? d.ny : 2 * d.ny;
     r.resize(rows);
     if (J) J->resize(rows, d.p);
     Eigen::Index row = 0;
-    MatC GU;
+    VecC w(d.ny);
+    MatC LJ(d.ny, d.p);
     for (const auto &t : terms) {
-        const MatC Jc = jac_GU(m, t.z, &t.U, GU);
-        const VecC w = t.Li * (t.Y - GU.col(0));
+        ev.at(t.z, t.U, J != nullptr);
+        w.noalias() = t.Li * (t.Y - ev.GU);
         const double s = t.dc ? std::sqrt(0.5) : 1.0;
         r.segment(row, d.ny) = s * w.real();
-        if (J) J->middleRows(row, d.ny) = -s * (t.Li * Jc).real();
+        if (J) LJ.noalias() = t.Li * ev.Jc;
+        if (J) J->middleRows(row, d.ny) = -s * LJ.real();
         if (!t.dc) {
             r.segment(row + d.ny, d.ny) = w.imag();
-            if (J) J->middleRows(row + d.ny, d.ny) = -(t.Li * Jc).imag();
+            if (J) J->middleRows(row + d.ny, d.ny) = -LJ.imag();
         }
         row += t.dc ? d.ny : 2 * d.ny;
     }

@@ -157,6 +157,7 @@ static py::dict fit_records(const std::string &method, const py::tuple &recs, co
         const std::vector<msidrec::Record> r = unpack(recs, false);
         py::gil_scoped_release nogil;
         for (const auto &x : r) msidrec::check_finite(x, 0, x.n_rows);
+        std::lock_guard<std::mutex> planner(fftw_jobs());   // cissim plans its DFTs with FFTW
         o = msidfitjob::fit_cissim(r, rq);
     } else if (method == "multi") {
         const msidfitjob::MultiRequest rq = multi_request(opts);
