@@ -70,6 +70,8 @@ def _ext():
 # ---- arguments as msid takes them ----
 
 def _uint(v, what):
+    if type(v) is int and 0 <= v <= 0xFFFFFFFF:   # the common case, without the checks below
+        return v
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 0 <= v <= 0xFFFFFFFF:
         raise ValueError(f"{what} must be a non-negative integer, not {v!r}")
     return int(v)
@@ -97,6 +99,8 @@ def _uint_list(v, what):
             else:
                 raise ValueError(f"{what}: bad item '{item}'")
         return [_uint(x, what) for x in out]
+    if type(v) is list and all(type(x) is int and 0 <= x <= 0xFFFFFFFF for x in v):   # plain ints: as given
+        return list(v)
     a = np.asarray(v)
     if a.ndim > 1 or (a.size and a.dtype.kind not in "iu"):
         raise ValueError(f"{what} must be integers (bins) or a string such as '1:200', not {v!r}")
@@ -190,10 +194,7 @@ def _records(records, columns, n_inputs, free=False, label="records"):
 
 def _result(res, where):
     a = res["frf"]   # the arrays of the FRF document (msid._msid: frf_to_py), numbers with their bits
-    f = FRF(a["G"], a["freq"], bins=a.get("bin"), cov=a.get("cov"), dof=a.get("dof"),
-            cov_known_input=a.get("cov_known_input"), dof_known_input=a.get("dof_known_input"),
-            freq_hz=a.get("freq_hz"), omega=a.get("omega"), real=a["real"], meta=a["meta"],
-            line_extra=a["line_extra"])
+    f = FRF._of_arrays(a)
     f.notes = list(res["notes"])
     f.reports = list(res.get("reports", []))
     for n in f.notes:

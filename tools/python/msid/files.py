@@ -133,6 +133,20 @@ class FRF:
         self.notes = []     # msid.frf / Measurement.frf: msid's notes on the estimate
         self.reports = []   # msid.frf: what period="auto" / lines="auto" found
 
+    @classmethod
+    def _of_arrays(cls, a):
+        """The FRF of msid._msid's arrays (frf_to_py: already of the dtypes and shapes above), taken as
+        they are: the checks and conversions of __init__ are for arrays from elsewhere."""
+        f = cls.__new__(cls)
+        f.G = a["G"]
+        f.freq, f.bins, f.cov, f.dof = a["freq"], a.get("bin"), a.get("cov"), a.get("dof")
+        f.cov_known_input, f.dof_known_input = a.get("cov_known_input"), a.get("dof_known_input")
+        f.freq_hz, f.omega, f.real = a.get("freq_hz"), a.get("omega"), a["real"]
+        f.meta = a["meta"]
+        f.line_extra = a["line_extra"]
+        f.notes, f.reports = [], []
+        return f
+
     def __repr__(self):
         P = self.meta.get("period_samples")
         where = f", bins {self.bins[0]}..{self.bins[-1]}" if self.bins is not None and self.n_lines else ""
