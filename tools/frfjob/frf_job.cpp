@@ -3,6 +3,7 @@
 #include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
 #include "periodicity.hpp"
 #include "msid_fftw_planner.hpp"
+#include "msid_mapped_pages.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
@@ -213,6 +214,8 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
             const size_t n = std::min(blk, nwhole - k);
             if (r.finite_unchecked) check_finite(r, k, n);
             check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
+            // a record read in place from a mapped file: the pages pushed go back to the kernel
+            if (r.view) msidrec::release_mapped(r.data() + k * C, n * C * sizeof(double));
         }
         if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
         check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");

@@ -1,16 +1,54 @@
 // The bytes of a file as the readers take them: the whole file mapped read-only (FileBytes), a
 // pipe read into memory, and the allocator of the sample matrices.
+#include "msid_mapped_pages.hpp"
 #include "records_detail.hpp"
 
 #include <cerrno>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#include <map>
+#include <mutex>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 namespace msidrec {
+
+namespace {
+
+// Every mapping FileBytes holds (start -> length): release_mapped() gives back only their pages.
+std::mutex &maps_lock()
+{
+    static std::mutex m;
+    return m;
+}
+
+std::map<uintptr_t, size_t> &maps()
+{
+    static std::map<uintptr_t, size_t> m;
+    return m;
+}
+
+// A file up to this size is read in whole when it is mapped (MAP_POPULATE: no page faults later); a
+// larger one is read as its pages are used, and a reader gives back those it has passed.
+constexpr size_t POPULATE_MAX = (size_t)16 << 20;
+
+}  // namespace
+
+void release_mapped(const void *p, size_t n)
+{
+    const uintptr_t a = (uintptr_t)p, b = a + n;
+    const uintptr_t pg = (uintptr_t)sysconf(_SC_PAGESIZE);
+    std::lock_guard<std::mutex> lock(maps_lock());
+    auto it = maps().upper_bound(a);
+    if (it == maps().begin()) return;
+    --it;
+    if (b > it->first + it->second) return;   // not inside one mapping
+    const uintptr_t lo = (a + pg - 1) / pg * pg, hi = b / pg * pg;   // the whole pages only
+    if (hi > lo) madvise((void *)lo, hi - lo, MADV_DONTNEED);
+}
 
 void *alloc_big(size_t bytes)
 {
@@ -66,12 +104,16 @@ FileBytes::FileBytes(const std::string &path)
     if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
     struct stat st;
     if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
-        void *m = mmap(nullptr, (size_t)st.st_size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+        const size_t n = (size_t)st.st_size;
+        void *m = mmap(nullptr, n, PROT_READ, MAP_PRIVATE | (n <= POPULATE_MAX ? MAP_POPULATE : 0), fd, 0);
         if (m != MAP_FAILED) {
+            if (n > POPULATE_MAX) madvise(m, n, MADV_SEQUENTIAL);
             map_ = m;
             p_ = (const char *)m;
-            n_ = (size_t)st.st_size;
+            n_ = n;
             ::close(fd);
+            std::lock_guard<std::mutex> lock(maps_lock());
+            maps()[(uintptr_t)m] = n;
             return;
         }
     }
@@ -84,7 +126,12 @@ FileBytes::FileBytes(const std::string &path)
 
 FileBytes::~FileBytes()
 {
-    if (map_) munmap(map_, n_);
+    if (!map_) return;
+    {
+        std::lock_guard<std::mutex> lock(maps_lock());
+        maps().erase((uintptr_t)map_);
+    }
+    munmap(map_, n_);
 }
 
 }  // namespace msidrec
