@@ -30,9 +30,11 @@ std::mutex &plans_lock()
 // length allocated as fftw_alloc_* allocates every object's (the same SIMD alignment).
 fftw_plan plan_of(size_t n, bool inverse)
 {
-    static std::map<size_t, Plans> cache;
+    // never destroyed: the plans stay reachable to the exit (a static map's destructor would run
+    // before a leak check and orphan them), and no exit-time destructor races a late fit
+    static auto *cache = new std::map<size_t, Plans>;
     std::lock_guard<std::mutex> lock(plans_lock());
-    Plans &p = cache[n];
+    Plans &p = (*cache)[n];
     fftw_plan &slot = inverse ? p.inv : p.fwd;
     if (slot) return slot;
     msidutil::fftw_planner_ready();   // msid frf's warm-up plan may be in the planner on another thread

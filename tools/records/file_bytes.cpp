@@ -27,8 +27,8 @@ std::mutex &maps_lock()
 
 std::map<uintptr_t, size_t> &maps()
 {
-    static std::map<uintptr_t, size_t> m;
-    return m;
+    static auto *m = new std::map<uintptr_t, size_t>;   // never destroyed: a FileBytes may outlive statics
+    return *m;
 }
 
 // A file up to this size is read in whole when it is mapped (MAP_POPULATE: no page faults later); a
