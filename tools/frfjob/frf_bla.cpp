@@ -177,11 +177,15 @@ static FrfOutcome total_only(const FrfRequest &rq, const std::vector<Record> &re
                              R, g, R - 1, g + 1));
     std::vector<RealisationFrf> rs;
     std::string one;   // the realisations with one period, "1, 3, 4"
+    uint32_t n_one = 0;
     for (uint32_t r = 0; r < R; ++r) {
         std::vector<Record> block(recs.begin() + (long)(r * per), recs.begin() + (long)((r + 1) * per));
         bool periods2 = true;
         for (const Record &x : block) periods2 = periods2 && usable_periods(x, rq) >= 2;
-        if (!periods2) one += (one.empty() ? "" : ", ") + std::to_string(r + 1);
+        if (!periods2) {
+            one += (one.empty() ? "" : ", ") + std::to_string(r + 1);
+            ++n_one;
+        }
         rs.push_back(in_realisation(r, per, [&] { return periods2 ? from_periodic(rq, block) : from_means(rq, block); }));
     }
     FrfOutcome o;
@@ -220,12 +224,14 @@ static FrfOutcome total_only(const FrfRequest &rq, const std::vector<Record> &re
         lines.push_back(std::move(e));
     }
     doc["lines"] = std::move(lines);
+    const bool all = n_one == R;
     const std::string why =
-        fmt("one period per realisation (realisation%s %s): noise and nonlinear distortion cannot be separated "
-            "(that needs two periods of every realisation); cov is their total, from the spread of the %u "
-            "realisations' FRFs (dof %u); noise_cov, cov_noise, cov_known_input, snr and the distortion test are "
-            "not estimated",
-            one.find(',') != std::string::npos ? "s" : "", one.c_str(), R, R - 1);
+        fmt("%s: noise and nonlinear distortion cannot be separated (that needs two periods of every realisation)%s; "
+            "cov is their total, from the spread of the %u realisations' FRFs (dof %u); noise_cov, cov_noise, "
+            "cov_known_input, snr and the distortion test are not estimated",
+            all ? "one period per realisation"
+                : fmt("one usable period in realisation%s %s", n_one > 1 ? "s" : "", one.c_str()).c_str(),
+            all ? "" : ", the others' periods serve their FRFs only", R, R - 1);
     Json nl;
     nl["method"] = "robust (Pintelon & Schoukens 2012 §4.3.1), total covariance only: BLA = mean over realisations; "
                    "cov = total covariance (noise + distortion) from the realisation-to-realisation spread, dof R - 1";

@@ -142,7 +142,9 @@ uint64_t record_periods(const Record &r, const FrfRequest &rq, uint32_t min_used
         throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least %s",
                         r.path.c_str(), (unsigned long long)K, P, r.n_rows,
                         rq.skip ? fmt(", %u skipped", rq.skip).c_str() : "",
-                        min_used >= 2 ? "2 usable periods are needed to estimate a covariance"
+                        min_used >= 2 ? K == 1u + rq.skip ? "2 usable periods are needed to estimate a covariance (random-"
+                                                            "phase realisations of one period each: --realisations R)"
+                                                          : "2 usable periods are needed to estimate a covariance"
                                       : "1 usable period is needed"));
     if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
     return K;
