@@ -79,6 +79,11 @@ def test_siso_one_period_file_fit_validate_python(tmp_path):
     assert f.cov_known_input is None and np.all(f.dof == R - 1) and "noise_cov" not in f.meta
     q = (R - 1) * (0.05 ** (-1 / (R - 1)) - 1)   # F(2, 2(R - 1)) 95% quantile
     assert np.allclose(f.radius(0.95)[:, 0, 0], np.sqrt(v * q), rtol=1e-12)
+    # written back: no neutral noise keys stand in for the missing ones (a zero noise_cov, cov_known_input = cov)
+    msid.write_frf(tmp_path / "rt.json", f)
+    rt = h.load_json(tmp_path / "rt.json")
+    h.validate(rt, "msid-frf-1")
+    assert set(rt) == set(doc) and all(set(a) == set(b) for a, b in zip(rt["lines"], doc["lines"]))
 
 
 def test_mixed_periods_and_2x2(tmp_path):
