@@ -124,6 +124,13 @@ def test_one_period_refusals(tmp_path):
     assert "--realisations must be at least 2" in lines[0]
     r = h.run("frf", "--period", P, "--lines", "1:60", "--experiment", paths[0], "-o", tmp_path / "x.json")
     assert "at least 2 usable periods" in r.stderr and "--realisations R" in r.stderr, r.stderr
+    # R = 3: the file is written (dof 2), but weighting by its total covariance follows the
+    # realisations rule of robust-BLA files (F(2, 2(R - 1)) terms need R - 1 > 2): fit and validate refuse
+    p3, _ = siso_records(tmp_path, 3)
+    out = tmp_path / "b3.json"
+    assert frf(tmp_path, p3, 3, out).returncode == 0
+    r = h.run("fit", "--method", "ml", "--order", 2, out, "-o", tmp_path / "m3.json")
+    assert r.returncode == 1 and "rests on 3 realisations" in r.stderr and "R >= 4" in r.stderr, r.stderr
     # 2x2 of one period: the total covariance of 4 entries needs R >= 5
     d = tmp_path / "mimo"
     d.mkdir()
