@@ -1,7 +1,9 @@
 // `msid frf --realisations R`: the best linear approximation and the split of
 // the FRF variance into noise (period to period) and nonlinear distortion
 // (realisation to realisation), Pintelon & Schoukens 2012 §4.3.1 (robust
-// method; equations in tools/fit/bla.hpp and docs/statistics.md).
+// method; equations in tools/fit/bla.hpp and docs/statistics.md). When some realisation has one
+// usable period (the nonlinear-benchmark layout: R realisations of one period each) only the BLA
+// and its total covariance exist (total_only): the split needs the periods' noise.
 #include "frf_job_detail.hpp"
 #include "frf_bla.hpp"
 #include "periodicity.hpp"
