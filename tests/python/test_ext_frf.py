@@ -140,6 +140,21 @@ def test_frf_realisations_same_bits_as_cli(tmp_path):
     assert_same_bits(msid.frf(recs1, period=P, lines=LINES, n_inputs=1, realisations=2), want)
 
 
+def test_frf_realisations_one_period_same_bits_as_cli(tmp_path):
+    # the benchmark layout: random-phase realisations of ONE period each; the BLA and its total covariance
+    # only (dof R - 1), the missing noise part in a note, and msid.fit weighs with the total covariance
+    R = 5
+    recs1 = [records(msid.design(period=P, lines=LINES, seed=s), periods=1, seed=s)[0] for s in range(20, 20 + R)]
+    want = cli_frf(tmp_path, recs1, 1, "--period", P, "--lines", LINES, "--realisations", R)
+    with pytest.warns(msid.NoteWarning, match="one period per realisation: noise and nonlinear distortion cannot"):
+        got = msid.frf(recs1, period=P, lines=LINES, n_inputs=1, realisations=R)
+    assert_same_bits(got, want)
+    assert got.cov_known_input is None and "noise_cov" not in got.meta and np.all(got.dof == R - 1)
+    assert got.meta["nonlinear_distortion"]["noise_separated"] is False
+    m = msid.fit(got, order=2)
+    assert m.order == 2
+
+
 def test_frf_dataframe_and_copies_same_bits(d2, recs):
     pd = pytest.importorskip("pandas")
     want = msid.frf(recs, design=d2)

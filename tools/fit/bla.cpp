@@ -7,22 +7,16 @@
 
 namespace msidfit {
 
-BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const std::vector<double> &dof)
+BlaLine bla_total(const std::vector<MatC> &G)
 {
     const size_t R = G.size();
-    if (R < 2 || cov.size() != R || dof.size() != R) throw FitError("the robust BLA needs at least 2 realisations");
+    if (R < 2) throw FitError("the robust BLA needs at least 2 realisations");
     const Eigen::Index ny = G[0].rows(), nu = G[0].cols(), g = ny * nu;
     BlaLine b;
     b.G = MatC::Zero(ny, nu);
-    b.cov_noise = MatC::Zero(g, g);
-    for (size_t r = 0; r < R; ++r) {
-        b.G += G[r];
-        b.cov_noise += cov[r];
-        b.dof_noise += dof[r];
-    }
+    for (size_t r = 0; r < R; ++r) b.G += G[r];
     const double Rd = (double)R;
     b.G /= Rd;
-    b.cov_noise /= Rd * Rd;
     b.cov = MatC::Zero(g, g);
     const MatC gm = Eigen::Map<const MatC>(b.G.data(), g, 1);
     for (size_t r = 0; r < R; ++r) {
@@ -31,6 +25,22 @@ BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const
     }
     b.cov /= Rd * (Rd - 1.0);
     b.dof = Rd - 1.0;
+    return b;
+}
+
+BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const std::vector<double> &dof)
+{
+    const size_t R = G.size();
+    if (R < 2 || cov.size() != R || dof.size() != R) throw FitError("the robust BLA needs at least 2 realisations");
+    const Eigen::Index g = G[0].rows() * G[0].cols();
+    BlaLine b = bla_total(G);
+    b.cov_noise = MatC::Zero(g, g);
+    for (size_t r = 0; r < R; ++r) {
+        b.cov_noise += cov[r];
+        b.dof_noise += dof[r];
+    }
+    const double Rd = (double)R;
+    b.cov_noise /= Rd * Rd;
     b.var_nl = (b.cov - b.cov_noise).diagonal().real();
     b.var_s = Rd * b.var_nl;
     b.p_value.resize(g);

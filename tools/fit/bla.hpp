@@ -33,6 +33,13 @@ struct BlaLine {
     VecR p_value;           // per entry, F test of "no distortion"
 };
 
+// G_BLA, C_BLA (total) and dof = R - 1 of one line from the realisations' FRFs G[r] (ny x nu) alone,
+// R >= 2: all that one period per realisation allows (no noise part: cov_noise, var_nl, var_s and
+// p_value are left empty). Without the periods' noise the realisation FRFs are still independent
+// with one covariance (noise + stochastic distortion), so C_BLA is unbiased for cov(vec G_BLA) and,
+// for circular complex Gaussian G^[r], |G_BLA,ij - G_BLA,ij^true|^2 / C_BLA,ii ~ F(2, 2(R - 1)).
+BlaLine bla_total(const std::vector<MatC> &G);
+
 // G[r] (ny x nu), cov[r] (g x g) and dof[r] of one line over R >= 2 realisations.
 BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const std::vector<double> &dof);
 

@@ -68,6 +68,22 @@ Json distortion_verdict(const Json &frf_doc, const FrfData &frf, const ModelFile
                                                               : msidjob::detection_distortion(frf_doc);
     if (nl.is_null()) return nullptr;
     Json v;
+    if (nl.contains("noise_separated") && nl["noise_separated"].is_boolean() && !nl["noise_separated"].get<bool>()) {
+        // one period per realisation: cov is the total (noise + distortion), with no noise part to compare
+        v["noise_separated"] = false;
+        v["p_value_total"] = p_total;
+        const std::string finding =
+            weight != "cov"  ? "not judged: the weights are not the total covariance"
+            : p_total >= 0.05 ? "residuals consistent with the total (noise + distortion) covariance; the noise alone "
+                                "is not known (one period per realisation), so a model error below the distortion "
+                                "level cannot be told apart"
+                              : "residuals above the noise and the nonlinear distortion: model error";
+        v["finding"] = finding;
+        text.push_back(fmt("nonlinear distortion (%d realisations of one period: noise and distortion not separated): %s "
+                           "(p = %.3g with the total covariance)",
+                           nl["realisations"].get<int>(), finding.c_str(), p_total));
+        return v;
+    }
     v["distortion_detected"] = nl["distortion_detected"];
     v["nl_to_noise_db"] = nl["nl_to_noise_db"];
     const bool det = nl["distortion_detected"].get<bool>();

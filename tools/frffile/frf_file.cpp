@@ -180,7 +180,8 @@ FrfData parse_frf(const Json &j, const std::string &path)
         j["nonlinear_distortion"].contains("realisations") && j["nonlinear_distortion"]["realisations"].is_number_integer())
         f.realisations = (uint32_t)std::max<int64_t>(1, j["nonlinear_distortion"]["realisations"].get<int64_t>());
     const size_t g = f.g();
-    f.noise_time = parse_cmat(need(j, "noise_cov", path), f.ny, f.ny, path, "'noise_cov'");
+    // absent from a BLA of one period per realisation (msid frf --realisations): no period-to-period noise
+    if (j.contains("noise_cov")) f.noise_time = parse_cmat(j["noise_cov"], f.ny, f.ny, path, "'noise_cov'");
     const Json &lines = need(j, "lines", path);
     if (!lines.is_array() || lines.empty()) throw Error(where(path, "'lines' must be a non-empty array"));
     for (size_t k = 0; k < lines.size(); ++k) {

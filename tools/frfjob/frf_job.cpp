@@ -135,15 +135,18 @@ void check_records(const FrfRequest &rq, const std::vector<Record> &recs, bool c
     }
 }
 
-uint64_t record_periods(const Record &r, const FrfRequest &rq)
+uint64_t record_periods(const Record &r, const FrfRequest &rq, uint32_t min_used)
 {
     const uint32_t P = rq.period;
     const uint64_t K = r.n_rows / P;
-    if (K < 2 + (uint64_t)rq.skip)
-        throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least 2 usable periods "
-                        "are needed to estimate a covariance",
+    if (K < min_used + (uint64_t)rq.skip)
+        throw Error(fmt("'%s' holds %llu whole period(s) of %u samples (%zu samples)%s: at least %s",
                         r.path.c_str(), (unsigned long long)K, P, r.n_rows,
-                        rq.skip ? fmt(", %u skipped", rq.skip).c_str() : ""));
+                        rq.skip ? fmt(", %u skipped", rq.skip).c_str() : "",
+                        min_used >= 2 ? K == 1u + rq.skip ? "2 usable periods are needed to estimate a covariance (random-"
+                                                            "phase realisations of one period each: --realisations R)"
+                                                          : "2 usable periods are needed to estimate a covariance"
+                                      : "1 usable period is needed"));
     if (K > MAX_RECORD_PERIODS) throw Error(fmt("'%s' holds too many periods", r.path.c_str()));
     return K;
 }
@@ -175,6 +178,34 @@ void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane
         if (x) std::rethrow_exception(x);
 }
 
+void measure_records(FrfJob &job, const FrfRequest &rq, const std::vector<Record> &recs)
+{
+    const uint32_t m = (uint32_t)recs.size(), P = rq.period;
+    const size_t C = recs[0].nu + recs[0].ny;
+    on_lanes(m, job.lanes(), [&](uint32_t lane, uint32_t e) {
+        msid_meas &ms = *job.meas(lane);
+        const Record &r = recs[e];
+        check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
+        const size_t nwhole = r.n_rows / P * P;
+        // A record read without its NaN/Inf scan (read_experiments' defer_finite) is scanned
+        // block by block just before the block is pushed, while it is in cache (256 KiB
+        // blocks; the results do not depend on the block size), the rows after the last
+        // whole period at the end: the reader's message, no sample used unchecked.
+        const size_t blk = r.finite_unchecked ? std::min<size_t>(rq.block ? rq.block : nwhole,
+                                                                 std::max<size_t>(1, ((size_t)256 << 10) / (8 * C)))
+                                              : (rq.block ? rq.block : nwhole);
+        for (size_t k = 0; k < nwhole; k += blk) {
+            const size_t n = std::min(blk, nwhole - k);
+            if (r.finite_unchecked) check_finite(r, k, n);
+            check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
+            // a record read in place from a mapped file: the pages pushed go back to the kernel
+            if (r.view) msidrec::release_mapped(r.data() + k * C, n * C * sizeof(double));
+        }
+        if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
+        check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
+    });
+}
+
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep)
 {
     std::vector<std::string> notes;
@@ -197,29 +228,7 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
     const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
     auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
     FrfJob &job = *jobp;
-    const size_t C = nu + ny;
-    on_lanes(m, lanes, [&](uint32_t lane, uint32_t e) {
-        msid_meas &ms = *job.meas(lane);
-        const Record &r = recs[e];
-        check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
-        const size_t nwhole = r.n_rows / P * P;
-        // A record read without its NaN/Inf scan (read_experiments' defer_finite) is scanned
-        // block by block just before the block is pushed, while it is in cache (256 KiB
-        // blocks; the results do not depend on the block size), the rows after the last
-        // whole period at the end: the reader's message, no sample used unchecked.
-        const size_t blk = r.finite_unchecked ? std::min<size_t>(rq.block ? rq.block : nwhole,
-                                                                 std::max<size_t>(1, ((size_t)256 << 10) / (8 * C)))
-                                              : (rq.block ? rq.block : nwhole);
-        for (size_t k = 0; k < nwhole; k += blk) {
-            const size_t n = std::min(blk, nwhole - k);
-            if (r.finite_unchecked) check_finite(r, k, n);
-            check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
-            // a record read in place from a mapped file: the pages pushed go back to the kernel
-            if (r.view) msidrec::release_mapped(r.data() + k * C, n * C * sizeof(double));
-        }
-        if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
-        check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
-    });
+    measure_records(job, rq, recs);
     std::vector<ExpSource> src;
     for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
     FrfOutcome out = job.finish(src, notes);

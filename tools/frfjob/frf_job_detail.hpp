@@ -16,9 +16,13 @@ using msidutil::fftw_warmup_start;
 
 // The period and the lines (and detection lines) of a request are valid: throws Error.
 void validate_lines(const FrfRequest &rq);
-// The whole periods of a record: throws Error when fewer than 2 are left after rq.skip, or more than
+// The whole periods of a record: throws Error when fewer than `min_used` (2 for a covariance from the
+// periods; 1 for a realisation of the BLA's total covariance) are left after rq.skip, or more than
 // MAX_RECORD_PERIODS.
-uint64_t record_periods(const Record &r, const FrfRequest &rq);
+uint64_t record_periods(const Record &r, const FrfRequest &rq, uint32_t min_used = 2);
+// Every sample of recs (whole periods; experiment e is recs[e]) through job's measurement lanes
+// (on_lanes), each record's NaN/Inf scan where the reader left it (Record::finite_unchecked).
+void measure_records(FrfJob &job, const FrfRequest &rq, const std::vector<Record> &recs);
 // Experiments 0 .. m-1 on `lanes` (1 or 2) threads, experiment e on lane e % lanes by one(lane, e);
 // a lane stops at its first failing experiment. Rethrows the error of the first failing experiment in
 // file order: every experiment before it ran to its end on one lane or the other.

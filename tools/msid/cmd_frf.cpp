@@ -43,7 +43,9 @@ static const char *HELP =
     "  --realisations R  the experiments are R blocks of equal size, one per random-phase realisation: the\n"
     "                    FRF is the best linear approximation (mean over realisations), cov its total\n"
     "                    covariance (noise + nonlinear distortion, dof R-1), cov_noise the noise part\n"
-    "                    (robust method, Pintelon & Schoukens 2012 sec. 4.3.1; docs/statistics.md)\n";
+    "                    (robust method, Pintelon & Schoukens 2012 sec. 4.3.1; docs/statistics.md). One period\n"
+    "                    per realisation (the benchmark layout): the BLA and its total covariance only\n"
+    "                    (R >= ny nu + 1); the noise part is not estimated and a note says so\n";
 
 // see the end of cmd_frf
 extern void *volatile frf_left_to_exit;

@@ -352,7 +352,10 @@ def frf_to_doc(frf, complete=True):
         raise ValueError("an FRF needs meta['period_samples'] (the DFT length of its bins)")
     doc.setdefault("periods_used", 0)
     doc.setdefault("periods_rejected", 0)
-    doc.setdefault("noise_cov", _cmat_json(np.zeros((ny, ny))))
+    # a BLA of one period per realisation has no noise part: nothing neutral stands in for it
+    total_only = (frf.meta.get("nonlinear_distortion") or {}).get("noise_separated") is False
+    if not total_only:
+        doc.setdefault("noise_cov", _cmat_json(np.zeros((ny, ny))))
     doc.setdefault("experiments", [{"source": "python", "samples": 0, "periods_total": 0, "periods_skipped": 0,
                                     "periods_used": 1, "periods_gap": 0, "periods_nonfinite": 0,
                                     "transient_flagged": [], "transient_dropped": [], "leftover_samples": 0}])
@@ -374,13 +377,13 @@ def frf_to_doc(frf, complete=True):
             ln["dof"] = float(frf.dof[k]) if frf.dof is not None else 1.0
         if frf.cov_known_input is not None:
             ln["cov_known_input"] = _cmat_json(frf.cov_known_input[k])
-        elif complete:
+        elif complete and not total_only:
             ln["cov_known_input"] = ln["cov"]
         if frf.dof_known_input is not None:
             ln["dof_known_input"] = float(frf.dof_known_input[k])
         extra = frf.line_extra[k] if k < len(frf.line_extra) else {}
         ln.update(extra)
-        if complete:
+        if complete and not total_only:
             ln.setdefault("snr", [None] * ny)
         lines.append(ln)
     doc["lines"] = lines

@@ -305,7 +305,12 @@ def incomplete_note(frf):
 
 def _title(frf, model):
     inc = incomplete_note(frf)
-    t = ("INCOMPLETE: " if inc else "") + f"{frf.meta.get('method', 'periodic')} FRF, {frf.n_outputs}x{frf.n_inputs}, {frf.n_lines} lines"
+    nl = frf.meta.get("nonlinear_distortion") or {}
+    what = f"{frf.meta.get('method', 'periodic')} FRF"
+    if int(nl.get("realisations", 1) or 1) >= 2:   # the regions are of the total (noise + distortion) covariance
+        what = f"BLA of {nl['realisations']} realisations" + \
+            (" (one period each: total covariance only)" if nl.get("noise_separated") is False else "")
+    t = ("INCOMPLETE: " if inc else "") + f"{what}, {frf.n_outputs}x{frf.n_inputs}, {frf.n_lines} lines"
     if frf.dof is not None:
         t += f", dof {np.min(frf.dof):.3g}" + (f"..{np.max(frf.dof):.3g}" if np.ptp(frf.dof) > 0 else "")
     if model is not None:

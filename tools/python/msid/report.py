@@ -54,7 +54,10 @@ def _frf_table(frf):
             if k in acq:
                 rows.append((f"acquisition {k}", _fmt(acq[k])))
     nl = m.get("nonlinear_distortion")
-    if isinstance(nl, dict):
+    if isinstance(nl, dict) and nl.get("noise_separated") is False:
+        rows.append(("nonlinear distortion", f"{nl.get('realisations')} realisations of one period: not separated "
+                     "from the noise (cov is their total)"))
+    elif isinstance(nl, dict):
         rows.append(("nonlinear distortion", f"p = {_fmt(nl.get('p_value'))}, detected {nl.get('distortion_detected')}"))
     return rows
 
