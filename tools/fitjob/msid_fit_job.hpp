@@ -127,6 +127,7 @@ struct ValidateOutcome {
     Json report;                     // the msid-validation/1 document (msid validate -o)
     std::vector<std::string> text;   // what msid validate prints, one line each
     bool consistent = false;         // p-value >= 0.05
+    bool has_verdict = true;         // false: an FRF without covariance (no noise scale, no p-value)
 };
 // The FRF's document (frf_doc, from which f was parsed) carries what the FRF data do not hold: its
 // nonlinear-distortion block and detection lines. Throws FitError (the data cannot validate the model)
