@@ -200,6 +200,58 @@ def test_real_network_analyser_data_fits_a_stable_model(tmp_path):
     assert png.stat().st_size > 1000
 
 
+# ---------------- idfrd-shaped .mat ----------------
+
+def test_idfrd_mat_round_trip_through_msid_export(tmp_path):
+    """CSV with standard deviations -> msid import -> msid export --mat -> msid import: the same lines,
+    values, variances, names and units."""
+    plant = helpers.ct_plant_2x2()
+    om = np.geomspace(10, 5000, 30)
+    G = helpers.ct_frf(plant, om)
+    sd = 1e-3 * np.abs(G) + 1e-5
+    csv = tmp_path / "a.csv"
+    _ct_csv(csv, om, G, sd=sd, extra_meta=["# dof: 12"])
+    doc, G1, om1 = imported(csv, tmp_path)
+    run_ok("export", tmp_path / "a.csv.json", "--mat", tmp_path / "a.mat")
+    mdoc, G2, om2 = imported(tmp_path / "a.mat", tmp_path)
+    np.testing.assert_allclose(om2, om, rtol=1e-15)
+    np.testing.assert_allclose(G2, G, rtol=1e-15)
+    v1 = np.array([np.real(np.diag(cplx(ln["cov"]))) for ln in doc["lines"]])
+    v2 = np.array([np.real(np.diag(cplx(ln["cov"]))) for ln in mdoc["lines"]])
+    np.testing.assert_allclose(v2, v1, rtol=1e-14)
+    assert [ln["dof"] for ln in mdoc["lines"]] == [12.0] * 30
+    assert mdoc["input_names"] == ["u1", "u2"] and mdoc["output_units"] == ["m", "m"]
+    assert mdoc["domain"] == "ct" and "sample_time" not in mdoc
+
+
+def test_idfrd_mat_written_by_scipy(tmp_path):
+    sio = pytest.importorskip("scipy.io")
+    rng = np.random.default_rng(3)
+    L = 25
+    G = rng.standard_normal((1, 2, L)) + 1j * rng.standard_normal((1, 2, L))
+    f_hz = np.linspace(1, 50, L)
+    p = tmp_path / "id.mat"
+    names = np.empty((2, 1), dtype=object)
+    names[0, 0], names[1, 0] = "Force", "Torque"
+    sio.savemat(p, {"ResponseData": G, "Frequency": f_hz[:, None], "Ts": 0.0, "FrequencyUnit": "Hz",
+                    "InputName": names}, format="5", do_compression=True)
+    doc, G1, om = imported(p, tmp_path)
+    np.testing.assert_allclose(om, 2 * np.pi * f_hz, rtol=1e-15)
+    np.testing.assert_array_equal(G1, np.transpose(G, (2, 0, 1)))
+    assert doc["input_names"] == ["Force", "Torque"] and "cov" not in doc["lines"][0]
+
+
+def test_truncated_mat(tmp_path):
+    sio = pytest.importorskip("scipy.io")
+    p = tmp_path / "full.mat"
+    sio.savemat(p, {"ResponseData": np.ones((1, 1, 40)) * (1 + 2j), "Frequency": np.arange(1.0, 41.0)[:, None],
+                    "Ts": 0.0}, format="5")
+    data = p.read_bytes()
+    cut = tmp_path / "cut.mat"
+    cut.write_bytes(data[: len(data) - 200])
+    _refused(tmp_path, cut, "cut.mat")
+
+
 # ---------------- bad input: one message, non-zero exit, nothing written ----------------
 
 def _refused(tmp_path, path, *words, extra=()):

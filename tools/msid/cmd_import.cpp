@@ -20,7 +20,9 @@ static const char *HELP =
     "              even or uneven abscissa; references are the inputs, responses the outputs, named node+dir\n"
     "  csv         freq_hz or omega, then G_OUT_IN_re, G_OUT_IN_im and optionally G_OUT_IN_sd or G_OUT_IN_coh\n"
     "              (with '# averages: n'); '# units: name=unit, ...'; '# domain: dt' and '# sample_time: T'\n"
-    "  mat         an idfrd-shaped .mat (ResponseData, Frequency, Ts, as msid export --mat writes)\n"
+    "  mat         an idfrd-shaped MATLAB v5 .mat: ResponseData (ny x nu x L), Frequency, Ts (0: continuous\n"
+    "              time), FrequencyUnit, optional CovarianceData and dof, InputName .. OutputUnit (as msid\n"
+    "              export --mat writes them)\n"
     "A continuous-time FRF without a sample time (an analogue instrument's) stays one: msid fit makes a\n"
     "continuous-time model of it. Without standard deviations or coherence the file has no covariance:\n"
     "msid fit then fits unweighted and gives no p-value. Nothing is written when the file is refused.\n";
