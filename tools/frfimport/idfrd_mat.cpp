@@ -7,6 +7,7 @@
 // (tools/records, read_mat_values): every size checked against the file before it sizes anything.
 #include "frf_import.hpp"
 
+#include "msid_mat_values.hpp"
 #include "msid_records.hpp"
 
 #include <cmath>

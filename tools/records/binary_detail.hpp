@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "msid_mat_values.hpp"
 #include "records_detail.hpp"
 
 namespace msidrec {
