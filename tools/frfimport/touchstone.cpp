@@ -199,6 +199,10 @@ Imported read_touchstone(const std::string &path)
             throw Error(at_line(path, point_line, "frequency " + std::to_string(point[0]) + " " + o.unit +
                                                       " is not above the previous one: Touchstone frequencies increase"));
         if (!std::isfinite(f)) throw Error(at_line(path, point_line, "the frequency is not finite"));
+        // H and G are a 2-port's (their de-normalisation indexes [1][1]; fuzz_frf_import found a 1-port H)
+        if ((o.param == 'H' || o.param == 'G') && N != 2)
+            throw Error("'" + path + "': " + std::string(1, o.param) + " parameters are a 2-port's, the file has " +
+                        std::to_string(N) + " port" + (N == 1 ? "" : "s"));
         last_f = f;
         im.omega.push_back(2 * M_PI * f);
         im.G.push_back(point_matrix(o, point, N));
@@ -209,9 +213,6 @@ Imported read_touchstone(const std::string &path)
                                                   std::to_string(1 + 2 * (size_t)N * N) + " numbers (a truncated file, " +
                                                   "or not a " + std::to_string(N) + "-port?)"));
     if (im.omega.empty()) throw Error("'" + path + "' holds no Touchstone data rows");
-    if ((o.param == 'H' || o.param == 'G') && N != 2)
-        throw Error("'" + path + "': " + std::string(1, o.param) + " parameters are a 2-port's, the file has " +
-                    std::to_string(N) + " ports");
     im.nu = im.ny = N;
     im.ct = true;
     name_signals(im, o.param, N);
