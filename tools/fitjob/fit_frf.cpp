@@ -628,11 +628,19 @@ void summarise(Fit &c)
     const std::string order_txt = repeated ? fmt("order %d (%d poles; state order %d: each pole once per input)",
                                                  npoles, npoles, (int)c.ss.n())
                                            : fmt("order %d", (int)c.ss.n());
-    c.out.tail = fmt(": %s fit, %s, weighted cost %.6g (expected %.6g, %s)%s\n", c.rq.method.c_str(), order_txt.c_str(),
-                     doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
-                     doc["cost"]["p_value"].is_null() ? "no p-value"
-                                                      : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
-                     doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+    // unit weights without any covariance (another tool's FRF): the cost has no noise scale, hence no
+    // expectation to set it against
+    const bool no_scale = c.wt == Weight::None && doc["cost"]["p_value"].is_null() && doc["cost"].contains("note");
+    if (no_scale)
+        c.out.tail = fmt(": %s fit, %s, unweighted cost %.6g (no covariance: no expectation, no p-value)%s\n",
+                         c.rq.method.c_str(), order_txt.c_str(), doc["cost"]["value"].get<double>(),
+                         doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+    else
+        c.out.tail = fmt(": %s fit, %s, weighted cost %.6g (expected %.6g, %s)%s\n", c.rq.method.c_str(),
+                         order_txt.c_str(), doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
+                         doc["cost"]["p_value"].is_null() ? "no p-value"
+                                                          : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
+                         doc["stable"].get<bool>() ? "" : ", UNSTABLE");
     if (doc["cost"].contains("independent_lines") && !doc["cost"]["independent_lines"]["p_value"].is_null())
         c.out.after = fmt("LPM file: p = %.3g on every %d-th line (independent; the p-value msid validate gives)\n",
                           doc["cost"]["independent_lines"]["p_value"].get<double>(),

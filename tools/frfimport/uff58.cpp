@@ -96,14 +96,17 @@ Dataset parse58(const Text &t, size_t k, size_t end)
              int_field(t, r6, 51, 4, "the response direction")};
     d.ref = {trim(field(l6, 56, 10)), int_field(t, r6, 66, 10, "the reference node"),
              int_field(t, r6, 76, 4, "the reference direction")};
-    // record 7: ordinate type, count, spacing, abscissa minimum and increment
+    // record 7, Format(3I10, 3E13.5): ordinate type, count, spacing, abscissa minimum and increment (by
+    // column: full-width fields run together, "         62000000000")
     const std::string l7 = t.line(r7);
-    const char *s = l7.c_str(), *e = s + l7.size();
-    double v[6];
-    for (int i = 0; i < 5; ++i)
-        if (!take_number(s, e, v[i]))
+    double v[5];
+    for (int i = 0; i < 5; ++i) {
+        const std::string fld = trim(field(l7, i < 3 ? 10 * (size_t)i : 30 + 13 * (size_t)(i - 3), i < 3 ? 10 : 13));
+        const char *s = fld.c_str();
+        if (!take_number(s, s + fld.size(), v[i]) || *s)
             throw Error(at_line(t.path, r7 + 1, "record 7 must hold the ordinate type, the number of values, the "
-                                                "spacing, the abscissa minimum and increment"));
+                                                "spacing (3I10), the abscissa minimum and increment (E13.5)"));
+    }
     const long long otype = (long long)v[0], spacing = (long long)v[2];
     if (otype != 5 && otype != 6)
         throw Error(at_line(t.path, r7 + 1, "ordinate data type " + std::to_string(otype) +
