@@ -40,7 +40,7 @@ struct FitRequest {
     std::string order;                     // n | auto | a:b | a:step:b; "": ml auto, subspace its singular values
     std::optional<uint32_t> nd, nn;        // LMFD degrees (lmfd, ml --param lmfd)
     std::string domain;                    // dt | ct; "": the FRF's
-    std::string weight = "cov";            // cov | known-input | none
+    std::string weight;   // cov | known-input | none; "": cov, or none for an FRF without any covariance
     std::optional<double> noise_var;       // known white output noise variance per sample
     std::optional<uint32_t> r;             // subspace block rows
     bool stable = false;                   // subspace: also reflect unstable poles in the r scan

@@ -515,7 +515,7 @@ def _frf_fit_opts(method, order, o):
     t = lambda k: None if o.get(k) is None else str(o[k])               # noqa: E731
     pins = o.get("pins", ())
     return {"method": method, "order": _order(order), "nd": u("nd"), "nn": u("nn"), "domain": t("domain"),
-            "weight": str(o.get("weight", "cov")), "noise_var": f("noise_var"), "r": u("r"),
+            "weight": t("weight"), "noise_var": f("noise_var"), "r": u("r"),
             "stable": bool(o.get("stable", False)), "allow_unstable": bool(o.get("allow_unstable", False)),
             "no_d": bool(o.get("no_d", False)), "pins": [str(p) for p in ([pins] if isinstance(pins, str) else pins)],
             "start": None if o.get("start") is None else os.fspath(o["start"]), "max_iter": u("max_iter"),
