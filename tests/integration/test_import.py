@@ -338,3 +338,18 @@ def test_unknown_format_is_a_usage_error(tmp_path):
     out = tmp_path / "o.json"
     r = run("import", SKRF_DATA / "ntwk1.s2p", "--format", "hdf5", "-o", out)
     assert r.returncode == 2 and "--format must be" in r.stderr and not out.exists()
+
+
+def test_format_by_content_for_other_extensions(tmp_path):
+    """A CSV whose metadata starts with '#' is not taken for a Touchstone option line; a Touchstone
+    file named otherwise is (a 1- or 2-port by its first row); --format names it outright."""
+    c = tmp_path / "frf.txt"
+    c.write_text("# units: F=N, x=m\nfreq_hz,G_x_F_re,G_x_F_im\n1,0.5,0.1\n2,0.4,0.2\n")
+    doc, _, _ = imported(c, tmp_path)
+    assert doc["imported"]["format"] == "csv" and doc["input_units"] == ["N"] and doc["output_units"] == ["m"]
+    t = tmp_path / "vna.dat"
+    t.write_text((SKRF_DATA / "ntwk1.s2p").read_text())
+    doc, G, _ = imported(t, tmp_path)
+    assert doc["imported"]["format"] == "touchstone" and G.shape[1:] == (2, 2)
+    doc, _, _ = imported(c, tmp_path, "--format", "csv")
+    assert doc["imported"]["format"] == "csv"

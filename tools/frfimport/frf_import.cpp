@@ -60,15 +60,26 @@ Format sniff(const std::string &path)
     while (i < h.size() && std::isspace((unsigned char)h[i])) ++i;
     if (i < h.size() && h[i] == '{') return Format::Msid;
     if (h.compare(i, 2, "-1") == 0) return Format::Uff;
-    // a Touchstone option line ("# Hz S RI R 50") among the first lines, after '!' comments
+    // a Touchstone option line ("# Hz S RI R 50": every word one of its keywords or R's number) among
+    // the first lines, after '!' comments; a CSV's "# units: ..." is not one
+    static const char *const words[] = {"HZ", "KHZ", "MHZ", "GHZ", "S", "Y", "Z", "H", "G", "RI", "MA", "DB", "R"};
     std::istringstream ls(h);
     std::string line;
     while (std::getline(ls, line)) {
         const size_t a = line.find_first_not_of(" \t\r");
         if (a == std::string::npos || line[a] == '!') continue;
-        if (line[a] == '#' && line.find_first_not_of(" \t\r", a + 1) != std::string::npos &&
-            std::isalpha((unsigned char)line[line.find_first_not_of(" \t\r", a + 1)]))
-            return Format::Touchstone;
+        if (line[a] != '#') break;
+        std::istringstream ws(line.substr(a + 1));
+        std::string w;
+        bool option = false, after_r = false;
+        while (ws >> w) {
+            for (auto &c : w) c = (char)std::toupper((unsigned char)c);
+            const bool keyword = std::find(std::begin(words), std::end(words), w) != std::end(words);
+            if (!keyword && !after_r) { option = false; break; }
+            option = true;
+            after_r = w == "R";
+        }
+        if (option) return Format::Touchstone;
         break;
     }
     return Format::Csv;
