@@ -142,10 +142,16 @@ mb_missing() { python3 -c "import pymodbus, serial, sys; sys.exit(pymodbus.__ver
 pip_pinned mb_missing "pymodbus $PYMODBUS"
 
 # scikit-rf (PyPI, pinned): VectorFitting is the independent peer of the parametric fits
-# (tests/integration/test_fit_structures.py, msid bench fit).
+# (tests/integration/test_fit_structures.py, msid bench fit); its Touchstone reader and example files
+# that of msid import (tests/integration/test_import.py).
 SKRF=2.2.0
 skrf_missing() { python3 -c "import skrf, sys; sys.exit(skrf.__version__ != '$SKRF')" 2>/dev/null || echo "scikit-rf==$SKRF"; }
 pip_pinned skrf_missing "scikit-rf $SKRF"
+
+# pyuff (PyPI, pinned): reads the UFF 58 files msid import reads (tests/integration/test_import.py).
+PYUFF=2.5.8
+pyuff_missing() { python3 -c "import pyuff, sys; sys.exit(pyuff.__version__ != '$PYUFF')" 2>/dev/null || echo "pyuff==$PYUFF"; }
+pip_pinned pyuff_missing "pyuff $PYUFF"
 
 # python-control (PyPI `control`, pinned): FRD/StateSpace/TransferFunction conversion of the Python package.
 PYCONTROL=0.10.2

@@ -88,7 +88,7 @@ def test_usage_lists_every_command_of_the_table():
     assert r.returncode == 0
     listed = [ln.split()[0] for ln in r.stdout.splitlines() if ln.startswith("  ") and not ln.startswith("   ")]
     assert listed == ["measure", "excite", "frf", "demo", "fit", "modes", "validate", "compare", "can", "modbus",
-                      "plot", "export", "bench", "version"]
+                      "plot", "export", "import", "bench", "version"]
     for name in listed:
         if name in ("version", "demo", "measure"):
             continue

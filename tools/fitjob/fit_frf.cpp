@@ -87,12 +87,13 @@ struct Fit {
     }
 };
 
-// --domain dt|ct (default: the file's domain); a CT model needs the file's sample time.
+// --domain dt|ct (default: the file's domain); a CT model of a DT file needs the file's sample time
+// (a CT file without one, an analogue instrument's, has its lines in rad/s).
 Domain parse_domain(const FitRequest &rq, const FrfData &f)
 {
     Domain d = f.domain;
     if (!rq.domain.empty()) d = msidutil::parse_enum(rq.domain, "--domain", {"dt", "ct"}) == 0 ? Domain::DT : Domain::CT;
-    if (d == Domain::CT && f.h <= 0)
+    if (d == Domain::CT && f.h <= 0 && f.domain != Domain::CT)
         throw Error("a continuous-time model needs the sample time of the FRF file (give --fs to msid frf)");
     return d;
 }
@@ -122,7 +123,16 @@ void weigh_lines(Fit &c)
     const FitRequest &rq = c.rq;
     const FrfData &f = c.f;
     c.d = parse_domain(rq, f);
-    c.wt = WEIGHTS[msidutil::parse_enum(rq.weight.empty() ? "cov" : rq.weight, "--weight", WEIGHT_NAMES)];
+    // An FRF without any covariance (one measured by another tool, msid import) is fitted with unit
+    // weights unless a weight is asked for: said once, and the cost then has no p-value (cost_block).
+    bool any_cov = false;
+    for (const auto &l : f.lines) any_cov = any_cov || l.cov.size() > 0;
+    const bool no_cov = !any_cov && rq.weight.empty() && !rq.noise_var;
+    const std::string wname = no_cov ? "none" : rq.weight.empty() ? "cov" : rq.weight;
+    c.wt = WEIGHTS[msidutil::parse_enum(wname, "--weight", WEIGHT_NAMES)];
+    if (no_cov)
+        c.note("note: '" + f.path + "' has no FRF covariance: an unweighted fit (unit weights); the cost has no noise "
+               "scale, so no p-value and no standard deviations that mean anything");
     const double noise_var = rq.noise_var.value_or(0.0);
     if (rq.noise_var && !(noise_var > 0)) throw UsageError("--noise-var must be positive");
     c.w = weigh(f, c.d, c.wt, noise_var);
@@ -150,7 +160,13 @@ void weigh_lines(Fit &c)
         c.w_pool.clear();
     }
     c.doc = model_head(f.path, c.d, f.h, method);
-    c.settings["weight"] = rq.weight.empty() ? "cov" : rq.weight;
+    c.settings["weight"] = wname;
+    if (no_cov) c.settings["weight_reason"] = "the FRF file has no covariance: unit weights, no p-value";
+    if (c.d == Domain::CT && f.h <= 0)
+        c.settings["frequency_axis"] =
+            "continuous time without a sample time: the lines' omega (rad/s) as the file gives them; the bilinear "
+            "map of subspace and the scaling of the polynomial coefficients use the geometric mean of the band "
+            "(a numerical device: the model is continuous-time, in rad/s)";
     if (c.pool && (method == "ml" || method == "subspace")) {
         c.settings["weight_smooth"] = wsmooth;
         // which lines pooled (docs/fitting.md "Pooled weights": imprecise own weights, equal covariance)
@@ -612,11 +628,19 @@ void summarise(Fit &c)
     const std::string order_txt = repeated ? fmt("order %d (%d poles; state order %d: each pole once per input)",
                                                  npoles, npoles, (int)c.ss.n())
                                            : fmt("order %d", (int)c.ss.n());
-    c.out.tail = fmt(": %s fit, %s, weighted cost %.6g (expected %.6g, %s)%s\n", c.rq.method.c_str(), order_txt.c_str(),
-                     doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
-                     doc["cost"]["p_value"].is_null() ? "no p-value"
-                                                      : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
-                     doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+    // unit weights without any covariance (another tool's FRF): the cost has no noise scale, hence no
+    // expectation to set it against
+    const bool no_scale = c.wt == Weight::None && doc["cost"]["p_value"].is_null() && doc["cost"].contains("note");
+    if (no_scale)
+        c.out.tail = fmt(": %s fit, %s, unweighted cost %.6g (no covariance: no expectation, no p-value)%s\n",
+                         c.rq.method.c_str(), order_txt.c_str(), doc["cost"]["value"].get<double>(),
+                         doc["stable"].get<bool>() ? "" : ", UNSTABLE");
+    else
+        c.out.tail = fmt(": %s fit, %s, weighted cost %.6g (expected %.6g, %s)%s\n", c.rq.method.c_str(),
+                         order_txt.c_str(), doc["cost"]["value"].get<double>(), doc["cost"]["expected"].get<double>(),
+                         doc["cost"]["p_value"].is_null() ? "no p-value"
+                                                          : fmt("p = %.3g", doc["cost"]["p_value"].get<double>()).c_str(),
+                         doc["stable"].get<bool>() ? "" : ", UNSTABLE");
     if (doc["cost"].contains("independent_lines") && !doc["cost"]["independent_lines"]["p_value"].is_null())
         c.out.after = fmt("LPM file: p = %.3g on every %d-th line (independent; the p-value msid validate gives)\n",
                           doc["cost"]["independent_lines"]["p_value"].get<double>(),

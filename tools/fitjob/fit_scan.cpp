@@ -151,7 +151,10 @@ FitOutcome fit_frf_scan(const FrfData &f, const FitRequest &rq, const Report &re
         at.order = std::to_string(n);
         FitOutcome o;
         try {
-            o = fit_frf_at_order(f, at, [&](const std::string &note) { add_note(out, report, note); });
+            // a note every order gives alike (e.g. an FRF without covariance: unweighted) is said once
+            o = fit_frf_at_order(f, at, [&](const std::string &note) {
+                if (std::find(out.notes.begin(), out.notes.end(), note) == out.notes.end()) add_note(out, report, note);
+            });
         } catch (const msidutil::UsageError &e) {
             usage = e.what();
             throw FitError(usage);

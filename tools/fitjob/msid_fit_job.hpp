@@ -40,7 +40,7 @@ struct FitRequest {
     std::string order;                     // n | auto | a:b | a:step:b; "": ml auto, subspace its singular values
     std::optional<uint32_t> nd, nn;        // LMFD degrees (lmfd, ml --param lmfd)
     std::string domain;                    // dt | ct; "": the FRF's
-    std::string weight = "cov";            // cov | known-input | none
+    std::string weight;   // cov | known-input | none; "": cov, or none for an FRF without any covariance
     std::optional<double> noise_var;       // known white output noise variance per sample
     std::optional<uint32_t> r;             // subspace block rows
     bool stable = false;                   // subspace: also reflect unstable poles in the r scan
@@ -127,6 +127,7 @@ struct ValidateOutcome {
     Json report;                     // the msid-validation/1 document (msid validate -o)
     std::vector<std::string> text;   // what msid validate prints, one line each
     bool consistent = false;         // p-value >= 0.05
+    bool has_verdict = true;         // false: an FRF without covariance (no noise scale, no p-value)
 };
 // The FRF's document (frf_doc, from which f was parsed) carries what the FRF data do not hold: its
 // nonlinear-distortion block and detection lines. Throws FitError (the data cannot validate the model)

@@ -181,18 +181,29 @@ ValidateOutcome validate_frf(const ModelFile &mf, const FrfData &f, const Json &
     int worst = -1;
     double worst_q = -1;
     Json per = normalised_residuals(w, vs, f, worst, worst_q);
-    out.consistent = pv >= 0.05;
-    out.text.push_back(fmt("model %s on %s: weighted cost %.6g, expected %.6g (dof %.0f), p-value %.4g", mf.path.c_str(),
-                           f.path.c_str(), V, vs.expected, vs.dof, pv));
+    // An FRF without any covariance (measured by another tool, msid import) has no noise scale: the
+    // unit-weight cost is reported, but no p-value and no verdict (one would depend on the data's units).
+    bool any_cov = false;
+    for (const auto &l : f.lines) any_cov = any_cov || l.cov.size() > 0;
+    const bool no_scale = wt == Weight::None && !any_cov && !rq.weight;
+    out.consistent = pv >= 0.05 && !no_scale;
+    out.has_verdict = !no_scale;
+    if (no_scale)
+        out.text.push_back(fmt("model %s on %s: unweighted cost %.6g (dof %.0f); the FRF has no covariance: no "
+                               "p-value, no verdict", mf.path.c_str(), f.path.c_str(), V, vs.dof));
+    else
+        out.text.push_back(fmt("model %s on %s: weighted cost %.6g, expected %.6g (dof %.0f), p-value %.4g",
+                               mf.path.c_str(), f.path.c_str(), V, vs.expected, vs.dof, pv));
     if (worst >= 0)
         out.text.push_back(fmt("largest normalised residual %.3g at bin %u (1 expected on average)", worst_q,
                                f.lines[(size_t)worst].bin));
     if (stride > 1)
         out.text.push_back(fmt("LPM file: the cost sums every %zu-th line (2W+1 bins apart: independent), %zu of %zu lines",
                                stride, (w.size() + stride - 1) / stride, w.size()));
-    out.text.push_back(std::string("verdict: ") +
-                       (out.consistent ? "consistent with the data at 5%" : "NOT consistent with the data at 5%"));
-    if (wt == Weight::None) out.text.push_back("note: unweighted residuals: the p-value assumes unit noise");
+    if (!no_scale)
+        out.text.push_back(std::string("verdict: ") +
+                           (out.consistent ? "consistent with the data at 5%" : "NOT consistent with the data at 5%"));
+    if (wt == Weight::None && !no_scale) out.text.push_back("note: unweighted residuals: the p-value assumes unit noise");
     const Json nlv = distortion_verdict(frf_doc, f, mf, wname, pv, out.text);
 
     Json &r = out.report;
@@ -203,8 +214,15 @@ ValidateOutcome validate_frf(const ModelFile &mf, const FrfData &f, const Json &
     r["cost"] = V;
     r["expected"] = vs.expected;
     r["dof"] = vs.dof;
-    r["p_value"] = pv;
-    r["consistent_at_5pct"] = out.consistent;
+    if (no_scale) {
+        r["expected"] = nullptr;
+        r["p_value"] = nullptr;
+        r["consistent_at_5pct"] = nullptr;
+        r["note"] = "the FRF has no covariance: the unweighted cost has no noise scale, so no p-value and no verdict";
+    } else {
+        r["p_value"] = pv;
+        r["consistent_at_5pct"] = out.consistent;
+    }
     r["lines_in_statistic"] = stride > 1 ? fmt("every %zu-th line (2W+1, independent LPM lines)", stride) : std::string("all");
     r["line_stride"] = stride;
     if (!nlv.is_null()) r["nonlinear_distortion"] = nlv;

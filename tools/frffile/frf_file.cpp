@@ -158,7 +158,9 @@ FrfData parse_frf(const Json &j, const std::string &path)
         f.h = num(j["sample_time"], path, "'sample_time'");
         if (!(f.h > 0)) throw Error(where(path, "'sample_time' must be positive"));
     }
-    if (f.domain == Domain::CT && f.h <= 0) throw Error(where(path, "a continuous-time file needs 'sample_time'"));
+    // A CT file without a sample time is an analogue instrument's FRF (msid import): its lines must
+    // say where they are in rad/s (omega), there being no samples to count cycles of.
+    const bool ct_no_h = f.domain == Domain::CT && f.h <= 0;
     if (j.contains("method") && j["method"].is_string()) f.method = j["method"].get<std::string>();
     if (j.contains("lpm") && j["lpm"].is_object() && j["lpm"].contains("window") && j["lpm"]["window"].is_number_unsigned())
         f.lpm_window = j["lpm"]["window"].get<uint64_t>();
@@ -191,6 +193,9 @@ FrfData parse_frf(const Json &j, const std::string &path)
         l.bin = uint(need(e, "bin", path, ctx), path, ctx + ".bin");
         l.freq = num(need(e, "freq", path, ctx), path, ctx + ".freq");
         if (e.contains("omega")) l.omega = num(e["omega"], path, ctx + ".omega");
+        else if (ct_no_h)
+            throw Error(where(path, ctx + ": a continuous-time file without 'sample_time' needs 'omega' (rad/s) at "
+                                          "every line"));
         else if (f.h > 0) l.omega = 2.0 * M_PI * l.freq / f.h;
         else l.omega = 2.0 * M_PI * l.freq;
         l.real = e.contains("real") && e["real"].is_boolean() && e["real"].get<bool>();

@@ -242,15 +242,23 @@ void write_mat(const Exported &e, const std::string &tmp)
     w.cplx("ResponseData", {ny, nu, L}, re, im);
     w.real("Frequency", {L, 1}, om);
     w.real("Ts", {1, 1}, {f.domain == msidfit::Domain::CT ? 0.0 : (f.h > 0 ? f.h : 1.0)});
-    w.real("CovarianceData", {ny, nu, L, 2, 2}, cov);
-    w.real("SD", {ny, nu, L}, sd);
-    w.real("dof", {L, 1}, dof);
-    w.real("ConfidenceScale95", {L, 1}, scale);
-    w.real("CovarianceData95", {ny, nu, L, 2, 2}, cov95);
-    w.real("SD95", {1, 1}, {sd95()});
+    // an FRF without covariance (another tool's, msid import) has no uncertainty to export
+    bool any_cov = false;
+    for (const auto &l : f.lines) any_cov = any_cov || (e.known_input ? l.cov_ki : l.cov).size() > 0;
+    if (any_cov) {
+        w.real("CovarianceData", {ny, nu, L, 2, 2}, cov);
+        w.real("SD", {ny, nu, L}, sd);
+        w.real("dof", {L, 1}, dof);
+        w.real("ConfidenceScale95", {L, 1}, scale);
+        w.real("CovarianceData95", {ny, nu, L, 2, 2}, cov95);
+        w.real("SD95", {1, 1}, {sd95()});
+    }
     w.real("Bin", {L, 1}, bin);
-    if (f.h > 0) w.real("FrequencyHz", {L, 1}, hz);
-    w.text("FrequencyUnit", f.h > 0 ? "rad/s" : "rad/TimeUnit");
+    // rad/s when the frequencies are in seconds: a DT file with a sample time, any CT file (one
+    // without a sample time, from msid import, has its lines in rad/s)
+    const bool seconds = f.h > 0 || f.domain == msidfit::Domain::CT;
+    if (seconds) w.real("FrequencyHz", {L, 1}, hz);
+    w.text("FrequencyUnit", seconds ? "rad/s" : "rad/TimeUnit");
     write_signals(w, e.doc, nu, ny);
     w.close();
 }

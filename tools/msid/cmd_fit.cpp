@@ -3,6 +3,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "host_libs.hpp"
+#include "frf_import.hpp"
 #include "msid_fit_job.hpp"
 
 #include "model_io.hpp"
@@ -27,7 +28,7 @@ static const char *FIT_HELP =
     "  records in closed form. Without --order ml chooses the order (auto: stabilisation diagram, as msid\n"
     "  measure --fit does), subspace from its singular values. Check any model with msid validate.\n"
     "\n"
-    "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json\n"
+    "usage: msid fit --method subspace|lmfd|ml frf.json -o model.json [--format msid|touchstone|uff|csv|mat]\n"
     "                [--order n|auto|a:b | --nd K --nn J] [--domain dt|ct] [--weight cov|known-input|none]\n"
     "                [--noise-var S2] [--r R] [--stable] [--no-d] [--pin N0=0 ...] [--start subspace|sk|MODEL]\n"
     "                [--max-iter N] [--delta D] [--beta B] [--feedthrough auto|yes|no] [--param poles|lmfd]\n"
@@ -62,7 +63,10 @@ static const char *FIT_HELP =
     "                stabilisation diagram (docs/fitting.md);\n"
     "                on LPM files the cost and p-value of every (2W+1)-th line, as msid validate\n"
     "  --nd, --nn    LMFD degrees (p = s for ct, p = 1/z for dt)\n"
-    "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none\n"
+    "  --weight      covariance for the weighting: cov (nonparametric, default), known-input, none (the\n"
+    "                default for an FRF without covariance: unweighted, no p-value)\n"
+    "  --format      the FRF file's format (default: by its extension and content): msid-frf/1, or one\n"
+    "                measured by another tool (Touchstone .sNp, UFF 58 .uff/.unv, CSV, idfrd .mat; msid import)\n"
     "  --noise-var   known white output noise variance per sample (replaces the estimated noise)\n"
     "  --weight-smooth H  ml, and subspace's refinement, with --weight cov|known-input: weights from the\n"
     "                covariance pooled over 2H+1 neighbouring lines (default H = 4 when the file has at least\n"
@@ -87,7 +91,7 @@ static msidfitjob::FitRequest fit_request(const Args &a)
     if (a.has("nd")) rq.nd = a.u32("nd", 1);
     if (a.has("nn")) rq.nn = a.u32("nn", 0);
     rq.domain = a.get("domain");
-    rq.weight = a.get("weight", "cov");
+    rq.weight = a.get("weight");   // "": cov, or unit weights for an FRF without covariance
     if (a.has("noise-var")) rq.noise_var = a.f64("noise-var", 0.0);
     if (a.has("r")) rq.r = a.u32("r", 0);
     rq.stable = a.has("stable");
@@ -134,7 +138,7 @@ int cmd_fit(int argc, char **argv)
     if (cissim_requested(argc, argv)) return cmd_fit_cissim(argc, argv);
     Args a(argc, argv, 2, FIT_HELP,
            {"method", "order", "nd", "nn", "domain", "weight", "noise-var", "r", "start", "max-iter", "delta", "beta",
-            "feedthrough", "param", "output", "refine", "weight-smooth"},
+            "feedthrough", "param", "output", "refine", "weight-smooth", "format"},
            {"stable", "no-d", "allow-unstable"}, {"pin"});
     const msidfitjob::FitRequest rq = fit_request(a);
     const bool scan = msidfitjob::order_is_scan(rq);
@@ -148,7 +152,7 @@ int cmd_fit(int argc, char **argv)
     parse_enum(method, "--method", {"subspace", "lmfd", "ml", "multi", "cissim"});
     FrfData f;
     try {
-        f = read_frf(a.positional()[0]);
+        f = msidfrfimport::load_frf(a.positional()[0], a.get("format"));
     } catch (const FitError &e) {
         if (scan) throw UsageError("give exactly one readable msid-frf/1 file");
         throw Error(e.what());
@@ -163,23 +167,25 @@ int cmd_fit(int argc, char **argv)
 
 static const char *VAL_HELP =
     "usage: msid validate model.json frf.json [--weight cov|known-input|none] [--lpm-lines independent|all]\n"
-    "                     [-o report.json]\n"
+    "                     [--format msid|touchstone|uff|csv|mat] [-o report.json]\n"
     "       msid validate multi-model.json --experiment r1.csv ... [--lags M] [-o report.json]\n"
     "The weighted residual cost of the model on the FRF data against its expectation, with a p-value,\n"
     "per-line normalised residuals, and a verdict at 5%. Models of --method multi (free responses too)\n"
     "are validated on time records: residual whiteness and cost (msid validate --experiment x --help).\n"
     "LPM files: neighbouring lines share 2W of their 2W+1 window bins, so the cost is summed over every\n"
-    "(2W+1)-th line, which are independent (--lpm-lines all: every line, an optimistic p-value).\n";
+    "(2W+1)-th line, which are independent (--lpm-lines all: every line, an optimistic p-value).\n"
+    "An FRF measured by another tool (--format, or by its extension: msid import) is read as msid import\n"
+    "reads it; without a covariance the unweighted cost is reported, with no p-value and no verdict.\n";
 
 int cmd_validate(int argc, char **argv)
 {
     if (validate_on_records(argc, argv)) return cmd_validate_multi(argc, argv);   // time records (cmd_fit_multi.cpp)
-    Args a(argc, argv, 2, VAL_HELP, {"weight", "output", "lpm-lines"}, {});
+    Args a(argc, argv, 2, VAL_HELP, {"weight", "output", "lpm-lines", "format"}, {});
     if (a.positional().size() != 2) throw UsageError("give a model file and an FRF file");
     try {
         const ModelFile mf = read_model(a.positional()[0]);
         msidfitjob::check_model_has_frf(mf);
-        const Json frf_doc = read_json(a.positional()[1]);
+        const Json frf_doc = msidfrfimport::load_document(a.positional()[1], a.get("format"));
         const FrfData f = msidfrf::parse_frf(frf_doc, a.positional()[1]);
         msidfitjob::ValidateRequest rq;
         if (a.has("weight")) rq.weight = a.enum_<Weight>("weight", Weight::Cov, WEIGHTS);

@@ -4,6 +4,8 @@
 // that Python can import it and matplotlib (one clear message if not), then runs `python3 -m msid.plot`.
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "frf_import.hpp"
+#include "msid_json_file.hpp"
 
 #include <cerrno>
 #include <cstdio>
@@ -19,11 +21,14 @@ namespace msidcli {
 
 static const char *HELP =
     "usage: msid plot frf.json [--model model.json] -o bode.png|bode.svg|bode.pdf [--level 0.95] [--known-input]\n"
+    "                [--format msid|touchstone|uff|csv|mat]\n"
     "Bode magnitude and phase of every output/input pair with the exact confidence regions of the file's\n"
     "covariance and dof (F(2, 2 dof), docs/statistics.md), the model's response and the normalised\n"
     "residuals per line, and the stabilisation diagram when the model file has one (--order auto).\n"
     "Drawn by the Python package (python3 -m msid.plot, matplotlib); MSID_PYTHON names the interpreter\n"
-    "(default python3), MSID_PYTHON_DIR the directory holding the msid package.\n";
+    "(default python3), MSID_PYTHON_DIR the directory holding the msid package.\n"
+    "An FRF measured by another tool (Touchstone, UFF 58, CSV, idfrd .mat: --format, or by its extension)\n"
+    "is imported as msid import does; without a covariance it is drawn without regions.\n";
 
 static bool file_exists(const std::string &p) { return access(p.c_str(), R_OK) == 0; }
 
@@ -137,9 +142,30 @@ int call_python_module(const std::string &module, const std::vector<std::string>
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
 }
 
+namespace {
+// A temporary file removed when it goes out of scope (msid plot of an imported FRF).
+struct TempFile {
+    std::string path;
+    void create()
+    {
+        const char *t = std::getenv("TMPDIR");
+        std::string tmpl = std::string(t && *t ? t : "/tmp") + "/msid-plot-XXXXXX.json";
+        const int fd = mkstemps(&tmpl[0], 5);
+        if (fd < 0) throw Error("cannot create a temporary file in " + tmpl.substr(0, tmpl.rfind('/')) + ": " +
+                                std::strerror(errno));
+        close(fd);
+        path = tmpl;
+    }
+    ~TempFile()
+    {
+        if (!path.empty()) unlink(path.c_str());
+    }
+};
+}  // namespace
+
 int cmd_plot(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP, {"model", "output", "level"}, {"known-input"});
+    Args a(argc, argv, 2, HELP, {"model", "output", "level", "format"}, {"known-input"});
     if (a.positional().size() != 1) throw UsageError("give one FRF file (msid plot frf.json -o bode.png)");
     const std::string out = a.get("output");
     if (out.empty()) throw UsageError("give the output file with -o bode.png|bode.svg|bode.pdf");
@@ -147,7 +173,15 @@ int cmd_plot(int argc, char **argv)
     const std::string ext = dot == std::string::npos ? "" : out.substr(dot);
     if (ext != ".png" && ext != ".svg" && ext != ".pdf")
         throw UsageError("'" + out + "': the output must end in .png, .svg or .pdf");
-    std::vector<std::string> args = {a.positional()[0], "-o", out};
+    // An FRF of another tool (msid import): imported to a temporary msid-frf/1 file first, removed after.
+    const std::string in = a.positional()[0];
+    const bool other = msidfrfimport::format_of(in, a.get("format")) != msidfrfimport::Format::Msid;
+    TempFile tmp;
+    if (other) {
+        tmp.create();
+        msidfmt::write_json_file(tmp.path, msidfrfimport::load_document(in, a.get("format")), false);
+    }
+    std::vector<std::string> args = {other ? tmp.path : in, "-o", out};
     if (a.has("model")) { args.push_back("--model"); args.push_back(a.get("model")); }
     if (a.has("level")) {
         const double l = parse_double(a.get("level"), "--level");
@@ -155,7 +189,7 @@ int cmd_plot(int argc, char **argv)
         args.push_back("--level"); args.push_back(a.get("level"));
     }
     if (a.has("known-input")) args.push_back("--known-input");
-    return run_python_module("msid.plot", args);
+    return other ? call_python_module("msid.plot", args) : run_python_module("msid.plot", args);
 }
 
 }  // namespace msidcli

@@ -35,6 +35,7 @@ int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
 int cmd_bench_io(int argc, char **argv);
 int cmd_plot(int argc, char **argv);     // cmd_plot.cpp: wraps python3 -m msid.plot
 int cmd_export(int argc, char **argv);   // cmd_export.cpp: FRF as CSV or MATLAB idfrd .mat
+int cmd_import(int argc, char **argv);   // cmd_import.cpp: another tool's FRF as msid-frf/1
 // Run `python3 -m <module> args...` (execvp) with the msid Python package on PYTHONPATH (installed,
 // source tree or $MSID_PYTHON_DIR); throws Error with one clear message if Python, the package or
 // matplotlib is missing.

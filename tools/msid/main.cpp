@@ -45,6 +45,8 @@ const Command COMMANDS[] = {
     {"modbus", "measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device", msidcli::cmd_modbus},
     {"plot", "Bode plot of an FRF file with 95% regions, model overlay and residuals (PNG/SVG/PDF)", msidcli::cmd_plot},
     {"export", "an FRF file as CSV or MATLAB .mat (idfrd shape) with standard deviations", msidcli::cmd_export},
+    {"import", "an FRF measured by another tool (Touchstone, UFF 58, CSV, idfrd .mat) as msid-frf/1",
+     msidcli::cmd_import},
     {"bench", "benchmarks against peers: frf, fit, lpm, io, can, modbus, target, wcet (`msid bench --help`)",
      msidcli::cmd_bench},
     {"version", "print the version", cmd_version},

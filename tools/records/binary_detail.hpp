@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "msid_mat_values.hpp"
 #include "records_detail.hpp"
 
 namespace msidrec {
@@ -76,6 +77,8 @@ class MatReader {
     virtual ~MatReader() = default;
     virtual bool next(MatVarInfo &v) = 0;
     virtual Array read() = 0;
+    // The variable next() described, whole (read_mat_values); v5 only.
+    virtual MatValue read_value() { throw Error("reading a whole variable needs a MATLAB v5 file"); }
 };
 
 // The version of a v5/v7.3 header (a 128-byte header ending in "IM", or "MI" when written big-endian:

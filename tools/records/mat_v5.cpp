@@ -22,6 +22,7 @@
 // samples as doubles at most 8 x that.
 #include "binary_detail.hpp"
 
+#include <algorithm>
 #include <climits>
 #include <zlib.h>
 
@@ -172,6 +173,13 @@ class MatV5 : public MatReader {
         used_ += std::min<size_t>(pad, limit_ - used_);
     }
     void parse_matrix(MatVarInfo &v);
+    // A matrix's array flags, dimensions and name (the start of every matrix, nested ones too).
+    struct Head { uint32_t cls = 0; bool complex = false, logical = false; std::vector<uint64_t> dims; uint64_t elems = 1; std::string name; };
+    Head parse_head();
+    // read_value(): a numeric part (tag t already read) as doubles; a char matrix's data; a cell's elements.
+    std::vector<double> numeric_part(const Tag &t, uint64_t elems);
+    std::string char_data(const Head &h);
+    MatValue read_value() override;
 
     std::string path_;
     std::unique_ptr<FileBytes> f_;
@@ -186,6 +194,8 @@ class MatV5 : public MatReader {
     const unsigned char *data_at_ = nullptr;   // in place
     std::string name_;
     std::vector<std::string> bufs_;   // inflated real parts, alive as long as the reader
+    Head head_;                       // the variable next() described
+    bool data_tag_read_ = false;      // its real part's tag read (a real numeric 2-D matrix)
 };
 
 bool MatV5::next(MatVarInfo &v)
@@ -220,14 +230,17 @@ bool MatV5::next(MatVarInfo &v)
     return false;
 }
 
-void MatV5::parse_matrix(MatVarInfo &v)
+MatV5::Head MatV5::parse_head()
 {
-    v = MatVarInfo{};
+    Head h;
     Tag t;
     unsigned char fl[8];
     if (!tag(t) || t.small || t.type != MI_UINT32 || t.bytes != 8) throw bad("has malformed array flags");
     body(t, fl);
-    const uint32_t flags = u32(fl), cls = flags & 0xFFu;
+    const uint32_t flags = u32(fl);
+    h.cls = flags & 0xFFu;
+    h.complex = flags & F_COMPLEX;
+    h.logical = flags & F_LOGICAL;
     if (!tag(t)) throw bad("is truncated");
     if (t.small && t.bytes > 4) throw bad("has a malformed dimensions element");
     if (t.type != MI_INT32 || t.bytes % 4 != 0 || t.bytes / 4 > MAX_RANK)
@@ -235,28 +248,38 @@ void MatV5::parse_matrix(MatVarInfo &v)
     unsigned char dims[4 * MAX_RANK];
     if (t.small) std::memcpy(dims, t.data, t.bytes);
     else body(t, dims);
-    v.rank = (int)(t.bytes / 4);
-    uint64_t elems = 1;
-    for (int i = 0; i < v.rank; ++i) {
+    for (uint32_t i = 0; i < t.bytes / 4; ++i) {
         const uint64_t d = u32(dims + 4 * i);
-        elems = d && elems > UINT64_MAX / d ? UINT64_MAX : elems * d;
+        h.dims.push_back(d);
+        h.elems = d && h.elems > UINT64_MAX / d ? UINT64_MAX : h.elems * d;
     }
-    v.d0 = v.rank > 0 ? u32(dims) : 0;
-    v.d1 = v.rank > 1 ? u32(dims + 4) : 0;
     if (!tag(t)) throw bad("is truncated");
     if (t.small && t.bytes > 4) throw bad("has a malformed name element");
     if (t.small) {
-        v.name.assign((const char *)t.data, t.bytes);
+        h.name.assign((const char *)t.data, t.bytes);
     } else {
         if (t.bytes > limit_ - used_) throw bad("claims a name longer than its bytes");
-        v.name.assign(t.bytes, '\0');   // at most the matrix's bytes, checked above
-        body(t, &v.name[0]);
+        h.name.assign(t.bytes, '\0');   // at most the matrix's bytes, checked above
+        body(t, &h.name[0]);
     }
-    if (t.type != MI_INT8) v.name.clear();   // as libmatio: only an miINT8 name is a name
-    v.name.resize(std::strlen(v.name.c_str()));
-    v.numeric = cls >= 6 && cls <= 15;   // double, single, int8 .. uint64
-    v.complex = flags & F_COMPLEX;
-    v.logical = flags & F_LOGICAL;
+    if (t.type != MI_INT8) h.name.clear();   // as libmatio: only an miINT8 name is a name
+    h.name.resize(std::strlen(h.name.c_str()));
+    return h;
+}
+
+void MatV5::parse_matrix(MatVarInfo &v)
+{
+    v = MatVarInfo{};
+    head_ = parse_head();
+    data_tag_read_ = false;
+    const uint64_t elems = head_.elems;
+    v.rank = (int)head_.dims.size();
+    v.d0 = v.rank > 0 ? head_.dims[0] : 0;
+    v.d1 = v.rank > 1 ? head_.dims[1] : 0;
+    v.name = head_.name;
+    v.numeric = head_.cls >= 6 && head_.cls <= 15;   // double, single, int8 .. uint64
+    v.complex = head_.complex;
+    v.logical = head_.logical;
     name_ = v.name;
     data_at_ = nullptr;
     if (!v.numeric || v.rank != 2 || v.complex || v.logical) return;
@@ -264,6 +287,7 @@ void MatV5::parse_matrix(MatVarInfo &v)
     // end before it)
     if (elems == 0 && used_ + 8 > limit_) data_ = Tag{9, 0, false, {}};
     else if (!tag(data_) || (data_.small && data_.bytes > 4)) throw bad("has a malformed data element");
+    data_tag_read_ = true;
     const Stored s = stored_type(data_.type);
     if (m_.in_place()) data_at_ = m_.here();
     elems_ = elems;
@@ -302,7 +326,104 @@ Array MatV5::read()
     return a;
 }
 
+std::vector<double> MatV5::numeric_part(const Tag &t, uint64_t elems)
+{
+    const Stored st = stored_type(t.type);
+    if (!st.size) throw Error("'" + path_ + "' variable '" + name_ + "': unsupported element type");
+    // the dimensions times the stored size must fit in the part, itself within the matrix's bytes
+    if (elems > t.bytes / st.size)
+        throw bad(fmt("claims %llu values, more than its %u bytes of data hold", (unsigned long long)elems, t.bytes).c_str());
+    std::string raw;
+    if (t.small) raw.assign((const char *)t.data, 4);
+    else {
+        raw.assign(t.bytes, '\0');
+        body(t, &raw[0]);
+    }
+    Array a;
+    a.data = (const unsigned char *)raw.data();
+    a.kind = st.kind;
+    a.esize = st.size;
+    a.swap = swap_ && st.size > 1;
+    a.si = 1;
+    std::vector<double> v((size_t)elems);
+    for (size_t i = 0; i < v.size(); ++i) v[i] = a.at(i, 0);
+    return v;
+}
+
+// A char matrix's data (after its head) as text: one row (1 x N), UTF-16 or UTF-8/bytes stored.
+std::string MatV5::char_data(const Head &h)
+{
+    if (h.cls != 4) throw bad("holds a cell that is not text");
+    if (h.dims.size() != 2 || (h.dims[0] > 1 && h.dims[1] > 0))
+        throw bad("holds text that is not one row");
+    Tag t;
+    if (h.elems == 0) return "";
+    if (!tag(t) || (t.small && t.bytes > 4)) throw bad("has a malformed text element");
+    const bool wide = t.type == 3 || t.type == 4 || t.type == 17;   // miINT16, miUINT16, miUTF16
+    const size_t es = wide ? 2 : 1;
+    if (h.elems > t.bytes / es) throw bad("claims more characters than its text element holds");
+    std::string raw;
+    if (t.small) raw.assign((const char *)t.data, 4);
+    else {
+        raw.assign(t.bytes, '\0');
+        body(t, &raw[0]);
+    }
+    std::string out;
+    for (size_t i = 0; i < (size_t)h.elems; ++i) {
+        const unsigned c = wide ? (swap_ ? (unsigned)(unsigned char)raw[2 * i] << 8 | (unsigned char)raw[2 * i + 1]
+                                         : (unsigned char)raw[2 * i] | (unsigned)(unsigned char)raw[2 * i + 1] << 8)
+                                : (unsigned char)raw[i];
+        out += c < 128 || !wide ? (char)c : '?';
+    }
+    return out;
+}
+
+MatValue MatV5::read_value()
+{
+    MatValue v;
+    v.name = head_.name;
+    v.dims = head_.dims;
+    const uint64_t elems = head_.elems;
+    if (head_.cls >= 6 && head_.cls <= 15) {
+        v.kind = MatValue::Numeric;
+        if (elems == 0) return v;
+        if (!data_tag_read_ && (!tag(data_) || (data_.small && data_.bytes > 4)))
+            throw bad("has a malformed data element");
+        v.re = numeric_part(data_, elems);
+        if (head_.complex) {
+            Tag t;
+            if (!tag(t) || (t.small && t.bytes > 4)) throw bad("has a malformed imaginary part");
+            v.im = numeric_part(t, elems);
+        }
+    } else if (head_.cls == 4) {
+        v.kind = MatValue::Char;
+        v.text = char_data(head_);
+    } else if (head_.cls == 1) {
+        v.kind = MatValue::Cells;
+        // every cell is a matrix of at least its tag and three parts: 8 x 4 bytes
+        if (elems > (limit_ - used_) / 32) throw bad("claims more cells than its bytes hold");
+        for (uint64_t k = 0; k < elems; ++k) {
+            Tag t;
+            if (!tag(t) || t.small || t.type != MI_MATRIX) throw bad("has a malformed cell");
+            const Head h = parse_head();
+            v.cells.push_back(char_data(h));
+        }
+    }
+    return v;
+}
+
 }  // namespace
+
+std::vector<MatValue> read_mat_values(const std::string &path, const std::vector<std::string> &names)
+{
+    std::unique_ptr<MatReader> mr = open_mat_v5(path);
+    if (!mr) throw Error("'" + path + "' is not a MATLAB v5 .mat file (v4 and v7.3 are not read here; save with -v7 or -v6)");
+    std::vector<MatValue> out;
+    MatVarInfo info;
+    while (mr->next(info))
+        if (std::find(names.begin(), names.end(), info.name) != names.end()) out.push_back(mr->read_value());
+    return out;
+}
 
 unsigned mat_header_version(const unsigned char *b, size_t N)
 {

@@ -74,5 +74,6 @@ void register_measurement(py::module_ &m);
 void register_design(py::module_ &m);
 void register_fit(py::module_ &m);
 void register_measure(py::module_ &m);
+void register_import(py::module_ &m);
 
 }  // namespace msidpy

@@ -97,7 +97,8 @@ static py::dict validate(const std::string &model_text, const std::string &model
     py::dict out;
     out["report"] = json_to_py(v.report);
     out["text"] = v.text;
-    out["consistent"] = v.consistent;
+    if (v.has_verdict) out["consistent"] = v.consistent;
+    else out["consistent"] = py::none();
     return out;
 }
 

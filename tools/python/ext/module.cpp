@@ -33,4 +33,5 @@ PYBIND11_MODULE(_msid, m)
     msidpy::register_measurement(m);
     msidpy::register_fit(m);
     msidpy::register_measure(m);
+    msidpy::register_import(m);
 }

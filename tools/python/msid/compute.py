@@ -16,7 +16,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from .files import FRF, Model, frf_to_doc, model_to_doc
+from .files import FRF, Model, frf_from_doc, frf_to_doc, model_to_doc
 
 PathLike = Union[str, "os.PathLike[str]"]
 Bins = Union[str, Sequence[int], np.ndarray]
@@ -459,10 +459,27 @@ def _file_text(path):
         raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
 
 
+def import_frf(path: PathLike, format: Optional[str] = None) -> FRF:
+    """An FRF file of any format msid reads, as an msid.FRF: msid-frf/1, or one measured by another tool
+    (format "touchstone", "uff", "csv" or "mat"; default: by the extension and content), converted by
+    `msid import`'s readers (docs/frf-format.md, "FRFs from other tools"). A network analyser's or modal
+    suite's FRF is continuous-time without a sample time; without standard deviations it has no
+    covariance (msid.fit then fits it unweighted, with no p-value). ValueError with msid's message for a
+    file msid refuses, OSError for one it cannot read."""
+    import json
+    path = os.fspath(path)
+    text = _ext().import_frf(path, "" if format is None else str(format))
+    return frf_from_doc(json.loads(text), f"'{path}'")
+
+
 def _frf_json(frf, what):
-    """An FRF (msid.FRF, or an msid-frf/1 file's path) as JSON text and the name msid gives it: a file
-    is handed over as written, so the fit reads the bytes `msid fit` reads and names it by its path."""
+    """An FRF (msid.FRF, or an FRF file's path) as JSON text and the name msid gives it: an msid-frf/1
+    file is handed over as written, so the fit reads the bytes `msid fit` reads and names it by its path;
+    another tool's file is imported as `msid fit` imports it."""
     if isinstance(frf, (str, os.PathLike)):
+        path = os.fspath(frf)
+        if os.path.isfile(path) and _ext().frf_format(path, "") != "msid":
+            return _ext().import_frf(path, ""), path
         return _file_text(frf)
     if not isinstance(frf, FRF):
         raise TypeError(f"{what} must be an msid.FRF or an msid-frf/1 file's path, not {type(frf).__name__}")
@@ -499,7 +516,7 @@ def _frf_fit_opts(method, order, o):
     t = lambda k: None if o.get(k) is None else str(o[k])               # noqa: E731
     pins = o.get("pins", ())
     return {"method": method, "order": _order(order), "nd": u("nd"), "nn": u("nn"), "domain": t("domain"),
-            "weight": str(o.get("weight", "cov")), "noise_var": f("noise_var"), "r": u("r"),
+            "weight": t("weight"), "noise_var": f("noise_var"), "r": u("r"),
             "stable": bool(o.get("stable", False)), "allow_unstable": bool(o.get("allow_unstable", False)),
             "no_d": bool(o.get("no_d", False)), "pins": [str(p) for p in ([pins] if isinstance(pins, str) else pins)],
             "start": None if o.get("start") is None else os.fspath(o["start"]), "max_iter": u("max_iter"),
@@ -612,7 +629,8 @@ class Validation:
     def __init__(self, res):
         self.report = res["report"]
         self.text = list(res["text"])
-        self.consistent = bool(res["consistent"])
+        # None: an FRF without covariance (another tool's, msid.import_frf) has no noise scale, no verdict
+        self.consistent = None if res["consistent"] is None else bool(res["consistent"])
         self.cost = self.report["cost"]
         self.expected = self.report.get("expected")     # on records: the model's noise variance is the reference
         self.dof = self.report["dof"]
@@ -627,8 +645,10 @@ class Validation:
         return "\n".join(self.text)
 
     def __repr__(self):
-        verdict = "consistent" if self.consistent else "NOT consistent"
         ref = f", expected {self.expected:.6g}" if self.expected is not None else ""
+        if self.p_value is None:
+            return f"<msid.Validation unweighted cost {self.cost:.6g} (dof {self.dof:.0f}): no covariance, no verdict>"
+        verdict = "consistent" if self.consistent else "NOT consistent"
         return (f"<msid.Validation cost {self.cost:.6g}{ref} (dof {self.dof:.0f}), p-value {self.p_value:.4g}: "
                 f"{verdict} at 5%>")
 

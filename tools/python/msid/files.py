@@ -272,14 +272,30 @@ class FRF:
                             name=name or _system_name(self.meta.get("source"), "msid_frf"), inputs=ins, outputs=outs)
 
     @classmethod
-    def from_control(cls, frd, period_samples, sample_time=None, cov=None, dof=None, **meta):
-        """An FRF from a python-control FRD sampled on DFT bins of `period_samples`.
+    def from_control(cls, frd, period_samples=None, sample_time=None, cov=None, dof=None, **meta):
+        """An FRF from a python-control FRD.
 
-        The FRD frequencies (rad/s with `sample_time`, else rad/sample) must be bins k/period_samples;
-        `cov`/`dof` (L x g x g, L) are optional: without them the file has no uncertainty and is written
-        with a zero covariance and dof 1 (msid fit then needs --weight none)."""
+        A continuous-time FRD (dt = 0) without `period_samples` is a continuous-time FRF at its own
+        frequencies (rad/s, no sample time, no DFT bins), as msid.import_frf reads other tools' FRFs:
+        msid.fit makes a continuous-time model of it, unweighted without `cov`/`dof` (no p-value).
+        Otherwise the FRD frequencies (rad/s with `sample_time`, else rad/sample) must be DFT bins
+        k/period_samples; `cov`/`dof` (L x g x g, L) are optional: without them the file has no
+        uncertainty and is written with a zero covariance and dof 1 (msid fit then needs --weight none)."""
         om = np.asarray(frd.omega, dtype=float)
         G = np.transpose(np.asarray(frd.frdata if hasattr(frd, "frdata") else frd.fresp), (2, 0, 1))
+        if period_samples is None:
+            if getattr(frd, "dt", 0) not in (0, None):
+                raise ValueError("a discrete-time FRD needs period_samples (the DFT length of its bins)")
+            ins = [str(x) for x in getattr(frd, "input_labels", [])]
+            outs = [str(x) for x in getattr(frd, "output_labels", [])]
+            m = {"period_samples": 0, "domain": "ct", "imported": {"format": "python-control FRD",
+                                                                   "source": str(getattr(frd, "name", ""))}}
+            if len(ins) == G.shape[2] and len(outs) == G.shape[1]:
+                m["input_names"], m["output_names"] = ins, outs
+            m.update(meta)
+            return cls(G, np.zeros(len(om)), bins=np.arange(len(om)), cov=cov, dof=dof,
+                       cov_known_input=cov, dof_known_input=dof, omega=om, freq_hz=om / (2 * np.pi),
+                       real=(om == 0) & np.all(np.imag(G) == 0, axis=(1, 2)), meta=m)
         freq = om * (sample_time if sample_time else 1.0) / (2 * np.pi)
         bins = np.rint(freq * period_samples).astype(int)
         if np.any(np.abs(bins - freq * period_samples) > 1e-6 * period_samples) or np.any(freq > 0.5 + 1e-12):
@@ -293,8 +309,19 @@ class FRF:
                    freq_hz=(bins / period_samples / sample_time) if sample_time else None)
 
 
+def _other_tool(path):
+    """Whether `path` names an FRF of another tool by its extension (.sNp, .uff, .unv, .csv, .mat)."""
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    return ext in (".uff", ".unv", ".csv", ".mat") or (len(ext) in (4, 5) and ext[1] == "s" and ext[-1] == "p"
+                                                      and ext[2:-1].isdigit())
+
+
 def read_frf(path):
-    """Read an msid-frf/1 file (docs/frf-format.md) into an FRF."""
+    """Read an msid-frf/1 file (docs/frf-format.md) into an FRF; an FRF measured by another tool
+    (Touchstone .sNp, UFF 58 .uff/.unv, CSV, idfrd .mat) is imported as msid.import_frf does."""
+    if _other_tool(path):
+        from .compute import import_frf
+        return import_frf(path)
     return frf_from_doc(_load(path, FRF_FORMAT), f"'{path}'")
 
 
@@ -371,19 +398,21 @@ def frf_to_doc(frf, complete=True):
         if frf.real[k]:
             ln["real"] = True
         ln["G"] = _cmat_json(frf.G[k])
-        if frf.cov is not None or complete:
+        # an imported FRF without covariance stays without (msid fit: unweighted, no p-value)
+        neutral = complete and "imported" not in frf.meta
+        if frf.cov is not None or neutral:
             c = frf.cov[k] if frf.cov is not None else np.zeros((g, g))
             ln["cov"] = _cmat_json(c)
             ln["dof"] = float(frf.dof[k]) if frf.dof is not None else 1.0
         if frf.cov_known_input is not None:
             ln["cov_known_input"] = _cmat_json(frf.cov_known_input[k])
-        elif complete and not total_only:
+        elif neutral and not total_only:
             ln["cov_known_input"] = ln["cov"]
         if frf.dof_known_input is not None:
             ln["dof_known_input"] = float(frf.dof_known_input[k])
         extra = frf.line_extra[k] if k < len(frf.line_extra) else {}
         ln.update(extra)
-        if complete and not total_only:
+        if (neutral or (complete and "cov" in ln)) and not total_only:
             ln.setdefault("snr", [None] * ny)
         lines.append(ln)
     doc["lines"] = lines

@@ -1,0 +1,355 @@
+"""FRFs measured by other tools (msid import; docs/frf-format.md, "FRFs from other tools").
+
+Peers: scikit-rf reads the same Touchstone files, pyuff the same UFF 58 files; the values msid imports
+must equal theirs. Theory: a continuous-time FRF without a sample time, fitted as one, gives back the
+plant it was computed from. Bad input: one clear message, a non-zero exit, nothing written.
+"""
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import helpers
+from helpers import cplx, load_json, run, run_ok
+
+skrf = pytest.importorskip("skrf")
+pyuff = pytest.importorskip("pyuff")
+
+SKRF_DATA = Path(skrf.data.__file__).resolve().parent
+
+
+def imported(path, tmp_path, *extra):
+    """msid import PATH -> (document, G L x ny x nu, omega L)."""
+    out = tmp_path / (Path(path).name + ".json")
+    run_ok("import", path, "-o", out, *extra)
+    doc = load_json(out)
+    helpers.validate(doc, "msid-frf-1")
+    G = np.array([cplx(ln["G"]) for ln in doc["lines"]])
+    om = np.array([ln["omega"] for ln in doc["lines"]])
+    return doc, G, om
+
+
+# ---------------- Touchstone against scikit-rf ----------------
+
+@pytest.mark.parametrize("name", ["ntwk1.s2p", "ring slot measured.s1p", "tee.s3p", "line.s2p", "ind.s2p"])
+def test_touchstone_examples_equal_scikit_rf(name, tmp_path):
+    ntwk = skrf.Network(str(SKRF_DATA / name))
+    doc, G, om = imported(SKRF_DATA / name, tmp_path)
+    assert doc["domain"] == "ct" and "sample_time" not in doc and doc["period_samples"] == 0
+    assert doc["imported"]["format"] == "touchstone" and doc["imported"]["parameter"] == "S"
+    np.testing.assert_allclose(om, 2 * np.pi * ntwk.f, rtol=1e-15)
+    np.testing.assert_allclose(G, ntwk.s, rtol=1e-13, atol=1e-15)
+    n = ntwk.nports
+    assert doc["input_names"] == [f"a{k}" for k in range(1, n + 1)]
+    assert doc["output_names"] == [f"b{k}" for k in range(1, n + 1)]
+
+
+@pytest.mark.parametrize("form", ["ri", "ma", "db"])
+@pytest.mark.parametrize("ports", [2, 4])
+def test_touchstone_forms_and_multiline_rows_equal_scikit_rf(form, ports, tmp_path):
+    """A random N-port written by scikit-rf in RI, MA and DB (4 ports: rows over several lines)."""
+    rng = np.random.default_rng(11 + ports)
+    f = skrf.Frequency(1, 3, 7, unit="MHz")
+    s = rng.standard_normal((7, ports, ports)) + 1j * rng.standard_normal((7, ports, ports))
+    nt = skrf.Network(frequency=f, s=s, name=f"rand{ports}")
+    nt.write_touchstone(f"rand{ports}_{form}", dir=str(tmp_path), form=form)
+    path = tmp_path / f"rand{ports}_{form}.s{ports}p"
+    ref = skrf.Network(str(path))
+    _, G, om = imported(path, tmp_path)
+    np.testing.assert_allclose(om, 2 * np.pi * ref.f, rtol=1e-15)
+    np.testing.assert_allclose(G, ref.s, rtol=1e-12, atol=1e-14)
+
+
+def test_touchstone_z_parameters_in_ohm_and_noise_section_left_out(tmp_path):
+    """Z parameters of 1.x are normalised to R: msid returns ohms, as scikit-rf's z; the noise
+    parameters after a 2-port's data are not an FRF."""
+    rows = ["! a 2-port in Z, normalised to R = 75", "# MHz Z RI R 75",
+            "1 1.0 0.5 0.2 -0.1 0.3 0.05 2.0 -1.0",
+            "2 0.9 0.6 0.25 -0.12 0.28 0.07 1.8 -1.1  ! trailing comment",
+            "3 0.8 0.7 0.3 -0.15 0.26 0.09 1.6 -1.2",
+            "! noise parameters: freq NFmin |Gamma_opt| angle Rn/R",
+            "1 0.5 0.3 45 0.2", "3 0.6 0.35 50 0.25"]
+    path = tmp_path / "z.s2p"
+    path.write_text("\n".join(rows) + "\n")
+    ref = skrf.Network(str(path))
+    doc, G, om = imported(path, tmp_path)
+    assert len(doc["lines"]) == 3 and "noise_parameters" in doc["imported"]
+    np.testing.assert_allclose(om, 2 * np.pi * ref.f, rtol=1e-15)
+    np.testing.assert_allclose(G, ref.z, rtol=1e-12)
+    assert doc["input_units"] == ["A", "A"] and doc["output_units"] == ["V", "V"]
+
+
+# ---------------- UFF 58 against pyuff ----------------
+
+def _uff_sets(spacing, ord_type, x):
+    s = 2j * np.pi * x
+    sets, truth = [], {}
+    for i, (node, dr) in enumerate([(2, 3), (3, -2)]):
+        for j, (rnode, rdr) in enumerate([(1, 3), (4, 1)]):
+            w0 = 2 * np.pi * (30 + 10 * i + 5 * j)
+            H = (1 + 0.1 * j) / (s ** 2 + 2 * 0.05 * w0 * s + w0 ** 2)
+            truth[i, j] = H
+            kw = dict(binary=0, func_type=4, rsp_node=node, rsp_dir=dr, ref_node=rnode, ref_dir=rdr, data=H, x=x,
+                      id1="msid test", rsp_ent_name="pt", ref_ent_name="pt", abscissa_spacing=spacing,
+                      ord_data_type=ord_type, abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                      orddenom_spec_data_type=13, ordinate_axis_units_lab="m/s^2", orddenom_axis_units_lab="N",
+                      abscissa_axis_units_lab="Hz")
+            sets.append(pyuff.prepare_58(**kw))
+    return sets, truth
+
+
+@pytest.mark.parametrize("spacing,ord_type", [(1, 6), (0, 6), (1, 5), (0, 5)])
+def test_uff58_equals_pyuff(spacing, ord_type, tmp_path):
+    x = np.linspace(2, 100, 60) if spacing else np.geomspace(2, 100, 60)
+    sets, _ = _uff_sets(spacing, ord_type, x)
+    path = tmp_path / "frf.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    ref = pyuff.UFF(str(path)).read_sets()
+    doc, G, om = imported(path, tmp_path)
+    assert doc["n_outputs"] == 2 and doc["n_inputs"] == 2 and doc["domain"] == "ct"
+    assert doc["output_names"] == ["pt:2+Z", "pt:3-Y"] and doc["input_names"] == ["pt:1+Z", "pt:4+X"]
+    assert doc["output_units"] == ["m/s^2", "m/s^2"] and doc["input_units"] == ["N", "N"]
+    for d in ref:
+        i = [(2, 3), (3, -2)].index((int(d["rsp_node"]), int(d["rsp_dir"])))
+        j = [(1, 3), (4, 1)].index((int(d["ref_node"]), int(d["ref_dir"])))
+        np.testing.assert_allclose(om, 2 * np.pi * np.asarray(d["x"], float), rtol=1e-12)
+        np.testing.assert_allclose(G[:, i, j], np.asarray(d["data"]), rtol=1e-12, atol=0)
+
+
+# ---------------- a CT FRF without a sample time: fit against the plant ----------------
+
+def _ct_csv(path, omegas, G, names=("y1", "y2"), ins=("u1", "u2"), sd=None, extra_meta=()):
+    cols = ["freq_hz"]
+    for i, o in enumerate(names):
+        for j, u in enumerate(ins):
+            cols += [f"G_{o}_{u}_re", f"G_{o}_{u}_im"] + ([f"G_{o}_{u}_sd"] if sd is not None else [])
+    lines = ["# a continuous-time FRF of an analogue instrument", "# units: u1=N, u2=N, y1=m, y2=m", *extra_meta,
+             ",".join(cols)]
+    for k, w in enumerate(omegas):
+        v = [repr(float(w / (2 * np.pi)))]
+        for i in range(len(names)):
+            for j in range(len(ins)):
+                v += [repr(float(G[k, i, j].real)), repr(float(G[k, i, j].imag))] + \
+                    ([repr(float(sd[k, i, j]))] if sd is not None else [])
+        lines.append(",".join(v))
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def _same_poles(got, true, rel):
+    """Every pole of the model near a true one and every true one near a model pole (ml's pole-residue
+    realisation repeats each pole once per input)."""
+    for p in got:
+        assert np.min(np.abs(true - p)) <= rel * abs(p), (p, true)
+    for p in true:
+        assert np.min(np.abs(got - p)) <= rel * abs(p), (p, got)
+
+
+@pytest.mark.parametrize("method", ["ml", "subspace"])
+def test_ct_fit_without_sample_time_gives_back_the_plant(method, tmp_path):
+    plant = helpers.ct_plant_2x2()
+    om = np.geomspace(10, 5000, 80)
+    G = helpers.ct_frf(plant, om)
+    csv = tmp_path / "ct.csv"
+    _ct_csv(csv, om, G)
+    model = tmp_path / "m.json"
+    r = run_ok("fit", "--method", method, "--order", "3", csv, "-o", model)
+    assert "no FRF covariance: an unweighted fit" in r.stderr
+    m = load_json(model)
+    assert m["domain"] == "ct" and "sample_time" not in m
+    assert m["settings"]["weight"] == "none" and "weight_reason" in m["settings"]
+    assert "numerical device" in m["settings"]["frequency_axis"]
+    assert m["cost"]["p_value"] is None
+    assert m["input_names"] == ["u1", "u2"] and m["output_units"] == ["m", "m"]
+    A, B, C, D = (np.array(m[k], float) for k in "ABCD")
+    _same_poles(np.linalg.eigvals(A), np.linalg.eigvals(plant[0]), 1e-6)
+    Gm = helpers.ct_frf((A, B, C, D), om)
+    assert np.max(np.abs(Gm - G)) < 1e-6 * np.max(np.abs(G))
+    # validate on the same file: the unweighted cost, no p-value, no verdict
+    rep = tmp_path / "v.json"
+    v = run_ok("validate", model, csv, "-o", rep)
+    assert "no p-value, no verdict" in v.stdout and "verdict:" not in v.stdout
+    assert load_json(rep)["p_value"] is None
+
+
+def test_ct_fit_weighted_by_standard_deviations_has_a_p_value(tmp_path):
+    plant = helpers.ct_plant_2x2()
+    om = np.geomspace(10, 5000, 120)
+    G0 = helpers.ct_frf(plant, om)
+    rng = np.random.default_rng(5)
+    sd = 1e-3 * np.abs(G0) + 1e-5
+    G = G0 + sd * (rng.standard_normal(G0.shape) + 1j * rng.standard_normal(G0.shape)) / np.sqrt(2)
+    csv = tmp_path / "ct_sd.csv"
+    _ct_csv(csv, om, G, sd=sd)
+    model = tmp_path / "m.json"
+    r = run_ok("fit", "--method", "ml", "--order", "3", csv, "-o", model)
+    assert "unweighted" not in r.stderr
+    m = load_json(model)
+    assert m["settings"]["weight"] == "cov"
+    assert m["cost"]["p_value"] is not None and m["cost"]["p_value"] > 1e-3
+    _same_poles(np.linalg.eigvals(np.array(m["A"])), np.linalg.eigvals(plant[0]), 1e-2)
+
+
+def test_real_network_analyser_data_fits_a_stable_model(tmp_path):
+    """scikit-rf's measured ring-slot resonator (75-110 GHz, one port): ml with the order it chooses gives a
+    stable, converged CT model that follows the measurement."""
+    src = SKRF_DATA / "ring slot measured.s1p"
+    doc, G, om = imported(src, tmp_path)
+    model = tmp_path / "ring.json"
+    r = run_ok("fit", "--method", "ml", "--order", "auto", src, "-o", model)
+    assert r.stderr.count("no FRF covariance: an unweighted fit") == 1   # once, not once per order
+    m = load_json(model)
+    assert m["domain"] == "ct" and m["stability"]["stable"] is True and m["converged"] is True
+    # the resonance of the ring near 86 GHz among the poles
+    poles = np.linalg.eigvals(np.array(m["A"]))
+    assert np.any(np.abs(np.abs(poles) / (2 * np.pi * 1e9) - 86) < 2) and np.all(poles.real < 0)
+    Gm = np.array([cplx(e["G"]) for e in m["frf"]])
+    rel = np.linalg.norm(Gm - G) / np.linalg.norm(G)
+    assert rel < 0.1, rel
+    # plotted like any FRF (no regions: no covariance)
+    png = tmp_path / "ring.png"
+    run_ok("plot", src, "--model", model, "-o", png)
+    assert png.stat().st_size > 1000
+
+
+# ---------------- idfrd-shaped .mat ----------------
+
+def test_idfrd_mat_round_trip_through_msid_export(tmp_path):
+    """CSV with standard deviations -> msid import -> msid export --mat -> msid import: the same lines,
+    values, variances, names and units."""
+    plant = helpers.ct_plant_2x2()
+    om = np.geomspace(10, 5000, 30)
+    G = helpers.ct_frf(plant, om)
+    sd = 1e-3 * np.abs(G) + 1e-5
+    csv = tmp_path / "a.csv"
+    _ct_csv(csv, om, G, sd=sd, extra_meta=["# dof: 12"])
+    doc, G1, om1 = imported(csv, tmp_path)
+    run_ok("export", tmp_path / "a.csv.json", "--mat", tmp_path / "a.mat")
+    mdoc, G2, om2 = imported(tmp_path / "a.mat", tmp_path)
+    np.testing.assert_allclose(om2, om, rtol=1e-15)
+    np.testing.assert_allclose(G2, G, rtol=1e-15)
+    v1 = np.array([np.real(np.diag(cplx(ln["cov"]))) for ln in doc["lines"]])
+    v2 = np.array([np.real(np.diag(cplx(ln["cov"]))) for ln in mdoc["lines"]])
+    np.testing.assert_allclose(v2, v1, rtol=1e-14)
+    assert [ln["dof"] for ln in mdoc["lines"]] == [12.0] * 30
+    assert mdoc["input_names"] == ["u1", "u2"] and mdoc["output_units"] == ["m", "m"]
+    assert mdoc["domain"] == "ct" and "sample_time" not in mdoc
+
+
+def test_idfrd_mat_written_by_scipy(tmp_path):
+    sio = pytest.importorskip("scipy.io")
+    rng = np.random.default_rng(3)
+    L = 25
+    G = rng.standard_normal((1, 2, L)) + 1j * rng.standard_normal((1, 2, L))
+    f_hz = np.linspace(1, 50, L)
+    p = tmp_path / "id.mat"
+    names = np.empty((2, 1), dtype=object)
+    names[0, 0], names[1, 0] = "Force", "Torque"
+    sio.savemat(p, {"ResponseData": G, "Frequency": f_hz[:, None], "Ts": 0.0, "FrequencyUnit": "Hz",
+                    "InputName": names}, format="5", do_compression=True)
+    doc, G1, om = imported(p, tmp_path)
+    np.testing.assert_allclose(om, 2 * np.pi * f_hz, rtol=1e-15)
+    np.testing.assert_array_equal(G1, np.transpose(G, (2, 0, 1)))
+    assert doc["input_names"] == ["Force", "Torque"] and "cov" not in doc["lines"][0]
+
+
+def test_truncated_mat(tmp_path):
+    sio = pytest.importorskip("scipy.io")
+    p = tmp_path / "full.mat"
+    sio.savemat(p, {"ResponseData": np.ones((1, 1, 40)) * (1 + 2j), "Frequency": np.arange(1.0, 41.0)[:, None],
+                    "Ts": 0.0}, format="5")
+    data = p.read_bytes()
+    cut = tmp_path / "cut.mat"
+    cut.write_bytes(data[: len(data) - 200])
+    _refused(tmp_path, cut, "cut.mat")
+
+
+# ---------------- bad input: one message, non-zero exit, nothing written ----------------
+
+def _refused(tmp_path, path, *words, extra=()):
+    out = tmp_path / "out.json"
+    r = run("import", path, "-o", out, *extra)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert not out.exists()
+    msg = r.stderr.strip()
+    assert msg.count("\n") == 0 and msg.startswith("msid import: error:"), msg
+    for w in words:
+        assert w in msg, msg
+    # fit refuses it with the same message
+    f = run("fit", "--method", "ml", "--order", "2", path, "-o", out, *extra)
+    assert f.returncode == 1 and not out.exists()
+    assert msg.split("error: ", 1)[1] in f.stderr
+    return msg
+
+
+def test_truncated_touchstone(tmp_path):
+    text = (SKRF_DATA / "ntwk1.s2p").read_text().rstrip("\n")
+    p = tmp_path / "cut.s2p"
+    p.write_text(text[: text.rfind(" ")] + "\n")   # the last number of the last row cut off
+    _refused(tmp_path, p, "cut.s2p", "8 numbers", "9")
+
+
+def test_touchstone_whose_port_count_does_not_match(tmp_path):
+    p = tmp_path / "wrong.s3p"
+    p.write_text((SKRF_DATA / "ntwk1.s2p").read_text())
+    _refused(tmp_path, p, "wrong.s3p", "3-port", "as many ports as its name says")
+    q = tmp_path / "wrong.s1p"
+    q.write_text((SKRF_DATA / "ntwk1.s2p").read_text())
+    _refused(tmp_path, q, "wrong.s1p", "9 numbers", "1-port")
+
+
+def test_csv_wrong_column_count_and_nan(tmp_path):
+    p = tmp_path / "cols.csv"
+    p.write_text("freq_hz,G_y_u_re,G_y_u_im\n1,0.5,0.1\n2,0.4\n")
+    _refused(tmp_path, p, "cols.csv", "line 3", "2 columns", "header has 3")
+    q = tmp_path / "nan.csv"
+    q.write_text("freq_hz,G_y_u_re,G_y_u_im\n1,0.5,0.1\n2,nan,0.2\n")
+    _refused(tmp_path, q, "nan.csv", "line 3", "not finite")
+
+
+def _one_uff_lines(tmp_path):
+    """The lines of a UFF file of one dataset 58 (60 values, even, complex double) written by pyuff."""
+    sets, _ = _uff_sets(1, 6, np.linspace(2, 100, 60))
+    p = tmp_path / "full.uff"
+    pyuff.UFF(str(p)).write_sets(sets[:1], mode="add")
+    return p.read_text().splitlines()
+
+
+def test_truncated_uff(tmp_path):
+    lines = _one_uff_lines(tmp_path)
+    cut = tmp_path / "cut.uff"
+    cut.write_text("\n".join(lines[:-6] + ["    -1"]) + "\n")   # data lines lost, the delimiter kept
+    _refused(tmp_path, cut, "cut.uff", "announces 60 values", "truncated")
+    half = tmp_path / "half.uff"
+    half.write_text("\n".join(lines[:-6]) + "\n")   # no closing delimiter
+    _refused(tmp_path, half, "half.uff", "no closing -1")
+
+
+def test_uff_count_beyond_the_file_is_refused_before_allocating(tmp_path):
+    lines = _one_uff_lines(tmp_path)
+    i = next(k for k, ln in enumerate(lines) if ln.split()[:3] == ["6", "60", "1"])
+    lines[i] = lines[i].replace("        60", "2000000000", 1)
+    big = tmp_path / "big.uff"
+    big.write_text("\n".join(lines) + "\n")
+    _refused(tmp_path, big, "big.uff", "more than the dataset's data lines can hold")
+
+
+def test_unknown_format_is_a_usage_error(tmp_path):
+    out = tmp_path / "o.json"
+    r = run("import", SKRF_DATA / "ntwk1.s2p", "--format", "hdf5", "-o", out)
+    assert r.returncode == 2 and "--format must be" in r.stderr and not out.exists()
+
+
+def test_format_by_content_for_other_extensions(tmp_path):
+    """A CSV whose metadata starts with '#' is not taken for a Touchstone option line; a Touchstone
+    file named otherwise is (a 1- or 2-port by its first row); --format names it outright."""
+    c = tmp_path / "frf.txt"
+    c.write_text("# units: F=N, x=m\nfreq_hz,G_x_F_re,G_x_F_im\n1,0.5,0.1\n2,0.4,0.2\n")
+    doc, _, _ = imported(c, tmp_path)
+    assert doc["imported"]["format"] == "csv" and doc["input_units"] == ["N"] and doc["output_units"] == ["m"]
+    t = tmp_path / "vna.dat"
+    t.write_text((SKRF_DATA / "ntwk1.s2p").read_text())
+    doc, G, _ = imported(t, tmp_path)
+    assert doc["imported"]["format"] == "touchstone" and G.shape[1:] == (2, 2)
+    doc, _, _ = imported(c, tmp_path, "--format", "csv")
+    assert doc["imported"]["format"] == "csv"

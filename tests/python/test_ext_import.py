@@ -1,0 +1,85 @@
+"""msid.import_frf and msid.read_frf of FRFs measured by other tools (the compiled module's readers, those
+of `msid import`), msid.fit / msid.validate on them, and a python-control CT FRD (FRF.from_control
+without period_samples) fitted as continuous time. ctest runs this file with MSID_PYTHON_DIR = the
+staged package (build/python)."""
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import msid as cli
+
+import msid
+
+skrf = pytest.importorskip("skrf")
+control = pytest.importorskip("control")
+SKRF_DATA = Path(skrf.data.__file__).resolve().parent
+
+
+def _plant():
+    # two modes, SISO: 30 and 120 rad/s, light damping
+    num = [1.0, 0.0, 5000.0]
+    den = np.polymul([1, 6, 900], [1, 24, 14400])
+    return control.tf(num, den)
+
+
+def test_import_frf_equals_the_cli_and_scikit_rf(tmp_path):
+    src = SKRF_DATA / "ntwk1.s2p"
+    f = msid.import_frf(src)
+    ref = skrf.Network(str(src))
+    assert f.domain == "ct" and f.sample_time is None and f.cov is None
+    np.testing.assert_allclose(f.omega, 2 * np.pi * ref.f, rtol=1e-15)
+    np.testing.assert_allclose(f.G, ref.s, rtol=1e-13)
+    cli("import", src, "-o", tmp_path / "n.json")
+    g = msid.read_frf(tmp_path / "n.json")
+    np.testing.assert_array_equal(g.G, f.G)
+    np.testing.assert_array_equal(msid.read_frf(src).G, f.G)   # read_frf takes the extension
+    assert f.signal_names() == (["a1", "a2"], ["b1", "b2"])
+
+
+def test_fit_of_an_imported_file_is_the_cli_model(tmp_path):
+    src = SKRF_DATA / "ring slot measured.s1p"
+    cli("fit", "--method", "ml", "--order", "3", src, "-o", tmp_path / "m.json")
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        m = msid.fit(src, method="ml", order=3)
+    assert any("no FRF covariance" in str(x.message) for x in w)
+    with open(tmp_path / "m.json") as fh:
+        doc = json.load(fh)
+    np.testing.assert_array_equal(m.A, np.array(doc["A"]))
+    assert m.doc["cost"]["p_value"] is None
+    v = msid.validate(m, src)
+    assert v.p_value is None and v.consistent is None and "no verdict" in repr(v)
+
+
+def test_control_ct_frd_fitted_as_continuous_time():
+    sys = _plant()
+    om = np.geomspace(3, 1000, 90)
+    frd = control.frd(sys, om)
+    f = msid.FRF.from_control(frd)
+    assert f.domain == "ct" and f.sample_time is None and f.meta["period_samples"] == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = msid.fit(f, method="ml", order=4)
+    assert m.domain == "ct" and m.sample_time is None
+    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(m.A)), np.sort_complex(sys.poles()), rtol=1e-6)
+    # its document (write_frf) keeps it without a covariance: still unweighted
+    d = msid.frf_to_doc(f)
+    assert "cov" not in d["lines"][0] and d["imported"]["format"] == "python-control FRD"
+
+
+def test_discrete_frd_without_period_is_refused():
+    frd = control.frd(control.c2d(_plant(), 0.001), np.linspace(1, 100, 10))
+    with pytest.raises(ValueError, match="period_samples"):
+        msid.FRF.from_control(frd)
+
+
+def test_bad_file_is_one_value_error(tmp_path):
+    p = tmp_path / "bad.s2p"
+    p.write_text("# Hz S RI R 50\n1 0.1 0.2 0.3\n")
+    with pytest.raises(ValueError, match=r"'.*bad.s2p' line 2: 4 numbers"):
+        msid.import_frf(p)
+    with pytest.raises(OSError):
+        msid.import_frf(tmp_path / "missing.s1p")
