@@ -58,6 +58,7 @@ struct Fit {
     Domain d = Domain::DT;
     Weight wt = Weight::Cov;
     bool known = false, weighted = true, smoothed = false, pool = false;
+    bool no_cov = false;   // the FRF has no covariance: unit weights by default, no noise scale
     std::vector<WeightedLine> w, w_line, w_pool;   // the fit's weights, each line's own, pooled (subspace)
     PoolStats pstats;
     Feedthrough ft = Feedthrough::Auto;
@@ -127,7 +128,8 @@ void weigh_lines(Fit &c)
     // weights unless a weight is asked for: said once, and the cost then has no p-value (cost_block).
     bool any_cov = false;
     for (const auto &l : f.lines) any_cov = any_cov || l.cov.size() > 0;
-    const bool no_cov = !any_cov && rq.weight.empty() && !rq.noise_var;
+    c.no_cov = !any_cov && rq.weight.empty() && !rq.noise_var;
+    const bool no_cov = c.no_cov;
     const std::string wname = no_cov ? "none" : rq.weight.empty() ? "cov" : rq.weight;
     c.wt = WEIGHTS[msidutil::parse_enum(wname, "--weight", WEIGHT_NAMES)];
     if (no_cov)
@@ -612,6 +614,9 @@ void finish_document(Fit &c)
                                     c.have_cov ? &c.Gc[l] : nullptr));
     doc["frf"] = fr;
     model_put_modes(doc, &c.out.before);   // modal parameters with standard deviations
+    if (c.no_cov && doc.contains("modes"))
+        c.out.before += "note: the FRF has no covariance: the standard deviations and identification tests above "
+                        "take unit noise on every line, they are not the data's uncertainty\n";
 }
 
 // What msid prints of the fit: "wrote PATH: ml fit, order 4, weighted cost ...".
