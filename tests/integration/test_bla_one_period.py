@@ -79,6 +79,15 @@ def test_siso_one_period_file_fit_validate_python(tmp_path):
     assert f.cov_known_input is None and np.all(f.dof == R - 1) and "noise_cov" not in f.meta
     q = (R - 1) * (0.05 ** (-1 / (R - 1)) - 1)   # F(2, 2(R - 1)) 95% quantile
     assert np.allclose(f.radius(0.95)[:, 0, 0], np.sqrt(v * q), rtol=1e-12)
+    # the Bode plot draws the regions of the total covariance and says so in its title
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import msid.plot
+        fig = msid.plot.bode(f)
+        assert "BLA of 6 realisations (one period each: total covariance only)" in fig._suptitle.get_text()
+    except ImportError:
+        pass
     # written back: no neutral noise keys stand in for the missing ones (a zero noise_cov, cov_known_input = cov)
     msid.write_frf(tmp_path / "rt.json", f)
     rt = h.load_json(tmp_path / "rt.json")
