@@ -60,26 +60,74 @@ def _same_doc(a, b):
         assert x == y
 
 
-@pytest.mark.parametrize("block", [None, 777])
-def test_streamed_csv_is_the_whole_record_bits_mimo(tmp_path, block):
-    """2 inputs, 2 outputs, 2 experiments (two lanes), ~12 MB of CSV each (several 4 MiB blocks and
-    a partial period at the end), detection lines, optional --block: the same document as the .npy."""
+def _mimo_csv_and_npy(tmp_path, args, seed):
+    """`msid frf args` on 2 experiments of 2 inputs and 2 outputs (130 periods and 321 samples each),
+    written as CSV (streamed) and as .npy (read whole): the two runs, after checking that their
+    documents are the same bits; returns (CSV run, .npy run, CSV document)."""
     csv, npy = [], []
     for e in range(2):
-        rows = _plant_rows(130, seed=10 + e, nu=2, ny=2, extra=321)
+        rows = _plant_rows(130, seed=seed + e, nu=2, ny=2, extra=321)
         c, n = _write(tmp_path, f"e{e+1}", rows, 2, 2)
         csv.append(c)
         npy.append(n)
-    args = ["--period", P, "--lines", BINS, "--skip-periods", 1, "--detect-lines", "2,4,6"]
-    if block:
-        args += ["--block", block]
     a = ["--experiment"] * 2
     r1 = h.run_ok("frf", *args, *[x for p in zip(a, csv) for x in p], "-o", tmp_path / "s.json")
     r2 = h.run_ok("frf", *args, *[x for p in zip(a, npy) for x in p], "--columns", "u1=1,u2=2,y1=3,y2=4",
                   "-o", tmp_path / "w.json")
-    _same_doc(h.load_json(tmp_path / "s.json"), h.load_json(tmp_path / "w.json"))
+    s = h.load_json(tmp_path / "s.json")
+    _same_doc(s, h.load_json(tmp_path / "w.json"))
+    return r1, r2, s
+
+
+@pytest.mark.parametrize("block", [None, 777])
+def test_streamed_csv_is_the_whole_record_bits_mimo(tmp_path, block):
+    """2 inputs, 2 outputs, 2 experiments (two lanes), ~12 MB of CSV each (several 4 MiB blocks and
+    a partial period at the end), detection lines, optional --block: the same document as the .npy."""
+    args = ["--period", P, "--lines", BINS, "--skip-periods", 1, "--detect-lines", "2,4,6"]
+    if block:
+        args += ["--block", block]
+    r1, r2, _ = _mimo_csv_and_npy(tmp_path, args, seed=10)
     assert "321 samples after the last whole period are not used" in r1.stderr
     assert r1.stderr.replace(".csv", "") == r2.stderr.replace(".npy", "")
+
+
+def _same_run(r1, r2, ext1, ext2):
+    """The two runs printed the same, the files' extensions and the output's name aside."""
+    def out(r, ext):
+        return [x.replace(ext, "") for x in r.stdout.splitlines() if not x.startswith("wrote ")]
+    assert out(r1, ext1) == out(r2, ext2)
+    assert r1.stderr.replace(ext1, "") == r2.stderr.replace(ext2, "")
+
+
+def test_streamed_period_and_lines_auto_are_the_whole_record_bits_mimo(tmp_path):
+    """--period auto --lines auto on 2 inputs, 2 outputs, 2 experiments with a skipped period: the CSV
+    files stream (the period from the first file's first rows, the lines from a pass of their own over
+    every file) and give the .npy's document and reports."""
+    r1, r2, s = _mimo_csv_and_npy(tmp_path, ["--period", "auto", "--lines", "auto", "--skip-periods", 1], seed=20)
+    _same_run(r1, r2, ".csv", ".npy")
+    assert f"--period auto: period {P} samples" in r1.stdout
+    assert s["lines_auto"]["found"] == 43 and s["lines_auto"]["undecided_bins"] == []
+
+
+def test_streamed_lines_auto_from_the_reference_column(tmp_path):
+    """An input with noise 0 dB below its multisine and the excitation's reference r1 in the file: the
+    streamed CSV takes the lines from its own r1 column, a stream of its own; the .npy (read whole) is
+    given the same column by --reference: the same lines and document."""
+    rng = np.random.default_rng(31)
+    rows = _plant_rows(40, seed=31)
+    ref = rows[:, 0].copy()
+    rows[:, 0] += rng.standard_normal(ref.size)
+    rows = np.column_stack([rows, ref])
+    np.savetxt(tmp_path / "r.csv", rows, delimiter=",", fmt=FMT, header="u1,y1,r1", comments="")
+    np.save(tmp_path / "r.npy", rows)
+    args = ["--period", P, "--lines", "auto"]
+    r1 = h.run_ok("frf", *args, "--experiment", tmp_path / "r.csv", "-o", tmp_path / "s.json")
+    r2 = h.run_ok("frf", *args, "--experiment", tmp_path / "r.npy", "--columns", "u1=1,y1=2", "--reference", "r1=3",
+                  "-o", tmp_path / "w.json")
+    s, w = h.load_json(tmp_path / "s.json"), h.load_json(tmp_path / "w.json")
+    assert s["lines_auto"].pop("from") == "the reference r1=r1" and w["lines_auto"].pop("from") == "the reference r1=3"
+    _same_doc(s, w)
+    assert s["lines_auto"]["found"] == 43 and "of the reference" in r1.stdout
 
 
 def _peak(tmp_path, *args):
@@ -125,6 +173,45 @@ def test_peak_memory_does_not_grow_with_the_record(tmp_path):
     w = h.load_json(tmp_path / "w.json")
     assert w.pop("input_names") == ["x:1"] and w.pop("output_names") == ["x:2"]   # named by --columns
     _same_doc(doc, w)
+
+
+@pytest.mark.skipif(SANITIZED, reason="ASan's shadow memory is not msid's")
+def test_peak_memory_of_period_and_lines_auto(tmp_path):
+    """A 2,300-period record (2.3e6 rows, 35 MiB of doubles), longer than --period auto's search
+    (PERIOD_SEARCH_ROWS = 2^21 rows), input noise that never repeats:
+    - --lines auto with a given period streams twice (the lines' pass, then the FRF's): under 40 MB
+      as a given period and lines (measured: 27 MB); the same samples read whole from a .npz need more
+      (the control, 78 MB);
+    - --period auto too: the period from the first 2^21 rows, whatever the record's length, under
+      128 MiB (measured: 114 MiB: those rows, an FFT of 2^22 points and FFTW's twiddle factors);
+    - both give the documents of the .npy read in place."""
+    rng = np.random.default_rng(17)
+    K = 2300
+    one = _plant_rows(1, seed=17)[:, 0]
+    u = np.tile(one, K) + 0.1 * rng.standard_normal(K * P)
+    y = lfilter([0.2], [1, -0.8], u) + 0.01 * rng.standard_normal(u.size)
+    rows = np.column_stack([u, y])
+    path = tmp_path / "long.csv"
+    np.savetxt(path, rows, delimiter=",", fmt="%.9g", header="u1,y1", comments="")
+    np.save(tmp_path / "long.npy", np.loadtxt(path, delimiter=",", skiprows=1))
+    npy = ("--experiment", tmp_path / "long.npy", "--columns", "u1=1,y1=2")
+    given = ("frf", "--period", P, "--lines", "auto")
+    lines = _peak(tmp_path, *given, "--experiment", path, "-o", tmp_path / "l.json")
+    assert lines < 40 * 1024, f"--lines auto streamed: {lines} kB"
+    h.run_ok(*given, *npy, "-o", tmp_path / "lw.json")
+    _same_doc(h.load_json(tmp_path / "l.json"), h.load_json(tmp_path / "lw.json"))
+    np.savez(tmp_path / "long.npz", x=rows)
+    whole = _peak(tmp_path, *given, "--experiment", tmp_path / "long.npz", "--columns", "u1=x:1,y1=x:2",
+                  "-o", tmp_path / "w.json")
+    assert whole > 40 * 1024, f"whole: {whole} kB (the control must see the 35 MiB of samples)"
+    auto = ("frf", "--period", "auto", "--lines", "auto")
+    both = _peak(tmp_path, *auto, "--experiment", path, "-o", tmp_path / "a.json")
+    assert both < 128 * 1024, f"--period auto --lines auto streamed: {both} kB"
+    r = h.run_ok(*auto, *npy, "-o", tmp_path / "aw.json")
+    assert f"period {P} samples" in r.stdout and f"in the first {2**21} rows of" in r.stdout
+    a = h.load_json(tmp_path / "a.json")
+    _same_doc(a, h.load_json(tmp_path / "aw.json"))
+    assert a["lines_auto"]["found"] == 43 and a["experiments"][0]["samples"] == K * P
 
 
 def _long_bad(tmp_path, name, bad_row, cell=None, blank=False):

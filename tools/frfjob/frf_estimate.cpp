@@ -108,10 +108,16 @@ static void find_lines_if_asked(FrfRequest &rq, const std::vector<Record> &recs,
         rq.bins = find_lines(recs, rq.period, rq.skip, rep, &p_min);
     } else {
         rq.bins = find_lines(reference_records(recs, plan.reference), rq.period, rq.skip, rep, &p_min);
-        rep += " of the reference";
     }
+    lines_auto_found(rq, plan, rep, p_min, lines_auto, undecided);
+}
+
+void lines_auto_found(const FrfRequest &rq, const FrfPlan &plan, std::string rep, const std::vector<double> &p_min,
+                      Json &block, std::string &undecided)
+{
+    if (!plan.reference.empty()) rep += " of the reference";
     if (plan.report) plan.report("--lines auto: " + rep + ":\n  " + format_bins(rq.bins) + "\n");
-    lines_auto = lines_auto_block(rq, plan, undecided_lines(rq.bins, p_min), undecided);   // a note (estimate_frf)
+    block = lines_auto_block(rq, plan, undecided_lines(rq.bins, p_min), undecided);   // a note (estimate_frf)
 }
 
 // Step 4: one realisation with detection lines: the distortion level beside the noise.

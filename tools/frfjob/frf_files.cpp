@@ -49,7 +49,29 @@ void read_rest(std::vector<Source> &src, size_t n)
     }
 }
 
-// Step 1: every file's header and first rows, in file order (the first bad file is named first).
+// Reads s's stream on until its head holds `want` rows (or the stream ends).
+void read_head(Source &s, size_t want)
+{
+    const size_t C = s.head.nu + s.head.ny;
+    if (!s.in->at_end() && want > s.head.n_rows) {
+        // room for the rows asked (bounded by the file's size) at once: a vector grown block by block
+        // would hold up to twice them, and both copies while it moves
+        const uint64_t row_min = std::max<size_t>(2 * C, s.head.file_columns.size());
+        const uint64_t fit = s.in->file_size() ? s.in->file_size() / row_min + 1 : want;
+        s.head.rows.reserve((size_t)std::min<uint64_t>(want + s.in->max_block_rows(), fit) * C);
+    }
+    while (!s.in->at_end() && s.head.n_rows < want) {
+        s.in->next([&](size_t max_rows) {
+            s.head.rows.resize((s.head.n_rows + max_rows) * C);
+            return s.head.rows.data() + s.head.n_rows * C;
+        });
+        s.head.n_rows = s.in->rows();
+    }
+    s.head.rows.resize(s.head.n_rows * C);
+    s.head.general_lines = s.in->general_lines();
+}
+
+// Step 1: every file's header and first `want` rows, in file order (the first bad file is named first).
 std::vector<Source> open_sources(const std::vector<std::string> &paths, const msidrec::ColumnMap &cols, size_t want)
 {
     // one file: each block parsed by two threads; several: one file per lane thread (as read_experiments)
@@ -63,16 +85,7 @@ std::vector<Source> open_sources(const std::vector<std::string> &paths, const ms
                 Source &s = src[e];
                 s.in = std::make_unique<msidrec::CsvStream>(paths[e], cols, !two);
                 s.head = s.in->info();
-                const size_t C = s.head.nu + s.head.ny;
-                while (!s.in->at_end() && s.head.n_rows < want) {
-                    s.in->next([&](size_t max_rows) {
-                        s.head.rows.resize((s.head.n_rows + max_rows) * C);
-                        return s.head.rows.data() + s.head.n_rows * C;
-                    });
-                    s.head.n_rows = s.in->rows();
-                }
-                s.head.rows.resize(s.head.n_rows * C);
-                s.head.general_lines = s.in->general_lines();
+                read_head(s, want);
             } catch (...) {
                 failed[e] = 1;
                 throw;
@@ -89,6 +102,89 @@ std::vector<Source> open_sources(const std::vector<std::string> &paths, const ms
     return src;
 }
 
+// Every head read on to `want` rows, in file order; a file that fails is closed (read_rest skips
+// it) after the files before it were read to their ends (a problem further on in one of them comes
+// first, as in open_sources).
+void extend_heads(std::vector<Source> &src, size_t want)
+{
+    for (size_t e = 0; e < src.size(); ++e) {
+        try {
+            read_head(src[e], want);
+        } catch (...) {
+            src[e].in.reset();
+            const std::exception_ptr x = std::current_exception();
+            read_rest(src, e);
+            std::rethrow_exception(x);
+        }
+    }
+}
+
+// --period auto on the streaming path: find_period() on the first PERIOD_SEARCH_ROWS rows of the first
+// file, as the whole record gives them, read by a stream of their own (freed before the FRF's pass)
+// that parses only the inputs and the first output (find_period reads the inputs; a record has an
+// output): a logger's many channels cost nothing here.
+uint32_t stream_find_period(const Record &info, const FrfPlan &plan)
+{
+    msidrec::ColumnMap mc;
+    for (uint32_t k = 0; k < info.nu; ++k) mc.map.emplace_back(fmt("u%u", k + 1), info.columns.at(k));
+    mc.map.emplace_back("y1", info.columns.at(info.nu));
+    Source s;
+    s.in = std::make_unique<msidrec::CsvStream>(info.path, mc, true);
+    s.head = s.in->info();
+    read_head(s, PERIOD_SEARCH_ROWS);
+    s.in.reset();
+    std::string rep;
+    std::vector<Record> first;
+    first.push_back(std::move(s.head));   // moved: an initializer list would copy the rows
+    const uint32_t P = find_period(first, rep);
+    if (plan.report) plan.report("--period auto: " + rep + "\n");
+    return P;
+}
+
+// --lines auto on the streaming path: each file read once more by a stream of its own, from its first
+// row (the FRF's streams stay where the input checks left them), the inputs' (or the reference
+// columns') whole periods after the skipped ones through a LineScan; files on two lanes, each file's
+// scan the same bits on either. `ref_rows[e]`: the rows the reference stream read (with a reference).
+std::vector<LineScan> scan_lines(const FrfRequest &rq, const std::vector<std::string> &paths,
+                                 const msidrec::ColumnMap &cols, const std::vector<Source> &src,
+                                 const std::vector<std::string> &reference, std::vector<size_t> &ref_rows)
+{
+    const uint32_t m = (uint32_t)paths.size(), P = rq.period, nu = src.at(0).head.nu;
+    check_lines_period(P);
+    if (!reference.empty() && reference.size() != nu)
+        throw UsageError(fmt("--reference names %zu column(s) for %u input(s): one reference per input",
+                             reference.size(), nu));
+    std::vector<LineScan> scans;
+    for (uint32_t e = 0; e < m; ++e) scans.emplace_back(P, nu, paths[e]);
+    ref_rows.assign(m, 0);
+    const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
+    on_lanes(m, lanes, [&](uint32_t, uint32_t e) {
+        msidrec::ColumnMap mc = cols;
+        if (!reference.empty()) {   // as reference_records(): r_k as input k, with the first output
+            mc = msidrec::ColumnMap();
+            for (size_t k = 0; k < reference.size(); ++k) mc.map.emplace_back(fmt("u%zu", k + 1), reference[k]);
+            mc.map.emplace_back("y1", src[e].head.columns.at(nu));
+        }
+        msidrec::CsvStream in(paths[e], mc, lanes == 1);
+        const size_t C = in.info().nu + in.info().ny;
+        msidrec::Samples buf;
+        size_t carry = 0, period = 0;   // rows held back (less than a period); periods seen
+        while (!in.at_end()) {
+            const size_t n = in.next([&](size_t max_rows) {
+                if (buf.size() < (carry + max_rows) * C) buf.resize((carry + max_rows) * C);
+                return buf.data() + carry * C;
+            });
+            const size_t rows = carry + n, w = rows / P;
+            for (size_t p = 0; p < w; ++p, ++period)
+                if (period >= rq.skip) scans[e].push(buf.data() + p * P * C, C);
+            carry = rows - w * P;
+            if (w && carry) std::memmove(buf.data(), buf.data() + w * P * C, carry * C * sizeof(double));
+        }
+        ref_rows[e] = in.rows();
+    });
+    return scans;
+}
+
 // The periods a record still being read may hold: a bound from the file's size (every row takes at
 // least max(columns, 2 C) bytes). The core's history is the smaller of this and its cap (FrfJob).
 uint64_t period_bound(const Source &s, const FrfRequest &rq)
@@ -99,9 +195,9 @@ uint64_t period_bound(const Source &s, const FrfRequest &rq)
 }
 
 // Step 2: the checks of the whole path on the first rows (they read no further: periodicity.hpp),
-// and the period counts of the records read to their end. Returns the history the core needs, or 0
-// when the whole records are needed after all.
-uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src)
+// and the period counts of the records read to their end (the lines checked when known, else after
+// --lines auto). Returns the history the core needs, or 0 when the whole records are needed after all.
+uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src, bool lines_known)
 {
     std::vector<Record> heads;
     for (Source &s : src) heads.push_back(std::move(s.head));
@@ -121,7 +217,7 @@ uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src)
     check_periodic_inputs(P, rq.skip, rq.bins, heads);
     rq.inputs_checked = true;
     check_records(rq, heads);
-    validate_lines(rq);
+    if (lines_known) validate_lines(rq);
     uint64_t maxK = 0;
     for (size_t e = 0; e < src.size(); ++e) {
         const Record &r = heads[e];
@@ -182,15 +278,36 @@ ExpSource measure_source(msid_meas &ms, uint32_t e, Source &s, const FrfRequest 
     return {path, rows, rows / P, rows % P};
 }
 
-// The streaming path; false when the whole records are needed (nothing reported yet).
+// The streaming path; false when the whole records are needed (nothing reported yet but what --period
+// auto found: rq.period holds it). The steps run in estimate_frf()'s order: the files' shapes, the
+// period, the input checks, the lines, the estimator, the distortion level.
 bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
-                std::unique_ptr<FrfJob> *keep, FilesOutcome &out)
+                FrfPlan &plan, std::unique_ptr<FrfJob> *keep, FilesOutcome &out)
 {
-    const uint32_t P = rq.period;
-    std::vector<Source> src = open_sources(paths, cols, input_check_rows(P, rq.skip));
+    std::vector<Source> src = open_sources(paths, cols, plan.auto_period ? 0 : input_check_rows(rq.period, rq.skip));
     uint32_t maxK;
+    Json lines_auto;
+    std::string undecided;
+    std::vector<size_t> ref_rows;
     try {
-        maxK = check_sources(rq, src);
+        if (plan.auto_period) {
+            std::vector<Record> infos;
+            for (const Source &x : src) infos.push_back(x.in->info());
+            check_records(rq, infos, false);
+            rq.period = stream_find_period(src[0].in->info(), plan);
+            plan.auto_period = false;   // found: the whole path, if it comes to that, takes it
+            extend_heads(src, input_check_rows(rq.period, rq.skip));
+        }
+        maxK = check_sources(rq, src, !plan.auto_lines);
+        if (maxK && plan.auto_lines) {
+            if (plan.reference.empty()) plan.reference = msidrec::own_reference_columns(src[0].in->info());
+            std::string rep;
+            std::vector<double> p_min;
+            const std::vector<LineScan> scans = scan_lines(rq, paths, cols, src, plan.reference, ref_rows);
+            rq.bins = lines_from_scans(scans, rq.period, rq.skip, rep, &p_min);
+            lines_auto_found(rq, plan, rep, p_min, lines_auto, undecided);
+            validate_lines(rq);
+        }
     } catch (...) {
         read_rest(src, src.size());   // a bad cell anywhere comes first
         throw;
@@ -204,12 +321,18 @@ bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msi
     auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
     std::vector<ExpSource> done(m);
     on_lanes(m, lanes, [&](uint32_t lane, uint32_t e) { done[e] = measure_source(*jobp->meas(lane), e, src[e], rq); });
+    for (uint32_t e = 0; e < m && !ref_rows.empty() && !plan.reference.empty(); ++e)
+        if (ref_rows[e] != done[e].samples)
+            throw Error(fmt("'%s': the reference columns have %zu rows, the inputs and outputs %zu", paths[e].c_str(),
+                            ref_rows[e], (size_t)done[e].samples));
     for (const ExpSource &x : done)
         if (x.leftover)
             notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", x.source.c_str(),
                                 (unsigned long long)x.leftover));
     out.o = jobp->finish(done, notes);
     add_detection_distortion(out.o);
+    if (!lines_auto.is_null()) out.o.doc["lines_auto"] = lines_auto;
+    if (!undecided.empty()) out.o.notes.push_back("--lines auto: " + undecided);
     out.nu = nu;
     out.ny = ny;
     out.m = m;
@@ -225,10 +348,11 @@ FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &
 {
     FilesOutcome out;
     const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;
-    bool stream = plain && !paths.empty() && plan.reference.empty() && rq.period >= MSID_MIN_PERIOD &&
-                  rq.period <= MSID_MAX_PERIOD;
+    // --reference without --lines auto is refused by estimate_frf()
+    bool stream = !plan.direct && !plan.bla && !paths.empty() && (plan.auto_lines || plan.reference.empty()) &&
+                  (plan.auto_period || (rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD));
     for (const auto &p : paths) stream = stream && msidrec::is_csv_path(p) && regular_file(p);
-    if (stream && stream_frf(rq, paths, cols, keep, out)) return out;
+    if (stream && stream_frf(rq, paths, cols, plan, keep, out)) return out;
     // the records whole: a .npy used in place, scanned for NaN/Inf block by block on the plain path
     out.recs = msidrec::read_experiments(paths, cols, true, plain);
     if (plan.auto_lines && plan.reference.empty()) plan.reference = msidrec::own_reference_columns(out.recs.at(0));

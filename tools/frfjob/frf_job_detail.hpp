@@ -27,6 +27,12 @@ void measure_records(FrfJob &job, const FrfRequest &rq, const std::vector<Record
 // a lane stops at its first failing experiment. Rethrows the error of the first failing experiment in
 // file order: every experiment before it ran to its end on one lane or the other.
 void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane, uint32_t e)> &one);
+// --lines auto's outcome, however rq.bins were found (find_lines on records read whole, or
+// lines_from_scans on files streamed; `rep` that function's report): the report line through
+// plan.report, the document's lines_auto block, and the note on grid bins left undecided (empty when
+// none).
+void lines_auto_found(const FrfRequest &rq, const FrfPlan &plan, std::string rep, const std::vector<double> &p_min,
+                      Json &block, std::string &undecided);
 // The transient test's history per experiment (16 bytes x lines x channels per period) holds at
 // most this: the periods after it are used untested (msid_pstats beyond_history).
 constexpr double HISTORY_BYTES = 32.0 * 1024 * 1024;

@@ -107,15 +107,17 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
                         std::unique_ptr<FrfJob> *keep = nullptr);
 
 // The FRF job on experiment files (msid frf): what estimate_frf() gives on the records the files
-// hold. Regular CSV files on the plain path (period and lines known, one realisation, not
-// --direct) pass through the core block by block (CsvStream): memory is one block per file, the
-// first input_check_rows() rows of each (the input checks), and the core's per-period statistics
-// (the transient test's history: L x (nu + ny) complex values per period, none with --transient off),
-// never the samples; the document is the same bits as from the records read whole. Everything else
-// (.npy/.npz/.mat, a pipe, --period/--lines auto, --realisations, --direct), and a record whose input
-// check needs the whole record (an input that is not periodic with the period: its period is searched
-// for), is read whole first. `plan.auto_lines` without `plan.reference`: the files' own r1.. columns
-// (own_reference_columns) when they name one per input. Throws as estimate_frf() and read_experiments().
+// hold. Regular CSV files on the periodic path (one realisation, not --direct) pass through the core
+// block by block (CsvStream): memory is one block per file, the first input_check_rows() rows of each
+// (the input checks), and the core's per-period statistics (the transient test's history: L x
+// (nu + ny) complex values per period, none with --transient off), never the samples; the document is
+// the same bits as from the records read whole. --period auto reads the first PERIOD_SEARCH_ROWS rows
+// of the first file's inputs by a stream of its own; --lines auto passes every file once more through
+// a LineScan first (its inputs, or the reference columns: plan.reference, else the files' own r1..
+// columns when they name one per input). Everything else (.npy/.npz/.mat, a pipe, --realisations,
+// --direct), and a record whose input check needs the whole record (an input that is not periodic
+// with the period: its period is searched for), is read whole first. Throws as estimate_frf() and
+// read_experiments().
 struct FilesOutcome {
     FrfOutcome o;
     uint32_t nu = 0, ny = 0, m = 0;

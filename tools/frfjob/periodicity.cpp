@@ -439,34 +439,54 @@ bool input_check_needs_whole(uint32_t P, uint32_t skip, const std::vector<uint32
     return !ev.periodic() && ev.tested > 0;
 }
 
-uint32_t find_period(const std::vector<Record> &recs, std::string &report)
+// The inputs' autocorrelation over the first N rows of r at lags 0 .. nf - 1 (nf >= 2 N, a power of 2:
+// no wrap-around), summed over the input channels: the power spectrum's inverse transform, in place in
+// one buffer of nf + 2 doubles (and nf / 2 + 1 more for two or more inputs). Freed by the caller
+// (fftw_free).
+static double *input_autocorrelation(const Record &r, size_t N, size_t nf)
 {
-    const Record &r = recs.at(0);
-    const size_t C = r.nu + r.ny;
-    const size_t N = std::min<size_t>(r.n_rows, (size_t)1 << 22);
-    if (N < 2 * MSID_MIN_PERIOD)
-        throw Error(fmt("'%s': %zu samples are too few to find a period (--period auto)", r.path.c_str(), r.n_rows));
-    size_t nf = 1;
-    while (nf < 2 * N) nf <<= 1;
-    R2c f((int)nf);
-    std::vector<double> acf(nf / 2 + 1, 0.0);
-    fftw_complex *spec = fftw_alloc_complex(nf / 2 + 1);
-    std::vector<double> pw(nf / 2 + 1, 0.0);
+    const size_t C = r.nu + r.ny, nc = nf / 2 + 1;
+    fftw_planner_ready();
+    double *buf = fftw_alloc_real(2 * nc);
+    if (!buf) throw Error(fmt("out of memory for --period auto's FFT of length %zu", nf));
+    fftw_complex *spec = reinterpret_cast<fftw_complex *>(buf);
+    // one plan at a time: a transform of this length has tens of MB of twiddle factors
+    const fftw_plan fw = fftw_plan_dft_r2c_1d((int)nf, buf, spec, FFTW_ESTIMATE);
+    std::vector<double> pw(r.nu > 1 ? nc : 0, 0.0);
     for (uint32_t j = 0; j < r.nu; ++j) {
         double mean = 0;
         for (size_t n = 0; n < N; ++n) mean += r.data()[n * C + j];
         mean /= (double)N;
-        for (size_t n = 0; n < nf; ++n) f.in[n] = n < N ? r.data()[n * C + j] - mean : 0.0;
-        f.run();
-        for (size_t k = 0; k <= nf / 2; ++k) pw[k] += std::norm(f.at(k));
+        for (size_t n = 0; n < nf; ++n) buf[n] = n < N ? r.data()[n * C + j] - mean : 0.0;
+        fftw_execute(fw);
+        for (size_t k = 0; k < nc; ++k) {
+            const double a = spec[k][0] * spec[k][0] + spec[k][1] * spec[k][1];
+            if (r.nu > 1) pw[k] += a;
+            else spec[k][0] = a, spec[k][1] = 0;
+        }
     }
-    // inverse transform of the power spectrum: the (biased) autocorrelation
-    for (size_t k = 0; k <= nf / 2; ++k) { spec[k][0] = pw[k]; spec[k][1] = 0; }
-    std::vector<double> ac(nf);
-    fftw_plan ip = fftw_plan_dft_c2r_1d((int)nf, spec, ac.data(), FFTW_ESTIMATE);
-    fftw_execute(ip);
-    fftw_destroy_plan(ip);
-    fftw_free(spec);
+    fftw_destroy_plan(fw);
+    if (r.nu > 1)
+        for (size_t k = 0; k < nc; ++k) spec[k][0] = pw[k], spec[k][1] = 0;
+    const fftw_plan bw = fftw_plan_dft_c2r_1d((int)nf, spec, buf, FFTW_ESTIMATE);   // ESTIMATE: spec kept
+    fftw_execute(bw);
+    fftw_destroy_plan(bw);
+    return buf;
+}
+
+uint32_t find_period(const std::vector<Record> &recs, std::string &report)
+{
+    const Record &r = recs.at(0);
+    // the search window: every step below reads only these rows, so a record streamed from its file
+    // (whose first rows are all there is yet) and the record read whole find the same period
+    const size_t N = std::min(r.n_rows, PERIOD_SEARCH_ROWS);
+    if (N < 2 * MSID_MIN_PERIOD)
+        throw Error(fmt("'%s': %zu samples are too few to find a period (--period auto)", r.path.c_str(), r.n_rows));
+    size_t nf = 1;
+    while (nf < 2 * N) nf <<= 1;
+    // the (biased) autocorrelation
+    const std::unique_ptr<double, void (*)(void *)> acbuf(input_autocorrelation(r, N, nf), fftw_free);
+    const double *ac = acbuf.get();
     if (!(ac[0] > 0)) throw Error(fmt("'%s': the inputs are constant: no period to find (--period auto)", r.path.c_str()));
     // rho(tau): unbiased autocorrelation normalised by the variance
     auto rho = [&](size_t t) { return ac[t] / (double)(N - t) / (ac[0] / (double)N); };
@@ -487,13 +507,13 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     // period (lines all multiples of 3 repeat almost every P/3 samples) is followed to its
     // multiples 2 P0, 3 P0, ... until one repeats (eta at most 0.1) or N/2 is reached.
     const uint32_t P0 = P;
-    for (uint32_t mult = 1; P0 && (size_t)P0 * mult * 2 <= r.n_rows + 4; ++mult) {
+    for (uint32_t mult = 1; P0 && (size_t)P0 * mult * 2 <= N + 4; ++mult) {
         uint32_t bestP = 0;
         double best = 1.0;
         for (int d = -2; d <= 2; ++d) {
             const int64_t Q = (int64_t)P0 * mult + d;
-            if (Q < (int64_t)MSID_MIN_PERIOD || Q > (int64_t)MSID_MAX_PERIOD || (size_t)Q * 2 > r.n_rows) continue;
-            const size_t K = r.n_rows / (size_t)Q;
+            if (Q < (int64_t)MSID_MIN_PERIOD || Q > (int64_t)MSID_MAX_PERIOD || (size_t)Q * 2 > N) continue;
+            const size_t K = N / (size_t)Q;
             const double e = nonperiodic_fraction(r, (uint32_t)Q, 0, K);
             if (e < best) { best = e; bestP = (uint32_t)Q; }
         }
@@ -506,21 +526,21 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     // relative standard errors, 3/sqrt(N)) is the period: a divisor that is no period adds the
     // signal's mismatch.
     if (P && eta > 0.1) {
-        auto norm = [&](uint32_t Q, double e) { const double K = (double)(r.n_rows / Q); return e * K / (K - 1); };
+        auto norm = [&](uint32_t Q, double e) { const double K = (double)(N / Q); return e * K / (K - 1); };
         const double ref = norm(P, eta);
         for (uint32_t k = 16; k >= 2; --k) {
             if (P % k || P / k < MSID_MIN_PERIOD) continue;
             const uint32_t Q = P / k;
-            const double e = nonperiodic_fraction(r, Q, 0, r.n_rows / Q);
-            if (norm(Q, e) <= ref * (1 + 3 / std::sqrt((double)r.n_rows)) + 1e-12) { P = Q; eta = e; break; }
+            const double e = nonperiodic_fraction(r, Q, 0, N / Q);
+            if (norm(Q, e) <= ref * (1 + 3 / std::sqrt((double)N)) + 1e-12) { P = Q; eta = e; break; }
         }
     }
     // A non-periodic input gives E eta = (K-1)/K over K repetitions (1/2 for K = 2, where the best of
     // many candidate lags falls below 1/2 by chance): the threshold, 0.5 (K-1)/K, scales with it.
-    const double level = P ? NONPERIODIC_FRACTION * (double)(r.n_rows / P - 1) / (double)(r.n_rows / P) : 0.0;
+    const double level = P ? NONPERIODIC_FRACTION * (double)(N / P - 1) / (double)(N / P) : 0.0;
     bool noisy = false;
     if (P && eta > level) {   // a noisy periodic input: its period mean stands out of the noise
-        const size_t K = std::min<size_t>(r.n_rows / P, window_periods(r, P, 0));
+        const size_t K = std::min<size_t>(N / P, window_periods(r, P, 0));
         noisy = periodic_evidence(r, P, 0, K, {}).periodic();
     }
     if (!P || (eta > level && !noisy))
@@ -530,50 +550,83 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
                         r.path.c_str(), 100 * (P ? level : NONPERIODIC_FRACTION),
                         P ? fmt(" (best: %u samples, %.0f%% changing)", P, 100 * eta).c_str() : ""));
     report = fmt("period %u samples (found from the input's repetition: %.2g%% of the input power changes from "
-                 "period to period%s, %zu whole periods in '%s')",
-                 P, 100 * eta, noisy ? ", mostly noise: its period mean stands out of it" : "", r.n_rows / P,
-                 r.path.c_str());
+                 "period to period%s, %zu whole periods in %s'%s')",
+                 P, 100 * eta, noisy ? ", mostly noise: its period mean stands out of it" : "", N / P,
+                 N < PERIOD_SEARCH_ROWS ? "" : fmt("the first %zu rows of ", N).c_str(), r.path.c_str());
     return P;
 }
 
-std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report,
-                                 std::vector<double> *p_min)
+struct LineScan::Impl {
+    uint32_t P, nu;
+    size_t M, K = 0;
+    std::string source;
+    R2c f;
+    std::vector<std::complex<double>> mean;   // nu x M: the running period mean per input and bin
+    std::vector<double> m2;                   // nu x M: the sum of |spectrum - mean|^2 so far
+    Impl(uint32_t P_, uint32_t nu_, std::string src)
+        : P(P_), nu(nu_), M((P_ + 1) / 2 - 1), source(std::move(src)), f((int)P_), mean((size_t)nu_ * M), m2((size_t)nu_ * M)
+    {
+    }
+};
+
+LineScan::LineScan(uint32_t P, uint32_t nu, std::string source) : p_(std::make_unique<Impl>(P, nu, std::move(source))) {}
+LineScan::~LineScan() = default;
+LineScan::LineScan(LineScan &&) noexcept = default;
+LineScan &LineScan::operator=(LineScan &&) noexcept = default;
+size_t LineScan::periods() const { return p_->K; }
+const std::string &LineScan::source() const { return p_->source; }
+
+void LineScan::push(const double *rows, size_t C)
+{
+    Impl &s = *p_;
+    const double c = (double)++s.K;
+    for (uint32_t j = 0; j < s.nu; ++j) {
+        for (uint32_t n = 0; n < s.P; ++n) s.f.in[n] = rows[(size_t)n * C + j];
+        s.f.run();
+        std::complex<double> *mu = s.mean.data() + (size_t)j * s.M;
+        double *m2 = s.m2.data() + (size_t)j * s.M;
+        for (size_t k = 0; k < s.M; ++k) {
+            const std::complex<double> x = s.f.at(k + 1), d = x - mu[k];
+            mu[k] += d / c;
+            const std::complex<double> e = x - mu[k];
+            m2[k] += d.real() * e.real() + d.imag() * e.imag();
+        }
+    }
+}
+
+void check_lines_period(uint32_t P)
 {
     if (P < 3) throw Error(fmt("period %u has no bins between DC and Nyquist for --lines auto", P));
+}
+
+std::vector<uint32_t> lines_from_scans(const std::vector<LineScan> &scans, uint32_t P, uint32_t skip,
+                                       std::string &report, std::vector<double> *p_min)
+{
+    check_lines_period(P);
     const size_t M = (P + 1) / 2 - 1;
     size_t J = 0;
-    for (const auto &r : recs) J += r.nu;
+    for (const LineScan &sc : scans) J += sc.p_->nu;
     const double level = LINES_AUTO_ALPHA / ((double)M * (double)J);
     std::vector<uint8_t> exc(M + 1, 0);
     if (p_min) p_min->assign(M, 1.0);
-    R2c f((int)P);
     size_t Kmin = SIZE_MAX;
-    for (const auto &r : recs) {
-        const size_t Kall = r.n_rows / P;
-        if (Kall < (size_t)skip + 2)
+    for (const LineScan &sc : scans) {
+        const LineScan::Impl &s = *sc.p_;
+        if (s.K < 2)
             throw Error(fmt("'%s': --lines auto needs at least 2 whole periods of %u samples after skipping %u",
-                            r.path.c_str(), P, skip));
-        const size_t K = Kall - skip;
-        Kmin = std::min(Kmin, K);
-        const double n = (double)(K - 1);
-        for (uint32_t j = 0; j < r.nu; ++j) {
-            auto s = period_spectra(r, P, skip, K, j, f);
-            std::vector<double> m2(M), v(M);
+                            s.source.c_str(), P, skip));
+        Kmin = std::min(Kmin, s.K);
+        const double n = (double)(s.K - 1);
+        for (uint32_t j = 0; j < s.nu; ++j) {
+            const std::complex<double> *mu = s.mean.data() + (size_t)j * M;
+            const double *m2 = s.m2.data() + (size_t)j * M;
             double mx = 0;
+            for (size_t k = 0; k < M; ++k) mx = std::max(mx, std::norm(mu[k]));
             for (size_t k = 0; k < M; ++k) {
-                std::complex<double> mu = 0;
-                for (size_t p = 0; p < K; ++p) mu += s[p][k];
-                mu /= (double)K;
-                double ss = 0;
-                for (size_t p = 0; p < K; ++p) ss += std::norm(s[p][k] - mu);
-                m2[k] = std::norm(mu);
-                v[k] = ss / n;
-                mx = std::max(mx, m2[k]);
-            }
-            for (size_t k = 0; k < M; ++k) {
-                if (!(m2[k] > 1e-20 * mx)) continue;
+                const double a2 = std::norm(mu[k]), v = m2[k] / n;
+                if (!(a2 > 1e-20 * mx)) continue;
                 // P(F(2, 2(K-1)) > F) = (1 + F/(K-1))^-(K-1)
-                const double F = v[k] > 0 ? (double)K * m2[k] / v[k] : HUGE_VAL;
+                const double F = v > 0 ? (double)s.K * a2 / v : HUGE_VAL;
                 const double pv = std::isinf(F) ? 0.0 : std::exp(-n * std::log1p(F / n));
                 if (pv < level) exc[k + 1] = 1;
                 if (p_min) (*p_min)[k] = std::min((*p_min)[k], pv);
@@ -590,6 +643,20 @@ std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, ui
                  "periods, each bin at %.2g so that a record without excitation reports any bin with probability <= %g)",
                  bins.size(), M, Kmin, level, LINES_AUTO_ALPHA);
     return bins;
+}
+
+std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, uint32_t skip, std::string &report,
+                                 std::vector<double> *p_min)
+{
+    check_lines_period(P);
+    std::vector<LineScan> scans;
+    for (const auto &r : recs) {
+        const size_t Kall = r.n_rows / P, C = r.nu + r.ny;
+        scans.emplace_back(P, r.nu, r.path);
+        if (Kall < (size_t)skip + 2) break;   // lines_from_scans names it
+        for (size_t p = skip; p < Kall; ++p) scans.back().push(r.data() + p * P * C, C);
+    }
+    return lines_from_scans(scans, P, skip, report, p_min);
 }
 
 UndecidedLines undecided_lines(const std::vector<uint32_t> &found, const std::vector<double> &p_min)

@@ -5,6 +5,7 @@
 #pragma once
 #include "msid_frf_job.hpp"
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -86,10 +87,49 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
 size_t input_check_rows(uint32_t P, uint32_t skip);
 bool input_check_needs_whole(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const Record &prefix);
 
-// --period auto: the period of the inputs of the first record (autocorrelation,
-// refined by nonperiodic_fraction). Throws Error saying so when the input does
-// not repeat (at least twice). `report` describes what was found.
+// --period auto: the period of the inputs of the first record's first
+// PERIOD_SEARCH_ROWS rows (autocorrelation, refined by nonperiodic_fraction).
+// Throws Error saying so when the input does not repeat (at least twice).
+// `report` describes what was found.
 uint32_t find_period(const std::vector<Record> &recs, std::string &report);
+
+// --period auto searches the first PERIOD_SEARCH_ROWS rows of the first record (whole when shorter):
+// periods up to half of it (2^20 samples) with two repetitions; a longer period is given (--period).
+// A record streamed from its file and one read whole give the same period. The search holds those
+// rows (8 bytes per column and row) and an FFT of 2^22 points (its buffer and FFTW's twiddle factors,
+// about 60 MB), whatever the record's length.
+constexpr size_t PERIOD_SEARCH_ROWS = (size_t)1 << 21;
+
+// --lines auto's statistic for one record, fed one period at a time: per input channel and bin
+// 1 .. ceil(P/2)-1 the running mean of the period spectra and their scatter (Welford's update, in period
+// order), so a record streamed from its file and one read whole give the same bits. Memory: 24 bytes
+// per bin and input, and an FFT of length P.
+class LineScan {
+public:
+    // P >= 3 (check_lines_period); `source` names the record in messages
+    LineScan(uint32_t P, uint32_t nu, std::string source);
+    ~LineScan();
+    LineScan(LineScan &&) noexcept;
+    LineScan &operator=(LineScan &&) noexcept;
+    // one period: P rows of C >= nu columns (row-major), the inputs first
+    void push(const double *rows, size_t C);
+    size_t periods() const;
+    const std::string &source() const;
+
+private:
+    friend std::vector<uint32_t> lines_from_scans(const std::vector<LineScan> &, uint32_t, uint32_t, std::string &,
+                                                  std::vector<double> *);
+    struct Impl;
+    std::unique_ptr<Impl> p_;
+};
+
+// Throws the --lines auto message for a period without bins between DC and Nyquist (P < 3).
+void check_lines_period(uint32_t P);
+
+// --lines auto from every record's scan (each over its periods after the `skip` skipped): the test
+// find_lines() describes. Throws naming the first record with fewer than 2 periods scanned.
+std::vector<uint32_t> lines_from_scans(const std::vector<LineScan> &scans, uint32_t P, uint32_t skip,
+                                       std::string &report, std::vector<double> *p_min = nullptr);
 
 // --lines auto: bins 1 .. ceil(P/2)-1 where an input carries a periodic
 // component: per record and input channel, F = K |mean U|^2 / s^2 over the K
