@@ -1,13 +1,11 @@
-// Real DFTs through FFTW (real_dft.hpp). One pair of plans per length for the whole process:
-// planning (even FFTW_ESTIMATE) costs more than the transforms of a cissim fit, which asks for the
-// same lengths many times (each experiment's period, the correlations' padded length). The plans
-// are executed on each object's own buffers (fftw_execute_dft_*: thread-safe, aligned alike).
+// Real DFTs through FFTW (real_dft.hpp). One pair of plans per length for the whole process
+// (msidutil::shared_real_plan): planning costs more than the transforms of a cissim fit, which asks
+// for the same lengths many times (each experiment's period, the correlations' padded length). The
+// plans are executed on each object's own buffers (fftw_execute_dft_*: thread-safe, aligned alike).
 #include "real_dft.hpp"
 #include "fit_types.hpp"
 
 #include <cstring>
-#include <map>
-#include <mutex>
 #include <fftw3.h>
 
 #include "msid_fftw_planner.hpp"
@@ -16,37 +14,11 @@ namespace msidfit {
 
 namespace {
 
-struct Plans {
-    fftw_plan fwd = nullptr, inv = nullptr;
-};
-
-std::mutex &plans_lock()
-{
-    static std::mutex m;
-    return m;
-}
-
-// The forward (inverse: `inverse` set) plan of length n, made on first use with buffers of that
-// length allocated as fftw_alloc_* allocates every object's (the same SIMD alignment).
 fftw_plan plan_of(size_t n, bool inverse)
 {
-    // never destroyed: the plans stay reachable to the exit (a static map's destructor would run
-    // before a leak check and orphan them), and no exit-time destructor races a late fit
-    static auto *cache = new std::map<size_t, Plans>;
-    std::lock_guard<std::mutex> lock(plans_lock());
-    Plans &p = (*cache)[n];
-    fftw_plan &slot = inverse ? p.inv : p.fwd;
-    if (slot) return slot;
-    msidutil::fftw_planner_ready();   // msid frf's warm-up plan may be in the planner on another thread
-    double *re = fftw_alloc_real(n);
-    fftw_complex *cx = fftw_alloc_complex(n / 2 + 1);
-    if (re && cx)
-        slot = inverse ? fftw_plan_dft_c2r_1d((int)n, cx, re, FFTW_ESTIMATE)
-                       : fftw_plan_dft_r2c_1d((int)n, re, cx, FFTW_ESTIMATE);
-    fftw_free(re);
-    fftw_free(cx);
-    if (!slot) throw FitError("FFTW could not plan a DFT of length " + std::to_string(n));
-    return slot;
+    const fftw_plan p = msidutil::shared_real_plan(n, inverse);
+    if (!p) throw FitError("FFTW could not plan a DFT of length " + std::to_string(n));
+    return p;
 }
 
 }  // namespace

@@ -19,7 +19,8 @@ namespace msidjob {
 
 namespace {
 
-// RAII real-to-complex FFTW plan of length n (ESTIMATE: deterministic).
+// A real-to-complex DFT of length n: buffers of its own, the process's shared plan of that length
+// (msidutil::shared_real_plan: ESTIMATE, deterministic; planned once, not per check).
 struct R2c {
     int n;
     double *in;
@@ -27,16 +28,19 @@ struct R2c {
     fftw_plan plan;
     explicit R2c(int n_) : n(n_)
     {
-        fftw_planner_ready();   // msid frf's warm-up plan (msid_fftw_planner.hpp) is made on another thread
         in = fftw_alloc_real((size_t)n);
         out = fftw_alloc_complex((size_t)n / 2 + 1);
-        if (!in || !out) throw Error("out of memory for an FFT of length " + std::to_string(n));
-        plan = fftw_plan_dft_r2c_1d(n, in, out, FFTW_ESTIMATE);
+        plan = in && out ? msidutil::shared_real_plan((size_t)n, false) : nullptr;
+        if (!plan) {
+            fftw_free(in);
+            fftw_free(out);
+            throw Error("out of memory for an FFT of length " + std::to_string(n));
+        }
     }
-    ~R2c() { fftw_destroy_plan(plan); fftw_free(in); fftw_free(out); }
+    ~R2c() { fftw_free(in); fftw_free(out); }
     R2c(const R2c &) = delete;
     R2c &operator=(const R2c &) = delete;
-    void run() { fftw_execute(plan); }
+    void run() { fftw_execute_dft_r2c(plan, in, out); }
     std::complex<double> at(size_t k) const { return {out[k][0], out[k][1]}; }
 };
 

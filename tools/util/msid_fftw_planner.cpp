@@ -3,6 +3,7 @@
 #include "msid/msid_fft_fftw.h"
 
 #include <exception>
+#include <map>
 #include <mutex>
 #include <system_error>
 #include <thread>
@@ -35,6 +36,31 @@ void fftw_planner_ready()
 {
     std::lock_guard<std::mutex> lk(g_mu);
     if (g_thread && g_thread->joinable()) g_thread->join();
+}
+
+fftw_plan shared_real_plan(size_t n, bool inverse)
+{
+    struct Plans {
+        fftw_plan fwd = nullptr, inv = nullptr;
+    };
+    static std::mutex mu;
+    // never destroyed: the plans stay reachable to the exit (a static map's destructor would run
+    // before a leak check and orphan them), and no exit-time destructor races a late job
+    static auto *cache = new std::map<size_t, Plans>;
+    if (n < 1 || n > (size_t)0x7FFFFFFF) return nullptr;
+    std::lock_guard<std::mutex> lock(mu);
+    Plans &p = (*cache)[n];
+    fftw_plan &slot = inverse ? p.inv : p.fwd;
+    if (slot) return slot;
+    fftw_planner_ready();   // msid frf's warm-up plan may be in the planner on another thread
+    double *re = fftw_alloc_real(n);
+    fftw_complex *cx = fftw_alloc_complex(n / 2 + 1);
+    if (re && cx)
+        slot = inverse ? fftw_plan_dft_c2r_1d((int)n, cx, re, FFTW_ESTIMATE)
+                       : fftw_plan_dft_r2c_1d((int)n, re, cx, FFTW_ESTIMATE);
+    fftw_free(re);
+    fftw_free(cx);
+    return slot;
 }
 
 }  // namespace msidutil

@@ -2,7 +2,10 @@
 // solvers and hashes the problem). msid frf makes that first plan on a second thread while the
 // experiment files are read, instead of after.
 #pragma once
+#include <cstddef>
 #include <cstdint>
+
+#include <fftw3.h>
 
 namespace msidutil {
 
@@ -14,5 +17,14 @@ void fftw_warmup_start(uint32_t period);
 // Wait for the warm-up plan, if one is being made: call before any FFTW planning (plan creation
 // or destruction). Safe from any thread, any number of times.
 void fftw_planner_ready();
+
+// The process's real DFT plan of length n (1 .. 2^31 - 1): forward (real to complex, n / 2 + 1
+// values) or inverse (complex to real, unnormalised), FFTW_ESTIMATE (no timing: the same plan, so
+// the same bits, on every run). Made at its first request under a lock of its own, then shared and
+// never destroyed: planning costs more than the transforms of a small job, which asks for the same
+// lengths again and again. Execute it with fftw_execute_dft_r2c / _c2r (thread-safe) on arrays from
+// fftw_alloc_real / fftw_alloc_complex (the alignment it was planned for). nullptr when FFTW could
+// not plan (no memory).
+fftw_plan shared_real_plan(size_t n, bool inverse);
 
 }  // namespace msidutil

@@ -117,6 +117,10 @@ def _float(v, what):
 def _options(skip_periods, fs, detect_lines, transient, alpha, dft):
     """The estimating options the extension shares between msid.frf and Measurement; those at their
     default are left out, as options not given on the command line (direct refuses the others)."""
+    if (type(skip_periods) is int and skip_periods == 0 and fs is None and detect_lines is None
+            and type(transient) is str and transient == "flag" and type(alpha) is float and alpha == 0.01
+            and type(dft) is str and dft == "auto"):
+        return {}   # every option at its default: nothing to check or pass on
     o = {"skip_periods": _uint(skip_periods, "skip_periods"),
          "fs": None if fs is None else _float(fs, "fs"),
          "detect_lines": None if detect_lines is None else _uint_list(detect_lines, "detect_lines"),
@@ -263,6 +267,8 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
 
 def _file_paths(records) -> Optional[List[str]]:
     """records as experiment files: a path or a list of paths (str or os.PathLike); None for samples."""
+    if type(records) is np.ndarray:
+        return None
     one = isinstance(records, (str, os.PathLike))
     many = isinstance(records, (list, tuple)) and len(records) > 0 and \
         all(isinstance(r, (str, os.PathLike)) for r in records)
