@@ -265,3 +265,48 @@ def test_ml_never_above_its_starts(tmp_path):
     # convergence: every plant but the slow valleys of random plants (measured: one 2x2 of order 8,
     # 200 iterations from 453.66 to 439.62, 439.37 after 2000; the pole-residue form creeps there too)
     assert len(slow) <= 2, slow
+
+
+# --- an FRF without covariance (another tool's): standard deviations from the residual variance --------
+
+def test_no_covariance_sds_from_the_residual_variance(tmp_path):
+    """A CT FRF as an analogue instrument gives it (frequency, re, im; no covariance, no sample time):
+    the SISO column of helpers.ct_plant_2x2 (a mode at 24.7 Hz, zeta 0.26, and a real pole) on 80 lines,
+    white complex noise of variance sigma^2 = (2% of the median |G|)^2 on every line, 100 seeds, ml at
+    the right order. The unit-weight fit scales its covariances by s^2 = 2 V / (2 L - n_params):
+    - s^2 is unbiased for sigma^2 (mean within 3%);
+    - the mode frequency's reported standard deviation matches its spread over the seeds (ratio within
+      0.8-1.25) and its 95% interval covers the truth about 95% of the time;
+    - control: the standard deviations of unit noise, what msid reported before (sd / s), miss the
+      spread by the factor 1/sigma (about 80 here)."""
+    from test_import import _ct_csv
+    plant = h.ct_plant_2x2()
+    om = np.geomspace(10, 5000, 80)
+    G0 = h.ct_frf(plant, om)[:, :1, :1]
+    sigma = 0.02 * np.median(np.abs(G0))
+    rng = np.random.default_rng(41)
+    true_fn = abs(np.linalg.eigvals(plant[0])[0]) / (2 * np.pi)
+    fn, sd, s2 = [], [], []
+    for k in range(100):
+        G = G0 + sigma * (rng.standard_normal(G0.shape) + 1j * rng.standard_normal(G0.shape)) / np.sqrt(2)
+        csv = tmp_path / "a.csv"
+        _ct_csv(csv, om, G, names=("y1",), ins=("u1",))
+        r = h.run("fit", "--method", "ml", "--order", 3, csv, "-o", tmp_path / "m.json")
+        assert r.returncode == 0, r.stderr
+        m = h.load_json(tmp_path / "m.json")
+        mode = [x for x in m["modes"]["modes"] if not x["real_pole"]]
+        assert len(mode) == 1, m["modes"]
+        fn.append(mode[0]["fn"])
+        sd.append(mode[0]["sd_fn"])
+        s2.append(m["residual_variance"])
+        if k == 0:
+            assert "rest on the fit's residual variance" in r.stdout + r.stderr
+    fn, sd, s2 = np.array(fn), np.array(sd), np.array(s2)
+    assert abs(s2.mean() / sigma**2 - 1) < 0.03, (s2.mean(), sigma**2)
+    ratio = fn.std(ddof=1) / sd.mean()
+    cover = np.mean(np.abs(fn - true_fn) <= 1.96 * sd)
+    print(f"s^2/sigma^2 {s2.mean() / sigma**2:.4f}, spread/sd {ratio:.3f}, 95% coverage {cover:.2f}")
+    assert 0.8 < ratio < 1.25, ratio
+    assert 0.90 <= cover <= 0.99, cover
+    unit = sd / np.sqrt(s2)   # the control: unit noise
+    assert not 0.8 < fn.std(ddof=1) / unit.mean() < 1.25

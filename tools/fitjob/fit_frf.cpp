@@ -591,11 +591,32 @@ Json cost_block(const Fit &c)
     return cost;
 }
 
+// An FRF without any covariance (another tool's): the unit-weight fit's covariances assume unit noise.
+// Scaled by the residual variance per complex FRF entry, s^2 = 2 V / (neq - n_params) (unit noise gives
+// E V = (neq - n_params) / 2: cost_law), as an unweighted least-squares fit estimates its noise, the
+// parameters' and the model FRF's covariances, hence the modes' standard deviations, rest on the data:
+// right for one noise level at every line and entry and a model that is right (the residuals are then
+// noise). Returns s^2 (0: no residual dof, nothing scaled).
+double scale_by_residual_variance(Fit &c)
+{
+    const double dof = c.neq - c.nparams;
+    if (!(dof > 0) || !(c.V >= 0)) return 0.0;
+    const double s2 = 2.0 * c.V / dof;
+    for (MatC &g : c.Gc) g *= s2;
+    if (c.extra.contains("parameters") && c.extra["parameters"].contains("cov"))
+        for (Json &row : c.extra["parameters"]["cov"])
+            for (Json &v : row)
+                if (v.is_number()) v = v.get<double>() * s2;
+    return s2;
+}
+
 // The document after the fit: the model, its stability, the method's sections, cost, FRF, modes.
 void finish_document(Fit &c)
 {
     const FrfData &f = c.f;
     Json &doc = c.doc;
+    const double s2 = c.no_cov ? scale_by_residual_variance(c) : 0.0;
+    if (s2 > 0) c.extra["residual_variance"] = s2;
     if (c.rq.method == "ml") {
         c.extra["converged"] = c.converged;
         c.extra["gradient_norm"] = c.grad_norm;
@@ -615,8 +636,12 @@ void finish_document(Fit &c)
     doc["frf"] = fr;
     model_put_modes(doc, &c.out.before);   // modal parameters with standard deviations
     if (c.no_cov && doc.contains("modes"))
-        c.out.before += "note: the FRF has no covariance: the standard deviations and identification tests above "
-                        "take unit noise on every line, they are not the data's uncertainty\n";
+        c.out.before += s2 > 0 ? fmt("note: the FRF has no covariance: the standard deviations above rest on the fit's "
+                                     "residual variance (%.3g per FRF entry: one noise level everywhere, and the "
+                                     "residuals are noise only when the model is right)\n", s2)
+                               : "note: the FRF has no covariance and the fit no residual dof: the standard "
+                                 "deviations above take unit noise on every line, they are not the data's "
+                                 "uncertainty\n";
 }
 
 // What msid prints of the fit: "wrote PATH: ml fit, order 4, weighted cost ...".
