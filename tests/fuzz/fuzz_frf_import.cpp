@@ -1,6 +1,6 @@
 // libFuzzer: the readers of FRFs measured by other tools (tools/frfimport, `msid import`), through the
 // entry point every command takes (load_document: the reader, then the msid-frf/1 checks of parse_frf):
-// the first byte picks the format (Touchstone as .s1p/.s2p/.s3p, UFF 58, CSV, idfrd .mat), the rest is
+// the first byte picks the format (Touchstone 1.x or 2.x as .s1p/.s2p/.s3p, UFF 58, CSV, idfrd .mat), the rest is
 // the file. Seeds: corpus/fuzz_frf_import/. A reader must return a document or throw its one error
 // (msidutil::Error, or msidfrf::Error from parse_frf); anything else is a finding.
 #include "frf_import.hpp"

@@ -80,6 +80,84 @@ def test_touchstone_z_parameters_in_ohm_and_noise_section_left_out(tmp_path):
     assert doc["input_units"] == ["A", "A"] and doc["output_units"] == ["V", "V"]
 
 
+def _v2_text(N, s, *, param="S", order="12_21", matrix="Full", refs=None, freq_unit="MHz", noise=False, info=True):
+    """A Touchstone 2.0 file of the N-port data s (F x N x N) in RI, written here from the
+    specification (scikit-rf writes 1.x only): keywords, an information block (2.1; not for scikit-rf,
+    which does not know it), the [Reference] over
+    two lines, each point's numbers over two lines, [Noise Data] after a 2-port's network data."""
+    F = s.shape[0]
+    out = ["! written by msid's tests", "[Version] 2.0", f"# {freq_unit} {param} RI R 50",
+           f"[Number of Ports] {N}"]
+    if N == 2:
+        out.append(f"[Two-Port Data Order] {order}")
+    out += [f"[Number of Frequencies] {F}"]
+    if refs is not None:
+        out += ["[Reference] " + " ".join(repr(r) for r in refs[:1]), " ".join(repr(r) for r in refs[1:])]
+    out += [f"[Matrix Format] {matrix}"]
+    if info:
+        out += ["[Begin Information]", "[Manufacturer] nobody", "[End Information]"]
+    out += ["[Network Data]"]
+    for k in range(F):
+        vals = []
+        for r in range(N):
+            for c in range(N):
+                if (matrix == "Lower" and c > r) or (matrix == "Upper" and c < r):
+                    continue
+                rr, cc = (c, r) if (N == 2 and order == "21_12") else (r, c)
+                vals += [repr(float(s[k, rr, cc].real)), repr(float(s[k, rr, cc].imag))]
+        half = len(vals) // 2
+        out += [f"{k + 1} " + " ".join(vals[:half]), "   " + " ".join(vals[half:]) + "  ! the rest of the point"]
+    if noise:
+        out += ["[Noise Data]", "1 0.5 0.3 45 0.2"]
+    out.append("[End]")
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("N,param,order,matrix", [(1, "S", None, "Full"), (2, "S", "12_21", "Full"),
+                                                  (2, "S", "21_12", "Full"), (3, "S", None, "Lower"),
+                                                  (3, "Z", None, "Upper"), (2, "Y", "12_21", "Full")])
+def test_touchstone_2_equals_scikit_rf(tmp_path, N, param, order, matrix):
+    """Touchstone 2.0 (.ts): the port count, the 2-port order, the point count, per-port references,
+    full and triangular matrices, points over several lines, noise data left out. Z and Y of 2.0 are
+    not normalised (ohms and siemens as written): equal to scikit-rf's z and y, S to its s."""
+    rng = np.random.default_rng(100 + N)
+    F = 5
+    s = rng.standard_normal((F, N, N)) + 1j * rng.standard_normal((F, N, N))
+    if matrix != "Full":
+        s = (s + s.transpose(0, 2, 1)) / 2   # a reciprocal network: the triangle is the whole matrix
+    refs = [50.0] * N if N >= 2 else None
+    path = tmp_path / f"net{N}{param}{order}{matrix}.ts"
+    kw = dict(param=param, order=order or "12_21", matrix=matrix, refs=refs, noise=N == 2)
+    path.write_text(_v2_text(N, s, **kw))
+    plain = tmp_path / "plain.ts"
+    plain.write_text(_v2_text(N, s, info=False, **kw))
+    ref = skrf.Network(str(plain))
+    doc, G, om = imported(path, tmp_path)
+    assert doc["imported"]["parameter"] == param and doc["imported"]["version"] == "2"
+    np.testing.assert_allclose(om, 2 * np.pi * ref.f, rtol=1e-15)
+    want = {"S": ref.s, "Z": ref.z, "Y": ref.y}[param]
+    np.testing.assert_allclose(G, want, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(G, s, rtol=1e-15, atol=0)   # and exactly what was written
+
+
+@pytest.mark.parametrize("edit,words", [
+    (lambda t: t.replace("[Number of Frequencies] 5", "[Number of Frequencies] 6"), ["holds 5 points", "says 6"]),
+    (lambda t: t.replace("[Two-Port Data Order] 12_21\n", ""), ["[Two-Port Data Order]"]),
+    (lambda t: t.replace("[Network Data]", "[Mixed-Mode Order] D1,2 C1,2\n[Network Data]"), ["mixed-mode"]),
+    (lambda t: t.replace("[Version] 2.0", "[Version] 3.0"), ["1.x and 2.x"]),
+    (lambda t: t.replace("[Matrix Format] Full", "[Matrix Format] Diagonal"), ["Full, Lower or Upper"]),
+    (lambda t: t.replace("[Network Data]", "[Frobnicate] 1\n[Network Data]"), ["[FROBNICATE]"]),
+])
+def test_touchstone_2_refusals(tmp_path, edit, words):
+    s = np.ones((5, 2, 2), complex)
+    path = tmp_path / "bad.ts"
+    path.write_text(edit(_v2_text(2, s)))
+    r = run("import", path, "-o", tmp_path / "o.json")
+    assert r.returncode != 0 and not (tmp_path / "o.json").exists()
+    for w in words:
+        assert w in r.stderr, r.stderr
+
+
 # ---------------- UFF 58 against pyuff ----------------
 
 def _uff_sets(spacing, ord_type, x):

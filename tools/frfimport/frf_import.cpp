@@ -34,9 +34,10 @@ std::string extension(const std::string &path)
     return lower(path.substr(dot + 1));
 }
 
-// .s1p .. .s99p (Touchstone v1's file names carry the port count)
+// .s1p .. .s99p (Touchstone v1's file names carry the port count), .ts (Touchstone 2.x)
 bool touchstone_extension(const std::string &ext)
 {
+    if (ext == "ts") return true;
     return ext.size() >= 3 && ext.size() <= 4 && ext.front() == 's' && ext.back() == 'p' &&
            std::all_of(ext.begin() + 1, ext.end() - 1, [](char c) { return std::isdigit((unsigned char)c); });
 }
