@@ -160,7 +160,7 @@ def test_touchstone_2_refusals(tmp_path, edit, words):
 
 # ---------------- UFF 58 against pyuff ----------------
 
-def _uff_sets(spacing, ord_type, x):
+def _uff_sets(spacing, ord_type, x, binary=0):
     s = 2j * np.pi * x
     sets, truth = [], {}
     for i, (node, dr) in enumerate([(2, 3), (3, -2)]):
@@ -168,7 +168,7 @@ def _uff_sets(spacing, ord_type, x):
             w0 = 2 * np.pi * (30 + 10 * i + 5 * j)
             H = (1 + 0.1 * j) / (s ** 2 + 2 * 0.05 * w0 * s + w0 ** 2)
             truth[i, j] = H
-            kw = dict(binary=0, func_type=4, rsp_node=node, rsp_dir=dr, ref_node=rnode, ref_dir=rdr, data=H, x=x,
+            kw = dict(binary=binary, func_type=4, rsp_node=node, rsp_dir=dr, ref_node=rnode, ref_dir=rdr, data=H, x=x,
                       id1="msid test", rsp_ent_name="pt", ref_ent_name="pt", abscissa_spacing=spacing,
                       ord_data_type=ord_type, abscissa_spec_data_type=18, ordinate_spec_data_type=12,
                       orddenom_spec_data_type=13, ordinate_axis_units_lab="m/s^2", orddenom_axis_units_lab="N",
@@ -193,6 +193,71 @@ def test_uff58_equals_pyuff(spacing, ord_type, tmp_path):
         j = [(1, 3), (4, 1)].index((int(d["ref_node"]), int(d["ref_dir"])))
         np.testing.assert_allclose(om, 2 * np.pi * np.asarray(d["x"], float), rtol=1e-12)
         np.testing.assert_allclose(G[:, i, j], np.asarray(d["data"]), rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("spacing", [1, 0])
+def test_uff58b_binary_equals_pyuff(spacing, tmp_path):
+    """Binary 58b as pyuff writes it (IEEE doubles in the machine's byte order, even and uneven
+    abscissa; its id line counts half the bytes of complex data, which msid takes from record 7),
+    one dataset in ASCII among the even ones: the values pyuff reads back."""
+    x = np.linspace(2, 100, 60) if spacing else np.geomspace(2, 100, 60)
+    sets, _ = _uff_sets(spacing, 6, x, binary=1)
+    if spacing:   # an uneven ASCII abscissa is E13.5, a binary one every bit: not one abscissa
+        sets[1]["binary"] = 0
+    path = tmp_path / "frf.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    assert b"58b" in path.read_bytes()
+    ref = pyuff.UFF(str(path)).read_sets()
+    doc, G, om = imported(path, tmp_path)
+    assert doc["n_outputs"] == 2 and doc["n_inputs"] == 2
+    for d in ref:
+        i = [(2, 3), (3, -2)].index((int(d["rsp_node"]), int(d["rsp_dir"])))
+        j = [(1, 3), (4, 1)].index((int(d["ref_node"]), int(d["ref_dir"])))
+        np.testing.assert_allclose(om, 2 * np.pi * np.asarray(d["x"], float), rtol=1e-15)
+        np.testing.assert_array_equal(G[:, i, j], np.asarray(d["data"]))   # binary: every bit
+
+
+def _58b_single_big_endian(tmp_path, H, x, cut=0, minus=True):
+    """One 58b dataset written here from the format's description: complex single precision (type 5),
+    big-endian (byte order 2), even abscissa, the id line's byte count right, a "-1" line in the data's
+    bytes on purpose (b"\n    -1\n" as floats' bytes cannot be told from text)."""
+    import struct
+    data = np.empty(2 * H.size, ">f4")
+    data[0::2], data[1::2] = H.real, H.imag
+    raw = data.tobytes()
+    n = H.size
+    head = ["    -1", f"    58b{2:6d}{2:6d}{11:12d}{8 * n:12d}{0:6d}{0:6d}{0:12d}{0:12d}",
+            "binary single", "NONE", "NONE", "NONE", "NONE",
+            f"{4:5d}{0:10d}{0:5d}{0:10d} {'pt':10s}{2:10d}{3:4d} {'pt':10s}{1:10d}{3:4d}",
+            f"{5:10d}{n:10d}{1:10d}{x[0]:13.5e}{x[1] - x[0]:13.5e}{0.0:13.5e}",
+            f"{18:10d}{0:5d}{0:5d}{0:5d} {'Frequency':20s} {'Hz':20s}",
+            f"{12:10d}{0:5d}{0:5d}{0:5d} {'acc':20s} {'m/s^2':20s}",
+            f"{13:10d}{0:5d}{0:5d}{0:5d} {'force':20s} {'N':20s}",
+            f"{0:10d}{0:5d}{0:5d}{0:5d} {'':20s} {'':20s}"]
+    body = raw[:len(raw) - cut] + (b"    -1\n" if minus else b"")
+    p = tmp_path / "single.uff"
+    p.write_bytes(("\n".join(head) + "\n").encode() + body)
+    return p
+
+
+def test_uff58b_single_precision_big_endian(tmp_path):
+    x = np.arange(60) * 0.5 + 2.0
+    H = (1 / (2j * np.pi * x + 30)).astype(np.complex64)
+    H[7] = np.frombuffer(b"\n -1", ">f4")[0] + 1j * np.frombuffer(b"\n\n\n\n", ">f4")[0]   # text-like bytes
+    p = _58b_single_big_endian(tmp_path, H, x)
+    doc, G, om = imported(p, tmp_path)
+    np.testing.assert_array_equal(G[:, 0, 0], H.astype(complex))
+    np.testing.assert_allclose(om, 2 * np.pi * (2.0 + 0.5 * np.arange(60)), rtol=1e-6)   # E13.5 abscissa
+    assert doc["output_units"] == ["m/s^2"] and doc["input_units"] == ["N"]
+
+
+def test_uff58b_truncated_or_without_its_end(tmp_path):
+    x = np.arange(60) * 0.5 + 2.0
+    H = (1 / (2j * np.pi * x + 30)).astype(np.complex64)
+    _refused(tmp_path, _58b_single_big_endian(tmp_path, H, x, cut=12), "single.uff", "truncated")
+    _refused(tmp_path, _58b_single_big_endian(tmp_path, H, x, cut=4), "single.uff", "no closing -1")
+    _refused(tmp_path, _58b_single_big_endian(tmp_path, H, x, minus=False), "single.uff", "no closing -1")
+    _refused(tmp_path, _58b_single_big_endian(tmp_path, H[:2].copy(), x, minus=False), "single.uff")
 
 
 # ---------------- a CT FRF without a sample time: fit against the plant ----------------

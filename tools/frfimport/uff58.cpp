@@ -5,12 +5,15 @@
 // increment; 0: uneven, an abscissa before each value); records 8, 9, 10 the abscissa's, numerator's
 // (response) and denominator's (reference) units. The datasets of one file make one MIMO FRF: the
 // distinct references are its inputs, the responses its outputs, every pair present once, all on one
-// abscissa. Other datasets (geometry, units, time histories) are skipped; 58b (binary) is refused.
+// abscissa. Binary 58b (the same records, then the numbers as IEEE 754 bytes) is read too. Other
+// datasets (geometry, units, time histories) are skipped.
 #include "frf_import.hpp"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <map>
 
 namespace msidfrfimport {
@@ -77,20 +80,23 @@ struct Dataset {
     std::vector<cd> y;
 };
 
-// Dataset 58 starting at line k ("58"), its lines up to (not including) the closing "-1" at `end`.
-Dataset parse58(const Text &t, size_t k, size_t end)
+// What records 6 to 10 of a dataset 58 say: its signals and units, and how its data are laid out.
+struct Layout {
+    size_t n = 0;             // values
+    size_t per = 0;           // numbers per value: 2 (even spacing: re, im) or 3 (x, re, im)
+    long long otype = 0;      // 5: complex single, 6: complex double
+    double x0 = 0, dx = 0;    // the even abscissa
+};
+
+// Records 6 to 10 of the dataset whose id line ("58" or "58b") is line k. Returns false for a
+// function type other than 4 (not an FRF: skipped). `room`: bytes the data can take at most (a count
+// beyond it is refused before anything is allocated).
+bool parse58_header(const Text &t, size_t k, double room, const char *where, Dataset &d, Layout &lay)
 {
-    Dataset d;
     d.at = k;
-    if (end - k < 13)   // "58", 11 records, at least one data line
-        throw Error(at_line(t.path, k + 1, "dataset 58 has " + std::to_string(end - k - 1) +
-                                               " lines, fewer than its 11 records and data (a truncated file?)"));
     const size_t r6 = k + 6, r7 = k + 7;
     const long long ftype = int_field(t, r6, 0, 5, "record 6's function type");
-    if (ftype != 4) {
-        d.at = 0;   // not an FRF: skipped
-        return d;
-    }
+    if (ftype != 4) return false;
     const std::string l6 = t.line(r6);
     d.rsp = {trim(field(l6, 31, 10)), int_field(t, r6, 41, 10, "the response node"),
              int_field(t, r6, 51, 4, "the response direction")};
@@ -113,17 +119,50 @@ Dataset parse58(const Text &t, size_t k, size_t end)
                                                 " (an FRF is complex: 5 or 6, single or double precision)"));
     if (spacing != 0 && spacing != 1)
         throw Error(at_line(t.path, r7 + 1, "abscissa spacing must be 0 (uneven) or 1 (even)"));
-    const size_t per = spacing ? 2 : 3;   // numbers per value
-    // the count bounded by what the dataset's lines can hold (each number takes 2 characters at least)
-    const size_t bytes = t.lines[end - 1].second - t.lines[k + 12].first;
-    if (!(v[1] >= 1) || v[1] * (double)per * 2 > (double)bytes + 2)
+    lay.per = spacing ? 2 : 3;
+    lay.otype = otype;
+    if (!(v[1] >= 1) || v[1] * (double)lay.per > room)
         throw Error(at_line(t.path, r7 + 1, "the number of values (" + std::to_string((long long)v[1]) +
-                                                ") is more than the dataset's data lines can hold (a truncated file?)"));
-    const size_t n = (size_t)v[1];
-    const double x0 = v[3], dx = v[4];
+                                                ") is more than " + where + " can hold (a truncated file?)"));
+    lay.n = (size_t)v[1];
+    lay.x0 = v[3];
+    lay.dx = v[4];
     d.x_unit = trim(field(t.line(k + 8), 47, 20));
     d.num_unit = trim(field(t.line(k + 9), 47, 20));
     d.den_unit = trim(field(t.line(k + 10), 47, 20));
+    return true;
+}
+
+// The values of a dataset from its numbers (lay.per per value), in its abscissa's spacing.
+void take_values(Dataset &d, const Layout &lay, const std::vector<double> &num)
+{
+    for (size_t i = 0; i < lay.n; ++i) {
+        if (lay.per == 2) {
+            d.x.push_back(lay.x0 + lay.dx * (double)i);
+            d.y.emplace_back(num[2 * i], num[2 * i + 1]);
+        } else {
+            d.x.push_back(num[3 * i]);
+            d.y.emplace_back(num[3 * i + 1], num[3 * i + 2]);
+        }
+    }
+}
+
+// Dataset 58 starting at line k ("58"), its lines up to (not including) the closing "-1" at `end`.
+// d.at is 0 for a dataset that is not an FRF (skipped).
+Dataset parse58(const Text &t, size_t k, size_t end)
+{
+    Dataset d;
+    if (end - k < 13)   // "58", 11 records, at least one data line
+        throw Error(at_line(t.path, k + 1, "dataset 58 has " + std::to_string(end - k - 1) +
+                                               " lines, fewer than its 11 records and data (a truncated file?)"));
+    // the count bounded by what the dataset's lines can hold (each number takes 2 characters at least)
+    const size_t bytes = t.lines[end - 1].second - t.lines[k + 12].first;
+    Layout lay;
+    if (!parse58_header(t, k, ((double)bytes + 2) / 2, "the dataset's data lines", d, lay)) {
+        d.at = 0;
+        return d;
+    }
+    const size_t n = lay.n, per = lay.per;
     std::vector<double> num;
     num.reserve(n * per);
     for (size_t q = k + 12; q < end; ++q) {
@@ -139,16 +178,75 @@ Dataset parse58(const Text &t, size_t k, size_t end)
                                                std::to_string(n) + " values (" + std::to_string(n * per) +
                                                " numbers) but holds " + std::to_string(num.size()) +
                                                " (a truncated or corrupt file?)"));
-    for (size_t i = 0; i < n; ++i) {
-        if (spacing) {
-            d.x.push_back(x0 + dx * (double)i);
-            d.y.emplace_back(num[2 * i], num[2 * i + 1]);
-        } else {
-            d.x.push_back(num[3 * i]);
-            d.y.emplace_back(num[3 * i + 1], num[3 * i + 2]);
-        }
-    }
+    take_values(d, lay, num);
     return d;
+}
+
+// Dataset 58b at id line k: the same 11 records, then the numbers in binary (IEEE 754, the byte order
+// the id line names; 4 bytes each for ordinate type 5, 8 for 6) straight after the records, then the
+// closing "-1". The data's size is what record 7 makes of it (some writers' id lines count half the
+// bytes of complex data); it must end where the "    -1" line starts (I6, after an optional line end). Returns the offset just past that "-1"
+// line (the caller goes on from there); d.at is 0 for a dataset that is not an FRF.
+size_t parse58b(const Text &t, size_t k, Dataset &d)
+{
+    const std::string id = t.line(k);
+    auto id_field = [&](size_t a, size_t n, const char *what) -> long long {
+        const std::string f = trim(field(id, a, n));
+        char *e = nullptr;
+        const long long v = f.empty() ? 0 : std::strtoll(f.c_str(), &e, 10);
+        if (f.empty() || *e) throw Error(at_line(t.path, k + 1, std::string("58b's ") + what + " must be an integer (got '" + f + "')"));
+        return v;
+    };
+    const long long order = id_field(7, 6, "byte ordering"), fp = id_field(13, 6, "floating-point format"),
+                    nascii = id_field(19, 12, "number of ASCII lines"), nbytes = id_field(31, 12, "number of bytes");
+    if (order != 1 && order != 2) throw Error(at_line(t.path, k + 1, "58b byte ordering must be 1 (little endian) or 2 (big endian)"));
+    if (fp != 2) throw Error(at_line(t.path, k + 1, "58b floating-point format " + std::to_string(fp) + ": msid reads IEEE 754 (2)"));
+    if (nascii != 11) throw Error(at_line(t.path, k + 1, "58b must be followed by 11 ASCII records (the id line says " + std::to_string(nascii) + ")"));
+    if (k + 12 >= t.lines.size()) throw Error(at_line(t.path, k + 1, "dataset 58b ends inside its 11 records (a truncated file?)"));
+    const size_t off = t.lines[k + 12].first;   // the byte after the 11th record's newline
+    const double room = (double)(t.s.size() - off);
+    Layout lay;
+    const bool frf = parse58_header(t, k, room / 4.0, "the file's bytes after the records", d, lay);
+    const size_t elem = lay.otype == 5 ? 4 : 8, size = lay.n * lay.per * elem;
+    if ((double)size > room)
+        throw Error(at_line(t.path, k + 8, "dataset 58b announces " + std::to_string(lay.n) + " values (" + std::to_string(size) +
+                                               " bytes), more than the file holds after its records (a truncated file?)"));
+    // the closing "-1" right after the data (an optional line end before it)
+    size_t p = off + size;
+    if (p < t.s.size() && t.s[p] == '\r') ++p;
+    if (p < t.s.size() && t.s[p] == '\n') ++p;
+    // the format's I6 "    -1", exactly: spaces skipped here would hide data that ends a few bytes off
+    const size_t q = p + 4;
+    const bool closed = t.s.compare(p, 6, "    -1") == 0 &&
+                        (q + 2 == t.s.size() || t.s[q + 2] == '\n' || t.s[q + 2] == '\r' || t.s[q + 2] == ' ');
+    if (!closed)
+        throw Error(at_line(t.path, k + 1, "dataset 58b: no closing -1 after its " + std::to_string(size) +
+                                               " bytes of data (record 7: " + std::to_string(lay.n) + " values; the id "
+                                               "line says " + std::to_string(nbytes) + " bytes): a truncated or corrupt file?"));
+    const size_t e = t.s.find('\n', q);
+    const size_t next = e == std::string::npos ? t.s.size() : e + 1;
+    if (!frf) {
+        d.at = 0;
+        return next;
+    }
+    const bool swap = (order == 1) != (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
+    std::vector<double> num(lay.n * lay.per);
+    for (size_t i = 0; i < num.size(); ++i) {
+        unsigned char b[8];
+        std::memcpy(b, t.s.data() + off + i * elem, elem);
+        if (swap) std::reverse(b, b + elem);
+        if (elem == 4) {
+            float f;
+            std::memcpy(&f, b, 4);
+            num[i] = f;
+        } else {
+            std::memcpy(&num[i], b, 8);
+        }
+        if (!std::isfinite(num[i]))
+            throw Error(at_line(t.path, k + 1, "dataset 58b: value " + std::to_string(i / lay.per + 1) + " is not finite"));
+    }
+    take_values(d, lay, num);
+    return next;
 }
 
 // The abscissa in rad/s: Hz unless its unit label says rad/s.
@@ -180,12 +278,20 @@ Imported read_uff58(const std::string &path)
         if (k + 1 >= t.lines.size()) break;
         const std::string kind = trim(t.line(k + 1));
         const std::string id = kind.substr(0, kind.find_first_of(" \t"));
+        if (id == "58b") {   // binary data may hold anything, "-1" lines too: found by its size
+            Dataset d;
+            const size_t next = parse58b(t, k + 1, d);
+            if (d.at) sets.push_back(std::move(d));
+            else ++skipped;
+            size_t q = k + 1;
+            while (q < t.lines.size() && t.lines[q].first < next) ++q;
+            k = q - 1;   // the line before the next one to look at
+            continue;
+        }
         size_t end = k + 2;
         while (end < t.lines.size() && trim(t.line(end)) != "-1") ++end;
         if (end == t.lines.size())
             throw Error(at_line(path, k + 2, "dataset " + id + " has no closing -1 (a truncated file?)"));
-        if (id == "58b")
-            throw Error(at_line(path, k + 2, "a binary dataset 58 (58b); msid reads ASCII dataset 58 (write it as ASCII)"));
         if (id == "58") {
             Dataset d = parse58(t, k + 1, end);
             if (d.at) sets.push_back(std::move(d));
