@@ -226,13 +226,17 @@ def _long_bad(tmp_path, name, bad_row, cell=None, blank=False):
     return p
 
 
+@pytest.mark.parametrize("auto", ["", "lines", "both"])
 @pytest.mark.parametrize("what", ["cell", "blank"])
-def test_a_problem_deep_in_a_streamed_file_is_named_and_nothing_written(tmp_path, what):
-    """A bad cell or an empty line at row 50,000 (far beyond the first block): one message naming the
-    line, exit 1, no output; the message is the reader's (read_record_csv, the same as before)."""
+def test_a_problem_deep_in_a_streamed_file_is_named_and_nothing_written(tmp_path, what, auto):
+    """A bad cell or an empty line at row 50,000 (far beyond the first block and the input checks'
+    rows), with the lines given, --lines auto (its own pass meets it) or --period auto too: one
+    message naming the line, exit 1, no output; the message is the reader's (read_record_csv)."""
     p = _long_bad(tmp_path, "bad.csv", 50_000, cell="0.5,x1" if what == "cell" else None, blank=what == "blank")
     out = tmp_path / "frf.json"
-    r = h.run("frf", "--period", P, "--lines", BINS, "--experiment", p, "-o", out)
+    how = {"": ("--period", P, "--lines", BINS), "lines": ("--period", P, "--lines", "auto"),
+           "both": ("--period", "auto", "--lines", "auto")}[auto]
+    r = h.run("frf", *how, "--experiment", p, "-o", out)
     assert r.returncode == 1 and not out.exists()
     line = 50_002   # the header, then rows from line 2
     want = (f"'{p}' line {line}, column y1: 'x1' is not a number" if what == "cell"
