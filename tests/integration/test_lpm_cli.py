@@ -241,3 +241,38 @@ def test_lpm_on_periodic_input_points_at_periodic_estimator(tmp_path):
            f"the input is periodic with period {P} samples ({K} whole periods)")
     r = h.run("frf", "--method", "lpm", "--experiment", tmp_path / "ms.csv", "-o", tmp_path / "x.json")
     assert "use the default periodic estimator (drop --method lpm)" in r.stderr.lower(), r.stderr
+
+
+def test_lpm_memory_of_a_long_record_is_bounded(tmp_path):
+    """The LPM gives one line per DFT bin: a 400,000-sample record, 199,999 lines, about 0.7 GB of
+    document (measured 681 MB peak RSS). Under an address-space limit of 1 GB (setrlimit, as a
+    container or `ulimit -v` sets it) msid refuses before estimating, names the size and the cure
+    (--band), exit 1, no file; the same record with a narrow band runs under the same limit."""
+    import os
+    import resource
+    import subprocess
+    if "ASAN_OPTIONS" in os.environ:   # scripts/sanitize.sh: ASan reserves terabytes of address space
+        pytest.skip("an address-space limit cannot be set under AddressSanitizer")
+    if os.environ.get("MSID_EMULATOR"):   # qemu-user's own address space would take the limit
+        pytest.skip("an address-space limit of the emulator, not of msid")
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal(400_000)
+    y = lfilter(B, A, u[:2000])   # a short filtered head; the rest white: the bound counts lines only
+    rec = np.column_stack([u, np.r_[y, rng.standard_normal(u.size - y.size)]])
+    path = tmp_path / "long.npy"
+    np.save(path, rec)
+    limit = 1_000_000_000
+
+    def run(*args):
+        def cap():
+            resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        return subprocess.run([h.msid_bin(), "frf", "--method", "lpm", "--experiment", str(path), "--columns",
+                               "u1=1,y1=2", *map(str, args)], capture_output=True, text=True, timeout=600,
+                              preexec_fn=cap)
+    out = tmp_path / "frf.json"
+    r = run("-o", out)
+    assert r.returncode == 1 and not out.exists(), r.stderr
+    assert "199999 lines" in r.stderr and "--band" in r.stderr and r.stderr.count("error") == 1, r.stderr
+    r = run("--band", "0.01:0.03", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert len(h.load_json(out)["lines"]) == 8001

@@ -261,6 +261,10 @@ int cmd_frf_est(int argc, char **argv)
                 std::tie(c.k_lo, c.k_hi) = band_range(band, a, N, fscale, Kmax,
                                                       fmt("DFT bin of the %zu-sample record (resolution %g %s)", N,
                                                           fscale / N, rq.fs > 0 ? "Hz" : "cycles/sample"));
+            const size_t k_hi = c.k_hi ? c.k_hi : Kmax;
+            msidjob::check_document_memory(
+                k_hi >= c.k_lo ? k_hi - c.k_lo + 1 : 0, ny, nu, fmt("--method lpm on %zu samples", N),
+                "the LPM gives one line per DFT bin of the band: narrow it (--band F1:F2) or decimate the record");
             if (!ref.empty()) {   // noisy inputs / closed loop (lpm_reference below)
                 nlines = lpm_reference(recs, ref, c, rq, doc, lines, noise_mean);
             } else {
