@@ -217,11 +217,18 @@ def test_frf_of_files_same_bits_as_cli(tmp_path, monkeypatch, d2, recs):
     cli("frf", "--design", tmp_path / "design.json", "--experiment", csvs[0], "--experiment", csvs[1],
         "--skip-periods", 1, "-o", tmp_path / "cli.json")
     want = msid.read_frf(tmp_path / "cli.json")
+    cli("frf", "--period", "auto", "--lines", "auto", "--experiment", csvs[0], "--experiment", csvs[1],
+        "--skip-periods", 1, "-o", tmp_path / "cli_auto.json")
+    want_auto = msid.read_frf(tmp_path / "cli_auto.json")
     refuse_processes(monkeypatch)
     got = msid.frf(csvs, design=d2, skip_periods=1)
     assert_same_bits(got, want)
     assert_same_bits(got, msid.frf(recs, design=d2, skip_periods=1))
     assert_same_bits(msid.frf([str(p) for p in csvs], period=P, lines=LINES, skip_periods=1), got)
+    # period and lines found by a first pass over the streamed files, as the command line finds them
+    auto = msid.frf(csvs, period="auto", lines="auto", skip_periods=1)
+    assert_same_bits(auto, want_auto)
+    assert any(r.startswith("--period auto") for r in auto.reports)
     with pytest.raises(OSError, match="cannot open .*nope.csv"):
         msid.frf([tmp_path / "nope.csv", csvs[1]], design=d2)
     bad = tmp_path / "bad.csv"

@@ -221,8 +221,8 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
       pandas DataFrame (its column names, u1.. y1.. or mapped by `columns`). C-contiguous float64 arrays
       are read in place; other real dtypes and layouts are copied once. Or experiment files (a path, or a
       list of paths: CSV, .npy, .npz, .mat), read as `msid frf --experiment` reads them: a CSV record
-      passes through the core block by block when the period and lines are known, so a file far larger
-      than memory is estimated in a few tens of MB (README "CSV records").
+      passes through the core block by block (with period or lines "auto" too: a first pass finds them),
+      so a file far larger than memory is estimated in a few tens of MB (README "CSV records").
     design: an msid.Design or a design file (period, lines, inputs, experiments), or else
     period, lines: samples per period and excited bins; either may be "auto" (found from the inputs).
       lines takes integers or msid's string form ("1:200", "1,3,5:2:21").
