@@ -11,12 +11,19 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/types.h>
 #include <unistd.h>
 
 #include "msid/msid.h"
 #include "msid_daq/msid_can_decoder.h"
 #include "msid_daq/msid_params.h"
 #include "msid_daq/msid_candump.h"
+
+/* Candump logs and CSV records of a long run pass 2 GiB. On 32-bit Linux (armhf) glibc's stat, fstat and
+ * ftello fail on such a file with EOVERFLOW unless off_t is 64 bits (measured under qemu-arm: stat of a
+ * 3 GiB file gave EOVERFLOW with a 4-byte off_t and 3221225472 bytes with an 8-byte one); CMakeLists.txt
+ * makes it 64 bits for every Linux target. */
+_Static_assert(sizeof(off_t) == 8, "file offsets must be 64 bits (_FILE_OFFSET_BITS=64)");
 
 #define BASE 0x200u
 #define P 32u

@@ -367,7 +367,7 @@ public:
         fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
         if (fd_ < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
         struct stat st;
-        if (fstat(fd_, &st) == 0 && S_ISREG(st.st_mode)) size_ = (size_t)st.st_size;
+        if (fstat(fd_, &st) == 0 && S_ISREG(st.st_mode)) size_ = (uint64_t)st.st_size;
     }
     ~LineBlocks()
     {
@@ -376,14 +376,16 @@ public:
     }
     LineBlocks(const LineBlocks &) = delete;
     LineBlocks &operator=(const LineBlocks &) = delete;
-    size_t file_size() const { return size_; }   // 0 when not a regular file (a pipe)
+    uint64_t file_size() const { return size_; }   // 0 when not a regular file (a pipe)
 
     bool next(const char *&p, const char *&q) { return size_ && mapped_ ? next_mapped(p, q) : next_read(p, q); }
 
 private:
     std::string path_;
     int fd_ = -1;
-    size_t size_ = 0, have_ = 0, cut_ = 0, pos_ = 0, win_ = BLOCK;
+    // file positions in 64 bits: size_t is 32 on armhf, and a record may be larger than 4 GiB
+    uint64_t size_ = 0, pos_ = 0;
+    size_t have_ = 0, cut_ = 0, win_ = BLOCK;
     bool eof_ = false, mapped_ = true;
     std::vector<char> buf_;   // read(2) buffer, or the last line of a mapped file lacking its newline
     void *map_ = nullptr;
@@ -400,7 +402,8 @@ private:
         static const size_t page = (size_t)sysconf(_SC_PAGESIZE);
         unmap();
         while (pos_ < size_) {
-            const size_t off = pos_ & ~(page - 1), len = std::min(win_, size_ - off);
+            const uint64_t off = pos_ & ~(uint64_t)(page - 1);
+            const size_t len = (size_t)std::min<uint64_t>(win_, size_ - off);
             void *m = mmap(nullptr, len, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, (off_t)off);
             if (m == MAP_FAILED) {   // a file system without mmap: read(2) from here on
                 if (lseek(fd_, (off_t)pos_, SEEK_SET) < 0)
@@ -410,12 +413,12 @@ private:
             }
             map_ = m;
             map_len_ = len;
-            const char *b = (const char *)m + (pos_ - off), *e = (const char *)m + len;
+            const char *b = (const char *)m + (size_t)(pos_ - off), *e = (const char *)m + len;
             const void *nl = memrchr(b, '\n', (size_t)(e - b));
             if (nl) {
                 p = b;
                 q = (const char *)nl + 1;
-                pos_ = off + (size_t)(q - (const char *)m);
+                pos_ = off + (uint64_t)(q - (const char *)m);
                 return true;
             }
             if (off + len == size_) {   // the last line, without a newline
@@ -571,7 +574,7 @@ const Record &CsvStream::info() const { return p_->info; }
 size_t CsvStream::rows() const { return p_->rows; }
 size_t CsvStream::general_lines() const { return p_->general; }
 bool CsvStream::at_end() const { return p_->done; }
-size_t CsvStream::file_size() const { return p_->in.file_size(); }
+uint64_t CsvStream::file_size() const { return p_->in.file_size(); }
 
 void CsvStream::finish_checks()
 {
@@ -642,8 +645,11 @@ Record read_record_csv(const std::string &path, const ColumnMap &cols, bool spli
     Record r = s.info();
     const size_t C = r.nu + r.ny;
     // Room by the stream's bound, sized from the file's size (pages never written are never
-    // touched: no zero fill), grown for a pipe; each block parsed in place at the end.
-    r.rows.resize((s.file_size() / std::max<size_t>(2 * C, r.file_columns.size()) + 1) * C);
+    // touched: no zero fill), grown for a pipe; each block parsed in place at the end. At first at most
+    // an eighth of the address space: on a 32-bit target the bound of a file of a GB or more exceeds what
+    // the process can map although its rows may fit (from there the room grows as for a pipe).
+    const uint64_t bound = (s.file_size() / std::max<size_t>(2 * C, r.file_columns.size()) + 1) * C;
+    r.rows.resize((size_t)std::min<uint64_t>(bound, SIZE_MAX / 8 / sizeof(double)));
     while (!s.at_end()) {
         s.next([&](size_t max_rows) {
             if (r.rows.size() < (r.n_rows + max_rows) * C)

@@ -104,6 +104,13 @@ FileBytes::FileBytes(const std::string &path)
     if (fd < 0) throw FileError("cannot open '" + path + "': " + std::strerror(errno));
     struct stat st;
     if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+        if constexpr (sizeof(size_t) < sizeof(uint64_t)) {   // a 32-bit target: the size must fit size_t
+            if ((uint64_t)st.st_size > SIZE_MAX) {
+                ::close(fd);
+                throw FileError("cannot read '" + path + "' whole: " + std::to_string((uint64_t)st.st_size) +
+                                " bytes are more than a 32-bit process can address");
+            }
+        }
         const size_t n = (size_t)st.st_size;
         void *m = mmap(nullptr, n, PROT_READ, MAP_PRIVATE | (n <= POPULATE_MAX ? MAP_POPULATE : 0), fd, 0);
         if (m != MAP_FAILED) {

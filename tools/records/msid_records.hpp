@@ -146,7 +146,7 @@ public:
     size_t max_block_rows() const;   // the next block's room bound (0 at the end)
     size_t rows() const;             // rows read so far
     size_t general_lines() const;    // as Record::general_lines
-    size_t file_size() const;        // bytes (0 for a pipe)
+    uint64_t file_size() const;      // bytes (0 for a pipe)
 
 private:
     struct Impl;
