@@ -29,6 +29,12 @@ static void check_cis(double t, double tol)
 static void test_cis_random(void **state)
 {
     (void)state;
+#if LDBL_MANT_DIG <= DBL_MANT_DIG
+    /* ref_cis needs a wider long double (see there): where it is double (32-bit ARM) its own rounding
+     * exceeds the tolerance (armhf under qemu-arm: 6.34e-16 at t = -0.00022434547143841343).
+     * target_linux_bits requires msid_cis_turns's bits to equal the x86-64 build's there. */
+    skip();
+#endif
     msid_rng r;
     msid_rng_seed(&r, 20240601u);
     for (int i = 0; i < 400000; ++i) {

@@ -1,5 +1,6 @@
 /* Twiddle table: entries vs exp(-j 2 pi n / P) in long double, exact points, errors. */
 #include "unit_util.h"
+#include <float.h>
 
 static void check_table(uint32_t P)
 {
@@ -38,6 +39,12 @@ static void check_table(uint32_t P)
 static void test_entries(void **state)
 {
     (void)state;
+#if LDBL_MANT_DIG <= DBL_MANT_DIG
+    /* The reference needs a wider long double: where it is double (32-bit ARM) the rounding of 2 pi n / P
+     * alone exceeds the tolerance (armhf under qemu-arm: 6.11e-16 at P = 3, n = 2). target_linux_bits
+     * requires the table's bits to equal the x86-64 build's there, so its accuracy is the host's. */
+    skip();
+#endif
     const uint32_t Ps[] = {2, 3, 4, 5, 6, 7, 8, 12, 16, 24, 100, 1000, 1023, 1024, 4096, 65536, 99991, 999983, 1u << 20};
     for (size_t k = 0; k < sizeof Ps / sizeof Ps[0]; ++k) check_table(Ps[k]);
 }
