@@ -46,7 +46,7 @@ if(TARGET msid_frfjob)
                 ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp
                 ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp
                 ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
-                ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp
+                ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_est.hpp
           DESTINATION include/msid_host)
   # the acquisition of a device (tools/acquire, over msid::daq)
   if(TARGET msid_acquire)

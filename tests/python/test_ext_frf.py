@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import msid as cli, refuse_processes
+from npy_cli import cli_error, cli_frf
 
 import msid
 
@@ -46,43 +47,6 @@ def d2():
 @pytest.fixture(scope="module")
 def recs(d2):
     return records(d2)
-
-
-def save_npy(tmp, recs):
-    paths = []
-    for k, r in enumerate(recs):
-        p = tmp / f"e{k + 1}.npy"
-        np.save(p, r)
-        paths.append(p)
-    return paths
-
-
-def columns(nu, ny):
-    return ",".join([f"u{j + 1}={j + 1}" for j in range(nu)] + [f"y{i + 1}={nu + i + 1}" for i in range(ny)])
-
-
-def cli_args(tmp, recs, nu, *args):
-    exp = []
-    for p in save_npy(tmp, recs):
-        exp += ["--experiment", p]
-    return ["frf", *exp, "--columns", columns(nu, recs[0].shape[1] - nu), *args, "-o", tmp / "frf.json"]
-
-
-def cli_frf(tmp, recs, nu, *args):
-    cli(*cli_args(tmp, recs, nu, *args))
-    return msid.read_frf(tmp / "frf.json")
-
-
-def cli_error(tmp, recs, nu, *args):
-    """The command line's message for these records, the files named as msid.frf names the arrays."""
-    r = cli(*cli_args(tmp, recs, nu, *args), check=False)
-    assert r.returncode != 0, "msid frf accepted the records"
-    m = re.search(r"msid frf: error: (.*)", r.stderr)
-    assert m, r.stderr
-    msg = m.group(1)
-    for k in range(len(recs)):
-        msg = msg.replace(str(tmp / f"e{k + 1}.npy"), f"records[{k}]")
-    return msg
 
 
 def assert_same_bits(a, b):
@@ -323,7 +287,7 @@ def test_frf_option_and_shape_errors(tmp_path, d2, recs):
         msid.frf(recs, design=d2, skip_periods=-1)
     with pytest.raises(ValueError, match="bad range"):
         msid.frf(recs, period=P, lines="9:3", n_inputs=2)
-    with pytest.raises(ValueError, match="method 'lpm'"):
+    with pytest.raises(ValueError, match="design applies to the periodic estimator, not to method='lpm'"):
         msid.frf(recs, design=d2, method="lpm")
     with pytest.raises(ValueError, match="no column 'Force'"):
         msid.frf(recs, design=d2, columns="u1=Force,u2=2,y1=3,y2=4")

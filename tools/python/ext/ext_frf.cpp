@@ -2,7 +2,9 @@
 // runs it on files: the same request, the same steps, the same bits. The samples are read in place.
 #include "ext.hpp"
 
+#include "msid_frf_est.hpp"
 #include "msid_host_util.hpp"
+#include "msid_reference.hpp"
 
 namespace msidpy {
 
@@ -112,8 +114,116 @@ static py::dict frf_files(const std::vector<std::string> &paths, const std::stri
     return out;
 }
 
+// ---- method="lpm" | "etfe": arbitrary records (msidjob::estimate_frf_est) ----
+
+// The plan of msid.frf's keywords (compute.py passes only those given): method, band (f1, f2, text),
+// order, window, reference (file column names), period, delta, gstar, threads.
+static msidjob::EstPlan est_plan_of(const py::dict &opts)
+{
+    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
+    msidjob::EstPlan p;
+    p.method = msidjob::est_method(opts["method"].cast<std::string>());
+    if (has("band")) {
+        const auto b = opts["band"].cast<py::tuple>();
+        p.band = true;
+        p.f1 = b[0].cast<double>();
+        p.f2 = b[1].cast<double>();
+        p.band_text = b[2].cast<std::string>();
+    }
+    if (has("order")) p.order = opts["order"].cast<uint32_t>();
+    if (has("window")) p.window = opts["window"].cast<uint32_t>();
+    if (has("period")) p.period = opts["period"].cast<uint32_t>();
+    if (has("delta")) p.delta = opts["delta"].cast<double>();
+    if (has("gstar")) p.gstar = opts["gstar"].cast<double>();
+    if (has("threads")) {
+        p.threads = opts["threads"].cast<uint32_t>();
+        if (p.threads == 0) throw UsageError("--threads must be 1..64");
+    }
+    if (has("reference")) p.reference = opts["reference"].cast<std::vector<std::string>>();
+    return p;
+}
+
+static double fs_of(const py::dict &opts)
+{
+    if (!opts.contains("fs") || opts["fs"].is_none()) return 0.0;
+    const double fs = opts["fs"].cast<double>();
+    if (!(fs > 0)) throw UsageError("--fs must be positive");
+    return fs;
+}
+
+static py::dict est_result(const msidjob::FrfOutcome &o)
+{
+    py::dict out;
+    out["frf"] = frf_to_py(o.doc);
+    out["notes"] = o.notes;
+    out["reports"] = std::vector<std::string>{};
+    return out;
+}
+
+// Arrays (as msid.frf's records) and, for the LPM on references, one n_rows x n_inputs array of
+// reference samples per record (compute.py made them C-contiguous float64).
+static py::dict frf_est(const py::list &arrays, const py::list &names, const py::list &columns,
+                        const std::vector<uint32_t> &nu, const py::dict &opts, const py::list &refs)
+{
+    FrfRequest rq;
+    rq.fs = fs_of(opts);
+    msidjob::EstPlan plan = est_plan_of(opts);
+    msidjob::check_est_plan(plan, rq.fs);
+    std::vector<Record> recs = records_of(arrays, names, columns, nu, false);
+    std::vector<Record> ref_recs(refs.size());
+    for (size_t k = 0; k < ref_recs.size(); ++k) {
+        Record &r = ref_recs[k];
+        size_t rows = 0, cols = 0;
+        r.view = samples_of(refs[k].cast<py::array>(), rows, cols);
+        r.path = "reference[" + std::to_string(k) + "]";
+        r.n_rows = rows;
+        r.nu = (uint32_t)cols;
+        for (size_t c = 0; c < cols; ++c) r.columns.push_back("r" + std::to_string(c + 1));
+        if (k < recs.size() && (rows != recs[k].n_rows || cols != recs[k].nu))
+            throw UsageError(msidutil::fmt("%s has %zu rows and %zu columns: need one column per input of %s, %zu x %u",
+                                           r.path.c_str(), rows, cols, recs[k].path.c_str(), recs[k].n_rows,
+                                           recs[k].nu));
+        plan.reference_rows.push_back(r.view);
+    }
+    msidjob::FrfOutcome o;
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
+        for (Record &r : recs) msidrec::check_finite(r, 0, r.n_rows);
+        for (Record &r : ref_recs) msidrec::check_finite(r, 0, r.n_rows);
+        o = msidjob::estimate_frf_est(rq, recs, plan);
+    }
+    return est_result(o);
+}
+
+// Experiment files, as `msid frf --method lpm|etfe --experiment ...` reads them.
+static py::dict frf_est_files(const std::vector<std::string> &paths, const std::string &columns, const py::dict &opts)
+{
+    FrfRequest rq;
+    rq.fs = fs_of(opts);
+    const msidjob::EstPlan plan = est_plan_of(opts);
+    msidjob::check_est_plan(plan, rq.fs);
+    const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
+    msidjob::check_reference_columns(plan.reference, cols);
+    msidjob::FrfOutcome o;
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> planner(fftw_jobs());
+        std::vector<Record> recs;
+        for (const auto &p : paths) recs.push_back(msidrec::read_experiment(p, cols));
+        o = msidjob::estimate_frf_est(rq, recs, plan);
+    }
+    return est_result(o);
+}
+
 void register_frf(py::module_ &m)
 {
+    m.def("frf_est", &frf_est, py::arg("arrays"), py::arg("names"), py::arg("columns"), py::arg("n_inputs"),
+          py::arg("opts"), py::arg("reference"), "The LPM or ETFE on C-contiguous float64 records (use msid.frf).");
+    m.def("frf_est_files", &frf_est_files, py::arg("paths"), py::arg("columns"), py::arg("opts"),
+          "The LPM or ETFE on experiment files, as msid frf --method lpm|etfe (use msid.frf).");
+    m.def("parse_reference", &msidrec::parse_reference, py::arg("spec"),
+          "A --reference spec (r1=Cmd1,... or r1,...) as the reference column names in order r1..");
     m.def("frf_files", &frf_files, py::arg("paths"), py::arg("columns"), py::arg("opts"), py::arg("design"),
           "The FRF job on experiment files, as msid frf (use msid.frf with file paths).");
     m.def("frf", &frf, py::arg("arrays"), py::arg("names"), py::arg("columns"), py::arg("n_inputs"), py::arg("opts"),

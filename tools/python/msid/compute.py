@@ -12,7 +12,7 @@ Only the compiled functions need msid._msid; the rest of the package imports wit
 """
 import os
 import warnings
-from typing import Any, Callable, Dict, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -212,7 +212,10 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
         lines: Optional[Bins] = None, skip_periods: int = 0, fs: Optional[float] = None, method: str = "periodic",
         columns: Union[str, Dict[str, str], None] = None, n_inputs: Optional[int] = None,
         detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
-        block: Optional[int] = None, realisations: Optional[int] = None, direct: bool = False) -> FRF:
+        block: Optional[int] = None, realisations: Optional[int] = None, direct: bool = False,
+        order: Optional[int] = None, window: Optional[int] = None, band: Union[str, Tuple[float, float], None] = None,
+        reference: Any = None, delta: Optional[float] = None, gstar: Optional[float] = None,
+        threads: Optional[int] = None) -> FRF:
     """The FRF of multisine records, as `msid frf` estimates it from files: the same request gives the
     same bits (docs/statistics.md for the estimator and its exact statistics).
 
@@ -230,14 +233,29 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
     columns: which columns feed u1.., y1.. ("u1=Force,y1=Acc" or {"u1": "Force", "y1": "Acc"}), as --columns.
     skip_periods, fs, detect_lines, transient ("flag", "drop", "off"), alpha, dft ("auto", "stream",
       "fft"), block, realisations, direct: the options of `msid frf` (msid frf --help).
-    method: "periodic" (the multisine estimator; `msid frf --method lpm|etfe` is the command line's).
+    method: "periodic" (the multisine estimator, default), or for records of any input (noise, sweeps,
+      steps) "lpm", the local polynomial method, or "etfe", the ETFE with its finite-sample bound, as
+      `msid frf --method lpm|etfe` (docs/statistics.md). Their keywords, each as its option:
+      lpm: order (R, default 2), window (W), band ((f1, f2) or "F1:F2": Hz with fs, else cycles/sample),
+        threads, and for noisy inputs or a closed loop `reference`: the reference signal of each input,
+        as file or DataFrame column names ("r1=Cmd" or ["Cmd"]) or samples (one n_rows x n_inputs array
+        per record);
+      etfe: period (the input period M in samples, required), delta, gstar, band, threads.
 
     Returns an msid.FRF; its .notes are msid's notes (also issued as NoteWarning) and .reports what
     period/lines "auto" found. Raises ValueError with msid's message for bad records or options.
     """
     if method != "periodic":
-        raise ValueError(f"method {method!r}: msid.frf estimates periodic records (method='periodic'); "
-                         "for lpm or etfe use `msid frf --method lpm|etfe`")
+        return _frf_est(records, method, design=design, lines=lines, skip_periods=skip_periods, fs=fs,
+                        columns=columns, n_inputs=n_inputs, detect_lines=detect_lines, transient=transient,
+                        alpha=alpha, dft=dft, block=block, realisations=realisations, direct=direct,
+                        est={"period": period, "order": order, "window": window, "band": band,
+                             "reference": reference, "delta": delta, "gstar": gstar, "threads": threads})
+    for k, v in (("order", order), ("window", window), ("band", band), ("reference", reference),
+                 ("delta", delta), ("gstar", gstar), ("threads", threads)):
+        if v is not None:
+            raise ValueError(f"{k} applies to method='lpm' or 'etfe' (msid frf --method lpm|etfe), not to the "
+                             "periodic estimator")
     D = _design_arg(design)
     if n_inputs is None and D is not None:
         n_inputs = D.n_inputs
@@ -263,6 +281,89 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
         return _result(_ext().frf_files(paths, spec, opts, None if D is None else D._impl), "msid.frf")
     arrays, names, colnames, nus = _records(records, columns, n_inputs)
     return _result(_ext().frf(arrays, names, colnames, nus, opts, None if D is None else D._impl), "msid.frf")
+
+
+def _band(band):
+    """band as (f1, f2, text): a pair of numbers or msid's "F1:F2"."""
+    if isinstance(band, str):
+        parts = band.split(":")
+        if len(parts) != 2:
+            raise ValueError(f"--band must be F1:F2 (got '{band}')")
+        return (_float(parts[0], "band"), _float(parts[1], "band"), band)
+    try:
+        f1, f2 = band
+    except (TypeError, ValueError):
+        raise ValueError(f"band must be (f1, f2) or 'F1:F2', not {band!r}") from None
+    f1, f2 = _float(f1, "band"), _float(f2, "band")
+    return (f1, f2, f"{f1:g}:{f2:g}")
+
+
+def _reference_names(reference):
+    """reference as column names in order r1..: "r1=Cmd,r2=..." (or "r1,r2"), or a list of names."""
+    if isinstance(reference, str):
+        return list(_ext().parse_reference(reference))
+    names = [str(n) for n in reference]
+    if not names:
+        raise ValueError("reference: no column named")
+    return names
+
+
+def _frf_est(records, method, *, design, lines, skip_periods, fs, columns, n_inputs, detect_lines, transient,
+             alpha, dft, block, realisations, direct, est):
+    """msid.frf(method="lpm" | "etfe"): the periodic estimator's keywords are refused, as the command line's."""
+    if method not in ("lpm", "etfe"):
+        raise ValueError(f"--method must be periodic, lpm or etfe (got '{method}')")
+    periodic = {"design": design is not None, "lines": lines is not None, "skip_periods": skip_periods != 0,
+                "detect_lines": detect_lines is not None, "transient": transient != "flag", "alpha": alpha != 0.01,
+                "dft": dft != "auto", "block": block is not None, "realisations": realisations is not None,
+                "direct": bool(direct)}
+    for k, given in periodic.items():
+        if given:
+            raise ValueError(f"{k} applies to the periodic estimator, not to method='{method}'")
+    opts = {"method": method, "fs": None if fs is None else _float(fs, "fs")}
+    for k in ("order", "window", "period", "threads"):
+        if est[k] is not None:
+            opts[k] = _uint(est[k], k)
+    for k in ("delta", "gstar"):
+        if est[k] is not None:
+            opts[k] = _float(est[k], k)
+    if est["band"] is not None:
+        opts["band"] = _band(est["band"])
+    reference = est["reference"]
+    paths = _file_paths(records)
+    if paths is not None:
+        if n_inputs is not None:
+            raise ValueError("n_inputs applies to plain arrays: a file names its columns (u1.., y1.. or columns=)")
+        if reference is not None:
+            opts["reference"] = _reference_names(reference)
+        return _result(_ext().frf_est_files(paths, _column_spec(columns), opts), "msid.frf")
+    arrays, names, colnames, nus = _records(records, columns, n_inputs)
+    refs = []
+    if reference is not None:
+        items = list(records) if isinstance(records, (list, tuple)) else [records]
+        if isinstance(reference, str) or (isinstance(reference, (list, tuple)) and reference
+                                          and all(isinstance(n, str) for n in reference)):
+            cols = _reference_names(reference)   # columns of each DataFrame
+            for k, r in enumerate(items):
+                if not (hasattr(r, "columns") and hasattr(r, "iloc")):
+                    raise ValueError(f"reference names columns ({', '.join(cols)}): records[{k}] is an array "
+                                     "without column names; give the reference samples (one array per record)")
+                missing = [c for c in cols if c not in r.columns]
+                if missing:
+                    raise ValueError(f"'records[{k}]' has no column '{missing[0]}' (reference)")
+                refs.append(_real_samples(r[cols].to_numpy(), f"reference[{k}]"))
+        else:
+            ritems = list(reference) if isinstance(reference, (list, tuple)) else [reference]
+            if len(ritems) != len(items):
+                raise ValueError(f"reference: {len(ritems)} array(s) for {len(items)} record(s); give one per record")
+            for k, a in enumerate(ritems):
+                a = np.asarray(a)
+                if a.ndim == 1:
+                    a = a[:, None]
+                if a.ndim != 2:
+                    raise ValueError(f"'reference[{k}]': a {a.ndim}-dimensional array; expected n_rows x n_inputs")
+                refs.append(_real_samples(a, f"reference[{k}]"))
+    return _result(_ext().frf_est(arrays, names, colnames, nus, opts, refs), "msid.frf")
 
 
 def _file_paths(records) -> Optional[List[str]]:
