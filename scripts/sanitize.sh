@@ -5,9 +5,12 @@
 # Not run here: the Modbus and vcan suites (they test links, not memory; the Modbus adapter's memory is
 # fuzzed by tests/fuzz/fuzz_mb_acq), the speed benchmarks (pytest_test_bench: timing runs of the same code
 # paths the other tests cover), the soak (it bounds RSS, which ASan shadow memory inflates: 137 MB) and the
-# fuzz label (its own clang build with the same sanitizers), and the label montecarlo: the Monte Carlo files
-# run the same `msid fit` and `msid validate` paths as the CLI tests hundreds of times with other seeds
-# (tests/integration/CMakeLists.txt), 30 minutes under ASan for no path the CLI tests do not take.
+# fuzz label (its own clang build with the same sanitizers), the label montecarlo: the Monte Carlo suites
+# run the same estimators and `msid fit` / `msid validate` paths as the unit and CLI tests hundreds of times
+# with other seeds (tests/CMakeLists.txt msid_montecarlo, tests/integration/CMakeLists.txt), 40 minutes
+# under ASan for no path the others do not take; and the plotting package's tests (pytest_test_pkg_plot,
+# pytest_test_pkg_files, pytest_test_plot_phase_bound: matplotlib and python-control in an uninstrumented
+# interpreter, the msid calls among them taken by the CLI tests).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
@@ -20,4 +23,5 @@ cmake --build build-asan -j "$jobs" >> build-asan.log 2>&1 || { tail -50 build-a
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 cd build-asan
-exec ctest --output-on-failure -j "$jobs" -L 'unit|stats|integration' -LE montecarlo -E 'pytest_test_mb_|pytest_test_bench|vcan|^fuzz_|^soak_' "$@"
+exec ctest --output-on-failure -j "$jobs" -L 'unit|stats|integration' -LE montecarlo \
+    -E 'pytest_test_mb_|pytest_test_bench|vcan|^fuzz_|^soak_|pytest_test_pkg_(plot|files)|pytest_test_plot_phase_bound' "$@"
