@@ -158,3 +158,59 @@ def test_bad_requests(tmp_path):
         # the simulator still serves a good request after the refusals
         f = msid.measure(uri(sim), d, periods=3, skip_periods=1)
         assert f.meta["complete"] is True
+
+
+def test_on_device_same_bits_as_cli(tmp_path, monkeypatch):
+    """on_device=True: the device estimates (estimate/1) and msid.measure reads its result block; with
+    stream_check the host's estimate from the streamed samples agrees bit for bit (.host_frf). Both equal
+    `msid modbus measure --on-device` on a simulator with the same seed; no process is started."""
+    d = msid.design(**DESIGN)
+    d.save(tmp_path / "design.json")
+    for sub in ("a", "b", "c"):
+        (tmp_path / sub).mkdir()
+    with Sim(tmp_path / "a", "--seed", 9, "--noise-y", 0.02) as sim:
+        with monkeypatch.context() as mp:
+            refuse_processes(mp)
+            f = msid.measure(uri(sim), d, periods=5, skip_periods=1, on_device=True, stream_check=True)
+        truth = sim.truth()
+    acq = f.meta["acquisition"]
+    assert acq["on_device"] is True and acq["estimate_mode"] == "estimate+stream"
+    assert acq["stream_check"].startswith("bit-identical to the host's estimate")
+    same_bits(f, f.host_frf)
+    with Sim(tmp_path / "b", "--seed", 9, "--noise-y", 0.02) as sim2:
+        only = msid.measure(uri(sim2), d, periods=5, skip_periods=1, on_device=True)
+    assert only.meta["acquisition"]["estimate_mode"] == "estimate" and not hasattr(only, "host_frf")
+    same_bits(only, f)
+    out = tmp_path / "cli.json"
+    with Sim(tmp_path / "c", "--seed", 9, "--noise-y", 0.02) as sim3:
+        r = run("modbus", "measure", "--tcp", f"127.0.0.1:{sim3.port}", "--design", tmp_path / "design.json",
+                "--periods", 5, "--skip-periods", 1, "--on-device", "-o", out)
+        assert r.returncode == 0, r.stderr
+    same_bits(f, msid.read_frf(out))
+    inside, n = check_coverage(msid.frf_to_doc(f), truth)
+    assert n == 40 * 2
+
+
+def test_on_device_refusals_and_stop(tmp_path):
+    d = msid.design(**DESIGN)
+    with pytest.raises(ValueError, match="stream_check applies to on_device=True"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, stream_check=True)
+    with pytest.raises(ValueError, match="dft does not apply to on_device"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, on_device=True, dft="fft")
+    with pytest.raises(ValueError, match="--detect-lines is not available with --on-device"):
+        msid.measure("modbus-tcp://127.0.0.1:502", d, on_device=True, detect_lines=[2])
+    with Sim(tmp_path, "--seed", 1, "--est-mem", 4096) as sim:
+        with pytest.raises(OSError, match="cannot estimate on board: .*it has 4096"):
+            msid.measure(uri(sim), d, periods=4, on_device=True)
+
+    def stop(s):
+        raise KeyboardInterrupt
+
+    (tmp_path / "s").mkdir()
+    with Sim(tmp_path / "s", "--seed", 1) as sim:
+        with pytest.raises(KeyboardInterrupt, match="gives an FRF only for whole runs") as e:
+            msid.measure(uri(sim), d, periods=40, rate=2000, on_device=True, progress=stop)
+        assert not isinstance(e.value, msid.MeasurementInterrupted)
+        # the device serves the next request
+        f = msid.measure(uri(sim), d, periods=3, on_device=True)
+    assert f.meta["acquisition"]["on_device"] is True

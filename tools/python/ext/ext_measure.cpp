@@ -4,6 +4,7 @@
 #include "ext.hpp"
 
 #include "msid_acquire.hpp"
+#include "msid_ondevice.hpp"
 
 #include <chrono>
 #include <csignal>
@@ -101,7 +102,8 @@ private:
 // measure(device, design, opts, periods, rate, scale, timeout, progress) -> {"frf", "notes", "complete",
 // "summary", "interrupted"}. opts: the estimating options (request_options).
 static py::dict measure(const std::string &device, py::object design, const py::dict &opts, uint32_t periods,
-                        uint32_t rate, double scale, double timeout, py::object progress)
+                        uint32_t rate, double scale, double timeout, py::object progress, bool on_device,
+                        bool stream_check)
 {
     const msidacq::DeviceUri dev = msidacq::parse_device_uri(device);
     msidacq::MeasurePlan plan;
@@ -115,15 +117,29 @@ static py::dict measure(const std::string &device, py::object design, const py::
     plan.sf.fd = dev.fd ? 1 : 0;
     plan.timeout = timeout;
     msidacq::check_plan(plan, "periods", "skip_periods");
+    if (on_device) msidacq::check_ondevice_request(plan.rq);
     PyControl ctl(std::move(progress));
     msidacq::MeasureResult R;
+    msidacq::OnDeviceResult OD;
     bool stopped_empty = false;
     std::string why;
     {
         py::gil_scoped_release nogil;
         std::lock_guard<std::mutex> planner(fftw_jobs());
         try {
-            R = msidacq::measure_device(dev, [&](uint32_t, msidacq::MeasurePlan &P) { P = std::move(plan); }, ctl);
+            if (!on_device) {
+                R = msidacq::measure_device(dev, [&](uint32_t, msidacq::MeasurePlan &P) { P = std::move(plan); }, ctl);
+            } else {
+                OD = msidacq::measure_device_ondevice(dev, plan, stream_check ? "the host's estimate (msid.measure)" : "",
+                                                      ctl);
+                if (OD.checked && !OD.host.complete) {
+                    R = std::move(OD.host);   // stopped in the stream check's host session: its complete periods
+                } else {
+                    if (!OD.mismatch.empty()) throw msidacq::Error(OD.mismatch);
+                    R.o.doc = std::move(OD.doc);
+                    R.summary = OD.summary;
+                }
+            }
         } catch (const msidutil::Error &e) {
             // stopped before every experiment had 2 periods: no FRF; Ctrl-C stays Ctrl-C, and an
             // exception of the progress callable is the one raised
@@ -147,13 +163,15 @@ static py::dict measure(const std::string &device, py::object design, const py::
     out["complete"] = R.complete;
     out["summary"] = R.summary;
     out["interrupted"] = ctl.interrupted();
+    if (on_device && OD.checked && R.complete) out["host"] = frf_to_py(OD.host.o.doc);
     return out;
 }
 
 void register_measure(py::module_ &m)
 {
     m.def("measure", &measure, py::arg("device"), py::arg("design"), py::arg("opts"), py::arg("periods"),
-          py::arg("rate"), py::arg("scale"), py::arg("timeout"), py::arg("progress"),
+          py::arg("rate"), py::arg("scale"), py::arg("timeout"), py::arg("progress"), py::arg("on_device") = false,
+          py::arg("stream_check") = false,
           "One measurement of a device (use msid.measure).");
 }
 

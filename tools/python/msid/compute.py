@@ -437,7 +437,8 @@ class Measurement:
 def measure(device: str, design: Union["Design", PathLike], *, periods: Optional[int] = None, skip_periods: int = 0,
             rate: float = 0, fs: Optional[float] = None, scale: float = 0.001, timeout: float = 10.0,
             detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
-            progress: Optional[Callable[[Dict[str, Any]], None]] = None) -> FRF:
+            progress: Optional[Callable[[Dict[str, Any]], None]] = None, on_device: bool = False,
+            stream_check: bool = False) -> FRF:
     """Measure a device as `msid measure` does, in process: identify it, upload the design as
     parameters (the device regenerates the multisine with msid's core), run every experiment, and
     return the FRF of what was measured (docs/measure.md). No process is started.
@@ -453,6 +454,13 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
     progress: called with a dict (experiment, experiments, periods, periods_target, periods_total,
       rejected, samples_lost, link_errors, snr_db, eta_s) after every event and at most every 20 ms
       between them, from the calling thread. An exception it raises ends the run and is raised again.
+
+    on_device: the device estimates (extension estimate/1, as `msid modbus|can measure --on-device`):
+      no sample crosses the link, msid reads each line's G, covariances and dof, bit for bit what the
+      host would compute (no detect_lines; dft is the device's streaming path). stream_check: the device
+      also streams its samples, the host estimates from them and both must agree bit for bit (OSError
+      otherwise); the host's FRF is .host_frf of the result. A stop while the device estimates leaves no
+      FRF (KeyboardInterrupt); progress then sees only which experiment runs.
 
     Returns an msid.FRF with the `acquisition` block in .meta (counts of samples, losses, retries).
     Ctrl-C ends the run after the complete periods and raises msid.MeasurementInterrupted (a
@@ -471,10 +479,16 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
         raise ValueError(f"rate must be a whole number of Hz (0: unpaced), not {rate!r}")
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, not {type(progress).__name__}")
+    if stream_check and not on_device:
+        raise ValueError("stream_check applies to on_device=True (the device estimates and streams)")
+    if on_device and opts.get("dft") is not None:
+        raise ValueError("dft does not apply to on_device=True (the device's streaming DFT path is used)")
     K = (D.periods or 8) if periods is None else _uint(periods, "periods")
     res = _ext().measure(str(device), D._impl, opts, K, int(r), _float(scale, "scale"), _float(timeout, "timeout"),
-                         progress)
+                         progress, bool(on_device), bool(stream_check))
     f = _result(res, "msid.measure")
+    if "host" in res:
+        f.host_frf = FRF._of_arrays(res["host"])
     if res["interrupted"]:
         raise MeasurementInterrupted(f"msid.measure: interrupted: {res['summary']}", f)
     return f
