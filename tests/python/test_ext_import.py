@@ -83,3 +83,45 @@ def test_bad_file_is_one_value_error(tmp_path):
         msid.import_frf(p)
     with pytest.raises(OSError):
         msid.import_frf(tmp_path / "missing.s1p")
+
+
+def _same_mat_value(a, b):
+    """Equal values of scipy.io.loadmat (cell arrays are object arrays of arrays)."""
+    if isinstance(a, np.ndarray) and a.dtype == object:
+        return isinstance(b, np.ndarray) and a.shape == b.shape and \
+            all(_same_mat_value(p, q) for p, q in zip(a.flat, b.flat))
+    return np.array_equal(a, b)
+
+
+def test_export_equals_the_cli(demo, tmp_path, monkeypatch):
+    """msid.export (tools/frfexport in process) writes what `msid export` writes: the same CSV bytes, the
+    same .mat variables (scipy.io.loadmat), from a file and from the FRF or model object; its refusals are
+    the command line's, with nothing written."""
+    from no_process import refuse_processes
+    scipy_io = pytest.importorskip("scipy.io")
+    frf, model = demo / "frf.json", demo / "model.json"
+    cli("export", frf, "--csv", tmp_path / "cli.csv")
+    cli("export", frf, "--mat", tmp_path / "cli.mat", "--known-input")
+    cli("export", model, "--mat", tmp_path / "cli_model.mat")
+    with monkeypatch.context() as mp:
+        refuse_processes(mp)
+        msid.export(frf, tmp_path / "py.csv")
+        msid.export(msid.read_frf(frf), tmp_path / "obj.csv")
+        msid.export(frf, tmp_path / "py.mat", known_input=True)
+        msid.export(msid.read_model(model), tmp_path / "py_model.mat")
+    assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    assert (tmp_path / "obj.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    for a, b in (("py.mat", "cli.mat"), ("py_model.mat", "cli_model.mat")):
+        x, y = scipy_io.loadmat(tmp_path / a), scipy_io.loadmat(tmp_path / b)
+        keys = sorted(k for k in x if not k.startswith("__"))
+        assert keys == sorted(k for k in y if not k.startswith("__")) and ("A" in keys or "ResponseData" in keys)
+        for k in keys:
+            assert _same_mat_value(x[k], y[k]), k
+    before = sorted(p.name for p in tmp_path.iterdir())
+    with pytest.raises(ValueError, match="--mat only"):
+        msid.export(model, tmp_path / "m.csv")
+    with pytest.raises(ValueError, match="give a .csv or .mat"):
+        msid.export(frf, tmp_path / "f.txt")
+    with pytest.raises(OSError, match="cannot"):
+        msid.export(frf, tmp_path / "no" / "dir" / "f.mat")
+    assert sorted(p.name for p in tmp_path.iterdir()) == before

@@ -15,10 +15,10 @@ from .files import (FRF, Model, FormatError, frf_from_doc, frf_to_doc, read_frf,
                     write_model)
 # msid._msid is imported by these on their first call, so the file functions work without it
 from .compute import (ConvergenceWarning, Design, Measurement, MeasurementInterrupted, Modes, NoteWarning,  # noqa: F401
-                      Validation, design, fit, frf, import_frf, measure, modes, read_design, validate)
+                      Validation, design, export, fit, frf, import_frf, measure, modes, read_design, validate)
 
 __version__ = "0.1.0"
-__all__ = ["frf", "Measurement", "measure", "MeasurementInterrupted", "Design", "design", "read_design", "fit", "import_frf", "validate", "Validation", "modes", "Modes",
+__all__ = ["frf", "export", "Measurement", "measure", "MeasurementInterrupted", "Design", "design", "read_design", "fit", "import_frf", "validate", "Validation", "modes", "Modes",
            "NoteWarning",
            "ConvergenceWarning", "FRF", "Model", "FormatError", "frf_from_doc", "frf_to_doc", "read_frf", "read_model",
            "write_frf", "write_model",

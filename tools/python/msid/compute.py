@@ -16,7 +16,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .files import FRF, Model, frf_from_doc, frf_to_doc, model_to_doc
+from .files import FRF, Model, frf_from_doc, frf_to_doc, model_to_doc, write_frf, write_model
 
 PathLike = Union[str, "os.PathLike[str]"]
 Bins = Union[str, Sequence[int], np.ndarray]
@@ -492,6 +492,32 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
     if res["interrupted"]:
         raise MeasurementInterrupted(f"msid.measure: interrupted: {res['summary']}", f)
     return f
+
+
+# ---- files for other tools ----
+
+def export(src: Union["FRF", "Model", PathLike], out: PathLike, *, known_input: bool = False) -> None:
+    """An FRF or a model for other tools, as `msid export` writes it: `out` ending in .csv (an FRF: G, the
+    standard deviation of each element, dof, frequencies) or .mat (an FRF in the shape of MATLAB's
+    idfrd, its CovarianceData scaled so that showConfidence draws the exact 95% regions; a model as the
+    A, B, C, D, Ts and names that ss and idss take). src: a file, or an msid.FRF / msid.Model (written
+    to a temporary file beside `out` first). known_input: the known-input covariance of an FRF.
+    Nothing is written when it fails: ValueError for what cannot be exported, OSError for files."""
+    out = os.fspath(out)
+    ext = os.path.splitext(out)[1].lower()
+    if ext not in (".csv", ".mat"):
+        raise ValueError(f"'{out}': give a .csv or .mat file to export to")
+    if isinstance(src, (FRF, Model)):
+        import tempfile
+        fd, tmp = tempfile.mkstemp(suffix=".json", dir=os.path.dirname(os.path.abspath(out)))
+        os.close(fd)
+        try:
+            (write_frf if isinstance(src, FRF) else write_model)(tmp, src)
+            _ext().export_file(tmp, out, ext == ".csv", bool(known_input))
+        finally:
+            os.remove(tmp)
+        return
+    _ext().export_file(os.fspath(src), out, ext == ".csv", bool(known_input))
 
 
 # ---- designs ----
