@@ -53,7 +53,7 @@ if(TARGET msid_frfjob)
     set_target_properties(msid_acquire PROPERTIES EXPORT_NAME acquire)
     install(TARGETS msid_acquire EXPORT msidTargets ARCHIVE DESTINATION lib)
     install(FILES ${PROJECT_SOURCE_DIR}/tools/acquire/msid_acquire.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_device_uri.hpp
-                  ${PROJECT_SOURCE_DIR}/tools/acquire/msid_ondevice.hpp
+                  ${PROJECT_SOURCE_DIR}/tools/acquire/msid_ondevice.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_can_replay.hpp
                   ${PROJECT_SOURCE_DIR}/tools/acquire/msid_param_upload.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_can_acq.hpp
             DESTINATION include/msid_host)
   endif()
