@@ -24,9 +24,22 @@ endfunction()
 # compiled once instead of once per file: Eigen template instantiation, not optimisation, is the build
 # time (docs/benchmarks.md "Demo build"). Sources marked SKIP_UNITY_BUILD_INCLUSION stay apart
 # (tools/fit's explicit instantiations, eigen_inst_*.cpp, which the second core compiles meanwhile).
-# The sources themselves are unchanged; the full build compiles them one by one as before.
+# With MSID_UNITY_BUILD (the sanitizer build of scripts/sanitize.sh) the same, in batches of a few
+# sources that both cores compile side by side. The sources themselves are unchanged; the full build
+# compiles them one by one as before.
+option(MSID_UNITY_BUILD "Compile the Eigen-heavy host libraries as unity sources of a few files each" OFF)
 function(msid_demo_unity target)
   if(MSID_DEMO)
     set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 0)
+  elseif(MSID_UNITY_BUILD)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 4)
+  endif()
+endfunction()
+
+# msid_unity_build(target): with MSID_UNITY_BUILD only, as msid_demo_unity (the demo build compiles
+# these targets one source at a time).
+function(msid_unity_build target)
+  if(MSID_UNITY_BUILD AND NOT MSID_DEMO)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 4)
   endif()
 endfunction()
