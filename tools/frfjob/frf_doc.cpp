@@ -10,7 +10,6 @@
 
 namespace msidjob {
 
-// The first number in `j` that is NaN or infinite (JSON would write it as null), by its path; "" if none.
 Json cplx_json(const std::complex<double> *a, size_t rows, size_t cols) { return msidfrf::cmat(a, rows, cols); }
 
 Json est_line_json(Json pos, unsigned ny, unsigned nu, const std::complex<double> *G,
