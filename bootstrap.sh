@@ -42,7 +42,6 @@ cmake --build build -j "$jobs" >> build.log 2>&1 || { tail -50 build.log; exit 1
 echo "bootstrap: built in $SECONDS s with $jobs jobs (log: build.log)" >&2
 
 case "$mode" in
-  # one test more than cores: the device and link tests spend much of their time waiting on timeouts
-  test) cd build && exec ctest --output-on-failure -j "$((jobs + 1))" ;;
+  test) cd build && exec ctest --output-on-failure -j "$jobs" ;;
   build) echo "built: build/tools/msid" ;;
 esac
