@@ -12,7 +12,6 @@ int cmd_frf_est(int argc, char **argv);   // --method lpm | etfe
 int cmd_demo(int argc, char **argv);
 int cmd_measure_uri(int argc, char **argv);   // cmd_measure.cpp: msid measure --device URI
 int cmd_bench(int argc, char **argv);
-int cmd_bench_lpm(int argc, char **argv);   // msid bench lpm
 int cmd_fit(int argc, char **argv);
 // cmd_fit.cpp: a fit's model file and what msid prints of it (exit status 0, or 3 when the
 // iterations ran out); its notes on stderr as they arise.
@@ -24,15 +23,12 @@ int cmd_modes(int argc, char **argv);
 // cmd_fit_cissim.cpp: msid fit --method cissim (time records, You et al. 2023)
 bool cissim_requested(int argc, char **argv);
 int cmd_fit_cissim(int argc, char **argv);
-int cmd_bench_cissim(int argc, char **argv);   // msid bench fit --cissim
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
 int cmd_modbus(int argc, char **argv);
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_modbus_ondevice(int argc, char **argv);   // msid modbus measure --on-device (cmd_ondevice.cpp)
 int cmd_can_ondevice(int argc, char **argv);      // msid can measure --on-device (cmd_ondevice.cpp)
-int cmd_bench_target(int argc, char **argv);  // msid bench target | wcet
-int cmd_bench_io(int argc, char **argv);
 int cmd_plot(int argc, char **argv);     // cmd_plot.cpp: wraps python3 -m msid.plot
 int cmd_export(int argc, char **argv);   // cmd_export.cpp: FRF as CSV or MATLAB idfrd .mat
 int cmd_import(int argc, char **argv);   // cmd_import.cpp: another tool's FRF as msid-frf/1
@@ -45,7 +41,6 @@ int call_python_module(const std::string &module, const std::vector<std::string>
 // cmd_fit_multi.cpp: msid fit --method multi (records with eliminated initial conditions)
 bool fit_method_is(int argc, char **argv, const char *method);
 int cmd_fit_multi(int argc, char **argv);
-int cmd_bench_fit_multi(int argc, char **argv);   // msid bench fit --only multi (cmd_bench_multi.cpp)
 bool validate_on_records(int argc, char **argv);   // msid validate model.json --experiment ... (cmd_fit_multi.cpp)
 int cmd_validate_multi(int argc, char **argv);
 }  // namespace msidcli
@@ -55,8 +50,4 @@ int cmd_validate_multi(int argc, char **argv);
 namespace msidcli {
 // Run a benchmark script with MSID_BIN and MSID_DEVSIM set to this build's binaries (execvp).
 int exec_with_build(std::vector<std::string> args);
-// The machine line of the benchmarks (CPU, cores, kernel), and the directory holding the Python
-// package msid_peers (the independent peers, tools/peers): $MSID_PEERS_DIR, else the source tree's.
-std::string bench_machine();
-std::string bench_peers_dir();
 }  // namespace msidcli

@@ -1,0 +1,104 @@
+// The shared parts of msid_bench (bench_util.hpp).
+#include "bench_util.hpp"
+
+#include "msid_host_error.hpp"
+
+#include <chrono>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <sys/utsname.h>
+#include <unistd.h>
+#include <vector>
+
+namespace msidbench {
+
+void Writer::print(const char *f, ...)
+{
+    va_list ap, ap2;
+    va_start(ap, f);
+    va_copy(ap2, ap);
+    const int n = std::vsnprintf(nullptr, 0, f, ap);
+    va_end(ap);
+    std::string s(n > 0 ? (size_t)n : 0, '\0');
+    if (n > 0) std::vsnprintf(&s[0], s.size() + 1, f, ap2);
+    va_end(ap2);
+    report_.text += s;
+    if (sink_.out) sink_.out(s);
+}
+
+void Writer::error(const std::string &line)
+{
+    report_.errors.push_back(line);
+    if (sink_.err) sink_.err(line + "\n");
+}
+
+double wall_s()
+{
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+double process_cpu_s() { return (double)std::clock() / CLOCKS_PER_SEC; }
+
+double thread_cpu_s()
+{
+    timespec t;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+std::string machine()
+{
+    std::string cpu = "unknown cpu";
+    std::ifstream f("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(f, line))
+        if (line.rfind("model name", 0) == 0) { cpu = line.substr(line.find(':') + 2); break; }
+    struct utsname u;
+    uname(&u);
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return cpu + ", " + std::to_string(n) + " cores, " + u.sysname + " " + u.release;
+}
+
+std::string peers_dir()
+{
+    const char *env = std::getenv("MSID_PEERS_DIR");
+    return env ? env : std::string(MSID_SOURCE_DIR) + "/tools/peers";
+}
+
+int capture(const std::string &cmd, std::string &out)
+{
+    FILE *p = popen(cmd.c_str(), "r");
+    if (!p) return -1;
+    char buf[4096];
+    while (std::fgets(buf, sizeof buf, p)) out += buf;
+    return pclose(p);
+}
+
+double process_time(const std::string &cmd, int reps)
+{
+    std::vector<double> t;
+    for (int k = 0; k < reps; ++k) {
+        const double t0 = wall_s();
+        if (std::system((cmd + " >/dev/null 2>&1").c_str()) != 0) return -1;
+        t.push_back(wall_s() - t0);
+    }
+    std::sort(t.begin(), t.end());
+    return t[t.size() / 2];
+}
+
+std::string temp_dir(const char *prefix)
+{
+    std::string tmpl = std::string("/tmp/") + prefix + "-XXXXXX";
+    if (!mkdtemp(&tmpl[0])) throw msidutil::Error("cannot create a temporary directory");
+    return tmpl;
+}
+
+void remove_dir(Writer &w, const std::string &dir, const char *note)
+{
+    if (std::system(("rm -rf '" + dir + "'").c_str()) != 0) w.error(std::string(note) + dir);
+}
+
+}  // namespace msidbench
