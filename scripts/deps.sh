@@ -135,6 +135,20 @@ pip_pinned() {
   [ -z "$($1)" ] || { echo "deps: $2 still missing" >&2; exit 1; }
 }
 
+# pybind11 (PyPI, pinned) for the compiled module msid._msid when the test interpreter's NumPy is 2.x:
+# Debian's pybind11-dev 2.10 predates NumPy 2 and reads a wrong item size from its dtypes (every element
+# of a 1-D array built in C++ lands on the first). tools/python/CMakeLists.txt refuses that pair.
+PYBIND11=3.1.0
+pybind11_missing() { python3 - "$PYBIND11" <<'PY' 2>/dev/null || echo "pybind11==$PYBIND11"
+import sys, numpy
+if int(numpy.__version__.split(".")[0]) < 2:
+    sys.exit(0)
+import pybind11
+sys.exit(pybind11.__version__ != sys.argv[1])
+PY
+}
+pip_pinned pybind11_missing "pybind11 $PYBIND11"
+
 # pymodbus (PyPI, pinned; needs Python >= 3.10) with pyserial: the independent Modbus peer (tests/modbus).
 PYMODBUS=3.16.1
 mb_missing() { python3 -c "import pymodbus, serial, sys; sys.exit(pymodbus.__version__ != '$PYMODBUS')" 2>/dev/null ||
