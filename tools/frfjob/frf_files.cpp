@@ -120,22 +120,39 @@ void extend_heads(std::vector<Source> &src, size_t want)
 }
 
 // --period auto on the streaming path: find_period() on the first PERIOD_SEARCH_ROWS rows of the first
-// file, as the whole record gives them, read by a stream of their own (freed before the FRF's pass)
-// that parses only the inputs and the first output (find_period reads the inputs; a record has an
-// output): a logger's many channels cost nothing here.
+// file, as the whole record gives them, read by a stream of its own (freed before the FRF's pass).
+// find_period reads only the inputs, so only they are kept: the stream parses the inputs and the first
+// output (a record has an output), and each block's inputs are copied out of one block-sized buffer.
+// A logger's many channels cost nothing here, and a SISO prefix takes half the memory.
 uint32_t stream_find_period(const Record &info, const FrfPlan &plan)
 {
     msidrec::ColumnMap mc;
     for (uint32_t k = 0; k < info.nu; ++k) mc.map.emplace_back(fmt("u%u", k + 1), info.columns.at(k));
     mc.map.emplace_back("y1", info.columns.at(info.nu));
-    Source s;
-    s.in = std::make_unique<msidrec::CsvStream>(info.path, mc, true);
-    s.head = s.in->info();
-    read_head(s, PERIOD_SEARCH_ROWS);
-    s.in.reset();
+    const size_t nu = info.nu, C = nu + 1;
+    Record head;
+    head.path = info.path;
+    head.nu = info.nu;   // ny = 0: inputs only
+    head.columns.assign(info.columns.begin(), info.columns.begin() + info.nu);
+    {   // the stream and its block closed before the search
+        msidrec::CsvStream in(info.path, mc, true);
+        // room for the rows searched (bounded by the file's size, as read_head)
+        const uint64_t fit = in.file_size() ? in.file_size() / (2 * C) + 1 : PERIOD_SEARCH_ROWS;
+        head.rows.reserve((size_t)std::min<uint64_t>(PERIOD_SEARCH_ROWS, fit) * nu);
+        std::vector<double> block;
+        while (!in.at_end() && head.n_rows < PERIOD_SEARCH_ROWS) {
+            const size_t n = in.next([&](size_t max_rows) {
+                block.resize(max_rows * C);
+                return block.data();
+            });
+            const size_t take = std::min(n, PERIOD_SEARCH_ROWS - head.n_rows);
+            for (size_t i = 0; i < take; ++i) head.rows.insert(head.rows.end(), &block[i * C], &block[i * C] + nu);
+            head.n_rows += take;
+        }
+    }
     std::string rep;
     std::vector<Record> first;
-    first.push_back(std::move(s.head));   // moved: an initializer list would copy the rows
+    first.push_back(std::move(head));   // moved: an initializer list would copy the rows
     const uint32_t P = find_period(first, rep);
     if (plan.report) plan.report("--period auto: " + rep + "\n");
     return P;
