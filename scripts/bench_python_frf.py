@@ -9,6 +9,7 @@ Best of repeated runs (at least `--min-seconds` each). docs/benchmarks.md holds 
 import argparse
 import importlib.util
 import json
+import os
 import platform
 import time
 from pathlib import Path
@@ -43,6 +44,24 @@ def best_time(fn, min_s):
         best, cpu = min(best, time.perf_counter() - t0), min(cpu, time.process_time() - c0)
         reps += 1
     return best, cpu, reps
+
+
+def fftw_floor(P, channels, periods):
+    """FFTW's own r2c transforms of this job's periods on one core, in seconds, from `msid bench frf`
+    in the same run (its P = 4096 case: FFTW_ESTIMATE plans as msid frf, stride C, every period),
+    scaled by channels x periods; None when the msid binary is not found. No implementation of this
+    job can take less than this on one core, or half of it on two."""
+    import re
+    import subprocess
+    exe = os.environ.get("MSID_BIN") or str(ROOT / "build" / "tools" / "msid")
+    if P != 4096 or not os.access(exe, os.X_OK):
+        return None
+    out = subprocess.run([exe, "bench", "frf", "--only", "2", "--no-peer", "--min-seconds", "1"],
+                         capture_output=True, text=True, check=True).stdout
+    m = re.search(r"^\s+fft\s+[\d.]+\s+[\d.]+\s+[\d.]+\s+([\d.]+) us", out, re.M)
+    if not m:
+        return None
+    return float(m.group(1)) * 1e-6 / 6 * channels * periods   # that case has 2 + 4 channels
 
 
 def job_data(P, L, nu, ny, m, K):
@@ -82,6 +101,7 @@ def main():
     t_tiny, c_tiny, n_tiny = best_time(lambda: msid.frf(tiny, period=16, lines=[1], n_inputs=1), a.min_seconds)
     tiny_args = ([tiny], ["records[0]"], [["1", "2"]], [1], {"period": 16, "lines": [1], "direct": False}, None)
     t_tiny_ext, c_tiny_ext, _ = best_time(lambda: ext.frf(*tiny_args), a.min_seconds)
+    floor = fftw_floor(P, nu + ny, m * K)
     cpu = platform.processor() or platform.machine()
     try:
         for line in open("/proc/cpuinfo"):
@@ -95,6 +115,7 @@ def main():
            "ext_s": t_ext, "ext_cpu_s": c_ext, "to_frf_s": t_conv, "speedup": t_peer / t_msid,
            "tiny_call_s": t_tiny, "tiny_call_cpu_s": c_tiny, "tiny_ext_s": t_tiny_ext, "tiny_ext_cpu_s": c_tiny_ext,
            "reps": {"peer": n_peer, "msid": n_msid, "tiny": n_tiny},
+           "fftw_floor_one_core_s": floor,
            "cpu": cpu, "numpy": np.__version__, "python": platform.python_version()}
     if a.json:
         print(json.dumps(res))
@@ -106,6 +127,9 @@ def main():
           f"({t_peer / t_msid:.2f}x the peer's wall time)")
     print(f"    the job and its arrays (_msid.frf)   {1e3 * t_ext:8.2f}  {1e3 * c_ext:8.2f}")
     print(f"    the arrays to msid.FRF               {1e3 * t_conv:8.2f}  {1e3 * c_conv:8.2f}")
+    if floor is not None:
+        print(f"  FFTW's transforms of the record alone   {1e3 * floor:8.2f} one core, {0.5e3 * floor:.2f} on two "
+              f"(10x the peer needs {0.1e3 * t_peer:.2f})")
     print(f"  msid.frf on a tiny record, per call    {1e6 * t_tiny:8.1f} us {1e6 * c_tiny:6.1f} us")
     print(f"    of which _msid.frf                   {1e6 * t_tiny_ext:8.1f} us {1e6 * c_tiny_ext:6.1f} us")
 
