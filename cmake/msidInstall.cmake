@@ -1,7 +1,8 @@
 # `cmake --install build --prefix P` (docs/install.md): headers, static libraries, `msid` and `msid-devsim`,
 # the Python package (P/share/msid/python, found by `msid plot`), P/lib/cmake/msid/msidConfig.cmake
 # exporting msid::core, msid::daq, msid::fit and the host libraries (msid::hostutil, msid::records,
-# msid::formats, msid::frfjob, msid::acquire, with msid::fftw and msid::est beneath them), and P/lib/pkgconfig/msid.pc
+# msid::formats, msid::frfjob, msid::fitjob, msid::frfimport, msid::frfexport, msid::acquire, with msid::fftw and
+# msid::est beneath them), and P/lib/pkgconfig/msid.pc
 # (core + daq, C).
 include(CMakePackageConfigHelpers)
 set(MSID_CMAKE_DIR lib/cmake/msid)
@@ -48,6 +49,17 @@ if(TARGET msid_frfjob)
                 ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_est.hpp
           DESTINATION include/msid_host)
+  # fitting and validation as one call (tools/fitjob, over msid::fit), FRFs of other tools
+  # (tools/frfimport) and the FRF and model exporters (tools/frfexport)
+  if(TARGET msid_fitjob AND TARGET msid_fit)
+    set_target_properties(msid_fitjob PROPERTIES EXPORT_NAME fitjob)
+    set_target_properties(msid_frfimport PROPERTIES EXPORT_NAME frfimport)
+    set_target_properties(msid_frfexport PROPERTIES EXPORT_NAME frfexport)
+    install(TARGETS msid_fitjob msid_frfimport msid_frfexport EXPORT msidTargets ARCHIVE DESTINATION lib)
+    install(FILES ${PROJECT_SOURCE_DIR}/tools/fitjob/msid_fit_job.hpp ${PROJECT_SOURCE_DIR}/tools/frfimport/frf_import.hpp
+                  ${PROJECT_SOURCE_DIR}/tools/frfexport/msid_frf_export.hpp
+            DESTINATION include/msid_host)
+  endif()
   # the acquisition of a device (tools/acquire, over msid::daq)
   if(TARGET msid_acquire)
     set_target_properties(msid_acquire PROPERTIES EXPORT_NAME acquire)

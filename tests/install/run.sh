@@ -2,7 +2,8 @@
 # Install and reuse (docs/install.md), run by ctest (label integration):
 #   install  BUILD WORK: cmake --install BUILD --prefix WORK/prefix, then an out-of-tree C consumer built
 #            with CMake (find_package(msid)) and with pkg-config (msid.pc, --static), both run, and a C++ consumer
-#            of the host libraries (msid::frfjob: the FRF job on samples in memory) and one of msid::acquire
+#            of the host libraries (msid::frfjob and msid::fitjob: the FRF job on samples in memory and a model
+#            fitted to its FRF) and one of msid::acquire
 #            (a device URI, a device that is not there) run; the installed
 #            msid and msid-devsim run, and the installed msid finds its Python package (share/msid/python).
 #   nomodbus SRC WORK: a configure without libmodbus visible to pkg-config builds the daq library and the
@@ -21,7 +22,8 @@ install)
   for f in include/msid/msid.h include/msid_daq/msid_daq.h include/msid_fit/frf_data.hpp lib/libmsid.a \
            lib/libmsid_daq.a lib/libmsid_fit.a bin/msid bin/msid-devsim lib/cmake/msid/msidConfig.cmake \
            lib/cmake/msid/msidConfigVersion.cmake lib/pkgconfig/msid.pc share/msid/python/msid/plot.py \
-           include/msid_host/msid_frf_job.hpp lib/libmsid_records.a lib/libmsid_frfjob.a; do
+           include/msid_host/msid_frf_job.hpp lib/libmsid_records.a lib/libmsid_frfjob.a \
+           include/msid_host/msid_fit_job.hpp lib/libmsid_fitjob.a lib/libmsid_frfimport.a lib/libmsid_frfexport.a; do
     [ -e "$P/$f" ] || fail "$P/$f was not installed"
   done
   [ "$("$P/bin/msid" version | cut -d' ' -f1)" = msid ] || fail "installed msid does not run"
@@ -34,6 +36,8 @@ install)
   "$work/cmake-build/consumer" || fail "the CMake consumer failed"
   [ -x "$work/cmake-build/host_consumer" ] || fail "find_package(msid) did not define msid::frfjob"
   "$work/cmake-build/host_consumer" || fail "the host-library consumer failed"
+  grep -q MSID_CONSUMER_FIT "$work/cmake-build/CMakeFiles/host_consumer.dir/flags.make" ||
+    fail "find_package(msid) did not define msid::fitjob (the consumer did not fit its FRF)"
   [ -x "$work/cmake-build/acquire_consumer" ] || fail "find_package(msid) did not define msid::acquire"
   "$work/cmake-build/acquire_consumer" || fail "the acquisition-library consumer failed"
   # pkg-config consumer (static libraries: --static pulls libmodbus and libm)

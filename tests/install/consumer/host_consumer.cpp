@@ -3,6 +3,9 @@
 // a = 0.6) driven by a 6-line multisine in steady state, plus a small deterministic disturbance: the
 // estimate must equal G(e^{j w}) = b / (1 - a e^{-j w}) at every line within the disturbance's effect.
 #include "msid_frf_job.hpp"
+#ifdef MSID_CONSUMER_FIT
+#include "msid_fit_job.hpp"
+#endif
 
 #include <cmath>
 #include <complex>
@@ -50,7 +53,19 @@ int main()
                 return 1;
             }
         }
-    } catch (const msidutil::Error &e) {
+#ifdef MSID_CONSUMER_FIT
+        // msid::fitjob: a first-order model of that FRF (A is 1 x 1: its pole), at a
+        msidfitjob::FitRequest fr;
+        fr.method = "ml";
+        fr.order = "1";
+        const msidfitjob::FitOutcome fit = msidfitjob::fit_frf(msidfrf::parse_frf(o.doc, "memory"), fr);
+        const auto &A = fit.model.at("A");
+        if (A.size() != 1 || std::abs(A[0][0].get<double>() - a) > 1e-4) {
+            std::fprintf(stderr, "host consumer: fitted A = %s, expected %g\n", A.dump().c_str(), a);
+            return 1;
+        }
+#endif
+    } catch (const std::exception &e) {   // msidutil::Error, and msidfrf::Error of the FRF reader
         std::fprintf(stderr, "host consumer: %s\n", e.what());
         return 1;
     }
