@@ -179,6 +179,32 @@ def test_wrong_lines_are_named_as_wrong_lines(tmp_path):
     assert "not periodic" not in r.stderr
 
 
+@pytest.mark.parametrize("residue", [False, True])
+def test_wrong_lines_of_a_noise_free_record(tmp_path, residue):
+    """A simulated record repeats bit for bit: at bins its input does not excite, the period mean is exactly
+    zero (an odd multisine has exact zeros at even bins) or a rounding residue that repeats as exactly (a
+    period mean beyond a zero scatter). Either way the lines are named as wrong from the share of the input's
+    power they hold, not as "singular"; and one unexcited line beside the right ones is named as such
+    (negative control: the right lines give the FRF)."""
+    rng = np.random.default_rng(12)
+    one = _multisine(P, list(range(1, 42, 2)), rng)
+    if residue:   # a phase that breaks the exact zeros: rounding leaves ~1e-16 at the even bins
+        one = one + 1e-3 * np.cos(2 * np.pi * 1 * np.arange(P) / P + 0.3)
+    u = np.tile(one, 8)
+    y = _siso(u, rng)
+    f = _write(tmp_path / "exact.csv", u, y)
+    r, out = _frf(tmp_path, f, lines="2:2:40")
+    assert r.returncode == 1 and len(r.stderr.splitlines()) == 1, r.stderr
+    assert "but not at the given lines: they hold" in r.stderr and "(a noise-free record)" in r.stderr, r.stderr
+    assert "--lines 1:2:41" in r.stderr and "singular" not in r.stderr and not out.exists()
+    r, out = _frf(tmp_path, f, lines="1:2:41,2")
+    assert r.returncode == 1 and len(r.stderr.splitlines()) == 1, r.stderr
+    assert ("the input has no power at line 22 (bin 2)" in r.stderr or "do not excite line 22 (bin 2)" in r.stderr) \
+        and "singular" not in r.stderr, r.stderr
+    r, out = _frf(tmp_path, f, lines="1:2:41")
+    assert r.returncode == 0 and out.exists(), r.stderr
+
+
 def test_lines_auto_without_excitation_says_so(tmp_path):
     rng = np.random.default_rng(5)
     u = np.tile(np.zeros(P), 8) + 0.1 * rng.standard_normal(8 * P)

@@ -440,6 +440,10 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
             throw Error(fmt("the inputs do not excite line %u (bin %u): its weakest input direction is %.1f dB below "
                             "the strongest line and %.1f dB above the input noise; drop the line or excite it",
                             l + 1, rq.bins[l], -msid_frf_input_rel_db(&f, l), msid_frf_input_snr_db(&f, l)));
+        if (nu == 1)   // one input: a 1 x m input matrix is singular only where the input has no power
+            throw Error(fmt("the input has no power at line %u (bin %u): drop the line or excite it (--lines auto "
+                            "finds the excited bins)",
+                            l + 1, rq.bins[l]));
         throw Error(fmt("the input matrix is singular at line %u (bin %u, condition number %.3g): the experiments do not "
                         "excite the %u inputs independently there",
                         l + 1, rq.bins[l], msid_frf_cond(&f, l), nu));

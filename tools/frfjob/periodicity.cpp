@@ -298,11 +298,54 @@ void check_periodic_lines(const msid_pstats *const *ps, uint32_t m, uint32_t nu,
 // at most 4 of the checking window's K periods: a few FFTs of P per input on every record, and a weak
 // right line that 4 periods miss is found among the bins below, so it is never called wrong) and none of
 // them is among the bins found; otherwise returns, and a partly wrong list is left to the later checks.
+// The share of the inputs' period-mean power (over the first `count` periods from `first`, every bin
+// between DC and Nyquist) that lies at `bins`: 1 when there is none at all, or no bin lies there.
+static double lines_power_share(const Record &r, uint32_t P, size_t first, size_t count, const std::vector<uint32_t> &bins)
+{
+    R2c f((int)P);
+    const size_t M = (P + 1) / 2 - 1;
+    std::vector<uint8_t> given(M + 1, 0);
+    for (uint32_t b : bins)
+        if (b >= 1 && b <= M) given[b] = 1;
+    if (std::find(given.begin(), given.end(), 1) == given.end()) return 1.0;   // the line checks name them
+    double at = 0, all = 0;
+    for (uint32_t j = 0; j < r.nu; ++j) {
+        const auto s = period_spectra(r, P, first, count, j, f);
+        for (size_t k = 1; k <= M; ++k) {
+            std::complex<double> mu = 0;
+            for (size_t p = 0; p < count; ++p) mu += s[p][k - 1];
+            all += std::norm(mu);
+            if (given[k]) at += std::norm(mu);
+        }
+    }
+    return all > 0 ? at / all : 1.0;
+}
+
+// Do the lines miss the input (the first min(K, 4) periods after skip)? Then check_lines_hold_input
+// searches the whole record for the bins that hold its power.
+// `share`: the lines' share of the input's periodic power when that decided, else -1.
+static bool lines_miss_input(const Record &r, uint32_t P, uint32_t skip, size_t K, const std::vector<uint32_t> &bins,
+                             PeriodicEvidence &ev, double &share)
+{
+    const size_t K4 = std::min<size_t>(K, 4);
+    ev = periodic_evidence(r, P, skip, K4, bins);
+    share = -1;
+    if (ev.tested > 0 && !ev.periodic()) return true;
+    // A noise-free input (a simulated record) repeats bit for bit: at bins it does not excite its period
+    // mean is exactly zero (nothing to test) or a rounding residue that repeats too (a period mean
+    // beyond a zero scatter). The share of the input's power at the lines tells those apart (1e-20: far
+    // below any real excitation's dynamic range, far above rounding's 1e-32).
+    if (K4 < 2) return false;
+    share = lines_power_share(r, P, skip, K4, bins);
+    return !(share > 1e-20);
+}
+
 static void check_lines_hold_input(const Record &r, uint32_t P, uint32_t skip, size_t K, const std::vector<uint32_t> &bins)
 {
     if (bins.empty()) return;
-    const PeriodicEvidence ev = periodic_evidence(r, P, skip, std::min<size_t>(K, 4), bins);
-    if (ev.periodic() || ev.tested == 0) return;   // none between DC and Nyquist: the line checks name it
+    PeriodicEvidence ev;
+    double share;
+    if (!lines_miss_input(r, P, skip, K, bins, ev, share)) return;
     std::vector<uint32_t> found;
     std::string rep;   // find_lines' description of its test: not repeated in the message
     try {
@@ -312,12 +355,14 @@ static void check_lines_hold_input(const Record &r, uint32_t P, uint32_t skip, s
     }
     for (uint32_t b : bins)
         if (std::binary_search(found.begin(), found.end(), b)) return;
-    throw Error(fmt("'%s': the input is periodic with period %u, but not at the given lines: %zu of %zu line/input "
-                    "pairs show a period mean beyond its standard error (chance alone gives %.1f), and the input's "
+    const std::string why =
+        share >= 0 ? fmt("they hold %.2g of its periodic power (a noise-free record)", share)
+                   : fmt("%zu of %zu line/input pairs show a period mean beyond its standard error (chance alone gives "
+                         "%.1f)", ev.shown, ev.tested, PERIODIC_BIN_ALPHA * (double)ev.tested);
+    throw Error(fmt("'%s': the input is periodic with period %u, but not at the given lines: %s, and the input's "
                     "periodic power is at bins %s (%zu bins, the --lines auto test). Give those lines (--lines %s, or "
                     "--lines auto)",
-                    r.path.c_str(), P, ev.shown, ev.tested, PERIODIC_BIN_ALPHA * (double)ev.tested,
-                    format_bins(found).c_str(), found.size(), format_bins(found).c_str()));
+                    r.path.c_str(), P, why.c_str(), format_bins(found).c_str(), found.size(), format_bins(found).c_str()));
 }
 
 void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &recs)
@@ -439,8 +484,9 @@ bool input_check_needs_whole(uint32_t P, uint32_t skip, const std::vector<uint32
     if (!Q && eta > NONPERIODIC_FRACTION) return true;   // the whole record is searched for its period
     if (Q || bins.empty()) return false;
     // check_lines_hold_input(): lines without the input's power are named from the whole record's
-    const PeriodicEvidence ev = periodic_evidence(r, P, skip, std::min<size_t>(K, 4), bins);
-    return !ev.periodic() && ev.tested > 0;
+    PeriodicEvidence ev;
+    double share;
+    return lines_miss_input(r, P, skip, K, bins, ev, share);
 }
 
 // The inputs' autocorrelation over the first N rows of r at lags 0 .. N / 2, summed over the input
