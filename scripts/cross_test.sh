@@ -55,5 +55,9 @@ fi
 cd "$dir"
 # the prefix of cmake/linux-cross.cmake (why LD_LIBRARY_PATH: there), for the pytest files registered
 # without msid_add_pytests
-export MSID_EMULATOR="$qemu -L /usr/$triplet -E LD_LIBRARY_PATH=/usr/$triplet/lib"
+# (and the libraries scripts/deps.sh unpacked where apt could not install them, as the toolchain file adds)
+ld=/usr/$triplet/lib
+root=${MSID_CROSS_ROOT:-/opt/msid-cross/$triplet}
+if [ -d "$root/usr/lib/$triplet" ]; then ld=$ld:$root/usr/lib/$triplet; fi
+export MSID_EMULATOR="$qemu -L /usr/$triplet -E LD_LIBRARY_PATH=$ld"
 exec ctest --output-on-failure -j "$jobs" -E "$exclude" "${sel[@]}" "$@"

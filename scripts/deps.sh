@@ -60,25 +60,69 @@ installed=" $({ dpkg-query -W -f='${Package} ${Status}\n' "${APT_PKGS[@]}" 2>/de
 for p in "${APT_PKGS[@]}"; do
   case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
 done
-# The target's packages carry their architecture (binary:Package prints it, e.g. libfftw3-dev:arm64).
+# The target's packages carry their architecture (binary:Package prints it, e.g. libfftw3-dev:arm64). One
+# unpacked by cross_unpack below (a marker in its directory) counts as there.
+CROSS_ROOT=""
+cross_missing=()
 if [ ${#CROSS_PKGS[@]} -gt 0 ]; then
+  case "$CROSS_ARCH" in arm64) triplet=aarch64-linux-gnu ;; armhf) triplet=arm-linux-gnueabihf ;; esac
+  CROSS_ROOT=${MSID_CROSS_ROOT:-/opt/msid-cross/$triplet}   # cmake/linux-cross.cmake reads the same place
   installed=" $({ dpkg-query -W -f='${binary:Package} ${Status}\n' "${CROSS_PKGS[@]}" 2>/dev/null || true; } |
                awk '$NF == "installed" && $(NF-1) == "ok" {printf "%s ", $1}')"
   for p in "${CROSS_PKGS[@]}"; do
-    case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
+    [ -e "$CROSS_ROOT/.unpacked/$p" ] && continue
+    case "$installed" in *" $p "*) ;; *) cross_missing+=("$p") ;; esac
   done
-  if [ ${#missing[@]} -gt 0 ] && ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
+  if [ ${#cross_missing[@]} -gt 0 ] && ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
     as_root dpkg --add-architecture "$CROSS_ARCH"
   fi
 fi
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "deps: installing ${missing[*]} (log: deps.log)"
+if [ ${#missing[@]} -gt 0 ] || [ ${#cross_missing[@]} -gt 0 ]; then
+  echo "deps: installing ${missing[*]} ${cross_missing[*]} (log: deps.log)"
   export DEBIAN_FRONTEND=noninteractive
   # An index that fails to download (a mirror in sync) leaves apt the lists it had: the install says
   # whether those were enough.
   as_root apt-get update -qq >> deps.log 2>&1 || echo "deps: apt-get update reported errors (deps.log); installing from the lists apt has" >&2
+fi
+if [ ${#missing[@]} -gt 0 ]; then
   as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" \
     >> deps.log 2>&1 || { tail -30 deps.log; echo "deps: apt-get failed (see deps.log)" >&2; exit 1; }
+fi
+
+# cross_unpack PKG...: the target's packages apt cannot install beside the host's, from the main archive.
+# A -dev package of Multi-Arch: same must have the host's exact version; when the host has a security
+# update and the target's security index cannot be downloaded (a mirror in sync), apt has no such
+# version. `apt-get download` takes the main archive's (checked against its signed index), `dpkg -x`
+# unpacks it into CROSS_ROOT, outside dpkg's database (the host's packages are not touched), and the
+# .pc files are pointed there. cmake/linux-cross.cmake and scripts/cross_test.sh find them there.
+cross_unpack() {
+  local p deb
+  as_root mkdir -p "$CROSS_ROOT/.debs" "$CROSS_ROOT/.unpacked"
+  for p in "$@"; do
+    # the run-time library beside its -dev package
+    local with=("$p")
+    case "$p" in libmodbus-dev:*) with+=("libmodbus5:$CROSS_ARCH") ;; zlib1g-dev:*) with+=("zlib1g:$CROSS_ARCH") ;; esac
+    ( cd "$CROSS_ROOT/.debs" && as_root apt-get download "${with[@]}" ) >> deps.log 2>&1 || {
+      tail -20 deps.log; echo "deps: apt-get download ${with[*]} failed (see deps.log)" >&2; exit 1; }
+    for deb in "${with[@]}"; do
+      as_root dpkg -x "$(ls -t "$CROSS_ROOT/.debs/${deb%%:*}"_*_"$CROSS_ARCH".deb | head -1)" "$CROSS_ROOT"
+    done
+    as_root touch "$CROSS_ROOT/.unpacked/$p"
+  done
+  for pc in "$CROSS_ROOT/usr/lib/$triplet/pkgconfig"/*.pc; do
+    [ -e "$pc" ] && as_root sed -i "s|^prefix=/usr\$|prefix=$CROSS_ROOT/usr|" "$pc"
+  done
+  echo "deps: unpacked $* from the main archive into $CROSS_ROOT (apt could not install them beside the host's)" >&2
+}
+if [ ${#cross_missing[@]} -gt 0 ]; then
+  if ! as_root apt-get install -y -qq --no-install-recommends "${cross_missing[@]}" >> deps.log 2>&1; then
+    # one at a time: what apt can install, it installs; the rest is unpacked
+    unpack=()
+    for p in "${cross_missing[@]}"; do
+      as_root apt-get install -y -qq --no-install-recommends "$p" >> deps.log 2>&1 || unpack+=("$p")
+    done
+    cross_unpack "${unpack[@]}"
+  fi
 fi
 
 # One interpreter, find_spec only (importing matplotlib alone takes a second): the modules not found.
