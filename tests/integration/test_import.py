@@ -398,6 +398,134 @@ def test_idfrd_mat_written_by_scipy(tmp_path):
     assert doc["input_names"] == ["Force", "Torque"] and "cov" not in doc["lines"][0]
 
 
+def _mat73_class(h5py, obj, cls):
+    """The MATLAB_class attribute as MATLAB writes it: a fixed-length NULLTERM string."""
+    tid = h5py.h5t.C_S1.copy()
+    tid.set_size(len(cls))
+    tid.set_strpad(h5py.h5t.STR_NULLTERM)
+    a = h5py.h5a.create(obj.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
+    a.write(np.array(cls.encode(), dtype=f"S{len(cls)}"), mtype=tid)
+
+
+def write_idfrd_mat73(path, variables):
+    """An idfrd-shaped MATLAB v7.3 file as MATLAB writes one: HDF5 behind a 512-byte user block holding
+    the MATLAB header; each variable a dataset with MATLAB's dimensions reversed (MATLAB is column-major);
+    complex as a {real, imag} compound; char as uint16 code units (MATLAB_int_decode 2); a cell array as a
+    dataset of object references to datasets in the group "#refs#"."""
+    h5py = pytest.importorskip("h5py")
+
+    def put(group, name, v):
+        if isinstance(v, str):
+            ds = group.create_dataset(name, data=np.array([[ord(c)] for c in v], dtype=np.uint16))
+            _mat73_class(h5py, ds, "char")
+            ds.attrs.create("MATLAB_int_decode", 2, dtype=np.int32)
+            return ds
+        v = np.asarray(v)
+        if v.ndim < 2:
+            v = v.reshape(1, -1) if v.ndim == 1 else v.reshape(1, 1)
+        data = np.transpose(v)   # MATLAB's dimensions reversed
+        if np.iscomplexobj(data):
+            c = np.empty(data.shape, dtype=[("real", "<f8"), ("imag", "<f8")])
+            c["real"], c["imag"] = data.real, data.imag
+            data = c
+        else:
+            data = data.astype(float)
+        ds = group.create_dataset(name, data=data)
+        _mat73_class(h5py, ds, "double")
+        return ds
+
+    with h5py.File(path, "w", userblock_size=512) as f:
+        refs = f.create_group("#refs#")
+        for name, v in variables.items():
+            if isinstance(v, list):   # a column cell array of char rows
+                targets = [put(refs, f"{name}_{k}", c) for k, c in enumerate(v)]
+                ds = f.create_dataset(name, (1, len(v)), dtype=h5py.ref_dtype)
+                for k, t in enumerate(targets):
+                    ds[0, k] = t.ref
+                _mat73_class(h5py, ds, "cell")
+            else:
+                put(f, name, v)
+    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Sat Nov 28 00:00:00 2026 HDF5 schema 1.00 ."
+    with open(path, "r+b") as f:
+        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+
+
+def _idfrd_content(rng, ny, nu, L, cov):
+    G = rng.standard_normal((ny, nu, L)) + 1j * rng.standard_normal((ny, nu, L))
+    v = {"ResponseData": G, "Frequency": np.linspace(1, 50, L)[:, None], "Ts": 0.0, "FrequencyUnit": "Hz",
+         "InputName": [f"F{j + 1}" for j in range(nu)], "OutputName": [f"acc{i + 1}" for i in range(ny)],
+         "InputUnit": ["N"] * nu, "OutputUnit": ["m/s^2"] * ny}
+    if cov:
+        C = np.zeros((ny, nu, L, 2, 2))
+        C[..., 0, 0] = C[..., 1, 1] = rng.uniform(1e-4, 1e-3, (ny, nu, L))
+        v["CovarianceData"] = C
+        v["dof"] = np.full((L, 1), 7.0)
+    return v
+
+
+def _as_scipy(v):
+    out = {}
+    for k, x in v.items():
+        if isinstance(x, list):
+            c = np.empty((len(x), 1), dtype=object)
+            for i, s in enumerate(x):
+                c[i, 0] = s
+            x = c
+        out[k] = x
+    return out
+
+
+@pytest.mark.parametrize("ny,nu,cov", [(1, 1, False), (2, 2, True), (1, 2, True)])
+def test_idfrd_mat_v73_equals_v5(tmp_path, ny, nu, cov):
+    """The same idfrd content saved as v5 (scipy) and as v7.3 (HDF5, as MATLAB's save -v7.3 writes it):
+    msid import gives the same document, bit for bit (names, units, covariance and dof included)."""
+    sio = pytest.importorskip("scipy.io")
+    v = _idfrd_content(np.random.default_rng(7 + ny + nu), ny, nu, 30, cov)
+    p5, p73 = tmp_path / "v5.mat", tmp_path / "v73.mat"
+    sio.savemat(p5, _as_scipy(v), format="5")
+    write_idfrd_mat73(p73, v)
+    d5, G5, om5 = imported(p5, tmp_path)
+    d73, G73, om73 = imported(p73, tmp_path)
+    np.testing.assert_array_equal(G73, G5)
+    np.testing.assert_array_equal(om73, om5)
+    assert d73["lines"] == d5["lines"]
+    for k in ("input_names", "output_names", "input_units", "output_units", "domain"):
+        assert d73.get(k) == d5.get(k), k
+    assert d73["input_names"] == [f"F{j + 1}" for j in range(nu)] and d73["output_units"] == ["m/s^2"] * ny
+    assert ("cov" in d73["lines"][0]) == cov
+
+
+def test_idfrd_mat_v73_refused(tmp_path):
+    """v7.3 without ResponseData, with a wrong Frequency length, with h5py's complex in place of MATLAB's,
+    and a dataset that claims far more than the file can hold (a chunked dataset never written): one
+    message each, nothing written."""
+    h5py = pytest.importorskip("h5py")
+    base = _idfrd_content(np.random.default_rng(1), 1, 1, 10, False)
+    p = tmp_path / "nor.mat"
+    write_idfrd_mat73(p, {k: x for k, x in base.items() if k != "ResponseData"})
+    _refused(tmp_path, p, "no variable 'ResponseData'")
+    p = tmp_path / "freq.mat"
+    write_idfrd_mat73(p, dict(base, Frequency=np.arange(1.0, 9.0)[:, None]))
+    _refused(tmp_path, p, "Frequency has 8 values")
+    # h5py's own complex128 (members 'r', 'i'): libmatio would read it by the names 'real' and 'imag'
+    # without checking them, and return whatever memory held
+    p = tmp_path / "h5pycomplex.mat"
+    write_idfrd_mat73(p, base)
+    with h5py.File(p, "a") as f:
+        G = base["ResponseData"]
+        del f["ResponseData"]
+        ds = f.create_dataset("ResponseData", data=np.transpose(G))
+        _mat73_class(h5py, ds, "double")
+    _refused(tmp_path, p, "variable 'ResponseData' is a compound of 2 members ('r', 'i')")
+    p = tmp_path / "huge.mat"
+    write_idfrd_mat73(p, base)
+    with h5py.File(p, "a") as f:
+        del f["ResponseData"]
+        ds = f.create_dataset("ResponseData", shape=(1 << 20, 1 << 12, 1), dtype="<f8", chunks=(1024, 16, 1))
+        _mat73_class(h5py, ds, "double")
+    _refused(tmp_path, p, "huge.mat", "ResponseData")
+
+
 def test_truncated_mat(tmp_path):
     sio = pytest.importorskip("scipy.io")
     p = tmp_path / "full.mat"

@@ -1,10 +1,11 @@
-// An idfrd-shaped MATLAB v5 .mat, as MATLAB's System Identification Toolbox saves the fields of an
+// An idfrd-shaped MATLAB v5 or v7.3 .mat, as MATLAB's System Identification Toolbox saves the fields of an
 // idfrd and as `msid export --mat` writes them: ResponseData (ny x nu x L complex; MATLAB drops trailing
 // singleton dimensions), Frequency (L values), Ts (0: continuous time), FrequencyUnit (rad/s,
 // rad/TimeUnit, Hz, kHz, MHz, GHz, cycles/TimeUnit, rpm), optional CovarianceData (ny x nu x L x 2 x 2,
 // the covariance of [Re Im] of each element: its trace is the complex variance), dof (msid's export),
-// InputName, OutputName, InputUnit, OutputUnit (cell arrays of char). Read by msid's own v5 reader
-// (tools/records, read_mat_values): every size checked against the file before it sizes anything.
+// InputName, OutputName, InputUnit, OutputUnit (cell arrays of char). Read by tools/records'
+// read_mat_values: v5 by msid's own reader, v7.3 through libmatio after its HDF5 objects are bounded;
+// every size checked against the file before it sizes anything.
 #include "frf_import.hpp"
 
 #include "msid_mat_values.hpp"

@@ -28,7 +28,7 @@ using hsize_t = unsigned long long;
 using hssize_t = long long;
 using haddr_t = uint64_t;   // hobj_ref_t: an object reference is the object's address
 constexpr int H5_INDEX_NAME = 0, H5_ITER_NATIVE = 2, H5I_GROUP = 2, H5I_DATASET = 5, H5L_TYPE_HARD = 0,
-              H5L_TYPE_SOFT = 1, H5T_REFERENCE = 7, H5R_OBJECT = 0;
+              H5L_TYPE_SOFT = 1, H5T_COMPOUND = 6, H5T_REFERENCE = 7, H5R_OBJECT = 0;
 using LinkCb = herr_t (*)(hid_t, const char *, const void *, void *);
 using AttrCb = herr_t (*)(hid_t, const char *, const void *, void *);
 
@@ -56,6 +56,9 @@ struct H5 {
     int (*tequal)(hid_t, hid_t);
     herr_t (*dread)(hid_t, hid_t, hid_t, hid_t, hid_t, void *);
     hid_t (*rdereference2)(hid_t, hid_t, int, const void *);
+    int (*tget_nmembers)(hid_t);
+    char *(*tget_member_name)(hid_t, unsigned);
+    herr_t (*free_memory)(void *);
     const hid_t *std_ref_obj;   // H5T_STD_REF_OBJ, set by H5open
 };
 
@@ -93,6 +96,9 @@ const H5 &h5()
     sym(h.tequal, {"H5Tequal"});
     sym(h.dread, {"H5Dread"});
     sym(h.rdereference2, {"H5Rdereference2"});
+    sym(h.tget_nmembers, {"H5Tget_nmembers"});
+    sym(h.tget_member_name, {"H5Tget_member_name"});
+    sym(h.free_memory, {"H5free_memory"});
     sym(h.std_ref_obj, {"H5T_STD_REF_OBJ_g"});
     loaded = true;
     return h;
@@ -132,13 +138,39 @@ herr_t on_attr(hid_t obj, const char *name, const void *, void *data)
     return 1;   // stops the walk
 }
 
+// A compound dataset type is MATLAB's complex: two members named "real" and "imag". libmatio reads a
+// compound by those names without checking that they are there, and fills the variable with whatever
+// memory held (h5py's default complex128 names them "r" and "i"). Empty when it is one, else why not.
+std::string not_matlab_complex(const H5 &h, hid_t type)
+{
+    const int n = h.tget_nmembers(type);
+    std::string names;
+    bool ok = n == 2;
+    for (int k = 0; k < n && k < 8; ++k) {
+        char *m = h.tget_member_name(type, (unsigned)k);
+        const std::string name = m ? m : "";
+        if (m) h.free_memory(m);
+        names += (k ? ", '" : "'") + name + "'";
+        ok = ok && name == (k == 0 ? "real" : "imag");
+    }
+    return ok ? std::string() : fmt("is a compound of %d members (%s): MATLAB's complex has 'real' and 'imag'", n, names.c_str());
+}
+
 // A dataset's bytes against the bound, its object references queued, the attributes of a dataset or
-// group against theirs; false (w.what set) on the first that claims more.
+// group against theirs; false (w.what set) on the first that claims more, or on a compound that is not
+// MATLAB's complex.
 bool check_object(Walk &w, hid_t o, const std::string &via)
 {
     const int t = w.h.iget_type(o);
     if (t == H5I_DATASET) {
         const hid_t type = w.h.dget_type(o);
+        if (type >= 0 && w.h.tget_class(type) == H5T_COMPOUND) {
+            w.what = not_matlab_complex(w.h, type);
+            if (!w.what.empty()) {
+                w.h.tclose(type);
+                return false;
+            }
+        }
         const bool refs = type >= 0 && w.h.tget_class(type) == H5T_REFERENCE && w.h.tequal(type, *w.h.std_ref_obj) > 0;
         const hid_t space = w.h.dget_space(o);
         const hssize_t n = space >= 0 ? w.h.sget_npoints(space) : 0;

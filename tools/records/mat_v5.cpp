@@ -417,7 +417,12 @@ MatValue MatV5::read_value()
 std::vector<MatValue> read_mat_values(const std::string &path, const std::vector<std::string> &names)
 {
     std::unique_ptr<MatReader> mr = open_mat_v5(path);
-    if (!mr) throw Error("'" + path + "' is not a MATLAB v5 .mat file (v4 and v7.3 are not read here; save with -v7 or -v6)");
+    if (!mr) {
+        const FileBytes f(path);
+        if (mat_header_version((const unsigned char *)f.data(), f.size()) == 0x0200)
+            return read_mat_values_v73(path, f.size(), names);
+        throw Error("'" + path + "' is not a MATLAB v5 or v7.3 .mat file (v4 is not read here; save with -v7, -v6 or -v7.3)");
+    }
     std::vector<MatValue> out;
     MatVarInfo info;
     while (mr->next(info))

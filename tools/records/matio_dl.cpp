@@ -5,6 +5,9 @@
 
 namespace msidrec {
 
+std::string g_mat_msg;   // matio's last log message
+void mat_log(int, char *msg) { g_mat_msg = msg ? msg : ""; }
+
 const Matio &matio()
 {
     static Matio m{};

@@ -2,6 +2,7 @@
 // libraries, which would otherwise cost every `msid` start ~10 ms.
 #pragma once
 #include <matio.h>
+#include <string>
 
 namespace msidrec {
 
@@ -20,5 +21,9 @@ struct Matio {
 
 // The loaded library; throws Error if libmatio cannot be loaded.
 const Matio &matio();
+
+// libmatio's log handler (Mat_LogInitFunc): its last message, for the one error of a file it cannot open.
+extern std::string g_mat_msg;
+void mat_log(int level, char *msg);
 
 }  // namespace msidrec

@@ -171,12 +171,6 @@ Record assemble(const std::string &path, const std::vector<Array> &arrs, const C
 }
 
 
-namespace {
-
-std::string g_mat_msg;   // matio's last log message
-void mat_log(int, char *msg) { g_mat_msg = msg ? msg : ""; }
-
-}  // namespace
 
 void check_finite(const Record &r, size_t row0, size_t n)
 {
