@@ -147,6 +147,28 @@ FILES = [
 ]
 
 
+def matlab_class(ds, cls):
+    """An h5py dataset's MATLAB_class attribute as MATLAB writes it: a fixed-length NULLTERM string
+    (h5py's default NUL-padded string reads back truncated in libmatio)."""
+    import h5py
+    import numpy as np
+    tid = h5py.h5t.C_S1.copy()
+    tid.set_size(len(cls))
+    tid.set_strpad(h5py.h5t.STR_NULLTERM)
+    a = h5py.h5a.create(ds.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
+    a.write(np.array(cls.encode(), dtype=f"S{len(cls)}"), mtype=tid)   # the bytes, no conversion
+
+
+MAT73_HEADER = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Fri Nov 27 00:00:00 2026 HDF5 schema 1.00 ."
+                .ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+
+
+def mat73_header(path):
+    """The MATLAB header in the 512-byte user block of an HDF5 file h5py wrote (userblock_size=512)."""
+    with open(path, "r+b") as f:
+        f.write(MAT73_HEADER)
+
+
 def mat_v73_huge(path, kind):
     """A v7.3 file (HDF5, 512-byte user block) with one chunked dataset never written: 'double' claims
     2^20 x 2^20 doubles (8 TiB), 'cell' 2^16 x 2^16 object references (32 GiB, which libmatio allocates
@@ -160,15 +182,26 @@ def mat_v73_huge(path, kind):
         else:
             ds = f.create_dataset("c", shape=(1 << 16, 1 << 16), dtype=h5py.ref_dtype, chunks=(16, 16))
             claimed = (1 << 32) * 8
-        tid = h5py.h5t.C_S1.copy()
-        tid.set_size(len(kind))
-        tid.set_strpad(h5py.h5t.STR_NULLTERM)
-        a = h5py.h5a.create(ds.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
-        a.write(np.array(kind.encode(), dtype=f"S{len(kind)}"), mtype=tid)
-    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Fri Nov 27 00:00:00 2026 HDF5 schema 1.00 ."
-    with open(path, "r+b") as f:
-        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+        matlab_class(ds, kind)
+    mat73_header(path)
     return claimed
+
+
+def mat_v73_idfrd_huge(path):
+    """An idfrd-shaped v7.3 file whose ResponseData (complex: a compound {real, imag}, chunked, never
+    written) claims 2^20 x 1 x 2^20 values (16 TiB), beside a real Frequency and Ts. Needs h5py;
+    returns the claimed bytes."""
+    import h5py
+    import numpy as np
+    with h5py.File(path, "w", userblock_size=512) as f:
+        rd = f.create_dataset("ResponseData", shape=(1 << 20, 1, 1 << 20), dtype=[("real", "<f8"), ("imag", "<f8")],
+                              chunks=(16, 1, 16))
+        fr = f.create_dataset("Frequency", data=np.arange(1.0, 11.0)[None, :])
+        ts = f.create_dataset("Ts", data=np.zeros((1, 1)))
+        for ds in (rd, fr, ts):
+            matlab_class(ds, "double")
+    mat73_header(path)
+    return (1 << 40) * 16
 
 
 def mat_v73_unlinked_cell(path):
@@ -190,18 +223,12 @@ def mat_v73_unlinked_cell(path):
         x = f.create_dataset("#refs#/x", shape=(1 << 16, 1 << 16), dtype=h5py.ref_dtype, chunks=(16, 16))
         c = f.create_dataset("c", shape=(1, 1), dtype=h5py.ref_dtype)
         c[0, 0] = x.ref
-        for ds, kind in ((x, "cell"), (c, "cell")):
-            tid = h5py.h5t.C_S1.copy()
-            tid.set_size(len(kind))
-            tid.set_strpad(h5py.h5t.STR_NULLTERM)
-            a = h5py.h5a.create(ds.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
-            a.write(np.array(kind.encode(), dtype=f"S{len(kind)}"), mtype=tid)
+        for ds in (x, c):
+            matlab_class(ds, "cell")
         if lib.H5Oincr_refcount(ctypes.c_int64(x.id.id)) < 0:
             return None
         del f["#refs#/x"]
-    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Fri Nov 27 00:00:00 2026 HDF5 schema 1.00 ."
-    with open(path, "r+b") as f:
-        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+    mat73_header(path)
     return (1 << 32) * 8
 
 

@@ -5,10 +5,14 @@ import os
 import subprocess
 from pathlib import Path
 
+import sys
+
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
+sys.path.insert(0, str(ROOT / "tests" / "fuzz"))
+from hostile_files import mat73_header, matlab_class  # noqa: E402,F401  (MATLAB v7.3 files, with h5py)
 SCHEMAS = ROOT / "docs" / "schemas"
 
 
@@ -230,3 +234,53 @@ def compare_with_peer(doc, peer, rel=1e-9):
         for k in ("dof", "dof_known_input", "cond"):
             assert abs(a[k] - b[k]) <= rel * abs(b[k]), f"{w}: {k} {a[k]!r} vs {b[k]!r}"
         assert np.allclose(a["snr"], b["snr"], rtol=0, atol=1e-9), f"{w}: snr"
+
+
+
+def write_mat73(path, variables):
+    """A MATLAB v7.3 file as `save -v7.3` writes it: HDF5 with a 512-byte user block holding the MATLAB
+    header; each variable a dataset whose dimensions are MATLAB's reversed (MATLAB is column-major, so
+    an array's transpose in C order), with a MATLAB_class attribute (a fixed-length NULLTERM string, as
+    MATLAB writes it). Values in MATLAB's shape: a number or numeric array (complex: an HDF5 compound
+    {real, imag}), a str (a 1 x N char row: uint16 codes, MATLAB_int_decode 2; '' as MATLAB writes an
+    empty array: its dimensions as uint64 data, MATLAB_empty 1), a list of str (an
+    N x 1 cell: object references to char datasets in '#refs#', beside MATLAB's canonical empty 'a')."""
+    import pytest
+    h5py = pytest.importorskip("h5py")
+
+    def char(group, name, s):
+        if not s:   # MATLAB's empty array: its dimensions as data, MATLAB_empty set
+            ds = group.create_dataset(name, data=np.array([1, 0], dtype="<u8"))
+            ds.attrs.create("MATLAB_empty", 1, dtype="u1")
+        else:
+            ds = group.create_dataset(name, data=np.array([ord(c) for c in s], dtype="<u2").reshape(len(s), 1))
+            ds.attrs.create("MATLAB_int_decode", 2, dtype="<i4")
+        matlab_class(ds, "char")
+        return ds
+
+    with h5py.File(path, "w", userblock_size=512) as f:
+        refs = None
+        for name, v in variables.items():
+            if isinstance(v, str):
+                char(f, name, v)
+            elif isinstance(v, (list, tuple)):
+                if refs is None:
+                    refs = f.create_group("#refs#")
+                    e = refs.create_dataset("a", data=np.zeros(2, dtype="<u8"))
+                    matlab_class(e, "canonical empty")
+                    e.attrs.create("MATLAB_empty", 1, dtype="u1")
+                targets = [char(refs, f"{name}_{k}", s).ref for k, s in enumerate(v)]
+                ds = f.create_dataset(name, data=np.array([targets], dtype=h5py.ref_dtype))   # N x 1 reversed
+                matlab_class(ds, "cell")
+            else:
+                a = np.asarray(v)
+                a = a.reshape(1, -1) if a.ndim < 2 else a   # a vector: a row, as scipy.io.savemat
+                t = a.T   # MATLAB's dimensions reversed, its column-major order as C order
+                if np.iscomplexobj(a):
+                    c = np.empty(t.shape, dtype=[("real", "<f8"), ("imag", "<f8")])
+                    c["real"], c["imag"] = t.real, t.imag
+                    t = c
+                else:
+                    t = t.astype("<f8")
+                matlab_class(f.create_dataset(name, data=t), "double")
+    mat73_header(path)

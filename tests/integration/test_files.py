@@ -334,25 +334,12 @@ def test_mat_names_case_insensitive_and_a_typo_lists_every_variable(tmp_path, da
 
 
 def _write_mat73(path, variables):
-    """MATLAB v7.3: HDF5 with a 512-byte user block holding the MATLAB header,
-    each variable a dataset (stored transposed, MATLAB is column-major) with
-    its MATLAB_class attribute: a fixed-length NULLTERM string, as MATLAB
-    writes it (h5py's default NULLPAD string reads back truncated)."""
-    h5py = pytest.importorskip("h5py")
-    tid = h5py.h5t.C_S1.copy()
-    tid.set_size(len("double"))
-    tid.set_strpad(h5py.h5t.STR_NULLTERM)
-    with h5py.File(path, "w", userblock_size=512) as f:
-        for name, v in variables.items():
-            v = np.atleast_2d(np.asarray(v, dtype=float))
-            if v.shape[0] == 1:
-                v = v.T
-            ds = f.create_dataset(name, data=v.T)
-            a = h5py.h5a.create(ds.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
-            a.write(np.array(b"double", dtype="S6"), mtype=tid)   # the 6 bytes, no conversion
-    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 00:00:00 2026 HDF5 schema 1.00 ."
-    with open(path, "r+b") as f:
-        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+    """MATLAB v7.3 (helpers.write_mat73): each variable a column of doubles."""
+    cols = {}
+    for name, v in variables.items():
+        v = np.atleast_2d(np.asarray(v, dtype=float))
+        cols[name] = v.T if v.shape[0] == 1 else v
+    h.write_mat73(path, cols)
 
 
 def test_mat_v73_hdf5(tmp_path, data, reference):
@@ -592,9 +579,7 @@ def test_bad_mat73_h5py_default_class_attribute(tmp_path, data):
     with h5py.File(p, "w", userblock_size=512) as f:
         for name, v in {"Force": u, "Acc": y}.items():
             f.create_dataset(name, data=v.T).attrs["MATLAB_class"] = np.bytes_("double")
-    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 00:00:00 2026 HDF5 schema 1.00 ."
-    with open(p, "r+b") as f:
-        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
+    h.mat73_header(p)
     cols = ["--columns", "u1=Force:1,u2=Force:2,y1=Acc:1,y2=Acc:2"]
     _fails(tmp_path, [p], cols, f"'{p}' variable ", "MATLAB_class", "h5py")
     ok = []

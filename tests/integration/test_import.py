@@ -398,58 +398,6 @@ def test_idfrd_mat_written_by_scipy(tmp_path):
     assert doc["input_names"] == ["Force", "Torque"] and "cov" not in doc["lines"][0]
 
 
-def _mat73_class(h5py, obj, cls):
-    """The MATLAB_class attribute as MATLAB writes it: a fixed-length NULLTERM string."""
-    tid = h5py.h5t.C_S1.copy()
-    tid.set_size(len(cls))
-    tid.set_strpad(h5py.h5t.STR_NULLTERM)
-    a = h5py.h5a.create(obj.id, b"MATLAB_class", tid, h5py.h5s.create(h5py.h5s.SCALAR))
-    a.write(np.array(cls.encode(), dtype=f"S{len(cls)}"), mtype=tid)
-
-
-def write_idfrd_mat73(path, variables):
-    """An idfrd-shaped MATLAB v7.3 file as MATLAB writes one: HDF5 behind a 512-byte user block holding
-    the MATLAB header; each variable a dataset with MATLAB's dimensions reversed (MATLAB is column-major);
-    complex as a {real, imag} compound; char as uint16 code units (MATLAB_int_decode 2); a cell array as a
-    dataset of object references to datasets in the group "#refs#"."""
-    h5py = pytest.importorskip("h5py")
-
-    def put(group, name, v):
-        if isinstance(v, str):
-            ds = group.create_dataset(name, data=np.array([[ord(c)] for c in v], dtype=np.uint16))
-            _mat73_class(h5py, ds, "char")
-            ds.attrs.create("MATLAB_int_decode", 2, dtype=np.int32)
-            return ds
-        v = np.asarray(v)
-        if v.ndim < 2:
-            v = v.reshape(1, -1) if v.ndim == 1 else v.reshape(1, 1)
-        data = np.transpose(v)   # MATLAB's dimensions reversed
-        if np.iscomplexobj(data):
-            c = np.empty(data.shape, dtype=[("real", "<f8"), ("imag", "<f8")])
-            c["real"], c["imag"] = data.real, data.imag
-            data = c
-        else:
-            data = data.astype(float)
-        ds = group.create_dataset(name, data=data)
-        _mat73_class(h5py, ds, "double")
-        return ds
-
-    with h5py.File(path, "w", userblock_size=512) as f:
-        refs = f.create_group("#refs#")
-        for name, v in variables.items():
-            if isinstance(v, list):   # a column cell array of char rows
-                targets = [put(refs, f"{name}_{k}", c) for k, c in enumerate(v)]
-                ds = f.create_dataset(name, (1, len(v)), dtype=h5py.ref_dtype)
-                for k, t in enumerate(targets):
-                    ds[0, k] = t.ref
-                _mat73_class(h5py, ds, "cell")
-            else:
-                put(f, name, v)
-    hdr = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Sat Nov 28 00:00:00 2026 HDF5 schema 1.00 ."
-    with open(path, "r+b") as f:
-        f.write(hdr.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02" + b"IM")
-
-
 def _idfrd_content(rng, ny, nu, L, cov):
     G = rng.standard_normal((ny, nu, L)) + 1j * rng.standard_normal((ny, nu, L))
     v = {"ResponseData": G, "Frequency": np.linspace(1, 50, L)[:, None], "Ts": 0.0, "FrequencyUnit": "Hz",
@@ -483,7 +431,7 @@ def test_idfrd_mat_v73_equals_v5(tmp_path, ny, nu, cov):
     v = _idfrd_content(np.random.default_rng(7 + ny + nu), ny, nu, 30, cov)
     p5, p73 = tmp_path / "v5.mat", tmp_path / "v73.mat"
     sio.savemat(p5, _as_scipy(v), format="5")
-    write_idfrd_mat73(p73, v)
+    helpers.write_mat73(p73, v)
     d5, G5, om5 = imported(p5, tmp_path)
     d73, G73, om73 = imported(p73, tmp_path)
     np.testing.assert_array_equal(G73, G5)
@@ -502,28 +450,99 @@ def test_idfrd_mat_v73_refused(tmp_path):
     h5py = pytest.importorskip("h5py")
     base = _idfrd_content(np.random.default_rng(1), 1, 1, 10, False)
     p = tmp_path / "nor.mat"
-    write_idfrd_mat73(p, {k: x for k, x in base.items() if k != "ResponseData"})
+    helpers.write_mat73(p, {k: x for k, x in base.items() if k != "ResponseData"})
     _refused(tmp_path, p, "no variable 'ResponseData'")
     p = tmp_path / "freq.mat"
-    write_idfrd_mat73(p, dict(base, Frequency=np.arange(1.0, 9.0)[:, None]))
+    helpers.write_mat73(p, dict(base, Frequency=np.arange(1.0, 9.0)[:, None]))
     _refused(tmp_path, p, "Frequency has 8 values")
     # h5py's own complex128 (members 'r', 'i'): libmatio would read it by the names 'real' and 'imag'
     # without checking them, and return whatever memory held
     p = tmp_path / "h5pycomplex.mat"
-    write_idfrd_mat73(p, base)
+    helpers.write_mat73(p, base)
     with h5py.File(p, "a") as f:
         G = base["ResponseData"]
         del f["ResponseData"]
         ds = f.create_dataset("ResponseData", data=np.transpose(G))
-        _mat73_class(h5py, ds, "double")
+        helpers.matlab_class(ds, "double")
     _refused(tmp_path, p, "variable 'ResponseData' is a compound of 2 members ('r', 'i')")
     p = tmp_path / "huge.mat"
-    write_idfrd_mat73(p, base)
+    helpers.write_mat73(p, base)
     with h5py.File(p, "a") as f:
         del f["ResponseData"]
         ds = f.create_dataset("ResponseData", shape=(1 << 20, 1 << 12, 1), dtype="<f8", chunks=(1024, 16, 1))
-        _mat73_class(h5py, ds, "double")
+        helpers.matlab_class(ds, "double")
     _refused(tmp_path, p, "huge.mat", "ResponseData")
+
+
+def test_idfrd_mat_v73_ct_in_hz_fitted_validated_and_plotted_directly(tmp_path):
+    """A CT FRF (Ts = 0) in Hz, as an analogue analyser gives it, as v5 and as v7.3: `msid fit`,
+    `validate` and `plot` read the v7.3 file directly, and its model is the v5 file's, byte for byte
+    (but for the file's name)."""
+    sio = pytest.importorskip("scipy.io")
+    plant = helpers.ct_plant_2x2()
+    om = np.geomspace(10, 5000, 40)
+    v = {"ResponseData": np.transpose(helpers.ct_frf(plant, om), (1, 2, 0)), "Frequency": (om / (2 * np.pi))[:, None],
+         "Ts": 0.0, "FrequencyUnit": "Hz", "InputName": ["u1", "u2"]}
+    p5, p73 = tmp_path / "v5.mat", tmp_path / "v73.mat"
+    sio.savemat(p5, _as_scipy(v), format="5")
+    helpers.write_mat73(p73, v)
+    models = []
+    for p in (p5, p73):
+        m = tmp_path / (p.stem + ".model.json")
+        run_ok("fit", "--method", "ml", "--order", "4", p, "-o", m)
+        models.append(m.read_text().replace(p.name, "FILE"))
+        run_ok("validate", m, p, "-o", tmp_path / (p.stem + ".val.json"))
+        png = tmp_path / (p.stem + ".png")
+        run_ok("plot", p, "--model", m, "-o", png)
+        assert png.stat().st_size > 1000
+    assert models[0] == models[1]
+    assert load_json(tmp_path / "v73.model.json")["domain"] == "ct"
+
+
+def test_idfrd_mat_v73_refused_more(tmp_path):
+    """A wrong name count, a cut file (libmatio alone lists no variables in it: it read as a file without
+    ResponseData), h5py's default MATLAB_class attribute (a NUL-padded string libmatio does not read) and
+    a char matrix where a row belongs (v5 refuses it too): one message each."""
+    h5py = pytest.importorskip("h5py")
+    base = _idfrd_content(np.random.default_rng(2), 1, 1, 10, False)
+    p = tmp_path / "names.mat"
+    helpers.write_mat73(p, dict(base, InputName=["a", "b"]))
+    _refused(tmp_path, p, "names.mat", "variable 'InputName' must be a cell array of 1 char rows")
+    good = tmp_path / "good.mat"
+    helpers.write_mat73(good, base)
+    cut = tmp_path / "cut73.mat"
+    cut.write_bytes(good.read_bytes()[:1500])
+    _refused(tmp_path, cut, "cut73.mat", "v7.3 (HDF5) file that HDF5 cannot open: truncated or corrupt")
+    p = tmp_path / "h5py.mat"
+    with h5py.File(p, "w", userblock_size=512) as f:
+        f.create_dataset("ResponseData", data=np.ones((10, 1, 1))).attrs["MATLAB_class"] = np.bytes_("double")
+    helpers.mat73_header(p)
+    _refused(tmp_path, p, "h5py.mat", "variable 'ResponseData': an array without a MATLAB class", "h5py")
+    p = tmp_path / "unit.mat"
+    helpers.write_mat73(p, base)
+    with h5py.File(p, "a") as f:
+        del f["FrequencyUnit"]
+        ds = f.create_dataset("FrequencyUnit", data=np.array([[ord("H"), ord("z")], [ord("H"), ord("z")]], "<u2"))
+        helpers.matlab_class(ds, "char")
+    _refused(tmp_path, p, "unit.mat", "variable 'FrequencyUnit': text that is not one row")
+
+
+def test_idfrd_mat_round_trip_without_units(tmp_path):
+    """An FRF without units: `msid export --mat` writes cells of empty char rows, each (libmatio) with a
+    data element of 0 bytes, and `msid import` reads them back as unknown units (it used to read the
+    empty element as the next cell: "variable 15 has a malformed cell")."""
+    sio = pytest.importorskip("scipy.io")
+    c = tmp_path / "f.csv"
+    c.write_text("freq_hz,G_acc_force_re,G_acc_force_im,G_acc_force_sd,G_acc_torque_re,G_acc_torque_im,G_acc_torque_sd\n"
+                 "1,0.5,0.1,0.01,0.2,0.3,0.01\n2,0.4,0.2,0.01,0.1,0.4,0.01\n3,0.3,0.3,0.01,0.0,0.5,0.01\n")
+    doc, G, om = imported(c, tmp_path)
+    run_ok("export", tmp_path / "f.csv.json", "--mat", tmp_path / "f.mat")
+    units = sio.loadmat(tmp_path / "f.mat")["InputUnit"]
+    assert units.shape == (2, 1) and all(u.size == 0 for u in units.flat)
+    mdoc, G2, om2 = imported(tmp_path / "f.mat", tmp_path)
+    np.testing.assert_array_equal(G2, G)
+    np.testing.assert_array_equal(om2, om)
+    assert mdoc["input_names"] == ["force", "torque"] and mdoc.get("input_units", ["", ""]) == ["", ""]
 
 
 def test_truncated_mat(tmp_path):

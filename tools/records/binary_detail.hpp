@@ -94,6 +94,9 @@ std::unique_ptr<MatReader> open_mat_v5(const std::string &path);
 // against what the file can hold; throws Error naming the file, the object and the size it claims.
 void check_mat_hdf5(const std::string &path, size_t file_bytes);
 
+// Why a v7.3 dataset with elements but no MATLAB class libmatio reads is not read (mat_hdf5.cpp).
+extern const char MAT_UNCLASSED[];
+
 // read_mat_values of a v7.3 file (mat_values_v73.cpp): check_mat_hdf5 first, then the named variables
 // through libmatio, each one's claimed size checked before it is read.
 std::vector<MatValue> read_mat_values_v73(const std::string &path, size_t file_bytes, const std::vector<std::string> &names);

@@ -233,13 +233,20 @@ void follow_references(Walk &w)
 
 }  // namespace
 
+const char MAT_UNCLASSED[] =
+    "an array without a MATLAB class that libmatio reads (a v7.3 dataset whose MATLAB_class attribute is not a "
+    "NUL-terminated string such as 'double', as h5py writes it by default; write it with MATLAB, hdf5storage, "
+    "scipy.io.savemat or as .npz)";
+
 void check_mat_hdf5(const std::string &path, size_t file_bytes)
 {
     const H5 &h = h5();
     h.open();
     h.eset_auto2(0, nullptr, nullptr);   // HDF5's own messages would go to stderr; the one error says it
     const hid_t f = h.fopen(path.c_str(), 0, 0);
-    if (f < 0) return;   // libmatio says it is not a .mat file
+    // libmatio does not check its own H5Fopen: it lists no variables, so a cut file read as an empty one
+    // ("holds no real numeric vectors", "has no variable 'ResponseData'")
+    if (f < 0) throw Error("'" + path + "' is a MATLAB v7.3 (HDF5) file that HDF5 cannot open: truncated or corrupt");
     Walk w{h, (uint64_t)file_bytes * DEFLATE_MAX_RATIO, (uint64_t)file_bytes, {}, {}, {}, {}, f};
     h.lvisit(f, H5_INDEX_NAME, H5_ITER_NATIVE, on_link, &w);
     follow_references(w);

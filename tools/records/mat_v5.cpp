@@ -405,8 +405,16 @@ MatValue MatV5::read_value()
         for (uint64_t k = 0; k < elems; ++k) {
             Tag t;
             if (!tag(t) || t.small || t.type != MI_MATRIX) throw bad("has a malformed cell");
+            // the cell's own bytes (within the variable's: tag() checked), read to their end: an empty
+            // char keeps a data element of 0 bytes that char_data() does not read (libmatio writes one,
+            // so `msid export --mat` of an FRF without units could not be imported back)
+            const uint64_t end = used_ + t.bytes;
             const Head h = parse_head();
             v.cells.push_back(char_data(h));
+            if (used_ < end) {
+                if (!m_.read(nullptr, (size_t)(end - used_))) throw bad("is truncated");
+                used_ = end;
+            }
         }
     }
     return v;

@@ -59,9 +59,11 @@ struct Reader {
         return Error("'" + path + "' variable '" + name + "': " + what);
     }
 
-    // A char matvar's text (code units above 127 as '?', as the v5 reader gives them).
+    // A char matvar's text (code units above 127 as '?', as the v5 reader gives them): one row, as the v5
+    // reader takes it (a char matrix's rows would run together, column-major).
     std::string text(const matvar_t *v, const std::string &name) const
     {
+        if (v->rank != 2 || !v->dims || (v->dims[0] > 1 && v->dims[1] > 0)) throw bad(name, "text that is not one row");
         const size_t es = element_size(v->data_type), n = v->nbytes / (es ? es : 1);
         if (!es || v->data_type == MAT_T_DOUBLE || v->data_type == MAT_T_SINGLE)
             throw bad(name, "a char array of an unexpected element type");
@@ -135,8 +137,12 @@ std::vector<MatValue> read_mat_values_v73(const std::string &path, size_t file_b
         for (int r = 0; r < info->rank && info->dims; ++r)
             claimed = info->dims[r] && claimed > UINT64_MAX / 16 / info->dims[r] ? UINT64_MAX : claimed * info->dims[r];
         const bool want = std::find(names.begin(), names.end(), name) != names.end();
+        // elements but no class: a MATLAB_class attribute libmatio does not read (h5py's default)
+        const bool unclassed = info->class_type == MAT_C_EMPTY && info->rank > 0 && info->dims &&
+                               std::all_of(info->dims, info->dims + info->rank, [](size_t d) { return d > 0; });
         R.M.VarFree(info);
         if (!want) continue;
+        if (unclassed) throw R.bad(name, MAT_UNCLASSED);
         // at most 16 bytes an element (a complex double) before libmatio sizes anything from it
         if (claimed != UINT64_MAX) claimed *= 16;
         if (claimed > holds)

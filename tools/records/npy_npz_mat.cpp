@@ -491,11 +491,7 @@ Record read_record_mat(const std::string &path, const ColumnMap &cols)
         if (!wanted) continue;
         if (!real2d) {
             const std::string why = info.complex ? "complex" : info.rank != 2 ? fmt("%d-dimensional", info.rank)
-                                    : info.unclassed ? "an array without a MATLAB class that libmatio reads (a v7.3 "
-                                                       "dataset whose MATLAB_class attribute is not a NUL-terminated "
-                                                       "string such as 'double', as h5py writes it by default; write "
-                                                       "it with MATLAB, hdf5storage, scipy.io.savemat or as .npz)"
-                                                     : "not a numeric array";
+                                    : info.unclassed ? MAT_UNCLASSED : "not a numeric array";
             if (!cols.empty())
                 throw Error("'" + path + "' variable '" + name + "' is " + why + ": expected a real vector or matrix");
             skipped.push_back(info.unclassed ? name + ": " + why : name);
