@@ -24,17 +24,20 @@ LIMIT_KB = 64 * 1024
 SANITIZED = os.environ.get("MSID_SANITIZED") == "1"
 
 
-def _frf(path):
-    """`msid frf` on one experiment file, writing next to it: (exit code, stdout, stderr, peak RSS in
-    kB); a failure must leave no output file. Run through peak_rss_run (MSID_PEAK_RSS_RUN): a child
-    forked from this process would start with pytest's RSS as its high-water mark."""
+def _frf(path, command="frf"):
+    """`msid frf` on one experiment file (command "import": `msid import` of an FRF file), writing next
+    to it: (exit code, stdout, stderr, peak RSS in kB); a failure must leave no output file. Run through
+    peak_rss_run (MSID_PEAK_RSS_RUN): a child forked from this process would start with pytest's RSS as
+    its high-water mark."""
     out_json = path.parent / "frf.json"
     rss_file = path.parent / "peak_rss_kb"
     runner = os.environ.get("MSID_PEAK_RSS_RUN")
     if not runner:
         pytest.skip("set MSID_PEAK_RSS_RUN to tests/integration/peak_rss_run (ctest does this)")
-    r = subprocess.run([runner, str(rss_file), h.msid_bin(), "frf", "--period", "64", "--lines", "1,3",
-                        "--experiment", str(path), "-o", str(out_json)], capture_output=True, text=True, timeout=600)
+    args = ["frf", "--period", "64", "--lines", "1,3", "--experiment", str(path)] if command == "frf" \
+        else [command, str(path)]
+    r = subprocess.run([runner, str(rss_file), h.msid_bin()] + args + ["-o", str(out_json)], capture_output=True,
+                       text=True, timeout=600)
     if r.returncode != 0:
         assert not out_json.exists(), f"{path.name}: an output was written"
     return r.returncode, r.stdout, r.stderr, int(rss_file.read_text())
@@ -63,8 +66,8 @@ EXPECTED = {
 FILES = {name: (suffix, make) for name, suffix, _, make in hf.FILES}
 
 
-def _assert_bounded(path, phrase, claimed):
-    rc, out, err, rss = _frf(path)
+def _assert_bounded(path, phrase, claimed, command="frf"):
+    rc, out, err, rss = _frf(path, command)
     assert rc != 0 and out == "", f"{path.name}: exit {rc}, stdout {out!r}"
     lines = err.strip().splitlines()
     assert len(lines) == 1, f"{path.name}: not one message: {err!r}"
@@ -111,6 +114,17 @@ def test_mat_v73_reference_to_an_unlinked_object(tmp_path):
     if claimed is None:
         pytest.skip("h5py's HDF5 library cannot be called to keep an unlinked object")
     _assert_bounded(p, f"'{{f}}' variable 'c' refers to an object that claims {claimed} bytes, more than 1032 x", claimed)
+
+
+def test_idfrd_mat73_claiming_more_than_the_file(tmp_path):
+    """`msid import` of an idfrd-shaped v7.3 file whose ResponseData (complex, chunked, never written)
+    claims 16 TiB: refused by the HDF5 check before libmatio reads a variable, in a few MB."""
+    pytest.importorskip("h5py")
+    p = tmp_path / "huge-idfrd.mat"
+    claimed = hf.mat_v73_idfrd_huge(p)
+    assert p.stat().st_size < 64 * 1024
+    _assert_bounded(p, f"'{{f}}' variable 'ResponseData' claims {claimed} bytes, more than 1032 x the file's", claimed,
+                    "import")
 
 
 def test_negative_control_the_bound_sees_a_large_allocation(tmp_path):

@@ -85,6 +85,38 @@ def test_bad_file_is_one_value_error(tmp_path):
         msid.import_frf(tmp_path / "missing.s1p")
 
 
+def test_import_frf_of_a_mat73_file_equals_v5(demo, tmp_path):
+    """`msid export --mat` (v5) of the demo's FRF, its variables written again as MATLAB v7.3 (h5py, as
+    `save -v7.3` writes them; empty units as MATLAB's empty arrays): msid.import_frf reads the same FRF
+    from both, bit for bit, in a process that has h5py's own HDF5 loaded beside libmatio's; msid.fit of
+    the v7.3 file is the v5 file's model."""
+    scipy_io = pytest.importorskip("scipy.io")
+    pytest.importorskip("h5py")
+    import helpers
+    v5, v73 = tmp_path / "v5.mat", tmp_path / "v73.mat"
+    cli("export", demo / "frf.json", "--mat", v5)
+    variables = {}
+    for k, v in scipy_io.loadmat(v5).items():
+        if k.startswith("__"):
+            continue
+        if v.dtype == object:   # a cell of char rows: N x 1
+            variables[k] = [str(c.flat[0]) if c.size else "" for c in v.flat]
+        elif v.dtype.kind == "U":
+            variables[k] = str(v.flat[0])
+        else:
+            variables[k] = v
+    assert variables["InputUnit"] == ["", ""]
+    helpers.write_mat73(v73, variables)
+    a, b = msid.import_frf(v5), msid.import_frf(v73)
+    for k in ("G", "omega", "freq", "cov", "dof"):
+        np.testing.assert_array_equal(getattr(b, k), getattr(a, k), err_msg=k)
+    assert b.signal_names() == a.signal_names() == (["u1", "u2"], ["y1", "y2"])
+    assert b.signal_units() == a.signal_units()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        np.testing.assert_array_equal(msid.fit(v73, method="ml", order=2).A, msid.fit(v5, method="ml", order=2).A)
+
+
 def _same_mat_value(a, b):
     """Equal values of scipy.io.loadmat (cell arrays are object arrays of arrays)."""
     if isinstance(a, np.ndarray) and a.dtype == object:
