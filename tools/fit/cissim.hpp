@@ -132,11 +132,17 @@ struct Correlations {
     uint64_t periods = 0;
 };
 
-// Algorithm 6: in the frequency domain (the periodic part is the DFT bins at multiples of K;
-// correlations by one FFT of length >= N + M, zero padded, so that they equal (32)-(33)
-// exactly, not only asymptotically as with the paper's length-N circular correlation).
+// How the correlations are computed: Alg. 6 in the frequency domain (the periodic part is the DFT
+// bins at multiples of K; correlations by FFTs of length >= N + M, zero padded, so that they equal
+// (32)-(33) exactly, not only asymptotically as with the paper's length-N circular correlation), or
+// (32)-(33) directly (M ny^2 dot products of length ~N). Both give the same numbers to rounding;
+// Auto takes the one with fewer operations (cissim_correlations_direct): direct for a few lags and
+// outputs (the default M <= 50), where it also spares the planning of a long transform.
+enum class CorrMethod { Auto, Direct, Fft };
+bool cissim_correlations_direct(int M, uint32_t nu, uint32_t ny, uint64_t N);
+// The residuals are every sample minus the mean of its phase over the K periods (Assumption 6).
 Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
-                                 uint32_t skip_periods, int M);
+                                 uint32_t skip_periods, int M, CorrMethod method = CorrMethod::Auto);
 // The same from the time-domain definitions (32)-(33), O(M N): the reference of the tests.
 Correlations cissim_correlations_time(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
                                       uint32_t skip_periods, int M);

@@ -20,20 +20,28 @@ static MatR residuals(const double *rows, size_t n_rows, uint32_t C, uint32_t T,
         throw FitError("the noise covariance needs at least 2 whole periods after the skipped ones (the record has " +
                        std::to_string(total) + " of " + std::to_string(T) + " samples)");
     K = total - skip;
-    const size_t N = (size_t)K * T;
-    const double *base = rows + (size_t)skip * T * C;
-    MatR mean = MatR::Zero(T, C);
-    for (size_t k = 0; k < N; ++k)
-        for (uint32_t j = 0; j < C; ++j) mean(k % T, j) += base[k * C + j];
-    mean /= (double)K;
+    const size_t N = (size_t)K * T, TC = (size_t)T * C;
+    const double *base = rows + (size_t)skip * TC;
+    // the phase means, row-major like the record (period by period, no index division)
+    std::vector<double> mean(TC, 0.0);
+    for (uint64_t p = 0; p < K; ++p) {
+        const double *x = base + p * TC;
+        for (size_t i = 0; i < TC; ++i) mean[i] += x[i];
+    }
+    for (double &v : mean) v /= (double)K;
     MatR r(N, C);
-    for (size_t k = 0; k < N; ++k)
-        for (uint32_t j = 0; j < C; ++j) r(k, j) = base[k * C + j] - mean(k % T, j);
+    for (uint64_t p = 0; p < K; ++p) {
+        const double *x = base + p * TC;
+        for (uint32_t j = 0; j < C; ++j) {
+            double *out = r.col(j).data() + p * T;
+            for (size_t n = 0; n < T; ++n) out[n] = x[n * C + j] - mean[n * C + j];
+        }
+    }
     return r;
 }
 
-// The padded length of the correlations: the power of two at or above n. Every call of a fit (the
-// noise covariance's M lags, the cost's one lag) then shares one DFT length, planned once.
+// The padded length of the correlations: the power of two at or above n (records of similar length
+// share one DFT length, planned once for the process).
 static size_t fast_len(size_t n)
 {
     size_t L = 1;
@@ -41,8 +49,16 @@ static size_t fast_len(size_t n)
     return L;
 }
 
+bool cissim_correlations_direct(int M, uint32_t nu, uint32_t ny, uint64_t N)
+{
+    // products per sample: M ny^2 by the definitions; about 2.5 log2 L per transform of the padded
+    // residuals (C forward, ny (ny + 1) / 2 inverse)
+    const double L = (double)fast_len((size_t)N + (size_t)M);
+    return (double)M * ny * ny <= 2.5 * std::log2(L) * (nu + ny + ny * (ny + 1) / 2.0);
+}
+
 Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
-                                 uint32_t skip, int M)
+                                 uint32_t skip, int M, CorrMethod method)
 {
     const uint32_t C = nu + ny;
     Correlations c;
@@ -50,6 +66,21 @@ Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu,
     const size_t N = (size_t)r.rows();
     c.n = N;
     if (M < 1 || (size_t)M >= N) throw FitError("the number of correlation lags must be in [1, N)");
+    const bool direct = method == CorrMethod::Direct || (method == CorrMethod::Auto && cissim_correlations_direct(M, nu, ny, N));
+    if (direct) {
+        // (32)-(33) as written: one dot product of two residual columns per lag and pair
+        c.Xi_rr.assign((size_t)M, MatR::Zero(ny, ny));
+        for (int l = 0; l < M; ++l) {
+            const Eigen::Index len = (Eigen::Index)(N - (size_t)l);
+            for (uint32_t i = 0; i < ny; ++i)
+                for (uint32_t j = 0; j < ny; ++j)
+                    c.Xi_rr[(size_t)l](i, j) = r.col(nu + i).segment(l, len).dot(r.col(nu + j).head(len)) / (double)len;
+        }
+        c.Xi_tt = MatR(nu, nu);
+        for (uint32_t i = 0; i < nu; ++i)
+            for (uint32_t j = 0; j < nu; ++j) c.Xi_tt(i, j) = r.col(i).dot(r.col(j)) / (double)N;
+        return c;
+    }
     // Alg. 6: spectra of the residuals (zero padded to L >= N + M so that the products give the
     // linear correlations of (32), not circular ones), cross-spectra, inverse transforms
     const size_t L = fast_len(N + (size_t)M), H = L / 2 + 1;

@@ -82,9 +82,9 @@ Json settings_json(const CissimRequest &rq, const CissimResult &res, const std::
     return st;
 }
 
-// The noise covariances (section 4.3) on the full set, from the first experiment's residuals.
-Json noise_cov_json(const Record &r0, const CissimRequest &rq, const SSModel &ss, int n, FitOutcome &out,
-                    const Report &report)
+// The residual correlations of the first experiment (Alg. 6) at M lags (--lags, or the default of
+// section 4.3.3): the noise covariance and the white-noise cost use them.
+Correlations noise_correlations(const Record &r0, const CissimRequest &rq, int n)
 {
     const uint32_t P = rq.period, skip = rq.skip_periods, nu = r0.nu, ny = r0.ny;
     const uint64_t N = (uint64_t)(r0.n_rows / P - skip) * P;
@@ -94,7 +94,12 @@ Json noise_cov_json(const Record &r0, const CissimRequest &rq, const SSModel &ss
     const int Mmin = (int)std::ceil((double)n * n / ((double)ny * ny)) + 1;
     if (M < Mmin) throw UsageError(fmt("--lags %d is below ceil(n^2 / ny^2) + 1 = %d (Assumption 8)", M, Mmin));
     if ((uint64_t)M >= N / 2) throw UsageError(fmt("--lags %d needs M << N = %llu (Assumption 8)", M, (unsigned long long)N));
-    const Correlations c = cissim_correlations(r0.data(), r0.n_rows, nu, ny, P, skip, M);
+    return cissim_correlations(r0.data(), r0.n_rows, nu, ny, P, skip, M);
+}
+
+// The noise covariances (section 4.3) on the full set, from the first experiment's residuals.
+Json noise_cov_json(const Record &r0, const Correlations &c, const SSModel &ss, FitOutcome &out, const Report &report)
+{
     const NoiseCov nc = cissim_noise_cov(ss, c);
     Json nj;
     nj["Sigma_ww"] = rmat_json(nc.Sigma_ww);
@@ -143,21 +148,17 @@ Json frf_json(const CissimRequest &rq, const SSModel &ss, const CissimMlResult &
 
 // A white-noise cost of the phasor residuals at the excited lines: var(P_r) = 4 Xi_rr^0 / (K T) per
 // complex phasor (white approximation); zero without the noise covariance.
-Json cost_json(const std::vector<Record> &recs, const CissimRequest &rq, const std::vector<IspResult> &isp,
-               const std::vector<uint32_t> &bins, const SSModel &ss, int nparams, bool have_nc)
+Json cost_json(const CissimRequest &rq, const std::vector<IspResult> &isp, const std::vector<uint32_t> &bins,
+               const SSModel &ss, int nparams, const Correlations *corr)
 {
-    const uint32_t P = rq.period, skip = rq.skip_periods;
-    const uint32_t nu = recs[0].nu, ny = recs[0].ny;
+    const uint32_t P = rq.period;
+    const Eigen::Index ny = ss.C.rows();
     const std::vector<uint32_t> &lines = rq.lines;
     Json cost;
     double V = 0, neq = 0;
     MatR Xi0;
-    if (have_nc) {
-        const Record &r0 = recs[0];
-        const Correlations c0 = cissim_correlations(r0.data(), r0.n_rows, nu, ny, P, skip, 1);
-        Xi0 = c0.Xi_rr[0] * ((double)c0.periods / (double)(c0.periods - 1));
-    }
-    if (Xi0.size() && Eigen::FullPivLU<MatR>(Xi0).rank() == (Eigen::Index)ny) {
+    if (corr) Xi0 = corr->Xi_rr[0] * ((double)corr->periods / (double)(corr->periods - 1));
+    if (Xi0.size() && Eigen::FullPivLU<MatR>(Xi0).rank() == ny) {
         const MatR Xinv = Xi0.inverse();
         for (const auto &r : isp) {
             const double scale = (double)r.periods * P / 4.0;
@@ -260,9 +261,13 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
                                     {"cov_rank", ml.cov_rank},
                                     {"cov_note", "FRF covariance from the Fisher information of the weighted output error "
                                                  "(weights: per-line sample covariance over the periods), sample-ML factor applied"}};
-        if (!rq.no_covariance) doc["noise_covariance"] = noise_cov_json(recs[0], rq, ss, n, out, report);
+        Correlations corr;
+        if (!rq.no_covariance) {
+            corr = noise_correlations(recs[0], rq, n);
+            doc["noise_covariance"] = noise_cov_json(recs[0], corr, ss, out, report);
+        }
         const Json fr = frf_json(rq, ss, ml, refine);
-        doc["cost"] = cost_json(recs, rq, isp, bins, ss, nparams, !rq.no_covariance);
+        doc["cost"] = cost_json(rq, isp, bins, ss, nparams, rq.no_covariance ? nullptr : &corr);
         doc["cissim"] = cj;
         doc["frf"] = fr;
         model_put_modes(doc, &out.before);
