@@ -152,13 +152,15 @@ struct NoiseCov {
     int lags = 0;                // M
     bool detectable = true;      // Assumption 7 (A non-singular, C full column rank)
     std::string note;            // why the solution is nominal, when it is
-    int iterations = 0;          // ADMM iterations
-    double primal_residual = 0;  // max constraint violation left (Frobenius)
+    std::string solver;          // "interior point", or "ADMM" without a strictly feasible start
+    int iterations = 0;          // Newton steps (interior point) or ADMM iterations
+    double duality_gap = -1;     // interior point: the bound m / t on the cost above its minimum (-1: ADMM)
+    double primal_residual = 0;  // max constraint violation left (Frobenius; 0 for the interior point)
     double fit_residual = 0;     // || M vec Xi_zz - p || / || p ||
 };
 
-// Algorithm 7: Xi_zz by least squares (35) under the PSD constraints of (36), solved by ADMM
-// (cissim_cov.cpp), then Sigma_ww = Xi - A Xi A^T, Sigma_vv = Xi_rr^0 - C Xi C^T, Sigma_tt = Xi_tt.
+// Algorithm 7: Xi_zz by least squares (35) under the PSD constraints of (36), solved by a primal
+// log-barrier interior-point method (ADMM when no strictly feasible start exists), then Sigma_ww = Xi - A Xi A^T, Sigma_vv = Xi_rr^0 - C Xi C^T, Sigma_tt = Xi_tt.
 // The residual correlations are scaled by K / (K - 1) first (the periodic-mean projection removes
 // one period's worth of noise degrees of freedom; exact for white noise at lag 0).
 NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &c);
@@ -172,6 +174,13 @@ struct LmiLs {
     std::vector<VecR> h;
 };
 VecR lmi_least_squares(const LmiLs &p, int &iterations, double &primal_residual, int max_iter = 5000, double tol = 1e-10);
+// The same problem by a primal log-barrier method: Newton steps on t ||F x - g||^2 - sum_i log det
+// mat(G_i x + h_i) along t = t0, 10 t0, ... until the bound m / t (m = sum d_i) on the cost above its
+// minimum is below tol ||g||^2. x: a strictly feasible start on entry, the solution on return; false
+// (x unusable) when the start is not strictly feasible or a Newton system fails. A few dozen Newton
+// steps of a small dense system where ADMM creeps towards a minimiser on the boundary of the cone
+// (no process noise: Xi_zz = 0) for thousands of iterations.
+bool lmi_least_squares_barrier(const LmiLs &p, VecR &x, int &steps, double &gap, double tol = 1e-12);
 
 // Relative H2 / Hinf errors are msidfit::ss_distance (models.hpp).
 

@@ -190,6 +190,101 @@ VecR lmi_least_squares(const LmiLs &p, int &iterations, double &primal_residual,
     return x;
 }
 
+// The side of a square matrix stored as a column of d^2 entries.
+static Eigen::Index side(Eigen::Index d2) { return (Eigen::Index)std::lround(std::sqrt((double)d2)); }
+
+// log det of every mat(G_i x + h_i) and their inverses; false when one is not positive definite.
+static bool barrier_terms(const LmiLs &p, const VecR &x, double &logdet, std::vector<MatR> *inv)
+{
+    logdet = 0;
+    for (size_t i = 0; i < p.G.size(); ++i) {
+        const VecR v = p.G[i] * x + p.h[i];
+        const Eigen::Index d = side(v.size());
+        const MatR X = Eigen::Map<const MatR>(v.data(), d, d);
+        const Eigen::LLT<MatR> llt(0.5 * (X + X.transpose()));
+        if (llt.info() != Eigen::Success) return false;
+        for (Eigen::Index k = 0; k < d; ++k) {
+            const double l = llt.matrixLLT()(k, k);
+            if (!(l > 0) || !std::isfinite(l)) return false;
+            logdet += 2.0 * std::log(l);
+        }
+        if (inv) (*inv)[i] = llt.solve(MatR::Identity(d, d));
+    }
+    return true;
+}
+
+bool lmi_least_squares_barrier(const LmiLs &p, VecR &x, int &steps, double &gap, double tol)
+{
+    steps = 0;
+    gap = 0;
+    const Eigen::Index nx = p.F.cols();
+    double m = 0, logdet = 0;
+    for (const auto &G : p.G) m += (double)side(G.rows());
+    std::vector<MatR> W(p.G.size());
+    if (x.size() != nx || !barrier_terms(p, x, logdet, nullptr)) return false;
+    // the cost from its residual (not from the normal equations: a fit that is nearly exact keeps its
+    // digits)
+    const MatR Hf = 2.0 * p.F.transpose() * p.F;
+    const VecR bf = 2.0 * p.F.transpose() * p.g;
+    const double S = std::max(p.g.squaredNorm(), 1e-300);
+    VecR res(p.F.rows());
+    auto f = [&](const VecR &y) {
+        res.noalias() = p.F * y;
+        res -= p.g;
+        return res.squaredNorm();
+    };
+    VecR grad(nx), dx(nx), xn(nx);
+    MatR H(nx, nx);
+    // the central path from t0, where the fit and the barrier weigh alike, by factors of 10 (a
+    // handful of Newton steps each) to the bound m / t <= tol ||g||^2
+    double t = m / std::max(f(x), 1e-12 * S);
+    for (int outer = 0; outer < 100; ++outer) {
+        for (int inner = 0; inner < 50; ++inner) {
+            if (!barrier_terms(p, x, logdet, &W)) return false;
+            grad.noalias() = t * (Hf * x - bf);
+            H = t * Hf;
+            for (size_t i = 0; i < p.G.size(); ++i) {
+                const Eigen::Index d = W[i].rows();
+                grad.noalias() -= p.G[i].transpose() * Eigen::Map<const VecR>(W[i].data(), d * d);
+                // d^2 log det / dx_a dx_b = -tr(W E_a W E_b), E_a = mat(G_i e_a): (W kron W) G_i
+                MatR WEW(d * d, nx);
+                for (Eigen::Index a = 0; a < nx; ++a) {
+                    Eigen::Map<MatR> Y(WEW.col(a).data(), d, d);
+                    Y.noalias() = W[i] * Eigen::Map<const MatR>(p.G[i].col(a).data(), d, d) * W[i];
+                }
+                H.noalias() += p.G[i].transpose() * WEW;
+            }
+            const Eigen::LLT<MatR> hl(0.5 * (H + H.transpose()));
+            if (hl.info() != Eigen::Success) return false;
+            dx = -hl.solve(grad);
+            const double lam2 = -grad.dot(dx);   // Newton decrement squared
+            if (!std::isfinite(lam2)) return false;
+            if (lam2 <= 1e-8) break;             // centred: the barrier value within 5e-9 of its minimum
+            // backtracking (Armijo) inside the domain
+            const double phi0 = t * f(x) - logdet;
+            double step = 1.0;
+            bool moved = false;
+            for (int ls = 0; ls < 60; ++ls, step *= 0.5) {
+                xn = x + step * dx;
+                double ldn = 0;
+                if (!barrier_terms(p, xn, ldn, nullptr)) continue;
+                if (t * f(xn) - ldn <= phi0 - 0.25 * step * lam2) {
+                    x = xn;
+                    moved = true;
+                    break;
+                }
+            }
+            ++steps;
+            // no full step left near the centre: the rounding of the barrier's value, not the path
+            if (!moved || (step < 1.0 && lam2 < 1e-4)) break;
+        }
+        gap = m / t;
+        if (gap <= tol * S) return true;
+        t *= 10.0;
+    }
+    return true;
+}
+
 NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &cr)
 {
     NoiseCov out;
@@ -245,7 +340,40 @@ NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &cr)
     const MatR X0 = 0.5 * (Xi[0] + Xi[0].transpose());
     p.G = {G1, G2, G3};
     p.h = {VecR::Zero(n * n), VecR::Zero(n * n), Eigen::Map<const VecR>(X0.data(), pp)};
-    const VecR x = lmi_least_squares(p, out.iterations, out.primal_residual);
+    // A strictly feasible start for the interior-point solver: Xi = eps P with P - A P A^T = I
+    // (A Schur), so that Xi and Xi - A Xi A^T = eps I are positive definite, eps small enough that
+    // Xi_rr^0 - C Xi C^T is too. Without one (A not Schur, Xi_rr^0 singular): ADMM.
+    VecR x;
+    bool done = false;
+    const Eigen::LLT<MatR> l0(X0);
+    if (ss_stable(m) && l0.info() == Eigen::Success) {
+        const MatR Inn = MatR::Identity(n, n);
+        MatR Kr = MatR::Identity(n * n, n * n);   // I - A kron A: vec(A P A^T) = (A kron A) vec P
+        for (Eigen::Index l = 0; l < n; ++l)
+            for (Eigen::Index k = 0; k < n; ++k)
+                for (Eigen::Index j = 0; j < n; ++j)
+                    for (Eigen::Index i = 0; i < n; ++i) Kr(i + n * j, k + n * l) -= m.A(i, k) * m.A(j, l);
+        const VecR pv = Kr.partialPivLu().solve(Eigen::Map<const VecR>(Inn.data(), n * n));
+        const MatR Pl = Eigen::Map<const MatR>(pv.data(), n, n);
+        const MatR Q = l0.matrixL().solve(MatR(m.C * Pl * m.C.transpose()));
+        const MatR Qs = l0.matrixL().solve(Q.transpose());
+        const double lmax = Eigen::SelfAdjointEigenSolver<MatR>(0.5 * (Qs + Qs.transpose()), Eigen::EigenvaluesOnly)
+                                .eigenvalues()
+                                .maxCoeff();
+        const double eps = lmax > 0 ? 0.5 / lmax : 1.0;
+        x.resize(nx);
+        for (Eigen::Index a = 0, j = 0; j < n; ++j)
+            for (Eigen::Index i = j; i < n; ++i) x(a++) = eps * 0.5 * (Pl(i, j) + Pl(j, i));
+        double gap = 0;
+        done = lmi_least_squares_barrier(p, x, out.iterations, gap, 1e-12);
+        out.solver = "interior point";
+        out.duality_gap = gap;
+    }
+    if (!done) {
+        x = lmi_least_squares(p, out.iterations, out.primal_residual);
+        out.solver = "ADMM";
+        out.duality_gap = -1;
+    }
     MatR Xz = MatR::Zero(n, n);
     for (Eigen::Index a = 0; a < nx; ++a) Xz += x(a) * E[(size_t)a];
     out.Xi_zz = Xz;

@@ -115,8 +115,11 @@ Json noise_cov_json(const Record &r0, const Correlations &c, const SSModel &ss, 
     nj["strongly_detectable"] = nc.detectable;
     nj["nominal"] = !nc.detectable;
     nj["note"] = nc.note.empty() ? Json(nullptr) : Json(nc.note);
-    nj["solver"] = Json{{"method", "ADMM on (35) with the PSD constraints of (36)"},
+    nj["solver"] = Json{{"method", nc.solver == "ADMM" ? "ADMM on (35) with the PSD constraints of (36)"
+                                                        : "interior point (log barrier, Newton) on (35) with the PSD "
+                                                          "constraints of (36)"},
                         {"iterations", nc.iterations},
+                        {"duality_gap", nc.duality_gap >= 0 ? Json(nc.duality_gap) : Json(nullptr)},
                         {"constraint_residual", nc.primal_residual},
                         {"relative_fit_residual", nc.fit_residual}};
     nj["basis"] = "the states of A, B, C above (Sigma_ww depends on the similarity transform)";
