@@ -63,4 +63,20 @@ fftw_plan shared_real_plan(size_t n, bool inverse)
     return slot;
 }
 
+fftw_plan shared_half_plan(size_t m)
+{
+    static std::mutex mu;
+    static auto *cache = new std::map<size_t, fftw_plan>;   // never destroyed, as shared_real_plan's
+    if (m < 1 || m > (size_t)0x40000000) return nullptr;
+    std::lock_guard<std::mutex> lock(mu);
+    fftw_plan &slot = (*cache)[m];
+    if (slot) return slot;
+    fftw_planner_ready();
+    fftw_complex *a = fftw_alloc_complex(m), *b = fftw_alloc_complex(m);
+    if (a && b) slot = fftw_plan_dft_1d((int)m, a, b, FFTW_FORWARD, FFTW_ESTIMATE);
+    fftw_free(a);
+    fftw_free(b);
+    return slot;
+}
+
 }  // namespace msidutil
