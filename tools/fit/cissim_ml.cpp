@@ -14,6 +14,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace msidfit {
 
@@ -46,42 +47,6 @@ SSModel unpack(const SSModel &like, const VecR &th)
     m.C = Eigen::Map<const MatR>(th.data() + d.pA + d.pB, d.ny, d.n);
     m.D = Eigen::Map<const MatR>(th.data() + d.pA + d.pB + d.pC, d.ny, d.nu);
     return m;
-}
-
-// Complex Jacobian of G(z) U (ny x p) or, with U empty, of vec G (ny nu x p), at one z.
-MatC jac_GU(const SSModel &m, cd z, const VecC *U, MatC &GU)
-{
-    const Dims d(m);
-    const MatC X = (z * MatC::Identity(d.n, d.n) - m.A.cast<cd>()).inverse();
-    const MatC CX = m.C.cast<cd>() * X, XB = X * m.B.cast<cd>();
-    const MatC G = CX * m.B.cast<cd>() + m.D.cast<cd>();
-    if (U) {
-        const VecC XBU = XB * *U;
-        GU = G * *U;
-        MatC J = MatC::Zero(d.ny, d.p);
-        for (Eigen::Index j = 0; j < d.n; ++j)
-            for (Eigen::Index i = 0; i < d.n; ++i) J.col(i + d.n * j) = CX.col(i) * XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < d.n; ++i) J.col(d.pA + i + d.n * j) = CX.col(i) * (*U)(j);
-        for (Eigen::Index j = 0; j < d.n; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) J(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) J(i, d.pA + d.pB + d.pC + i + d.ny * j) = (*U)(j);
-        return J;
-    }
-    GU = G;
-    const Eigen::Index g = d.ny * d.nu;
-    MatC J = MatC::Zero(g, d.p);
-    for (Eigen::Index b = 0; b < d.nu; ++b)
-        for (Eigen::Index a = 0; a < d.ny; ++a) {
-            const Eigen::Index row = a + d.ny * b;
-            for (Eigen::Index j = 0; j < d.n; ++j)
-                for (Eigen::Index i = 0; i < d.n; ++i) J(row, i + d.n * j) = CX(a, i) * XB(j, b);
-            for (Eigen::Index i = 0; i < d.n; ++i) J(row, d.pA + i + d.n * b) = CX(a, i);
-            for (Eigen::Index j = 0; j < d.n; ++j) J(row, d.pA + d.pB + a + d.ny * j) = XB(j, b);
-            J(row, d.pA + d.pB + d.pC + row) = 1.0;
-        }
-    return J;
 }
 
 struct Term {
@@ -125,15 +90,80 @@ std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp
     return t;
 }
 
+// LU with partial pivoting of an n x n complex matrix (row-major in `a`) and its solves: the
+// resolvent z I - A of a fit is a few states, where Eigen's dynamic-size LU and triangular solves
+// spend their time in blocking logic and allocation, not in the handful of products.
+struct SmallLu {
+    Eigen::Index n = 0;
+    std::vector<cd> a;
+    std::vector<Eigen::Index> piv;
+    explicit SmallLu(Eigen::Index n_) : n(n_), a((size_t)(n_ * n_)), piv((size_t)n_) {}
+    cd &at(Eigen::Index i, Eigen::Index j) { return a[(size_t)(i * n + j)]; }
+    // a = L U of P (z I - A)
+    void compute(const MatC &A, cd z)
+    {
+        for (Eigen::Index i = 0; i < n; ++i)
+            for (Eigen::Index j = 0; j < n; ++j) at(i, j) = (i == j ? z : cd(0)) - A(i, j);
+        for (Eigen::Index k = 0; k < n; ++k) {
+            Eigen::Index p = k;
+            double best = std::norm(at(k, k));
+            for (Eigen::Index i = k + 1; i < n; ++i)
+                if (std::norm(at(i, k)) > best) best = std::norm(at(i, k)), p = i;
+            piv[(size_t)k] = p;
+            if (p != k)
+                for (Eigen::Index j = 0; j < n; ++j) std::swap(at(k, j), at(p, j));
+            const cd d = at(k, k);
+            if (d == cd(0)) continue;   // singular: the solves give inf/nan, refused by the callers
+            for (Eigen::Index i = k + 1; i < n; ++i) {
+                const cd l = at(i, k) / d;
+                at(i, k) = l;
+                for (Eigen::Index j = k + 1; j < n; ++j) at(i, j) -= l * at(k, j);
+            }
+        }
+    }
+    // X = (z I - A)^-1 R, column by column (R: n x r)
+    void solve(const MatC &R, MatC &X)
+    {
+        X = R;
+        for (Eigen::Index c = 0; c < X.cols(); ++c) {
+            cd *x = X.col(c).data();
+            for (Eigen::Index k = 0; k < n; ++k)
+                if (piv[(size_t)k] != k) std::swap(x[k], x[piv[(size_t)k]]);
+            for (Eigen::Index i = 1; i < n; ++i)
+                for (Eigen::Index j = 0; j < i; ++j) x[i] -= at(i, j) * x[j];
+            for (Eigen::Index i = n - 1; i >= 0; --i) {
+                for (Eigen::Index j = i + 1; j < n; ++j) x[i] -= at(i, j) * x[j];
+                x[i] /= at(i, i);
+            }
+        }
+    }
+    // Y = (z I - A)^-T R: U^T L^T P y = r
+    void solve_t(const MatC &R, MatC &Y)
+    {
+        Y = R;
+        for (Eigen::Index c = 0; c < Y.cols(); ++c) {
+            cd *y = Y.col(c).data();
+            for (Eigen::Index i = 0; i < n; ++i) {
+                for (Eigen::Index j = 0; j < i; ++j) y[i] -= at(j, i) * y[j];
+                y[i] /= at(i, i);
+            }
+            for (Eigen::Index i = n - 1; i >= 0; --i)
+                for (Eigen::Index j = i + 1; j < n; ++j) y[i] -= at(j, i) * y[j];
+            for (Eigen::Index k = n - 1; k >= 0; --k)
+                if (piv[(size_t)k] != k) std::swap(y[k], y[piv[(size_t)k]]);
+        }
+    }
+};
+
 // One evaluation of G(z) U and its Jacobian over the terms, with the matrices of one model and
 // working memory reused from term to term (a fit evaluates hundreds of terms per step).
 struct TermEval {
     Dims d;
-    MatC A, B, C, D, Mz, XB, CXt, Jc;
+    MatC A, B, C, D, Ct, XB, CXt, Jc;
     VecC XBU, GU;
-    Eigen::PartialPivLU<MatC> lu;
+    SmallLu lu;
     explicit TermEval(const SSModel &m)
-        : d(m), A(m.A.cast<cd>()), B(m.B.cast<cd>()), C(m.C.cast<cd>()), D(m.D.cast<cd>()), Mz(d.n, d.n),
+        : d(m), A(m.A.cast<cd>()), B(m.B.cast<cd>()), C(m.C.cast<cd>()), D(m.D.cast<cd>()), Ct(C.transpose()),
           XB(d.n, d.nu), CXt(d.n, d.ny), Jc(d.ny, d.p), XBU(d.n), GU(d.ny), lu(d.n)
     {
     }
@@ -141,25 +171,49 @@ struct TermEval {
     // orders the parameters. One LU of z I - A serves X B and, transposed, C X.
     void at(cd z, const VecC &U, bool jac)
     {
-        Mz = -A;
-        Mz.diagonal().array() += z;
-        lu.compute(Mz);
-        XB = lu.solve(B);
-        XBU.noalias() = XB * U;
-        GU.noalias() = C * XBU;
-        GU.noalias() += D * U;
+        lu.compute(A, z);
+        lu.solve(B, XB);
+        XBU.noalias() = XB.lazyProduct(U);
+        GU.noalias() = C.lazyProduct(XBU);
+        GU.noalias() += D.lazyProduct(U);
         if (!jac) return;
-        CXt = lu.transpose().solve(C.transpose());   // (C X)^T
-        Jc.setZero();
+        lu.solve_t(Ct, CXt);   // (C X)^T
         const Eigen::Index n = d.n;
         for (Eigen::Index j = 0; j < n; ++j)
             for (Eigen::Index i = 0; i < n; ++i) Jc.col(i + n * j) = CXt.row(i).transpose() * XBU(j);
         for (Eigen::Index j = 0; j < d.nu; ++j)
             for (Eigen::Index i = 0; i < n; ++i) Jc.col(d.pA + i + n * j) = CXt.row(i).transpose() * U(j);
+        Jc.rightCols(d.pC + d.pD).setZero();
         for (Eigen::Index j = 0; j < n; ++j)
             for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
         for (Eigen::Index j = 0; j < d.nu; ++j)
             for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + d.pC + i + d.ny * j) = U(j);
+    }
+    // The real Jacobian [Re; Im] of vec G(z) (2 ny nu x p): row a + ny b of the complex one is
+    // dG_ab/dtheta, dG/dA_ij = (C X)_:i (X B)_j:, dG/dB_ij = (C X)_:i e_j^T, dG/dC_ij = e_i (X B)_j:,
+    // dG/dD_ij = e_i e_j^T.
+    void jac_G(cd z, MatR &Jr)
+    {
+        lu.compute(A, z);
+        lu.solve(B, XB);
+        lu.solve_t(Ct, CXt);
+        const Eigen::Index g = d.ny * d.nu, n = d.n;
+        Jr.setZero(2 * g, d.p);
+        for (Eigen::Index b = 0; b < d.nu; ++b)
+            for (Eigen::Index a = 0; a < d.ny; ++a) {
+                const Eigen::Index row = a + d.ny * b;
+                for (Eigen::Index j = 0; j < n; ++j)
+                    for (Eigen::Index i = 0; i < n; ++i) {
+                        const cd v = CXt(i, a) * XB(j, b);
+                        Jr(row, i + n * j) = v.real(), Jr(g + row, i + n * j) = v.imag();
+                    }
+                for (Eigen::Index i = 0; i < n; ++i)
+                    Jr(row, d.pA + i + n * b) = CXt(i, a).real(), Jr(g + row, d.pA + i + n * b) = CXt(i, a).imag();
+                for (Eigen::Index j = 0; j < n; ++j)
+                    Jr(row, d.pA + d.pB + a + d.ny * j) = XB(j, b).real(),
+                            Jr(g + row, d.pA + d.pB + a + d.ny * j) = XB(j, b).imag();
+                Jr(row, d.pA + d.pB + d.pC + row) = 1.0;
+            }
     }
 };
 
@@ -175,12 +229,14 @@ void residual(const SSModel &m, const std::vector<Term> &terms, VecR &r, MatR *J
     Eigen::Index row = 0;
     VecC w(d.ny);
     MatC LJ(d.ny, d.p);
+    VecC e(d.ny);
     for (const auto &t : terms) {
         ev.at(t.z, t.U, J != nullptr);
-        w.noalias() = t.Li * (t.Y - ev.GU);
+        e = t.Y - ev.GU;
+        w.noalias() = t.Li.lazyProduct(e);
         const double s = t.dc ? std::sqrt(0.5) : 1.0;
         r.segment(row, d.ny) = s * w.real();
-        if (J) LJ.noalias() = t.Li * ev.Jc;
+        if (J) LJ.noalias() = t.Li.lazyProduct(ev.Jc);
         if (J) J->middleRows(row, d.ny) = -s * LJ.real();
         if (!t.dc) {
             r.segment(row + d.ny, d.ny) = w.imag();
@@ -214,7 +270,9 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
     for (int it = 0; it < o.max_iter; ++it) {
         ++iters;
         const VecR g = J.transpose() * r;
-        MatR H = J.transpose() * J;
+        MatR H = MatR::Zero(J.cols(), J.cols());
+        H.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+        H = H.selfadjointView<Eigen::Lower>();
         const VecR dg = H.diagonal().cwiseMax(1e-300 * std::max(1.0, H.diagonal().maxCoeff()));
         bool accepted = false;
         for (int tries = 0; tries < 30; ++tries) {
@@ -254,10 +312,9 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
 
 MatR cissim_frf_cov(const SSModel &m, const MatR &cov, cd z)
 {
-    MatC G;
-    const MatC Jg = jac_GU(m, z, nullptr, G);
-    MatR Jr(2 * Jg.rows(), Jg.cols());
-    Jr << Jg.real(), Jg.imag();
+    TermEval ev(m);
+    MatR Jr;
+    ev.jac_G(z, Jr);
     return Jr * cov * Jr.transpose();
 }
 
@@ -294,10 +351,22 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
     if (std::isfinite(res.cov_factor)) res.cov *= res.cov_factor;   // else: too few periods, no uncertainty (caller)
     res.dof = (double)r.size() - res.cov_rank;
     res.bins = isp[0].bins;
+    // J_G cov J_G^T at every line through a factor cov = Q Q^T of the rank of the Fisher information
+    // (cov is positive semi-definite): a third of the products of J_G cov J_G^T per line
+    const Eigen::SelfAdjointEigenSolver<MatR> es(0.5 * (res.cov + res.cov.transpose()));
+    const VecR ev = es.eigenvalues();
+    const double floor = 1e-14 * std::max(ev.maxCoeff(), 1e-300);
+    Eigen::Index keep = 0;
+    for (Eigen::Index k = 0; k < ev.size(); ++k) keep += ev(k) > floor;
+    const MatR Q = es.eigenvectors().rightCols(keep) * ev.tail(keep).cwiseSqrt().asDiagonal();
+    TermEval te(m);
+    MatR Jr, JQ;
     for (uint32_t b : res.bins) {
         const cd z = std::polar(1.0, 2.0 * M_PI * (double)b / isp[0].period);
         res.G.push_back(ss_eval(m, z));
-        res.Gcov.push_back(cissim_frf_cov(m, res.cov, z));
+        te.jac_G(z, Jr);
+        JQ.noalias() = Jr * Q;
+        res.Gcov.push_back(JQ * JQ.transpose());
     }
     return res;
 }
