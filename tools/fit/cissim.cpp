@@ -2,6 +2,7 @@
 // (Alg. 4), B, D (Alg. 5). You, Huang, Zhang 2023; see cissim.hpp.
 #include "cissim.hpp"
 #include "real_dft.hpp"
+#include "small_lu.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
@@ -233,12 +234,16 @@ void cissim_BD(SSModel &m, const std::vector<IspResult> &isp, bool estimate_D)
     MatR Phi = MatR::Zero(rows, nb + nd);
     VecR rhs(rows);
     Eigen::Index row = 0;
-    const MatC Cc = m.C.cast<cd>(), Ac = m.A.cast<cd>();
+    const MatC Ct = m.C.cast<cd>().transpose();
+    SmallLu lu(n);
+    MatC Kt;
     for (const auto &r : isp) {
         for (size_t l = 0; l < r.bins.size(); ++l) {
             const cd z = std::polar(1.0, 2.0 * M_PI * (double)r.bins[l] / r.period);
             // K = C (z I - A)^-1 (eq. 30), by a transposed solve
-            const MatC K = (z * MatC::Identity(n, n) - Ac).transpose().partialPivLu().solve(Cc.transpose()).transpose();
+            lu.compute(m.A, z);
+            lu.solve_t(Ct, Kt);
+            const auto K = Kt.transpose();
             const VecC u = r.U.col((Eigen::Index)l);
             const bool dc = r.bins[l] == 0;
             const double w = dc ? 1.0 / std::sqrt(2.0) : 1.0;

@@ -8,6 +8,7 @@
 //   dG/dA_ij = (C X)_:i (X B)_j: ,  dG/dB_ij = (C X)_:i e_j^T,  dG/dC_ij = e_i (X B)_j: ,  dG/dD_ij = e_i e_j^T.
 #include "cissim.hpp"
 #include "lmfd_fit.hpp"
+#include "small_lu.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -90,85 +91,20 @@ std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp
     return t;
 }
 
-// LU with partial pivoting of an n x n complex matrix (row-major in `a`) and its solves: the
-// resolvent z I - A of a fit is a few states, where Eigen's dynamic-size LU and triangular solves
-// spend their time in blocking logic and allocation, not in the handful of products.
-struct SmallLu {
-    Eigen::Index n = 0;
-    std::vector<cd> a;
-    std::vector<Eigen::Index> piv;
-    explicit SmallLu(Eigen::Index n_) : n(n_), a((size_t)(n_ * n_)), piv((size_t)n_) {}
-    cd &at(Eigen::Index i, Eigen::Index j) { return a[(size_t)(i * n + j)]; }
-    // a = L U of P (z I - A)
-    void compute(const MatC &A, cd z)
-    {
-        for (Eigen::Index i = 0; i < n; ++i)
-            for (Eigen::Index j = 0; j < n; ++j) at(i, j) = (i == j ? z : cd(0)) - A(i, j);
-        for (Eigen::Index k = 0; k < n; ++k) {
-            Eigen::Index p = k;
-            double best = std::norm(at(k, k));
-            for (Eigen::Index i = k + 1; i < n; ++i)
-                if (std::norm(at(i, k)) > best) best = std::norm(at(i, k)), p = i;
-            piv[(size_t)k] = p;
-            if (p != k)
-                for (Eigen::Index j = 0; j < n; ++j) std::swap(at(k, j), at(p, j));
-            const cd d = at(k, k);
-            if (d == cd(0)) continue;   // singular: the solves give inf/nan, refused by the callers
-            for (Eigen::Index i = k + 1; i < n; ++i) {
-                const cd l = at(i, k) / d;
-                at(i, k) = l;
-                for (Eigen::Index j = k + 1; j < n; ++j) at(i, j) -= l * at(k, j);
-            }
-        }
-    }
-    // X = (z I - A)^-1 R, column by column (R: n x r)
-    void solve(const MatC &R, MatC &X)
-    {
-        X = R;
-        for (Eigen::Index c = 0; c < X.cols(); ++c) {
-            cd *x = X.col(c).data();
-            for (Eigen::Index k = 0; k < n; ++k)
-                if (piv[(size_t)k] != k) std::swap(x[k], x[piv[(size_t)k]]);
-            for (Eigen::Index i = 1; i < n; ++i)
-                for (Eigen::Index j = 0; j < i; ++j) x[i] -= at(i, j) * x[j];
-            for (Eigen::Index i = n - 1; i >= 0; --i) {
-                for (Eigen::Index j = i + 1; j < n; ++j) x[i] -= at(i, j) * x[j];
-                x[i] /= at(i, i);
-            }
-        }
-    }
-    // Y = (z I - A)^-T R: U^T L^T P y = r
-    void solve_t(const MatC &R, MatC &Y)
-    {
-        Y = R;
-        for (Eigen::Index c = 0; c < Y.cols(); ++c) {
-            cd *y = Y.col(c).data();
-            for (Eigen::Index i = 0; i < n; ++i) {
-                for (Eigen::Index j = 0; j < i; ++j) y[i] -= at(j, i) * y[j];
-                y[i] /= at(i, i);
-            }
-            for (Eigen::Index i = n - 1; i >= 0; --i)
-                for (Eigen::Index j = i + 1; j < n; ++j) y[i] -= at(j, i) * y[j];
-            for (Eigen::Index k = n - 1; k >= 0; --k)
-                if (piv[(size_t)k] != k) std::swap(y[k], y[piv[(size_t)k]]);
-        }
-    }
-};
-
 // One evaluation of G(z) U and its Jacobian over the terms, with the matrices of one model and
 // working memory reused from term to term (a fit evaluates hundreds of terms per step).
 struct TermEval {
     Dims d;
-    MatC A, B, C, D, Ct, XB, CXt, Jc;
+    MatC A, B, C, D, Ct, XB, CXt;
     VecC XBU, GU;
     SmallLu lu;
     explicit TermEval(const SSModel &m)
         : d(m), A(m.A.cast<cd>()), B(m.B.cast<cd>()), C(m.C.cast<cd>()), D(m.D.cast<cd>()), Ct(C.transpose()),
-          XB(d.n, d.nu), CXt(d.n, d.ny), Jc(d.ny, d.p), XBU(d.n), GU(d.ny), lu(d.n)
+          XB(d.n, d.nu), CXt(d.n, d.ny), XBU(d.n), GU(d.ny), lu(d.n)
     {
     }
-    // GU = C (z I - A)^-1 B U + D U; with `jac`, Jc = d(GU)/d(vec A, vec B, vec C, vec D) as jac_GU
-    // orders the parameters. One LU of z I - A serves X B and, transposed, C X.
+    // GU = C (z I - A)^-1 B U + D U; with `jac` also (C X)^T for the Jacobian (residual()): one LU of
+    // z I - A serves X B and, transposed, C X.
     void at(cd z, const VecC &U, bool jac)
     {
         lu.compute(A, z);
@@ -178,16 +114,6 @@ struct TermEval {
         GU.noalias() += D.lazyProduct(U);
         if (!jac) return;
         lu.solve_t(Ct, CXt);   // (C X)^T
-        const Eigen::Index n = d.n;
-        for (Eigen::Index j = 0; j < n; ++j)
-            for (Eigen::Index i = 0; i < n; ++i) Jc.col(i + n * j) = CXt.row(i).transpose() * XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < n; ++i) Jc.col(d.pA + i + n * j) = CXt.row(i).transpose() * U(j);
-        Jc.rightCols(d.pC + d.pD).setZero();
-        for (Eigen::Index j = 0; j < n; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + d.pC + i + d.ny * j) = U(j);
     }
     // The real Jacobian [Re; Im] of vec G(z) (2 ny nu x p): row a + ny b of the complex one is
     // dG_ab/dtheta, dG/dA_ij = (C X)_:i (X B)_j:, dG/dB_ij = (C X)_:i e_j^T, dG/dC_ij = e_i (X B)_j:,
@@ -227,22 +153,39 @@ void residual(const SSModel &m, const std::vector<Term> &terms, VecR &r, MatR *J
     r.resize(rows);
     if (J) J->resize(rows, d.p);
     Eigen::Index row = 0;
-    VecC w(d.ny);
-    MatC LJ(d.ny, d.p);
-    VecC e(d.ny);
+    VecC w(d.ny), e(d.ny);
+    MatC LCX(d.ny, d.n);
+    const Eigen::Index n = d.n, ny = d.ny, ld = rows;
     for (const auto &t : terms) {
         ev.at(t.z, t.U, J != nullptr);
         e = t.Y - ev.GU;
         w.noalias() = t.Li.lazyProduct(e);
         const double s = t.dc ? std::sqrt(0.5) : 1.0;
-        r.segment(row, d.ny) = s * w.real();
-        if (J) LJ.noalias() = t.Li.lazyProduct(ev.Jc);
-        if (J) J->middleRows(row, d.ny) = -s * LJ.real();
-        if (!t.dc) {
-            r.segment(row + d.ny, d.ny) = w.imag();
-            if (J) J->middleRows(row + d.ny, d.ny) = -LJ.imag();
+        r.segment(row, ny) = s * w.real();
+        if (!t.dc) r.segment(row + ny, ny) = w.imag();
+        if (J) {
+            // the whitened Jacobian Li Jc column by column: every column of Jc is a column of C X
+            // (A, B) or of I (C, D) times an entry of X B U or U, so Li Jc is that of Li C X or Li
+            LCX.noalias() = t.Li.lazyProduct(ev.CXt.transpose());
+            double *Jd = J->data();
+            auto put = [&](Eigen::Index col, const cd *v, cd f) {   // column `col`: -(v f), v of ny entries
+                double *c = Jd + col * ld + row;
+                for (Eigen::Index i = 0; i < ny; ++i) {
+                    const cd x = v[i] * f;
+                    c[i] = -s * x.real();
+                    if (!t.dc) c[ny + i] = -x.imag();
+                }
+            };
+            for (Eigen::Index j = 0; j < n; ++j)
+                for (Eigen::Index i = 0; i < n; ++i) put(i + n * j, LCX.col(i).data(), ev.XBU(j));
+            for (Eigen::Index j = 0; j < d.nu; ++j)
+                for (Eigen::Index i = 0; i < n; ++i) put(d.pA + i + n * j, LCX.col(i).data(), t.U(j));
+            for (Eigen::Index j = 0; j < n; ++j)
+                for (Eigen::Index i = 0; i < ny; ++i) put(d.pA + d.pB + i + ny * j, t.Li.col(i).data(), ev.XBU(j));
+            for (Eigen::Index j = 0; j < d.nu; ++j)
+                for (Eigen::Index i = 0; i < ny; ++i) put(d.pA + d.pB + d.pC + i + ny * j, t.Li.col(i).data(), t.U(j));
         }
-        row += t.dc ? d.ny : 2 * d.ny;
+        row += t.dc ? ny : 2 * ny;
     }
 }
 
