@@ -47,9 +47,11 @@ struct IspResult {
 // rows: n_rows x (nu + ny), row-major [u_1..u_nu, y_1..y_ny] (the msid record layout).
 // Uses periods skip .. floor(n_rows / T) - 1. Throws FitError when fewer than
 // one whole period remains or a bin is out of [0, T/2).
+// cov_bins (with line_cov): only these of `bins` get a line_cov entry (the others stay empty, 0 x 0),
+// as the ML refinement uses the excited lines alone of a full-set regression.
 IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
                      const std::vector<uint32_t> &bins, uint32_t skip_periods, IspMethod method = IspMethod::Auto,
-                     bool line_cov = false);
+                     bool line_cov = false, const std::vector<uint32_t> *cov_bins = nullptr);
 // The Auto rule: direct multiplication when q (nu + ny) T < 4 T log2 T (nu + ny), i.e. q < 4 log2 T.
 bool cissim_isp_auto_direct(size_t q, uint32_t period);
 // The paper's real ISP matrix R^i (s x (nu + ny), columns in record order [u, y], rows [dc/sqrt2 |

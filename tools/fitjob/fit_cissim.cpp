@@ -229,7 +229,7 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
     try {
         std::vector<IspResult> isp;
         for (const auto &r : recs)
-            isp.push_back(cissim_isp(r.data(), r.n_rows, nu, ny, P, bins, rq.skip_periods, method, refine));
+            isp.push_back(cissim_isp(r.data(), r.n_rows, nu, ny, P, bins, rq.skip_periods, method, refine, &rq.lines));
         const CissimResult res = cissim_fit(isp, o);
         CissimMlResult ml;
         if (refine) ml = cissim_refine(res.model, at_lines(isp, bins, rq.lines, nu, ny));
