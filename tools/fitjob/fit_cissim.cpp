@@ -8,6 +8,9 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <system_error>
+#include <thread>
 
 namespace msidfitjob {
 
@@ -82,11 +85,11 @@ Json settings_json(const CissimRequest &rq, const CissimResult &res, const std::
     return st;
 }
 
-// The residual correlations of the first experiment (Alg. 6) at M lags (--lags, or the default of
-// section 4.3.3): the noise covariance and the white-noise cost use them.
-Correlations noise_correlations(const Record &r0, const CissimRequest &rq, int n)
+// The number of correlation lags M of the noise covariance at order n (--lags, or the default of
+// section 4.3.3), checked against Assumption 8.
+int noise_lags(const Record &r0, const CissimRequest &rq, int n)
 {
-    const uint32_t P = rq.period, skip = rq.skip_periods, nu = r0.nu, ny = r0.ny;
+    const uint32_t P = rq.period, skip = rq.skip_periods, ny = r0.ny;
     const uint64_t N = (uint64_t)(r0.n_rows / P - skip) * P;
     const int M = rq.lags ? (int)*rq.lags
                           : std::max<int>((int)std::ceil((double)n * n / ((double)ny * ny)) + 1,
@@ -94,8 +97,54 @@ Correlations noise_correlations(const Record &r0, const CissimRequest &rq, int n
     const int Mmin = (int)std::ceil((double)n * n / ((double)ny * ny)) + 1;
     if (M < Mmin) throw UsageError(fmt("--lags %d is below ceil(n^2 / ny^2) + 1 = %d (Assumption 8)", M, Mmin));
     if ((uint64_t)M >= N / 2) throw UsageError(fmt("--lags %d needs M << N = %llu (Assumption 8)", M, (unsigned long long)N));
-    return cissim_correlations(r0.data(), r0.n_rows, nu, ny, P, skip, M);
+    return M;
 }
+
+// The residual correlations of the first experiment (Alg. 6) at M lags: the noise covariance and the
+// white-noise cost use them. They need the record alone, not the model: with the order given they
+// are computed on a second thread while the model is fitted (the same numbers as in line).
+class NoiseCorrelations {
+public:
+    NoiseCorrelations(const Record &r0, const CissimRequest &rq) : r0_(r0), rq_(rq) {}
+    ~NoiseCorrelations()
+    {
+        if (th_.joinable()) th_.join();
+    }
+    void start(int M)
+    {
+        M_ = M;
+        try {
+            th_ = std::thread([this, M] {
+                try {
+                    c_ = compute(M);
+                } catch (...) {
+                    err_ = std::current_exception();
+                }
+            });
+        } catch (const std::system_error &) {   // no thread to be had: in line, at get()
+        }
+    }
+    Correlations get(int M)
+    {
+        if (!th_.joinable()) return compute(M);
+        th_.join();
+        if (M != M_) return compute(M);
+        if (err_) std::rethrow_exception(err_);
+        return std::move(c_);
+    }
+
+private:
+    Correlations compute(int M) const
+    {
+        return cissim_correlations(r0_.data(), r0_.n_rows, r0_.nu, r0_.ny, rq_.period, rq_.skip_periods, M);
+    }
+    const Record &r0_;
+    const CissimRequest &rq_;
+    std::thread th_;
+    int M_ = 0;
+    Correlations c_;
+    std::exception_ptr err_;
+};
 
 // The noise covariances (section 4.3) on the full set, from the first experiment's residuals.
 Json noise_cov_json(const Record &r0, const Correlations &c, const SSModel &ss, FitOutcome &out, const Report &report)
@@ -226,6 +275,8 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
         bins.clear();
         for (uint32_t b = 0; 2 * b < P; ++b) bins.push_back(b);
     }
+    NoiseCorrelations nc_corr(recs[0], rq);
+    if (!rq.no_covariance && rq.order) nc_corr.start(noise_lags(recs[0], rq, (int)*rq.order));
     try {
         std::vector<IspResult> isp;
         for (const auto &r : recs)
@@ -266,7 +317,7 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
                                                  "(weights: per-line sample covariance over the periods), sample-ML factor applied"}};
         Correlations corr;
         if (!rq.no_covariance) {
-            corr = noise_correlations(recs[0], rq, n);
+            corr = nc_corr.get(noise_lags(recs[0], rq, n));
             doc["noise_covariance"] = noise_cov_json(recs[0], corr, ss, out, report);
         }
         const Json fr = frf_json(rq, ss, ml, refine);

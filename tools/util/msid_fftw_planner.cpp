@@ -38,12 +38,20 @@ void fftw_planner_ready()
     if (g_thread && g_thread->joinable()) g_thread->join();
 }
 
+// FFTW's planner is not thread-safe: every plan of the shared_*_plan functions is made under this
+// one lock (a fit may plan on two threads, e.g. cissim's correlations beside its regression).
+static std::mutex &planner_mutex()
+{
+    static std::mutex mu;
+    return mu;
+}
+
 fftw_plan shared_real_plan(size_t n, bool inverse)
 {
     struct Plans {
         fftw_plan fwd = nullptr, inv = nullptr;
     };
-    static std::mutex mu;
+    std::mutex &mu = planner_mutex();
     // never destroyed: the plans stay reachable to the exit (a static map's destructor would run
     // before a leak check and orphan them), and no exit-time destructor races a late job
     static auto *cache = new std::map<size_t, Plans>;
@@ -65,7 +73,7 @@ fftw_plan shared_real_plan(size_t n, bool inverse)
 
 fftw_plan shared_half_plan(size_t m)
 {
-    static std::mutex mu;
+    std::mutex &mu = planner_mutex();
     static auto *cache = new std::map<size_t, fftw_plan>;   // never destroyed, as shared_real_plan's
     if (m < 1 || m > (size_t)0x40000000) return nullptr;
     std::lock_guard<std::mutex> lock(mu);
