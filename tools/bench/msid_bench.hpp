@@ -121,7 +121,8 @@ struct CissimProcessBenchRequest {
 struct CissimProcessBenchRow {
     std::string name;
     double msid_wall_s = 0, msid_cpu_s = 0, msid_csv_wall_s = 0;   ///< best whole-process times, .npy and CSV [s]
-    double ref_wall_s = -1, ref_cpu_s = -1;   ///< the reference's whole Octave run [s]; -1: not run
+    double ref_wall_s = -1, ref_cpu_s = -1;   ///< the reference's whole Octave run on raw float64 [s]; -1: not run
+    double ref_csv_wall_s = -1;               ///< the same reading the CSV file (dlmread) [s]
     double ref_estimate_s = -1;               ///< its estimation step alone (tic/toc inside) [s]
     double msid_h2 = -1, paper_h2 = -1, ref_h2 = -1;   ///< relative H2 errors against the truth (-1: unstable / not run)
     double ref_vs_paper_frf = -1, ref_vs_msid_frf = -1;   ///< max FRF difference at the lines over ||G_true||

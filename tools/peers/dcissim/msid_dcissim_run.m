@@ -1,7 +1,7 @@
 function msid_dcissim_run(data, n_rows, nu, ny, T, lines, order, nbar, lags, out)
 % One whole run of the authors' discrete-cISSIM code (github wyqy/dcissim, found through
 % $MSID_DCISSIM_DIR) on a record: read the samples (raw little-endian float64, n_rows x (nu + ny)
-% row-major, [u, y]), set up for `lines`, estimate A, B, C (D = 0: their 'null' direct term) with
+% row-major, [u, y]; or a CSV file with a header line, by its .csv ending), set up for `lines`, estimate A, B, C (D = 0: their 'null' direct term) with
 % order `order` and `nbar` block rows by their idenDCISSIMRunner (first period skipped, as theirs),
 % then the noise covariance by their idenISIM ('fft') and idenCovariance ('simple', `lags` lags; 0:
 % skipped). Writes `out`: the matrices, the covariances and the seconds of each step (tic/toc).
@@ -26,12 +26,19 @@ function msid_dcissim_run(data, n_rows, nu, ny, T, lines, order, nbar, lags, out
   addpath(work);
   cleanup = onCleanup(@() remove_links(work));
   t = tic;
-  fid = fopen(data, 'r', 'ieee-le');
-  if fid < 0
-    error('msid_dcissim_run: cannot open %s', data);
+  if numel(data) > 4 && strcmpi(data(end - 3:end), '.csv')
+    X = dlmread(data, ',', 1, 0).';   % a header line, then n_rows rows of u.., y..
+  else
+    fid = fopen(data, 'r', 'ieee-le');
+    if fid < 0
+      error('msid_dcissim_run: cannot open %s', data);
+    end
+    X = fread(fid, [nu + ny, n_rows], 'double');
+    fclose(fid);
   end
-  X = fread(fid, [nu + ny, n_rows], 'double');
-  fclose(fid);
+  if ~isequal(size(X), [nu + ny, n_rows])
+    error('msid_dcissim_run: %s holds %d x %d values, not %d x %d', data, size(X, 2), size(X, 1), n_rows, nu + ny);
+  end
   uk = X(1:nu, :); yk = X(nu + 1:end, :);
   t_read = toc(t);
   t = tic;
