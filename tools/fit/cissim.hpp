@@ -117,6 +117,9 @@ struct CissimMlResult {
     std::vector<MatC> G;               // model FRF at the lines
     std::vector<MatR> Gcov;            // 2 ny nu x 2 ny nu real covariance of [Re vec G; Im vec G] per line
 };
+// G(z) = C (z I - A)^-1 B + D by a small LU: ss_eval's value to rounding, for the hundreds of lines of
+// a cissim fit (ss_eval keeps Eigen's LU: other methods' model files are compared bit for bit).
+MatC cissim_eval(const SSModel &m, cd z);
 // Throws FitError when an experiment has no line_cov (K < 2 or cissim_isp(.., line_cov = false)).
 CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> &isp, const CissimMlOptions &o = {});
 // The FRF covariance (2 ny nu x 2 ny nu, [Re vec G; Im vec G]) at z of a model whose entries

@@ -73,7 +73,7 @@ std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp
             tm.U = r.U.col((Eigen::Index)l);
             tm.Y = r.Y.col((Eigen::Index)l);
             MatC M(ny, nu + ny);
-            M << -ss_eval(m, tm.z), MatC::Identity(ny, ny);
+            M << -cissim_eval(m, tm.z), MatC::Identity(ny, ny);
             MatC W = M * r.line_cov[l] * M.adjoint();
             W = 0.5 * (W + W.adjoint()).eval();
             const double tr = W.diagonal().real().sum();
@@ -253,6 +253,17 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
 
 }  // namespace
 
+MatC cissim_eval(const SSModel &m, cd z)
+{
+    const Eigen::Index n = m.A.rows();
+    if (n == 0) return m.D.cast<cd>();
+    SmallLu lu(n);
+    lu.compute(m.A, z);
+    MatC XB;
+    lu.solve(m.B.cast<cd>(), XB);
+    return m.C.cast<cd>() * XB + m.D.cast<cd>();
+}
+
 MatR cissim_frf_cov(const SSModel &m, const MatR &cov, cd z)
 {
     TermEval ev(m);
@@ -306,7 +317,7 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
     MatR Jr, JQ;
     for (uint32_t b : res.bins) {
         const cd z = std::polar(1.0, 2.0 * M_PI * (double)b / isp[0].period);
-        res.G.push_back(ss_eval(m, z));
+        res.G.push_back(cissim_eval(m, z));
         te.jac_G(z, Jr);
         JQ.noalias() = Jr * Q;
         res.Gcov.push_back(JQ * JQ.transpose());

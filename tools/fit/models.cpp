@@ -1,5 +1,4 @@
 #include "models.hpp"
-#include "small_lu.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
@@ -10,11 +9,9 @@ MatC ss_eval(const SSModel &m, cd x)
 {
     const Eigen::Index n = m.A.rows();
     if (n == 0) return m.D.cast<cd>();
-    SmallLu lu(n);
-    lu.compute(m.A, x);
-    MatC XB;
-    lu.solve(m.B.cast<cd>(), XB);
-    return m.C.cast<cd>() * XB + m.D.cast<cd>();
+    MatC M = -m.A.cast<cd>();
+    M.diagonal().array() += x;
+    return m.C.cast<cd>() * M.partialPivLu().solve(m.B.cast<cd>()) + m.D.cast<cd>();
 }
 
 cd lmfd_var(Domain d, cd x) { return d == Domain::CT ? x : 1.0 / x; }

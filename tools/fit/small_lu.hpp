@@ -1,4 +1,4 @@
-// A small dense LU of the resolvent z I - A (models.cpp ss_eval, cissim.cpp, cissim_ml.cpp).
+// A small dense LU of the resolvent z I - A (cissim.cpp, cissim_ml.cpp; compiled with msid_fit's -fcx-limited-range).
 #pragma once
 #include "fit_types.hpp"
 

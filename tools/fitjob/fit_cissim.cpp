@@ -183,7 +183,7 @@ Json frf_json(const CissimRequest &rq, const SSModel &ss, const CissimMlResult &
     Json fr = Json::array();
     for (size_t l = 0; l < rq.lines.size(); ++l) {
         const uint32_t b = rq.lines[l];
-        const MatC G = ss_eval(ss, std::polar(1.0, 2.0 * M_PI * b / P));
+        const MatC G = cissim_eval(ss, std::polar(1.0, 2.0 * M_PI * b / P));
         MatC Cc;
         if (refined && std::isfinite(ml.cov_factor)) {
             // E[dg dg^H] = C_aa + C_bb + j (C_ba - C_ab) from the real [Re vec G; Im vec G] covariance
@@ -217,7 +217,7 @@ Json cost_json(const CissimRequest &rq, const std::vector<IspResult> &isp, const
             for (size_t l = 0; l < bins.size(); ++l) {
                 if (std::find(lines.begin(), lines.end(), bins[l]) == lines.end()) continue;
                 const cd z = std::polar(1.0, 2.0 * M_PI * bins[l] / P);
-                const VecC e = r.Y.col((Eigen::Index)l) - ss_eval(ss, z) * r.U.col((Eigen::Index)l);
+                const VecC e = r.Y.col((Eigen::Index)l) - cissim_eval(ss, z) * r.U.col((Eigen::Index)l);
                 const bool dc = bins[l] == 0;
                 V += (dc ? 0.5 : 1.0) * scale * (e.adjoint() * Xinv.cast<cd>() * e)(0, 0).real();
                 neq += (dc ? 1.0 : 2.0) * ny;
