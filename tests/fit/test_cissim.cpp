@@ -146,14 +146,18 @@ static void correlations_freq_equal_time(void **state)
     msid_rng_seed(&r, 13);
     const uint32_t T = 50, K = 21;
     const CissimRecord rec = y2_record(T, K, r);
-    const Correlations f = cissim_correlations(rec.rows.data(), rec.n_rows, 1, 2, T, 1, 8);
     const Correlations t = cissim_correlations_time(rec.rows.data(), rec.n_rows, 1, 2, T, 1, 8);
-    double worst = 0;
-    for (int l = 0; l < 8; ++l) worst = std::max(worst, rel(f.Xi_rr[(size_t)l], t.Xi_rr[(size_t)l]) * t.Xi_rr[(size_t)l].norm() / t.Xi_rr[0].norm());
-    std::printf("Alg. 6 vs (32)-(33): max |Xi_rr^l(freq) - Xi_rr^l(time)| / |Xi_rr^0| = %.2e, Xi_tt %.2e\n", worst,
-                rel(f.Xi_tt, t.Xi_tt));
-    assert_true(worst < 1e-12);
-    assert_true(rel(f.Xi_tt, t.Xi_tt) < 1e-12);
+    // both paths (the padded FFTs of Alg. 6 and the direct dot products) against the definitions
+    for (CorrMethod how : {CorrMethod::Fft, CorrMethod::Direct}) {
+        const Correlations f = cissim_correlations(rec.rows.data(), rec.n_rows, 1, 2, T, 1, 8, how);
+        double worst = 0;
+        for (int l = 0; l < 8; ++l)
+            worst = std::max(worst, rel(f.Xi_rr[(size_t)l], t.Xi_rr[(size_t)l]) * t.Xi_rr[(size_t)l].norm() / t.Xi_rr[0].norm());
+        std::printf("Alg. 6 (%s) vs (32)-(33): max |Xi_rr^l - Xi_rr^l(time)| / |Xi_rr^0| = %.2e, Xi_tt %.2e\n",
+                    how == CorrMethod::Fft ? "FFT" : "direct", worst, rel(f.Xi_tt, t.Xi_tt));
+        assert_true(worst < 1e-12);
+        assert_true(rel(f.Xi_tt, t.Xi_tt) < 1e-12);
+    }
     // a non-symmetric lag is not mistaken for its transpose (negative control of the comparison)
     assert_true(rel(t.Xi_rr[1], t.Xi_rr[1].transpose()) > 1e-3);
 }
@@ -171,8 +175,8 @@ static void als_exact_and_nominal(void **state)
     c.Xi_tt = Stt;
     c.periods = 1000000000;
     const NoiseCov nc = cissim_noise_cov(m, c);
-    std::printf("ALS from exact correlations: Sigma_ww err %.2e, Sigma_vv err %.2e (%d ADMM iterations)\n",
-                rel(nc.Sigma_ww, Sww), rel(nc.Sigma_vv, Svv), nc.iterations);
+    std::printf("ALS from exact correlations: Sigma_ww err %.2e, Sigma_vv err %.2e (%s, %d steps)\n",
+                rel(nc.Sigma_ww, Sww), rel(nc.Sigma_vv, Svv), nc.solver.c_str(), nc.iterations);
     assert_true(nc.detectable);
     assert_true(rel(nc.Sigma_ww, Sww) < 1e-4);
     assert_true(rel(nc.Sigma_vv, Svv) < 1e-4);
@@ -197,6 +201,40 @@ static void als_exact_and_nominal(void **state)
     Eigen::SelfAdjointEigenSolver<MatR> e1(n1.Sigma_ww), e2(n1.Sigma_vv);
     assert_true(e1.eigenvalues().minCoeff() > -1e-9 * n1.Sigma_ww.norm());
     assert_true(e2.eigenvalues().minCoeff() > -1e-9 * std::max(n1.Sigma_vv.norm(), 1e-12));
+}
+
+// The two solvers of (35)-(36) on a problem with a closed form: the nearest (Frobenius) symmetric
+// X with 0 <= X <= I to a symmetric G is G's eigen-decomposition with the eigenvalues clipped to
+// [0, 1]. Unknowns vech X = (X11, X21, X22); F maps them to vec X, so ||F x - vec G|| = ||X - G||_F.
+static void lmi_solvers_closed_form(void **state)
+{
+    (void)state;
+    MatR Gm(2, 2);
+    Gm << 0.2, 0.9, 0.9, 0.4;   // eigenvalues 1.21 and -0.61: both bounds active
+    LmiLs p;
+    p.F = MatR::Zero(4, 3);
+    p.F(0, 0) = 1, p.F(1, 1) = 1, p.F(2, 1) = 1, p.F(3, 2) = 1;
+    p.g = Eigen::Map<const VecR>(Gm.data(), 4);
+    p.G = {p.F, -p.F};                                   // X >= 0 and I - X >= 0
+    p.h = {VecR::Zero(4), Eigen::Map<const VecR>(MatR(MatR::Identity(2, 2)).data(), 4)};
+    Eigen::SelfAdjointEigenSolver<MatR> es(Gm);
+    const MatR Xs = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseMin(1.0).asDiagonal() *
+                    es.eigenvectors().transpose();
+    const VecR xs = (VecR(3) << Xs(0, 0), Xs(1, 0), Xs(1, 1)).finished();
+    VecR x = (VecR(3) << 0.5, 0.0, 0.5).finished();     // X = I / 2: strictly inside
+    int steps = 0;
+    double gap = 0;
+    assert_true(lmi_least_squares_barrier(p, x, steps, gap));
+    int it = 0;
+    double pr = 0;
+    const VecR xa = lmi_least_squares(p, it, pr, 200000, 1e-12);
+    std::printf("0 <= X <= I nearest to G: interior point %.2e (%d Newton steps, gap %.1e), ADMM %.2e (%d iterations)\n",
+                (x - xs).norm() / xs.norm(), steps, gap, (xa - xs).norm() / xs.norm(), it);
+    assert_true((x - xs).norm() < 1e-9 * xs.norm());
+    assert_true((xa - xs).norm() < 1e-6 * xs.norm());
+    // a start outside the cone is refused (the caller then uses ADMM)
+    VecR bad = (VecR(3) << -1.0, 0.0, 0.5).finished();
+    assert_false(lmi_least_squares_barrier(p, bad, steps, gap));
 }
 
 static void online_equals_offline(void **state)
@@ -494,6 +532,7 @@ int main(void)
         cmocka_unit_test(noiseless_mimo),
         cmocka_unit_test(correlations_freq_equal_time),
         cmocka_unit_test(als_exact_and_nominal),
+        cmocka_unit_test(lmi_solvers_closed_form),
         cmocka_unit_test(online_equals_offline),
         cmocka_unit_test(y1_table3),
         cmocka_unit_test(order_estimate_y1),

@@ -44,3 +44,18 @@ def test_bench_io_times_every_format(tmp_path):
         assert x[2] == "ms" and float(x[1]) > 0 and x[6] == "ms" and float(x[5]) > 0   # wall, cpu (no peer: "-")
     frf = (tmp_path / "frf.json").read_text()
     assert '"format": "msid-frf/1"' in frf and frf.rstrip().endswith("}")
+
+
+def test_bench_cissim_process_runs(tmp_path):
+    # the whole `msid fit --method cissim` processes of both cases (no reference peer: --no-peer); the
+    # kept model files are the timed fits', and each case's accuracy line is printed
+    r = h.run("bench", "fit", "--cissim-process", "--no-peer", "--min-seconds", "0", "--keep", str(tmp_path),
+              timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "--no-peer: no reference peer" in r.stdout
+    for case in ("2x2", "sparse"):
+        assert f"case {case}:" in r.stdout
+        doc = h.load_json(tmp_path / f"{case}.model.json")
+        assert doc["method"] == "cissim" and doc["order"] == 4 and doc["cissim"]["refinement"]["converged"]
+    rows = [l for l in r.stdout.splitlines() if "msid fit --method cissim (.npy" in l]
+    assert len(rows) == 2 and all(float(l.split()[-3]) < 0.01 for l in rows)   # H2 error against the truth

@@ -11,10 +11,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <vector>
 
@@ -30,29 +26,6 @@ namespace {
 constexpr uint32_t P = 4096, K = 64, L = 200, M = 2;   // period, periods, lines, experiments
 constexpr size_t N = (size_t)P * K, C = 4;            // rows, columns per experiment
 
-void write_all(const std::string &path, const std::string &s)
-{
-    FILE *f = std::fopen(path.c_str(), "wb");
-    if (!f || std::fwrite(s.data(), 1, s.size(), f) != s.size() || std::fclose(f) != 0)
-        throw Error("cannot write '" + path + "'");
-}
-
-// .npy v1.0 of an n x C float64 matrix (C order).
-std::string npy_image(const std::vector<double> &x, size_t n, size_t cols)
-{
-    std::string h = fmt("{'descr': '<f8', 'fortran_order': False, 'shape': (%zu, %zu), }", n, cols);
-    while ((10 + h.size() + 1) % 64) h += ' ';
-    h += '\n';
-    std::string s = "\x93NUMPY";
-    s += '\x01';
-    s += '\x00';
-    s += (char)(h.size() & 0xff);
-    s += (char)(h.size() >> 8);
-    s += h;
-    s.append((const char *)x.data(), x.size() * sizeof(double));
-    return s;
-}
-
 void write_mat(const std::string &path, const std::vector<double> &x, size_t n, size_t cols, const char *const *names)
 {
     const Matio &Mt = matio();
@@ -67,50 +40,6 @@ void write_mat(const std::string &path, const std::vector<double> &x, size_t n, 
         Mt.VarFree(v);
     }
     Mt.Close(m);
-}
-
-// Best wall and CPU (user + system, all threads) times of `msid args...`
-// (stdout to /dev/null) over >= 3 runs lasting >= min_s; each best separately.
-// posix_spawn (vfork semantics): the child starts without a copy of this process's page
-// tables (the bench holds the generated records, tens of MB), so the wall time is msid's own.
-struct Times { double wall = 1e30, cpu = 1e30; };
-
-Times time_msid(const std::string &exe, const std::vector<std::string> &args, double min_s)
-{
-    std::vector<char *> av;
-    for (const auto &s : args) av.push_back(const_cast<char *>(s.c_str()));
-    av.push_back(nullptr);
-    struct Actions {   // stdout of every start to /dev/null
-        posix_spawn_file_actions_t fa;
-        Actions()
-        {
-            if (posix_spawn_file_actions_init(&fa) != 0) throw Error("posix_spawn_file_actions failed");
-            if (posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0) != 0) {
-                posix_spawn_file_actions_destroy(&fa);
-                throw Error("posix_spawn_file_actions failed");
-            }
-        }
-        ~Actions() { posix_spawn_file_actions_destroy(&fa); }
-    } act;
-    auto once = [&](Times &best) {
-        const double t0 = wall_s();
-        pid_t pid;
-        if (posix_spawn(&pid, exe.c_str(), &act.fa, nullptr, av.data(), environ) != 0)
-            throw Error("cannot start msid for the benchmark");
-        int st = 0;
-        struct rusage ru;
-        wait4(pid, &st, 0, &ru);
-        const double wall = wall_s() - t0;
-        if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) throw Error("msid " + args[1] + " failed in the benchmark");
-        const double cpu = ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
-        best.wall = std::min(best.wall, wall);
-        best.cpu = std::min(best.cpu, cpu);
-    };
-    Times warm, best;
-    once(warm);
-    const double t_end = wall_s() + min_s;
-    for (int reps = 0; reps < 3 || wall_s() < t_end; ++reps) once(best);
-    return best;
 }
 
 double json_num(const std::string &out, const char *key)
@@ -225,7 +154,7 @@ IoBenchResult bench_io(const IoBenchRequest &rq, const Sink &sink)
         if (f.cols) { args.push_back("--columns"); args.push_back(f.cols); }
         args.push_back("-o");
         args.push_back(dir + "/frf.json");
-        const Times t = time_msid(rq.msid_exe, args, rq.min_seconds);
+        const Times t = time_process(rq.msid_exe, args, rq.min_seconds);
         IoBenchRow row;
         row.format = f.name;
         row.msid_wall_s = t.wall;

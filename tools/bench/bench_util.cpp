@@ -2,6 +2,7 @@
 #include "bench_util.hpp"
 
 #include "msid_host_error.hpp"
+#include "msid_host_util.hpp"
 
 #include <chrono>
 #include <cstdarg>
@@ -10,6 +11,10 @@
 #include <ctime>
 #include <fstream>
 #include <sys/utsname.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 #include <vector>
 
@@ -87,6 +92,68 @@ double process_time(const std::string &cmd, int reps)
     }
     std::sort(t.begin(), t.end());
     return t[t.size() / 2];
+}
+
+void write_all(const std::string &path, const std::string &s)
+{
+    FILE *f = std::fopen(path.c_str(), "wb");
+    if (!f || std::fwrite(s.data(), 1, s.size(), f) != s.size() || std::fclose(f) != 0)
+        throw msidutil::Error("cannot write '" + path + "'");
+}
+
+std::string npy_image(const std::vector<double> &x, size_t n, size_t cols)
+{
+    std::string h = msidutil::fmt("{'descr': '<f8', 'fortran_order': False, 'shape': (%zu, %zu), }", n, cols);
+    while ((10 + h.size() + 1) % 64) h += ' ';
+    h += '\n';
+    std::string s = "\x93NUMPY";
+    s += '\x01';
+    s += '\x00';
+    s += (char)(h.size() & 0xff);
+    s += (char)(h.size() >> 8);
+    s += h;
+    s.append((const char *)x.data(), x.size() * sizeof(double));
+    return s;
+}
+
+Times time_process(const std::string &exe, const std::vector<std::string> &args, double min_s, bool quiet)
+{
+    std::vector<char *> av;
+    for (const auto &s : args) av.push_back(const_cast<char *>(s.c_str()));
+    av.push_back(nullptr);
+    struct Actions {   // stdout of every start to /dev/null, and stderr when quiet
+        posix_spawn_file_actions_t fa;
+        explicit Actions(bool quiet)
+        {
+            if (posix_spawn_file_actions_init(&fa) != 0) throw msidutil::Error("posix_spawn_file_actions failed");
+            if (posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0) != 0 ||
+                (quiet && posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0) != 0)) {
+                posix_spawn_file_actions_destroy(&fa);
+                throw msidutil::Error("posix_spawn_file_actions failed");
+            }
+        }
+        ~Actions() { posix_spawn_file_actions_destroy(&fa); }
+    } act(quiet);
+    auto once = [&](Times &best) {
+        const double t0 = wall_s();
+        pid_t pid;
+        if (posix_spawnp(&pid, exe.c_str(), &act.fa, nullptr, av.data(), environ) != 0)
+            throw msidutil::Error("cannot start " + exe + " for the benchmark");
+        int st = 0;
+        struct rusage ru;
+        wait4(pid, &st, 0, &ru);
+        const double wall = wall_s() - t0;
+        if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
+            throw msidutil::Error(args[0] + " " + (args.size() > 1 ? args[1] : "") + " failed in the benchmark");
+        const double cpu = ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+        best.wall = std::min(best.wall, wall);
+        best.cpu = std::min(best.cpu, cpu);
+    };
+    Times warm, best;
+    once(warm);
+    const double t_end = wall_s() + min_s;
+    for (int reps = 0; reps < 3 || wall_s() < t_end; ++reps) once(best);
+    return best;
 }
 
 std::string temp_dir(const char *prefix)

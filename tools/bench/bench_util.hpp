@@ -3,6 +3,7 @@
 #pragma once
 #include <algorithm>
 #include <string>
+#include <vector>
 
 #include "msid_bench.hpp"
 
@@ -68,6 +69,22 @@ int capture(const std::string &cmd, std::string &out);
 // Wall time of the whole shell command `cmd` (output discarded), the median of `reps` runs; -1
 // when a run fails.
 double process_time(const std::string &cmd, int reps);
+
+// Write the bytes `s` to the file `path` (Error if it cannot).
+void write_all(const std::string &path, const std::string &s);
+// .npy v1.0 of an n x cols float64 matrix (C order).
+std::string npy_image(const std::vector<double> &x, size_t n, size_t cols);
+
+// Best wall and CPU (user + system, all threads) times of the process `exe args...` (args[0] is its
+// name; exe a path, or a name looked up in PATH), stdout (and with `quiet` stderr: notes repeated at
+// every run) to /dev/null, over >= 3 runs lasting
+// >= min_s after one warm-up run; each best separately. posix_spawn (vfork semantics): the child
+// starts without a copy of this process's page tables (a bench holds tens of MB of generated
+// records), so the wall time is the child's own. Error when a run fails.
+struct Times {
+    double wall = 1e30, cpu = 1e30;
+};
+Times time_process(const std::string &exe, const std::vector<std::string> &args, double min_s, bool quiet = false);
 
 // A new directory /tmp/<prefix>-XXXXXX (Error if it cannot be made).
 std::string temp_dir(const char *prefix);

@@ -107,6 +107,34 @@ struct CissimBenchResult {
 
 CissimBenchResult bench_cissim(const CissimBenchRequest &rq, const Sink &sink = {});
 
+/// `msid bench fit --cissim-process`: the whole `msid fit --method cissim` process on files against the
+/// whole run of the authors' code under Octave (optional: $MSID_DCISSIM_DIR and octave-cli), cases of
+/// issue 28 (msidfit::cissim_process_cases).
+struct CissimProcessBenchRequest {
+    double min_seconds = 2.0;    ///< each time is the best of >= 3 runs lasting at least this long [s]
+    bool peer = true;            ///< run the authors' code when it is there
+    std::string keep;            ///< directory for the files, kept afterwards; "": a temporary one, removed
+    std::string msid_exe = "/proc/self/exe";   ///< the msid executable whose `fit` is timed
+};
+
+/// One case.
+struct CissimProcessBenchRow {
+    std::string name;
+    double msid_wall_s = 0, msid_cpu_s = 0, msid_csv_wall_s = 0;   ///< best whole-process times, .npy and CSV [s]
+    double ref_wall_s = -1, ref_cpu_s = -1;   ///< the reference's whole Octave run on raw float64 [s]; -1: not run
+    double ref_csv_wall_s = -1;               ///< the same reading the CSV file (dlmread) [s]
+    double ref_estimate_s = -1;               ///< its estimation step alone (tic/toc inside) [s]
+    double msid_h2 = -1, paper_h2 = -1, ref_h2 = -1;   ///< relative H2 errors against the truth (-1: unstable / not run)
+    double ref_vs_paper_frf = -1, ref_vs_msid_frf = -1;   ///< max FRF difference at the lines over ||G_true||
+};
+
+struct CissimProcessBenchResult {
+    std::vector<CissimProcessBenchRow> rows;
+    Report report;
+};
+
+CissimProcessBenchResult bench_cissim_process(const CissimProcessBenchRequest &rq, const Sink &sink = {});
+
 // ---------------- lpm: the local polynomial method against its NumPy peer ----------------
 
 /// `msid bench lpm`.

@@ -2,6 +2,7 @@
 // (Alg. 4), B, D (Alg. 5). You, Huang, Zhang 2023; see cissim.hpp.
 #include "cissim.hpp"
 #include "real_dft.hpp"
+#include "small_lu.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
@@ -66,7 +67,8 @@ static std::vector<double> period_sum(const double *rows, size_t n_rows, uint32_
 // Per-line sample covariance of the mean phasor over the periods (IspResult::line_cov): the phasors of
 // each period at the bins (direct products or one FFT per channel and period, as the ISP), then
 // S_l = sum_p (P_p - P)(P_p - P)^H / (K - 1) and S_l / K.
-static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint32_t skip, bool direct)
+static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint32_t skip, bool direct,
+                             const std::vector<uint32_t> *cov_bins)
 {
     const uint32_t T = r.period;
     const uint64_t K = r.periods;
@@ -75,7 +77,13 @@ static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint3
     MatC mean(C, q);
     mean.topRows(r.U.rows()) = r.U;
     mean.bottomRows(r.Y.rows()) = r.Y;
-    r.line_cov.assign(q, MatC::Zero(C, C));
+    // the lines that get a covariance (all, or those of cov_bins), as indices into r.bins
+    std::vector<size_t> want;
+    for (size_t l = 0; l < q; ++l)
+        if (!cov_bins || std::find(cov_bins->begin(), cov_bins->end(), r.bins[l]) != cov_bins->end()) want.push_back(l);
+    r.line_cov.assign(q, MatC());
+    // the upper triangles of sum_p (P_p - P)(P_p - P)^H, C x C row-major per wanted line
+    std::vector<cd> acc(want.size() * C * C, cd(0));
     const double scale = 2.0 / T;
     MatC P(C, q);
     std::unique_ptr<RealDft> fft;
@@ -108,16 +116,30 @@ static void line_covariances(IspResult &r, const double *rows, uint32_t C, uint3
                 for (size_t l = 0; l < q; ++l) P(j, (Eigen::Index)l) = X[r.bins[l]] * scale;
             }
         }
-        for (size_t l = 0; l < q; ++l) {
-            d.noalias() = P.col((Eigen::Index)l) - mean.col((Eigen::Index)l);
-            r.line_cov[l].noalias() += d * d.adjoint();
+        for (size_t w = 0; w < want.size(); ++w) {
+            const Eigen::Index l = (Eigen::Index)want[w];
+            for (uint32_t i = 0; i < C; ++i) d(i) = P(i, l) - mean(i, l);
+            cd *a = &acc[w * C * C];
+            for (uint32_t i = 0; i < C; ++i)
+                for (uint32_t j = i; j < C; ++j) a[i * C + j] += d(i) * std::conj(d(j));
         }
     }
-    for (auto &S : r.line_cov) S /= (double)(K - 1) * (double)K;
+    const double f = 1.0 / ((double)(K - 1) * (double)K);
+    for (size_t w = 0; w < want.size(); ++w) {
+        MatC S(C, C);
+        const cd *a = &acc[w * C * C];
+        for (uint32_t i = 0; i < C; ++i)
+            for (uint32_t j = i; j < C; ++j) {
+                S(i, j) = a[i * C + j] * f;
+                S(j, i) = std::conj(S(i, j));
+            }
+        r.line_cov[want[w]] = S;
+    }
 }
 
 IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
-                     const std::vector<uint32_t> &bins, uint32_t skip, IspMethod method, bool line_cov)
+                     const std::vector<uint32_t> &bins, uint32_t skip, IspMethod method, bool line_cov,
+                     const std::vector<uint32_t> *cov_bins)
 {
     if (T < 2) throw FitError("the period must be at least 2 samples");
     for (uint32_t b : bins)
@@ -169,7 +191,7 @@ IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny
     }
     r.U = P.topRows(nu);
     r.Y = P.bottomRows(ny);
-    if (line_cov) line_covariances(r, rows, C, skip, direct);
+    if (line_cov) line_covariances(r, rows, C, skip, direct, cov_bins);
     return r;
 }
 
@@ -233,12 +255,16 @@ void cissim_BD(SSModel &m, const std::vector<IspResult> &isp, bool estimate_D)
     MatR Phi = MatR::Zero(rows, nb + nd);
     VecR rhs(rows);
     Eigen::Index row = 0;
-    const MatC Cc = m.C.cast<cd>(), Ac = m.A.cast<cd>();
+    const MatC Ct = m.C.cast<cd>().transpose();
+    SmallLu lu(n);
+    MatC Kt;
     for (const auto &r : isp) {
         for (size_t l = 0; l < r.bins.size(); ++l) {
             const cd z = std::polar(1.0, 2.0 * M_PI * (double)r.bins[l] / r.period);
             // K = C (z I - A)^-1 (eq. 30), by a transposed solve
-            const MatC K = (z * MatC::Identity(n, n) - Ac).transpose().partialPivLu().solve(Cc.transpose()).transpose();
+            lu.compute(m.A, z);
+            lu.solve_t(Ct, Kt);
+            const auto K = Kt.transpose();
             const VecC u = r.U.col((Eigen::Index)l);
             const bool dc = r.bins[l] == 0;
             const double w = dc ? 1.0 / std::sqrt(2.0) : 1.0;

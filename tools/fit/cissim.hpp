@@ -47,9 +47,11 @@ struct IspResult {
 // rows: n_rows x (nu + ny), row-major [u_1..u_nu, y_1..y_ny] (the msid record layout).
 // Uses periods skip .. floor(n_rows / T) - 1. Throws FitError when fewer than
 // one whole period remains or a bin is out of [0, T/2).
+// cov_bins (with line_cov): only these of `bins` get a line_cov entry (the others stay empty, 0 x 0),
+// as the ML refinement uses the excited lines alone of a full-set regression.
 IspResult cissim_isp(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
                      const std::vector<uint32_t> &bins, uint32_t skip_periods, IspMethod method = IspMethod::Auto,
-                     bool line_cov = false);
+                     bool line_cov = false, const std::vector<uint32_t> *cov_bins = nullptr);
 // The Auto rule: direct multiplication when q (nu + ny) T < 4 T log2 T (nu + ny), i.e. q < 4 log2 T.
 bool cissim_isp_auto_direct(size_t q, uint32_t period);
 // The paper's real ISP matrix R^i (s x (nu + ny), columns in record order [u, y], rows [dc/sqrt2 |
@@ -115,6 +117,9 @@ struct CissimMlResult {
     std::vector<MatC> G;               // model FRF at the lines
     std::vector<MatR> Gcov;            // 2 ny nu x 2 ny nu real covariance of [Re vec G; Im vec G] per line
 };
+// G(z) = C (z I - A)^-1 B + D by a small LU: ss_eval's value to rounding, for the hundreds of lines of
+// a cissim fit (ss_eval keeps Eigen's LU: other methods' model files are compared bit for bit).
+MatC cissim_eval(const SSModel &m, cd z);
 // Throws FitError when an experiment has no line_cov (K < 2 or cissim_isp(.., line_cov = false)).
 CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> &isp, const CissimMlOptions &o = {});
 // The FRF covariance (2 ny nu x 2 ny nu, [Re vec G; Im vec G]) at z of a model whose entries
@@ -132,11 +137,17 @@ struct Correlations {
     uint64_t periods = 0;
 };
 
-// Algorithm 6: in the frequency domain (the periodic part is the DFT bins at multiples of K;
-// correlations by one FFT of length >= N + M, zero padded, so that they equal (32)-(33)
-// exactly, not only asymptotically as with the paper's length-N circular correlation).
+// How the correlations are computed: Alg. 6 in the frequency domain (the periodic part is the DFT
+// bins at multiples of K; correlations by FFTs of length >= N + M, zero padded, so that they equal
+// (32)-(33) exactly, not only asymptotically as with the paper's length-N circular correlation), or
+// (32)-(33) directly (M ny^2 dot products of length ~N). Both give the same numbers to rounding;
+// Auto takes the one with fewer operations (cissim_correlations_direct): direct for a few lags and
+// outputs (the default M <= 50), where it also spares the planning of a long transform.
+enum class CorrMethod { Auto, Direct, Fft };
+bool cissim_correlations_direct(int M, uint32_t nu, uint32_t ny, uint64_t N);
+// The residuals are every sample minus the mean of its phase over the K periods (Assumption 6).
 Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
-                                 uint32_t skip_periods, int M);
+                                 uint32_t skip_periods, int M, CorrMethod method = CorrMethod::Auto);
 // The same from the time-domain definitions (32)-(33), O(M N): the reference of the tests.
 Correlations cissim_correlations_time(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t period,
                                       uint32_t skip_periods, int M);
@@ -146,13 +157,15 @@ struct NoiseCov {
     int lags = 0;                // M
     bool detectable = true;      // Assumption 7 (A non-singular, C full column rank)
     std::string note;            // why the solution is nominal, when it is
-    int iterations = 0;          // ADMM iterations
-    double primal_residual = 0;  // max constraint violation left (Frobenius)
+    std::string solver;          // "interior point", or "ADMM" without a strictly feasible start
+    int iterations = 0;          // Newton steps (interior point) or ADMM iterations
+    double duality_gap = -1;     // interior point: the bound m / t on the cost above its minimum (-1: ADMM)
+    double primal_residual = 0;  // max constraint violation left (Frobenius; 0 for the interior point)
     double fit_residual = 0;     // || M vec Xi_zz - p || / || p ||
 };
 
-// Algorithm 7: Xi_zz by least squares (35) under the PSD constraints of (36), solved by ADMM
-// (cissim_cov.cpp), then Sigma_ww = Xi - A Xi A^T, Sigma_vv = Xi_rr^0 - C Xi C^T, Sigma_tt = Xi_tt.
+// Algorithm 7: Xi_zz by least squares (35) under the PSD constraints of (36), solved by a primal
+// log-barrier interior-point method (ADMM when no strictly feasible start exists), then Sigma_ww = Xi - A Xi A^T, Sigma_vv = Xi_rr^0 - C Xi C^T, Sigma_tt = Xi_tt.
 // The residual correlations are scaled by K / (K - 1) first (the periodic-mean projection removes
 // one period's worth of noise degrees of freedom; exact for white noise at lag 0).
 NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &c);
@@ -166,6 +179,13 @@ struct LmiLs {
     std::vector<VecR> h;
 };
 VecR lmi_least_squares(const LmiLs &p, int &iterations, double &primal_residual, int max_iter = 5000, double tol = 1e-10);
+// The same problem by a primal log-barrier method: Newton steps on t ||F x - g||^2 - sum_i log det
+// mat(G_i x + h_i) along t = t0, 10 t0, ... until the bound m / t (m = sum d_i) on the cost above its
+// minimum is below tol ||g||^2. x: a strictly feasible start on entry, the solution on return; false
+// (x unusable) when the start is not strictly feasible or a Newton system fails. A few dozen Newton
+// steps of a small dense system where ADMM creeps towards a minimiser on the boundary of the cone
+// (no process noise: Xi_zz = 0) for thousands of iterations.
+bool lmi_least_squares_barrier(const LmiLs &p, VecR &x, int &steps, double &gap, double tol = 1e-12);
 
 // Relative H2 / Hinf errors are msidfit::ss_distance (models.hpp).
 

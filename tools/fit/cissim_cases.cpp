@@ -35,30 +35,36 @@ SSModel y1_system(msid_rng &r, double rmin, double rmax)
     return m;
 }
 
-CissimRecord y1_record(const SSModel &m, uint32_t T, uint32_t K, double snr_db, msid_rng &r)
+CissimRecord periodic_record(const SSModel &m, const std::vector<double> &u, uint32_t T, uint32_t K, double snr_db,
+                             msid_rng &r)
 {
     CissimRecord rec;
     rec.period = T;
-    rec.nu = 1;
+    rec.nu = (uint32_t)m.B.cols();
     rec.ny = (uint32_t)m.C.rows();
-    const uint32_t C = 1 + rec.ny;
+    const uint32_t nu = rec.nu, C = nu + rec.ny;
     rec.n_rows = (size_t)T * K;
     rec.rows.assign(rec.n_rows * C, 0.0);
-    std::vector<double> u(T);
-    for (uint32_t n = 0; n < T; ++n) u[n] = std::sin(0.2 * M_PI * (double)n * n / T);   // omega(n) = 0.4 pi n / T
-    VecR x = VecR::Zero(m.A.rows());
+    VecR x = VecR::Zero(m.A.rows()), uk(nu);
     double py = 0;
     for (size_t k = 0; k < rec.n_rows; ++k) {
-        const double uk = u[k % T];
+        for (uint32_t j = 0; j < nu; ++j) uk(j) = u[(k % T) * nu + j];
         const VecR y = m.C * x + m.D * uk;
         x = m.A * x + m.B * uk;
-        rec.rows[k * C] = uk;
-        for (uint32_t i = 0; i < rec.ny; ++i) rec.rows[k * C + 1 + i] = y(i), py += y(i) * y(i);
+        for (uint32_t j = 0; j < nu; ++j) rec.rows[k * C + j] = uk(j);
+        for (uint32_t i = 0; i < rec.ny; ++i) rec.rows[k * C + nu + i] = y(i), py += y(i) * y(i);
     }
     const double s = std::sqrt(py / (double)(rec.n_rows * rec.ny) * std::pow(10.0, -snr_db / 10.0));
     for (size_t k = 0; k < rec.n_rows; ++k)
-        for (uint32_t i = 0; i < rec.ny; ++i) rec.rows[k * C + 1 + i] += s * msid_rng_normal(&r);
+        for (uint32_t i = 0; i < rec.ny; ++i) rec.rows[k * C + nu + i] += s * msid_rng_normal(&r);
     return rec;
+}
+
+CissimRecord y1_record(const SSModel &m, uint32_t T, uint32_t K, double snr_db, msid_rng &r)
+{
+    std::vector<double> u(T);
+    for (uint32_t n = 0; n < T; ++n) u[n] = std::sin(0.2 * M_PI * (double)n * n / T);   // omega(n) = 0.4 pi n / T
+    return periodic_record(m, u, T, K, snr_db, r);
 }
 
 std::vector<uint32_t> y1_reduced_bins(uint32_t T, uint32_t q)
@@ -70,6 +76,52 @@ std::vector<uint32_t> y1_reduced_bins(uint32_t T, uint32_t q)
         if (b.empty() || v > b.back()) b.push_back(v);
     }
     return b;
+}
+
+std::vector<CissimProcessCase> cissim_process_cases()
+{
+    std::vector<CissimProcessCase> out(2);
+    {
+        CissimProcessCase &c = out[0];
+        c.name = "2x2";
+        msid_rng r;
+        msid_rng_seed(&r, 2828);
+        SSModel &m = c.truth;
+        m.domain = Domain::DT;
+        m.A = MatR::Zero(4, 4);
+        const double rad[2] = {0.9, 0.8}, ang[2] = {0.2 * M_PI, 0.6 * M_PI};
+        for (int k = 0; k < 2; ++k) {
+            m.A(2 * k, 2 * k) = m.A(2 * k + 1, 2 * k + 1) = rad[k] * std::cos(ang[k]);
+            m.A(2 * k, 2 * k + 1) = -rad[k] * std::sin(ang[k]);
+            m.A(2 * k + 1, 2 * k) = rad[k] * std::sin(ang[k]);
+        }
+        m.B = MatR(4, 2);
+        m.C = MatR(2, 4);
+        for (Eigen::Index i = 0; i < m.B.size(); ++i) m.B(i) = msid_rng_normal(&r);
+        for (Eigen::Index i = 0; i < m.C.size(); ++i) m.C(i) = msid_rng_normal(&r);
+        m.D = MatR::Zero(2, 2);
+        const uint32_t T = 2000;
+        for (uint32_t b = 3; b <= 900; b += 3) c.lines.push_back(b);
+        std::vector<double> u((size_t)T * 2, 0.0);
+        const double a = std::sqrt(2.0 / (double)c.lines.size());   // unit rms per input
+        for (uint32_t j = 0; j < 2; ++j)
+            for (uint32_t b : c.lines) {
+                const double ph = 2.0 * M_PI * msid_rng_uniform(&r);
+                for (uint32_t n = 0; n < T; ++n)
+                    u[(size_t)n * 2 + j] += a * std::cos(2.0 * M_PI * (double)((uint64_t)b * n % T) / T + ph);
+            }
+        c.rec = periodic_record(m, u, T, 30, 30.0, r);
+    }
+    {
+        CissimProcessCase &c = out[1];
+        c.name = "sparse";
+        msid_rng r;
+        msid_rng_seed(&r, 4242);
+        c.truth = y1_system(r, 0.97, 0.995);
+        c.rec = y1_record(c.truth, 3000, 24, 20.0, r);
+        c.lines = y1_reduced_bins(3000, 50);
+    }
+    return out;
 }
 
 SSModel y2_system()

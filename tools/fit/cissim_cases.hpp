@@ -21,6 +21,10 @@ struct CissimRecord {
 // Y1 (You et al. 6.2): a random stable 4th-order SISO system with two pole pairs of radius
 // [rmin, rmax] at angles in [0.05 pi, 0.35 pi] (inside the chirp band), B, C ~ N(0, 1), D ~ N(0, 1/4).
 SSModel y1_system(msid_rng &r, double rmin = 0.6, double rmax = 0.95);
+// The record of K periods of the periodic input u (T x nu, row-major) through m from zero state (the
+// first period carries the transient), white output noise at snr_db of the output power.
+CissimRecord periodic_record(const SSModel &m, const std::vector<double> &u, uint32_t T, uint32_t K, double snr_db,
+                             msid_rng &r);
 // Periodic chirp 0 -> 0.4 pi rad/sample over T samples, K periods (from zero state, so the first
 // period carries the transient), white output noise at snr_db of the output power.
 CissimRecord y1_record(const SSModel &m, uint32_t T, uint32_t K, double snr_db, msid_rng &r);
@@ -32,6 +36,21 @@ std::vector<uint32_t> y1_reduced_bins(uint32_t T, uint32_t q);
 SSModel y2_system();
 void y2_sigmas(MatR &Sww, MatR &Svv, MatR &Stt);
 CissimRecord y2_record(uint32_t T, uint32_t K, msid_rng &r);
+
+// The whole-process cases of issue 28 (`msid bench fit --cissim-process`, docs/benchmarks.md): one
+// record each, fitted at `order` on `lines` by `msid fit --method cissim` and by the authors' code.
+//   "2x2": a 2x2 4th-order plant (pole pairs 0.9 at 0.2 pi, 0.8 at 0.6 pi, D = 0), P = 2000, 30 periods
+//          (60,000 samples), both inputs random-phase multisines on the 300 lines 3:3:900, 30 dB;
+//   "sparse": the first lightly damped system of the sparse-lines comparison (seed 4242, radii
+//          0.97-0.995), T = 3000, 24 periods (72,000 samples), 50 lines, 20 dB.
+struct CissimProcessCase {
+    const char *name = "";
+    SSModel truth;
+    CissimRecord rec;
+    std::vector<uint32_t> lines;
+    int order = 4;
+};
+std::vector<CissimProcessCase> cissim_process_cases();
 
 // Relative covariance errors of You et al. Table 2: eta_w after the similarity compensation
 // (diagonalise A-hat, order the modes like the truth, scale each state so that C-hat matches C),

@@ -20,20 +20,28 @@ static MatR residuals(const double *rows, size_t n_rows, uint32_t C, uint32_t T,
         throw FitError("the noise covariance needs at least 2 whole periods after the skipped ones (the record has " +
                        std::to_string(total) + " of " + std::to_string(T) + " samples)");
     K = total - skip;
-    const size_t N = (size_t)K * T;
-    const double *base = rows + (size_t)skip * T * C;
-    MatR mean = MatR::Zero(T, C);
-    for (size_t k = 0; k < N; ++k)
-        for (uint32_t j = 0; j < C; ++j) mean(k % T, j) += base[k * C + j];
-    mean /= (double)K;
+    const size_t N = (size_t)K * T, TC = (size_t)T * C;
+    const double *base = rows + (size_t)skip * TC;
+    // the phase means, row-major like the record (period by period, no index division)
+    std::vector<double> mean(TC, 0.0);
+    for (uint64_t p = 0; p < K; ++p) {
+        const double *x = base + p * TC;
+        for (size_t i = 0; i < TC; ++i) mean[i] += x[i];
+    }
+    for (double &v : mean) v /= (double)K;
     MatR r(N, C);
-    for (size_t k = 0; k < N; ++k)
-        for (uint32_t j = 0; j < C; ++j) r(k, j) = base[k * C + j] - mean(k % T, j);
+    for (uint64_t p = 0; p < K; ++p) {
+        const double *x = base + p * TC;
+        for (uint32_t j = 0; j < C; ++j) {
+            double *out = r.col(j).data() + p * T;
+            for (size_t n = 0; n < T; ++n) out[n] = x[n * C + j] - mean[n * C + j];
+        }
+    }
     return r;
 }
 
-// The padded length of the correlations: the power of two at or above n. Every call of a fit (the
-// noise covariance's M lags, the cost's one lag) then shares one DFT length, planned once.
+// The padded length of the correlations: the power of two at or above n (records of similar length
+// share one DFT length, planned once for the process).
 static size_t fast_len(size_t n)
 {
     size_t L = 1;
@@ -41,8 +49,16 @@ static size_t fast_len(size_t n)
     return L;
 }
 
+bool cissim_correlations_direct(int M, uint32_t nu, uint32_t ny, uint64_t N)
+{
+    // products per sample: M ny^2 by the definitions; about 2.5 log2 L per transform of the padded
+    // residuals (C forward, ny (ny + 1) / 2 inverse)
+    const double L = (double)fast_len((size_t)N + (size_t)M);
+    return (double)M * ny * ny <= 2.5 * std::log2(L) * (nu + ny + ny * (ny + 1) / 2.0);
+}
+
 Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu, uint32_t ny, uint32_t T,
-                                 uint32_t skip, int M)
+                                 uint32_t skip, int M, CorrMethod method)
 {
     const uint32_t C = nu + ny;
     Correlations c;
@@ -50,6 +66,21 @@ Correlations cissim_correlations(const double *rows, size_t n_rows, uint32_t nu,
     const size_t N = (size_t)r.rows();
     c.n = N;
     if (M < 1 || (size_t)M >= N) throw FitError("the number of correlation lags must be in [1, N)");
+    const bool direct = method == CorrMethod::Direct || (method == CorrMethod::Auto && cissim_correlations_direct(M, nu, ny, N));
+    if (direct) {
+        // (32)-(33) as written: one dot product of two residual columns per lag and pair
+        c.Xi_rr.assign((size_t)M, MatR::Zero(ny, ny));
+        for (int l = 0; l < M; ++l) {
+            const Eigen::Index len = (Eigen::Index)(N - (size_t)l);
+            for (uint32_t i = 0; i < ny; ++i)
+                for (uint32_t j = 0; j < ny; ++j)
+                    c.Xi_rr[(size_t)l](i, j) = r.col(nu + i).segment(l, len).dot(r.col(nu + j).head(len)) / (double)len;
+        }
+        c.Xi_tt = MatR(nu, nu);
+        for (uint32_t i = 0; i < nu; ++i)
+            for (uint32_t j = 0; j < nu; ++j) c.Xi_tt(i, j) = r.col(i).dot(r.col(j)) / (double)N;
+        return c;
+    }
     // Alg. 6: spectra of the residuals (zero padded to L >= N + M so that the products give the
     // linear correlations of (32), not circular ones), cross-spectra, inverse transforms
     const size_t L = fast_len(N + (size_t)M), H = L / 2 + 1;
@@ -159,6 +190,101 @@ VecR lmi_least_squares(const LmiLs &p, int &iterations, double &primal_residual,
     return x;
 }
 
+// The side of a square matrix stored as a column of d^2 entries.
+static Eigen::Index side(Eigen::Index d2) { return (Eigen::Index)std::lround(std::sqrt((double)d2)); }
+
+// log det of every mat(G_i x + h_i) and their inverses; false when one is not positive definite.
+static bool barrier_terms(const LmiLs &p, const VecR &x, double &logdet, std::vector<MatR> *inv)
+{
+    logdet = 0;
+    for (size_t i = 0; i < p.G.size(); ++i) {
+        const VecR v = p.G[i] * x + p.h[i];
+        const Eigen::Index d = side(v.size());
+        const MatR X = Eigen::Map<const MatR>(v.data(), d, d);
+        const Eigen::LLT<MatR> llt(0.5 * (X + X.transpose()));
+        if (llt.info() != Eigen::Success) return false;
+        for (Eigen::Index k = 0; k < d; ++k) {
+            const double l = llt.matrixLLT()(k, k);
+            if (!(l > 0) || !std::isfinite(l)) return false;
+            logdet += 2.0 * std::log(l);
+        }
+        if (inv) (*inv)[i] = llt.solve(MatR::Identity(d, d));
+    }
+    return true;
+}
+
+bool lmi_least_squares_barrier(const LmiLs &p, VecR &x, int &steps, double &gap, double tol)
+{
+    steps = 0;
+    gap = 0;
+    const Eigen::Index nx = p.F.cols();
+    double m = 0, logdet = 0;
+    for (const auto &G : p.G) m += (double)side(G.rows());
+    std::vector<MatR> W(p.G.size());
+    if (x.size() != nx || !barrier_terms(p, x, logdet, nullptr)) return false;
+    // the cost from its residual (not from the normal equations: a fit that is nearly exact keeps its
+    // digits)
+    const MatR Hf = 2.0 * p.F.transpose() * p.F;
+    const VecR bf = 2.0 * p.F.transpose() * p.g;
+    const double S = std::max(p.g.squaredNorm(), 1e-300);
+    VecR res(p.F.rows());
+    auto f = [&](const VecR &y) {
+        res.noalias() = p.F * y;
+        res -= p.g;
+        return res.squaredNorm();
+    };
+    VecR grad(nx), dx(nx), xn(nx);
+    MatR H(nx, nx);
+    // the central path from t0, where the fit and the barrier weigh alike, by factors of 10 (a
+    // handful of Newton steps each) to the bound m / t <= tol ||g||^2
+    double t = m / std::max(f(x), 1e-12 * S);
+    for (int outer = 0; outer < 100; ++outer) {
+        for (int inner = 0; inner < 50; ++inner) {
+            if (!barrier_terms(p, x, logdet, &W)) return false;
+            grad.noalias() = t * (Hf * x - bf);
+            H = t * Hf;
+            for (size_t i = 0; i < p.G.size(); ++i) {
+                const Eigen::Index d = W[i].rows();
+                grad.noalias() -= p.G[i].transpose() * Eigen::Map<const VecR>(W[i].data(), d * d);
+                // d^2 log det / dx_a dx_b = -tr(W E_a W E_b), E_a = mat(G_i e_a): (W kron W) G_i
+                MatR WEW(d * d, nx);
+                for (Eigen::Index a = 0; a < nx; ++a) {
+                    Eigen::Map<MatR> Y(WEW.col(a).data(), d, d);
+                    Y.noalias() = W[i] * Eigen::Map<const MatR>(p.G[i].col(a).data(), d, d) * W[i];
+                }
+                H.noalias() += p.G[i].transpose() * WEW;
+            }
+            const Eigen::LLT<MatR> hl(0.5 * (H + H.transpose()));
+            if (hl.info() != Eigen::Success) return false;
+            dx = -hl.solve(grad);
+            const double lam2 = -grad.dot(dx);   // Newton decrement squared
+            if (!std::isfinite(lam2)) return false;
+            if (lam2 <= 1e-8) break;             // centred: the barrier value within 5e-9 of its minimum
+            // backtracking (Armijo) inside the domain
+            const double phi0 = t * f(x) - logdet;
+            double step = 1.0;
+            bool moved = false;
+            for (int ls = 0; ls < 60; ++ls, step *= 0.5) {
+                xn = x + step * dx;
+                double ldn = 0;
+                if (!barrier_terms(p, xn, ldn, nullptr)) continue;
+                if (t * f(xn) - ldn <= phi0 - 0.25 * step * lam2) {
+                    x = xn;
+                    moved = true;
+                    break;
+                }
+            }
+            ++steps;
+            // no full step left near the centre: the rounding of the barrier's value, not the path
+            if (!moved || (step < 1.0 && lam2 < 1e-4)) break;
+        }
+        gap = m / t;
+        if (gap <= tol * S) return true;
+        t *= 10.0;
+    }
+    return true;
+}
+
 NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &cr)
 {
     NoiseCov out;
@@ -214,7 +340,40 @@ NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &cr)
     const MatR X0 = 0.5 * (Xi[0] + Xi[0].transpose());
     p.G = {G1, G2, G3};
     p.h = {VecR::Zero(n * n), VecR::Zero(n * n), Eigen::Map<const VecR>(X0.data(), pp)};
-    const VecR x = lmi_least_squares(p, out.iterations, out.primal_residual);
+    // A strictly feasible start for the interior-point solver: Xi = eps P with P - A P A^T = I
+    // (A Schur), so that Xi and Xi - A Xi A^T = eps I are positive definite, eps small enough that
+    // Xi_rr^0 - C Xi C^T is too. Without one (A not Schur, Xi_rr^0 singular): ADMM.
+    VecR x;
+    bool done = false;
+    const Eigen::LLT<MatR> l0(X0);
+    if (ss_stable(m) && l0.info() == Eigen::Success) {
+        const MatR Inn = MatR::Identity(n, n);
+        MatR Kr = MatR::Identity(n * n, n * n);   // I - A kron A: vec(A P A^T) = (A kron A) vec P
+        for (Eigen::Index l = 0; l < n; ++l)
+            for (Eigen::Index k = 0; k < n; ++k)
+                for (Eigen::Index j = 0; j < n; ++j)
+                    for (Eigen::Index i = 0; i < n; ++i) Kr(i + n * j, k + n * l) -= m.A(i, k) * m.A(j, l);
+        const VecR pv = Kr.partialPivLu().solve(Eigen::Map<const VecR>(Inn.data(), n * n));
+        const MatR Pl = Eigen::Map<const MatR>(pv.data(), n, n);
+        const MatR Q = l0.matrixL().solve(MatR(m.C * Pl * m.C.transpose()));
+        const MatR Qs = l0.matrixL().solve(Q.transpose());
+        const double lmax = Eigen::SelfAdjointEigenSolver<MatR>(0.5 * (Qs + Qs.transpose()), Eigen::EigenvaluesOnly)
+                                .eigenvalues()
+                                .maxCoeff();
+        const double eps = lmax > 0 ? 0.5 / lmax : 1.0;
+        x.resize(nx);
+        for (Eigen::Index a = 0, j = 0; j < n; ++j)
+            for (Eigen::Index i = j; i < n; ++i) x(a++) = eps * 0.5 * (Pl(i, j) + Pl(j, i));
+        double gap = 0;
+        done = lmi_least_squares_barrier(p, x, out.iterations, gap, 1e-12);
+        out.solver = "interior point";
+        out.duality_gap = gap;
+    }
+    if (!done) {
+        x = lmi_least_squares(p, out.iterations, out.primal_residual);
+        out.solver = "ADMM";
+        out.duality_gap = -1;
+    }
     MatR Xz = MatR::Zero(n, n);
     for (Eigen::Index a = 0; a < nx; ++a) Xz += x(a) * E[(size_t)a];
     out.Xi_zz = Xz;

@@ -8,12 +8,14 @@
 //   dG/dA_ij = (C X)_:i (X B)_j: ,  dG/dB_ij = (C X)_:i e_j^T,  dG/dC_ij = e_i (X B)_j: ,  dG/dD_ij = e_i e_j^T.
 #include "cissim.hpp"
 #include "lmfd_fit.hpp"
+#include "small_lu.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace msidfit {
 
@@ -48,42 +50,6 @@ SSModel unpack(const SSModel &like, const VecR &th)
     return m;
 }
 
-// Complex Jacobian of G(z) U (ny x p) or, with U empty, of vec G (ny nu x p), at one z.
-MatC jac_GU(const SSModel &m, cd z, const VecC *U, MatC &GU)
-{
-    const Dims d(m);
-    const MatC X = (z * MatC::Identity(d.n, d.n) - m.A.cast<cd>()).inverse();
-    const MatC CX = m.C.cast<cd>() * X, XB = X * m.B.cast<cd>();
-    const MatC G = CX * m.B.cast<cd>() + m.D.cast<cd>();
-    if (U) {
-        const VecC XBU = XB * *U;
-        GU = G * *U;
-        MatC J = MatC::Zero(d.ny, d.p);
-        for (Eigen::Index j = 0; j < d.n; ++j)
-            for (Eigen::Index i = 0; i < d.n; ++i) J.col(i + d.n * j) = CX.col(i) * XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < d.n; ++i) J.col(d.pA + i + d.n * j) = CX.col(i) * (*U)(j);
-        for (Eigen::Index j = 0; j < d.n; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) J(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) J(i, d.pA + d.pB + d.pC + i + d.ny * j) = (*U)(j);
-        return J;
-    }
-    GU = G;
-    const Eigen::Index g = d.ny * d.nu;
-    MatC J = MatC::Zero(g, d.p);
-    for (Eigen::Index b = 0; b < d.nu; ++b)
-        for (Eigen::Index a = 0; a < d.ny; ++a) {
-            const Eigen::Index row = a + d.ny * b;
-            for (Eigen::Index j = 0; j < d.n; ++j)
-                for (Eigen::Index i = 0; i < d.n; ++i) J(row, i + d.n * j) = CX(a, i) * XB(j, b);
-            for (Eigen::Index i = 0; i < d.n; ++i) J(row, d.pA + i + d.n * b) = CX(a, i);
-            for (Eigen::Index j = 0; j < d.n; ++j) J(row, d.pA + d.pB + a + d.ny * j) = XB(j, b);
-            J(row, d.pA + d.pB + d.pC + row) = 1.0;
-        }
-    return J;
-}
-
 struct Term {
     cd z;
     bool dc;
@@ -107,7 +73,7 @@ std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp
             tm.U = r.U.col((Eigen::Index)l);
             tm.Y = r.Y.col((Eigen::Index)l);
             MatC M(ny, nu + ny);
-            M << -ss_eval(m, tm.z), MatC::Identity(ny, ny);
+            M << -cissim_eval(m, tm.z), MatC::Identity(ny, ny);
             MatC W = M * r.line_cov[l] * M.adjoint();
             W = 0.5 * (W + W.adjoint()).eval();
             const double tr = W.diagonal().real().sum();
@@ -129,37 +95,51 @@ std::vector<Term> make_terms(const SSModel &m, const std::vector<IspResult> &isp
 // working memory reused from term to term (a fit evaluates hundreds of terms per step).
 struct TermEval {
     Dims d;
-    MatC A, B, C, D, Mz, XB, CXt, Jc;
+    MatC A, B, C, D, Ct, XB, CXt;
     VecC XBU, GU;
-    Eigen::PartialPivLU<MatC> lu;
+    SmallLu lu;
     explicit TermEval(const SSModel &m)
-        : d(m), A(m.A.cast<cd>()), B(m.B.cast<cd>()), C(m.C.cast<cd>()), D(m.D.cast<cd>()), Mz(d.n, d.n),
-          XB(d.n, d.nu), CXt(d.n, d.ny), Jc(d.ny, d.p), XBU(d.n), GU(d.ny), lu(d.n)
+        : d(m), A(m.A.cast<cd>()), B(m.B.cast<cd>()), C(m.C.cast<cd>()), D(m.D.cast<cd>()), Ct(C.transpose()),
+          XB(d.n, d.nu), CXt(d.n, d.ny), XBU(d.n), GU(d.ny), lu(d.n)
     {
     }
-    // GU = C (z I - A)^-1 B U + D U; with `jac`, Jc = d(GU)/d(vec A, vec B, vec C, vec D) as jac_GU
-    // orders the parameters. One LU of z I - A serves X B and, transposed, C X.
+    // GU = C (z I - A)^-1 B U + D U; with `jac` also (C X)^T for the Jacobian (residual()): one LU of
+    // z I - A serves X B and, transposed, C X.
     void at(cd z, const VecC &U, bool jac)
     {
-        Mz = -A;
-        Mz.diagonal().array() += z;
-        lu.compute(Mz);
-        XB = lu.solve(B);
-        XBU.noalias() = XB * U;
-        GU.noalias() = C * XBU;
-        GU.noalias() += D * U;
+        lu.compute(A, z);
+        lu.solve(B, XB);
+        XBU.noalias() = XB.lazyProduct(U);
+        GU.noalias() = C.lazyProduct(XBU);
+        GU.noalias() += D.lazyProduct(U);
         if (!jac) return;
-        CXt = lu.transpose().solve(C.transpose());   // (C X)^T
-        Jc.setZero();
-        const Eigen::Index n = d.n;
-        for (Eigen::Index j = 0; j < n; ++j)
-            for (Eigen::Index i = 0; i < n; ++i) Jc.col(i + n * j) = CXt.row(i).transpose() * XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < n; ++i) Jc.col(d.pA + i + n * j) = CXt.row(i).transpose() * U(j);
-        for (Eigen::Index j = 0; j < n; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + i + d.ny * j) = XBU(j);
-        for (Eigen::Index j = 0; j < d.nu; ++j)
-            for (Eigen::Index i = 0; i < d.ny; ++i) Jc(i, d.pA + d.pB + d.pC + i + d.ny * j) = U(j);
+        lu.solve_t(Ct, CXt);   // (C X)^T
+    }
+    // The real Jacobian [Re; Im] of vec G(z) (2 ny nu x p): row a + ny b of the complex one is
+    // dG_ab/dtheta, dG/dA_ij = (C X)_:i (X B)_j:, dG/dB_ij = (C X)_:i e_j^T, dG/dC_ij = e_i (X B)_j:,
+    // dG/dD_ij = e_i e_j^T.
+    void jac_G(cd z, MatR &Jr)
+    {
+        lu.compute(A, z);
+        lu.solve(B, XB);
+        lu.solve_t(Ct, CXt);
+        const Eigen::Index g = d.ny * d.nu, n = d.n;
+        Jr.setZero(2 * g, d.p);
+        for (Eigen::Index b = 0; b < d.nu; ++b)
+            for (Eigen::Index a = 0; a < d.ny; ++a) {
+                const Eigen::Index row = a + d.ny * b;
+                for (Eigen::Index j = 0; j < n; ++j)
+                    for (Eigen::Index i = 0; i < n; ++i) {
+                        const cd v = CXt(i, a) * XB(j, b);
+                        Jr(row, i + n * j) = v.real(), Jr(g + row, i + n * j) = v.imag();
+                    }
+                for (Eigen::Index i = 0; i < n; ++i)
+                    Jr(row, d.pA + i + n * b) = CXt(i, a).real(), Jr(g + row, d.pA + i + n * b) = CXt(i, a).imag();
+                for (Eigen::Index j = 0; j < n; ++j)
+                    Jr(row, d.pA + d.pB + a + d.ny * j) = XB(j, b).real(),
+                            Jr(g + row, d.pA + d.pB + a + d.ny * j) = XB(j, b).imag();
+                Jr(row, d.pA + d.pB + d.pC + row) = 1.0;
+            }
     }
 };
 
@@ -173,20 +153,39 @@ void residual(const SSModel &m, const std::vector<Term> &terms, VecR &r, MatR *J
     r.resize(rows);
     if (J) J->resize(rows, d.p);
     Eigen::Index row = 0;
-    VecC w(d.ny);
-    MatC LJ(d.ny, d.p);
+    VecC w(d.ny), e(d.ny);
+    MatC LCX(d.ny, d.n);
+    const Eigen::Index n = d.n, ny = d.ny, ld = rows;
     for (const auto &t : terms) {
         ev.at(t.z, t.U, J != nullptr);
-        w.noalias() = t.Li * (t.Y - ev.GU);
+        e = t.Y - ev.GU;
+        w.noalias() = t.Li.lazyProduct(e);
         const double s = t.dc ? std::sqrt(0.5) : 1.0;
-        r.segment(row, d.ny) = s * w.real();
-        if (J) LJ.noalias() = t.Li * ev.Jc;
-        if (J) J->middleRows(row, d.ny) = -s * LJ.real();
-        if (!t.dc) {
-            r.segment(row + d.ny, d.ny) = w.imag();
-            if (J) J->middleRows(row + d.ny, d.ny) = -LJ.imag();
+        r.segment(row, ny) = s * w.real();
+        if (!t.dc) r.segment(row + ny, ny) = w.imag();
+        if (J) {
+            // the whitened Jacobian Li Jc column by column: every column of Jc is a column of C X
+            // (A, B) or of I (C, D) times an entry of X B U or U, so Li Jc is that of Li C X or Li
+            LCX.noalias() = t.Li.lazyProduct(ev.CXt.transpose());
+            double *Jd = J->data();
+            auto put = [&](Eigen::Index col, const cd *v, cd f) {   // column `col`: -(v f), v of ny entries
+                double *c = Jd + col * ld + row;
+                for (Eigen::Index i = 0; i < ny; ++i) {
+                    const cd x = v[i] * f;
+                    c[i] = -s * x.real();
+                    if (!t.dc) c[ny + i] = -x.imag();
+                }
+            };
+            for (Eigen::Index j = 0; j < n; ++j)
+                for (Eigen::Index i = 0; i < n; ++i) put(i + n * j, LCX.col(i).data(), ev.XBU(j));
+            for (Eigen::Index j = 0; j < d.nu; ++j)
+                for (Eigen::Index i = 0; i < n; ++i) put(d.pA + i + n * j, LCX.col(i).data(), t.U(j));
+            for (Eigen::Index j = 0; j < n; ++j)
+                for (Eigen::Index i = 0; i < ny; ++i) put(d.pA + d.pB + i + ny * j, t.Li.col(i).data(), ev.XBU(j));
+            for (Eigen::Index j = 0; j < d.nu; ++j)
+                for (Eigen::Index i = 0; i < ny; ++i) put(d.pA + d.pB + d.pC + i + ny * j, t.Li.col(i).data(), t.U(j));
         }
-        row += t.dc ? d.ny : 2 * d.ny;
+        row += t.dc ? ny : 2 * ny;
     }
 }
 
@@ -214,7 +213,9 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
     for (int it = 0; it < o.max_iter; ++it) {
         ++iters;
         const VecR g = J.transpose() * r;
-        MatR H = J.transpose() * J;
+        MatR H = MatR::Zero(J.cols(), J.cols());
+        H.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+        H = H.selfadjointView<Eigen::Lower>();
         const VecR dg = H.diagonal().cwiseMax(1e-300 * std::max(1.0, H.diagonal().maxCoeff()));
         bool accepted = false;
         for (int tries = 0; tries < 30; ++tries) {
@@ -252,12 +253,22 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
 
 }  // namespace
 
+MatC cissim_eval(const SSModel &m, cd z)
+{
+    const Eigen::Index n = m.A.rows();
+    if (n == 0) return m.D.cast<cd>();
+    SmallLu lu(n);
+    lu.compute(m.A, z);
+    MatC XB;
+    lu.solve(m.B.cast<cd>(), XB);
+    return m.C.cast<cd>() * XB + m.D.cast<cd>();
+}
+
 MatR cissim_frf_cov(const SSModel &m, const MatR &cov, cd z)
 {
-    MatC G;
-    const MatC Jg = jac_GU(m, z, nullptr, G);
-    MatR Jr(2 * Jg.rows(), Jg.cols());
-    Jr << Jg.real(), Jg.imag();
+    TermEval ev(m);
+    MatR Jr;
+    ev.jac_G(z, Jr);
     return Jr * cov * Jr.transpose();
 }
 
@@ -294,10 +305,22 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
     if (std::isfinite(res.cov_factor)) res.cov *= res.cov_factor;   // else: too few periods, no uncertainty (caller)
     res.dof = (double)r.size() - res.cov_rank;
     res.bins = isp[0].bins;
+    // J_G cov J_G^T at every line through a factor cov = Q Q^T of the rank of the Fisher information
+    // (cov is positive semi-definite): a third of the products of J_G cov J_G^T per line
+    const Eigen::SelfAdjointEigenSolver<MatR> es(0.5 * (res.cov + res.cov.transpose()));
+    const VecR ev = es.eigenvalues();
+    const double floor = 1e-14 * std::max(ev.maxCoeff(), 1e-300);
+    Eigen::Index keep = 0;
+    for (Eigen::Index k = 0; k < ev.size(); ++k) keep += ev(k) > floor;
+    const MatR Q = es.eigenvectors().rightCols(keep) * ev.tail(keep).cwiseSqrt().asDiagonal();
+    TermEval te(m);
+    MatR Jr, JQ;
     for (uint32_t b : res.bins) {
         const cd z = std::polar(1.0, 2.0 * M_PI * (double)b / isp[0].period);
-        res.G.push_back(ss_eval(m, z));
-        res.Gcov.push_back(cissim_frf_cov(m, res.cov, z));
+        res.G.push_back(cissim_eval(m, z));
+        te.jac_G(z, Jr);
+        JQ.noalias() = Jr * Q;
+        res.Gcov.push_back(JQ * JQ.transpose());
     }
     return res;
 }

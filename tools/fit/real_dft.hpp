@@ -4,6 +4,7 @@
 #pragma once
 #include <complex>
 #include <cstddef>
+#include <vector>
 
 namespace msidfit {
 
@@ -25,10 +26,13 @@ public:
 
 private:
     void release();
+    void forward_half(const double *x, std::complex<double> *X);
     size_t n_;
     double *re_ = nullptr;
     void *cx_ = nullptr;       // fftw_complex[n/2 + 1]
     void *fwd_ = nullptr, *inv_ = nullptr;   // fftw_plan, shared by every object of this length
+    void *half_ = nullptr;                   // n even: the complex forward plan of n/2 (shared)
+    std::vector<std::complex<double>> tw_;   // its split's twiddles exp(-j 2 pi k / n), k = 0 .. n/2
 };
 
 }  // namespace msidfit

@@ -8,6 +8,9 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <system_error>
+#include <thread>
 
 namespace msidfitjob {
 
@@ -82,11 +85,11 @@ Json settings_json(const CissimRequest &rq, const CissimResult &res, const std::
     return st;
 }
 
-// The noise covariances (section 4.3) on the full set, from the first experiment's residuals.
-Json noise_cov_json(const Record &r0, const CissimRequest &rq, const SSModel &ss, int n, FitOutcome &out,
-                    const Report &report)
+// The number of correlation lags M of the noise covariance at order n (--lags, or the default of
+// section 4.3.3), checked against Assumption 8.
+int noise_lags(const Record &r0, const CissimRequest &rq, int n)
 {
-    const uint32_t P = rq.period, skip = rq.skip_periods, nu = r0.nu, ny = r0.ny;
+    const uint32_t P = rq.period, skip = rq.skip_periods, ny = r0.ny;
     const uint64_t N = (uint64_t)(r0.n_rows / P - skip) * P;
     const int M = rq.lags ? (int)*rq.lags
                           : std::max<int>((int)std::ceil((double)n * n / ((double)ny * ny)) + 1,
@@ -94,7 +97,58 @@ Json noise_cov_json(const Record &r0, const CissimRequest &rq, const SSModel &ss
     const int Mmin = (int)std::ceil((double)n * n / ((double)ny * ny)) + 1;
     if (M < Mmin) throw UsageError(fmt("--lags %d is below ceil(n^2 / ny^2) + 1 = %d (Assumption 8)", M, Mmin));
     if ((uint64_t)M >= N / 2) throw UsageError(fmt("--lags %d needs M << N = %llu (Assumption 8)", M, (unsigned long long)N));
-    const Correlations c = cissim_correlations(r0.data(), r0.n_rows, nu, ny, P, skip, M);
+    return M;
+}
+
+// The residual correlations of the first experiment (Alg. 6) at M lags: the noise covariance and the
+// white-noise cost use them. They need the record alone, not the model: with the order given they
+// are computed on a second thread while the model is fitted (the same numbers as in line).
+class NoiseCorrelations {
+public:
+    NoiseCorrelations(const Record &r0, const CissimRequest &rq) : r0_(r0), rq_(rq) {}
+    ~NoiseCorrelations()
+    {
+        if (th_.joinable()) th_.join();
+    }
+    void start(int M)
+    {
+        M_ = M;
+        try {
+            th_ = std::thread([this, M] {
+                try {
+                    c_ = compute(M);
+                } catch (...) {
+                    err_ = std::current_exception();
+                }
+            });
+        } catch (const std::system_error &) {   // no thread to be had: in line, at get()
+        }
+    }
+    Correlations get(int M)
+    {
+        if (!th_.joinable()) return compute(M);
+        th_.join();
+        if (M != M_) return compute(M);
+        if (err_) std::rethrow_exception(err_);
+        return std::move(c_);
+    }
+
+private:
+    Correlations compute(int M) const
+    {
+        return cissim_correlations(r0_.data(), r0_.n_rows, r0_.nu, r0_.ny, rq_.period, rq_.skip_periods, M);
+    }
+    const Record &r0_;
+    const CissimRequest &rq_;
+    std::thread th_;
+    int M_ = 0;
+    Correlations c_;
+    std::exception_ptr err_;
+};
+
+// The noise covariances (section 4.3) on the full set, from the first experiment's residuals.
+Json noise_cov_json(const Record &r0, const Correlations &c, const SSModel &ss, FitOutcome &out, const Report &report)
+{
     const NoiseCov nc = cissim_noise_cov(ss, c);
     Json nj;
     nj["Sigma_ww"] = rmat_json(nc.Sigma_ww);
@@ -110,8 +164,11 @@ Json noise_cov_json(const Record &r0, const CissimRequest &rq, const SSModel &ss
     nj["strongly_detectable"] = nc.detectable;
     nj["nominal"] = !nc.detectable;
     nj["note"] = nc.note.empty() ? Json(nullptr) : Json(nc.note);
-    nj["solver"] = Json{{"method", "ADMM on (35) with the PSD constraints of (36)"},
+    nj["solver"] = Json{{"method", nc.solver == "ADMM" ? "ADMM on (35) with the PSD constraints of (36)"
+                                                        : "interior point (log barrier, Newton) on (35) with the PSD "
+                                                          "constraints of (36)"},
                         {"iterations", nc.iterations},
+                        {"duality_gap", nc.duality_gap >= 0 ? Json(nc.duality_gap) : Json(nullptr)},
                         {"constraint_residual", nc.primal_residual},
                         {"relative_fit_residual", nc.fit_residual}};
     nj["basis"] = "the states of A, B, C above (Sigma_ww depends on the similarity transform)";
@@ -126,7 +183,7 @@ Json frf_json(const CissimRequest &rq, const SSModel &ss, const CissimMlResult &
     Json fr = Json::array();
     for (size_t l = 0; l < rq.lines.size(); ++l) {
         const uint32_t b = rq.lines[l];
-        const MatC G = ss_eval(ss, std::polar(1.0, 2.0 * M_PI * b / P));
+        const MatC G = cissim_eval(ss, std::polar(1.0, 2.0 * M_PI * b / P));
         MatC Cc;
         if (refined && std::isfinite(ml.cov_factor)) {
             // E[dg dg^H] = C_aa + C_bb + j (C_ba - C_ab) from the real [Re vec G; Im vec G] covariance
@@ -143,28 +200,24 @@ Json frf_json(const CissimRequest &rq, const SSModel &ss, const CissimMlResult &
 
 // A white-noise cost of the phasor residuals at the excited lines: var(P_r) = 4 Xi_rr^0 / (K T) per
 // complex phasor (white approximation); zero without the noise covariance.
-Json cost_json(const std::vector<Record> &recs, const CissimRequest &rq, const std::vector<IspResult> &isp,
-               const std::vector<uint32_t> &bins, const SSModel &ss, int nparams, bool have_nc)
+Json cost_json(const CissimRequest &rq, const std::vector<IspResult> &isp, const std::vector<uint32_t> &bins,
+               const SSModel &ss, int nparams, const Correlations *corr)
 {
-    const uint32_t P = rq.period, skip = rq.skip_periods;
-    const uint32_t nu = recs[0].nu, ny = recs[0].ny;
+    const uint32_t P = rq.period;
+    const Eigen::Index ny = ss.C.rows();
     const std::vector<uint32_t> &lines = rq.lines;
     Json cost;
     double V = 0, neq = 0;
     MatR Xi0;
-    if (have_nc) {
-        const Record &r0 = recs[0];
-        const Correlations c0 = cissim_correlations(r0.data(), r0.n_rows, nu, ny, P, skip, 1);
-        Xi0 = c0.Xi_rr[0] * ((double)c0.periods / (double)(c0.periods - 1));
-    }
-    if (Xi0.size() && Eigen::FullPivLU<MatR>(Xi0).rank() == (Eigen::Index)ny) {
+    if (corr) Xi0 = corr->Xi_rr[0] * ((double)corr->periods / (double)(corr->periods - 1));
+    if (Xi0.size() && Eigen::FullPivLU<MatR>(Xi0).rank() == ny) {
         const MatR Xinv = Xi0.inverse();
         for (const auto &r : isp) {
             const double scale = (double)r.periods * P / 4.0;
             for (size_t l = 0; l < bins.size(); ++l) {
                 if (std::find(lines.begin(), lines.end(), bins[l]) == lines.end()) continue;
                 const cd z = std::polar(1.0, 2.0 * M_PI * bins[l] / P);
-                const VecC e = r.Y.col((Eigen::Index)l) - ss_eval(ss, z) * r.U.col((Eigen::Index)l);
+                const VecC e = r.Y.col((Eigen::Index)l) - cissim_eval(ss, z) * r.U.col((Eigen::Index)l);
                 const bool dc = bins[l] == 0;
                 V += (dc ? 0.5 : 1.0) * scale * (e.adjoint() * Xinv.cast<cd>() * e)(0, 0).real();
                 neq += (dc ? 1.0 : 2.0) * ny;
@@ -222,10 +275,12 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
         bins.clear();
         for (uint32_t b = 0; 2 * b < P; ++b) bins.push_back(b);
     }
+    NoiseCorrelations nc_corr(recs[0], rq);
+    if (!rq.no_covariance && rq.order) nc_corr.start(noise_lags(recs[0], rq, (int)*rq.order));
     try {
         std::vector<IspResult> isp;
         for (const auto &r : recs)
-            isp.push_back(cissim_isp(r.data(), r.n_rows, nu, ny, P, bins, rq.skip_periods, method, refine));
+            isp.push_back(cissim_isp(r.data(), r.n_rows, nu, ny, P, bins, rq.skip_periods, method, refine, &rq.lines));
         const CissimResult res = cissim_fit(isp, o);
         CissimMlResult ml;
         if (refine) ml = cissim_refine(res.model, at_lines(isp, bins, rq.lines, nu, ny));
@@ -260,9 +315,13 @@ FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, 
                                     {"cov_rank", ml.cov_rank},
                                     {"cov_note", "FRF covariance from the Fisher information of the weighted output error "
                                                  "(weights: per-line sample covariance over the periods), sample-ML factor applied"}};
-        if (!rq.no_covariance) doc["noise_covariance"] = noise_cov_json(recs[0], rq, ss, n, out, report);
+        Correlations corr;
+        if (!rq.no_covariance) {
+            corr = nc_corr.get(noise_lags(recs[0], rq, n));
+            doc["noise_covariance"] = noise_cov_json(recs[0], corr, ss, out, report);
+        }
         const Json fr = frf_json(rq, ss, ml, refine);
-        doc["cost"] = cost_json(recs, rq, isp, bins, ss, nparams, !rq.no_covariance);
+        doc["cost"] = cost_json(rq, isp, bins, ss, nparams, rq.no_covariance ? nullptr : &corr);
         doc["cissim"] = cj;
         doc["frf"] = fr;
         model_put_modes(doc, &out.before);

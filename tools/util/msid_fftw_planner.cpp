@@ -38,12 +38,20 @@ void fftw_planner_ready()
     if (g_thread && g_thread->joinable()) g_thread->join();
 }
 
+// FFTW's planner is not thread-safe: every plan of the shared_*_plan functions is made under this
+// one lock (a fit may plan on two threads, e.g. cissim's correlations beside its regression).
+static std::mutex &planner_mutex()
+{
+    static std::mutex mu;
+    return mu;
+}
+
 fftw_plan shared_real_plan(size_t n, bool inverse)
 {
     struct Plans {
         fftw_plan fwd = nullptr, inv = nullptr;
     };
-    static std::mutex mu;
+    std::mutex &mu = planner_mutex();
     // never destroyed: the plans stay reachable to the exit (a static map's destructor would run
     // before a leak check and orphan them), and no exit-time destructor races a late job
     static auto *cache = new std::map<size_t, Plans>;
@@ -60,6 +68,22 @@ fftw_plan shared_real_plan(size_t n, bool inverse)
                        : fftw_plan_dft_r2c_1d((int)n, re, cx, FFTW_ESTIMATE);
     fftw_free(re);
     fftw_free(cx);
+    return slot;
+}
+
+fftw_plan shared_half_plan(size_t m)
+{
+    std::mutex &mu = planner_mutex();
+    static auto *cache = new std::map<size_t, fftw_plan>;   // never destroyed, as shared_real_plan's
+    if (m < 1 || m > (size_t)0x40000000) return nullptr;
+    std::lock_guard<std::mutex> lock(mu);
+    fftw_plan &slot = (*cache)[m];
+    if (slot) return slot;
+    fftw_planner_ready();
+    fftw_complex *a = fftw_alloc_complex(m), *b = fftw_alloc_complex(m);
+    if (a && b) slot = fftw_plan_dft_1d((int)m, a, b, FFTW_FORWARD, FFTW_ESTIMATE);
+    fftw_free(a);
+    fftw_free(b);
     return slot;
 }
 
