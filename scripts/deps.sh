@@ -60,8 +60,35 @@ installed=" $({ dpkg-query -W -f='${Package} ${Status}\n' "${APT_PKGS[@]}" 2>/de
 for p in "${APT_PKGS[@]}"; do
   case "$installed" in *" $p "*) ;; *) missing+=("$p") ;; esac
 done
-# The target's packages carry their architecture (binary:Package prints it, e.g. libfftw3-dev:arm64). One
-# unpacked by cross_unpack below (a marker in its directory) counts as there.
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "deps: installing ${missing[*]} (log: deps.log)"
+  export DEBIAN_FRONTEND=noninteractive
+  # An index that fails to download (a mirror in sync) leaves apt the lists it had: the install says
+  # whether those were enough.
+  as_root apt-get update -qq >> deps.log 2>&1 || echo "deps: apt-get update reported errors (deps.log); installing from the lists apt has" >&2
+  as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" \
+    >> deps.log 2>&1 || { tail -30 deps.log; echo "deps: apt-get failed (see deps.log)" >&2; exit 1; }
+fi
+
+# The target's libraries (cross-arm64|cross-armhf), after the host's (the cross compiler among them).
+#
+# The normal way is Debian's multiarch: `dpkg --add-architecture <arch>`, `apt-get update`, `apt-get install
+# libfftw3-dev:<arch> ...`. It needs every index of the target's architecture: a package of Multi-Arch:
+# same must have the host's exact version on both architectures, and for one with a security update
+# (libmodbus; libssl3 under matio's libcurl; linux-libc-dev under zlib's libc6-dev) only the security
+# index has it. When that index cannot be downloaded ("File has unexpected size ... Mirror sync in
+# progress?", as Debian's armhf security index on 2026-11-28), apt cannot install them, and the
+# architecture, once registered with dpkg, makes every later `apt-get update` of the host fail with it.
+#
+# So the target's indices are downloaded first into an apt state of their own ($CROSS_ROOT/.apt: its own
+# lists, cache and dpkg status; the host's sources, keyrings and proxy; only the target's architecture),
+# which touches neither the host's dpkg database nor its lists (cross_probe):
+#  - every index downloads: the multiarch install (cross_multiarch);
+#  - an index of binary-<arch> fails to download, and only then: the private sysroot (cross_sysroot), and
+#    the architecture is not registered with dpkg (removed again if this run registered it);
+#  - anything else (no network): the multiarch install, which says what failed.
+# MSID_CROSS_SYSROOT=1 takes the private sysroot without asking (a machine that must stay single-arch).
+# Target packages unpacked into the sysroot (a marker each in $CROSS_ROOT/.unpacked) count as there.
 CROSS_ROOT=""
 cross_missing=()
 if [ ${#CROSS_PKGS[@]} -gt 0 ]; then
@@ -69,59 +96,138 @@ if [ ${#CROSS_PKGS[@]} -gt 0 ]; then
   CROSS_ROOT=${MSID_CROSS_ROOT:-/opt/msid-cross/$triplet}   # cmake/linux-cross.cmake reads the same place
   installed=" $({ dpkg-query -W -f='${binary:Package} ${Status}\n' "${CROSS_PKGS[@]}" 2>/dev/null || true; } |
                awk '$NF == "installed" && $(NF-1) == "ok" {printf "%s ", $1}')"
+  # (a sysroot without MANIFEST is the first version's, 2026-11-28, which unpacked libmatio11 without the
+  # HDF5 and curl libraries it loads: its markers do not count, and it is completed)
   for p in "${CROSS_PKGS[@]}"; do
-    [ -e "$CROSS_ROOT/.unpacked/$p" ] && continue
+    [ -e "$CROSS_ROOT/.unpacked/$p" ] && [ -e "$CROSS_ROOT/.unpacked/MANIFEST" ] && continue
     case "$installed" in *" $p "*) ;; *) cross_missing+=("$p") ;; esac
   done
-  if [ ${#cross_missing[@]} -gt 0 ] && ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
-    as_root dpkg --add-architecture "$CROSS_ARCH"
-  fi
-fi
-if [ ${#missing[@]} -gt 0 ] || [ ${#cross_missing[@]} -gt 0 ]; then
-  echo "deps: installing ${missing[*]} ${cross_missing[*]} (log: deps.log)"
-  export DEBIAN_FRONTEND=noninteractive
-  # An index that fails to download (a mirror in sync) leaves apt the lists it had: the install says
-  # whether those were enough.
-  as_root apt-get update -qq >> deps.log 2>&1 || echo "deps: apt-get update reported errors (deps.log); installing from the lists apt has" >&2
-fi
-if [ ${#missing[@]} -gt 0 ]; then
-  as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" \
-    >> deps.log 2>&1 || { tail -30 deps.log; echo "deps: apt-get failed (see deps.log)" >&2; exit 1; }
 fi
 
-# cross_unpack PKG...: the target's packages apt cannot install beside the host's, from the main archive.
-# A -dev package of Multi-Arch: same must have the host's exact version; when the host has a security
-# update and the target's security index cannot be downloaded (a mirror in sync), apt has no such
-# version. `apt-get download` takes the main archive's (checked against its signed index), `dpkg -x`
-# unpacks it into CROSS_ROOT, outside dpkg's database (the host's packages are not touched), and the
-# .pc files are pointed there. cmake/linux-cross.cmake and scripts/cross_test.sh find them there.
-cross_unpack() {
-  local p deb
-  as_root mkdir -p "$CROSS_ROOT/.debs" "$CROSS_ROOT/.unpacked"
-  for p in "$@"; do
-    # the run-time library beside its -dev package
-    local with=("$p")
-    case "$p" in libmodbus-dev:*) with+=("libmodbus5:$CROSS_ARCH") ;; zlib1g-dev:*) with+=("zlib1g:$CROSS_ARCH") ;; esac
-    ( cd "$CROSS_ROOT/.debs" && as_root apt-get download "${with[@]}" ) >> deps.log 2>&1 || {
-      tail -20 deps.log; echo "deps: apt-get download ${with[*]} failed (see deps.log)" >&2; exit 1; }
-    for deb in "${with[@]}"; do
-      as_root dpkg -x "$(ls -t "$CROSS_ROOT/.debs/${deb%%:*}"_*_"$CROSS_ARCH".deb | head -1)" "$CROSS_ROOT"
-    done
-    as_root touch "$CROSS_ROOT/.unpacked/$p"
+# The private apt of the target alone. APT::Architectures lists the target only, so neither the host's
+# indices nor its packages enter; the status file is the one cross_fake_status writes.
+PA=(-o "Dir::State=$CROSS_ROOT/.apt/state" -o "Dir::State::status=$CROSS_ROOT/.apt/status"
+    -o "Dir::Cache=$CROSS_ROOT/.apt/cache" -o "Dir::Cache::archives=$CROSS_ROOT/.debs"
+    -o "APT::Architecture=$CROSS_ARCH" -o "APT::Architectures::=$CROSS_ARCH"
+    -o Acquire::IndexTargets::deb::DEP-11::DefaultEnabled=false -o APT::Sandbox::User=root)
+
+# The libraries the cross toolchain already brings (libc6, libc6-dev, linux-libc-dev, libgcc-s1,
+# libstdc++6, ...: the host's <name>-<arch>-cross packages), written into the private dpkg status as
+# installed, with no dependencies of their own: the private apt does not take them again. Their version
+# is the cross package's without its "crossN" (libc6 2.36-8 for libc6-armhf-cross 2.36-8cross1).
+cross_fake_status() {
+  dpkg-query -W -f='${db:Status-Abbrev}|${Package}|${Version}|${Provides}\n' "*-$CROSS_ARCH-cross" 2>/dev/null |
+    awk -F'|' -v s="-$CROSS_ARCH-cross" -v a="$CROSS_ARCH" '$1 ~ /^ii/ {
+      n = $2; sub(s "$", "", n); v = $3; sub(/cross[0-9]+$/, "", v); pr = ""
+      k = split($4, P, /, */)
+      for (i = 1; i <= k; i++) if (index(P[i], s)) { q = P[i]; sub(s, "", q); gsub(/cross[0-9]+/, "", q); pr = pr (pr ? ", " : "") q }
+      printf "Package: %s\nStatus: install ok installed\nArchitecture: %s\nVersion: %s\n", n, a, v
+      if (pr != "") printf "Provides: %s\n", pr
+      print "" }' || true
+}
+
+# The target's indices named in apt-get update's output on stdin as failing to download.
+failed_index() { grep -o "Failed to fetch [^ ]*/binary-$CROSS_ARCH/[^ ]*" | sort -u | sed 's/^Failed to fetch //' | paste -sd' '; }
+
+# cross_probe: 0 when every index of the target downloaded into the private state, 1 when an index of
+# binary-<arch> failed to download (the fallback's condition), 2 on any other failure.
+cross_probe() {
+  local out rc=0
+  as_root mkdir -p "$CROSS_ROOT/.apt/state/lists/partial" "$CROSS_ROOT/.apt/cache/archives/partial" \
+    "$CROSS_ROOT/.debs/partial"
+  cross_fake_status | as_root tee "$CROSS_ROOT/.apt/status" > /dev/null
+  out=$(as_root apt-get "${PA[@]}" update 2>&1) || rc=$?
+  printf '%s\n' "$out" >> deps.log
+  if grep -q "Failed to fetch .*/binary-$CROSS_ARCH/" <<< "$out"; then
+    FAILED_INDEX=$(failed_index <<< "$out")
+    return 1
+  fi
+  [ "$rc" = 0 ] || return 2
+}
+
+# cross_multiarch PKG...: the normal install (returns 1 when the host's update fails on the target's index
+# after all, a mirror changing between the two downloads; the architecture is then unregistered again if
+# this run registered it).
+cross_multiarch() {
+  local added=0 out rc=0
+  if ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
+    as_root dpkg --add-architecture "$CROSS_ARCH"; added=1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  out=$(as_root apt-get update -qq 2>&1) || rc=$?
+  printf '%s\n' "$out" >> deps.log
+  if grep -q "Failed to fetch .*/binary-$CROSS_ARCH/" <<< "$out"; then
+    FAILED_INDEX=$(failed_index <<< "$out")
+    if [ "$added" = 1 ]; then as_root dpkg --remove-architecture "$CROSS_ARCH"; fi
+    return 1
+  fi
+  [ "$rc" = 0 ] || echo "deps: apt-get update reported errors (deps.log); installing from the lists apt has" >&2
+  as_root apt-get install -y -qq --no-install-recommends "$@" >> deps.log 2>&1 || {
+    tail -30 deps.log; echo "deps: apt-get install $* failed (see deps.log)" >&2; exit 1; }
+  echo "deps: $CROSS_ARCH: installed $* from Debian's multiarch archive (dpkg --add-architecture $CROSS_ARCH)" >&2
+}
+
+# cross_sysroot PKG...: the fallback. The private apt resolves PKG and what they depend on from the
+# target's indices that did download (bookworm and bookworm-updates: the main archive), less what the
+# cross toolchain brings (cross_fake_status); `apt-get install --download-only` fetches the .debs into
+# $CROSS_ROOT/.debs and checks each against the SHA256 of its signed index (InRelease, verified with the
+# host's Debian keyring), and `dpkg -x` unpacks them into $CROSS_ROOT, outside any dpkg database: the
+# host's packages, its dpkg architectures and its apt lists stay as they were. The sysroot is then made
+# merged-/usr (lib -> usr/lib, as the host), absolute symbolic links are pointed into it, and the .pc
+# files' prefix too. cmake/linux-cross.cmake and scripts/cross_test.sh take it from $CROSS_ROOT/usr.
+cross_sysroot() {
+  local deb l t
+  if ! ls "$CROSS_ROOT/.apt/state/lists/"*"_binary-${CROSS_ARCH}_Packages"* > /dev/null 2>&1; then
+    echo "deps: no index of $CROSS_ARCH downloaded at all (deps.log): nothing to unpack from" >&2; exit 1
+  fi
+  as_root find "$CROSS_ROOT/.debs" -maxdepth 1 -name '*.deb' -delete
+  as_root apt-get "${PA[@]}" install --download-only -y -qq --no-install-recommends "${@%:*}" >> deps.log 2>&1 || {
+    tail -30 deps.log; echo "deps: apt-get download of $* from the $CROSS_ARCH main archive failed (see deps.log)" >&2; exit 1; }
+  as_root mkdir -p "$CROSS_ROOT/.unpacked"
+  for deb in "$CROSS_ROOT/.debs/"*.deb; do
+    as_root dpkg -x "$deb" "$CROSS_ROOT"
+    dpkg-deb -W --showformat='${Package} ${Version} ${Architecture}\n' "$deb" | as_root tee -a "$CROSS_ROOT/.unpacked/MANIFEST" > /dev/null
   done
-  for pc in "$CROSS_ROOT/usr/lib/$triplet/pkgconfig"/*.pc; do
+  if [ -d "$CROSS_ROOT/lib" ] && [ ! -L "$CROSS_ROOT/lib" ]; then
+    as_root mkdir -p "$CROSS_ROOT/usr/lib"
+    as_root cp -a "$CROSS_ROOT/lib/." "$CROSS_ROOT/usr/lib/"
+    as_root rm -rf "$CROSS_ROOT/lib"
+    as_root ln -s usr/lib "$CROSS_ROOT/lib"
+  fi
+  as_root find "$CROSS_ROOT/usr" -type l -lname '/*' -print | while IFS= read -r l; do
+    t=$(realpath -m --relative-to="$(dirname "$l")" "$CROSS_ROOT$(readlink "$l")"); as_root ln -sfn "$t" "$l"
+  done
+  for pc in "$CROSS_ROOT/usr/lib/$triplet/pkgconfig"/*.pc "$CROSS_ROOT/usr/share/pkgconfig"/*.pc; do
     [ -e "$pc" ] && as_root sed -i "s|^prefix=/usr\$|prefix=$CROSS_ROOT/usr|" "$pc"
   done
-  echo "deps: unpacked $* from the main archive into $CROSS_ROOT (apt could not install them beside the host's)" >&2
+  for p in "$@"; do as_root touch "$CROSS_ROOT/.unpacked/$p"; done
+  echo "deps: $CROSS_ARCH: unpacked $(ls "$CROSS_ROOT/.debs/"*.deb | wc -l) packages ($*, their dependencies) from" \
+       "the main archive into $CROSS_ROOT (list: $CROSS_ROOT/.unpacked/MANIFEST); dpkg and the host's apt lists untouched" >&2
+  if dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
+    echo "deps: $CROSS_ARCH was registered with dpkg before this run and is left so; the host's apt-get update" \
+         "reports the failing index until the mirror is in sync (or: remove the :$CROSS_ARCH packages, then" \
+         "dpkg --remove-architecture $CROSS_ARCH)" >&2
+  fi
 }
+
 if [ ${#cross_missing[@]} -gt 0 ]; then
-  if ! as_root apt-get install -y -qq --no-install-recommends "${cross_missing[@]}" >> deps.log 2>&1; then
-    # one at a time: what apt can install, it installs; the rest is unpacked
-    unpack=()
-    for p in "${cross_missing[@]}"; do
-      as_root apt-get install -y -qq --no-install-recommends "$p" >> deps.log 2>&1 || unpack+=("$p")
-    done
-    cross_unpack "${unpack[@]}"
+  echo "deps: $CROSS_ARCH: ${cross_missing[*]} missing; downloading the $CROSS_ARCH indices apart from the host's (log: deps.log)"
+  FAILED_INDEX=""
+  probe=0
+  if [ "${MSID_CROSS_SYSROOT:-0}" = 1 ]; then
+    cross_probe || probe=$?
+    echo "deps: $CROSS_ARCH: MSID_CROSS_SYSROOT=1: the private sysroot, not the multiarch install" >&2
+    cross_sysroot "${cross_missing[@]}"
+  else
+    cross_probe || probe=$?
+    if [ "$probe" = 1 ]; then
+      echo "deps: $CROSS_ARCH: fallback: the index $FAILED_INDEX failed to download; multiarch apt cannot install" \
+           "the target's libraries beside the host's, so they are unpacked into a private sysroot" >&2
+      cross_sysroot "${cross_missing[@]}"
+    elif ! cross_multiarch "${cross_missing[@]}"; then
+      echo "deps: $CROSS_ARCH: fallback: the host's apt-get update failed on $FAILED_INDEX" >&2
+      cross_sysroot "${cross_missing[@]}"
+    fi
   fi
 fi
 
