@@ -232,6 +232,32 @@ def mat_v73_unlinked_cell(path):
     return (1 << 32) * 8
 
 
+
+def mat_v73_many_references(path, count=1 << 20):
+    """A v7.3 file whose cell 'c' holds `count` object references, all to one 1x1 double, in a chunked
+    dataset compressed with deflate (about 20 kB for 2^20), beside u1 and y1. libmatio allocates a
+    variable and reads the target for every element while it lists the variables: 2^23 such references
+    (a 119 kB file) took 3.5 GB and 16 minutes before the reference count was bounded by the file's
+    size / 8. Needs h5py; returns the file's size."""
+    import os
+    import h5py
+    import numpy as np
+    with h5py.File(path, "w", userblock_size=512) as f:
+        a = f.create_dataset("#refs#/a", data=np.zeros((1, 1)))
+        chunk = min(count, 1 << 16)
+        c = f.create_dataset("c", shape=(count, 1), dtype=h5py.ref_dtype, chunks=(chunk, 1), compression="gzip",
+                             compression_opts=9)
+        block = np.empty((chunk, 1), dtype=h5py.ref_dtype)
+        block[:] = a.ref
+        for i in range(0, count, chunk):
+            c[i:i + chunk] = block
+        u = f.create_dataset("u1", data=np.zeros((100, 1)))
+        y = f.create_dataset("y1", data=np.zeros((100, 1)))
+        for ds, cls in ((a, "double"), (c, "cell"), (u, "double"), (y, "double")):
+            matlab_class(ds, cls)
+    mat73_header(path)
+    return os.path.getsize(path)
+
 if __name__ == "__main__":
     out = Path(sys.argv[1])
     for seed, _, sel, make in FILES:

@@ -116,6 +116,22 @@ def test_mat_v73_reference_to_an_unlinked_object(tmp_path):
     _assert_bounded(p, f"'{{f}}' variable 'c' refers to an object that claims {claimed} bytes, more than 1032 x", claimed)
 
 
+
+def test_mat_v73_cell_of_more_references_than_the_file_holds(tmp_path):
+    """A v7.3 cell of 2^21 references to one object, compressed into about 40 kB: libmatio's listing
+    grows with the references (424 bytes each, measured: 3.5 GB for 2^23), so their number is bounded
+    by the file's size / 8; a cell of a few references passes."""
+    pytest.importorskip("h5py")
+    p = tmp_path / "many-refs.mat"
+    size = hf.mat_v73_many_references(p, count=1 << 21)
+    assert size < 64 * 1024
+    _assert_bounded(p, "'{f}' variable 'c' holds 2097152 cell elements (object references", 424 << 21)
+    # the same cell with 4 elements to one object: within the bound, read past (not numeric)
+    ok = tmp_path / "few-refs.mat"
+    hf.mat_v73_many_references(ok, count=4)
+    r = h.run("frf", "--period", 10, "--lines", 1, "--experiment", ok, "-o", tmp_path / "o.json")
+    assert "cell elements" not in r.stderr and "no power at line 1" in r.stderr, r.stderr
+
 def test_idfrd_mat73_claiming_more_than_the_file(tmp_path):
     """`msid import` of an idfrd-shaped v7.3 file whose ResponseData (complex, chunked, never written)
     claims 16 TiB: refused by the HDF5 check before libmatio reads a variable, in a few MB."""
