@@ -46,3 +46,39 @@ for c in siso1 siso50 mimo2x2_50 siso1_b16 siso50_b16 mimo2x2_50_b16; do
   done
   echo
 done
+
+# The CSV reader per row (tests/target/insn_csv.cpp): two files of R1 and R2 rows of "u1,y1" (numbers of
+# the shape loggers write, -?D.DDDDDDDDD), read on the vector cell path and on the scalar path.
+csv_exes=()
+for d in "${dirs[@]}"; do [ -x "$d/tests/target/msid_insn_csv" ] && csv_exes+=("$d/tests/target/msid_insn_csv"); done
+[ ${#csv_exes[@]} -gt 0 ] || exit 0
+R1=2000 R2=4000
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+for r in $R1 $R2; do
+  awk -v n=$r 'BEGIN { print "u1,y1"; x = 12345; for (i = 0; i < n; i++) {
+    x = (x * 1103515245 + 12345) % 2147483648; a = x / 2147483648 * 4 - 2
+    x = (x * 1103515245 + 12345) % 2147483648; b = x / 2147483648 * 4 - 2
+    printf "%.9f,%.9f\n", a, b } }' > "$tmp/r$r.csv"
+done
+echo
+printf '%-18s' "CSV, per row"
+for exe in "${csv_exes[@]}"; do
+  arch=$(readelf -h "$exe" | sed -n 's/^ *Machine: *//p' | sed 's/Advanced Micro Devices //')
+  printf ' %16s %16s' "$arch cells" "$arch scalar"
+done
+echo
+printf '%-18s' "u1,y1 (2 cells)"
+for exe in "${csv_exes[@]}"; do
+  for mode in cells scalar; do
+    emu=$(emulator "$exe")
+    # shellcheck disable=SC2086
+    general=$($emu "$exe" $mode "$tmp/r$R1.csv" | sed -n 's/.*rows, \([0-9]*\) by the general parser/\1/p')
+    a=$(insns "$exe" $mode "$tmp/r$R1.csv"); b=$(insns "$exe" $mode "$tmp/r$R2.csv")
+    # a cell path that fell back to the general parser for every row is marked (no vector path)
+    awk -v a="$a" -v b="$b" -v n=$((R2 - R1)) -v g="$general" -v m=$mode -v r=$R1 \
+      'BEGIN { printf " %15.1f%s", (b - a) / n, (m == "cells" && g + 0 >= r) ? "*" : " " }'
+  done
+done
+echo
+echo "(* no vector path on this architecture: the cell path read every row with the general parser)"

@@ -1,4 +1,4 @@
-// The CSV reader's number parser (tools/msid/msid_decimal.hpp) against
+// The CSV reader's number parser (tools/records/msid_decimal.hpp, msid_csv_cells.hpp) against
 // std::from_chars, bit for bit, on 4 million random and adversarial decimal
 // strings (fixed seed): every shape of the fast path (1..15 digits, a dot
 // anywhere, exponents in and beyond [-22, 22]), 16..25 digits (from_chars
@@ -6,12 +6,16 @@
 // Negative control: the same checker on a parser that is deliberately 1 ulp
 // off for one string in 64 must report those strings (a checker that cannot
 // fail would prove nothing).
-// The cell parser (decimal::parse_cell, the CSV reader's path for cells whose
+// The cell parser (cells::parse_cell, SSSE3 on x86-64, Advanced SIMD on AArch64, the CSV reader's path for cells whose
 // extent it knows) on the same strings and on 2 million cells of the shape it
 // takes, each after 16 random bytes it must ignore: whenever it accepts a cell
 // its value has from_chars' bits and from_chars reads the whole cell, and it
 // accepts every cell of its shape (-?D+.D+, at most 15 digits). Negative
 // controls: a cell parser 1 ulp off, and one that takes a cell of a wrong shape.
+// The structural scan (cells::hit_mask64) against a byte loop on random text.
+// Without a vector path (armhf) these tests are not built; the reader's scalar
+// path is then the one test_csv_rows checks.
+#include "msid_csv_cells.hpp"
 #include "msid_decimal.hpp"
 
 #include <algorithm>
@@ -170,16 +174,16 @@ void test_decimal_negative_control(void **)
     assert_true(bad > strs.size() / 128);
 }
 
-#ifdef MSID_DECIMAL_CELL
+#ifdef MSID_CSV_CELLS
 using CellParser = bool (*)(const char *, size_t, double &);
 
-bool cell_ok(const char *s, size_t len, double &v) { return msidrec::decimal::parse_cell(s, len, v); }
+bool cell_ok(const char *s, size_t len, double &v) { return msidrec::cells::parse_cell(s, len, v); }
 
 // Negative controls: 1 ulp off for one cell in 64 (by its bytes' sum); a cell with an exponent read
 // as its mantissa (the parse of a wrong shape).
 bool cell_off_by_one_ulp(const char *s, size_t len, double &v)
 {
-    if (!msidrec::decimal::parse_cell(s, len, v)) return false;
+    if (!msidrec::cells::parse_cell(s, len, v)) return false;
     unsigned sum = 0;
     for (size_t k = 0; k < len; ++k) sum += (unsigned char)s[k];
     if (sum % 64 == 0) v = std::nextafter(v, INFINITY);
@@ -189,7 +193,7 @@ bool cell_ignores_exponent(const char *s, size_t len, double &v)
 {
     size_t n = 0;
     while (n < len && (s[n] | 0x20) != 'e') ++n;
-    return msidrec::decimal::parse_cell(s, n, v) || msidrec::decimal::parse_cell(s, len, v);
+    return msidrec::cells::parse_cell(s, n, v) || msidrec::cells::parse_cell(s, len, v);
 }
 
 // Is s of the cell parser's shape: -?D+.D+ with 2..15 digits?
@@ -264,7 +268,7 @@ std::vector<std::string> cells()
 
 void test_cell_equals_from_chars(void **)
 {
-    if (!msidrec::decimal::cell_available()) skip();
+    if (!msidrec::cells::available()) skip();
     std::vector<std::string> strs = corpus();
     const std::vector<std::string> c = cells();
     strs.insert(strs.end(), c.begin(), c.end());
@@ -283,7 +287,7 @@ void test_cell_equals_from_chars(void **)
 // '.', and neither parser takes the other separator.
 void test_cell_decimal_comma(void **)
 {
-    if (!msidrec::decimal::cell_available()) skip();
+    if (!msidrec::cells::available()) skip();
     const std::vector<std::string> c = cells();
     size_t taken = 0, bad = 0;
     std::string buf;
@@ -294,11 +298,11 @@ void test_cell_decimal_comma(void **)
         buf = std::string(16, ';') + t + ";" + std::string(16, ';') + s + ";";
         const char *tc = buf.data() + 16, *sc = tc + t.size() + 1 + 16;
         double a = 0, b = 0;
-        const bool ok = msidrec::decimal::parse_cell(sc, s.size(), a);
-        if (ok != msidrec::decimal::parse_cell(tc, t.size(), b, ',')) ++bad;
+        const bool ok = msidrec::cells::parse_cell(sc, s.size(), a);
+        if (ok != msidrec::cells::parse_cell(tc, t.size(), b, ',')) ++bad;
         else if (ok && std::memcmp(&a, &b, 8) != 0) ++bad;
         taken += ok;
-        if (msidrec::decimal::parse_cell(sc, s.size(), a, ',') || msidrec::decimal::parse_cell(tc, t.size(), b)) ++bad;
+        if (msidrec::cells::parse_cell(sc, s.size(), a, ',') || msidrec::cells::parse_cell(tc, t.size(), b)) ++bad;
     }
     assert_int_equal(bad, 0);
     assert_true(taken > 170000);
@@ -306,7 +310,7 @@ void test_cell_decimal_comma(void **)
 
 void test_cell_negative_controls(void **)
 {
-    if (!msidrec::decimal::cell_available()) skip();
+    if (!msidrec::cells::available()) skip();
     const std::vector<std::string> c = cells();
     const std::vector<std::string> strs(c.begin(), c.begin() + 200000);
     size_t taken = 0, missed = 0;
@@ -319,6 +323,30 @@ void test_cell_negative_controls(void **)
                                  nullptr), 0);
     assert_true(missed > 150000);
 }
+
+// hit_mask64 against the byte loop it replaces, on 64-byte windows of random text drawn mostly from
+// the characters it looks for (every bit position, every delimiter the reader takes, bytes >= 0x80).
+void test_hit_mask_equals_bytes(void **)
+{
+    if (!msidrec::cells::available()) skip();
+    msid_rng r;
+    msid_rng_seed(&r, 64);
+    const char pick[] = {',', ';', '\t', '\n', '\r', '0', '.', '-', (char)0x8A, (char)0xAC, ' '};
+    char buf[64];
+    size_t bad = 0, hits = 0;
+    for (int k = 0; k < 20000; ++k) {
+        const char d = ",;\t"[k % 3];
+        for (char &c : buf)
+            c = msid_rng_u64(&r) % 4 ? pick[msid_rng_u64(&r) % sizeof pick] : (char)(msid_rng_u64(&r) & 0xFF);
+        uint64_t want = 0;
+        for (int i = 0; i < 64; ++i)
+            if (buf[i] == d || buf[i] == '\n' || buf[i] == '\r') want |= 1ull << i;
+        bad += msidrec::cells::hit_mask64(buf, d) != want;
+        hits += (size_t)__builtin_popcountll(want);
+    }
+    assert_int_equal(bad, 0);
+    assert_true(hits > 20000 * 64 / 8);   // about a fifth of the bytes are hits
+}
 #endif
 
 }  // namespace
@@ -328,10 +356,11 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_decimal_equals_from_chars),
         cmocka_unit_test(test_decimal_negative_control),
-#ifdef MSID_DECIMAL_CELL
+#ifdef MSID_CSV_CELLS
         cmocka_unit_test(test_cell_equals_from_chars),
         cmocka_unit_test(test_cell_decimal_comma),
         cmocka_unit_test(test_cell_negative_controls),
+        cmocka_unit_test(test_hit_mask_equals_bytes),
 #endif
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

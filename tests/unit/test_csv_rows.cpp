@@ -10,6 +10,7 @@
 // Coverage: on the common shape the cell path must take every row (a reader
 // that always fell back would pass the comparison): Record::general_lines.
 #include "msid_records.hpp"
+#include "msid_csv_cells.hpp"
 #include "msid_decimal.hpp"
 
 #include <cmath>
@@ -195,7 +196,7 @@ void test_comparison_sees_a_changed_cell(void **)
 // general path alone.
 void test_cell_path_takes_the_common_rows(void **)
 {
-    if (!msidrec::decimal::cell_available()) skip();
+    if (!msidrec::cells::available()) skip();
     const std::string path = tmp_file();
     msid_rng r;
     msid_rng_seed(&r, 7);

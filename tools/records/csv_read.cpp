@@ -8,6 +8,7 @@
 // block size and the split). read_experiments() reads two files at once
 // instead (one thread each, no split), reporting the first bad file in order.
 #include "records_detail.hpp"
+#include "msid_csv_cells.hpp"
 #include "msid_decimal.hpp"
 
 #include <algorithm>
@@ -229,23 +230,16 @@ void parse_lines(const CsvLayout &L, const char *b, const char *e, Chunk &out)
         if (!(p = general_line(L, p, e, out))) return;
 }
 
-#ifdef MSID_DECIMAL_CELL
-// The byte offsets in [p, q) of every delimiter, '\r' and '\n' (SSE2, 64 bytes a
-// step; each step's hits written 8 at a time whatever their count, so no branch
-// per hit). pos: room for q - p + 8 offsets. Returns the count.
-size_t structural(const char *p, const char *q, char d, uint32_t *pos)
+#ifdef MSID_CSV_CELLS
+// The byte offsets in [p, q) of every delimiter, '\r' and '\n' (64 bytes a step,
+// cells::hit_mask64; each step's hits written 8 at a time whatever their count, so
+// no branch per hit). pos: room for q - p + 8 offsets. Returns the count.
+MSID_CELLS_TARGET size_t structural(const char *p, const char *q, char d, uint32_t *pos)
 {
     const size_t len = (size_t)(q - p);
     size_t n = 0, off = 0;
-    const __m128i vd = _mm_set1_epi8(d), vn = _mm_set1_epi8('\n'), vr = _mm_set1_epi8('\r');
     for (; off + 64 <= len; off += 64) {
-        uint64_t m = 0;
-        for (int k = 0; k < 4; ++k) {
-            const __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(p + off + 16 * k));
-            const __m128i h =
-                _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi8(v, vd), _mm_cmpeq_epi8(v, vn)), _mm_cmpeq_epi8(v, vr));
-            m |= (uint64_t)(uint16_t)_mm_movemask_epi8(h) << (16 * k);
-        }
+        uint64_t m = cells::hit_mask64(p + off, d);
         const size_t cnt = (size_t)__builtin_popcountll(m);
         uint32_t *o = pos + n;
         while (m) {
@@ -265,11 +259,11 @@ size_t structural(const char *p, const char *q, char d, uint32_t *pos)
 // parse_lines with every delimiter found first (structural) and each row of the
 // one common shape (every cell -?D+.D+ with at most 15 digits, no spaces, only
 // empty cells after the header's columns, LF or CRLF) taken cell by cell from
-// those offsets by decimal::parse_cell, independently of each other. Any other
+// those offsets by cells::parse_cell, independently of each other. Any other
 // line (blank, ragged, spaces, exponents, '+', an error) goes through
 // general_line, which gives it the meaning and the message it has there: the
 // values and errors are those of parse_lines, bit for bit (test_csv_rows).
-__attribute__((target("ssse3"))) void parse_lines_cells(const CsvLayout &L, const char *b, const char *e, Chunk &out)
+MSID_CELLS_TARGET void parse_lines_cells(const CsvLayout &L, const char *b, const char *e, Chunk &out)
 {
     constexpr size_t SUB = (size_t)32 << 10;   // lines scanned at a time (their offsets stay in L1/L2)
     const size_t ncol = L.dest.size(), C = L.C;
@@ -304,7 +298,7 @@ __attribute__((target("ssse3"))) void parse_lines_cells(const CsvLayout &L, cons
                 const char *t = p + pos[j++];   // the cell's end (each line in [p, q) ends in a '\n' of pos)
                 ok = *t == d || (c + 1 == ncol && (*t == '\n' || *t == '\r'));
                 const int dc = L.dest[c];
-                if (ok && dc >= 0) ok = t - b >= 16 && decimal::parse_cell(s, (size_t)(t - s), dst[dc], L.point);
+                if (ok && dc >= 0) ok = t - b >= 16 && cells::parse_cell(s, (size_t)(t - s), dst[dc], L.point);
                 s = t + 1;
             }
             if (ok) {   // the line's end: empty cells beyond the header's, then LF or CRLF
@@ -342,8 +336,8 @@ __attribute__((target("ssse3"))) void parse_lines_cells(const CsvLayout &L, cons
 // Parse the lines in [b, e) (b at a line start, e just after a '\n').
 void parse_chunk(const CsvLayout &L, const char *b, const char *e, Chunk &out)
 {
-#ifdef MSID_DECIMAL_CELL
-    if (L.cells && decimal::cell_available()) return parse_lines_cells(L, b, e, out);
+#ifdef MSID_CSV_CELLS
+    if (L.cells && cells::available()) return parse_lines_cells(L, b, e, out);
 #endif
     parse_lines(L, b, e, out);
 }

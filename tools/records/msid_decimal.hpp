@@ -9,21 +9,13 @@
 //     correctly rounded value. Eight fraction digits at a time by SWAR.
 //  2. Anything else: std::from_chars (correctly rounded; libstdc++ >= 12).
 //
-// parse_cell: the same fast path for a cell whose extent is already known (the
-// CSV reader finds every delimiter first), for the one shape a data file
-// repeats (-?D+.D+, 2..15 digits): the 16 bytes that end at the cell are taken
-// in one SSSE3 register, checked (one '.', the rest digits), the dot squeezed
-// out by a byte shuffle and the digits summed by multiply-adds. No branch
-// depends on the digits, so cells are parsed independently of each other; the
-// general parse above follows each cell's bytes one after the other.
+// The cell parser of the CSV reader's vector path (a cell of known extent,
+// SSSE3 or Advanced SIMD) is msid_csv_cells.hpp.
 #pragma once
 #include <charconv>
 #include <cstdint>
 #include <cstring>
 #include <system_error>
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#include <tmmintrin.h>
-#endif
 
 namespace msidrec {
 namespace decimal {
@@ -120,75 +112,6 @@ inline const char *parse(const char *p, const char *end, double &v, bool &slow_p
 {
     return parse_scalar(p, end, v, slow_path);
 }
-
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define MSID_DECIMAL_CELL 1
-
-/// Can parse_cell run on this CPU (SSSE3; every x86-64 CPU since about 2008)? Checked once.
-inline bool cell_available()
-{
-    static const bool ok = __builtin_cpu_supports("ssse3");
-    return ok;
-}
-
-/// parse_cell's tables: shuf[j] moves bytes 0..j-1 up one byte over a '.' at byte j (byte 0
-/// zeroed); keep[n] keeps the last n bytes of 16.
-struct CellTables {
-    alignas(16) uint8_t shuf[16][16];
-    alignas(16) uint8_t keep[17][16];
-    constexpr CellTables() : shuf(), keep()
-    {
-        for (int j = 0; j < 16; ++j)
-            for (int b = 0; b < 16; ++b) shuf[j][b] = (uint8_t)(b > j ? b : (b == 0 ? 0x80 : b - 1));
-        for (int n = 0; n <= 16; ++n)
-            for (int b = 0; b < 16; ++b) keep[n][b] = b >= 16 - n ? 0xFF : 0;
-    }
-};
-inline constexpr CellTables CELL_TABLES{};
-
-/**
- * @brief The cell [s, s + len) as a number when it is exactly an optional '-',
- *        k >= 1 digits, '.', f >= 1 digits with k + f <= 15 (Clinger's fast
- *        path: m / 10^f, m < 10^15, correctly rounded, the bits of parse()).
- *        Call only when cell_available(); inline into a function compiled
- *        with __attribute__((target("ssse3"))).
- * @param s    first byte of the cell
- * @param len  its length in bytes (the delimiter excluded)
- * @param v    the value (written on success only)
- * @param point the decimal separator: '.' or ',' (a decimal comma, "0,25")
- * @return false when the cell has another shape (an exponent, '+', spaces,
- *         more digits, no dot, empty, ...): parse it with parse()
- * @note Reads the 16 bytes that end at s + len (from s + len - 16): the caller
- *       ensures they are readable.
- */
-__attribute__((target("ssse3"))) inline bool parse_cell(const char *s, size_t len, double &v, char point = '.')
-{
-    const bool neg = len && *s == '-';
-    len -= neg;   // s + len: the end of the cell either way
-    if (len - 3 > 13) return false;   // 3..16 bytes: D.D to 15 digits and the dot
-    const char *e = s + neg + len;
-    const __m128i raw = _mm_loadu_si128((const __m128i *)(const void *)(e - 16));
-    // digit values, the bytes before the number zeroed (they read as leading zeros)
-    const __m128i d = _mm_and_si128(_mm_sub_epi8(raw, _mm_set1_epi8('0')),
-                                    _mm_load_si128((const __m128i *)(const void *)CELL_TABLES.keep[len]));
-    const unsigned nd =
-        ~(unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_min_epu8(d, _mm_set1_epi8(9)), d)) & 0xFFFFu;
-    const unsigned dp = (unsigned)__builtin_ctz(nd | 0x10000u);   // the one non-digit: the dot
-    if ((nd & (nd - 1)) != 0 || dp >= 15 || dp <= 16 - len || e[(int)dp - 16] != point) return false;
-    const __m128i x = _mm_shuffle_epi8(d, _mm_load_si128((const __m128i *)(const void *)CELL_TABLES.shuf[dp]));
-    // 16 digits -> 8 of 2 -> 4 of 4 -> 2 of 8 (the first 8 in the low lane)
-    const __m128i p2 = _mm_maddubs_epi16(x, _mm_setr_epi8(10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1));
-    const __m128i p4 = _mm_madd_epi16(p2, _mm_setr_epi16(100, 1, 100, 1, 100, 1, 100, 1));
-    const __m128i p8 = _mm_madd_epi16(_mm_packs_epi32(p4, p4), _mm_setr_epi16(10000, 1, 10000, 1, 10000, 1, 10000, 1));
-    const uint64_t q = (uint64_t)_mm_cvtsi128_si64(p8);
-    const uint64_t m = (q & 0xFFFFFFFFu) * 100000000ull + (q >> 32);
-    const double r = (double)m / POW10[15 - dp];   // f = 15 - dp fraction digits
-    v = neg ? -r : r;
-    return true;
-}
-#else
-inline bool cell_available() { return false; }
-#endif
 
 }  // namespace decimal
 }  // namespace msidrec
