@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <deque>
 #include <zlib.h>
 
 namespace msidrec {
@@ -193,7 +194,10 @@ class MatV5 : public MatReader {
     uint64_t elems_ = 0, d0_ = 0, d1_ = 0;
     const unsigned char *data_at_ = nullptr;   // in place
     std::string name_;
-    std::vector<std::string> bufs_;   // inflated real parts, alive as long as the reader
+    // inflated real parts, alive as long as the reader; a deque, whose elements never move: an Array
+    // points into them, and a short string keeps its bytes inside itself (a vector's reallocation
+    // moved a 4-byte part and freed the bytes an earlier Array read: found by fuzz_files)
+    std::deque<std::string> bufs_;
     Head head_;                       // the variable next() described
     bool data_tag_read_ = false;      // its real part's tag read (a real numeric 2-D matrix)
 };
