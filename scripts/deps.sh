@@ -145,9 +145,10 @@ cross_probe() {
   [ "$rc" = 0 ] || return 2
 }
 
-# cross_multiarch PKG...: the normal install (returns 1 when the host's update fails on the target's index
-# after all, a mirror changing between the two downloads; the architecture is then unregistered again if
-# this run registered it).
+# cross_multiarch PKG...: the normal install. Returns 1 (the caller falls back to the sysroot) when the
+# host's update fails on the target's index after all (a mirror changing between the two downloads; the
+# architecture is then unregistered again if this run registered it), or when the install fails with the
+# lists the host has.
 cross_multiarch() {
   local added=0 out rc=0
   if ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
@@ -162,8 +163,12 @@ cross_multiarch() {
     return 1
   fi
   [ "$rc" = 0 ] || echo "deps: apt-get update reported errors (deps.log); installing from the lists apt has" >&2
-  as_root apt-get install -y -qq --no-install-recommends "$@" >> deps.log 2>&1 || {
-    tail -30 deps.log; echo "deps: apt-get install $* failed (see deps.log)" >&2; exit 1; }
+  # another foreign architecture's failing index costs this one its security lists too (armhf's did
+  # arm64's, 2026-11-28): then the install fails although every index of this one downloaded
+  if ! as_root apt-get install -y -qq --no-install-recommends "$@" >> deps.log 2>&1; then
+    FAILED_INDEX="(apt-get install $* failed with the host's lists; see deps.log)"
+    return 1
+  fi
   echo "deps: $CROSS_ARCH: installed $* from Debian's multiarch archive (dpkg --add-architecture $CROSS_ARCH)" >&2
 }
 
@@ -225,7 +230,7 @@ if [ ${#cross_missing[@]} -gt 0 ]; then
            "the target's libraries beside the host's, so they are unpacked into a private sysroot" >&2
       cross_sysroot "${cross_missing[@]}"
     elif ! cross_multiarch "${cross_missing[@]}"; then
-      echo "deps: $CROSS_ARCH: fallback: the host's apt-get update failed on $FAILED_INDEX" >&2
+      echo "deps: $CROSS_ARCH: fallback: the multiarch install failed: $FAILED_INDEX" >&2
       cross_sysroot "${cross_missing[@]}"
     fi
   fi

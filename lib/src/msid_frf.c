@@ -250,8 +250,10 @@ static int line_qr(const msid_frf *f, const frf_scratch *w, double *smin_out, do
         msid__csv_minmax((int)nu, (int)nu, w->Rc, w->dw, &smin, &smax);
         cond = smin > 0.0 ? smax / smin : HUGE_VAL;
     }
+    /* sigma_max >= sigma_min, so cond >= 1; with orthogonal inputs of equal power the rounding of
+       det / s2max can put s2min a last bit above s2max (0.9999999999999999 on AArch64) */
     *smin_out = smin;
-    *cond_out = cond;
+    *cond_out = cond < 1.0 ? 1.0 : cond;
     return ok;
 }
 

@@ -14,7 +14,8 @@ from scipy.signal import lfilter
 
 import helpers as h
 
-SANITIZED = os.environ.get("MSID_SANITIZED") == "1"
+# ASan (MSID_SANITIZED) or qemu-user (MSID_EMULATOR): the process's RSS is not msid's
+SANITIZED = os.environ.get("MSID_SANITIZED") == "1" or bool(os.environ.get("MSID_EMULATOR"))
 P = 1000
 BINS = "1:7:300"            # 43 lines
 FMT = "%.17g"               # every double written exactly: the CSV and the .npy hold the same samples
@@ -141,7 +142,7 @@ def _peak(tmp_path, *args):
     return int(rss.read_text())
 
 
-@pytest.mark.skipif(SANITIZED, reason="ASan's shadow memory is not msid's")
+@pytest.mark.skipif(SANITIZED, reason="the process's RSS is not msid's (ASan's shadow memory, or qemu-user)")
 def test_peak_memory_does_not_grow_with_the_record(tmp_path):
     """A 3,000-period SISO record (3e6 rows: 46 MiB of doubles, 40 MB of CSV): streamed, msid's peak RSS
     stays under 40 MB (the binary, one 4 MiB window, the blocks and the transient test's 3,000 x 43 x 2
@@ -175,7 +176,7 @@ def test_peak_memory_does_not_grow_with_the_record(tmp_path):
     _same_doc(doc, w)
 
 
-@pytest.mark.skipif(SANITIZED, reason="ASan's shadow memory is not msid's")
+@pytest.mark.skipif(SANITIZED, reason="the process's RSS is not msid's (ASan's shadow memory, or qemu-user)")
 def test_peak_memory_of_period_and_lines_auto(tmp_path):
     """A 2,300-period record (2.3e6 rows, 35 MiB of doubles), longer than --period auto's search
     (PERIOD_SEARCH_ROWS = 2^21 rows), input noise that never repeats:
