@@ -208,6 +208,14 @@ static std::string wrong_period_symptoms(const Record &r, uint32_t P, uint32_t s
     return out;
 }
 
+// The mean over the `count` period spectra s (period_spectra) at bin k, 1 <= k <= (P + 1) / 2 - 1.
+static std::complex<double> period_mean(const std::vector<std::vector<std::complex<double>>> &s, size_t count, size_t k)
+{
+    std::complex<double> mu = 0;
+    for (size_t p = 0; p < count; ++p) mu += s[p][k - 1];
+    return mu / (double)count;
+}
+
 PeriodicEvidence periodic_evidence(const Record &r, uint32_t P, size_t first, size_t count,
                                    const std::vector<uint32_t> &bins)
 {
@@ -219,9 +227,7 @@ PeriodicEvidence periodic_evidence(const Record &r, uint32_t P, size_t first, si
     for (uint32_t j = 0; j < r.nu; ++j) {
         const auto s = period_spectra(r, P, first, count, j, f);
         auto one = [&](size_t k) {   // bin k in 1..M
-            std::complex<double> mu = 0;
-            for (size_t p = 0; p < count; ++p) mu += s[p][k - 1];
-            mu /= (double)count;
+            const std::complex<double> mu = period_mean(s, count, k);
             double ss = 0;
             for (size_t p = 0; p < count; ++p) ss += std::norm(s[p][k - 1] - mu);
             evidence_add(ev, num, den, (double)count * std::norm(mu), ss, count);
@@ -312,10 +318,9 @@ static double lines_power_share(const Record &r, uint32_t P, size_t first, size_
     for (uint32_t j = 0; j < r.nu; ++j) {
         const auto s = period_spectra(r, P, first, count, j, f);
         for (size_t k = 1; k <= M; ++k) {
-            std::complex<double> mu = 0;
-            for (size_t p = 0; p < count; ++p) mu += s[p][k - 1];
-            all += std::norm(mu);
-            if (given[k]) at += std::norm(mu);
+            const double pw = std::norm(period_mean(s, count, k));
+            all += pw;
+            if (given[k]) at += pw;
         }
     }
     return all > 0 ? at / all : 1.0;

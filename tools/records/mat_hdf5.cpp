@@ -189,13 +189,15 @@ bool check_object(Walk &w, hid_t o, const std::string &via)
                          (unsigned long long)DEFLATE_MAX_RATIO, (unsigned long long)w.attr_max);
             return false;
         }
-        if (refs && n > 0 && (w.refs_seen += (uint64_t)n) > w.refs_max) {
-            w.what = fmt("holds %llu cell elements (object references; %llu in the file so far), more than the "
-                         "file's %llu bytes can hold as objects of their own",
-                         (unsigned long long)n, (unsigned long long)w.refs_seen, (unsigned long long)w.attr_max);
-            return false;
-        }
-        if (refs && n > 0) {   // n x 8 bytes: at most the file's size
+        if (refs && n > 0) {
+            // Every reference must be an object of its own in the file, so all cells together are bounded
+            // by the file's size; the n x 8 bytes read below are then bounded too.
+            if ((w.refs_seen += (uint64_t)n) > w.refs_max) {
+                w.what = fmt("holds %llu cell elements (object references; %llu in the file so far), more than the "
+                             "file's %llu bytes can hold as objects of their own",
+                             (unsigned long long)n, (unsigned long long)w.refs_seen, (unsigned long long)w.attr_max);
+                return false;
+            }
             std::vector<haddr_t> r((size_t)n);
             if (w.h.dread(o, *w.h.std_ref_obj, 0, 0, 0, r.data()) >= 0)
                 for (haddr_t a : r)
