@@ -6,15 +6,19 @@
 // Negative control: the same checker on a parser that is deliberately 1 ulp
 // off for one string in 64 must report those strings (a checker that cannot
 // fail would prove nothing).
-// The cell parser (cells::parse_cell, SSSE3 on x86-64, Advanced SIMD on AArch64, the CSV reader's path for cells whose
+// The cell parser (cells::parse_cell, SSSE3 on x86-64, Advanced SIMD on AArch64 and NEON on 32-bit ARM, the CSV reader's path for cells whose
 // extent it knows) on the same strings and on 2 million cells of the shape it
 // takes, each after 16 random bytes it must ignore: whenever it accepts a cell
 // its value has from_chars' bits and from_chars reads the whole cell, and it
 // accepts every cell of its shape (-?D+.D+, at most 15 digits). Negative
 // controls: a cell parser 1 ulp off, and one that takes a cell of a wrong shape.
 // The structural scan (cells::hit_mask64) against a byte loop on random text.
-// Without a vector path (armhf) these tests are not built; the reader's scalar
-// path is then the one test_csv_rows checks.
+// Without a vector path these tests are not built, and on a CPU without the
+// extension (cells::available() false: an ARMv7 without NEON) they are skipped;
+// the reader's scalar path is then the one test_csv_rows checks.
+// MSID_EXPECT_CELLS=1 or 0 (tests/unit/CMakeLists.txt) states whether this CPU
+// must take the vector path, so a dispatch that never takes it (or takes it on
+// a CPU without NEON) fails instead of skipping.
 #include "msid_csv_cells.hpp"
 #include "msid_decimal.hpp"
 
@@ -23,6 +27,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -351,11 +356,26 @@ void test_hit_mask_equals_bytes(void **)
 
 }  // namespace
 
+// Does this CPU take the vector path as the test's environment says it must (MSID_EXPECT_CELLS)?
+void test_vector_path_as_expected(void **)
+{
+    const char *want = std::getenv("MSID_EXPECT_CELLS");
+    if (!want) skip();
+#ifdef MSID_CSV_CELLS
+    const bool have = msidrec::cells::available();
+#else
+    const bool have = false;
+#endif
+    if (have != (std::strcmp(want, "1") == 0))
+        fail_msg("the CSV vector path is %s on this CPU, MSID_EXPECT_CELLS=%s", have ? "taken" : "not taken", want);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_decimal_equals_from_chars),
         cmocka_unit_test(test_decimal_negative_control),
+        cmocka_unit_test(test_vector_path_as_expected),
 #ifdef MSID_CSV_CELLS
         cmocka_unit_test(test_cell_equals_from_chars),
         cmocka_unit_test(test_cell_decimal_comma),

@@ -1,8 +1,15 @@
 // The CSV reader's vector path: the two primitives that read 16 or 64 bytes at once, for x86-64
-// (SSE2/SSSE3) and AArch64 (Advanced SIMD), and nothing else. Every vector intrinsic of the CSV
-// reader is in this file, behind MSID_CSV_CELLS; without it (armhf, whose baseline has no NEON, or
-// another CPU) the reader takes its scalar path, which gives the same values and errors bit for bit
-// (tests/unit/test_csv_rows.cpp, test_csv_decimal.cpp run both on every architecture).
+// (SSE2/SSSE3), AArch64 (Advanced SIMD) and 32-bit ARM with NEON, and nothing else. Every vector
+// intrinsic of the CSV reader is in this file, behind MSID_CSV_CELLS; without it (another CPU), or
+// when available() says the CPU lacks the extension, the reader takes its scalar path, which gives the
+// same values and errors bit for bit (tests/unit/test_csv_rows.cpp, test_csv_decimal.cpp run both on
+// every architecture).
+//
+// armhf: Debian's baseline (ARMv7-A, VFPv3-D16) has no NEON, but nearly every board that runs it does
+// (a Raspberry Pi 2-5 on a 32-bit OS, BeagleBone, i.MX 6). The functions here are compiled for NEON
+// by attribute and taken only when the kernel reports it (AT_HWCAP), so one armhf binary serves both.
+// ARMv7's NEON has 64-bit table look-ups and pairwise adds only: the two places that differ from
+// AArch64 take each 16-byte register as two halves.
 //
 // parse_cell: Clinger's fast path (msid_decimal.hpp) for a cell whose extent is already known (the
 // reader finds every delimiter first, with hit_mask64), for the one shape a data file repeats
@@ -26,6 +33,13 @@
 #include <arm_neon.h>
 #define MSID_CSV_CELLS 1
 #define MSID_CELLS_TARGET   // Advanced SIMD is part of every AArch64 CPU
+#elif defined(__arm__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__) && defined(__ARM_FP)
+#include <arm_neon.h>
+#include <sys/auxv.h>
+#define MSID_CSV_CELLS 1
+#define MSID_CSV_CELLS_ARM32 1
+/// NEON is checked at run time (AT_HWCAP): the armhf baseline does not have it.
+#define MSID_CELLS_TARGET __attribute__((target("fpu=neon")))
 #endif
 
 #ifdef MSID_CSV_CELLS
@@ -33,11 +47,14 @@ namespace msidrec {
 namespace cells {
 
 /// Can the vector path run on this CPU? x86-64: SSSE3 (every CPU since about 2008), checked once;
-/// AArch64: always.
+/// 32-bit ARM: NEON, as the kernel reports it; AArch64: always.
 inline bool available()
 {
 #if defined(__x86_64__)
     static const bool ok = __builtin_cpu_supports("ssse3");
+    return ok;
+#elif defined(MSID_CSV_CELLS_ARM32)
+    static const bool ok = (getauxval(AT_HWCAP) & HWCAP_ARM_NEON) != 0;
     return ok;
 #else
     return true;
@@ -107,7 +124,13 @@ MSID_CELLS_TARGET inline bool parse_cell(const char *s, size_t len, double &v, c
         vget_lane_u64(vreinterpret_u64_u8(vshrn_n_u16(vreinterpretq_u16_u8(bad), 4)), 0) & 0x1111111111111111ull;
     dp = nd ? (unsigned)__builtin_ctzll(nd) / 4u : 16u;
     if ((nd & (nd - 1)) != 0 || dp >= 15 || dp <= 16 - len || e[(int)dp - 16] != point) return false;
+#if defined(MSID_CSV_CELLS_ARM32)
+    const uint8x8x2_t dd = {{vget_low_u8(d), vget_high_u8(d)}};
+    const uint8x16_t ix = vld1q_u8(CELL_TABLES.shuf[dp]);
+    const uint8x16_t x = vcombine_u8(vtbl2_u8(dd, vget_low_u8(ix)), vtbl2_u8(dd, vget_high_u8(ix)));
+#else
     const uint8x16_t x = vqtbl1q_u8(d, vld1q_u8(CELL_TABLES.shuf[dp]));
+#endif
     // 16 digits -> 8 of 2 -> 4 of 4 -> 2 of 8, each lane (high part) + 10^k (low part): little-endian
     // lanes hold the earlier, more significant digits in their low part
     const uint16x8_t w2 = vreinterpretq_u16_u8(x);
@@ -148,9 +171,16 @@ MSID_CELLS_TARGET inline uint64_t hit_mask64(const char *p, char d)
         const uint8x16_t v = vld1q_u8((const uint8_t *)(const void *)(p + 16 * k));
         h[k] = vandq_u8(vorrq_u8(vorrq_u8(vceqq_u8(v, vd), vceqq_u8(v, vn)), vceqq_u8(v, vr)), w);
     }
+#if defined(MSID_CSV_CELLS_ARM32)
+    uint8x8_t a[4];
+    for (int k = 0; k < 4; ++k) a[k] = vpadd_u8(vget_low_u8(h[k]), vget_high_u8(h[k]));
+    const uint8x8_t s = vpadd_u8(vpadd_u8(a[0], a[1]), vpadd_u8(a[2], a[3]));
+    return vget_lane_u64(vreinterpret_u64_u8(s), 0);
+#else
     uint8x16_t s = vpaddq_u8(vpaddq_u8(h[0], h[1]), vpaddq_u8(h[2], h[3]));
     s = vpaddq_u8(s, s);
     return vgetq_lane_u64(vreinterpretq_u64_u8(s), 0);
+#endif
 #endif
 }
 
