@@ -524,6 +524,18 @@ def test_bad_npy_without_columns_and_truncated(tmp_path, data):
     _fails(tmp_path, [c], ["--columns", "u1=1,u2=2,y1=3,y2=4"], "'<c16' is not supported")
 
 
+def test_bad_npy_dimension_beyond_32_bits(tmp_path):
+    """A shape of 2^32 + 1 rows over 16 bytes of data: on a 32-bit build a size_t dimension wrapped to 1,
+    so the file read as one row of two values (then taken as 2 samples x 1 channel). Every architecture
+    must give the same truncation message with the 64-bit sizes the header states."""
+    hdr = b"{'descr': '<f8', 'fortran_order': False, 'shape': (4294967297, 2), }"
+    hdr += b" " * (63 - (10 + len(hdr)) % 64) + b"\n"
+    t = tmp_path / "wide.npy"
+    t.write_bytes(b"\x93NUMPY\x01\x00" + len(hdr).to_bytes(2, "little") + hdr + np.array([1.5, 2.5]).tobytes())
+    _fails(tmp_path, [t], ["--columns", "u1=1,y1=2"],
+           f"'{t}': truncated: the header says 4294967297 x 2 <f8 (68719476752 bytes of data) but 16 are there")
+
+
 def test_bad_npz_lengths_and_corrupt(tmp_path, data):
     u, y = data[0]
     p = tmp_path / "len.npz"

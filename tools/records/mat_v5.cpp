@@ -133,7 +133,8 @@ class MatV5 : public MatReader {
         for (int i = 0; i < 8; ++i) sub |= (uint64_t)b_[116 + i] << (swap_ ? 8 * (7 - i) : 8 * i);
         // an offset of 0 or of blanks: no subsystem data (MATLAB's objects and function handles keep
         // their own data there, in an unnamed uint8 matrix that is no variable)
-        subsys_ = sub == 0 || sub == 0x2020202020202020ull ? SIZE_MAX : (size_t)sub;
+        // (an offset beyond the file names no element: on a 32-bit build it must not wrap onto one)
+        subsys_ = sub == 0 || sub == 0x2020202020202020ull || sub >= N_ ? SIZE_MAX : (size_t)sub;
     }
 
     bool next(MatVarInfo &v) override;

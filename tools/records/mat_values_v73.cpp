@@ -80,8 +80,11 @@ struct Reader {
         MatValue x;
         x.name = name;
         for (int r = 0; r < v->rank; ++r) x.dims.push_back(v->dims[r]);
+        // the element count (libmatio's dims are size_t), which must not wrap: on a 32-bit build two
+        // dimensions of 65536 would give 0 elements, an empty variable of a file that says otherwise
         size_t n = 1;
-        for (uint64_t d : x.dims) n *= (size_t)d;
+        for (uint64_t d : x.dims)
+            if (__builtin_mul_overflow(n, (size_t)d, &n)) throw bad(name, "more elements than memory holds");
         if (numeric_class(v->class_type)) {
             x.kind = MatValue::Numeric;
             const size_t es = element_size(v->data_type);
@@ -93,7 +96,7 @@ struct Reader {
                 im = z->Im;
             }
             // libmatio's nbytes covers one part of a complex variable
-            if (n && (!re || (v->isComplex && !im) || v->nbytes < n * es)) throw bad(name, "truncated data");
+            if (n && (!re || (v->isComplex && !im) || v->nbytes / es < n)) throw bad(name, "truncated data");
             x.re.resize(n);
             for (size_t k = 0; k < n; ++k) x.re[k] = element(re, v->data_type, k);
             if (im) {

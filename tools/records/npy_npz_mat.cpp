@@ -73,7 +73,9 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
     std::string shp = field("shape");
     if (shp.empty() || shp[0] != '(') throw Error("'" + where + "': bad .npy shape");
     shp = shp.substr(1, shp.find(')') - 1);
-    std::vector<size_t> dims;
+    // 64-bit sizes on every architecture: a dimension or byte count beyond 32 bits is then refused with the
+    // same message on armhf as on x86-64, never truncated to a size_t that a small file can satisfy
+    std::vector<uint64_t> dims;
     for (size_t p = 0; p < shp.size();) {
         while (p < shp.size() && (shp[p] == ' ' || shp[p] == ',')) ++p;
         if (p >= shp.size()) break;
@@ -82,20 +84,23 @@ Array parse_npy(const std::string &where, std::string_view buf, const std::strin
         // not a number: an error (found by fuzz_files: a NUL in the shape kept this loop appending 0s until
         // the 10 s timeout; seed corpus/fuzz_files/regress-npy-shape-not-a-number)
         if (e == shp.c_str() + p || dims.size() >= 8) throw Error("'" + where + "': bad .npy shape");
-        dims.push_back((size_t)d);
+        dims.push_back((uint64_t)d);
         p = (size_t)(e - shp.c_str());
     }
     if (dims.size() == 1) dims.push_back(1);
     if (dims.size() != 2)
         throw Error(fmt("'%s': a %zu-dimensional array; expected a vector or a samples x channels matrix", where.c_str(),
                         dims.size()));
-    const size_t R = dims[0], Cc = dims[1];
-    if (Cc && R > SIZE_MAX / Cc / a.esize)   // R * Cc * esize would wrap and pass the size check below
-        throw Error(fmt("'%s': the header says %zu x %zu values, more than any file holds", where.c_str(), R, Cc));
-    const size_t need = R * Cc * a.esize, have = buf.size() - hoff - hlen;
+    const uint64_t R64 = dims[0], C64 = dims[1];
+    if (C64 && R64 > UINT64_MAX / C64 / a.esize)   // R * Cc * esize would wrap and pass the size check below
+        throw Error(fmt("'%s': the header says %llu x %llu values, more than any file holds", where.c_str(),
+                        (unsigned long long)R64, (unsigned long long)C64));
+    const uint64_t need = R64 * C64 * a.esize, have = buf.size() - hoff - hlen;
     if (have < need)
-        throw Error(fmt("'%s': truncated: the header says %zu x %zu %s (%zu bytes of data) but %zu are there",
-                        where.c_str(), R, Cc, descr.c_str(), need, have));
+        throw Error(fmt("'%s': truncated: the header says %llu x %llu %s (%llu bytes of data) but %llu are there",
+                        where.c_str(), (unsigned long long)R64, (unsigned long long)C64, descr.c_str(),
+                        (unsigned long long)need, (unsigned long long)have));
+    const size_t R = (size_t)R64, Cc = (size_t)C64;   // need <= have: both fit in a size_t
     a.data = b + hoff + hlen;
     // element (r, c) at r*Cc + c (C order) or r + c*R (Fortran order)
     size_t sr = fortran ? 1 : Cc, scc = fortran ? R : 1;
