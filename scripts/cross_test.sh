@@ -6,7 +6,8 @@
 # libraries), builds every target into build-<arch>/ with cmake/<triplet>.cmake, and runs ctest there: the
 # unit, stats and integration tests run through the emulator (CMAKE_CROSSCOMPILING_EMULATOR; the pytest
 # harnesses through MSID_EMULATOR, tests/common/msid_emulator.py).
-#   all  every test that user-mode emulation can run (the default)
+#   all  every test that user-mode emulation can run (the default), the Python extension's in the target's
+#        Python (MSID_CROSS_PYTHON=0: deps.sh does not fetch that Python; without it msid._msid is left out)
 #   ci   the subset .ci/run runs, in a few minutes: lib/, daq/ and msid-devsim (not the C++ tools) with their C tests
 # Left out under emulation: the libFuzzer harnesses (a host clang build), the CAN VM (an x86-64 kernel),
 # the soaks (they read the RSS of the process, here qemu's), the install tests (they build consumers with the
@@ -29,7 +30,9 @@ esac
 shift $(( $# < 2 ? $# : 2 ))
 jobs=$(nproc 2>/dev/null || echo 2)
 
-scripts/deps.sh "cross-$deb"
+# all: the target's Python and NumPy too (into the private sysroot), so msid._msid is cross-built and its
+# tests run in the target's interpreter (tools/python/CMakeLists.txt)
+if [ "$subset" = all ]; then MSID_CROSS_PYTHON=${MSID_CROSS_PYTHON:-1} scripts/deps.sh "cross-$deb"; else scripts/deps.sh "cross-$deb"; fi
 dir=${MSID_CROSS_DIR:-build-$arch}   # MSID_CROSS_DIR: another build directory
 gen=()
 if [ ! -f "$dir/CMakeCache.txt" ] && command -v ninja >/dev/null; then gen=(-G Ninja); fi

@@ -40,12 +40,19 @@ fi
 # architecture (cmake/cross-pkgconfig/matio.pc).
 CROSS_ARCH=""
 CROSS_PKGS=()
+CROSS_PY_PKGS=()
 case "${1:-}" in
   ""|demo) ;;
   cross-arm64|cross-armhf)
     CROSS_ARCH=${1#cross-}
     APT_PKGS+=("crossbuild-essential-$CROSS_ARCH" qemu-user)
-    for p in libfftw3-dev libmodbus-dev libcmocka-dev zlib1g-dev libmatio11; do CROSS_PKGS+=("$p:$CROSS_ARCH"); done ;;
+    for p in libfftw3-dev libmodbus-dev libcmocka-dev zlib1g-dev libmatio11; do CROSS_PKGS+=("$p:$CROSS_ARCH"); done
+    # MSID_CROSS_PYTHON=1 (scripts/cross_test.sh all): the target's Python, its headers and NumPy, so that
+    # msid._msid is cross-built and its tests run under the target's interpreter in qemu. Always into the
+    # private sysroot: python3.11:<arch> cannot be installed beside the host's python3.11.
+    if [ "${MSID_CROSS_PYTHON:-0}" = 1 ]; then
+      for p in libpython3.11-dev python3.11 python3-numpy; do CROSS_PY_PKGS+=("$p:$CROSS_ARCH"); done
+    fi ;;
   *) echo "usage: $0 [demo|cross-arm64|cross-armhf]" >&2; exit 2 ;;
 esac
 
@@ -233,6 +240,21 @@ if [ ${#cross_missing[@]} -gt 0 ]; then
       echo "deps: $CROSS_ARCH: fallback: the multiarch install failed: $FAILED_INDEX" >&2
       cross_sysroot "${cross_missing[@]}"
     fi
+  fi
+fi
+
+# The target's Python (MSID_CROSS_PYTHON=1) into the private sysroot, once. NumPy's BLAS and LAPACK are
+# found through links that update-alternatives would make (no maintainer script runs in a sysroot).
+if [ ${#CROSS_PY_PKGS[@]} -gt 0 ]; then
+  py_cross_missing=()
+  for p in "${CROSS_PY_PKGS[@]}"; do [ -e "$CROSS_ROOT/.unpacked/$p" ] || py_cross_missing+=("$p"); done
+  if [ ${#py_cross_missing[@]} -gt 0 ]; then
+    echo "deps: $CROSS_ARCH: the target's Python (${py_cross_missing[*]}) into $CROSS_ROOT (log: deps.log)"
+    cross_probe || [ $? = 1 ] || { tail -20 deps.log; echo "deps: the $CROSS_ARCH indices could not be downloaded" >&2; exit 1; }
+    cross_sysroot "${py_cross_missing[@]}"
+    for lib in blas/libblas.so.3 lapack/liblapack.so.3; do
+      if [ -e "$CROSS_ROOT/usr/lib/$triplet/$lib" ]; then as_root ln -sfn "$lib" "$CROSS_ROOT/usr/lib/$triplet/${lib#*/}"; fi
+    done
   fi
 fi
 

@@ -17,6 +17,9 @@ from npy_cli import cli_error, cli_frf
 
 import msid
 
+# the interpreter of a child Python: this one, or in a cross build the script that runs the target's
+# interpreter under the emulator (sys.executable is then a foreign binary this machine cannot start)
+PYTHON = os.environ.get("MSID_TARGET_PYTHON") or sys.executable
 P = 256
 LINES = "1:40"
 PERIODS = 8
@@ -383,7 +386,7 @@ def test_import_without_extension_names_the_build(tmp_path):
             "assert msid.FRF and msid.read_frf\n"
             "try:\n    msid.frf(np.zeros((8, 2)), period=4, lines=[1], n_inputs=1)\n"
             "except ImportError as e:\n    print(e)\n")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600,
+    r = subprocess.run([PYTHON, "-c", code], capture_output=True, text=True, timeout=600,
                        env={**os.environ, "PYTHONPATH": str(src)}, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "msid._msid" in r.stdout and "pip install ./tools/python" in r.stdout
@@ -394,7 +397,7 @@ def test_bench_script_runs(tmp_path):
     its times are not checked (a bench, not a test)."""
     src = Path(msid.__file__).resolve().parents[1]
     script = Path(__file__).resolve().parents[2] / "scripts" / "bench_python_frf.py"
-    r = subprocess.run([sys.executable, str(script), "--min-seconds", "0", "--json"], capture_output=True, text=True,
+    r = subprocess.run([PYTHON, str(script), "--min-seconds", "0", "--json"], capture_output=True, text=True,
                        timeout=600, env={**os.environ, "PYTHONPATH": str(src)}, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     res = json.loads(r.stdout)
