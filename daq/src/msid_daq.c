@@ -13,7 +13,7 @@ const char *msid_daq_strerror(msid_daq_status s)
     case MSID_DAQ_E_DOWN: return "CAN interface is down";
     case MSID_DAQ_E_NOFD: return "the interface does not carry CAN FD";
     case MSID_DAQ_E_IO: return "I/O error";
-    case MSID_DAQ_E_FORMAT: return "malformed candump log line";
+    case MSID_DAQ_E_FORMAT: return "malformed candump log line or DBC file";
     case MSID_DAQ_E_ARG: return "bad argument";
     case MSID_DAQ_E_BUSY: return "send queue full";
     case MSID_DAQ_E_CRC: return "reply with a bad CRC";
@@ -24,6 +24,8 @@ const char *msid_daq_strerror(msid_daq_status s)
     case MSID_DAQ_E_PROTOCOL: return "the device does not follow the protocol";
     case MSID_DAQ_E_HOOK: return "the frame hook failed";
     case MSID_DAQ_E_STOPPED: return "stopped at the caller's request";
+    case MSID_DAQ_E_RANGE: return "value does not fit the signal";
+    case MSID_DAQ_E_SHORT: return "payload shorter than the signal";
     default: return "unknown daq status";
     }
 }

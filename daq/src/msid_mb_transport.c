@@ -18,6 +18,18 @@ int msid_mb_write_holding(const msid_mb_transport *t, uint32_t addr, uint32_t n,
     return t->be->write_holding(t->ctx, addr, n, src);
 }
 
+int msid_mb_write_read(const msid_mb_transport *t, uint32_t waddr, uint32_t nw, const uint16_t *src, uint32_t raddr,
+                       uint32_t nr, uint16_t *dst)
+{
+    if (!t->be->write_read) return -MSID_DAQ_E_NOSUPPORT;
+    return t->be->write_read(t->ctx, waddr, nw, src, raddr, nr, dst);
+}
+
+void msid_mb_set_timeouts(const msid_mb_transport *t, uint32_t response_ms, uint32_t byte_ms)
+{
+    if (t->be->set_timeouts) t->be->set_timeouts(t->ctx, response_ms ? response_ms : 1, byte_ms ? byte_ms : 1);
+}
+
 void msid_mb_flush(const msid_mb_transport *t) { t->be->flush(t->ctx); }
 
 int msid_mb_reconnect(const msid_mb_transport *t) { return t->be->reconnect(t->ctx); }

@@ -44,6 +44,21 @@ static int read_n(msid_mbap *c, uint8_t *dst, size_t n, int64_t first, int new_f
     size_t got = 0;
     int64_t deadline = first;
     while (got < n) {
+        /* what has arrived already is taken without a poll (the body behind its header, mostly) */
+        const ssize_t q = recv(c->fd, dst + got, n - got, MSG_DONTWAIT);
+        if (q > 0) {
+            got += (size_t)q;
+            deadline = now_ms() + c->byte_timeout_ms;
+            continue;
+        }
+        if (q == 0) {
+            snprintf(c->err, sizeof c->err, "connection closed by the device");
+            return -MSID_DAQ_E_IO;
+        }
+        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
+            snprintf(c->err, sizeof c->err, "receive: %s", strerror(errno));
+            return -MSID_DAQ_E_IO;
+        }
         const int w = wait_fd(c->fd, POLLIN, deadline);
         if (w == 0) {
             if (new_frame && got == 0)

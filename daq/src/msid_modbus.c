@@ -1,12 +1,18 @@
 /* Modbus TCP and RTU transports: libmodbus connects both and frames RTU; TCP requests and replies are framed
-   by msid_mbap.c (stale and foreign replies skipped). Errors mapped to msid_daq_status. */
+   by msid_mbap.c (stale and foreign replies skipped); RTU drops what waits on the line before each request.
+   Errors mapped to msid_daq_status. */
 #define _DEFAULT_SOURCE
 #include "msid_daq/msid_modbus.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
 #include <modbus/modbus.h>
+#include <netdb.h>
 #include <stdio.h>
 #include <string.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <termios.h>
 #include <time.h>
 
 const char *msid_mb_exception_name(uint32_t code)
@@ -42,28 +48,72 @@ static int fail(msid_modbus *m, const char *what)
     return -MSID_DAQ_E_IO;
 }
 
+/* An RTU frame has no transaction id: an answer that came after its request timed out would be taken for the
+   answer to the next request (same function, same count), and every read after it would be one request stale.
+   Before a request nothing is owed to us, so whatever waits on the line is such an answer: dropped, counted.
+   After a request that failed, its answer may still be on its way (a slow device, or one still answering
+   earlier requests): a request sent now would meet it on the line, and a device that queues requests would
+   fall further behind with every tick. So the line is first left quiet for a response timeout (at most
+   RTU_QUIET_MAX_MS), whatever arrives meanwhile dropped, for at most RTU_DRAIN_ROUNDS quiet windows; the ticks
+   this costs are counted as missed by the caller's clock. */
+enum { RTU_QUIET_MAX_MS = 100, RTU_DRAIN_ROUNDS = 8 };
+
+static void rtu_drop_stale(msid_modbus *m)
+{
+    const int fd = modbus_get_socket(m->mb);
+    if (fd < 0) return;
+    int waiting = 0;
+    if (ioctl(fd, FIONREAD, &waiting) == 0 && waiting > 0) {
+        tcflush(fd, TCIFLUSH);
+        m->rtu_stale++;
+    }
+    if (!m->rtu_owed) return;
+    m->rtu_owed = 0;
+    uint32_t q = m->cfg.response_timeout_ms;
+    const int quiet = (int)(q == 0 ? 1 : q > RTU_QUIET_MAX_MS ? RTU_QUIET_MAX_MS : q);
+    for (int round = 0; round < RTU_DRAIN_ROUNDS; ++round) {
+        struct pollfd p = {fd, POLLIN, 0};
+        const int r = poll(&p, 1, quiet);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0 || !(p.revents & POLLIN)) return;   // quiet (or the line failed: the request will say so)
+        tcflush(fd, TCIFLUSH);
+        m->rtu_stale++;
+    }
+}
+
+/* An RTU request that failed other than by an exception reply: its answer may still come (rtu_drop_stale). */
+static int rtu_failed(msid_modbus *m, const char *what)
+{
+    const int rc = fail(m, what);
+    if (rc != -MSID_DAQ_E_EXCEPTION) m->rtu_owed = 1;
+    return rc;
+}
+
 static int rd_input(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
 {
     msid_modbus *m = ctx;
+    rtu_drop_stale(m);
     if (n == 0 || n > MODBUS_MAX_READ_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
     const int r = modbus_read_input_registers(m->mb, (int)addr, (int)n, dst);
-    return r == (int)n ? 0 : r < 0 ? fail(m, "read input registers") : -MSID_DAQ_E_BADDATA;
+    return r == (int)n ? 0 : r < 0 ? rtu_failed(m, "read input registers") : -MSID_DAQ_E_BADDATA;
 }
 
 static int rd_holding(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
 {
     msid_modbus *m = ctx;
+    rtu_drop_stale(m);
     if (n == 0 || n > MODBUS_MAX_READ_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
     const int r = modbus_read_registers(m->mb, (int)addr, (int)n, dst);
-    return r == (int)n ? 0 : r < 0 ? fail(m, "read holding registers") : -MSID_DAQ_E_BADDATA;
+    return r == (int)n ? 0 : r < 0 ? rtu_failed(m, "read holding registers") : -MSID_DAQ_E_BADDATA;
 }
 
 static int wr_holding(void *ctx, uint32_t addr, uint32_t n, const uint16_t *src)
 {
     msid_modbus *m = ctx;
+    rtu_drop_stale(m);
     if (n == 0 || n > MODBUS_MAX_WRITE_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
     const int r = modbus_write_registers(m->mb, (int)addr, (int)n, src);
-    return r == (int)n ? 0 : r < 0 ? fail(m, "write holding registers") : -MSID_DAQ_E_BADDATA;
+    return r == (int)n ? 0 : r < 0 ? rtu_failed(m, "write holding registers") : -MSID_DAQ_E_BADDATA;
 }
 
 /* ---- TCP: our own MBAP framing (msid_mbap.c), so that a stale or foreign reply is skipped, not taken
@@ -74,6 +124,11 @@ static int tcp_exchange(msid_modbus *m, const char *what, const uint8_t *req, si
     msid_mbap *c = &m->mbap;
     c->fd = modbus_get_socket(m->mb);
     m->exc = 0;
+    if (c->fd < 0) {   /* a reconnect after a lost connection failed: an I/O error, not a bad request */
+        snprintf(m->err, sizeof m->err, "%s: not connected (the device closed the connection and refused a new one)",
+                 what);
+        return -MSID_DAQ_E_IO;
+    }
     const int rc = msid_mbap_request(c, req, req_n, rsp, rsp_n);
     if (rc < 0) {
         snprintf(m->err, sizeof m->err, "%s: %s", what, c->err);
@@ -92,6 +147,18 @@ static int tcp_exchange(msid_modbus *m, const char *what, const uint8_t *req, si
     return 0;
 }
 
+/* The registers of a read reply (FC 03, 04, 23: function, byte count, values). */
+static int read_reply(msid_modbus *m, const char *what, const uint8_t *rsp, size_t len, uint32_t n, uint16_t *dst)
+{
+    if (len != 2 + 2 * (size_t)n || rsp[1] != 2 * n) {
+        snprintf(m->err, sizeof m->err, "%s: a reply of %zu bytes, byte count %u, to a read of %u registers", what, len,
+                 rsp[1], n);
+        return -MSID_DAQ_E_BADDATA;
+    }
+    for (uint32_t i = 0; i < n; ++i) dst[i] = (uint16_t)(rsp[2 + 2 * i] << 8 | rsp[3 + 2 * i]);
+    return 0;
+}
+
 static int tcp_read(msid_modbus *m, uint8_t fc, uint32_t addr, uint32_t n, uint16_t *dst, const char *what)
 {
     if (n == 0 || n > MODBUS_MAX_READ_REGISTERS || addr + n > 65536u) return -MSID_DAQ_E_ARG;
@@ -100,13 +167,7 @@ static int tcp_read(msid_modbus *m, uint8_t fc, uint32_t addr, uint32_t n, uint1
     size_t len = 0;
     const int rc = tcp_exchange(m, what, req, sizeof req, rsp, &len);
     if (rc < 0) return rc;
-    if (len != 2 + 2 * (size_t)n || rsp[1] != 2 * n) {
-        snprintf(m->err, sizeof m->err, "%s: a reply of %zu bytes, byte count %u, to a read of %u registers", what, len,
-                 rsp[1], n);
-        return -MSID_DAQ_E_BADDATA;
-    }
-    for (uint32_t i = 0; i < n; ++i) dst[i] = (uint16_t)(rsp[2 + 2 * i] << 8 | rsp[3 + 2 * i]);
-    return 0;
+    return read_reply(m, what, rsp, len, n, dst);
 }
 
 static int tcp_rd_input(void *ctx, uint32_t addr, uint32_t n, uint16_t *dst)
@@ -144,7 +205,52 @@ static int tcp_wr_holding(void *ctx, uint32_t addr, uint32_t n, const uint16_t *
     return 0;
 }
 
+/* FC 23 (section 6.17): read address, read count, write address, write count, byte count, values; the reply
+ * carries the read registers. */
+static int tcp_write_read(void *ctx, uint32_t waddr, uint32_t nw, const uint16_t *src, uint32_t raddr, uint32_t nr,
+                          uint16_t *dst)
+{
+    msid_modbus *m = ctx;
+    if (nw == 0 || nw > 121 || nr == 0 || nr > 125 || waddr + nw > 65536u || raddr + nr > 65536u)
+        return -MSID_DAQ_E_ARG;
+    uint8_t req[10 + 2 * 121], rsp[MSID_MBAP_MAX_PDU];
+    const uint8_t head[10] = {23, (uint8_t)(raddr >> 8), (uint8_t)raddr, (uint8_t)(nr >> 8), (uint8_t)nr,
+                              (uint8_t)(waddr >> 8), (uint8_t)waddr, (uint8_t)(nw >> 8), (uint8_t)nw, (uint8_t)(2 * nw)};
+    memcpy(req, head, sizeof head);
+    for (uint32_t i = 0; i < nw; ++i) {
+        req[10 + 2 * i] = (uint8_t)(src[i] >> 8);
+        req[11 + 2 * i] = (uint8_t)src[i];
+    }
+    size_t len = 0;
+    const int rc = tcp_exchange(m, "read/write registers", req, 10 + 2 * (size_t)nw, rsp, &len);
+    if (rc < 0) return rc;
+    return read_reply(m, "read/write registers", rsp, len, nr, dst);
+}
+
+static int rtu_write_read(void *ctx, uint32_t waddr, uint32_t nw, const uint16_t *src, uint32_t raddr, uint32_t nr,
+                          uint16_t *dst)
+{
+    msid_modbus *m = ctx;
+    rtu_drop_stale(m);
+    if (nw == 0 || nw > 121 || nr == 0 || nr > 125 || waddr + nw > 65536u || raddr + nr > 65536u)
+        return -MSID_DAQ_E_ARG;
+    const int r = modbus_write_and_read_registers(m->mb, (int)waddr, (int)nw, src, (int)raddr, (int)nr, dst);
+    return r == (int)nr ? 0 : r < 0 ? rtu_failed(m, "read/write registers") : -MSID_DAQ_E_BADDATA;
+}
+
+static void set_timeouts_(void *ctx, uint32_t response_ms, uint32_t byte_ms)
+{
+    msid_modbus *m = ctx;
+    modbus_set_response_timeout(m->mb, response_ms / 1000, (response_ms % 1000) * 1000);
+    modbus_set_byte_timeout(m->mb, byte_ms / 1000, (byte_ms % 1000) * 1000);
+    m->mbap.response_timeout_ms = response_ms;
+    m->mbap.byte_timeout_ms = byte_ms;
+    m->cfg.response_timeout_ms = response_ms;
+    m->cfg.byte_timeout_ms = byte_ms;
+}
+
 static uint64_t tcp_skipped(void *ctx) { return ((msid_modbus *)ctx)->mbap.skipped; }
+static uint64_t rtu_skipped(void *ctx) { return ((msid_modbus *)ctx)->rtu_stale; }
 
 static void flush_(void *ctx) { modbus_flush(((msid_modbus *)ctx)->mb); }
 
@@ -167,7 +273,8 @@ static int connect_(msid_modbus *m, int wait)
     if (m->cfg.rtu)
         snprintf(m->err, sizeof m->err, "cannot open the serial port %s: %s", m->device, modbus_strerror(errno));
     else
-        snprintf(m->err, sizeof m->err, "cannot connect to %s:%d: %s", m->host, m->cfg.port, modbus_strerror(errno));
+        snprintf(m->err, sizeof m->err, strchr(m->host, ':') ? "cannot connect to [%s]:%d: %s" : "cannot connect to %s:%d: %s",
+                 m->host, m->cfg.port, modbus_strerror(errno));
     return -MSID_DAQ_E_CONNECT;
 }
 
@@ -191,9 +298,11 @@ static void close_(void *ctx)
     }
 }
 
-static const msid_mb_backend TCP = {"tcp",        tcp_rd_input, tcp_rd_holding, tcp_wr_holding, flush_, reconnect_,
-                                    exc_,         err_,         close_,         tcp_skipped};
-static const msid_mb_backend RTU = {"rtu", rd_input, rd_holding, wr_holding, flush_, reconnect_, exc_, err_, close_, NULL};
+static const msid_mb_backend TCP = {"tcp",       tcp_rd_input, tcp_rd_holding, tcp_wr_holding, flush_,
+                                    reconnect_,  exc_,         err_,           close_,         tcp_skipped,
+                                    tcp_write_read, set_timeouts_};
+static const msid_mb_backend RTU = {"rtu",  rd_input, rd_holding, wr_holding,     flush_,       reconnect_,
+                                    exc_,   err_,     close_,     rtu_skipped,    rtu_write_read, set_timeouts_};
 
 int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *c)
 {
@@ -215,7 +324,24 @@ int msid_modbus_open(msid_modbus *m, const msid_modbus_cfg *c)
             return -MSID_DAQ_E_ARG;
         }
         snprintf(m->host, sizeof m->host, "%s", c->host);
-        m->mb = modbus_new_tcp(m->host, c->port);
+        /* The name or address (IPv4 or IPv6) is resolved here first, so that a host that does not resolve is
+           said so (libmodbus's protocol-independent backend would report a refused connection); the backend
+           then connects to each of its addresses in turn. */
+        struct addrinfo hints, *ai = NULL;
+        memset(&hints, 0, sizeof hints);
+        hints.ai_family = AF_UNSPEC;
+        hints.ai_socktype = SOCK_STREAM;
+        const int g = getaddrinfo(m->host, NULL, &hints, &ai);
+        if (g != 0 || !ai) {
+            snprintf(m->err, sizeof m->err, "cannot resolve host '%s': %s", m->host,
+                     g != 0 ? gai_strerror(g) : "no address");
+            if (ai) freeaddrinfo(ai);
+            return -MSID_DAQ_E_CONNECT;
+        }
+        freeaddrinfo(ai);
+        char service[8];
+        snprintf(service, sizeof service, "%d", c->port);
+        m->mb = modbus_new_tcp_pi(m->host, service);
     }
     m->cfg.host = m->host;
     m->cfg.device = m->device;

@@ -3,6 +3,7 @@
  * Everything else of daq/ (codecs, decoders, candump replay, the ring poller) is always built. */
 #include "msid_daq/msid_modbus.h"
 #include "msid_daq/msid_socketcan.h"
+#include "msid_daq/msid_co_sync.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -32,4 +33,15 @@ int msid_socketcan_open(msid_socketcan *s, const msid_socketcan_cfg *cfg)
     snprintf(s->err, sizeof s->err, "this msid was built without SocketCAN: configure with -DMSID_WITH_CAN=ON");
     return -MSID_DAQ_E_NOSUPPORT;
 }
+
+int msid_co_sync_start(msid_co_sync *s, const char *iface, uint32_t period_us, unsigned counter)
+{
+    (void)iface, (void)period_us, (void)counter;
+    memset(s, 0, sizeof *s);
+    s->fd = -1;
+    snprintf(s->err, sizeof s->err, "this msid was built without SocketCAN: configure with -DMSID_WITH_CAN=ON");
+    return -MSID_DAQ_E_NOSUPPORT;
+}
+
+void msid_co_sync_stop(msid_co_sync *s) { (void)s; }
 #endif

@@ -33,7 +33,7 @@ typedef enum msid_daq_status {
     MSID_DAQ_E_DOWN,        /**< interface is down */
     MSID_DAQ_E_NOFD,        /**< CAN FD requested on a classic-only interface */
     MSID_DAQ_E_IO,          /**< other system error (see the backend's message) */
-    MSID_DAQ_E_FORMAT,      /**< malformed log line */
+    MSID_DAQ_E_FORMAT,      /**< malformed log line or DBC file */
     MSID_DAQ_E_ARG,         /**< bad argument */
     MSID_DAQ_E_BUSY,        /**< send queue stayed full */
     MSID_DAQ_E_CRC,         /**< Modbus RTU: reply with a bad CRC */
@@ -44,6 +44,8 @@ typedef enum msid_daq_status {
     MSID_DAQ_E_PROTOCOL,    /**< the device does not follow the protocol (version, CRC, counts; the object's err) */
     MSID_DAQ_E_HOOK,        /**< the caller's frame hook failed (e.g. a log that cannot be written) */
     MSID_DAQ_E_STOPPED,     /**< the caller's poll hook asked to stop (e.g. Ctrl-C): complete periods are kept */
+    MSID_DAQ_E_RANGE,       /**< DBC: a value that does not fit its signal (bits or the DBC's range) */
+    MSID_DAQ_E_SHORT,       /**< DBC: a payload that ends before the signal */
     MSID_DAQ_E_COUNT_
 } msid_daq_status;
 

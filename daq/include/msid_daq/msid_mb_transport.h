@@ -40,9 +40,15 @@ typedef struct msid_mb_backend {
     const char *(*error)(void *ctx);
     /** Release the transport. */
     void (*close)(void *ctx);
-    /** Replies skipped so far because their transaction id or unit id was not the request's (cumulative;
-        NULL: the backend cannot tell, e.g. RTU, which has no transaction id). */
+    /** Replies skipped so far as stale or foreign (cumulative): TCP, their transaction id or unit id was not the
+        request's; RTU, an answer waiting on the line before a request. NULL: the backend cannot tell. */
     uint64_t (*skipped)(void *ctx);
+    /** Write nw <= 121 holding registers at waddr, then read nr <= 125 holding registers at raddr, in one
+        transaction (FC 23; the write is performed before the read). NULL: not supported by the backend. */
+    int (*write_read)(void *ctx, uint32_t waddr, uint32_t nw, const uint16_t *src, uint32_t raddr, uint32_t nr,
+                      uint16_t *dst);
+    /** Change the response and byte timeouts (ms, >= 1). NULL: fixed at open. */
+    void (*set_timeouts)(void *ctx, uint32_t response_ms, uint32_t byte_ms);
 } msid_mb_backend;
 
 /** A transport: a backend and its state. */
@@ -59,6 +65,17 @@ int msid_mb_read_holding(const msid_mb_transport *t, uint32_t addr, uint32_t n, 
 
 /** @brief Write n <= 123 holding registers (FC 16) at addr from src. @return 0 or -msid_daq_status. */
 int msid_mb_write_holding(const msid_mb_transport *t, uint32_t addr, uint32_t n, const uint16_t *src);
+
+/**
+ * @brief Write nw <= 121 holding registers at waddr and read nr <= 125 holding registers at raddr in one
+ *        transaction (FC 23: the write is performed first).
+ * @return 0 or -msid_daq_status; -MSID_DAQ_E_NOSUPPORT when the backend has no FC 23
+ */
+int msid_mb_write_read(const msid_mb_transport *t, uint32_t waddr, uint32_t nw, const uint16_t *src, uint32_t raddr,
+                       uint32_t nr, uint16_t *dst);
+
+/** @brief Change the response and byte timeouts (ms, >= 1; a backend without the setter keeps its own). */
+void msid_mb_set_timeouts(const msid_mb_transport *t, uint32_t response_ms, uint32_t byte_ms);
 
 /** @brief Drop what the link holds (stale or partial replies). */
 void msid_mb_flush(const msid_mb_transport *t);

@@ -6,7 +6,10 @@
  * are framed by ::msid_mbap_request: a reply whose transaction id or unit id
  * is not the request's (a stale duplicate, a foreign reply) is skipped and
  * counted (msid_mb_backend.skipped), a malformed frame (length, protocol id)
- * is -MSID_DAQ_E_PROTOCOL.
+ * is -MSID_DAQ_E_PROTOCOL. An RTU frame has no transaction id: before each
+ * request whatever waits on the line (an answer that came after its request
+ * timed out) is dropped and counted as a skipped reply; an answer later than
+ * the next request's own can still be taken for it, once.
  *
  * Explicit response and byte timeouts (libmodbus's own error recovery is
  * off: the adapter retries and reconnects), errno mapped to msid_daq_status:
@@ -45,6 +48,8 @@ typedef struct msid_modbus {
     msid_modbus_cfg cfg;
     char host[128], device[256];
     msid_mbap mbap;               /**< TCP: our own request framing and reply matching (msid_mbap.h) */
+    uint64_t rtu_stale;           /**< RTU: stale answers dropped from the line before a request */
+    int rtu_owed;                 /**< RTU: the last request failed; its answer may still come */
     uint32_t exc;                 /**< last exception code */
     char err[400];
 } msid_modbus;

@@ -1,0 +1,224 @@
+/* msid_hx on the device's cycles (a counter channel): the excitation and the samples are indexed by the cycle
+ * the device counts, so that the host's jitter, a late or missed tick and the device's clock offset change only
+ * when a value is written, never which cycle applies which sample.
+ *
+ * Every exchange writes first and reads second (one FC 23 transaction, or a write followed by a read): its read
+ * returns the last cycle j the device ran, and its write reaches the device before cycle j + 1. So at each tick
+ * the host writes the sample of cycle (last cycle read) + 2, which is j + 1 when the device ran one cycle since
+ * the last read. When it ran another number (the read landed on a cycle boundary, a tick was late, the clocks
+ * drift), the cycles whose applied value is not their sample are marked and become missing samples, and the
+ * timeline follows the device's count. Where the write and the counter's read are two transactions (no FC 23,
+ * or a counter FC 23 does not read), a cycle that falls between them may or may not have taken the write, and
+ * the read after it looks the same either way (a cycle boundary that stays there would shift every sample by
+ * one without a glitch): the backend then reads the counter just before the write too, and a counter that
+ * moved between the two reads marks the cycles that may have run on the wrong value. A read that lands on a boundary from an on-time tick moves the ticks by
+ * half a period (at most once a period); with follow_counter the ticks also take the counter's rate once a
+ * period. */
+#include "msid_hx_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* A window of the cycles ahead whose applied value is not their sample (bit c - base). */
+typedef struct off_window {
+    double base;        /* cycle of bit 0 */
+    uint64_t bits;
+} off_window;
+
+static void off_mark(off_window *w, double cycle)
+{
+    const double d = cycle - w->base;
+    if (d >= 0 && d < 64) w->bits |= (uint64_t)1 << (int)d;
+}
+
+static int off_test(const off_window *w, double cycle)
+{
+    const double d = cycle - w->base;
+    return d >= 0 && d < 64 && ((w->bits >> (int)d) & 1u);
+}
+
+/* Slide the window so that its first bit is `cycle`. */
+static void off_slide(off_window *w, double cycle)
+{
+    const double d = cycle - w->base;
+    if (d <= 0) return;
+    w->bits = d >= 64 ? 0 : w->bits >> (int)d;
+    w->base = cycle;
+}
+
+typedef struct counter_run {
+    const msid__hx_phase *p;
+    uint64_t m0;            /* first measured sample of the timeline */
+    double j0;              /* the cycle of timeline sample 0 */
+    double j_last;          /* the last cycle read */
+    double j_row;           /* the last cycle streamed (or -1) */
+    uint64_t next_meas;     /* index of the next measured sample the stream expects */
+    int resync;             /* the last exchange failed: the next read re-anchors */
+    uint64_t last_shift;    /* tick of the last half-period shift */
+    uint64_t last_glitch;   /* tick of the last glitch on an on-time tick */
+    uint64_t next_retime;
+    off_window off;
+} counter_run;
+
+/* follow_counter: the tick clock at the counter's rate, once a period from two periods of reads on. */
+static void follow_rate(msid_hx *h, counter_run *r, uint64_t n)
+{
+    const uint64_t P = h->cfg.design->period;
+    if (!h->cfg.follow_counter || n < r->next_retime || h->tim.cs_n < 2.0 * (double)P) return;
+    r->next_retime = n + P;
+    const double rate = msid_hx_counter_rate(h);
+    if (!(rate > 0.99 * h->cfg.tick.rate_hz && rate < 1.01 * h->cfg.tick.rate_hz)) return;
+    msid_tick_retime(&h->tick, 1e9 / rate, 0);
+    h->cnt.retimes++;
+}
+
+/* The cycles the device ran between the counter's read before the write and its read after it (0 when the
+   write and the read were one transaction, or nothing ran between them); at most the cycles since the last read. */
+static double straddled_cycles(const msid_hx *h, const msid_devio_times *t, double raw_after, double step)
+{
+    if (!t->has_counter_before || !isfinite(t->counter_before)) return 0;
+    const double M = h->cfg.counter_modulus > 0 ? h->cfg.counter_modulus : 65536.0;
+    double d = fmod(raw_after - t->counter_before, M);
+    if (d < 0) d += M;
+    return d < step ? d : step < 0 ? 0 : step;
+}
+
+/* The read of cycle j (after the write of `target`): which cycles got the wrong value, the row, the phase. */
+static void account_read(msid_hx *h, counter_run *r, uint64_t n, double j, double target, int on_time,
+                         double straddled, const msid_devio_times *t)
+{
+    const double step = j - r->j_last;
+    if (step != 1 || r->resync || straddled > 0) {
+        /* the write went to cycle j + 1, not to `target`; the cycles since the last read ran on values written for
+           other cycles */
+        if (step != 1 || r->resync)
+            for (double c = r->j_last + 1; c <= j + 1; c += 1) off_mark(&r->off, c);
+        /* the cycles that ran between the counter's read before the write and the read after it took the new
+           value or the old one: either may not be theirs */
+        for (double c = j - straddled + 1; c <= j; c += 1) off_mark(&r->off, c);
+        if (straddled > 0) h->cnt.writes_straddled++;
+        if (step < 1 && !r->resync) h->cnt.cycles_read_twice++;
+        /* a read on a cycle boundary shows as glitches that repeat on ticks that ran on time; a late tick or a late
+           answer is a one-off that must not move a good phase */
+        if (on_time && !r->resync && step >= 0 && step <= 2) {
+            if (n <= r->last_glitch + 32 && n >= r->last_shift + 16) {
+                msid_tick_retime(&h->tick, h->tick.period_ns, (int64_t)(0.5 * h->tick.period_ns));
+                h->cnt.phase_shifts++;
+                r->last_shift = n;
+            }
+            r->last_glitch = n;
+        }
+        (void)target;
+    }
+    r->resync = 0;
+    if (j > r->j_last) r->j_last = j;
+    /* the row of cycle j, once, in the measured periods */
+    if (j <= r->j_row) return;
+    r->j_row = j;
+    const double k = j - r->j0;
+    if (k < (double)r->m0 || k >= (double)(r->m0 + r->p->K)) return;
+    const uint64_t idx = (uint64_t)(k - (double)r->m0);
+    if (idx > r->next_meas) {
+        h->cnt.cycles_not_read += idx - r->next_meas;
+        msid_stream_lost(&h->st, idx - r->next_meas);
+    }
+    if (off_test(&r->off, j)) {
+        h->cnt.cycles_not_read++;
+        msid_stream_lost(&h->st, 1);
+    } else {
+        /* the commanded value of cycle j is its sample */
+        double v[MSID_MAX_INPUTS];
+        msid__hx_values_at(&h->cfg, r->p, &h->gen, (uint64_t)k, v);
+        msid__hx_note_timing(h, t, msid_tick_deadline(&h->tick, n));
+        msid__hx_make_row(h, v);
+        msid_stream_row(&h->st, h->row);
+        h->cnt.samples++;
+    }
+    r->next_meas = idx + 1;
+}
+
+int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p)
+{
+    msid_hx_cfg *c = &h->cfg;
+    counter_run r;
+    memset(&r, 0, sizeof r);
+    r.p = p;
+    r.m0 = p->A + p->F;
+    r.j_row = -1;
+    r.last_glitch = r.last_shift = 0;
+    double v[MSID_MAX_INPUTS];
+    int rc = 0, synced = 0;
+    uint64_t n_sync = 0;   /* the tick of the first read, whose cycle count is r.j0 - 2 */
+    const int64_t on_time_ns = (int64_t)(0.1 * h->tick.period_ns);
+    int64_t prev_late = 0;
+    for (;;) {
+        int64_t late = 0;
+        const uint64_t n = msid_tick_wait(&h->tick, NULL, &late);
+        h->cnt.ticks++;
+        double target = 0;
+        int off = 0;
+        if (!synced) {
+            memcpy(v, h->cur, sizeof(double) * c->design->n_inputs);   /* what the device holds: learn its cycle */
+        } else {
+            target = r.j_last + 2;
+            const double k = target - r.j0;
+            if (k >= (double)p->total) break;
+            msid__hx_values_at(c, p, &h->gen, (uint64_t)k, v);
+            msid__hx_limited(h, v, &off);
+            if ((rc = msid__hx_check_write(h, v)) < 0) break;
+            if (k >= (double)r.m0 && k < (double)(r.m0 + p->K)) h->cnt.measured_ticks++;
+        }
+        msid_devio_times t;
+        const int x = msid__hx_exchange(h, v, &t, synced);
+        if (x < 0) { rc = x; break; }
+        if (x == 1) {
+            r.resync = 1;
+        } else {
+            const double before = h->tim.c_unwrapped;
+            const int first = h->tim.cs_n == 0;
+            msid__hx_note_counter(h, h->meas_v[c->counter], (int64_t)msid__hx_mid_ns(t.r0, t.r1), 0);
+            const double j = h->tim.c_unwrapped;   /* the cycle count since the run's first read */
+            if (!first && j - before == 1) h->cnt.counter_steps[1]++;
+            else if (!first) h->cnt.counter_steps[j - before == 0 ? 0 : j - before == 2 ? 2 : 3]++;
+            if (!synced) {
+                /* the first write of the timeline (sample 0) reaches cycle j + 1 at the next tick's exchange: the
+                   device runs one cycle per tick, so that exchange reads j + 1 and writes for j + 2 */
+                r.j_last = j;
+                r.j0 = j + 2;
+                r.off.base = j;
+                synced = 1;
+                r.next_retime = n + c->design->period;
+                n_sync = n;
+            } else {
+                /* a device whose counter does not advance once a tick does not cycle at the tick rate: its samples
+                   cannot be placed by its cycles. Judged by the cycles per tick elapsed, the ticks a loaded host
+                   slept through included (per read, every missed tick looked like a device cycling twice as
+                   fast); a read late within its tick moves the ratio by at most 1/32 */
+                const uint64_t *cs = h->cnt.counter_steps;
+                const uint64_t reads = cs[0] + cs[1] + cs[2] + cs[3];
+                const double per_tick = n > n_sync ? (j - (r.j0 - 2)) / (double)(n - n_sync) : 1.0;
+                if (reads == 32 && !(per_tick > 0.75 && per_tick < 1.25)) {
+                    rc = msid__hx_fail(h, -MSID_DAQ_E_DEVICE, "the device's counter advanced by %.2f per tick over its "
+                                       "first %llu ticks (once a tick expected): it does not cycle at the tick rate "
+                                       "(about %.0f Hz); state its cycle_hz in the description (the samples are then "
+                                       "placed by tick), or tick at its rate", per_tick,
+                                       (unsigned long long)(n - n_sync), per_tick * h->cfg.tick.rate_hz);
+                    break;
+                }
+                off_slide(&r.off, r.j_last + 1 < j ? r.j_last + 1 : j);
+                if (off) off_mark(&r.off, j + 1);
+                account_read(h, &r, n, j, target, late < on_time_ns && prev_late < on_time_ns,
+                             straddled_cycles(h, &t, h->meas_v[c->counter], j - r.j_last), &t);
+                follow_rate(h, &r, n);
+            }
+        }
+        prev_late = x == 0 ? late : INT64_MAX;
+        if (c->on_tick && c->on_tick(c->user)) { rc = -MSID_DAQ_E_STOPPED; break; }
+        if (h->st.err != MSID_OK) { rc = msid_daq_core(h->st.err); break; }
+    }
+    if (rc == 0 && r.next_meas < p->K) {
+        h->cnt.cycles_not_read += p->K - r.next_meas;
+        msid_stream_lost(&h->st, p->K - r.next_meas);
+    }
+    return rc;
+}
