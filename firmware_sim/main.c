@@ -4,6 +4,7 @@
  * See docs/can-protocol.md and docs/modbus-registers.md. */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -12,6 +13,9 @@
 #include "msid_daq/msid_mb_proto.h"
 #include "sim_can.h"
 #include "sim_modbus.h"
+#include "sim_candbc.h"
+#include "sim_mbmap.h"
+#include "msid_daq/msid_devdesc_file.h"
 
 static void die(const char *m)
 {
@@ -68,6 +72,27 @@ static const char *USAGE =
     "  --done-twice          send every DONE frame twice\n"
     "  --replay-done-at E:N  at sample N of experiment E send the last DONE frame again (a replay)\n"
     "  --lose-done E         do not send experiment E's DONE frame (lost on the bus): a QUERY answers DONE(E, n)\n";
+
+/* (a second string: one literal would pass the 4095 characters a C compiler must support) */
+static const char *USAGE_MAP =
+    "A device with its own register map, described by msid-device/1 (docs/devices.md), that the host excites\n"
+    "tick by tick (msid measure --map): the plant (a DT state space at the device's cycle rate, inputs = drive\n"
+    "channels, outputs = output channels) runs on the device's own clock:\n"
+    "  --map FILE            serve FILE's registers (with --modbus-tcp or --modbus-rtu)\n"
+    "  --cycle-hz F          the device's cycle rate (default: the description's cycle_hz, else 1000)\n"
+    "  --clock-ppm X         the device's clock against the host's, ppm (default 0)\n"
+    "  --no-fc23             refuse function 23 (read/write in one transaction) with exception 1\n"
+    "  --drop-after N        close the connection instead of answering request N + 1\n"
+    "  --die-after N         exit at once instead of answering request N + 1 (a device that dies)\n"
+    "  --delay-every K:MS, --exception-every K[:CODE], --seed, --noise-y, --noise-u, --report, --idle-exit as above\n"
+    "  --plant builtin-siso  a lightly damped two-mass plant (1 input, 1 output), for SISO descriptions\n"
+    "A CAN description (transport = \"can\", its DBC): a node on --iface IF that takes the command messages and\n"
+    "sends its status messages once per cycle of its own clock:\n"
+    "  --map FILE --iface IF serve FILE's DBC signals on IF\n"
+    "  --drop-every K        (CAN) every K-th status cycle sends nothing\n"
+    "  --late-every K[:US]   (CAN) every K-th status cycle's frames are sent US microseconds late (default 500)\n"
+    "  --die-after N         (CAN) exit at once after N status cycles; --cycle-hz, --clock-ppm, --noise-*, --report,\n"
+    "                        --idle-exit as for Modbus\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -126,6 +151,7 @@ static void on_signal(int s) { (void)s; stop_flag = 1; }
 static void load_plant(const char *plant, sim_plant_def *pd)
 {
     if (!strcmp(plant, "builtin")) sim_builtin_plant(pd);
+    else if (!strcmp(plant, "builtin-siso")) sim_builtin_siso_plant(pd);
     else {
         char err[512];
         if (sim_parse_plant(plant, pd, err, sizeof err) != 0) die(err);
@@ -140,9 +166,12 @@ int main(int argc, char **argv)
     dev.stop = &stop_flag;
     sim_opts *const o = &dev.o;
     const char *plant = "builtin";
+    const char *map = NULL;
+    sim_mapdev_opts mo = {0, 0, 0, 0, 0};
+    uint64_t late_every = 0, late_us = 0;
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); return 0; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); fputs(USAGE_MAP, stdout); return 0; }
         if (!strcmp(a, "--version")) {
             printf("msid-devsim %s (msid-can/%u, msid-modbus/%u)\n", MSID_VERSION, MSID_CAN_PROTO_VERSION,
                    MSID_MB_PROTO_VERSION);
@@ -153,6 +182,7 @@ int main(int argc, char **argv)
         if (!strcmp(a, "--answer-twice")) { o->answer_twice = 1; continue; }
         if (!strcmp(a, "--bad-result")) { o->bad_result = 1; continue; }
         if (!strcmp(a, "--done-twice")) { o->done_twice = 1; continue; }
+        if (!strcmp(a, "--no-fc23")) { o->no_fc23 = 1; continue; }
         if (i + 1 >= argc) { fprintf(stderr, "msid-devsim: error: unknown option or missing value: %s\n%s", a, USAGE); return 2; }
         const char *v = argv[++i];
         if (!strcmp(a, "--iface")) o->iface = v;
@@ -176,6 +206,12 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--idle-exit")) o->idle_exit = num_d(a, v, 0, 1e9);
         else if (!strcmp(a, "--rcvbuf")) o->rcvbuf = (int)num_u(a, v);
         else if (!strcmp(a, "--modbus-tcp")) o->mb_tcp = v;
+        else if (!strcmp(a, "--map")) map = v;
+        else if (!strcmp(a, "--cycle-hz")) mo.cycle_hz = num_d(a, v, 1e-3, 1e6);
+        else if (!strcmp(a, "--clock-ppm")) mo.ppm = num_d(a, v, -1e4, 1e4);
+        else if (!strcmp(a, "--drop-after")) o->drop_after = num_u(a, v);
+        else if (!strcmp(a, "--late-every")) kv(a, v, &late_every, &late_us, 500);
+        else if (!strcmp(a, "--die-after")) o->die_after = num_u(a, v);
         else if (!strcmp(a, "--modbus-rtu")) o->mb_rtu = v;
         else if (!strcmp(a, "--baud")) o->baud = (uint32_t)num_u(a, v);
         else if (!strcmp(a, "--unit")) o->unit = (uint32_t)num_u(a, v);
@@ -203,6 +239,28 @@ int main(int argc, char **argv)
             o->stall_exp = (int)d4[0]; o->stall_at = d4[1]; o->stall_samples = d4[2]; o->stall_ms = d4[3];
         }
         else { fprintf(stderr, "msid-devsim: error: unknown option %s\n%s", a, USAGE); return 2; }
+    }
+    if (map) {
+        static msid_devdesc desc;
+        char err[512];
+        if (msid_devdesc_load(map, &desc, err, sizeof err) != 0) die(err);
+        if (desc.transport == MSID_DEV_CAN && !o->iface) die("--map: a CAN description is served with --iface IF");
+        if (desc.transport == MSID_DEV_MODBUS && !o->mb_tcp && !o->mb_rtu)
+            die("--map needs --modbus-tcp HOST:PORT or --modbus-rtu DEVICE");
+        if ((o->iface != NULL) + (o->mb_tcp != NULL) + (o->mb_rtu != NULL) > 1)
+            die("give one of --iface, --modbus-tcp, --modbus-rtu");
+        if (!(mo.cycle_hz > 0)) mo.cycle_hz = isnan(desc.cycle_hz) ? 1000.0 : desc.cycle_hz;
+        mo.sigma_y = o->sigma_y;
+        mo.sigma_u = o->sigma_u;
+        mo.seed = o->seed;
+        load_plant(!strcmp(plant, "builtin") && desc.n_drive == 1 ? "builtin-siso" : plant, &dev.pd);
+        signal(SIGTERM, on_signal);
+        signal(SIGINT, on_signal);
+        if (desc.transport == MSID_DEV_CAN) {
+            const sim_candbc_faults cf = {o->drop_every, late_every, late_us, o->die_after};
+            return sim_candbc_main(&dev, &desc, &mo, &cf);
+        }
+        return sim_mbmap_main(&dev, &desc, &mo);
     }
     if (o->mb_tcp || o->mb_rtu) {
         if (o->iface || (o->mb_tcp && o->mb_rtu)) die("give one of --iface, --modbus-tcp, --modbus-rtu");

@@ -22,6 +22,20 @@ void sim_builtin_plant(sim_plant_def *p)
     memcpy(p->A, A, sizeof A); memcpy(p->B, B, sizeof B); memcpy(p->C, C, sizeof C); memcpy(p->D, D, sizeof D);
 }
 
+void sim_builtin_siso_plant(sim_plant_def *p)
+{
+    /* a two-mass drive as seen from its torque input: a lightly damped mode (|z| = 0.99, 0.05 cycles per sample:
+       zeta about 3 %) and a better damped one (|z| = 0.93 at 0.15), no feedthrough */
+    const double r1 = 0.99, t1 = 2 * M_PI * 0.05, r2 = 0.93, t2 = 2 * M_PI * 0.15;
+    const double A[16] = {r1 * cos(t1), -r1 * sin(t1), 0, 0, r1 * sin(t1), r1 * cos(t1), 0, 0,
+                          0, 0, r2 * cos(t2), -r2 * sin(t2), 0, 0, r2 * sin(t2), r2 * cos(t2)};
+    const double B[4] = {0.1, 0.05, 0.2, 0.0};
+    const double C[4] = {0.5, 0.3, 0.4, 0.2};
+    memset(p, 0, sizeof *p);
+    p->n = 4; p->nu = 1; p->ny = 1;
+    memcpy(p->A, A, sizeof A); memcpy(p->B, B, sizeof B); memcpy(p->C, C, sizeof C);
+}
+
 /* File format (whitespace separated, '#' comments):
  *   type dt|ct     states N   inputs NU   outputs NY
  *   A <N*N numbers, row-major>  B <N*NU>  C <NY*N>  D <NY*NU>

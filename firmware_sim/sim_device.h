@@ -54,6 +54,10 @@ typedef struct sim_opts {
     int done_twice;                  /**< CAN: send every DONE frame twice */
     int replay_exp; uint64_t replay_at;   /**< CAN: at sample N of experiment E send the last DONE frame again */
     int lose_done_exp;               /**< CAN: the DONE frame of experiment E is not sent (lost); QUERY recovers it (-1: none) */
+    /* a described device (--map, sim_mbmap.c) */
+    int no_fc23;                     /**< refuse function 23 (illegal function) */
+    uint64_t drop_after;             /**< close the connection instead of answering request N + 1 (0: never) */
+    uint64_t die_after;              /**< exit at once instead of answering request N + 1 (0: never) */
     /* on-device estimation (sim_estimate.c) */
     uint64_t est_mem;                /**< bytes the device gives the estimator (0: the default) */
 } sim_opts;

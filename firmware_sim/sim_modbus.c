@@ -5,6 +5,7 @@
 #define _GNU_SOURCE
 #include "sim_modbus.h"
 #include "sim_estimate.h"
+#include "sim_mb_server.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -20,7 +21,6 @@
 #include "msid_daq/msid_mb_est.h"
 #include "msid_daq/msid_mb_proto.h"
 
-#define MAX_CLIENTS 8
 #define MAX_RANGES 256
 
 /* The Modbus front end's state: the register map (static storage: a modbus_mapping_t
@@ -31,8 +31,9 @@ typedef struct sim_mb {
     uint16_t ir[65536];
     uint8_t served[65536];               /* ring slot read by the host since it was written */
     modbus_mapping_t map;
-    modbus_t *mb;
-    int rtu, listen_fd, clients[MAX_CLIENTS], n_clients;
+    sim_mb_server srv;
+    modbus_t *mb;                        /* srv's */
+    int rtu;
     uint32_t mstate, merr, mdetail, mexp;
     uint32_t enc, word_order, R, W;      /* latched at commit: encoding, word order, ring samples, registers per sample */
     uint64_t w, s0, overruns;            /* write index and segment start (run), overruns (run) */
@@ -55,18 +56,7 @@ typedef struct sim_mb {
     sim_est est;
 } sim_mb;
 
-static void die(const char *what, const char *detail)
-{
-    fprintf(stderr, "msid-devsim: error: %s%s%s\n", what, detail ? ": " : "", detail ? detail : "");
-    exit(1);
-}
-
-static void sleep_s(const sim_mb *m, double s)
-{
-    if (s <= 0) return;
-    struct timespec t = {(time_t)s, (long)((s - (double)(time_t)s) * 1e9)};
-    while (nanosleep(&t, &t) != 0 && errno == EINTR && !*m->d->stop) {}
-}
+static void sleep_s(const sim_mb *m, double s) { sim_sleep_s(m->d->stop, s); }
 
 /* ---- reports -------------------------------------------------------------- */
 static void report_body(FILE *f, const void *ctx)
@@ -340,8 +330,7 @@ static void drop_connection(sim_mb *m)
 {
     m->mc.dropped++;
     if (m->rtu) { m->silent_until = sim_now_s() + 1.0; return; }
-    for (int i = 0; i < m->n_clients; ++i) close(m->clients[i]);
-    m->n_clients = 0;
+    sim_mb_server_drop(&m->srv);
 }
 
 static double run_time(const sim_mb *m)
@@ -489,6 +478,10 @@ static void serve(sim_mb *m, const uint8_t *q, int len)
     const uint32_t fc = q[hl], addr = (uint32_t)q[hl + 1] << 8 | q[hl + 2], cnt = (uint32_t)q[hl + 3] << 8 | q[hl + 4];
     if (m->last_request < m->stall_until || m->last_request < m->silent_until) { m->mc.unanswered++; return; }
     const uint64_t k = m->mc.requests;
+    if (m->d->o.die_after && k > m->d->o.die_after) {   /* a device that dies: gone, no goodbye */
+        sim_write_atomic(m->d->o.report, report_body, m);
+        _exit(9);
+    }
     update_header(m);
     if (m->d->o.exc_every && k % m->d->o.exc_every == 0) {
         m->mc.exceptions++;
@@ -542,34 +535,20 @@ static void open_server(sim_mb *m)
     m->map.tab_input_registers = m->ir;
     static uint8_t bits[1];
     m->map.tab_bits = m->map.tab_input_bits = bits;
-    if (m->d->o.mb_rtu) {
-        m->rtu = 1;
-        m->mb = modbus_new_rtu(m->d->o.mb_rtu, (int)m->d->o.baud, 'N', 8, 1);
-        if (!m->mb) die("libmodbus", modbus_strerror(errno));
-        if (m->d->o.unit < 1 || m->d->o.unit > 247) die("--unit must be 1..247", NULL);
-        modbus_set_slave(m->mb, (int)m->d->o.unit);
-        if (modbus_connect(m->mb) != 0) die(m->d->o.mb_rtu, modbus_strerror(errno));
-        printf("msid-devsim: ready on modbus-m->rtu %s (%u baud%s, unit %u, %u input(s), %u output(s), %s plant)\n",
+    sim_mb_server_open(&m->srv, &m->d->o, m->d->o.unit);
+    m->mb = m->srv.mb;
+    m->rtu = m->srv.rtu;
+    if (m->rtu)
+        printf("msid-devsim: ready on modbus-rtu %s (%u baud%s, unit %u, %u input(s), %u output(s), %s plant)\n",
                m->d->o.mb_rtu, m->d->o.baud, m->d->o.emulate_baud ? " emulated" : "", m->d->o.unit, m->d->pd.nu, m->d->pd.ny,
                m->d->pd.ct ? "continuous-time" : "discrete-time");
-    } else {
-        char host[128];
-        snprintf(host, sizeof host, "%s", m->d->o.mb_tcp);
-        char *colon = strrchr(host, ':');
-        if (!colon) die("--modbus-tcp wants HOST:PORT", m->d->o.mb_tcp);
-        *colon = 0;
-        m->mb = modbus_new_tcp(host, atoi(colon + 1));
-        if (!m->mb) die("libmodbus", modbus_strerror(errno));
-        m->listen_fd = modbus_tcp_listen(m->mb, MAX_CLIENTS);
-        if (m->listen_fd < 0) die(m->d->o.mb_tcp, modbus_strerror(errno));
-        struct sockaddr_in sa;
-        socklen_t sl = sizeof sa;
-        getsockname(m->listen_fd, (struct sockaddr *)&sa, &sl);
-        printf("msid-devsim: ready on modbus-tcp %s:%u (%u input(s), %u output(s), %s plant)\n", host,
-               ntohs(sa.sin_port), m->d->pd.nu, m->d->pd.ny, m->d->pd.ct ? "continuous-time" : "discrete-time");
-    }
+    else
+        printf("msid-devsim: ready on modbus-tcp %s:%u (%u input(s), %u output(s), %s plant)\n", m->srv.host,
+               m->srv.port, m->d->pd.nu, m->d->pd.ny, m->d->pd.ct ? "continuous-time" : "discrete-time");
     fflush(stdout);
 }
+
+static void serve_cb(void *ctx, const uint8_t *q, int len) { serve(ctx, q, len); }
 
 int sim_modbus_main(sim_device *d)
 {
@@ -577,11 +556,9 @@ int sim_modbus_main(sim_device *d)
     sim_mb *m = &ctx;
     memset(m, 0, sizeof *m);
     m->d = d;
-    m->listen_fd = -1;
     m->est.bad = -1;
     signal(SIGPIPE, SIG_IGN);
     open_server(m);
-    uint8_t q[MODBUS_MAX_ADU_LENGTH];
     m->last_request = sim_now_s();
     m->mstate = MSID_MB_STATE_IDLE;
     while (!*m->d->stop) {
@@ -589,39 +566,10 @@ int sim_modbus_main(sim_device *d)
         int tmo = next < 0 ? 200 : (int)(next * 1000.0);
         if (m->mstate == MSID_MB_STATE_RUNNING && next < 0) tmo = 20;
         if (tmo > 200) tmo = 200;
-        struct pollfd pf[MAX_CLIENTS + 1];
-        int np = 0;
-        if (m->rtu) pf[np++] = (struct pollfd){modbus_get_socket(m->mb), POLLIN, 0};
-        else {
-            pf[np++] = (struct pollfd){m->listen_fd, POLLIN, 0};
-            for (int i = 0; i < m->n_clients; ++i) pf[np++] = (struct pollfd){m->clients[i], POLLIN, 0};
-        }
-        if (poll(pf, (nfds_t)np, tmo) < 0) continue;
-        for (int i = 0; i < np; ++i) {
-            if (!(pf[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
-            if (!m->rtu && pf[i].fd == m->listen_fd) {
-                const int c = accept(m->listen_fd, NULL, NULL);
-                if (c < 0) continue;
-                if (m->n_clients == MAX_CLIENTS) { close(m->clients[0]); memmove(m->clients, m->clients + 1, sizeof(int) * --m->n_clients); }
-                m->clients[m->n_clients++] = c;
-                continue;
-            }
-            modbus_set_socket(m->mb, pf[i].fd);
-            const int n = modbus_receive(m->mb, q);
-            if (n > 0) serve(m, q, n);
-            else if (n < 0 && m->rtu) modbus_flush(m->mb);
-            else if (n < 0) {
-                close(pf[i].fd);
-                for (int j = 0; j < m->n_clients; ++j)
-                    if (m->clients[j] == pf[i].fd) { m->clients[j] = m->clients[--m->n_clients]; break; }
-            }
-        }
+        sim_mb_server_poll(&m->srv, tmo, serve_cb, m);
         if (m->d->o.idle_exit > 0 && sim_now_s() - m->last_request > m->d->o.idle_exit) break;
     }
     sim_write_atomic(m->d->o.report, report_body, m);
-    for (int i = 0; i < m->n_clients; ++i) close(m->clients[i]);
-    if (m->listen_fd >= 0) close(m->listen_fd);
-    if (m->rtu) modbus_close(m->mb);
-    modbus_free(m->mb);
+    sim_mb_server_close(&m->srv);
     return 0;
 }

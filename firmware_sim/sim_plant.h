@@ -28,6 +28,8 @@ typedef struct sim_plant_def {
 int sim_parse_plant(const char *path, sim_plant_def *p, char *err, size_t errlen);
 /** @brief The built-in 4-state 2x2 DT plant (tests/integration/helpers.py dt_plant_2x2). */
 void sim_builtin_plant(sim_plant_def *p);
+/** @brief A built-in 4-state SISO DT plant: a lightly damped mode at 0.05 and one at 0.15 cycles per sample. */
+void sim_builtin_siso_plant(sim_plant_def *p);
 /** @brief G at line frequency: DT z = e^{j w}, w in rad/sample; CT s = j w, w in rad/s. G is ny x nu; 0 or -1 (singular). */
 int sim_plant_response(const sim_plant_def *p, double w, msid_cplx *G);
 
