@@ -127,6 +127,7 @@ MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Control &ctl)
     if (dev.nu != d.n_inputs)
         throw Error(fmt("the device has %u input(s) but the design has %u", dev.nu, d.n_inputs), 1,
                     msidutil::ErrorKind::data);
+    check_input_resolution(P, P.sf.encoding == MSID_CAN_ENC_S16);
     const uint32_t nu = dev.nu, ny = dev.ny, m = d.n_experiments, C = nu + ny;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("the device reports %u outputs", ny));
     const uint32_t chunks = msid_can_chunks(C, P.sf.encoding, P.sf.fd);

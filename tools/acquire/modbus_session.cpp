@@ -180,6 +180,7 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Control &c
     if (h.nu != d.n_inputs)
         throw Error(fmt("the device has %u input(s) but the design has %u", h.nu, d.n_inputs), 1,
                     msidutil::ErrorKind::data);
+    check_input_resolution(P, l.encoding != MSID_MB_ENC_F32);
     const uint32_t nu = h.nu, ny = h.ny, m = d.n_experiments, C = nu + ny;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS || C > MSID_MAX_CHANNELS) throw Error(fmt("the device reports %u outputs", ny));
     const uint32_t W = msid_mb_sample_regs(l.encoding, C);

@@ -43,6 +43,9 @@ struct ProgressState {
     uint64_t link_errors = 0;                  // bus errors / retried requests
     double snr_db = NAN;                       // running output SNR per period (dB), NaN before 2 periods
     double eta_s = NAN;                        // estimated seconds left, NaN when unknown
+    // host-timed excitation (a described device): the tick loop's timing so far
+    double lateness_p99_s = NAN;               // p99 of the ticks' lateness (s), NaN when the host does not tick
+    uint64_t missed_ticks = 0;                 // ticks slept through
 };
 
 // What a measurement reports to its caller and asks of it while it runs, on the measuring thread.
@@ -80,6 +83,12 @@ struct MeasureResult {
 // request's words for messages ({"--periods", "--skip-periods"} or {"periods", "skip_periods"}).
 // Throws UsageError.
 void check_plan(MeasurePlan &P, const char *periods_name, const char *skip_name);
+
+// With an integer encoding of the samples (`integer`): every input's largest sample (at most the sum
+// of its lines' amplitudes) is at least half a step of the scale. Below, the input is sent as zeros,
+// its lines are not excited, and the FRF was refused after the run as "the input matrix is singular".
+// Throws UsageError naming --scale (before the device runs).
+void check_input_resolution(const MeasurePlan &P, bool integer);
 
 // ---- the links ---------------------------------------------------------------------
 

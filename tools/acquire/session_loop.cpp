@@ -33,6 +33,21 @@ void check_plan(MeasurePlan &P, const char *periods_name, const char *skip_name)
     if (P.sf.rate > 0 && !P.D->d.is_ct) P.rq.fs = P.sf.rate;
 }
 
+void check_input_resolution(const MeasurePlan &P, bool integer)
+{
+    if (!integer) return;
+    const msid_design &d = P.D->d;
+    for (uint32_t i = 0; i < d.n_inputs; ++i) {
+        double peak = 0;
+        for (uint32_t l = 0; l < d.n_lines; ++l) peak += std::fabs(d.amp[(size_t)i * d.n_lines + l]);
+        if (peak < 0.5 * (double)P.sf.scale)
+            throw UsageError(fmt("--scale %g (the value of one step of the samples' integers) is more than twice the "
+                                 "largest sample of input %u (at most %.3g): the input would be sent as zeros and its "
+                                 "lines not excited; a scale of at most %.3g keeps 10 bits of it",
+                                 (double)P.sf.scale, i + 1, peak, peak / 1024.0));
+    }
+}
+
 MeasureResult measure_device(const DeviceUri &dev, const PlanFn &plan, Control &ctl)
 {
     return dev.kind == DeviceUri::CAN ? measure_can(can_link_from_uri(dev), plan, ctl)
@@ -85,6 +100,7 @@ LoopResult run_experiments(ExperimentRunner &r, const msid_meas *ms, const Measu
         }
         s.lost = r.lost();
         s.link_errors = r.link_errors();
+        r.timing(s);
         s.snr_db = running_snr_db(msid_meas_stats(ms, e), nu, ny, (uint32_t)P.rq.bins.size());
         const uint64_t got = r.samples() + r.lost();
         const double el = now_s() - t_start;

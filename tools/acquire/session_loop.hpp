@@ -15,6 +15,7 @@ struct ExperimentRunner {
     virtual uint64_t samples() const = 0;       // samples received so far (all experiments)
     virtual uint64_t lost() const = 0;          // samples lost (drops, overruns)
     virtual uint64_t link_errors() const = 0;   // bus errors / retried requests
+    virtual void timing(ProgressState &) const {}   // a host-timed runner's lateness and missed ticks
 };
 
 struct LoopResult {

@@ -1,7 +1,7 @@
 // msid bench fit --cissim-process: the whole `msid fit --method cissim` process on files (start,
 // reading, the fit with its default ML refinement and noise covariance, writing the model) against
 // the whole run of the authors' code (github wyqy/dcissim) under Octave in the same run, on the
-// cases of issue 28 (cissim_cases.hpp: a 2x2 record with 300 lines, a sparse SISO record with 50).
+// cases (cissim_cases.hpp: a 2x2 record with 300 lines, a sparse SISO record with 50).
 // The authors' code is an optional peer: $MSID_DCISSIM_DIR (a checkout of it) and octave-cli on
 // PATH; the driver and the stand-ins it needs under Octave are tools/peers/dcissim. Accuracy: the
 // relative H2 error of each model against the true system, and how far the two agree with each

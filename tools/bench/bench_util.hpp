@@ -84,7 +84,10 @@ std::string npy_image(const std::vector<double> &x, size_t n, size_t cols);
 struct Times {
     double wall = 1e30, cpu = 1e30;
 };
-Times time_process(const std::string &exe, const std::vector<std::string> &args, double min_s, bool quiet = false);
+// min_runs: the timed runs at least; exit3_ok: exit status 3 (`msid fit`: the best iterate of a fit that did
+// not converge, written) counts as a run.
+Times time_process(const std::string &exe, const std::vector<std::string> &args, double min_s, bool quiet = false,
+                   int min_runs = 3, bool exit3_ok = false);
 
 // A new directory /tmp/<prefix>-XXXXXX (Error if it cannot be made).
 std::string temp_dir(const char *prefix);

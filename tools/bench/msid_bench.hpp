@@ -95,6 +95,25 @@ struct MultiBenchResult {
 
 MultiBenchResult bench_fit_multi(const MultiBenchRequest &rq, const Sink &sink = {});
 
+/// `msid bench fit --only modal FRF`: the order scan a modal engineer runs on a structure's FRF,
+/// `msid fit --method ml --domain ct --order auto FRF`, as a whole process (CPU time), beside
+/// sdypy-EMA's LSCF over its polynomial orders 2..60 on the same FRF (tools/peers/msid_peers/lscf_peer.py)
+/// and, with a baseline, another msid executable's same scan in the same run.
+struct ModalBenchRequest {
+    std::string frf;                           ///< the msid-frf/1 file (CT lines: --fs or a CT design)
+    std::string baseline;                      ///< another msid executable ("": none)
+    bool peer = true;                          ///< run the LSCF peer
+    uint32_t runs = 1;                         ///< timed runs of each process after one warm-up (>= 1)
+    std::string msid_exe = "/proc/self/exe";   ///< the msid executable timed
+};
+
+struct ModalBenchResult {
+    double msid_cpu_s = -1, baseline_cpu_s = -1, peer_cpu_s = -1;   ///< best CPU time of each process [s]
+    Report report;
+};
+
+ModalBenchResult bench_fit_modal(const ModalBenchRequest &rq, const Sink &sink = {});
+
 /// `msid bench fit --cissim`: discrete-cISSIM beside subspace and ml (cases Y1, Y2).
 struct CissimBenchRequest {
     int systems = 100;           ///< random systems of case Y1 (at least 1; the command line's --quick: 10)
@@ -109,7 +128,7 @@ CissimBenchResult bench_cissim(const CissimBenchRequest &rq, const Sink &sink = 
 
 /// `msid bench fit --cissim-process`: the whole `msid fit --method cissim` process on files against the
 /// whole run of the authors' code under Octave (optional: $MSID_DCISSIM_DIR and octave-cli), cases of
-/// issue 28 (msidfit::cissim_process_cases).
+/// msidfit::cissim_process_cases.
 struct CissimProcessBenchRequest {
     double min_seconds = 2.0;    ///< each time is the best of >= 3 runs lasting at least this long [s]
     bool peer = true;            ///< run the authors' code when it is there

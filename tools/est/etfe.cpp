@@ -1,4 +1,5 @@
 #include "etfe.hpp"
+#include "msid_cancel.hpp"
 
 #include <Eigen/Dense>
 #include <cmath>
@@ -76,6 +77,7 @@ EtfeResult etfe(const Spectra &s, const EtfeConfig &c)
     const double noise_factor = std::sqrt((double)ny) + 24.0 * std::sqrt(r.log_term);
     const size_t Np = r.Np;
     for (size_t l = c.l_lo; l <= l_hi; ++l) {
+        msidutil::checkpoint(msidutil::Step::lines, 1, "the ETFE");
         const size_t k = l * Np;
         MatC U(nu, m), Y(ny, m), Phi = MatC::Zero(ny, ny);
         for (unsigned e = 0; e < m; ++e) {

@@ -1,4 +1,5 @@
 #include "lpm.hpp"
+#include "msid_cancel.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -88,6 +89,10 @@ struct Worker {
     size_t Kmax;
     std::vector<double> pfloor;  // per input: 1e-12 x (window rows) x its mean |U|^2 over the record
     size_t bad_bin = 0;          // first singular bin in this worker's range (0: none)
+    // the caller's cancellation token (msid_cancel.hpp), asked after each block of bins; true once it
+    // asked this worker to stop (a worker thread never throws: lpm() throws for it after the joins)
+    msidutil::Cancel *cancel = nullptr;
+    bool stopped = false;
 
     // Normal equations of the local LS from products of the spectra (Part I: Theta =
     // Y K^H (K K^H)^-1 with K = [r^s U; r^s]): every entry of K K^H, Y K^H, Y Y^H is a
@@ -104,6 +109,10 @@ struct Worker {
         for (size_t b0 = i0; b0 < i1 && !bad_bin;) {
             const size_t b1 = std::min(i1, align16(res.bins, b0 + 2048));
             run_block(b0, b1);
+            if (cancel && cancel->proceed_or_stop(msidutil::Step::lines, b1 - b0)) {
+                stopped = true;
+                return;
+            }
             b0 = b1;
         }
     }
@@ -375,12 +384,14 @@ LpmResult lpm(const Spectra &s, const LpmConfig &c)
             for (size_t k = 1; k <= Kmax; ++k) p += std::norm(s.U(e, j)[k]);
         pfloor[j] = 1e-12 * (2.0 * W + 1) * p / (double)Kmax;
     }
-    std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor, 0, {}});
+    std::vector<Worker> wk(T, Worker{s, c, ops, res, Kmax, pfloor, 0, msidutil::current_cancel(), false, {}});
     std::vector<std::thread> th;
     auto split = [&](unsigned t) { return t == 0 ? 0 : t == T ? nb : align16(res.bins, nb * t / T); };
     for (unsigned t = 1; t < T; ++t) th.emplace_back([&, t] { wk[t].run(split(t), split(t + 1)); });
     wk[0].run(0, split(1));
     for (auto &x : th) x.join();
+    for (const auto &w : wk)
+        if (w.stopped) throw msidutil::Cancelled{"the LPM"};
     for (const auto &w : wk)
         if (w.bad_bin) {
             char b[400];

@@ -37,7 +37,7 @@ SSModel y2_system();
 void y2_sigmas(MatR &Sww, MatR &Svv, MatR &Stt);
 CissimRecord y2_record(uint32_t T, uint32_t K, msid_rng &r);
 
-// The whole-process cases of issue 28 (`msid bench fit --cissim-process`, docs/benchmarks.md): one
+// The whole-process cases (`msid bench fit --cissim-process`, docs/benchmarks.md): one
 // record each, fitted at `order` on `lines` by `msid fit --method cissim` and by the authors' code.
 //   "2x2": a 2x2 4th-order plant (pole pairs 0.9 at 0.2 pi, 0.8 at 0.6 pi, D = 0), P = 2000, 30 periods
 //          (60,000 samples), both inputs random-phase multisines on the 300 lines 3:3:900, 30 dB;

@@ -3,6 +3,7 @@
 // under the PSD constraints of (36) with a small ADMM solver, covariances (Alg. 7).
 #include "cissim.hpp"
 #include "real_dft.hpp"
+#include "msid_cancel.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -169,6 +170,7 @@ VecR lmi_least_squares(const LmiLs &p, int &iterations, double &primal_residual,
     iterations = 0;
     primal_residual = 0;
     for (int it = 0; it < max_iter; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the cissim covariance");
         VecR rhs = Ftg;
         for (size_t i = 0; i < k; ++i) rhs += rho * p.G[i].transpose() * (Z[i] - p.h[i] - U[i]);
         x = ldlt.solve(rhs);
@@ -240,10 +242,13 @@ bool lmi_least_squares_barrier(const LmiLs &p, VecR &x, int &steps, double &gap,
     double t = m / std::max(f(x), 1e-12 * S);
     for (int outer = 0; outer < 100; ++outer) {
         for (int inner = 0; inner < 50; ++inner) {
+            msidutil::checkpoint(msidutil::Step::iterations, 1, "the cissim covariance");
             if (!barrier_terms(p, x, logdet, &W)) return false;
             grad.noalias() = t * (Hf * x - bf);
             H = t * Hf;
             for (size_t i = 0; i < p.G.size(); ++i) {
+                // one constraint's share of the Hessian: O(nx^2 d^2), a large part of a second at order 40
+                msidutil::checkpoint(msidutil::Step::solves, 0, "the cissim covariance");
                 const Eigen::Index d = W[i].rows();
                 grad.noalias() -= p.G[i].transpose() * Eigen::Map<const VecR>(W[i].data(), d * d);
                 // d^2 log det / dx_a dx_b = -tr(W E_a W E_b), E_a = mat(G_i e_a): (W kron W) G_i
@@ -353,7 +358,10 @@ NoiseCov cissim_noise_cov(const SSModel &m, const Correlations &cr)
             for (Eigen::Index k = 0; k < n; ++k)
                 for (Eigen::Index j = 0; j < n; ++j)
                     for (Eigen::Index i = 0; i < n; ++i) Kr(i + n * j, k + n * l) -= m.A(i, k) * m.A(j, l);
-        const VecR pv = Kr.partialPivLu().solve(Eigen::Map<const VecR>(Inn.data(), n * n));
+        // an LU of n^2 x n^2 (seconds from order 40), abandoned on a stop
+        const VecR pv = msidutil::abandonable<VecR>(
+            [Kr = std::move(Kr), Inn] { return VecR(Kr.partialPivLu().solve(Eigen::Map<const VecR>(Inn.data(), Inn.size()))); },
+            msidutil::Step::solves, "the cissim covariance");
         const MatR Pl = Eigen::Map<const MatR>(pv.data(), n, n);
         const MatR Q = l0.matrixL().solve(MatR(m.C * Pl * m.C.transpose()));
         const MatR Qs = l0.matrixL().solve(Q.transpose());

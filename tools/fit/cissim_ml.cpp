@@ -9,6 +9,7 @@
 #include "cissim.hpp"
 #include "lmfd_fit.hpp"
 #include "small_lu.hpp"
+#include "msid_cancel.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -211,6 +212,7 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
     double lambda = 1e-3;
     conv = false;
     for (int it = 0; it < o.max_iter; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the cissim fit");
         ++iters;
         const VecR g = J.transpose() * r;
         MatR H = MatR::Zero(J.cols(), J.cols());
@@ -219,6 +221,8 @@ SSModel lm(const SSModel &start, const std::vector<Term> &terms, const CissimMlO
         const VecR dg = H.diagonal().cwiseMax(1e-300 * std::max(1.0, H.diagonal().maxCoeff()));
         bool accepted = false;
         for (int tries = 0; tries < 30; ++tries) {
+            // a try is a factorisation of the p x p normal matrix (p = n^2 + ...: a part of a second at order 40)
+            msidutil::checkpoint(msidutil::Step::solves, 0, "the cissim fit");
             MatR Hl = H;
             Hl.diagonal() += lambda * dg;
             const VecR step = -Hl.ldlt().solve(g);
@@ -296,7 +300,20 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
     VecR r;
     MatR J;
     residual(m, terms, r, &J);
-    res.cov = fisher_cov(J, res.cov_rank);
+    // the covariance's two decompositions of the p x p Fisher information: seconds at order 40, abandoned on a stop
+    struct Cov {
+        MatR cov;
+        int rank = 0;
+    };
+    Cov fc = msidutil::abandonable<Cov>(
+        [J] {
+            Cov c;
+            c.cov = fisher_cov(J, c.rank);
+            return c;
+        },
+        msidutil::Step::solves, "the cissim fit");
+    res.cov = std::move(fc.cov);
+    res.cov_rank = fc.rank;
     // sample-ML factor for weights with K - 1 complex dof (lmfd_fit.cpp, sample_ml_factor)
     double kmin = 1e300;
     for (const auto &e : isp) kmin = std::min(kmin, (double)e.periods - 1.0);
@@ -307,7 +324,9 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
     res.bins = isp[0].bins;
     // J_G cov J_G^T at every line through a factor cov = Q Q^T of the rank of the Fisher information
     // (cov is positive semi-definite): a third of the products of J_G cov J_G^T per line
-    const Eigen::SelfAdjointEigenSolver<MatR> es(0.5 * (res.cov + res.cov.transpose()));
+    const Eigen::SelfAdjointEigenSolver<MatR> es = msidutil::abandonable<Eigen::SelfAdjointEigenSolver<MatR>>(
+        [C = MatR(0.5 * (res.cov + res.cov.transpose()))] { return Eigen::SelfAdjointEigenSolver<MatR>(C); },
+        msidutil::Step::solves, "the cissim fit");
     const VecR ev = es.eigenvalues();
     const double floor = 1e-14 * std::max(ev.maxCoeff(), 1e-300);
     Eigen::Index keep = 0;
@@ -321,6 +340,7 @@ CissimMlResult cissim_refine(const SSModel &start, const std::vector<IspResult> 
         te.jac_G(z, Jr);
         JQ.noalias() = Jr * Q;
         res.Gcov.push_back(JQ * JQ.transpose());
+        msidutil::checkpoint(msidutil::Step::lines, 1, "the cissim fit");
     }
     return res;
 }

@@ -1,4 +1,5 @@
 #include "lmfd_fit.hpp"
+#include "msid_cancel.hpp"
 #include "text_scan.hpp"
 
 #include <algorithm>
@@ -36,6 +37,9 @@ Pin parse_pin(const std::string &s)
         ok = !value.empty() && i == s.size();
     }
     if (!ok) throw FitError("--pin '" + s + "': expected e.g. N0=0 or D1[1,2]=0.5 (entries 1-based)");
+    // an index of more digits than an int holds (std::stoi would throw out_of_range) is no coefficient
+    if (index.size() > 9 || row.size() > 9 || col.size() > 9)
+        throw FitError("--pin '" + s + "': index out of range (entries 1-based)");
     Pin p;
     p.mat = mat;
     p.index = std::stoi(index);
@@ -250,7 +254,10 @@ ClosedForm lmfd_closed_form(const std::vector<WeightedLine> &w, Domain d, double
             }
         }
     }
-    Eigen::JacobiSVD<MatR> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    // the one long step of a high order (an SVD of eq x q: tens of seconds at order 1000), abandoned on a stop
+    const Eigen::JacobiSVD<MatR> svd = msidutil::abandonable<Eigen::JacobiSVD<MatR>>(
+        [A] { return Eigen::JacobiSVD<MatR>(A, Eigen::ComputeFullU | Eigen::ComputeFullV); }, msidutil::Step::solves,
+        "the lmfd fit");
     const VecR sv = svd.singularValues();
     const double tol = 1e-10 * (sv.size() ? sv(0) : 1.0);
     Eigen::Index rank = 0;
@@ -351,6 +358,7 @@ LmfdModel lmfd_sk(const std::vector<WeightedLine> &w, Domain d, double h, const 
     Eigen::Index rows = 0;
     for (const auto &l : w) rows += l.real ? g : 2 * g;
     for (int it = 0; it <= iters; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the lmfd fit");
         // minimise sum |Linv vec(Dprev^{-1} (D G - N))|^2, linear in theta
         MatR X(rows, (Eigen::Index)free.size());
         VecR y(rows);
@@ -584,6 +592,7 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
     int it = 0;
     bool conv = false;
     for (; it < o.max_iter; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the ml fit");
         const VecR grad = J.transpose() * r;
         const VecR dg = J.colwise().squaredNorm().transpose().cwiseMax(1e-300);
         bool stepped = false;

@@ -42,6 +42,9 @@ struct Mode {
     // the neighbour whose joint test is the weaker, -1 if none. NaN without covariance or lines.
     double contrib_chi2 = NAN, contrib_p = NAN;
     int contrib_dof = 0, contrib_with = -1;
+    // the pole lies on the stability bound of a constrained fit (stab_bound.hpp): its damping is the
+    // constraint's, not an estimate, so sd_zeta is NaN (the delta method has no law at a bound)
+    bool at_bound = false;
 };
 
 // Poles and residues of a state-space model, sorted by natural frequency,

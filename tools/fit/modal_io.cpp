@@ -36,6 +36,8 @@ static Slot slot_of(const std::string &name)
     ok = ok && !row.empty() && scan_char(name, i, ',');
     if (ok) col = scan_digits(name, i);
     ok = ok && !col.empty() && scan_char(name, i, ']') && i == name.size();
+    // more digits than an int holds (std::stoi would throw out_of_range): no coefficient either
+    ok = ok && index.size() <= 9 && row.size() <= 9 && col.size() <= 9;
     if (!ok) throw FitError("parameter name '" + name + "' is not an LMFD coefficient");
     return {mat, std::stoi(index), std::stoi(row) - 1, std::stoi(col) - 1};
 }
@@ -53,6 +55,25 @@ static std::vector<cd> fitted_points(const Json &j, Domain d)
         xs.push_back(line_point(ln, d));
     }
     return xs;
+}
+
+// The modes whose pole the fit held on the stability bound (pole_residue.poles[k].at_bound): marked, and
+// no standard deviation of the damping (the constraint fixed it; the delta method would report the
+// spread of an estimate there is none of).
+static void mark_at_bound(const Json &poles, std::vector<Mode> &modes)
+{
+    for (const Json &p : poles) {
+        if (!p.is_object() || !p.value("at_bound", false) || modes.empty()) continue;
+        const cd z(p.at("re").get<double>(), p.at("im").get<double>());
+        Mode *best = nullptr;
+        double d = 1e300;
+        for (Mode &m : modes) {
+            const double dm = std::abs(m.pole - z);
+            if (dm < d) { d = dm; best = &m; }
+        }
+        best->at_bound = true;
+        best->sd_zeta = NAN;
+    }
 }
 
 ModalReport modal_report(const Json &j)
@@ -109,6 +130,7 @@ ModalReport modal_report(const Json &j)
             return pr_to_ss(m);
         };
         r.modes = modes_with_sd(realise, th, cov, r.h, 1.0, fitted_points(j, r.domain));
+        mark_at_bound(j["pole_residue"]["poles"], r.modes);
         r.have_sd = true;
         r.sd_source = "delta method from the parameter covariance (inverse Fisher information) of the pole-residue form";
         return r;
@@ -177,10 +199,11 @@ Json modal_json(const ModalReport &r)
         e["wn"] = m.wn;
         e["zeta"] = m.zeta;
         e["residue"] = cmat_json(m.residue);
+        e["at_bound"] = m.at_bound;
         if (r.have_sd) {
             e["sd_fn"] = m.sd_fn;
             e["sd_wn"] = m.sd_wn;
-            e["sd_zeta"] = m.sd_zeta;
+            e["sd_zeta"] = m.at_bound ? Json(nullptr) : Json(m.sd_zeta);
             e["sd_residue"] = {{"re", rmat_json(m.sd_residue_re)}, {"im", rmat_json(m.sd_residue_im)}};
             if (std::isfinite(m.contrib_p)) {
                 e["contribution_test"] = {{"chi2", m.contrib_chi2}, {"dof", m.contrib_dof}, {"p_value", m.contrib_p}};
@@ -212,11 +235,15 @@ std::string modal_text(const ModalReport &r)
     std::snprintf(buf, sizeof buf, "%-4s %-14s %-12s %-12s %-12s %s\n", "mode", hz ? "fn [Hz]" : "fn [cyc/smp]", "sd(fn)",
                   "zeta [%]", "sd(zeta)[%]", "|residue| (largest entry)");
     s += buf;
-    int k = 1, weak = 0;
+    int k = 1, weak = 0, held = 0;
     for (const Mode &m : r.modes) {
         Eigen::Index i, jj;
         const double rmax = m.residue.cwiseAbs().maxCoeff(&i, &jj);
         std::string note = m.real ? "  (real pole)" : "";
+        if (m.at_bound) {
+            ++held;
+            note += "  ON THE STABILITY BOUND";
+        }
         if (m.contrib_p >= MODE_IDENTIFIED_P) {   // NaN (no test): no note
             ++weak;
             char t[96];
@@ -224,7 +251,7 @@ std::string modal_text(const ModalReport &r)
                           m.contrib_with >= 0 ? fmt_with(m.contrib_with).c_str() : "");
             note += t;
         }
-        if (r.have_sd && m.real)   // a real pole's damping ratio is +-1 by definition: no sd
+        if (r.have_sd && (m.real || m.at_bound))   // a real pole's damping ratio is +-1 by definition; at the bound the constraint's: no sd
             std::snprintf(buf, sizeof buf, "%-4d %-14.6g %-12.3g %-12.4g %-12s %.4g%s\n", k++, m.fn, m.sd_fn,
                           100 * m.zeta, "-", rmax, note.c_str());
         else if (r.have_sd)
@@ -236,6 +263,11 @@ std::string modal_text(const ModalReport &r)
         s += buf;
     }
     s += "standard deviations: " + r.sd_source + "\n";
+    if (held > 0)
+        s += "ON THE STABILITY BOUND: the data push " + std::string(held == 1 ? "this pole" : "these poles") +
+             " out of the stable region and the constrained fit holds " + (held == 1 ? "it" : "them") +
+             " on its edge: the damping is the constraint's (no sd), not a damping the data give; model error "
+             "(nonlinear distortion, an order above what the data identify) or an unstable plant (--allow-unstable)\n";
     if (weak > 0)
         s += "NOT identified: the mode's contribution to the FRF at the fitted lines is within the noise (Wald test, "
              "p >= " + std::string(weak == 1 ? "0.001): a pole pair spent on noise" : "0.001): pole pairs spent on noise") +

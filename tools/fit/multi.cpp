@@ -2,6 +2,8 @@
 // Equation references: Markovsky & Pintelon, shared/papers/markovsky-pintelon-multiple-experiments.txt.
 #include "multi.hpp"
 
+#include "msid_cancel.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <algorithm>
@@ -80,6 +82,8 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
     MatR Ft(S, p), Yt(S, ny);
     Eigen::Index off = 0;
     for (size_t i = 0; i < recs.size(); ++i) {
+        // one record's filters and projection at a time: a long record is seconds of the evaluation
+        msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
         const Eigen::Index T = recs[i].y.rows();
         // filtered inputs: column k nb + (d - d0) is q^-d / a(q^-1) u_k, zero pre-initial values
         F[i].resize(T, p);
@@ -107,6 +111,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
             }
             Xs[i] = X;
             whiten(L, X);
+            msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
             qx[i].compute(X);
             Q[i] = qx[i].householderQ() * MatR::Identity(T, n);
             Fp -= Q[i] * (Q[i].transpose() * Fp);
@@ -144,6 +149,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
         MatR D(S, n);
         off = 0;
         for (size_t i = 0; i < recs.size(); ++i) {
+            msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
             const Eigen::Index T = recs[i].y.rows();
             VecR ext(T + n);   // ext(n + t) = yhat(t), ext(n - k) = yhat(-k) = c(k-1)
             for (int k = 1; k <= n; ++k) ext(n - k) = e.c[i](k - 1, j);
@@ -153,6 +159,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
             ext.tail(T) = yh;
             VecR g(T);
             for (int m = 1; m <= n; ++m) {
+                if (m % 4 == 0) msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
                 for (Eigen::Index t = 0; t < T; ++t) g(t) = -ext(n + t - m);
                 ar_filter(alpha, g.data(), nullptr, D.col(m - 1).data() + off, T);
             }
@@ -226,6 +233,7 @@ VecR arx(const std::vector<MatR> &ys, const std::vector<MatR> &us, int n, int d0
         const Eigen::Index T = ys[i].rows();
         for (int j = 0; j < ny; ++j)
             for (Eigen::Index t = n; t < T; ++t) {
+                if ((t - n) % 4096 == 4095) msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
                 row.setZero();
                 for (int m = 1; m <= n; ++m) row(m - 1) = -ys[i](t - m, j);
                 for (int k = 0; k < nu; ++k)
@@ -378,6 +386,7 @@ MatR multi_crb(const VecR &alpha, const std::vector<MatR> &beta, int d0, const s
         const Eigen::Index T = u[i].rows();
         MatR J(T * ny, q + nic);
         for (int c = 0; c < q + nic; ++c) {
+            msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");   // two simulations of the record
             VecR thp = th0, thm = th0;
             MatR xp = x0[i], xm = x0[i];
             double h;
@@ -565,6 +574,7 @@ MultiResult fit_core(const std::vector<MultiRecord> &recs, const MultiOptions &o
     bool converged = false;
     int it = 0;
     for (; it < o.max_iter && !converged; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the multi fit");
         const VecR r = residual_vec(e.R);
         const MatR JtJ = e.Ja.transpose() * e.Ja;
         const VecR g = e.Ja.transpose() * r;

@@ -13,6 +13,8 @@
 // lambda = 0 the cost equals the output-error cost ||Pi_perp y||^2 of multi_fit (a test).
 #include "multi.hpp"
 
+#include "msid_cancel.hpp"
+
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <string>
@@ -75,6 +77,8 @@ VecR eiv_residuals(const std::vector<MultiRecord> &recs, const VecR &th, const E
     VecR res(S);
     Eigen::Index off = 0;
     for (const auto &r : recs) {
+        // a residual of a long record is O(T n^2): the finite-difference Jacobian makes 2 p of them
+        msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
         if (!eiv_residual(r, th, L, lambda, res.data() + off)) return VecR::Constant(S, NAN);
         off += r.y.rows() - L.n;
     }
@@ -127,6 +131,7 @@ MultiEivResult multi_fit_eiv(const std::vector<MultiRecord> &recs, const MultiOp
     bool conv = false;
     int it = 0;
     for (; it < o.max_iter && !conv; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the multi fit");
         const MatR J = fd_jacobian(recs, th, L, lambda);
         const MatR H = J.transpose() * J;
         const VecR g = J.transpose() * r;

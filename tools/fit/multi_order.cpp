@@ -2,6 +2,8 @@
 #include "multi.hpp"
 #include "stats.hpp"
 
+#include "msid_cancel.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -127,6 +129,7 @@ MultiCheck multi_check(const std::vector<MultiRecord> &recs, const VecR &alpha, 
             VecR b = lu.solve(VecR(E.col(j).head(n)));
             MatR P = lu.inverse() * lu.inverse().transpose();   // (X0^T X0)^-1
             for (Eigen::Index t = n; t < T; ++t) {
+                if ((t - n) % 4096 == 4095) msidutil::checkpoint(msidutil::Step::rows, 4096, "the validation");
                 const VecR x = X.row(t).transpose();
                 const VecR Px = P * x;
                 const double f = 1.0 + x.dot(Px);

@@ -6,7 +6,11 @@
 // (p-value of the cost against its law, stats.hpp, >= alpha, default 0.05).
 // If no order passes, the cost elbow: the smallest order whose cost ratio
 // r_n = V_n / E[V_n] is within 10% of the way from the best ratio to the
-// first order's ratio, r_n - r_min <= 0.1 (r_first - r_min).
+// first order's ratio, r_n - r_min <= 0.1 (r_first - r_min), among the orders
+// whose model holds no pole on the stability bound (a stable fit that holds one
+// is on the edge of its model class, where the estimate has no covariance and
+// the pole fits what a stable model cannot: model error); all orders when every
+// one holds such a pole.
 //
 // A pole at order n is "stable" in the diagram when a pole at the previous
 // order has |f - f'| <= tol.freq f', |zeta - zeta'| <= tol.damping zeta'
@@ -28,6 +32,7 @@ struct OrderFit {
     double cost = 0, expected = 0, dof = 0, p_value = NAN;
     bool converged = true;
     int not_identified = -1;     // modes marked NOT identified (modal.hpp, the contribution test); -1: no test
+    int at_bound = 0;            // poles the stable fit holds on the stability bound (stab_bound.hpp)
 };
 
 struct StabTol {
@@ -54,6 +59,7 @@ struct OrderSelection {
     double alpha = 0.05;
     StabTol tol;
     size_t line_stride = 1;      // lines of the cost/p-value: every line_stride-th (LPM: 2W+1, as msid validate)
+    bool stopped_flat = false;   // stop_early ended the scan at a decided elbow with the cost flat far above its law
 };
 
 // Parse "auto", "a:b" or "a:step:b" into orders (multiples of `step` when auto
@@ -61,7 +67,9 @@ struct OrderSelection {
 std::vector<int> parse_order_range(const std::string &s, int step, int max_order, bool *is_auto);
 
 // Fit every order (in increasing order); with stop_early the scan stops two
-// orders after the first order that passes the p-value rule.
+// orders after the first order that passes the p-value rule, or, when none has,
+// two orders or more after an elbow no later order can move once the cost ratio
+// is at least 10 and the last two orders lowered it by less than a factor 2 each.
 OrderSelection select_order(const std::vector<int> &orders, const std::function<OrderFit(int)> &fit, double h,
                             double alpha = 0.05, const StabTol &tol = {}, bool stop_early = false);
 

@@ -1,5 +1,8 @@
 #include "poleres.hpp"
+#include "poleres_problem.hpp"
+#include "msid_cancel.hpp"
 #include "lmfd_fit.hpp"
+#include "stab_bound.hpp"
 #include "stats.hpp"
 #include "subspace.hpp"
 
@@ -10,240 +13,131 @@
 
 namespace msidfit {
 
-// Reflect into the stable region: CT Re p -> -|Re p|, DT |p| -> 1/|p|.
-static cd reflect(cd p, Domain d, int *count)
-{
-    if (d == Domain::CT && p.real() > 0) { if (count) ++*count; return cd(-p.real(), p.imag()); }
-    if (d == Domain::DT && std::abs(p) > 1) { if (count) ++*count; return 1.0 / std::conj(p); }
-    return p;
-}
+using namespace prfit;
 
 namespace {
 
-struct Prob {
-    Eigen::Index ny = 0, nu = 0, g = 0, rows = 0;
-    Domain d = Domain::CT;
-    double ws = 1.0;
-    std::vector<cd> xt;                       // scaled frequency variable
-    const std::vector<WeightedLine> *w = nullptr;
-};
-
-// Parameter layout: poles (1 or 2 each), then residues (g or 2g each), then D (g).
-struct Layout {
-    std::vector<char> pair;
-    std::vector<Eigen::Index> po, ro;
-    Eigen::Index dof = 0, n = 0, nlin = 0, npole = 0;
-    bool D = true;
-};
-
-Layout make_layout(const std::vector<cd> &poles, Eigen::Index g, bool D)
-{
-    Layout L;
-    L.D = D;
-    for (const cd &p : poles) L.pair.push_back(p.imag() > 0);
-    Eigen::Index t = 0;
-    for (char pr : L.pair) { L.po.push_back(t); t += pr ? 2 : 1; }
-    L.npole = t;
-    for (char pr : L.pair) { L.ro.push_back(t); t += pr ? 2 * g : g; }
-    L.dof = t;
-    if (D) t += g;
-    L.n = t;
-    L.nlin = t - L.npole;
-    return L;
-}
-
-double scan_ws(const std::vector<WeightedLine> &w, Domain d, double ws)
-{
-    if (d != Domain::CT) return 1.0;
-    if (ws > 0) return ws;
-    double lo = 1e300, hi = 0;
-    for (const auto &l : w) {
-        const double om = std::abs(l.x.imag());
-        if (om > 0) { lo = std::min(lo, om); hi = std::max(hi, om); }
-    }
-    return hi > 0 ? std::sqrt(lo * hi) : 1.0;
-}
-
-Prob make_prob(const std::vector<WeightedLine> &w, Domain d, double ws)
-{
-    Prob P;
-    P.w = &w;
-    P.d = d;
-    P.ny = w[0].G.rows();
-    P.nu = w[0].G.cols();
-    P.g = P.ny * P.nu;
-    P.ws = scan_ws(w, d, ws);
-    for (const auto &l : w) {
-        P.xt.push_back(l.x / P.ws);
-        P.rows += l.real ? P.g : 2 * P.g;
-    }
-    return P;
-}
-
-cd pole_of(const Layout &L, const VecR &th, size_t k)
-{
-    return L.pair[k] ? cd(th(L.po[k]), th(L.po[k] + 1)) : cd(th(L.po[k]), 0.0);
-}
-
-cd res_of(const Layout &L, const VecR &th, size_t k, Eigen::Index ij, Eigen::Index g)
-{
-    return L.pair[k] ? cd(th(L.ro[k] + ij), th(L.ro[k] + g + ij)) : cd(th(L.ro[k] + ij), 0.0);
-}
-
-// Model vec(G) at line li and, if Jc, the whitened Jacobian -Linv d vec(G) / d theta (g x n,
-// scaled coordinates). The residue and D columns of d vec(G) are unit vectors times a scalar,
-// so their whitened columns are multiples of the columns of Linv: only the pole block needs a product.
-void line_terms(const Prob &P, const Layout &L, const VecR &th, size_t li, const MatC &Linv, VecC &gm, MatC *Jc, MatC &dGp)
-{
-    const Eigen::Index g = P.g;
-    const cd x = P.xt[li], I(0, 1);
-    gm.setZero(g);
-    if (Jc) { dGp.setZero(g, L.npole); Jc->setZero(g, L.n); }
-    for (size_t k = 0; k < L.pair.size(); ++k) {
-        const cd p = pole_of(L, th, k), q = 1.0 / (x - p);
-        const cd q2 = L.pair[k] ? 1.0 / (x - std::conj(p)) : 0.0;
-        for (Eigen::Index ij = 0; ij < g; ++ij) {
-            const cd R = res_of(L, th, k, ij, g);
-            if (L.pair[k]) {
-                gm(ij) += R * q + std::conj(R) * q2;
-                if (Jc) {
-                    const cd a = R * q * q, b = std::conj(R) * q2 * q2;
-                    dGp(ij, L.po[k]) = a + b;
-                    dGp(ij, L.po[k] + 1) = I * (a - b);
-                    Jc->col(L.ro[k] + ij) = -(q + q2) * Linv.col(ij);
-                    Jc->col(L.ro[k] + g + ij) = -(I * (q - q2)) * Linv.col(ij);
-                }
-            } else {
-                gm(ij) += R * q;
-                if (Jc) {
-                    dGp(ij, L.po[k]) = R * q * q;
-                    Jc->col(L.ro[k] + ij) = -q * Linv.col(ij);
-                }
-            }
-        }
-    }
-    if (L.D)
-        for (Eigen::Index ij = 0; ij < g; ++ij) {
-            gm(ij) += th(L.dof + ij);
-            if (Jc) Jc->col(L.dof + ij) = -Linv.col(ij);
-        }
-    if (Jc) Jc->leftCols(L.npole).noalias() = -(Linv * dGp);
-}
-
-// Whitened real residual r = Linv vec(G - G(theta)) (real lines scaled by sqrt 1/2) and J = dr/dtheta.
-void resid(const Prob &P, const Layout &L, const VecR &th, VecR &r, MatR *J)
-{
-    const Eigen::Index g = P.g;
-    r.resize(P.rows);
-    if (J) J->resize(P.rows, L.n);   // every entry is written below (no memset of a large matrix)
-    VecC gm(g);
-    MatC dGp, Jc;
-    Eigen::Index r0 = 0;
-    for (size_t li = 0; li < P.xt.size(); ++li) {
-        const WeightedLine &l = (*P.w)[li];
-        line_terms(P, L, th, li, l.Linv, gm, J ? &Jc : nullptr, dGp);
-        const VecC e = l.Linv * (Eigen::Map<const VecC>(l.G.data(), g) - gm);
-        const double sc = l.real ? std::sqrt(0.5) : 1.0;
-        r.segment(r0, g) = sc * e.real();
-        if (!l.real) r.segment(r0 + g, g) = e.imag();
-        if (J) {
-            J->block(r0, 0, g, L.n) = sc * Jc.real();
-            if (!l.real) J->block(r0 + g, 0, g, L.n) = Jc.imag();
-        }
-        r0 += l.real ? g : 2 * g;
-    }
-}
-
-// J^T J (symmetric rank update: half the flops of the plain product).
-template <class Mat> MatR gram(const Mat &J)
-{
-    MatR M = MatR::Zero(J.cols(), J.cols());
-    M.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
-    return M.selfadjointView<Eigen::Lower>();
-}
-
-// Solve a scaled symmetric system (J^T J) x = b with column scaling; pseudo-inverse below rel. tol.
-VecR scaled_solve(const MatR &JtJ, const VecR &b, double lambda)
-{
-    const VecR s = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt();
-    MatR M = s.cwiseInverse().asDiagonal() * JtJ * s.cwiseInverse().asDiagonal();
-    M.diagonal().array() += lambda;
-    Eigen::LDLT<MatR> ldlt(M);
-    VecR x = ldlt.solve(s.cwiseInverse().cwiseProduct(b));
-    if (ldlt.info() != Eigen::Success || !x.allFinite() || !(ldlt.vectorD().minCoeff() > 1e-13 * ldlt.vectorD().maxCoeff())) {
-        Eigen::SelfAdjointEigenSolver<MatR> es(M);
-        const VecR ev = es.eigenvalues();
-        const double tol = 1e-13 * std::max(ev.maxCoeff(), 1e-300);
-        VecR inv = ev.unaryExpr([&](double v) { return v > tol ? 1.0 / v : 0.0; });
-        x = es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose() * s.cwiseInverse().cwiseProduct(b);
-    }
-    return s.cwiseInverse().cwiseProduct(x);
-}
-
-// Residues and D by weighted least squares for the current poles (variable projection step):
-// r is affine in them, r(c + dc) = r + J_lin dc; normal equations in unit-scaled columns.
-void solve_linear(const Prob &P, const Layout &L, VecR &th, VecR &r, MatR &J)
-{
-    resid(P, L, th, r, &J);
-    const auto Jl = J.rightCols(L.nlin);
-    const VecR dl = scaled_solve(gram(Jl), -(Jl.transpose() * r), 0.0);
-    if (dl.allFinite()) th.tail(L.nlin) += dl;
-}
-
-// Fix up after a step: poles with Im < 0 become their conjugate (residues conjugated), stable reflection.
-void canonical(const Layout &L, VecR &th, Domain d, bool stable, Eigen::Index g, int *refl)
-{
-    for (size_t k = 0; k < L.pair.size(); ++k) {
-        cd p = pole_of(L, th, k);
-        if (L.pair[k] && p.imag() < 0) {
-            p = std::conj(p);
-            th.segment(L.ro[k] + g, g) *= -1.0;
-        }
-        if (stable) p = reflect(p, d, refl);
-        th(L.po[k]) = p.real();
-        if (L.pair[k]) th(L.po[k] + 1) = p.imag();
-    }
-}
-
 struct LmOut {
+    Layout L;                     // the final layout (the continuation below may turn two real poles into a pair)
     VecR th;
     double V = 0, gnorm = 0;
     bool conv = false;
     int iters = 0;
+    std::vector<char> at_bound;   // per pole: on the stability bound at the end (held there)
 };
 
-LmOut lm(const Prob &P, const Layout &L, VecR th, int max_iter, double tol, bool stable, int *refl)
+// Continuation through a double real pole. Two real poles a1, a2 and the pair a +- j d (a = (a1 + a2)/2,
+// d = |a1 - a2|/2) span the same functions to second order in d: 1/(x - a), 1/(x - a)^2 and +d^2 (real)
+// or -d^2 (pair) times 1/(x - a)^3, one smooth coordinate u = +-d^2 through the double pole, which a
+// parametrisation by poles of a fixed kind cuts in two. Data that want a pair where a start put two
+// real poles (or the reverse) drive them to the double pole, their residues growing with opposite
+// signs, along a valley the step creeps down for hundreds of iterations without crossing. So when two
+// real poles come within MERGE_REL of each other (or a pair's |Im| within MERGE_REL of its |Re|), the
+// other kind at the same a and d is tried, its residues re-solved, and kept when its cost is lower.
+constexpr double MERGE_REL = 0.2;
+
+// The pole list (scaled) with poles i and j (two real poles) made one pair, or pole i (a pair, j = size)
+// made two real poles; sorted as pole_list sorts.
+std::vector<cd> other_kind(const std::vector<cd> &p, size_t i, size_t j, Domain d, bool stable)
+{
+    std::vector<cd> q;
+    for (size_t k = 0; k < p.size(); ++k)
+        if (k != i && k != j) q.push_back(p[k]);
+    if (j < p.size()) {
+        const double a = 0.5 * (p[i].real() + p[j].real()), dd = 0.5 * std::abs(p[i].real() - p[j].real());
+        const cd z(a, std::max(dd, 1e-12 * std::abs(a)));
+        q.push_back(stable ? stab_project(z, d) : z);
+    } else {
+        for (const double sg : {-1.0, 1.0}) {
+            const cd z(p[i].real() + sg * p[i].imag(), 0.0);
+            q.push_back(stable ? stab_project(z, d) : z);
+        }
+    }
+    std::sort(q.begin(), q.end(), [](const cd &x, const cd &y) {
+        return std::abs(x) != std::abs(y) ? std::abs(x) < std::abs(y) : x.real() < y.real();
+    });
+    return q;
+}
+
+// The kind-change candidates: (i, j) for two real poles within MERGE_REL of each other, (i, size) for a
+// pair with |Im| <= MERGE_REL |Re|.
+std::vector<std::pair<size_t, size_t>> kind_candidates(const std::vector<cd> &p, const Layout &L)
+{
+    std::vector<std::pair<size_t, size_t>> c;
+    for (size_t i = 0; i < p.size(); ++i) {
+        if (L.pair[i]) {
+            if (std::abs(p[i].imag()) <= MERGE_REL * std::abs(p[i].real())) c.push_back({i, p.size()});
+            continue;
+        }
+        for (size_t j = i + 1; j < p.size(); ++j)
+            if (!L.pair[j] &&
+                std::abs(p[i].real() - p[j].real()) <= MERGE_REL * std::max(std::abs(p[i].real()), std::abs(p[j].real())))
+                c.push_back({i, j});
+    }
+    return c;
+}
+
+// One try of the continuation at th: the first candidate whose other kind lowers the cost replaces L, th,
+// r, J and V. `tried` holds the candidates already refused (their centre, their separation): one is tried
+// again only once its separation has halved.
+void try_other_kind(const Prob &P, Layout &L, VecR &th, Normal &N, bool stable, std::vector<std::pair<cd, double>> &tried)
+{
+    std::vector<cd> p;
+    for (size_t k = 0; k < L.pair.size(); ++k) p.push_back(pole_of(L, th, k));
+    for (const auto &c : kind_candidates(p, L)) {
+        const bool merge = c.second < p.size();
+        const double sep = merge ? std::abs(p[c.first].real() - p[c.second].real()) : std::abs(p[c.first].imag());
+        const cd centre = merge ? 0.5 * (p[c.first] + p[c.second]) : cd(p[c.first].real(), 0.0);
+        bool seen = false;
+        for (const auto &t : tried) seen = seen || (std::abs(t.first - centre) <= 0.05 * std::abs(centre) && sep > 0.5 * t.second);
+        if (seen) continue;
+        tried.push_back({centre, sep});
+        const std::vector<cd> q = other_kind(p, c.first, c.second, P.d, stable);
+        const Layout Lq = make_layout(q, P.g, L.D);
+        VecR thq = VecR::Zero(Lq.n);
+        for (size_t k = 0; k < q.size(); ++k) {
+            thq(Lq.po[k]) = q[k].real();
+            if (Lq.pair[k]) thq(Lq.po[k] + 1) = q[k].imag();
+        }
+        Normal Nq;
+        solve_linear(P, Lq, thq, Nq);
+        if (std::isfinite(Nq.V) && Nq.V < N.V) {
+            L = Lq;
+            th = thq;
+            N = std::move(Nq);
+            return;
+        }
+    }
+}
+
+LmOut lm(const Prob &P, Layout L, VecR th, int max_iter, double tol, bool stable, int *refl)
 {
     LmOut o;
-    VecR r, r2;
-    MatR J, J2;
+    Normal N, N2;
     canonical(L, th, P.d, stable, P.g, refl);
-    solve_linear(P, L, th, r, J);
-    resid(P, L, th, r, &J);
-    double V = r.squaredNorm(), lambda = 1e-3;
+    solve_linear(P, L, th, N);
+    double lambda = 1e-3;
+    std::vector<char> act(L.pair.size(), 0);
+    std::vector<std::pair<cd, double>> tried;
     int it = 0;
     for (; it < max_iter; ++it) {
-        const MatR JtJ = gram(J);
-        const VecR grad = J.transpose() * r;
-        const VecR sd = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt();
-        o.gnorm = grad.cwiseQuotient(sd).norm();
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the ml fit");
+        try_other_kind(P, L, th, N, stable, tried);
+        const double V = N.V;
+        act.assign(L.pair.size(), 0);
+        if (stable) act = active_set(L, th, N.grad, P.d);
+        o.gnorm = free_gnorm(L, th, N.JtJ, N.grad, act, P.d);
         if (o.gnorm <= 1e-9 * std::sqrt(std::max(V, 1e-300))) { o.conv = true; break; }
         bool stepped = false;
         for (int tries = 0; tries < 40 && !stepped; ++tries) {
-            VecR th2 = th + scaled_solve(JtJ, -grad, lambda);
+            VecR th2 = th + constrained_step(L, th, N.JtJ, N.grad, lambda, act, P.d);
             canonical(L, th2, P.d, stable, P.g, nullptr);
-            resid(P, L, th2, r2, nullptr);
-            double V2 = r2.squaredNorm();
+            const double V2 = cost_at(P, L, th2);
             if (std::isfinite(V2) && V2 < V) {
-                solve_linear(P, L, th2, r2, J2);
-                resid(P, L, th2, r2, &J2);
-                const double V3 = r2.squaredNorm();
-                if (std::isfinite(V3) && V3 <= V2) V2 = V3;
-                const double rel = (V - V2) / std::max(V, 1e-300);
+                solve_linear(P, L, th2, N2);
+                const double rel = (V - N2.V) / std::max(V, 1e-300);
                 th = th2;
-                V = V2;
-                r.swap(r2);
-                J.swap(J2);
+                std::swap(N, N2);
                 lambda = std::max(lambda / 5.0, 1e-12);
                 stepped = true;
                 if (rel < tol) o.conv = true;
@@ -258,11 +152,14 @@ LmOut lm(const Prob &P, const Layout &L, VecR th, int max_iter, double tol, bool
             break;
         }
     }
-    if (stable) canonical(L, th, P.d, true, P.g, refl);
-    resid(P, L, th, r, &J);
-    o.V = r.squaredNorm();
-    const MatR JtJ = gram(J);
-    o.gnorm = (J.transpose() * r).cwiseQuotient(JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt()).norm();
+    o.V = N.V;
+    // at the end every pole on the bound is held there, whichever way the gradient points: its damping is
+    // the value the projection gave it, not one the data determine
+    o.at_bound.assign(L.pair.size(), 0);
+    if (stable)
+        for (size_t k = 0; k < L.pair.size(); ++k) o.at_bound[k] = stab_held_at_end(pole_of(L, th, k), P.d);
+    o.gnorm = free_gnorm(L, th, N.JtJ, N.grad, o.at_bound, P.d);
+    o.L = L;
     o.th = th;
     o.iters = it;
     return o;
@@ -312,6 +209,7 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
             wt(l, ij) = (w[(size_t)l].real ? std::sqrt(0.5) : 1.0) / std::sqrt(std::max(w[(size_t)l].cov(ij, ij).real(), 1e-300));
     const Eigen::Index nd = feedthrough ? 1 : 0;
     for (int it = 0; it < iters; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the ml fit");
         std::vector<char> pair;
         for (const cd &p : poles) pair.push_back(p.imag() > 0);
         const Eigen::Index N = (Eigen::Index)std::count(pair.begin(), pair.end(), 1) * 2 +
@@ -412,8 +310,11 @@ std::vector<cd> vector_fit_poles(const std::vector<WeightedLine> &w, Domain d, i
     return poles;
 }
 
-// Covariance, model FRF and its covariance at scaled theta.
-static void finish(const Prob &P, const Layout &L, const VecR &th, bool known_noise, PrResult &res)
+// Covariance, model FRF and its covariance at scaled theta. `act`: the poles held on the stability
+// bound, whose normal component is no estimate (fixed by the constraint, not by the data): the
+// Fisher information is that of the other directions, and the normal gets no variance.
+static void finish(const Prob &P, const Layout &L, const VecR &th, const std::vector<char> &act, bool known_noise,
+                   PrResult &res)
 {
     const Eigen::Index g = P.g;
     const std::vector<WeightedLine> &w = *P.w;
@@ -451,8 +352,9 @@ static void finish(const Prob &P, const Layout &L, const VecR &th, bool known_no
                 res.names.push_back("R" + std::to_string(k + 1) + ent(ij) + (L.pair[k] ? (part ? ".im" : ".re") : ""));
     if (L.D)
         for (Eigen::Index ij = 0; ij < g; ++ij) res.names.push_back("D" + ent(ij));
+    res.at_bound = act;
     // Fisher information 2 J^T J (residual components have variance 1/2): pseudo-inverse with its rank
-    MatR covs = fisher_cov(J, res.cov_rank);
+    MatR covs = held_fisher_cov(L, th, act, P.d, J, res.cov_rank);
     res.cov_factor = sample_ml_factor(w, (size_t)P.ny, known_noise);
     covs *= res.cov_factor;
     res.cov = S.asDiagonal() * covs * S.asDiagonal();
@@ -503,27 +405,26 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
     }
     LmOut best;
     best.V = std::numeric_limits<double>::infinity();
-    Layout bestL;
     for (const Cand &c : cands) {
         const Layout L = make_layout(c.poles, g, tryD);
         if (L.n >= P.rows) continue;
         int rc = 0;
         const LmOut r = lm(P, L, theta_from_poles(L, c.poles, P.ws), std::min(o.start_iter, o.max_iter), o.tol, o.stable, &rc);
         res.starts.push_back({c.name, r.V});
-        if (r.V < best.V) { best = r; bestL = L; res.best_start = c.name; refl = rc; }
+        if (r.V < best.V) { best = r; res.best_start = c.name; refl = rc; }
     }
     if (!std::isfinite(best.V)) throw FitError("no start gave a finite cost (order " + std::to_string(o.order) + ")");
     // the best start continues; --max-iter bounds its iterations in total (start + refinement)
     LmOut fin = best;
     if (!best.conv) {
-        fin = lm(P, bestL, best.th, std::max(0, o.max_iter - best.iters), o.tol, o.stable, &refl);
+        fin = lm(P, best.L, best.th, std::max(0, o.max_iter - best.iters), o.tol, o.stable, &refl);
         fin.iters += best.iters;
     }
-    Layout finL = bestL;
+    Layout finL = fin.L;
     if (o.feedthrough == Feedthrough::Auto) {
         // likelihood-ratio test of D = 0: 2 (V0 - V1) ~ chi2_g (eq. 40 residual components have variance 1/2)
         std::vector<cd> poles;
-        for (size_t k = 0; k < bestL.pair.size(); ++k) poles.push_back(pole_of(bestL, fin.th, k) * P.ws);
+        for (size_t k = 0; k < fin.L.pair.size(); ++k) poles.push_back(pole_of(fin.L, fin.th, k) * P.ws);
         const Layout L0 = make_layout(poles, g, false);
         VecR th0 = fin.th.head(L0.n);
         // The D = 0 fit gets start_iter iterations from the poles of the D fit: its cost is an upper
@@ -537,14 +438,14 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
             f0.iters += done;
             res.feedthrough_lr_p = chi2_sf((double)g, std::max(0.0, 2.0 * (f0.V - fin.V)));
             fin = f0;
-            finL = L0;
+            finL = f0.L;
         }
     }
     res.converged = fin.conv;
     res.iterations = fin.iters;
     res.grad_norm = fin.gnorm;
     res.reflected = refl;
-    finish(P, finL, fin.th, o.known_noise, res);
+    finish(P, finL, fin.th, fin.at_bound, o.known_noise, res);
     res.model.h = h;
     return res;
 }

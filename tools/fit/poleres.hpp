@@ -39,7 +39,8 @@ enum class Feedthrough { Auto, Yes, No };
 struct PrOptions {
     int order = 0;                 // number of poles (pairs count twice)
     Feedthrough feedthrough = Feedthrough::Auto;
-    bool stable = true;            // reflect unstable poles after every step (constrained ML; msid fit's default)
+    bool stable = true;            // constrained ML (msid fit's default): starts reflected, steps projected onto the
+                                   // stability bound, poles the data push out held on it (stab_bound.hpp)
     int max_iter = 200;            // LM iterations of the final refinement
     double tol = 1e-10;            // relative cost decrease for convergence
     int vf_iter = 15;              // vector-fitting relocations of the VF start (log-spaced poles)
@@ -76,6 +77,9 @@ struct PrResult {
     bool converged = false;
     int iterations = 0;
     int reflected = 0;             // poles reflected into the stable region (stable option)
+    // per pole of model.poles: held on the stability bound (stab_bound.hpp) at the end, the data pushing it
+    // out; its damping (CT Re p, DT |p|) is the constraint's, not an estimate, and has no variance in cov
+    std::vector<char> at_bound;
     std::vector<PrStart> starts;
     std::string best_start;
     double feedthrough_lr_p = -1;  // p-value of the likelihood-ratio test D = 0 (auto), -1 if not run

@@ -1,10 +1,17 @@
 #include "subspace.hpp"
 #include "stats.hpp"
 
+#include "msid_cancel.hpp"
+
 #include <Eigen/Eigenvalues>
-#include <thread>
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <thread>
 
 namespace msidfit {
 
@@ -40,27 +47,52 @@ static inline void small_mulv(const MatC &A, const cd *x, cd *y)
 // Fast evaluation of C (x I - A)^{-1} at many points: A = V diag(lambda) V^{-1}
 // once, then C V diag(1/(x - lambda)) V^{-1} per point; falls back to an LU per
 // point when A is (nearly) defective.
+// The size from which a dense step of the subspace fit (an eigendecomposition, an SVD, a QR: O(k^3),
+// over a second from k = 1000, and the SVD of the resolvent's eigenvectors from order 200) runs as one
+// abandonable step (msid_cancel.hpp), so that a stop lands at once. Below, a step takes milliseconds,
+// less than starting its thread.
+static constexpr Eigen::Index ABANDONABLE_SIZE = 48;
+
+// `work` (holding its inputs by value) as one abandonable step when `size` reaches ABANDONABLE_SIZE,
+// else a plain call.
+template <class R, class F> static R dense_step(Eigen::Index size, F work)
+{
+    if (size < ABANDONABLE_SIZE) return work();
+    return msidutil::abandonable<R>(std::function<R()>(std::move(work)), msidutil::Step::solves, "the subspace fit");
+}
+
 struct Resolvent {
     bool diag = false;
     MatC CV, Vi, A;
     VecC lam;
     MatC C;
+    Resolvent() = default;
     Resolvent(const MatR &Am, const MatR &Cm)
     {
         const Eigen::Index n = Am.rows();
         C = Cm.cast<cd>();
         A = Am.cast<cd>();
         if (n == 0) return;
+        *this = dense_step<Resolvent>(n, [A = A, C = C] { return decompose(A, C); });
+    }
+    // The diagonal form, when A's eigenvectors are well conditioned.
+    static Resolvent decompose(const MatC &A, const MatC &C)
+    {
+        Resolvent r;
+        r.A = A;
+        r.C = C;
+        const Eigen::Index n = A.rows();
         Eigen::ComplexEigenSolver<MatC> es(A);
-        if (es.info() != Eigen::Success) return;
+        if (es.info() != Eigen::Success) return r;
         const MatC V = es.eigenvectors();
         Eigen::JacobiSVD<MatC> sv(V);
         const double c = sv.singularValues()(0) / sv.singularValues()(n - 1);
-        if (!(c < 1e8)) return;
-        lam = es.eigenvalues();
-        Vi = V.inverse();
-        CV = C * V;
-        diag = true;
+        if (!(c < 1e8)) return r;
+        r.lam = es.eigenvalues();
+        r.Vi = V.inverse();
+        r.CV = C * V;
+        r.diag = true;
+        return r;
     }
     // K = C (x I - A)^{-1} into preallocated K (ny x n), T scratch (ny x n)
     void at(cd x, MatC &K, MatC &T) const
@@ -152,7 +184,10 @@ double fit_BD(SSModel &m, const std::vector<WeightedLine> &w, bool estimate_D)
             if (!l.real) S(r0 + ri + a, np) = gy.imag();
         }
         rows += l.real ? g : 2 * g;
-        if (rows + 2 * g > CH) reduce();
+        if (rows + 2 * g > CH) {
+            reduce();
+            msidutil::checkpoint(msidutil::Step::solves, 0, "the subspace fit");   // a QR of 64 lines' rows
+        }
     }
     reduce();
     const MatR Rf = S.topRows(have);
@@ -284,7 +319,7 @@ static Precomp precompute(const std::vector<WeightedLine> &w, const Shared &sh, 
 static constexpr double CY_RANK_TOL = 1e-9;
 
 // A and C from block-row count r (steps 1-2 of Algorithm 1). Returns the singular values.
-static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::vector<double> &sv)
+static void estimate_AC_here(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::vector<double> &sv)
 {
     const Eigen::Index ny = pc.ny, R = pc.R;
     // R_22^T R_22 from the rows r.. of every input's R factor (see Precomp)
@@ -324,6 +359,34 @@ static void estimate_AC(const Precomp &pc, int r, int n, MatR &A, MatR &C, std::
     // shift property (12): O_[1:r-1] A = O_[2:r]
     A = O.topRows((r - 1) * ny).completeOrthogonalDecomposition().solve(O.bottomRows((r - 1) * ny));
     C = O.topRows(ny);
+}
+
+// estimate_AC_here as one dense step (two eigendecompositions of size r ny).
+static void estimate_AC(const std::shared_ptr<const Precomp> &pc, int r, int n, MatR &A, MatR &C,
+                        std::vector<double> &sv)
+{
+    struct AC {
+        MatR A, C;
+        std::vector<double> sv;
+    };
+    AC ac = dense_step<AC>(r * pc->ny, [pc, r, n] {
+        AC o;
+        estimate_AC_here(*pc, r, n, o.A, o.C, o.sv);
+        return o;
+    });
+    A = std::move(ac.A);
+    C = std::move(ac.C);
+    sv = std::move(ac.sv);
+}
+
+// precompute as one dense step (a QR per input of 2F x R (1 + ny)).
+static std::shared_ptr<const Precomp> precompute_step(const std::vector<WeightedLine> &w, const Shared &sh, int R,
+                                                      bool weighted)
+{
+    const Eigen::Index size = R * (1 + w[0].G.rows());
+    if (size < ABANDONABLE_SIZE) return std::make_shared<const Precomp>(precompute(w, sh, R, weighted));
+    return dense_step<std::shared_ptr<const Precomp>>(
+        size, [w, sh, R, weighted] { return std::make_shared<const Precomp>(precompute(w, sh, R, weighted)); });
 }
 
 static int auto_order(const std::vector<double> &sv, int rmax_order)
@@ -449,7 +512,7 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
         const int r0 = o.r ? o.r : std::min(rmax, 12);
         MatR A, C;
         std::vector<double> sv;
-        const Precomp pc0 = precompute(w, sh, r0, weighted);
+        const auto pc0 = precompute_step(w, sh, r0, weighted);
         estimate_AC(pc0, r0, 1, A, C, sv);
         n = auto_order(sv, std::min(r0 - 1, max_order));
     }
@@ -471,7 +534,7 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
     }
     const int rhi = rs.back();
     double best = 1e300;
-    const Precomp pc = precompute(w, sh, rhi, weighted);
+    const auto pc = precompute_step(w, sh, rhi, weighted);
     // Each block-row count is an independent fit: run them on the available cores.
     struct Trial {
         SSModel m;
@@ -511,12 +574,44 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
     };
     const unsigned hw = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
     if (hw > 1 && nr > 1) {
-        // hw - 1 threads beside this one, which takes its own share (one thread start saved)
-        auto share = [&](unsigned t) { for (int i = (int)t; i < nr; i += (int)hw) work(i); };
+        // hw - 1 threads beside this one, which takes its own share (one thread start saved). The
+        // caller's cancellation token is every thread's; this thread, the only one that can see the
+        // caller's stop, asks it while it waits for the others (a stop is then seen at their next
+        // checkpoint), and every thread has ended before the stop is thrown
+        msidutil::Cancel *const cancel = msidutil::current_cancel();
+        std::atomic<bool> stopped{false};
+        std::mutex mu;
+        std::condition_variable cv;
+        unsigned busy = hw;
+        auto share = [&](unsigned t) {
+            msidutil::CancelScope scope(cancel);
+            try {
+                for (int i = (int)t; i < nr && !stopped; i += (int)hw) work(i);
+            } catch (const msidutil::Cancelled &) {
+                stopped = true;
+            }
+            std::lock_guard<std::mutex> g(mu);
+            --busy;
+            cv.notify_all();
+        };
         std::vector<std::thread> pool;
         for (unsigned t = 1; t < hw; ++t) pool.emplace_back(share, t);
         share(0);
+        std::unique_lock<std::mutex> g(mu);
+        while (busy) {
+            cv.wait_for(g, std::chrono::milliseconds(5));
+            if (!busy || stopped) continue;
+            g.unlock();
+            try {
+                msidutil::checkpoint(msidutil::Step::solves, 0, "the subspace fit");
+            } catch (const msidutil::Cancelled &) {
+                stopped = true;
+            }
+            g.lock();
+        }
+        g.unlock();
         for (auto &th : pool) th.join();
+        if (stopped) throw msidutil::Cancelled{"the subspace fit"};
     } else {
         for (int i = 0; i < nr; ++i) work(i);
     }

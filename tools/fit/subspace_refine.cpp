@@ -8,6 +8,7 @@
 // that lower the cost are taken, so the result never costs more than the start;
 // with `stable` a step that leaves the stable region is refused as well.
 #include "subspace.hpp"
+#include "msid_cancel.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
@@ -273,6 +274,7 @@ SubspaceRefine refine_subspace(SSModel &m, const std::vector<WeightedLine> &w, b
     double lambda = 1e-3;
     int steps = 0;
     for (int it = 0; it < max_iter; ++it) {
+        msidutil::checkpoint(msidutil::Step::iterations, 1, "the subspace refinement");
         MatR &JtJ = ne.JtJ;
         JtJ.triangularView<Eigen::StrictlyUpper>() = JtJ.transpose();
         const VecR &Jtr = ne.Jtr;

@@ -95,8 +95,12 @@ int noise_lags(const Record &r0, const CissimRequest &rq, int n)
                           : std::max<int>((int)std::ceil((double)n * n / ((double)ny * ny)) + 1,
                                           std::min(50, (int)std::lround(std::cbrt((double)N))));
     const int Mmin = (int)std::ceil((double)n * n / ((double)ny * ny)) + 1;
-    if (M < Mmin) throw UsageError(fmt("--lags %d is below ceil(n^2 / ny^2) + 1 = %d (Assumption 8)", M, Mmin));
-    if ((uint64_t)M >= N / 2) throw UsageError(fmt("--lags %d needs M << N = %llu (Assumption 8)", M, (unsigned long long)N));
+    // the default lags follow from the order: a message about them names the order, not an option not given
+    const std::string lags = rq.lags ? fmt("--lags %d", M) : fmt("order %d needs %d noise correlation lags, which", n, M);
+    if (M < Mmin) throw UsageError(fmt("%s is below ceil(n^2 / ny^2) + 1 = %d (Assumption 8)", lags.c_str(), Mmin));
+    if ((uint64_t)M >= N / 2)
+        throw UsageError(fmt("%s needs M << N = %llu samples (Assumption 8)%s", lags.c_str(), (unsigned long long)N,
+                             rq.lags ? "" : ": a lower order, more periods, or --no-covariance"));
     return M;
 }
 
@@ -249,6 +253,11 @@ void check_cissim(const CissimRequest &rq)
         if (2 * (uint64_t)b >= P) throw UsageError(fmt("--lines: bin %u is not below P/2 = %u", b, P / 2));
     if (rq.order && *rq.order == 0) throw UsageError("--order must be positive");
     if (rq.max_order && *rq.max_order == 0) throw UsageError("--max-order must be positive");
+    // the order sizes matrices of order x order and more: a state-space model of more states than this
+    // is beyond memory (and would wrap to a negative order)
+    for (auto [v, name] : {std::make_pair(rq.order, "--order"), std::make_pair(rq.max_order, "--max-order"),
+                           std::make_pair(rq.block_rows, "--block-rows"), std::make_pair(rq.lags, "--lags")})
+        if (v && *v > MAX_STATES) throw UsageError(fmt("%s %u is too large (at most %u)", name, *v, MAX_STATES));
     if (rq.isp != "auto" && rq.isp != "direct" && rq.isp != "fft")
         throw UsageError("--isp must be auto, direct or fft (got '" + rq.isp + "')");
     if (rq.refine != "ml" && rq.refine != "none") throw UsageError("--refine must be ml or none (got '" + rq.refine + "')");

@@ -7,6 +7,8 @@
 #include "stats.hpp"
 #include "subspace.hpp"
 
+#include "msid_cancel.hpp"
+
 #include <cmath>
 
 namespace msidfitjob {
@@ -115,6 +117,7 @@ Feedthrough parse_feedthrough(const FitRequest &rq)
 int order_value(const FitRequest &rq)
 {
     const uint32_t n = msidutil::parse_u32(rq.order, "--order");
+    if (n > MAX_STATES) throw UsageError(fmt("--order %u is too large (at most %u states)", n, MAX_STATES));
     return (int)n;
 }
 
@@ -252,7 +255,11 @@ void fit_by_subspace(Fit &c)
                    "one (measured in closed loop) refit with --allow-unstable",
                    r.stable_lr_p));
     c.extra["feedthrough"] = feedthrough_json(c.ft, r.feedthrough, r.feedthrough_p);
-    for (const auto &l : c.w) c.Gm.push_back(ss_eval(c.ss, l.x));
+    // the model at every line: a solve of the model's order per line (seconds at order 200 on 1000 lines)
+    for (const auto &l : c.w) {
+        c.Gm.push_back(ss_eval(c.ss, l.x));
+        msidutil::checkpoint(msidutil::Step::lines, 1, "the subspace fit");
+    }
 }
 
 // --start MODEL.json of ml --param poles: the model's poles (its pole_residue block, else the eigenvalues
@@ -267,6 +274,8 @@ std::vector<cd> model_start_poles(const std::string &path, Domain d, double h)
     ModelFile mf;
     try {
         mf = read_model(path);
+    } catch (const msidfrf::IoError &e) {   // missing, unreadable, a directory: stays a file error
+        throw msidfrf::IoError(std::string("--start: ") + e.what());
     } catch (const FitError &e) {
         throw FitError(std::string("--start: ") + e.what());
     }
@@ -323,6 +332,10 @@ void fit_by_ml_poles(Fit &c)
         c.settings["start"] = sp;
     }
     if (po.order == 0) throw UsageError("give --order");
+    // the step rules of the LMFD refinement: given here they were taken and ignored
+    if (rq.delta || rq.beta)
+        throw UsageError("--delta and --beta are the step rules of --param lmfd; the pole-residue fit (--param poles) "
+                         "takes neither");
     // --weight none: the cost has no noise scale for the likelihood-ratio test, auto keeps D (as subspace)
     po.feedthrough = c.ft == Feedthrough::Auto && !c.weighted ? Feedthrough::Yes : c.ft;
     po.stable = !c.allow_unstable;
@@ -335,11 +348,16 @@ void fit_by_ml_poles(Fit &c)
     c.settings["stable"] = po.stable;
     c.settings["max_iter"] = po.max_iter;
     c.extra["parameters"] = model_params(r.names, r.theta, r.cov, r.cov_rank, &r.cov_factor);
-    Json pj, pl = Json::array(), rl = Json::array();
+    // the poles held on the stability bound: their damping is the constraint's, with no variance in cov
+    Json held = Json::array(), pl = Json::array(), rl = Json::array();
     for (size_t k = 0; k < r.model.poles.size(); ++k) {
-        pl.push_back(Json{{"re", r.model.poles[k].real()}, {"im", r.model.poles[k].imag()}});
+        const bool b = k < r.at_bound.size() && r.at_bound[k];
+        pl.push_back(Json{{"re", r.model.poles[k].real()}, {"im", r.model.poles[k].imag()}, {"at_bound", b}});
         rl.push_back(cmat_json(r.model.R[k]));
+        if (b) held.push_back("p" + std::to_string(k + 1));
     }
+    c.extra["parameters"]["at_bound"] = held;
+    Json pj;
     pj["variable"] = d == Domain::CT ? "s" : "z";
     pj["poles"] = pl;
     pj["residues"] = rl;
@@ -376,7 +394,10 @@ MlResult lmfd_ml_from(const FrfData &f, Domain d, const std::vector<WeightedLine
         const SubspaceResult sr = fit_subspace(f, d, w_scan, weighted && min_dof(w_scan) >= 3, so);
         if (!(d == Domain::DT && s.nN == s.nD && ss_to_lmfd_dt(sr.model, s.nD, st))) {
             std::vector<MatC> target;
-            for (const auto &l : w) target.push_back(ss_eval(sr.model, l.x));
+            for (const auto &l : w) {
+                target.push_back(ss_eval(sr.model, l.x));
+                msidutil::checkpoint(msidutil::Step::lines, 1, "the lmfd fit");
+            }
             st = lmfd_sk(w, d, f.h, s, 30, &target);
         }
     } else {
@@ -395,11 +416,14 @@ LmfdSpec lmfd_spec(const Fit &c, bool &auto_nn)
     auto_nn = false;
     if (rq.nd || rq.nn) {
         if (!rq.order.empty()) throw UsageError("give --order or --nd/--nn, not both");
+        for (auto [v, name] : {std::make_pair(rq.nd, "--nd"), std::make_pair(rq.nn, "--nn")})
+            if (v && *v > MAX_STATES) throw UsageError(fmt("%s %u is too large (at most %u)", name, *v, MAX_STATES));
         s.nD = (int)rq.nd.value_or(1);
         s.nN = rq.nn ? (int)*rq.nn : (d == Domain::CT ? s.nD - 1 : s.nD);
     } else if (!rq.order.empty()) {
         const uint32_t n = msidutil::parse_u32(rq.order, "--order");
         if (n == 0 || n % ny) throw UsageError("--order must be a positive multiple of the number of outputs for an LMFD");
+        if (n > MAX_STATES) throw UsageError(fmt("--order %u is too large (at most %u states)", n, MAX_STATES));
         s.nD = (int)(n / ny);
         // properness from --feedthrough: CT yes -> nN = nD (direct term), no -> nN = nD - 1,
         // auto -> both, kept by a likelihood-ratio test; DT: the direct term is N_0 (pinned to 0 for no)
@@ -437,6 +461,12 @@ LmfdModel fit_lmfd_closed(Fit &c, const LmfdSpec &s, const MlOptions &mo)
         c.nparams = (int)ev.theta.size();
     } else {
         c.nparams = (int)(cf.equations * ny);
+        // more unknowns than equations: the lines are interpolated exactly by every model of a family
+        // (the kernel), so the residual has no degree of freedom and the order says nothing of the plant
+        c.note(fmt("the LMFD with nD = %d, nN = %d has %d unknowns per output row for %d real interpolation "
+                   "equations: one of a %d-dimensional family of models that pass through every line (dof 0, the "
+                   "cost tests nothing); a lower order, or --method ml, fits the plant",
+                   s.nD, s.nN, cf.unknowns, cf.equations, cf.unknowns - cf.equations));
     }
     // an interpolating model reproduces the FRF: its covariance at the lines is the data's (Cor. 3)
     for (const auto &l : c.w) { c.Gm.push_back(lmfd_eval(cf.model, l.x)); c.Gc.push_back(l.cov); }
@@ -700,6 +730,8 @@ FitOutcome fit_frf_at_order(const FrfData &f, const FitRequest &rq, const Report
         else fit_by_lmfd(c);
         finish_document(c);
         summarise(c);
+    } catch (const msidfrf::IoError &e) {   // a file (--start) that cannot be opened
+        throw msidutil::IoError(e.what());
     } catch (const FitError &e) {
         throw Error(e.what());
     }

@@ -13,6 +13,10 @@ using namespace msidfit;
 using msidutil::UsageError;
 using msidutil::fmt;
 
+// The most states (and LMFD degrees, iterations' counts) a request may ask for: matrices of that order
+// squared are beyond any machine's memory well before, and larger counts would wrap as int.
+constexpr uint32_t MAX_STATES = 65535;
+
 // Pass a note to the caller now and keep it in the outcome.
 void add_note(FitOutcome &out, const Report &report, const std::string &note);
 

@@ -1,6 +1,7 @@
 // Order selection of subspace and ml (`msid fit --order auto | a:b | a:step:b`): a fit at every
 // order, a stabilisation diagram, one order kept. docs/fitting.md, "Order selection".
 #include "fit_job_detail.hpp"
+#include "msid_cancel.hpp"
 #include "validation_stat.hpp"
 
 #include "msid_json_file.hpp"
@@ -86,6 +87,8 @@ OrderFit order_row(const Json &d, const FitOutcome &o, size_t stride, const VecR
     r.model.B = jm(d["B"], k, (Eigen::Index)nu) * si.cwiseInverse().asDiagonal();   // unit-free residues (above)
     r.model.C = so.cwiseInverse().asDiagonal() * jm(d["C"], (Eigen::Index)ny, k);
     r.model.D = jm(d["D"], (Eigen::Index)ny, (Eigen::Index)nu);
+    if (d.contains("parameters") && d["parameters"].contains("at_bound"))
+        r.at_bound = (int)d["parameters"]["at_bound"].size();
     if (d.contains("modes") && d["modes"].contains("modes"))
         for (const Json &m : d["modes"]["modes"])
             if (m.contains("identified")) r.not_identified = std::max(r.not_identified, 0) + !m["identified"].get<bool>();
@@ -100,7 +103,7 @@ std::string scan_table(const OrderSelection &sel, size_t stride)
         t += fmt("LPM file: cost and p-value over every %zu-th line (2W+1 bins apart: independent), as msid validate\n",
                  stride);
     // "stabilised": poles that repeat from the order below (the diagram's sense, not the model's stability)
-    t += "order  cost          expected      p-value     stabilised    not identified\n";
+    t += "order  cost          expected      p-value     stabilised    not identified  on the bound\n";
     std::map<std::string, int> failed_first;   // error -> the first order that printed it
     for (const auto &r : sel.rows) {
         if (!r.fit.ok) {
@@ -110,10 +113,15 @@ std::string scan_table(const OrderSelection &sel, size_t stride)
             continue;
         }
         const std::string sp = std::to_string(r.n_stable) + "/" + std::to_string(r.poles.size());
-        t += fmt("%-6d %-13.6g %-13.6g %-11.3g %-13s %-14s%s%s\n", r.order, r.fit.cost, r.fit.expected, r.fit.p_value,
-                 sp.c_str(), r.fit.not_identified >= 0 ? std::to_string(r.fit.not_identified).c_str() : "-",
-                 r.fit.converged ? "" : "  (not converged)", r.order == sel.chosen ? "  <- chosen" : "");
+        t += fmt("%-6d %-13.6g %-13.6g %-11.3g %-13s %-15s %-12d%s%s\n", r.order, r.fit.cost, r.fit.expected,
+                 r.fit.p_value, sp.c_str(), r.fit.not_identified >= 0 ? std::to_string(r.fit.not_identified).c_str() : "-",
+                 r.fit.at_bound, r.fit.converged ? "" : "  (not converged)", r.order == sel.chosen ? "  <- chosen" : "");
     }
+    if (sel.stopped_flat)
+        t += fmt("scan stopped after order %d: the elbow is decided and the cost, %.3g times its expectation, fell by "
+                 "less than half at each of the last two orders (model error the covariance does not hold: no higher "
+                 "order would pass the p-value rule)\n",
+                 sel.rows.back().order, sel.rows.back().fit.cost / sel.rows.back().fit.expected);
     return t;
 }
 
@@ -165,6 +173,7 @@ FitOutcome fit_frf_scan(const FrfData &f, const FitRequest &rq, const Report &re
                         " (inputs beyond double precision's range, e.g. data scaled near 1e150 or a sample rate near 0)");
         const OrderFit r = order_row(o.model, o, stride, so, si, f.nu, f.ny);
         fits.emplace_back(n, std::move(o));
+        msidutil::checkpoint(msidutil::Step::orders, 1, "the order scan");
         return r;
     };
     OrderSelection sel = select_order(orders, fit_at, f.h, 0.05, StabTol{}, is_auto);

@@ -6,6 +6,7 @@
 #include "validation_stat.hpp"
 
 #include "bla.hpp"
+#include "msid_cancel.hpp"
 #include "nl_verdict.hpp"
 #include "stats.hpp"
 
@@ -169,8 +170,13 @@ ValidateOutcome validate_frf(const ModelFile &mf, const FrfData &f, const Json &
     const std::vector<WeightedLine> w = weigh(f, mf.domain, wt);
     if (wt != Weight::None) check_weight_periods(w, f, true);
     const size_t stride = lpm_line_stride(f, rq.lpm_lines);
+    // the model at every line: a solve of the model's order per line, the long part of a high order on many lines
     std::vector<MatC> Gm;
-    for (const auto &l : w) Gm.push_back(model_at(mf, l.x));
+    Gm.reserve(w.size());
+    for (const auto &l : w) {
+        Gm.push_back(model_at(mf, l.x));
+        msidutil::checkpoint(msidutil::Step::lines, 1, "the validation");
+    }
     const ValidationStat vs = validation_stat(w, Gm, mf.n_params, stride, (double)f.ny, wt == Weight::None);
     if (!(vs.dof > 0))
         throw FitError("the model has as many parameters as the data: nothing to validate (dof " + std::to_string(vs.dof) + ")");

@@ -90,7 +90,9 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
             throw Error(fmt("line %s is given twice (positions %d and %d)", line_name(p, g.line_b).c_str(),
                             g.line_a + 1, g.line_b + 1));
         case MSID_E_AMPLITUDE:
-            throw Error(fmt("amplitude of line %s is not finite and positive", line_name(p, g.line_a).c_str()));
+            throw Error(fmt("amplitude of line %s is not finite and in [%g, %g] (the range whose squares double "
+                            "precision holds)",
+                            line_name(p, g.line_a).c_str(), MSID_MIN_AMPLITUDE, MSID_MAX_AMPLITUDE));
         case MSID_E_PHASE:
             throw Error(fmt("phase of line %s is not finite", line_name(p, g.line_a).c_str()));
         case MSID_E_CT_NOT_PERIODIC: {

@@ -4,8 +4,6 @@
 #include "frf_file.hpp"
 
 #include <cmath>
-#include <fstream>
-#include <sys/stat.h>
 
 namespace msidfmt {
 
@@ -15,13 +13,10 @@ Json read_json_file(const std::string &path)
 {
     try {
         return msidfrf::read_json(path);
+    } catch (const msidfrf::IoError &e) {   // missing, unreadable, a directory
+        throw Error(e.what(), msidutil::ErrorKind::io);
     } catch (const msidfrf::Error &e) {
-        // msidfrf's errors carry no kind (tools/frffile sits below msid_hostutil): a file that cannot
-        // be opened for reading (missing, unreadable, a directory) is an io error, anything else in it data
-        std::ifstream probe(path);
-        struct stat st {};
-        const bool unusable = !probe || (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode));
-        throw Error(e.what(), unusable ? msidutil::ErrorKind::io : msidutil::ErrorKind::data);
+        throw Error(e.what(), msidutil::ErrorKind::data);
     }
 }
 

@@ -28,14 +28,14 @@ const char *const VEC_CONVENTION = "vec stacks columns: G[i][j] has index i + n_
 Json read_json(const std::string &path)
 {
     std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+    if (!in) throw IoError("cannot open '" + path + "': " + std::strerror(errno));
     // a regular file into one buffer of its size (a stringstream grows by doubling and str()
     // copies: three buffers of fresh pages for a large file); anything else (a pipe, a directory,
     // whose "size" from seeking is not its content) is read the long way
     std::string s;
     struct stat st;
     const bool known = ::stat(path.c_str(), &st) == 0;
-    if (known && S_ISDIR(st.st_mode)) throw Error("'" + path + "' is a directory, not a file");
+    if (known && S_ISDIR(st.st_mode)) throw IoError("'" + path + "' is a directory, not a file");
     const bool regular = known && S_ISREG(st.st_mode);
     std::streamoff size = -1;
     if (regular) {
@@ -54,6 +54,11 @@ Json read_json(const std::string &path)
         ss << in.rdbuf();
         s = ss.str();
     }
+    return parse_json(s, path);
+}
+
+Json parse_json(const std::string &s, const std::string &path)
+{
     if (s.empty()) throw Error("'" + path + "' is empty");
     try {
         return Json::parse(s);

@@ -25,6 +25,11 @@ using MatC = Eigen::MatrixXcd;
 struct Error : std::runtime_error {
     explicit Error(const std::string &m) : std::runtime_error(m) {}
 };
+// A file that cannot be opened or read (missing, a directory, no permission): the Python
+// extension's OSError; the command line treats it as any Error.
+struct IoError : Error {
+    explicit IoError(const std::string &m) : Error(m) {}
+};
 
 enum class Domain { DT, CT };
 
@@ -65,8 +70,10 @@ struct FrfData {
 
 // ---------------- reading ----------------
 
-// Parse `path` as JSON; throws Error ("cannot open ...", "... is not valid JSON: ...").
+// Parse `path` as JSON; throws IoError ("cannot open ...") or Error ("... is not valid JSON: ...").
 Json read_json(const std::string &path);
+// Parse a file's text already in memory; `name` is the file in messages (as read_json names it).
+Json parse_json(const std::string &text, const std::string &name);
 
 // Read and validate an msid-frf/1 file (format, shapes, finiteness, dof >= 1). Throws
 // Error naming the file and the offending entry.

@@ -1,5 +1,6 @@
 // The FRF of arbitrary records by the LPM or the ETFE (tools/est) -> msid-frf/1 (msid_frf_est.hpp).
 #include "msid_frf_est.hpp"
+#include "msid_cancel.hpp"
 #include "frf_doc.hpp"
 #include "frf_file.hpp"
 #include "msid_reference.hpp"
@@ -42,6 +43,10 @@ void check_est_plan(const EstPlan &p, double fs)
     if (lpm && p.gstar) only("gstar", "etfe");
     if (p.order && *p.order > 8) throw UsageError("--order must be 0..8");
     if (p.window && *p.window == 0) throw UsageError("--window must be at least 1");
+    // 2W+1 bins of a record's spectrum: no record msid reads has more than 2^24 (and 2W+1 must not wrap)
+    if (p.window && *p.window >= (1u << 23))
+        throw UsageError(msidutil::fmt("--window %u: a window of 2W+1 = %llu bins is more than any record's spectrum "
+                                       "holds (at most 8388607)", *p.window, 2ull * *p.window + 1));
     if (p.delta && !(*p.delta > 0 && *p.delta < 1)) throw UsageError("--delta must be in (0, 1)");
     if (p.gstar && !(*p.gstar >= 0)) throw UsageError("--gstar must be >= 0");
     if (p.threads > 64) throw UsageError("--threads must be 1..64");
@@ -242,6 +247,7 @@ Json run_lpm(FrfRequest &rq, const std::vector<Record> &recs, const std::vector<
                   {"reference", "Pintelon et al. 2010, MSSP 24, Part I"}};
     doc["experiments"] = experiments_json(recs, N);
     for (size_t l = 0; l < R.bins.size(); ++l) {
+        if (l % 4096 == 4095) msidutil::checkpoint(msidutil::Step::lines, 0, "the FRF document");
         const cplx *nz = &R.noise[l * ny * ny];
         L.lines.push_back(est_line_json(line_position(rq, l), ny, nu, &R.G[l * g], &R.cov[l * g * g], R.q, nz,
                                         out_snr(S, R.bins[l], nz, ny)));
@@ -280,6 +286,7 @@ Json run_lpm_reference(FrfRequest &rq, const std::vector<Record> &recs, const Es
                   {"reference", "Pintelon et al. 2010, MSSP 24, Part I/II: LPM of [y; u] on r, G = G_yr G_ur^-1"}};
     doc["experiments"] = experiments_json(recs, N);
     for (size_t l = 0; l < R.bins.size(); ++l) {
+        if (l % 4096 == 4095) msidutil::checkpoint(msidutil::Step::lines, 0, "the FRF document");
         const cplx *ne = &E.noise[l * ny * ny];
         std::vector<double> snr;
         for (unsigned i = 0; i < ny; ++i) {
@@ -348,6 +355,7 @@ Json run_etfe(FrfRequest &rq, const std::vector<Record> &recs, const std::vector
                    {"reference", "Tsiamis et al. 2024, Theorem 1 eq. (12), constants of App. B/D"}};
     doc["experiments"] = experiments_json(recs, c.M);
     for (size_t l = 0; l < R.bins.size(); ++l) {
+        if (l % 4096 == 4095) msidutil::checkpoint(msidutil::Step::lines, 0, "the FRF document");
         const cplx *nz = &R.noise[l * ny * ny];
         Json e = est_line_json(line_position(rq, l), ny, nu, &R.G[l * g], &R.cov[l * g * g], R.dof, nz,
                                out_snr(S, R.bins[l], nz, ny));

@@ -4,6 +4,7 @@
 // gives the same bits whatever block sizes are pushed (lib/: msid_meas), so the document is the
 // same.
 #include "frf_job_detail.hpp"
+#include "msid_cancel.hpp"
 #include "frf_distortion.hpp"
 #include "msid_reference.hpp"
 #include "periodicity.hpp"
@@ -120,20 +121,28 @@ void extend_heads(std::vector<Source> &src, size_t want)
 }
 
 // --period auto on the streaming path: find_period() on the first PERIOD_SEARCH_ROWS rows of the first
-// file, as the whole record gives them, read by a stream of its own (freed before the FRF's pass).
+// file (its inputs, or its reference columns when --lines auto takes the lines from them), as the whole
+// record gives them, read by a stream of its own (freed before the FRF's pass).
 // find_period reads only the inputs, so only they are kept: the stream parses the inputs and the first
 // output (a record has an output), and each block's inputs are copied out of one block-sized buffer.
 // A logger's many channels cost nothing here, and a SISO prefix takes half the memory.
 uint32_t stream_find_period(const Record &info, const FrfPlan &plan)
 {
+    // from the excitation's reference when the lines come from it (as estimate_frf()): exactly periodic
+    const bool ref = plan.auto_lines && !plan.reference.empty();
+    if (ref && plan.reference.size() != info.nu)
+        throw UsageError(fmt("--reference names %zu column(s) for %u input(s): one reference per input",
+                             plan.reference.size(), info.nu));
     msidrec::ColumnMap mc;
-    for (uint32_t k = 0; k < info.nu; ++k) mc.map.emplace_back(fmt("u%u", k + 1), info.columns.at(k));
+    for (uint32_t k = 0; k < info.nu; ++k)
+        mc.map.emplace_back(fmt("u%u", k + 1), ref ? plan.reference[k] : info.columns.at(k));
     mc.map.emplace_back("y1", info.columns.at(info.nu));
     const size_t nu = info.nu, C = nu + 1;
     Record head;
     head.path = info.path;
     head.nu = info.nu;   // ny = 0: inputs only
-    head.columns.assign(info.columns.begin(), info.columns.begin() + info.nu);
+    if (ref) head.columns = plan.reference;
+    else head.columns.assign(info.columns.begin(), info.columns.begin() + info.nu);
     {   // the stream and its block closed before the search
         msidrec::CsvStream in(info.path, mc, true);
         // room for the rows searched (bounded by the file's size, as read_head)
@@ -153,7 +162,7 @@ uint32_t stream_find_period(const Record &info, const FrfPlan &plan)
     std::string rep;
     std::vector<Record> first;
     first.push_back(std::move(head));   // moved: an initializer list would copy the rows
-    const uint32_t P = find_period(first, rep);
+    const uint32_t P = find_period(first, rep, ref ? "reference" : "input");
     if (plan.report) plan.report("--period auto: " + rep + "\n");
     return P;
 }
@@ -244,14 +253,19 @@ uint32_t check_sources(FrfRequest &rq, std::vector<Source> &src, bool lines_know
     return (uint32_t)maxK;
 }
 
-// Pushes whole periods of `buf` (rows x C) to the core in pushes of at most `block` rows (0: all);
+// Pushes whole periods of `buf` (rows x C) to the core in pushes of at most `block` rows (0: all),
+// a checkpoint after each push of at most 256 KiB (a caller's token may end a long file early);
 // returns the rows pushed.
 size_t push_periods(msid_meas &ms, const double *buf, size_t rows, size_t C, uint32_t P, size_t block,
                     const std::string &path)
 {
-    const size_t w = rows / P * P, blk = block ? block : std::max<size_t>(w, 1);
-    for (size_t k = 0; k < w; k += blk)
-        check(msid_meas_push(&ms, buf + k * C, std::min(blk, w - k)), "'" + path + "'");
+    const size_t w = rows / P * P, cap = std::max<size_t>(1, ((size_t)256 << 10) / (8 * C));
+    const size_t blk = std::min(block ? block : std::max<size_t>(w, 1), cap);
+    for (size_t k = 0; k < w; k += blk) {
+        const size_t n = std::min(blk, w - k);
+        check(msid_meas_push(&ms, buf + k * C, n), "'" + path + "'");
+        msidutil::checkpoint(msidutil::Step::rows, n, "the FRF job");
+    }
     return w;
 }
 
@@ -311,6 +325,7 @@ bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msi
             std::vector<Record> infos;
             for (const Source &x : src) infos.push_back(x.in->info());
             check_records(rq, infos, false);
+            if (plan.auto_lines && plan.reference.empty()) plan.reference = msidrec::own_reference_columns(infos[0]);
             rq.period = stream_find_period(src[0].in->info(), plan);
             plan.auto_period = false;   // found: the whole path, if it comes to that, takes it
             extend_heads(src, input_check_rows(rq.period, rq.skip));
@@ -330,24 +345,35 @@ bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msi
         throw;
     }
     if (maxK == 0) return false;
-    std::vector<std::string> notes;
     const uint32_t m = (uint32_t)src.size(), nu = src[0].head.nu, ny = src[0].head.ny;
     // Two experiments at once on two lanes (threads), as run_frf(): each experiment's statistics the
     // same bits on either lane; an error is that of the first failing experiment in file order.
     const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
-    auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
-    std::vector<ExpSource> done(m);
-    on_lanes(m, lanes, [&](uint32_t lane, uint32_t e) { done[e] = measure_source(*jobp->meas(lane), e, src[e], rq); });
-    for (uint32_t e = 0; e < m && !ref_rows.empty() && !plan.reference.empty(); ++e)
-        if (ref_rows[e] != done[e].samples)
-            throw Error(fmt("'%s': the reference columns have %zu rows, the inputs and outputs %zu", paths[e].c_str(),
-                            ref_rows[e], (size_t)done[e].samples));
-    for (const ExpSource &x : done)
-        if (x.leftover)
-            notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", x.source.c_str(),
-                                (unsigned long long)x.leftover));
-    out.o = jobp->finish(done, notes);
+    std::unique_ptr<FrfJob> jobp;
+    const std::vector<uint32_t> found = rq.bins;
+    DroppedLines dropped;
+    bool again = false;
+    auto run = [&] {
+        // lines --lines auto found that the FRF cannot use were left out: the files once more, from their first row
+        if (again) src = open_sources(paths, cols, 0);
+        again = true;
+        jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
+        std::vector<ExpSource> done(m);
+        on_lanes(m, lanes, [&](uint32_t lane, uint32_t e) { done[e] = measure_source(*jobp->meas(lane), e, src[e], rq); });
+        for (uint32_t e = 0; e < m && !ref_rows.empty() && !plan.reference.empty(); ++e)
+            if (ref_rows[e] != done[e].samples)
+                throw Error(fmt("'%s': the reference columns have %zu rows, the inputs and outputs %zu", paths[e].c_str(),
+                                ref_rows[e], (size_t)done[e].samples));
+        std::vector<std::string> notes;
+        for (const ExpSource &x : done)
+            if (x.leftover)
+                notes.push_back(fmt("'%s': %llu samples after the last whole period are not used", x.source.c_str(),
+                                    (unsigned long long)x.leftover));
+        return jobp->finish(done, notes);
+    };
+    out.o = frf_without_unusable_lines(rq, plan, dropped, run);
     add_detection_distortion(out.o);
+    report_dropped_lines(rq, plan, found, dropped, lines_auto, out.o.notes);
     if (!lines_auto.is_null()) out.o.doc["lines_auto"] = lines_auto;
     if (!undecided.empty()) out.o.notes.push_back("--lines auto: " + undecided);
     out.nu = nu;

@@ -2,12 +2,14 @@
 #include "msid_frf_job.hpp"
 #include "frf_file.hpp"   // msid-frf/1: the one writer (tools/frffile)
 #include "periodicity.hpp"
+#include "msid_cancel.hpp"
 #include "msid_fftw_planner.hpp"
 #include "msid_mapped_pages.hpp"
 
 extern "C" {
 #include "msid/msid_fft_fftw.h"
 }
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <system_error>
@@ -167,7 +169,11 @@ void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane
     std::thread th;
     if (lanes == 2) {
         try {
-            th = std::thread(lane_run, 1u);
+            // the second lane asks the caller's cancellation token too
+            th = std::thread([&lane_run, c = msidutil::current_cancel()] {
+                const msidutil::CancelScope scope(c);
+                lane_run(1u);
+            });
         } catch (const std::system_error &) {   // no thread to be had: lane 1 after lane 0
         }
     }
@@ -187,19 +193,23 @@ void measure_records(FrfJob &job, const FrfRequest &rq, const std::vector<Record
         const Record &r = recs[e];
         check(msid_meas_begin(&ms, e), "experiment " + std::to_string(e + 1));
         const size_t nwhole = r.n_rows / P * P;
-        // A record read without its NaN/Inf scan (read_experiments' defer_finite) is scanned
-        // block by block just before the block is pushed, while it is in cache (256 KiB
-        // blocks; the results do not depend on the block size), the rows after the last
-        // whole period at the end: the reader's message, no sample used unchecked.
-        const size_t blk = r.finite_unchecked ? std::min<size_t>(rq.block ? rq.block : nwhole,
-                                                                 std::max<size_t>(1, ((size_t)256 << 10) / (8 * C)))
-                                              : (rq.block ? rq.block : nwhole);
+        // Blocks of 256 KiB (the results do not depend on the block size), a checkpoint after each
+        // (a caller's token may end a long record early). A record read without its NaN/Inf scan
+        // (read_experiments' defer_finite) is scanned block by block just before the block is pushed,
+        // while it is in cache, the rows after the last whole period at the end: the reader's
+        // message, no sample used unchecked.
+        // On the streaming DFT path a row costs a rotation per line and channel: at most 2^20 of
+        // those between checkpoints (milliseconds).
+        size_t cap = std::max<size_t>(1, ((size_t)256 << 10) / (8 * C));
+        if (job.streaming()) cap = std::min(cap, std::max<size_t>(64, ((size_t)1 << 20) / ((rq.bins.size() + rq.detect.size()) * C)));
+        const size_t blk = std::min<size_t>(rq.block ? rq.block : nwhole, cap);
         for (size_t k = 0; k < nwhole; k += blk) {
             const size_t n = std::min(blk, nwhole - k);
             if (r.finite_unchecked) check_finite(r, k, n);
             check(msid_meas_push(&ms, r.data() + k * C, n), "'" + r.path + "'");
             // a record read in place from a mapped file: the pages pushed go back to the kernel
             if (r.view) msidrec::release_mapped(r.data() + k * C, n * C * sizeof(double));
+            msidutil::checkpoint(msidutil::Step::rows, n, "the FRF job");
         }
         if (r.finite_unchecked) check_finite(r, nwhole, r.n_rows - nwhole);
         check(msid_meas_end(&ms, nullptr), "'" + r.path + "'");
@@ -254,12 +264,16 @@ struct FrfJob::Impl {
 FrfJob::~FrfJob() = default;
 msid_meas *FrfJob::meas(uint32_t lane) { return &p_->lane.at(lane)->ms; }
 uint32_t FrfJob::lanes() const { return (uint32_t)p_->lane.size(); }
+bool FrfJob::streaming() const { return p_->dft_path == "stream"; }
 
 FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint32_t maxK, uint32_t history,
                uint32_t lanes)
     : p_(std::make_unique<Impl>())
 {
     if (lanes < 1 || lanes > 2) throw Error("internal error: 1 or 2 measurement lanes");
+    if (nu > MSID_MAX_INPUTS || ny > MSID_MAX_OUTPUTS)
+        throw Error(fmt("%u inputs and %u outputs: msid estimates at most %u inputs and %u outputs", nu, ny, MSID_MAX_INPUTS,
+                        MSID_MAX_OUTPUTS));
     validate_lines(rq);
     Impl &I = *p_;
     I.rq = rq;
@@ -316,6 +330,70 @@ FrfJob::FrfJob(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint3
         ln.mm = Mem(nm);
         check(msid_meas_init(&ln.ms, &mc, ln.mm.p, ln.mm.n), "measurement setup");
     }
+}
+
+// --lines auto (FrfRequest::screen_lines): the lines whose neighbours leave the input too weak, the median
+// of the input SNR (of the period mean) at the SCREEN_NEIGHBOURS lines on either side below
+// MIN_INPUT_SNR_DB; none for a line without neighbours. The line's own data are left out of its test:
+// lines kept because their own noise happened to look small are those whose covariance is too small too
+// (their regions would under-cover); the neighbours' noise is independent of the line's, and the
+// input's spectrum, shaped by the plant and a controller, changes little from one line to the next.
+static std::vector<uint8_t> screened_weak_lines(const msid_frf &f, size_t L)
+{
+    std::vector<double> snr(L), nb;
+    for (size_t l = 0; l < L; ++l) snr[l] = msid_frf_input_snr_db(&f, (uint32_t)l);
+    std::vector<uint8_t> weak(L, 0);
+    for (size_t l = 0; l < L; ++l) {
+        nb.clear();
+        for (size_t j = l >= SCREEN_NEIGHBOURS ? l - SCREEN_NEIGHBOURS : 0; j < L && j <= l + SCREEN_NEIGHBOURS; ++j)
+            if (j != l) nb.push_back(snr[j]);
+        if (nb.empty()) continue;
+        std::sort(nb.begin(), nb.end());   // +-inf for an input without power or without noise; never NaN
+        const size_t n = nb.size();
+        const double med = n % 2 ? nb[n / 2] : 0.5 * (nb[n / 2 - 1] + nb[n / 2]);
+        weak[l] = !(med >= MIN_INPUT_SNR_DB);
+    }
+    return weak;
+}
+
+// The lines the FRF cannot use: the core's (msid_frf_compute gave MSID_E_SINGULAR: `singular`) and, with
+// --lines auto, those screened_weak_lines() names. The message names the first, as it always has for the
+// core's; every one is listed for --lines auto (UnusableLines).
+static UnusableLines unusable_lines(const msid_frf &f, const FrfRequest &rq, uint32_t nu, bool singular)
+{
+    const size_t L = rq.bins.size();
+    const std::vector<uint8_t> screened = rq.screen_lines ? screened_weak_lines(f, L) : std::vector<uint8_t>(L, 0);
+    std::string msg;
+    if (singular) {
+        const uint32_t l = (uint32_t)f.bad_line;
+        if (msid_frf_line_status(&f, l) == MSID_LINE_UNEXCITED)
+            msg = fmt("the inputs do not excite line %u (bin %u): its weakest input direction is %.1f dB below "
+                      "the strongest line and %.1f dB above the input noise; drop the line or excite it",
+                      l + 1, rq.bins[l], -msid_frf_input_rel_db(&f, l), msid_frf_input_snr_db(&f, l));
+        else if (nu == 1)   // one input: a 1 x m input matrix is singular only where the input has no power
+            msg = fmt("the input has no power at line %u (bin %u): drop the line or excite it (--lines auto "
+                      "finds the excited bins)",
+                      l + 1, rq.bins[l]);
+        else
+            msg = fmt("the input matrix is singular at line %u (bin %u, condition number %.3g): the experiments do "
+                      "not excite the %u inputs independently there",
+                      l + 1, rq.bins[l], msid_frf_cond(&f, l), nu);
+    } else {
+        for (size_t l = 0; l < L && msg.empty(); ++l)
+            if (screened[l])
+                msg = fmt("the inputs barely excite line %zu (bin %u) and its neighbours: the input SNR of the lines "
+                          "around it is below %g dB",
+                          l + 1, rq.bins[l], MIN_INPUT_SNR_DB);
+    }
+    UnusableLines u(msg);
+    for (uint32_t k = 0; k < (uint32_t)L; ++k) {
+        const int s = msid_frf_line_status(&f, k);
+        // one input without power is the weak case too: no input direction to speak of
+        if (s == MSID_LINE_UNEXCITED || (s != MSID_LINE_OK && nu == 1) || (s == MSID_LINE_OK && screened[k]))
+            u.weak.push_back(k);
+        else if (s != MSID_LINE_OK) u.dependent.push_back(k);
+    }
+    return u;
 }
 
 FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::string> notes)
@@ -389,6 +467,12 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
                                     "history holds %.0f MiB per experiment); the last %u are in the FRF untested",
                                     r.source.c_str(), msid_pstats_history(ps[e]), c.used, HISTORY_BYTES / 1048576.0,
                                     c.untested));
+        // a period whose spectrum overflowed (samples near 1e308) or held NaN/Inf is rejected: said, as
+        // the gaps of a device are, not only counted
+        if (c.nonfinite && c.used >= 2)
+            out.notes.push_back(fmt("'%s': %u period(s) rejected: NaN or Inf in their samples or line spectra (samples "
+                                    "beyond double precision's range, e.g. near 1e308, overflow the DFT)",
+                                    r.source.c_str(), c.nonfinite));
         x.transient_flagged = flagged;
         x.transient_dropped = dropped;
         x.drift_block = true;
@@ -434,19 +518,9 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     msid_frf f;
     check(msid_frf_init(&f, &fc, mf.p, mf.n), "FRF setup");
     msid_status st = msid_frf_compute(&f, ps.data());
-    if (st == MSID_E_SINGULAR) {
-        const uint32_t l = (uint32_t)f.bad_line;
-        if (msid_frf_line_status(&f, l) == MSID_LINE_UNEXCITED)
-            throw Error(fmt("the inputs do not excite line %u (bin %u): its weakest input direction is %.1f dB below "
-                            "the strongest line and %.1f dB above the input noise; drop the line or excite it",
-                            l + 1, rq.bins[l], -msid_frf_input_rel_db(&f, l), msid_frf_input_snr_db(&f, l)));
-        if (nu == 1)   // one input: a 1 x m input matrix is singular only where the input has no power
-            throw Error(fmt("the input has no power at line %u (bin %u): drop the line or excite it (--lines auto "
-                            "finds the excited bins)",
-                            l + 1, rq.bins[l]));
-        throw Error(fmt("the input matrix is singular at line %u (bin %u, condition number %.3g): the experiments do not "
-                        "excite the %u inputs independently there",
-                        l + 1, rq.bins[l], msid_frf_cond(&f, l), nu));
+    if (st == MSID_E_SINGULAR || (rq.screen_lines && st == MSID_OK)) {
+        UnusableLines u = unusable_lines(f, rq, nu, st == MSID_E_SINGULAR);
+        if (st == MSID_E_SINGULAR || !u.weak.empty() || !u.dependent.empty()) throw u;
     }
     if (st == MSID_E_FEW_PERIODS)
         throw Error(fmt("'%s': fewer than 2 usable periods", src[(size_t)f.bad_experiment].source.c_str()));

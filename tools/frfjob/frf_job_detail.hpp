@@ -33,6 +33,32 @@ void on_lanes(uint32_t m, uint32_t lanes, const std::function<void(uint32_t lane
 // none).
 void lines_auto_found(const FrfRequest &rq, const FrfPlan &plan, std::string rep, const std::vector<double> &p_min,
                       Json &block, std::string &undecided);
+// FrfJob::finish() when the core's FRF cannot use some of the lines: the Error of the first such line,
+// as always (its message unchanged), with every such line as an index into rq.bins, for a caller that
+// found the lines itself (--lines auto) and leaves these out instead (frf_without_unusable_lines).
+struct UnusableLines : Error {
+    explicit UnusableLines(const std::string &m) : Error(m) {}
+    std::vector<uint32_t> weak;        // the weakest input direction too close to its noise or to nothing
+                                       // (the core's excitation test, MSID_LINE_UNEXCITED)
+    std::vector<uint32_t> dependent;   // the input matrix singular: the experiments do not drive the inputs
+                                       // independently there (MSID_LINE_SINGULAR)
+};
+// The bins --lines auto found that the FRF could not use, by reason (frf_without_unusable_lines).
+struct DroppedLines {
+    std::vector<uint32_t> weak, dependent;
+    bool empty() const { return weak.empty() && dependent.empty(); }
+};
+// The periodic FRF on rq by `run`; with --lines auto (plan.auto_lines) a line the FRF cannot use
+// (UnusableLines) is left out and `run` runs again on the lines left (the FRF is then the one the
+// kept lines given with --lines give), until every line is used. The dropped bins go to `dropped`;
+// UnusableLines is rethrown when no line is left, or without --lines auto (given lines are refused).
+FrfOutcome frf_without_unusable_lines(FrfRequest &rq, const FrfPlan &plan, DroppedLines &dropped,
+                                      const std::function<FrfOutcome()> &run);
+// The lines frf_without_unusable_lines() dropped, in the document's lines_auto block
+// (unusable_bins, unusable_rule) and as one note (none when nothing was dropped). `found`: the bins
+// --lines auto found, for the ranges the note names.
+void report_dropped_lines(const FrfRequest &rq, const FrfPlan &plan, const std::vector<uint32_t> &found,
+                          const DroppedLines &dropped, Json &lines_auto, std::vector<std::string> &notes);
 // The transient test's history per experiment (16 bytes x lines x channels per period) holds at
 // most this: the periods after it are used untested (msid_pstats beyond_history).
 constexpr double HISTORY_BYTES = 32.0 * 1024 * 1024;

@@ -52,7 +52,19 @@ struct FrfRequest {
     // (msid frf) with write_json_file(..., &lines_text). Not when a line is not finite: then the
     // lines are in the document as always (and the writer names the entry).
     bool lines_as_text = false;
+    // --lines auto found rq.bins (estimate_frf sets it): FrfJob::finish() also refuses the lines whose
+    // neighbours among them leave the input too weak (screened_weak_lines, docs/statistics.md "Closed
+    // loop"), listing every line it cannot use, for the caller to leave them out.
+    bool screen_lines = false;
 };
+
+// The input SNR (of the period mean, dB) below which a line is too weakly excited for the FRF: the
+// core's excitation test (lib/src/msid_frf.c) on the line itself, and with FrfRequest::screen_lines the
+// median over its neighbours (P 2002, section 5: below it the ratio of the averaged spectra is biased and
+// its covariance does not hold).
+constexpr double MIN_INPUT_SNR_DB = 10.0;
+// The neighbours of a line in that median: this many lines on either side, the line itself left out.
+constexpr size_t SCREEN_NEIGHBOURS = 4;
 
 struct FrfOutcome {
     Json doc;                  // msid-frf/1
@@ -91,8 +103,9 @@ struct FrfPlan {
     bool bla = false;                  // the best linear approximation over `realisations` blocks
     uint32_t realisations = 0;         // R (with bla; R < 2 is refused)
     const Design *design = nullptr;    // the design behind rq, if any
-    // --lines auto from the excitation's reference instead of the inputs: the columns r1..r_nu of each
-    // record's file (names as in the file; one per input), read with the record's first output
+    // --lines auto (and with it --period auto) from the excitation's reference instead of the inputs: the
+    // columns r1..r_nu of each record's file (names as in the file; one per input), read with the
+    // record's first output
     std::vector<std::string> reference;
     // what was found (--period auto, --lines auto), one line or two, as it is found
     std::function<void(const std::string &)> report;
@@ -112,7 +125,8 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
 // (the input checks), and the core's per-period statistics (the transient test's history: L x
 // (nu + ny) complex values per period, none with --transient off), never the samples; the document is
 // the same bits as from the records read whole. --period auto reads the first PERIOD_SEARCH_ROWS rows
-// of the first file's inputs by a stream of its own; --lines auto passes every file once more through
+// of the first file's inputs (its reference columns when --lines auto takes the lines from them) by a
+// stream of its own; --lines auto passes every file once more through
 // a LineScan first (its inputs, or the reference columns: plan.reference, else the files' own r1..
 // columns when they name one per input). Everything else (.npy/.npz/.mat, a pipe, --realisations,
 // --direct), and a record whose input check needs the whole record (an input that is not periodic
@@ -153,6 +167,7 @@ public:
     FrfJob &operator=(const FrfJob &) = delete;
     msid_meas *meas(uint32_t lane = 0);
     uint32_t lanes() const;
+    bool streaming() const;   // the line DFT path is the streaming one (a rotation per line per sample)
     FrfOutcome finish(const std::vector<ExpSource> &src, std::vector<std::string> notes = {});
 
 private:

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <map>
 #include <numeric>
 #include <exception>
 #include <system_error>
@@ -370,8 +371,50 @@ static void check_lines_hold_input(const Record &r, uint32_t P, uint32_t skip, s
                     r.path.c_str(), P, why.c_str(), format_bins(found).c_str(), found.size(), format_bins(found).c_str()));
 }
 
-void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &recs)
+// Does period p of r hold a NaN or infinity in an input (a candump log's lost samples are NaN rows,
+// read_record_candump; every other reader refuses non-finite cells)?
+static bool period_lost(const Record &r, uint32_t P, size_t p)
 {
+    const size_t C = r.nu + r.ny;
+    const double *x = r.data() + p * P * C;
+    for (size_t n = 0; n < P; ++n)
+        for (size_t j = 0; j < r.nu; ++j)
+            if (!std::isfinite(x[n * C + j])) return true;
+    return false;
+}
+
+// The records with their lost periods left out (whole periods back to back), for the input checks: the
+// FRF job rejects and counts those periods, and the checks must not read NaN. Empty when no record lost
+// a sample (the records are checked as they are). A record read without its NaN/Inf scan
+// (Record::finite_unchecked: a .npy read in place) loses no period: a non-finite cell in it is an error
+// that its reader's scan names, block by block as the job pushes it. It is not scanned here either, so
+// that its pages are read once, by the job, and given back behind it.
+static std::vector<Record> without_lost_periods(const std::vector<Record> &recs, uint32_t P)
+{
+    bool any = false;
+    for (const Record &r : recs)
+        for (size_t p = 0; !r.finite_unchecked && p < r.n_rows / P && !any; ++p) any = period_lost(r, P, p);
+    std::vector<Record> out;
+    if (!any) return out;
+    for (const Record &r : recs) {
+        Record c;
+        c.path = r.path;
+        c.nu = r.nu;
+        c.ny = r.ny;
+        c.columns = r.columns;
+        const size_t C = r.nu + r.ny;
+        for (size_t p = 0; p < r.n_rows / P; ++p)
+            if (r.finite_unchecked || !period_lost(r, P, p)) c.rows.insert(c.rows.end(), r.data() + p * P * C, r.data() + (p + 1) * P * C);
+        c.n_rows = c.rows.size() / C;
+        out.push_back(std::move(c));
+    }
+    return out;
+}
+
+void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t> &bins, const std::vector<Record> &all)
+{
+    const std::vector<Record> kept = without_lost_periods(all, P);
+    const std::vector<Record> &recs = kept.empty() ? all : kept;
     // The time-domain part of every record's check (the non-periodic fraction at P and at the
     // neighbours P +- 1, 2: samples only, no FFTW) for two or more records on two threads, record
     // e on thread e % 2; the verdicts below in file order, the same as one record after the other.
@@ -449,12 +492,15 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
             ev = periodic_evidence(r, P, skip, K, bins);
             if (ev.periodic()) continue;
         }
-        if (Q)
+        if (Q) {
+            // what the wrong period does to the estimate, when it shows (nothing to say: no clause)
+            const std::string sym = wrong_period_symptoms(r, P, skip, bins);
             throw Error(fmt("'%s': --period %u does not fit the input: it repeats every %u samples (the part of the input "
-                            "that changes from period to period is %.2g%% of its power with %u, %.2g%% with %u); with "
-                            "%u, %s. Use --period %u",
-                            r.path.c_str(), P, Q, 100 * eta_n, Q, 100 * eta, P, P,
-                            wrong_period_symptoms(r, P, skip, bins).c_str(), Q));
+                            "that changes from period to period is %.2g%% of its power with %u, %.2g%% with %u)%s. Use "
+                            "--period %u",
+                            r.path.c_str(), P, Q, 100 * eta_n, Q, 100 * eta, P,
+                            sym.empty() ? "" : fmt("; with %u, %s", P, sym.c_str()).c_str(), Q));
+        }
         if (eta > NONPERIODIC_FRACTION) {
             check_lines_hold_input(r, P, skip, K, bins);   // a noisy periodic input analysed at the wrong lines
             throw Error(fmt("'%s': the input is not periodic with period %u: %.0f%% of its power changes from period to "
@@ -529,7 +575,7 @@ static double *input_autocorrelation(const Record &r, size_t N, size_t nf)
     return buf;
 }
 
-uint32_t find_period(const std::vector<Record> &recs, std::string &report)
+uint32_t find_period(const std::vector<Record> &recs, std::string &report, const char *signal)
 {
     const Record &r = recs.at(0);
     // the search window: every step below reads only these rows, so a record streamed from its file
@@ -537,6 +583,11 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     const size_t N = std::min(r.n_rows, PERIOD_SEARCH_ROWS);
     if (N < 2 * MSID_MIN_PERIOD)
         throw Error(fmt("'%s': %zu samples are too few to find a period (--period auto)", r.path.c_str(), r.n_rows));
+    for (size_t n = 0; n < N; ++n)   // lost samples (a candump log's NaN rows): no autocorrelation
+        for (size_t j = 0; j < r.nu; ++j)
+            if (!std::isfinite(r.data()[n * (r.nu + r.ny) + j]))
+                throw Error(fmt("'%s' lost samples (row %zu): --period auto needs a record without; give --period",
+                                r.path.c_str(), n + 1));
     // The search reads lags up to N / 2 only, so N + N / 2 points hold them without wrap-around
     // (2 N would hold every lag): 2^k or 3 * 2^k, whichever is shorter, for a fast transform. At the
     // search's 2^21 rows that is 3 * 2^20 points, whose buffer and FFTW twiddles take about 20 MB less.
@@ -546,7 +597,8 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     // the (biased) autocorrelation
     const std::unique_ptr<double, void (*)(void *)> acbuf(input_autocorrelation(r, N, nf), fftw_free);
     const double *ac = acbuf.get();
-    if (!(ac[0] > 0)) throw Error(fmt("'%s': the inputs are constant: no period to find (--period auto)", r.path.c_str()));
+    if (!(ac[0] > 0))
+        throw Error(fmt("'%s': the %ss are constant: no period to find (--period auto)", r.path.c_str(), signal));
     // rho(tau): unbiased autocorrelation normalised by the variance
     auto rho = [&](size_t t) { return ac[t] / (double)(N - t) / (ac[0] / (double)N); };
     size_t t0 = 1;
@@ -564,17 +616,44 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
     double eta = 1.0;
     // Refine by the exact non-periodic fraction around the peak. A peak at a fraction of the
     // period (lines all multiples of 3 repeat almost every P/3 samples) is followed to its
-    // multiples 2 P0, 3 P0, ... until one repeats (eta at most 0.1) or N/2 is reached.
+    // multiples 2 P0, 3 P0, ... until one repeats (eta at most 0.1) or N/2 is reached. The
+    // neighbours are compared by their noise-normalised share eta K/(K-1) (K repetitions in the N
+    // rows): a record of exactly K periods holds only K - 1 of P + 1, and over fewer repetitions a
+    // noisy input's eta is smaller ((K-1)/K of its noise share), which would prefer P + 1 to P where
+    // the one-sample mismatch is small (an input of low frequencies).
+    // The refinement walks: from the lag, to the best of its +-2 neighbours while that is better (at
+    // most REFINE_MOVES moves), as the autocorrelation of a signal of low frequencies is flat around
+    // its period and normalised per lag over windows of unequal power, so its peak can lie several
+    // samples off the period.
+    constexpr int REFINE_MOVES = 64;
     const uint32_t P0 = P;
+    std::map<int64_t, std::pair<double, double>> seen;   // lag -> (eta, eta K/(K-1))
+    auto share = [&](int64_t Q, double &e, double &e_norm) {
+        if (Q < (int64_t)MSID_MIN_PERIOD || Q > (int64_t)MSID_MAX_PERIOD || (size_t)Q * 2 > N) return false;
+        auto it = seen.find(Q);
+        if (it == seen.end()) {
+            const size_t K = N / (size_t)Q;
+            const double x = nonperiodic_fraction(r, (uint32_t)Q, 0, K);
+            it = seen.emplace(Q, std::make_pair(x, x * (double)K / (double)(K - 1))).first;
+        }
+        e = it->second.first;
+        e_norm = it->second.second;
+        return true;
+    };
     for (uint32_t mult = 1; P0 && (size_t)P0 * mult * 2 <= N + 4; ++mult) {
         uint32_t bestP = 0;
         double best = 1.0;
-        for (int d = -2; d <= 2; ++d) {
-            const int64_t Q = (int64_t)P0 * mult + d;
-            if (Q < (int64_t)MSID_MIN_PERIOD || Q > (int64_t)MSID_MAX_PERIOD || (size_t)Q * 2 > N) continue;
-            const size_t K = N / (size_t)Q;
-            const double e = nonperiodic_fraction(r, (uint32_t)Q, 0, K);
-            if (e < best) { best = e; bestP = (uint32_t)Q; }
+        int64_t centre = (int64_t)P0 * mult;
+        for (int move = 0; move < REFINE_MOVES; ++move) {
+            int64_t at = -1;
+            double e_at = 1.0, norm_at = HUGE_VAL, e, e_norm;
+            for (int d = -2; d <= 2; ++d)
+                if (share(centre + d, e, e_norm) && e_norm < norm_at) { at = centre + d; e_at = e; norm_at = e_norm; }
+            if (at < 0) break;
+            bestP = (uint32_t)at;
+            best = e_at;
+            if (at == centre) break;
+            centre = at;
         }
         if (bestP && (mult == 1 || best < 0.5 * eta)) { eta = best; P = bestP; }   // clearly better only
         if (eta <= 0.1 || mult >= 16) break;
@@ -603,14 +682,14 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report)
         noisy = periodic_evidence(r, P, 0, K, {}).periodic();
     }
     if (!P || (eta > level && !noisy))
-        throw Error(fmt("'%s': the input does not repeat: no period with at least 2 repetitions leaves less than %.0f%% "
-                        "of the input power changing from period to period (half of what a non-periodic input "
+        throw Error(fmt("'%s': the %s does not repeat: no period with at least 2 repetitions leaves less than %.0f%% "
+                        "of the %s power changing from period to period (half of what a non-periodic %s "
                         "gives)%s. Give --period, or for a sweep, chirp, noise or operating data use --method lpm",
-                        r.path.c_str(), 100 * (P ? level : NONPERIODIC_FRACTION),
+                        r.path.c_str(), signal, 100 * (P ? level : NONPERIODIC_FRACTION), signal, signal,
                         P ? fmt(" (best: %u samples, %.0f%% changing)", P, 100 * eta).c_str() : ""));
-    report = fmt("period %u samples (found from the input's repetition: %.2g%% of the input power changes from "
+    report = fmt("period %u samples (found from the %s's repetition: %.2g%% of the %s power changes from "
                  "period to period%s, %zu whole periods in %s'%s')",
-                 P, 100 * eta, noisy ? ", mostly noise: its period mean stands out of it" : "", N / P,
+                 P, signal, 100 * eta, signal, noisy ? ", mostly noise: its period mean stands out of it" : "", N / P,
                  N < PERIOD_SEARCH_ROWS ? "" : fmt("the first %zu rows of ", N).c_str(), r.path.c_str());
     return P;
 }
@@ -713,7 +792,8 @@ std::vector<uint32_t> find_lines(const std::vector<Record> &recs, uint32_t P, ui
         const size_t Kall = r.n_rows / P, C = r.nu + r.ny;
         scans.emplace_back(P, r.nu, r.path);
         if (Kall < (size_t)skip + 2) break;   // lines_from_scans names it
-        for (size_t p = skip; p < Kall; ++p) scans.back().push(r.data() + p * P * C, C);
+        for (size_t p = skip; p < Kall; ++p)
+            if (!period_lost(r, P, p)) scans.back().push(r.data() + p * P * C, C);   // lost samples: rejected
     }
     return lines_from_scans(scans, P, skip, report, p_min);
 }

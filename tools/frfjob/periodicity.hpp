@@ -90,8 +90,9 @@ bool input_check_needs_whole(uint32_t P, uint32_t skip, const std::vector<uint32
 // --period auto: the period of the inputs of the first record's first
 // PERIOD_SEARCH_ROWS rows (autocorrelation, refined by nonperiodic_fraction).
 // Throws Error saying so when the input does not repeat (at least twice).
-// `report` describes what was found.
-uint32_t find_period(const std::vector<Record> &recs, std::string &report);
+// `report` describes what was found. `signal` names the inputs in the report and messages:
+// "reference" when recs hold the excitation's reference columns as inputs (reference_records).
+uint32_t find_period(const std::vector<Record> &recs, std::string &report, const char *signal = "input");
 
 // --period auto searches the first PERIOD_SEARCH_ROWS rows of the first record (whole when shorter):
 // periods up to half of it (2^20 samples) with two repetitions; a longer period is given (--period).

@@ -60,6 +60,7 @@ const char *HELP_FIT =
     "against the truth over vector fitting's, mean, median and standard error (vector fitting takes\n"
     "seconds per fit: 20 runs take minutes).\n"
     "4: the whole `msid fit --method subspace` process against a NumPy subspace process.\n"
+    "--only modal FRF.json: the order scan of a structure's FRF against LSCF (msid bench fit --only modal -h).\n"
     "Without --only it also runs `msid bench fit --only multi --runs 50` (case M1, multiple experiments)\n"
     "and, last, the cissim benchmark with --quick and the same --systems. --only cissim (or --cissim):\n"
     "discrete-cISSIM, `msid bench fit --cissim --help`. --cissim-process: the whole cissim process against\n"
@@ -72,6 +73,14 @@ const char *HELP_MULTI =
     "conditions. 1: rms parameter error against N = 1..50 (K runs each, default 200), slope of\n"
     "log error on log N; 2: empirical covariance against the Cramer-Rao bound (fixed initial\n"
     "conditions); 3: time per fit against the SciPy peer (initial conditions as parameters).\n";
+
+const char *HELP_MODAL =
+    "usage: msid bench fit --only modal FRF.json [--baseline MSID] [--runs N] [--no-peer]\n"
+    "The order scan of a structure's FRF, `msid fit --method ml --domain ct --order auto FRF.json`, as a whole\n"
+    "process: the CPU time of the best of N runs (default 1) after one warm-up, the chosen order and its\n"
+    "modes; beside it sdypy-EMA's LSCF over its polynomial orders 2..60 on the same FRF (the modes stable\n"
+    "over its orders 30-60)\n"
+    "and, with --baseline, another msid executable's same scan (a previous build) with the speed ratio.\n";
 
 const char *HELP_CISSIM =
     "usage: msid bench fit --cissim | --only cissim [--systems N] [--quick]\n"
@@ -86,7 +95,7 @@ const char *HELP_CISSIM =
 const char *HELP_CISSIM_PROCESS =
     "usage: msid bench fit --cissim-process [--min-seconds S] [--no-peer] [--keep DIR]\n"
     "The whole `msid fit --method cissim` process (start, reading, fit with the default ML refinement and\n"
-    "noise covariance, writing the model; .npy and CSV) on the cases of issue 28: a 2x2 record (order 4,\n"
+    "noise covariance, writing the model; .npy and CSV) on two cases: a 2x2 record (order 4,\n"
     "P = 2000, 60,000 samples, 300 lines, 30 dB) and a sparse SISO one (lightly damped, 72,000 samples,\n"
     "50 lines, 20 dB), against the whole run of the authors' discrete-cISSIM code under Octave on the same\n"
     "samples when MSID_DCISSIM_DIR names a checkout of it (github wyqy/dcissim) and octave-cli is on PATH\n"
@@ -113,6 +122,18 @@ int bench_fit_multi(int argc, char **argv)
     return msidbench::bench_fit_multi(rq, console()).report.status;
 }
 
+int bench_fit_modal(int argc, char **argv)
+{
+    Args a(argc, argv, 3, HELP_MODAL, {"only", "baseline", "runs"}, {"no-peer"});
+    if (a.positional().size() != 1) throw UsageError("give one FRF file: msid bench fit --only modal FRF.json");
+    msidbench::ModalBenchRequest rq;
+    rq.frf = a.positional()[0];
+    rq.baseline = a.get("baseline", "");
+    rq.runs = a.u32("runs", rq.runs);
+    rq.peer = !a.has("no-peer");
+    return msidbench::bench_fit_modal(rq, console()).report.status;
+}
+
 int bench_cissim(int argc, char **argv)
 {
     Args a(argc, argv, 3, HELP_CISSIM, {"systems", "only"}, {"cissim", "quick"});
@@ -133,6 +154,7 @@ bool only_is(int argc, char **argv, const char *what)
 int bench_fit(int argc, char **argv)
 {
     if (only_is(argc, argv, "multi")) return bench_fit_multi(argc, argv);
+    if (only_is(argc, argv, "modal")) return bench_fit_modal(argc, argv);
     for (int i = 3; i < argc; ++i) {
         if (!std::strcmp(argv[i], "--cissim")) return bench_cissim(argc, argv);
         if (!std::strcmp(argv[i], "--cissim-process")) return bench_cissim_process(argc, argv);
@@ -226,6 +248,28 @@ int bench_crest(int argc, char **argv)
     return msidbench::bench_crest(rq, console(true)).report.status;
 }
 
+// msid bench ticks: tests/modbus/bench_ticks.py with this build's msid and msid-devsim
+int bench_ticks(int argc, char **argv)
+{
+    static const char *HELP =
+        "usage: msid bench ticks [--rate HZ] [--periods K] [--instructions]\n"
+        "The host tick loop of a described device (msid measure --map) at 200 Hz over Modbus TCP on\n"
+        "127.0.0.1 against msid-devsim, beside the same loop written with pymodbus and time.sleep, in the same\n"
+        "run: ticks, lateness median/p99/max, round trip, CPU per tick. The CAN part runs in the vcan VM\n"
+        "(tests/vcan/in_vm/bench_ticks_can.py). --instructions: also the user-space instructions per tick of both\n"
+        "loops under valgrind's callgrind, which no load changes. See docs/benchmarks.md.\n";
+    const Args a(argc, argv, 3, HELP, {"rate", "periods"}, {"instructions"});
+    if (!a.positional().empty()) throw UsageError("msid bench ticks: unexpected argument " + a.positional()[0]);
+    std::vector<std::string> args = {"python3", std::string(MSID_SOURCE_DIR) + "/tests/modbus/bench_ticks.py"};
+    for (const char *k : {"rate", "periods"})
+        if (a.has(k)) {
+            args.push_back(std::string("--") + k);
+            args.push_back(a.get(k));
+        }
+    if (a.has("instructions")) args.push_back("--instructions");
+    return exec_with_build(args);
+}
+
 const char *BENCH_HELP =
     "usage: msid bench <name> [options]   (msid bench <name> --help: the options of one)\n"
     "\n"
@@ -235,6 +279,7 @@ const char *BENCH_HELP =
     "  io      reading experiment files (CSV, .npy, .mat) against pandas / NumPy / SciPy\n"
     "  can     the highest lossless CAN sample rate over vcan (Debian kernel under qemu)\n"
     "  modbus  the highest lossless sample rate x channels over Modbus from msid-devsim\n"
+    "  ticks   the host tick loop of a described device (lateness, CPU per tick) against a pymodbus script\n"
     "  target  instructions per sample of the core on a Cortex-M (qemu)\n"
     "  wcet    per-sample time of generation + streaming estimation on the host\n"
     "  crest   design set-up for large P: crest factors by FFT vs direct synthesis vs NumPy\n"
@@ -252,6 +297,7 @@ int cmd_bench(int argc, char **argv)
                                 {"io", bench_io},
                                 {"can", cmd_bench_can},
                                 {"modbus", cmd_bench_modbus},
+                                {"ticks", bench_ticks},
                                 {"target", bench_target},
                                 {"wcet", bench_wcet},
                                 {"crest", bench_crest}},

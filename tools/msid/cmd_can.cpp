@@ -23,10 +23,11 @@ extern "C" {
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *CAN_HELP =
     "usage: msid can measure --iface IF --design design.json -o frf.json [options]\n"
     "       msid can replay --log run.log [--design design.json] [--session N | --since T --until T] -o frf.json\n"
     "       msid can replay --log run.log --list\n"
+    "       msid can decode --dbc FILE.dbc run.log -o signals.csv\n"
     "\n"
     "measure: upload the design to an msid-can/1 device (as parameters), run every experiment,\n"
     "decode the sample stream and estimate the FRF with its covariance (msid-frf/1, with an\n"
@@ -62,7 +63,12 @@ static const char *HELP =
     "  --list              one line per session (times, design CRC, runs, sample frames), nothing written\n"
     "  --session N         replay session N only (1 = the first)\n"
     "  --since T, --until T  the sessions that start at or after T and end at or before T (timestamps\n"
-    "                      as the log writes them, seconds since the epoch: 1700000000.123456)\n";
+    "                      as the log writes them, seconds since the epoch: 1700000000.123456)\n"
+    "\n"
+    "decode: every frame of a candump .log that the DBC file describes, one CSV row per signal it carries\n"
+    "(time,message,signal,value: the log's timestamp in seconds, physical values that read back bit for\n"
+    "bit; multiplexed signals only where present). Frames of identifiers not in the DBC, error frames and\n"
+    "frames shorter than their message are counted on stderr; the file is written whole or not at all.\n";
 
 static std::string hex(uint32_t v) { return fmt("0x%X", v); }
 
@@ -190,7 +196,7 @@ int cmd_bench_can(int argc, char **argv)
 
 int cmd_can(int argc, char **argv)
 {
-    return dispatch_subcommand(argc, argv, "can", HELP, {{"measure", cmd_measure}, {"replay", cmd_replay}});
+    return dispatch_subcommand(argc, argv, "can", CAN_HELP, {{"measure", cmd_measure}, {"replay", cmd_replay}, {"decode", cmd_can_decode}});
 }
 
 }  // namespace msidcli

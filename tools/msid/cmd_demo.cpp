@@ -25,7 +25,7 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *DEMO_HELP =
     "usage: msid demo [--out DIR] [--seed S] [--periods K] [--order n|auto] [--no-plots] [--quiet]\n"
     "\n"
     "Starts msid-devsim on Modbus TCP loopback (a free port) with a known 4-state 2x2 plant, coloured\n"
@@ -91,7 +91,7 @@ static void interrupted_check()
 
 static DemoArgs parse_demo(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP, {"out", "seed", "periods", "order"}, {"quiet", "no-plots"});
+    Args a(argc, argv, 2, DEMO_HELP, {"out", "seed", "periods", "order"}, {"quiet", "no-plots"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     DemoArgs o;
     o.dir = a.get("out", o.dir);

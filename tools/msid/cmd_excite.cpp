@@ -10,7 +10,7 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *EXCITE_HELP =
     "usage: msid excite --period P (--lines L1,L2,a:b,... | --omega W1,W2,... --sample-time H)\n"
     "                   [--amplitudes A | A1,...,AL | nu*L values] [--phases random|schroeder] [--seed S]\n"
     "                   [--inputs NU] [--experiments M] [--pattern dft|hadamard] [--periods K]\n"
@@ -29,7 +29,7 @@ static const char *HELP =
 
 int cmd_excite(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP,
+    Args a(argc, argv, 2, EXCITE_HELP,
            {"period", "lines", "omega", "sample-time", "amplitudes", "phases", "seed", "inputs", "experiments",
             "pattern", "periods", "output", "csv"},
            {});

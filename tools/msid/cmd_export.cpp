@@ -10,7 +10,7 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *EXPORT_HELP =
     "usage: msid export frf.json (--csv out.csv | --mat out.mat) [--known-input]\n"
     "       msid export model.json --mat out.mat\n"
     "Frequencies, G and standard deviations of an msid-frf/1 file for spreadsheets and MATLAB.\n"
@@ -34,7 +34,7 @@ static const char *HELP =
 
 int cmd_export(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP, {"csv", "mat"}, {"known-input"});
+    Args a(argc, argv, 2, EXPORT_HELP, {"csv", "mat"}, {"known-input"});
     if (a.positional().size() != 1) throw UsageError("give one FRF file (msid export frf.json --csv out.csv | --mat out.mat)");
     if (a.has("csv") == a.has("mat")) throw UsageError("give exactly one of --csv out.csv and --mat out.mat");
     const std::string in = a.positional()[0];

@@ -1,6 +1,7 @@
 // msid frf: experiment CSVs -> msid-frf/1.
 #include "commands.hpp"
 #include "host_libs.hpp"
+#include "msid_candump_dbc.hpp"
 
 #include <cstdio>
 #include <cstring>
@@ -9,11 +10,12 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *FRF_HELP =
     "usage: msid frf (--design design.json | --period P|auto --lines L1,L2,...|auto) --experiment e1.csv\n"
     "                [--experiment e2.csv ...] [--columns u1=NAME,y1=NAME,...] [--skip-periods K] [--fs HZ]\n"
     "                [--detect-lines D1,...] [--transient flag|drop|off] [--alpha A] [--dft auto|stream|fft]\n"
     "                [--reference r1=COL,...] -o frf.json\n"
+    "       msid frf --dbc FILE.dbc --columns u1=MSG.SIG,...,y1=MSG.SIG,... --experiment run.log ... -o frf.json\n"
     "\n"
     "  --design          take period, lines (and CT frequencies) from an msid-design/1 file\n"
     "  --period, --lines samples per period and excited DFT bins (ranges a:b, a:step:b)\n"
@@ -26,9 +28,13 @@ static const char *HELP =
     "                    header has r1.. is used so without asking\n"
     "  --experiment      one record per experiment (m >= nu files), periods back to back, one sample\n"
     "                    per row: CSV (',', ';' or tab; header u1..u<nu>, y1..y<ny>, optional time\n"
-    "                    column), NumPy .npy/.npz or MATLAB .mat (v5, v7.3); see README \"CSV records\"\n"
+    "                    column), NumPy .npy/.npz or MATLAB .mat (v5, v7.3); see docs/records.md\n"
     "  --columns         map named columns (or .mat/.npz variables, 'name:k' for matrix column k)\n"
     "                    to u1.., y1..; other columns are ignored\n"
+    "  --dbc FILE        the experiments are candump .log files whose frames FILE describes; --columns\n"
+    "                    names MESSAGE.SIGNAL for each of u1.., y1..; one row per frame of u1's message, other\n"
+    "                    messages' signals at their latest value; lost frames are NaN rows, whose periods are\n"
+    "                    rejected and counted, never interpolated (docs/can-protocol.md)\n"
     "  --skip-periods K  ignore the first K periods of every experiment (plant transient)\n"
     "  --fs HZ           sample rate, adds freq_hz to every line\n"
     "  --detect-lines    non-excited bins to report (noise level, nonlinear distortion test)\n"
@@ -47,6 +53,24 @@ static const char *HELP =
     "                    per realisation (the benchmark layout): the BLA and its total covariance only\n"
     "                    (R >= ny nu + 1); the noise part is not estimated and a note says so\n";
 
+// --dbc: every experiment is a candump log decoded with the DBC (msidrec::read_record_candump), then the
+// FRF job on those records; what the reader counted (lost frames, ...) leads the notes.
+static msidjob::FilesOutcome estimate_frf_dbc(const Args &a, FrfRequest &rq, const ColumnMap &cols,
+                                              const msidjob::FrfPlan &plan, std::unique_ptr<FrfJob> *job)
+{
+    if (a.has("reference")) throw UsageError("--reference does not apply to --dbc");
+    const msidrec::DbcFile dbc(a.get("dbc"));
+    msidjob::FilesOutcome fo;
+    std::vector<std::string> notes;
+    for (const std::string &p : a.all("experiment")) fo.recs.push_back(msidrec::read_record_candump(p, dbc, cols, notes));
+    fo.o = msidjob::estimate_frf(rq, fo.recs, plan, job);
+    fo.o.notes.insert(fo.o.notes.begin(), notes.begin(), notes.end());
+    fo.nu = fo.recs[0].nu;
+    fo.ny = fo.recs[0].ny;
+    fo.m = (uint32_t)fo.recs.size();
+    return fo;
+}
+
 // see the end of cmd_frf
 extern void *volatile frf_left_to_exit;
 void *volatile frf_left_to_exit = nullptr;
@@ -57,9 +81,9 @@ int cmd_frf(int argc, char **argv)
         if ((!std::strcmp(argv[i], "--method") && i + 1 < argc && std::strcmp(argv[i + 1], "periodic")) ||
             (!std::strncmp(argv[i], "--method=", 9) && std::strcmp(argv[i] + 9, "periodic")))
             return cmd_frf_est(argc, argv);
-    Args a(argc, argv, 2, HELP,
+    Args a(argc, argv, 2, FRF_HELP,
            {"design", "period", "lines", "skip-periods", "fs", "detect-lines", "transient", "alpha", "dft", "block",
-            "output", "method", "columns", "realisations", "reference"},
+            "output", "method", "columns", "realisations", "reference", "dbc"},
            {"direct"}, {"experiment"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
@@ -89,6 +113,8 @@ int cmd_frf(int argc, char **argv)
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
+    if (!a.has("dbc"))
+        for (const std::string &p : a.all("experiment")) msidrec::refuse_candump_without_dbc(p);
     // FFTW's first plan (the planner's own set-up, far dearer than later plans) on another thread
     // while the files are read (msid_fftw_planner.hpp);
     // the line DFT path does not depend on the channel count (msid_linedft_choose)
@@ -115,7 +141,8 @@ int cmd_frf(int argc, char **argv)
     plan.report = [](const std::string &s) { std::fputs(s.c_str(), stdout); };
     rq.lines_as_text = true;   // only written to the file below
     std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)
-    msidjob::FilesOutcome fo = msidjob::estimate_frf_files(rq, a.all("experiment"), cols, plan, &job);
+    msidjob::FilesOutcome fo = a.has("dbc") ? estimate_frf_dbc(a, rq, cols, plan, &job)
+                                            : msidjob::estimate_frf_files(rq, a.all("experiment"), cols, plan, &job);
     FrfOutcome &o = fo.o;
     // no fsync: the file is reproduced by running msid frf again on the same files
     // (msid measure, whose samples are gone after the run, keeps it)

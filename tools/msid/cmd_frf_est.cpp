@@ -1,6 +1,7 @@
 // msid frf --method lpm|etfe: FRFs from arbitrary records (tools/est) -> msid-frf/1.
 #include "commands.hpp"
 #include "host_libs.hpp"
+#include "msid_candump_dbc.hpp"
 
 #include "msid_frf_est.hpp"
 
@@ -86,6 +87,7 @@ int cmd_frf_est(int argc, char **argv)
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
     msidjob::check_reference_columns(plan.reference, cols);
     std::vector<Record> recs;
+    for (const auto &p : a.all("experiment")) msidrec::refuse_candump_without_dbc(p);   // --dbc: periodic only
     for (const auto &p : a.all("experiment")) recs.push_back(read_experiment(p, cols));
     FrfOutcome o = msidjob::estimate_frf_est(rq, recs, plan);
     const size_t nlines = o.doc["lines"].size();

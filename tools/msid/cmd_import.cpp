@@ -10,7 +10,7 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *IMPORT_HELP =
     "usage: msid import FILE [--format touchstone|uff|csv|mat] -o frf.json\n"
     "An FRF measured by another tool as an msid-frf/1 file (msid fit, validate and plot also read FILE\n"
     "directly). The format from the extension (.sNp, .uff/.unv, .csv, .mat) and content, or --format:\n"
@@ -29,7 +29,7 @@ static const char *HELP =
 
 int cmd_import(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP, {"format", "output"}, {});
+    Args a(argc, argv, 2, IMPORT_HELP, {"format", "output"}, {});
     if (a.positional().size() != 1) throw UsageError("give one FRF file to import (msid import FILE -o frf.json)");
     const std::string out = a.get("output");
     if (out.empty()) throw UsageError("give the output file with -o frf.json");

@@ -17,8 +17,9 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *MEASURE_HELP =
     "usage: msid measure --device URI (--design design.json | --period P --lines L [design options])\n"
+    "                    [--map DEVICE.toml --rate HZ [--no-realtime]]\n"
     "                    [--periods K] [--skip-periods K] [--rate HZ] [--fs HZ]\n"
     "                    [--fit subspace|ml [--order n|auto]] [--no-plots] [--quiet] -o OUTDIR\n"
     "\n"
@@ -33,6 +34,12 @@ static const char *HELP =
     "  --device URI      modbus-tcp://HOST[:PORT][?unit=N]               (port 502 by default)\n"
     "                    modbus-rtu:///dev/ttyX?baud=N[&parity=N|E|O&unit=N&data-bits=8&stop-bits=1]\n"
     "                    can://IFACE[?fd=1&base=0x200]                   (SocketCAN, msid-can/1)\n"
+    "  --map FILE        the device is described by FILE (msid-device/1, docs/devices.md): a PLC, drive or\n"
+    "                    I/O module with its own register map. msid generates the excitation, writes the\n"
+    "                    drive channels and reads the measure channels once per tick at --rate HZ (required,\n"
+    "                    any real rate), checks every value against the limits first, and writes the safe\n"
+    "                    values on every way out. Check the device first: msid device check --map FILE\n"
+    "  --no-realtime     with --map: do not ask for SCHED_FIFO and locked memory\n"
     "  --design FILE     msid-design/1 (msid excite), or design options:\n"
     "  --period P --lines L1,a:b,...  [--amplitudes A] [--seed S] [--phases random|schroeder]\n"
     "                    [--inputs NU (default: the device's)] [--experiments M]\n"
@@ -50,7 +57,8 @@ static const char *HELP =
 
 static const std::vector<std::string> MEASURE_KEYS = {
     "device", "design", "period", "lines", "amplitudes", "seed", "phases", "inputs", "experiments", "periods",
-    "skip-periods", "transient", "alpha", "detect-lines", "rate", "fs", "scale", "timeout", "fit", "order", "output"};
+    "skip-periods", "transient", "alpha", "detect-lines", "rate", "fs", "scale", "timeout", "fit", "order", "output",
+    "map"};
 
 const std::vector<std::string> &measure_keys() { return MEASURE_KEYS; }
 
@@ -103,7 +111,20 @@ MeasureRun run_measure(const MeasureOptions &opt, Progress &pg)
             if (!(P.timeout > 0)) throw UsageError("--timeout must be positive");
         }
     };
-    {
+    if (!opt.map.empty()) {
+        const msid_devdesc desc = msidacq::load_description(opt.map);
+        msidacq::MappedOptions mo;
+        mo.rate_hz = opt.rate_hz;
+        mo.realtime = opt.realtime;
+        mo.desc_path = opt.map;
+        if (a.has("timeout")) mo.timeout = parse_double(a.get("timeout"), "--timeout");
+        auto mplan = [&](uint32_t nu, MeasurePlan &P) {
+            P.D = file_design ? std::move(file_design) : design_from_options(a, nu);
+            parse_periods_and_estimate(a, *P.D, P.sf, P.rq);
+        };
+        StopOnSignal guard;   // Ctrl-C ends the acquisition; the safe values are written, complete periods kept
+        run.m = msidacq::measure_mapped(opt.dev, desc, mo, mplan, pg);
+    } else {
         StopOnSignal guard;   // Ctrl-C ends the acquisition, the FRF of the complete periods is kept
         run.m = measure_device(opt.dev, plan, pg);
     }
@@ -157,13 +178,26 @@ MeasureOptions parse_measure_command(const Args &a)
         }
     }
     o.plots = !a.has("no-plots");
+    if (a.has("map")) {
+        o.map = a.get("map");
+        if (!a.has("rate")) throw UsageError("--map needs --rate HZ: the host ticks at that rate");
+        o.rate_hz = parse_double(a.get("rate"), "--rate");
+        if (!(o.rate_hz > 0 && o.rate_hz <= 100000)) throw UsageError("--rate must be in (0, 100000] Hz");
+        for (const char *k : {"scale", "fs"})
+            if (a.has(k)) throw UsageError(std::string("--") + k + " does not go with --map (the description scales "
+                                                                    "each channel; --rate is the sample rate)");
+        o.realtime = !a.has("no-realtime");
+        msidacq::load_description(o.map);   // a bad description fails before the device is touched
+    } else if (a.has("no-realtime")) {
+        throw UsageError("--no-realtime goes with --map");
+    }
     check_outdir(o.outdir);
     return o;
 }
 
 int cmd_measure_uri(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP, measure_keys(), {"no-plots", "quiet"});
+    Args a(argc, argv, 2, MEASURE_HELP, measure_keys(), {"no-plots", "quiet", "no-realtime"});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     MeasureOptions opt = parse_measure_command(a);
     opt.command_line = shell_line(argc, argv);

@@ -17,7 +17,7 @@ extern "C" {
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *MODBUS_HELP =
     "usage: msid modbus measure (--tcp HOST:PORT | --rtu DEVICE [--baud N]) --design design.json -o frf.json [options]\n"
     "\n"
     "Upload the design to an msid-modbus/1 device as parameters (holding registers), run every\n"
@@ -150,7 +150,7 @@ int exec_with_build(std::vector<std::string> args)
 
 int cmd_modbus(int argc, char **argv)
 {
-    return dispatch_subcommand(argc, argv, "modbus", HELP, {{"measure", cmd_measure}});
+    return dispatch_subcommand(argc, argv, "modbus", MODBUS_HELP, {{"measure", cmd_measure}});
 }
 
 }  // namespace msidcli

@@ -19,7 +19,7 @@
 
 namespace msidcli {
 
-static const char *HELP =
+static const char *PLOT_HELP =
     "usage: msid plot frf.json [--model model.json] -o bode.png|bode.svg|bode.pdf [--level 0.95] [--known-input]\n"
     "                [--format msid|touchstone|uff|csv|mat]\n"
     "Bode magnitude and phase of every output/input pair with the exact confidence regions of the file's\n"
@@ -165,7 +165,7 @@ struct TempFile {
 
 int cmd_plot(int argc, char **argv)
 {
-    Args a(argc, argv, 2, HELP, {"model", "output", "level", "format"}, {"known-input"});
+    Args a(argc, argv, 2, PLOT_HELP, {"model", "output", "level", "format"}, {"known-input"});
     if (a.positional().size() != 1) throw UsageError("give one FRF file (msid plot frf.json -o bode.png)");
     const std::string out = a.get("output");
     if (out.empty()) throw UsageError("give the output file with -o bode.png|bode.svg|bode.pdf");

@@ -25,7 +25,9 @@ bool cissim_requested(int argc, char **argv);
 int cmd_fit_cissim(int argc, char **argv);
 int cmd_can(int argc, char **argv);
 int cmd_bench_can(int argc, char **argv);
+int cmd_can_decode(int argc, char **argv);        // msid can decode --dbc FILE LOG (cmd_can_decode.cpp)
 int cmd_modbus(int argc, char **argv);
+int cmd_device(int argc, char **argv);   // cmd_device.cpp: msid device check (msid-device/1)
 int cmd_bench_modbus(int argc, char **argv);
 int cmd_modbus_ondevice(int argc, char **argv);   // msid modbus measure --on-device (cmd_ondevice.cpp)
 int cmd_can_ondevice(int argc, char **argv);      // msid can measure --on-device (cmd_ondevice.cpp)

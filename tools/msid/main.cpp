@@ -26,7 +26,9 @@ int cmd_version(int, char **)
 }
 
 const Command COMMANDS[] = {
-    {"measure", "measure a device (modbus-tcp://, modbus-rtu://, can://): FRF, model, plots in one directory",
+    {"measure",
+     "measure a device (modbus-tcp://, modbus-rtu://, can://): FRF, model, plots in one directory;\n"
+     "           --map DEVICE.toml for a device with its own register map (msid-device/1)",
      msidcli::cmd_measure_uri},
     {"excite", "design a multisine (msid-design/1) and optionally write its input samples as CSV", msidcli::cmd_excite},
     {"frf",
@@ -41,8 +43,12 @@ const Command COMMANDS[] = {
     {"modes", "natural frequencies, damping ratios, residues of a model with standard deviations", msidcli::cmd_modes},
     {"validate", "a model against an FRF file: weighted residual cost, p-value, verdict", msidcli::cmd_validate},
     {"compare", "relative H2 and Hinf distance between two models", msidcli::cmd_compare},
-    {"can", "measure an FRF over SocketCAN from an msid-can/1 device, or replay a candump log", msidcli::cmd_can},
+    {"can", "measure an FRF over SocketCAN from an msid-can/1 device, replay a candump log, or decode one\n"
+            "           with a DBC file",
+     msidcli::cmd_can},
     {"modbus", "measure an FRF over Modbus TCP or RTU from an msid-modbus/1 device", msidcli::cmd_modbus},
+    {"device", "check a described device (msid-device/1): read every channel, write only the safe values",
+     msidcli::cmd_device},
     {"plot", "Bode plot of an FRF file with 95% regions, model overlay and residuals (PNG/SVG/PDF)", msidcli::cmd_plot},
     {"export", "an FRF file as CSV or MATLAB .mat (idfrd shape) with standard deviations", msidcli::cmd_export},
     {"import", "an FRF measured by another tool (Touchstone, UFF 58, CSV, idfrd .mat) as msid-frf/1",

@@ -4,6 +4,7 @@
 #pragma once
 #include "host_libs.hpp"
 #include "msid_acquire.hpp"
+#include "msid_mapped.hpp"
 #include "progress.hpp"
 #include "stop_signal.hpp"
 
@@ -36,6 +37,8 @@ using msidacq::mark_completeness;
 // --detect-lines/--transient/--alpha into `rq` (a DT rate also sets rq.fs). --skip-periods must
 // leave 2 periods. Throws UsageError (measure_options.cpp).
 void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq);
+// The part of it without --scale and --rate (a described device's tick rate is --rate in any real Hz).
+void parse_periods_and_estimate(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq);
 
 // The --tcp/--rtu, --baud, --parity, --data-bits, --stop-bits, --unit, timeouts, --retries,
 // --max-regs, --encoding, --word-order of `msid modbus measure` (cmd_modbus.cpp; also --on-device).
@@ -50,6 +53,9 @@ int write_measure_result(MeasureResult &R, const std::string &out, const std::st
 struct MeasureOptions {
     const Args *args = nullptr;   // the command line (design and measurement options)
     DeviceUri dev;
+    std::string map;              // --map FILE: a described device (msid-device/1), host-timed excitation
+    double rate_hz = 0;           // --rate with --map (ticks per second)
+    bool realtime = true;         // --no-realtime clears it
     std::string outdir;
     std::string fit, order;       // --fit subspace|ml, --order n|auto ("" : no fit)
     bool plots = true;

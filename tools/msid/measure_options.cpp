@@ -5,6 +5,17 @@
 
 namespace msidcli {
 
+void parse_periods_and_estimate(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq)
+{
+    sf.periods = a.u32("periods", (D.params.periods ? D.params.periods : 8));
+    if (sf.periods < 2 || sf.periods > MSID_PARAMS_MAX_PERIODS)
+        throw UsageError(fmt("--periods must be 2..%u", MSID_PARAMS_MAX_PERIODS));
+    request_from_design(rq, D);
+    parse_estimate_options(a, rq);
+    if ((uint64_t)rq.skip + 2 > sf.periods)   // 64-bit: a huge --skip-periods must not wrap
+        throw UsageError(fmt("--periods %u with --skip-periods %u leaves fewer than 2 periods", sf.periods, rq.skip));
+}
+
 void parse_measure_options(const Args &a, const Design &D, StreamFmt &sf, FrfRequest &rq)
 {
     if (a.has("scale")) {

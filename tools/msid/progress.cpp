@@ -33,6 +33,8 @@ std::string Progress::format(const ProgressState &s)
     std::string r = fmt("experiment %u/%u: %u/%u periods acquired, %llu rejected, %llu samples lost, %llu link errors",
                         s.exp, s.n_exp, s.periods, s.periods_target, (unsigned long long)s.rejected,
                         (unsigned long long)s.lost, (unsigned long long)s.link_errors);
+    if (std::isfinite(s.lateness_p99_s))
+        r += fmt(", lateness p99 %.2g ms, %llu missed tick(s)", 1e3 * s.lateness_p99_s, (unsigned long long)s.missed_ticks);
     if (std::isfinite(s.snr_db)) r += fmt(", SNR %.1f dB", s.snr_db);
     if (std::isfinite(s.eta_s)) r += fmt(", ETA %.0f s", std::ceil(s.eta_s));
     return r;
@@ -41,8 +43,14 @@ std::string Progress::format(const ProgressState &s)
 void Progress::update(const ProgressState &s)
 {
     if (quiet_) return;
-    const bool event = !have_last_ || s.exp != last_.exp || s.periods != last_.periods ||
-                       s.rejected != last_.rejected || s.lost != last_.lost || s.link_errors != last_.link_errors;
+    // a new experiment or period is an event of its own; a change of the loss and error counts is one at most
+    // once a second (a link that fails every tick must not fill the log)
+    const bool milestone = !have_last_ || s.exp != last_.exp || s.periods != last_.periods;
+    const bool counts = have_last_ && (s.rejected != last_.rejected || s.lost != last_.lost ||
+                                       s.link_errors != last_.link_errors || s.missed_ticks != last_.missed_ticks);
+    const double t_now = mono_s();
+    const bool event = milestone || (counts && (tty_ || t_now - last_event_ >= 1.0));
+    if (event && !tty_) last_event_ = t_now;
     if (tty_) {
         const double now = mono_s();
         if (!event && now - last_draw_ < 0.1) return;

@@ -36,6 +36,7 @@ private:
     std::string prefix_;
     bool tty_, quiet_, live_ = false;
     double last_draw_ = -1;
+    double last_event_ = -1e9;   // the last line written for a change of counts (not a terminal)
     ProgressState last_{};
     bool have_last_ = false;
 };

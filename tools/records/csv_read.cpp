@@ -187,9 +187,9 @@ const char *general_line(const CsvLayout &L, const char *p, const char *e, Chunk
                                         ? " (read with ',' as the decimal separator: one ',' and no '.')" : "");
                 return nullptr;
             }
-            if (slow && !std::isfinite(v)) {
-                out.err = fmt("'%s' line %zu, column %s: NaN or Inf is not allowed", L.path->c_str(),
-                              line_of(L, ls), L.names[c].c_str());
+            if (!sample_ok(v)) {
+                out.err = fmt("'%s' line %zu, column %s: %s", L.path->c_str(), line_of(L, ls), L.names[c].c_str(),
+                              sample_fault(v).c_str());
                 return nullptr;
             }
             dst[dc] = v;

@@ -4,7 +4,9 @@
 // are msidrec::Error (a file's contents: ErrorKind::data; a file that cannot be opened or read:
 // ErrorKind::io) and msidrec::ColumnSpecError (a bad column map: ErrorKind::usage).
 #pragma once
+#include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <memory>
@@ -16,6 +18,25 @@
 #include "msid_host_error.hpp"
 
 namespace msidrec {
+
+// The largest magnitude of a sample the estimators take. Beyond it the power of a line (|U|^2, |Y|^2
+// over the periods) leaves double precision's range: a sample of 1e307 overflowed the FRF's input
+// power and one of 1e308 the line DFT, far from where the sample was read. Every reader refuses such a
+// sample where it reads it, as it refuses NaN and Inf. The design's amplitudes have the same bound.
+constexpr double SAMPLE_MAX = 1e150;
+
+// Whether a sample is within the records' rule: finite and |v| <= SAMPLE_MAX.
+inline bool sample_ok(double v) { return std::fabs(v) <= SAMPLE_MAX; }
+
+// What is wrong with a sample outside the rule, in the readers' words (after "'FILE' row R, column C: ").
+inline std::string sample_fault(double v)
+{
+    if (!std::isfinite(v)) return "NaN or Inf is not allowed";
+    char b[160];
+    std::snprintf(b, sizeof b, "%.6g is beyond the samples' range (|x| <= %g, whose squares double precision "
+                               "holds): rescale the record, e.g. change its units", v, SAMPLE_MAX);
+    return b;
+}
 
 // A problem with a record or its file: one message naming the file, the row and the column.
 struct Error : msidutil::Error {
@@ -113,8 +134,9 @@ bool is_csv_path(const std::string &path);
 std::vector<Record> read_experiments(const std::vector<std::string> &paths, const ColumnMap &cols = {},
                                      bool zero_copy = false, bool defer_finite = false);
 
-// The reader's NaN/Inf check of rows [row0, row0 + n) of a record: throws the Error a reader
-// gives ("'FILE' row R, column C: NaN or Inf is not allowed", the first such cell).
+// The reader's check of rows [row0, row0 + n) of a record against the samples' rule (sample_ok: no
+// NaN, no Inf, no magnitude beyond SAMPLE_MAX): throws the Error a reader gives ("'FILE' row R,
+// column C: NaN or Inf is not allowed", or the magnitude named by sample_fault; the first such cell).
 void check_finite(const Record &r, size_t row0, size_t n);
 
 // The CSV reader alone (read_experiment dispatches to it). `split`: a block of

@@ -164,14 +164,14 @@ Record assemble(const std::string &path, const std::vector<Array> &arrs, const C
             if (plain) std::memcpy(&v, base[k] + i * step[k], 8);
             else v = A[k]->at(i, srcs[src[k]].col);
             out[i * C + k] = v;
-            finite = finite && std::isfinite(v);
+            finite = finite && sample_ok(v);
         }
     if (!finite)
         for (size_t i = 0; i < n; ++i)
             for (size_t k = 0; k < C; ++k)
-                if (!std::isfinite(out[i * C + k]))
-                    throw Error(fmt("'%s' row %zu, column %s: NaN or Inf is not allowed", path.c_str(), i + 1,
-                                    names[src[k]].c_str()));
+                if (!sample_ok(out[i * C + k]))
+                    throw Error(fmt("'%s' row %zu, column %s: %s", path.c_str(), i + 1, names[src[k]].c_str(),
+                                    sample_fault(out[i * C + k]).c_str()));
     return r;
 }
 
@@ -182,23 +182,27 @@ void check_finite(const Record &r, size_t row0, size_t n)
     const size_t C = (size_t)r.nu + r.ny;
     if (row0 > r.n_rows || n > r.n_rows - row0) throw Error("internal error: rows beyond the record");
     const double *x = r.data() + row0 * C;
-    // NaN/Inf: exponent bits all ones. Integer OR-reduction over the bit patterns, no branch per
-    // sample, no floating-point compare: (b & E) + 2^52 reaches bit 63 exactly when the exponent is
-    // all ones; and, add and or on 64-bit lanes are SSE2, so the loop vectorises at the x86-64
-    // baseline (a == compare of 64-bit lanes is SSE4.1, which kept the loop scalar)
-    const uint64_t E = 0x7ff0000000000000ull, ONE_EXP = 1ull << 52;
+    // NaN, Inf and |x| > SAMPLE_MAX: the magnitude's bits (sign cleared) above those of SAMPLE_MAX
+    // (the bit patterns of non-negative doubles, NaN and Inf last, are ordered as their values).
+    // Integer OR-reduction over the bit patterns, no branch per sample, no floating-point compare:
+    // |b| + (2^63 - 1 - LIMIT) reaches bit 63 exactly when |b| > LIMIT; and, add and or on 64-bit
+    // lanes are SSE2, so the loop vectorises at the x86-64 baseline (a compare of 64-bit lanes is
+    // SSE4.1/4.2, which kept the loop scalar)
+    uint64_t LIMIT;
+    std::memcpy(&LIMIT, &SAMPLE_MAX, sizeof LIMIT);
+    const uint64_t ABS = 0x7fffffffffffffffull, LIFT = ABS - LIMIT;
     uint64_t bad = 0;
     const size_t nx = n * C;
     for (size_t i = 0; i < nx; ++i) {
         uint64_t b;
         std::memcpy(&b, x + i, sizeof b);
-        bad |= (b & E) + ONE_EXP;
+        bad |= (b & ABS) + LIFT;
     }
     if ((bad >> 63) == 0) return;
     for (size_t i = 0; i < nx; ++i)
-        if (!std::isfinite(x[i]))
-            throw Error(fmt("'%s' row %zu, column %s: NaN or Inf is not allowed", r.path.c_str(), row0 + i / C + 1,
-                            r.columns[i % C].c_str()));
+        if (!sample_ok(x[i]))
+            throw Error(fmt("'%s' row %zu, column %s: %s", r.path.c_str(), row0 + i / C + 1, r.columns[i % C].c_str(),
+                            sample_fault(x[i]).c_str()));
 }
 
 Record read_record_npy(const std::string &path, const ColumnMap &cols, bool zero_copy, bool defer_finite)

@@ -26,7 +26,8 @@ void write_file_atomic(const std::string &path, const std::string &data, bool du
 void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable)
 {
     std::string tmp = path + ".tmp." + std::to_string(getpid());
-    int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    // mode 0666 less the umask, as any program's new file (0644 under the default umask 022)
+    int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
     if (fd < 0) throw IoError("cannot write '" + path + "': " + std::strerror(errno));
     for (const std::string_view &data : pieces) {
         size_t off = 0;

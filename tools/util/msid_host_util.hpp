@@ -25,7 +25,8 @@ void check(msid_status st, const std::string &context);
 // `durable`: fsync the data before the rename (a crash or power loss right after
 // leaves the old file or the whole new one, never an empty one). Off only for
 // results that a re-run reproduces from files (msid frf): it saves the wait for
-// the disk. Throws IoError naming the file.
+// the disk. The file gets the umask's permissions (mode 0666 less the umask). Throws IoError naming
+// the file.
 void write_file_atomic(const std::string &path, const std::string &data, bool durable = true);
 // The same file from pieces written one after the other (no copy into one buffer).
 void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable = true);

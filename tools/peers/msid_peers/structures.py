@@ -219,7 +219,7 @@ def model_frf(doc, omega):
 
 
 def vector_fit(path, n, fit_constant=True):
-    """The peer: scikit-rf's VectorFitting (Gustavsen & Semlyen's relocation, as in the issue) on
+    """The peer: scikit-rf's VectorFitting (Gustavsen & Semlyen's relocation) on
     the same FRF at the same order (n poles, pairs counted twice, common to all responses).
     Non-square FRFs are padded with zero responses to a square network (they decouple).
     Returns the model FRF at the file's lines."""

@@ -42,11 +42,6 @@ py::dict frf_to_py(const Json &doc);
 // fs, detect_lines, transient, alpha, dft) into the request; a bad value is a UsageError.
 void request_options(const py::dict &opts, FrfRequest &rq, const Design *D);
 
-// FFTW's planner is not thread-safe, and the GIL is released while a job runs: every job that plans
-// or frees FFTW plans (msid.frf; a Measurement's start and end) holds this, so two Python threads
-// never plan at once. Taken with the GIL released (a holder never needs the GIL).
-std::mutex &fftw_jobs();
-
 // A keyword's value among named choices (e.g. transient: flag, drop, off); else a UsageError listing them.
 template <class E>
 E choose(const std::string &what, const std::string &v, std::initializer_list<std::pair<const char *, E>> choices)

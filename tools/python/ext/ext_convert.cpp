@@ -9,12 +9,6 @@
 
 namespace msidpy {
 
-std::mutex &fftw_jobs()
-{
-    static std::mutex m;
-    return m;
-}
-
 static py::object to_py(const Json &j);
 
 // The collector paused while a document becomes Python objects: tens of thousands of new
@@ -99,6 +93,13 @@ void request_options(const py::dict &opts, FrfRequest &rq, const Design *D)
 
 const double *samples_of(const py::array &a, size_t &rows, size_t &cols)
 {
+    static const double none = 0.0;
+    if (a.ndim() == 2 && a.size() == 0 && a.dtype().is(py::dtype::of<double>())) {
+        // an empty matrix (a callback's block of 0 frames): NumPy calls any strides of it contiguous
+        rows = (size_t)a.shape(0);
+        cols = (size_t)a.shape(1);
+        return &none;
+    }
     const bool dense = a.ndim() == 2 && a.dtype().is(py::dtype::of<double>()) &&
                        (a.shape(1) <= 1 || a.strides(1) == (py::ssize_t)sizeof(double)) &&
                        (a.shape(0) <= 1 || a.strides(0) == a.shape(1) * (py::ssize_t)sizeof(double)) &&
@@ -132,6 +133,13 @@ std::vector<msidrec::Record> records_of(const py::list &arrays, const py::list &
 
 namespace {
 
+// A document of a million lines takes seconds to convert, with the GIL held: Ctrl-C is asked every 4096
+// lines (PyErr_CheckSignals: the signal handler's exception is raised).
+void ask_for_signals(size_t l)
+{
+    if (l % 4096 == 4095 && PyErr_CheckSignals() != 0) throw py::error_already_set();
+}
+
 // Every line of the document holds `key` (msid.FRF keeps an array only then, as frf_from_doc does).
 bool all_lines_have(const Json &lines, const char *key)
 {
@@ -146,6 +154,7 @@ py::array_t<std::complex<double>> stack_cmats(const Json &lines, const char *key
     py::array_t<std::complex<double>> a({lines.size(), r, c});
     auto v = a.mutable_unchecked<3>();
     for (size_t l = 0; l < lines.size(); ++l) {
+        ask_for_signals(l);
         const Json &m = lines[l][key];
         const Json &re = m.at("re"), &im = m.at("im");
         if (re.size() != r || im.size() != r) throw std::logic_error(std::string("internal error: the shape of ") + key);
@@ -197,6 +206,7 @@ py::dict frf_to_py(const Json &doc)
         if (it.key() != "lines") meta[py::str(it.key())] = to_py(it.value());
     py::list extra(lines.size());
     for (size_t l = 0; l < lines.size(); ++l) {
+        ask_for_signals(l);
         py::dict e;
         for (auto it = lines[l].begin(); it != lines[l].end(); ++it)
             if (std::find(std::begin(ARRAYS), std::end(ARRAYS), it.key()) == std::end(ARRAYS))

@@ -1,6 +1,7 @@
 // msid._msid.Design: excitation designs (msidfmt::build_design, the msid-design/1 file) and their
 // samples from the core's generator, as `msid excite` makes them.
 #include "ext.hpp"
+#include "ext_call.hpp"
 
 #include "msid_host_util.hpp"
 #include "msid_json_file.hpp"
@@ -38,7 +39,8 @@ static PyDesign make(uint32_t period, const std::vector<uint32_t> &lines, const 
     p.pattern = choose<msid_pattern>("pattern", pattern, {{"dft", MSID_PATTERN_DFT}, {"hadamard", MSID_PATTERN_HADAMARD}});
     if (periods == 0) throw UsageError("periods must be at least 1");
     p.periods = periods;
-    return PyDesign{msidfmt::build_design(p)};
+    // build_design plans FFTW (the crest factors): the planner lock
+    return PyDesign{without_gil({true, true, "msid.design"}, [&] { return msidfmt::build_design(p); })};
 }
 
 // `periods` periods of experiment e's inputs: (periods * P) x nu, row-major.
@@ -50,14 +52,18 @@ static py::array_t<double> samples(const PyDesign &D, uint32_t e, uint32_t perio
     const size_t n = (size_t)periods * d.period, nu = d.n_inputs;
     py::array_t<double> out({n, nu});
     double *u = out.mutable_data();
-    {
-        py::gil_scoped_release nogil;
+    without_gil({false, true, "Design.samples"}, [&] {
         msid_gen_cfg gc{&d, &D.d->tw, e, 1};
         Mem gm(msid_gen_mem_size(&gc));
         msid_gen g;
         check(msid_gen_init(&g, &gc, gm.p, gm.n), "generator");
-        msid_gen_block(&g, u, n, nu);
-    }
+        // a period at a time, a checkpoint after each
+        const size_t P = d.period;
+        for (size_t k = 0; k < n; k += P) {
+            msid_gen_block(&g, u + k * nu, std::min(P, n - k), nu);
+            msidutil::checkpoint(msidutil::Step::rows, std::min(P, n - k), "Design.samples");
+        }
+    });
     return out;
 }
 
@@ -82,7 +88,10 @@ void register_design(py::module_ &m)
     m.def("design", &make, py::arg("period"), py::arg("lines"), py::arg("omega"), py::arg("sample_time"),
           py::arg("amplitudes"), py::arg("phases"), py::arg("seed"), py::arg("inputs"), py::arg("experiments"),
           py::arg("pattern"), py::arg("periods"));
-    m.def("read_design", [](const std::string &path) { return PyDesign{msidfmt::read_design_file(path)}; },
+    m.def("read_design",
+          [](const std::string &path) {
+              return PyDesign{without_gil({true, true, "msid.read_design"}, [&] { return msidfmt::read_design_file(path); })};
+          },
           py::arg("path"));
 }
 

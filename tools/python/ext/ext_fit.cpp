@@ -2,6 +2,7 @@
 // (msidfitjob::fit_frf, validate_frf), as `msid fit` and `msid validate` run them on files: the same
 // request and the same FRF give the same model.
 #include "ext.hpp"
+#include "ext_call.hpp"
 
 #include "msid_fit_job.hpp"
 #include "msid_host_util.hpp"
@@ -11,16 +12,10 @@ namespace msidpy {
 using msidfitjob::FitRequest;
 using msidutil::UsageError;
 
-// A document compute.py serialised (json.dumps, which writes every double's shortest round trip:
+// A document's text: a file's as read (named by its path, with the command line's message when it is
+// not JSON), or compute.py's json.dumps of an object in memory (every double's shortest round trip:
 // the numbers arrive with their bits).
-static Json parse_doc(const std::string &text, const std::string &what)
-{
-    try {
-        return Json::parse(text);
-    } catch (const Json::exception &e) {
-        throw std::logic_error("internal error: the " + what + " document is not JSON: " + std::string(e.what()));
-    }
-}
+static Json parse_doc(const std::string &text, const std::string &name) { return msidfrf::parse_json(text, name); }
 
 // What compute.py makes a Model of: the document, the notes, whether the iterations converged.
 static py::dict outcome(const msidfitjob::FitOutcome &o)
@@ -68,12 +63,10 @@ static FitRequest fit_request(const py::dict &o)
 static py::dict fit(const std::string &frf_text, const std::string &name, const py::dict &opts)
 {
     const FitRequest rq = fit_request(opts);
-    msidfitjob::FitOutcome o;
-    {
-        py::gil_scoped_release nogil;
-        const msidfrf::FrfData f = msidfrf::parse_frf(parse_doc(frf_text, "FRF"), name);
-        o = msidfitjob::fit_frf(f, rq);
-    }
+    const msidfitjob::FitOutcome o = without_gil({false, true, "msid.fit"}, [&] {
+        const msidfrf::FrfData f = msidfrf::parse_frf(parse_doc(frf_text, name), name);
+        return msidfitjob::fit_frf(f, rq);
+    });
     return outcome(o);
 }
 
@@ -87,13 +80,11 @@ static py::dict validate(const std::string &model_text, const std::string &model
                                              {"known-input", msidfit::Weight::KnownInput},
                                              {"none", msidfit::Weight::None}});
     if (opts.contains("lpm_lines")) rq.lpm_lines = opts["lpm_lines"].cast<std::string>();
-    msidfitjob::ValidateOutcome v;
-    {
-        py::gil_scoped_release nogil;
-        const msidfit::ModelFile mf = msidfit::parse_model(parse_doc(model_text, "model"), model_name);
-        const Json frf_doc = parse_doc(frf_text, "FRF");
-        v = msidfitjob::validate_frf(mf, msidfrf::parse_frf(frf_doc, frf_name), frf_doc, rq);
-    }
+    const msidfitjob::ValidateOutcome v = without_gil({false, true, "msid.validate"}, [&] {
+        const msidfit::ModelFile mf = msidfit::parse_model(parse_doc(model_text, model_name), model_name);
+        const Json frf_doc = parse_doc(frf_text, frf_name);
+        return msidfitjob::validate_frf(mf, msidfrf::parse_frf(frf_doc, frf_name), frf_doc, rq);
+    });
     py::dict out;
     out["report"] = json_to_py(v.report);
     out["text"] = v.text;
@@ -156,18 +147,20 @@ static py::dict fit_records(const std::string &method, const py::tuple &recs, co
         const msidfitjob::CissimRequest rq = cissim_request(opts);
         msidfitjob::check_cissim(rq);
         const std::vector<msidrec::Record> r = unpack(recs, false);
-        py::gil_scoped_release nogil;
-        for (const auto &x : r) msidrec::check_finite(x, 0, x.n_rows);
-        std::lock_guard<std::mutex> planner(fftw_jobs());   // cissim plans its DFTs with FFTW
-        o = msidfitjob::fit_cissim(r, rq);
+        // cissim plans its DFTs with FFTW: the planner lock
+        o = without_gil({true, true, "msid.fit"}, [&] {
+            for (const auto &x : r) msidrec::check_finite(x, 0, x.n_rows);
+            return msidfitjob::fit_cissim(r, rq);
+        });
     } else if (method == "multi") {
         const msidfitjob::MultiRequest rq = multi_request(opts);
         msidfitjob::check_multi(rq, py::len(noise[0]) > 0);
         const std::vector<msidrec::Record> r = unpack(recs, true), n = unpack(noise, true);
-        py::gil_scoped_release nogil;
-        for (const auto *set : {&r, &n})
-            for (const auto &x : *set) msidrec::check_finite(x, 0, x.n_rows);
-        o = msidfitjob::fit_multi(r, n, rq);
+        o = without_gil({false, true, "msid.fit"}, [&] {
+            for (const auto *set : {&r, &n})
+                for (const auto &x : *set) msidrec::check_finite(x, 0, x.n_rows);
+            return msidfitjob::fit_multi(r, n, rq);
+        });
     } else {
         throw std::logic_error("internal error: record fit '" + method + "'");
     }
@@ -177,11 +170,8 @@ static py::dict fit_records(const std::string &method, const py::tuple &recs, co
 // msid modes: the report and the text of a model document.
 static py::dict modes(const std::string &model_text, const std::string &name)
 {
-    msidfitjob::ModesOutcome o;
-    {
-        py::gil_scoped_release nogil;
-        o = msidfitjob::modes_of(parse_doc(model_text, "model"), name);
-    }
+    const msidfitjob::ModesOutcome o = without_gil(
+        {false, true, "msid.modes"}, [&] { return msidfitjob::modes_of(parse_doc(model_text, name), name); });
     py::dict out;
     out["report"] = json_to_py(o.report);
     out["text"] = o.text;
@@ -194,14 +184,12 @@ static py::dict validate_records(const std::string &model_text, const std::strin
 {
     const std::vector<msidrec::Record> r = records_of(recs[0].cast<py::list>(), recs[1].cast<py::list>(),
                                                       recs[2].cast<py::list>(), recs[3].cast<std::vector<uint32_t>>(), true);
-    msidfitjob::ValidateOutcome v;
-    {
-        py::gil_scoped_release nogil;
-        const Json doc = parse_doc(model_text, "model");
+    const msidfitjob::ValidateOutcome v = without_gil({false, true, "msid.validate"}, [&] {
+        const Json doc = parse_doc(model_text, name);
         msidfitjob::check_multi_model(doc, name);
         for (const auto &x : r) msidrec::check_finite(x, 0, x.n_rows);
-        v = msidfitjob::validate_records(doc, name, r, lags, own);
-    }
+        return msidfitjob::validate_records(doc, name, r, lags, own);
+    });
     py::dict out;
     out["report"] = json_to_py(v.report);
     out["text"] = v.text;

@@ -1,6 +1,7 @@
 // msid._msid.frf: records held by NumPy through the FRF job (msidjob::estimate_frf), as `msid frf`
 // runs it on files: the same request, the same steps, the same bits. The samples are read in place.
 #include "ext.hpp"
+#include "ext_call.hpp"
 
 #include "msid_frf_est.hpp"
 #include "msid_host_util.hpp"
@@ -69,19 +70,16 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
     std::vector<Record> recs = records_of(arrays, names, columns, nu, false);
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
-    FrfOutcome o;
-    {
-        // The arrays stay alive in the caller's list; nothing here touches a Python object.
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> planner(fftw_jobs());
+    // The arrays stay alive in the caller's list; nothing in the call touches a Python object.
+    const FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
         // As `msid frf` reads its files: the plain periodic job scans each block for NaN/Inf just
         // before it uses it; every other path reads samples first, so they are scanned first.
         const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;
         for (Record &r : recs)
             if (plain) r.finite_unchecked = true;
             else msidrec::check_finite(r, 0, r.n_rows);
-        o = msidjob::estimate_frf(rq, recs, plan);
-    }
+        return msidjob::estimate_frf(rq, recs, plan);
+    });
     py::dict out;
     out["frf"] = frf_to_py(o.doc);
     out["notes"] = o.notes;
@@ -100,12 +98,8 @@ static py::dict frf_files(const std::vector<std::string> &paths, const std::stri
     const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
-    msidjob::FilesOutcome o;
-    {
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> planner(fftw_jobs());
-        o = msidjob::estimate_frf_files(rq, paths, cols, plan);
-    }
+    const msidjob::FilesOutcome o =
+        without_gil({true, true, "msid.frf"}, [&] { return msidjob::estimate_frf_files(rq, paths, cols, plan); });
     py::dict out;
     out["frf"] = frf_to_py(o.o.doc);
     out["notes"] = o.o.notes;
@@ -185,14 +179,11 @@ static py::dict frf_est(const py::list &arrays, const py::list &names, const py:
                                            recs[k].nu));
         plan.reference_rows.push_back(r.view);
     }
-    msidjob::FrfOutcome o;
-    {
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> planner(fftw_jobs());
+    const msidjob::FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
         for (Record &r : recs) msidrec::check_finite(r, 0, r.n_rows);
         for (Record &r : ref_recs) msidrec::check_finite(r, 0, r.n_rows);
-        o = msidjob::estimate_frf_est(rq, recs, plan);
-    }
+        return msidjob::estimate_frf_est(rq, recs, plan);
+    });
     return est_result(o);
 }
 
@@ -205,14 +196,11 @@ static py::dict frf_est_files(const std::vector<std::string> &paths, const std::
     msidjob::check_est_plan(plan, rq.fs);
     const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
     msidjob::check_reference_columns(plan.reference, cols);
-    msidjob::FrfOutcome o;
-    {
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> planner(fftw_jobs());
+    const msidjob::FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
         std::vector<Record> recs;
         for (const auto &p : paths) recs.push_back(msidrec::read_experiment(p, cols));
-        o = msidjob::estimate_frf_est(rq, recs, plan);
-    }
+        return msidjob::estimate_frf_est(rq, recs, plan);
+    });
     return est_result(o);
 }
 

@@ -2,6 +2,7 @@
 // command line's readers (tools/frfimport), as msid-frf/1 text that msid.FRF and msid.fit take; and
 // msid.export, the other way (tools/frfexport).
 #include "ext.hpp"
+#include "ext_call.hpp"
 
 #include "frf_import.hpp"
 #include "msid_frf_export.hpp"
@@ -19,12 +20,7 @@ static std::string frf_format(const std::string &path, const std::string &format
 // The msid-frf/1 document of an FRF file of any format, as JSON text.
 static std::string import_frf(const std::string &path, const std::string &format)
 {
-    std::string text;
-    {
-        py::gil_scoped_release nogil;
-        text = msidfrfimport::load_document(path, format).dump();
-    }
-    return text;
+    return without_gil({false, true, "msid.import_frf"}, [&] { return msidfrfimport::load_document(path, format).dump(); });
 }
 
 // `msid export SRC --csv|--mat OUT`: "csv", "mat" or "model" (what was written) and the FRF's size.
@@ -32,8 +28,7 @@ static py::tuple export_file(const std::string &src, const std::string &out, boo
 {
     std::string what;
     msidexport::ExportSummary s;
-    {
-        py::gil_scoped_release nogil;
+    without_gil({false, true, "msid.export"}, [&] {
         if (msidexport::is_model_file(src)) {
             if (csv) throw msidutil::UsageError("a model file exports to --mat only (A, B, C, D, Ts and names)");
             if (known_input) throw msidutil::UsageError("--known-input is for an FRF file, not a model");
@@ -43,7 +38,7 @@ static py::tuple export_file(const std::string &src, const std::string &out, boo
             s = csv ? msidexport::export_frf_csv(src, out, known_input) : msidexport::export_frf_mat(src, out, known_input);
             what = csv ? "csv" : "mat";
         }
-    }
+    });
     return py::make_tuple(what, s.lines, s.ny, s.nu);
 }
 

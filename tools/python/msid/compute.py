@@ -10,7 +10,9 @@ bits as `msid frf`; errors are msid's messages (ValueError; OSError for files). 
 
 Only the compiled functions need msid._msid; the rest of the package imports without it.
 """
+import math
 import os
+import sys
 import warnings
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -69,16 +71,36 @@ def _ext():
 
 # ---- arguments as msid takes them ----
 
-def _uint(v, what):
-    if type(v) is int and 0 <= v <= 0xFFFFFFFF:   # the common case, without the checks below
+# A range "a:b" of more items is refused before it is expanded, as the command line refuses it.
+_MAX_RANGE = 50_000_000
+# No period msid takes (at most 2^24 samples) has a line at or above 2^23.
+_NO_LINE = 1 << 23
+
+
+def _show(v):
+    """A value as a message quotes it: its repr, cut to 60 characters."""
+    r = repr(v)
+    return r if len(r) <= 60 else r[:57] + "..."
+
+
+def _uint(v, what, top=0xFFFFFFFF):
+    """A non-negative integer keyword: TypeError for another type (a float is not truncated), ValueError
+    out of 0..top (before anything is sized from it)."""
+    if type(v) is int and 0 <= v <= top:   # the common case, without the checks below
         return v
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or not 0 <= v <= 0xFFFFFFFF:
-        raise ValueError(f"{what} must be a non-negative integer, not {v!r}")
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        raise TypeError(f"{what} must be an integer, not {type(v).__name__} {_show(v)}")
+    if v < 0:
+        raise ValueError(f"{what} must be a non-negative integer, not {_show(v)}")
+    if v > top:
+        raise ValueError(f"{what} must be at most {top}, not {_show(v)}")
     return int(v)
 
 
-def _uint_list(v, what):
-    """Bins as msid takes them: integers, or a string '1,2,10:20,1:2:9' (ranges include both ends)."""
+def _uint_list(v, what, stop_at=_NO_LINE):
+    """Bins as msid takes them: integers, or a string '1,2,10:20,1:2:9' (ranges include both ends). The
+    list ends after its first bin at or above `stop_at` (one msid refuses by name: at or beyond Nyquist),
+    so a range such as '1:1000000000' is never expanded past what can be checked."""
     if isinstance(v, str):
         if not v.strip():
             raise ValueError(f"{what}: empty list")
@@ -89,41 +111,77 @@ def _uint_list(v, what):
                 nums = [int(p) for p in parts]
             except ValueError:
                 raise ValueError(f"{what}: bad item '{item}'") from None
+            if any(x < 0 for x in nums):
+                raise ValueError(f"{what}: '{item}' is not a non-negative integer")
+            if any(x > 0xFFFFFFFF for x in nums):
+                raise ValueError(f"{what}: '{item}' is too large")
             if len(parts) == 1:
-                out.append(nums[0])
+                out.append(np.array(nums, dtype=np.int64))
             elif len(parts) in (2, 3):
                 a, b, st = nums[0], nums[-1], (nums[1] if len(parts) == 3 else 1)
                 if st <= 0 or b < a:
                     raise ValueError(f"{what}: bad range '{item}'")
-                out.extend(range(a, b + 1, st))
+                if (b - a) // st > _MAX_RANGE:
+                    raise ValueError(f"{what}: range '{item}' is too long")
+                if b >= stop_at:   # up to the first bin msid refuses
+                    b = min(b, a + ((max(stop_at - a, 0) + st - 1) // st) * st)
+                out.append(np.arange(a, b + 1, st, dtype=np.int64))
             else:
                 raise ValueError(f"{what}: bad item '{item}'")
-        return [_uint(x, what) for x in out]
-    if type(v) is list and all(type(x) is int and 0 <= x <= 0xFFFFFFFF for x in v):   # plain ints: as given
+            if out[-1].size and out[-1][-1] >= stop_at:
+                break
+        a = np.concatenate(out)
+    elif type(v) is list and all(type(x) is int and 0 <= x < stop_at for x in v):   # plain ints: as given
         return list(v)
-    a = np.asarray(v)
-    if a.ndim > 1 or (a.size and a.dtype.kind not in "iu"):
-        raise ValueError(f"{what} must be integers (bins) or a string such as '1:200', not {v!r}")
-    return [_uint(int(x), what) for x in a.reshape(-1)]
+    else:
+        a = np.asarray(v)
+        if a.ndim > 1 or (a.size and a.dtype.kind not in "iu"):
+            if a.dtype.kind in "fc" or a.dtype == object:
+                raise TypeError(f"{what} must be integers (bins) or a string such as '1:200', not {_show(v)}")
+            raise ValueError(f"{what} must be integers (bins) or a string such as '1:200', not {_show(v)}")
+        a = a.reshape(-1).astype(np.int64, copy=False) if a.size else np.zeros(0, np.int64)
+        bad = np.flatnonzero((a < 0) | (a > 0xFFFFFFFF))
+        if bad.size:
+            raise ValueError(f"{what} must be non-negative integers, not {int(a[bad[0]])}")
+    beyond = np.flatnonzero(a >= stop_at)
+    if beyond.size:
+        a = a[:beyond[0] + 1]
+    return a.tolist()
 
 
 def _float(v, what):
+    """A real keyword: TypeError for another type, ValueError for NaN, an infinity or a subnormal
+    number (which the command line reads as no number: its reciprocal, a sample time, is infinite)."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{what} must be a number, not {type(v).__name__} {_show(v)}")
     try:
-        return float(v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be a number, not {v!r}") from None
+        x = float(v)
+    except OverflowError:
+        raise ValueError(f"{what} must be a finite number, not {_show(v)}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{what} must be a finite number, not {_show(v)}")
+    if x != 0 and abs(x) < sys.float_info.min:
+        raise ValueError(f"{what}: {_show(v)} is below the smallest normal double ({sys.float_info.min:g})")
+    return x
 
 
-def _options(skip_periods, fs, detect_lines, transient, alpha, dft):
+def _below_nyquist(period):
+    """The first bin at or beyond Nyquist of `period` (for _uint_list), or no bound when it is unknown."""
+    return (period + 1) // 2 if type(period) is int and period >= 0 else _NO_LINE
+
+
+def _options(skip_periods, fs, detect_lines, transient, alpha, dft, period=None):
     """The estimating options the extension shares between msid.frf and Measurement; those at their
-    default are left out, as options not given on the command line (direct refuses the others)."""
+    default are left out, as options not given on the command line (direct refuses the others).
+    `period`: the design's or the given one, if known (detection lines beyond it are refused unexpanded)."""
     if (type(skip_periods) is int and skip_periods == 0 and fs is None and detect_lines is None
             and type(transient) is str and transient == "flag" and type(alpha) is float and alpha == 0.01
             and type(dft) is str and dft == "auto"):
         return {}   # every option at its default: nothing to check or pass on
     o = {"skip_periods": _uint(skip_periods, "skip_periods"),
          "fs": None if fs is None else _float(fs, "fs"),
-         "detect_lines": None if detect_lines is None else _uint_list(detect_lines, "detect_lines"),
+         "detect_lines": None if detect_lines is None else _uint_list(detect_lines, "detect_lines",
+                                                                      _below_nyquist(period)),
          "transient": str(transient), "alpha": _float(alpha, "alpha"), "dft": str(dft)}
     default = {"transient": "flag", "alpha": 0.01, "dft": "auto"}
     return {k: v for k, v in o.items() if v is not None and default.get(k) != v}
@@ -148,8 +206,8 @@ def _column_spec(columns):
 def _real_samples(a, where):
     """C-contiguous float64, the form the core reads in place; any other real dtype or layout is copied
     once (integers, float32, a Fortran-order or strided array), anything else refused."""
-    if a.dtype.kind not in "fiu":
-        raise ValueError(f"'{where}': dtype {a.dtype} is not supported (float32/64 or integers; complex is not)")
+    if a.dtype.kind not in "fiu" or a.dtype.itemsize > 8:
+        raise ValueError(f"'{where}': dtype {a.dtype} is not supported (float16/32/64 or integers; complex is not)")
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
@@ -157,12 +215,26 @@ def _record(r, where, spec, n_inputs, free=False):
     """One experiment's record as (samples, column names, nu): a 2-D array (rows are samples; columns
     u1..u_nu then y1..y_ny, numbered from 1 as in a .npy) or a pandas DataFrame (named columns)."""
     ext = _ext()
+    if isinstance(r, (str, bytes, os.PathLike)):
+        raise TypeError(f"'{where}' is a path among arrays: give every record as an array (or DataFrame), or "
+                        "every record as a file's path")
     if hasattr(r, "columns") and hasattr(r, "iloc"):     # a pandas DataFrame
         names = [str(c) for c in r.columns]
         idx, nu, _ = ext.resolve_columns(where, names, spec, free)
-        a = _real_samples(r.iloc[:, list(idx)].to_numpy(), where)
-        return a, [names[i] for i in idx], nu
-    a = np.asarray(r)
+        if len(r) == 0:
+            raise ValueError(f"'{where}' holds no samples")
+        part = r.iloc[:, list(idx)]
+        kinds = {str(t) for t in part.dtypes}
+        try:   # pandas' nullable dtypes (Float64, Int64: missing values as pd.NA) as NaN, which msid names
+            a = part.to_numpy(dtype=np.float64, na_value=np.nan)
+        except (TypeError, ValueError):
+            raise ValueError(f"'{where}': columns of dtype {', '.join(sorted(kinds))} are not numbers "
+                             "(float32/64 or integers)") from None
+        return _real_samples(a, where), [names[i] for i in idx], nu
+    try:
+        a = np.asarray(r)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"'{where}' is not an array of samples ({e})") from None
     if a.ndim != 2:
         raise ValueError(f"'{where}': a {a.ndim}-dimensional array of shape {a.shape}; expected a samples x "
                          "channels matrix (rows are samples; columns u1..u_nu, y1..y_ny)")
@@ -225,7 +297,7 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
       are read in place; other real dtypes and layouts are copied once. Or experiment files (a path, or a
       list of paths: CSV, .npy, .npz, .mat), read as `msid frf --experiment` reads them: a CSV record
       passes through the core block by block (with period or lines "auto" too: a first pass finds them),
-      so a file far larger than memory is estimated in a few tens of MB (README "CSV records").
+      so a file far larger than memory is estimated in a few tens of MB (docs/records.md).
     design: an msid.Design or a design file (period, lines, inputs, experiments), or else
     period, lines: samples per period and excited bins; either may be "auto" (found from the inputs).
       lines takes integers or msid's string form ("1:200", "1,3,5:2:21").
@@ -259,15 +331,21 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
     D = _design_arg(design)
     if n_inputs is None and D is not None:
         n_inputs = D.n_inputs
-    opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft)
+    if isinstance(period, str) and period == "auto":
+        P = None
+    elif period is not None:
+        P = _uint(period, "period")
+    else:
+        P = None if D is None else D.period
+    opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft, P)
     if isinstance(period, str) and period == "auto":
         opts["auto_period"] = True
     elif period is not None:
-        opts["period"] = _uint(period, "period")
+        opts["period"] = P
     if isinstance(lines, str) and lines == "auto":
         opts["auto_lines"] = True
     elif lines is not None:
-        opts["lines"] = _uint_list(lines, "lines")
+        opts["lines"] = _uint_list(lines, "lines", _below_nyquist(P))
     if block is not None:
         opts["block"] = _uint(block, "block")
     if realisations is not None:
@@ -288,8 +366,12 @@ def _band(band):
     if isinstance(band, str):
         parts = band.split(":")
         if len(parts) != 2:
-            raise ValueError(f"--band must be F1:F2 (got '{band}')")
-        return (_float(parts[0], "band"), _float(parts[1], "band"), band)
+            raise ValueError(f"band must be (f1, f2) or 'F1:F2' (got '{band}')")
+        try:
+            f1, f2 = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise ValueError(f"band: '{band}' is not F1:F2 (two numbers)") from None
+        return (_float(f1, "band"), _float(f2, "band"), band)
     try:
         f1, f2 = band
     except (TypeError, ValueError):
@@ -312,7 +394,7 @@ def _frf_est(records, method, *, design, lines, skip_periods, fs, columns, n_inp
              alpha, dft, block, realisations, direct, est):
     """msid.frf(method="lpm" | "etfe"): the periodic estimator's keywords are refused, as the command line's."""
     if method not in ("lpm", "etfe"):
-        raise ValueError(f"--method must be periodic, lpm or etfe (got '{method}')")
+        raise ValueError(f"method must be 'periodic', 'lpm' or 'etfe', not {method!r}")
     periodic = {"design": design is not None, "lines": lines is not None, "skip_periods": skip_periods != 0,
                 "detect_lines": detect_lines is not None, "transient": transient != "flag", "alpha": alpha != 0.01,
                 "dft": dft != "auto", "block": block is not None, "realisations": realisations is not None,
@@ -402,7 +484,7 @@ class Measurement:
         if D is None:
             raise ValueError("a Measurement needs a design (period, lines, inputs and experiments)")
         self.design = D
-        opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft)
+        opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft, D.period)
         if max_periods is None:
             max_periods = 4 * (D.periods or 64) + 8
         self._m = _ext().Measurement(D._impl, opts, _uint(max_periods, "max_periods"))
@@ -438,7 +520,7 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
             rate: float = 0, fs: Optional[float] = None, scale: float = 0.001, timeout: float = 10.0,
             detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
             progress: Optional[Callable[[Dict[str, Any]], None]] = None, on_device: bool = False,
-            stream_check: bool = False) -> FRF:
+            stream_check: bool = False, map: Optional[PathLike] = None, realtime: bool = True) -> FRF:
     """Measure a device as `msid measure` does, in process: identify it, upload the design as
     parameters (the device regenerates the multisine with msid's core), run every experiment, and
     return the FRF of what was measured (docs/measure.md). No process is started.
@@ -462,6 +544,14 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
       otherwise); the host's FRF is .host_frf of the result. A stop while the device estimates leaves no
       FRF (KeyboardInterrupt); progress then sees only which experiment runs.
 
+    map: a device description (msid-device/1, docs/devices.md) for a device that does not run msid's
+      firmware (a PLC, a drive): msid then generates the excitation and writes it to the description's
+      drive channels once per tick at `rate` (required, any positive number of Hz), reads the measure
+      channels in the same tick, checks every value against the limits before writing anything, and
+      writes the safe values on every way out, as `msid measure --map` does. The design has one input per
+      drive channel. scale, fs and on_device do not apply; realtime=False leaves the scheduling alone
+      (no SCHED_FIFO, no locked memory). The `acquisition` block has the tick loop's `timing`.
+
     Returns an msid.FRF with the `acquisition` block in .meta (counts of samples, losses, retries).
     Ctrl-C ends the run after the complete periods and raises msid.MeasurementInterrupted (a
     KeyboardInterrupt) holding their FRF; a Ctrl-C before every experiment has 2 periods raises a plain
@@ -471,7 +561,10 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
     D = _design_arg(design)
     if D is None:
         raise ValueError("msid.measure needs a design (msid.design or a design file)")
-    opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft)
+    if map is not None:
+        return _measure_mapped(device, D, map, periods, skip_periods, rate, fs, scale, timeout, detect_lines,
+                               transient, alpha, dft, progress, on_device, realtime)
+    opts = _options(skip_periods, fs, detect_lines, transient, alpha, dft, D.period)
     if fs is not None and rate:
         raise ValueError("fs is for an unpaced device; rate already sets the sample rate")
     r = _float(rate, "rate")
@@ -494,6 +587,32 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
     return f
 
 
+def _measure_mapped(device, D, map, periods, skip_periods, rate, fs, scale, timeout, detect_lines, transient,
+                    alpha, dft, progress, on_device, realtime) -> FRF:
+    """msid.measure(..., map=...): a described device with host-timed excitation."""
+    if not isinstance(map, (str, os.PathLike)):
+        raise TypeError(f"map must be a path to a device description, not {type(map).__name__}")
+    if fs is not None:
+        raise ValueError("fs does not apply with map: rate is the sample rate")
+    if scale != 0.001:
+        raise ValueError("scale does not apply with map: the description scales each channel")
+    if on_device:
+        raise ValueError("on_device does not apply with map: the host excites and estimates")
+    r = _float(rate, "rate")
+    if not (0 < r <= 100000):
+        raise ValueError(f"rate must be in (0, 100000] Hz with map (the host ticks at that rate), not {rate!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, not {type(progress).__name__}")
+    opts = _options(skip_periods, None, detect_lines, transient, alpha, dft, D.period)
+    K = (D.periods or 8) if periods is None else _uint(periods, "periods")
+    res = _ext().measure_mapped(str(device), D._impl, opts, K, r, _float(timeout, "timeout"), progress,
+                                os.fspath(map), bool(realtime))
+    f = _result(res, "msid.measure")
+    if res["interrupted"]:
+        raise MeasurementInterrupted(f"msid.measure: interrupted: {res['summary']}", f)
+    return f
+
+
 # ---- files for other tools ----
 
 def export(src: Union["FRF", "Model", PathLike], out: PathLike, *, known_input: bool = False) -> None:
@@ -511,9 +630,14 @@ def export(src: Union["FRF", "Model", PathLike], out: PathLike, *, known_input: 
         import tempfile
         fd, tmp = tempfile.mkstemp(suffix=".json", dir=os.path.dirname(os.path.abspath(out)))
         os.close(fd)
+        name = "(in-memory FRF)" if isinstance(src, FRF) else "(in-memory model)"
         try:
             (write_frf if isinstance(src, FRF) else write_model)(tmp, src)
             _ext().export_file(tmp, out, ext == ".csv", bool(known_input))
+        except (ValueError, OSError) as e:   # the message names the object, not the temporary file
+            if isinstance(e, OSError) and e.errno:
+                raise type(e)(e.errno, str(e.strerror).replace(tmp, name)) from None
+            raise type(e)(str(e).replace(tmp, name)) from None
         finally:
             os.remove(tmp)
         return
@@ -521,6 +645,14 @@ def export(src: Union["FRF", "Model", PathLike], out: PathLike, *, known_input: 
 
 
 # ---- designs ----
+
+def _machine_memory():
+    """Bytes of physical memory (0 when the system does not say)."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 0
+
 
 class Design:
     """An excitation design (msid-design/1): built by msid.design, read by msid.read_design."""
@@ -552,16 +684,33 @@ class Design:
         """Recommended periods per experiment (None if the design does not say)."""
         return self._impl.doc.get("periods")
 
+    def _experiment(self, experiment):
+        e = _uint(experiment, "experiment")
+        if e >= self.n_experiments:
+            raise ValueError(f"experiment {e}: the design has {self.n_experiments} (counted from 0)")
+        return e
+
     def crest_factor(self, experiment: int, inp: int) -> float:
         """max|u|/rms(u) of input `inp` in `experiment` (both from 0)."""
-        return self._impl.crest_factor(_uint(experiment, "experiment"), _uint(inp, "input"))
+        e, i = self._experiment(experiment), _uint(inp, "input")
+        if i >= self.n_inputs:
+            raise ValueError(f"input {i}: the design has {self.n_inputs} (counted from 0)")
+        return self._impl.crest_factor(e, i)
 
     def samples(self, experiment: int = 0, periods: Optional[int] = None) -> np.ndarray:
         """The inputs of `experiment` (from 0) over `periods` periods (default: the design's, else 1):
-        a (periods * period, n_inputs) float64 array, the samples `msid excite --csv` writes."""
+        a (periods * period, n_inputs) float64 array, the samples `msid excite --csv` writes. An array
+        larger than this machine's memory is refused (ValueError) before it is allocated."""
         if periods is None:
             periods = self.periods or 1
-        return self._impl.samples(_uint(experiment, "experiment"), _uint(periods, "periods"))
+        e, K = self._experiment(experiment), _uint(periods, "periods")
+        need = K * self.period * self.n_inputs * 8
+        have = _machine_memory()
+        if have and need > have:
+            raise ValueError(f"periods = {K}: {K} x {self.period} samples x {self.n_inputs} input(s) take "
+                             f"{need / 2 ** 30:.3g} GiB, more than this machine's memory ({have / 2 ** 30:.3g} GiB); "
+                             "ask for fewer periods at a time")
+        return self._impl.samples(e, K)
 
     def save(self, path: PathLike) -> None:
         """Write the design as an msid-design/1 file (atomic), as `msid excite -o` does."""
@@ -583,9 +732,10 @@ def design(period: int, lines: Optional[Bins] = None, *, omega: Optional[Sequenc
     pattern "dft" or "hadamard", periods (recommended per experiment). Returns an msid.Design."""
     om = [] if omega is None else [_float(w, "omega") for w in np.asarray(omega, dtype=float).reshape(-1)]
     amp = [] if amplitudes is None else [_float(x, "amplitudes") for x in np.asarray(amplitudes, dtype=float).reshape(-1)]
-    return Design(_ext().design(_uint(period, "period"), [] if lines is None else _uint_list(lines, "lines"), om,
+    P = _uint(period, "period")
+    return Design(_ext().design(P, [] if lines is None else _uint_list(lines, "lines", _below_nyquist(P)), om,
                                 0.0 if sample_time is None else _float(sample_time, "sample_time"), amp, str(phases),
-                                int(seed), _uint(inputs, "inputs"), 0 if experiments is None else _uint(experiments, "experiments"),
+                                _uint(seed, "seed", 2 ** 64 - 1), _uint(inputs, "inputs"), 0 if experiments is None else _uint(experiments, "experiments"),
                                 str(pattern), _uint(periods, "periods")))
 
 
@@ -597,13 +747,17 @@ def read_design(path: PathLike) -> "Design":
 # ---- fits and validation ----
 
 def _file_text(path):
-    """A document file's text and its path as msid names it (OSError with msid's wording)."""
+    """A document file's text and its path as msid names it (OSError with msid's wording; ValueError
+    for a file that is not UTF-8 text, as no msid document is)."""
     path = os.fspath(path)
     try:
         with open(path, "r", encoding="utf-8") as fh:
             return fh.read(), path
     except OSError as e:
         raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
+    except UnicodeDecodeError as e:
+        raise ValueError(f"'{path}' is not an msid document: byte 0x{e.object[e.start]:02x} at offset {e.start} is "
+                         "not UTF-8 text (JSON)") from None
 
 
 def import_frf(path: PathLike, format: Optional[str] = None) -> FRF:
@@ -631,9 +785,10 @@ def _frf_json(frf, what):
     if not isinstance(frf, FRF):
         raise TypeError(f"{what} must be an msid.FRF or an msid-frf/1 file's path, not {type(frf).__name__}")
     import json
+    doc = frf_to_doc(frf, complete=False)
     try:
-        return json.dumps(frf_to_doc(frf, complete=False), allow_nan=False), "(in-memory FRF)"
-    except ValueError as e:
+        return json.dumps(doc, allow_nan=False), "(in-memory FRF)"
+    except ValueError as e:   # NaN or an infinity in the arrays
         raise ValueError(f"{what}: {e} (an FRF holds finite numbers only)") from None
 
 
@@ -680,7 +835,8 @@ def _cissim_opts(order, o):
         period, lines = D.period, list(D.bins)
     u = lambda k: None if o.get(k) is None else _uint(o[k], k)          # noqa: E731
     return {"period": None if period is None else _uint(period, "period"),
-            "lines": None if lines is None else _uint_list(lines, "lines"),
+            "lines": None if lines is None else _uint_list(lines, "lines", _below_nyquist(
+                period if type(period) is int else None)),
             "order": None if order is None else _uint(order, "order"), "max_order": u("max_order"),
             "block_rows": u("block_rows"), "lags": u("lags"), "skip_periods": _uint(o.get("skip_periods", 1), "skip_periods"),
             "reduced": bool(o.get("reduced", False)), "no_d": bool(o.get("no_d", False)),
@@ -842,6 +998,12 @@ class Modes:
         self.report = res["report"]
         self.text = res["text"]
         self.modes = list(self.report.get("modes", []))
+
+    @property
+    def at_bound(self):
+        """The modes (dicts of `modes`) whose pole lies on the stability bound of the constrained fit: their
+        damping is the constraint's, `sd_zeta` is None."""
+        return [m for m in self.modes if m.get("at_bound")]
 
     def __str__(self):
         return self.text

@@ -10,10 +10,11 @@ Every key of a file that this module does not turn into an array is kept (FRF.me
 Model.doc), so read -> write keeps the file valid for the msid-frf/1 and msid-model/1 schemas and
 for `msid fit` / `msid validate`. Writers are atomic (temporary file, then rename).
 """
+import errno
 import json
 import math
 import os
-import tempfile
+import secrets
 
 import numpy as np
 
@@ -67,14 +68,30 @@ def _rmat(obj, shape, where):
     return a
 
 
+def _os_error(e, what):
+    """The OSError `e` of the same type and errno, its message `what: reason` (naming the file the caller
+    named, not a temporary one)."""
+    if e.errno is None:
+        return OSError(f"{what}: {e}")
+    return type(e)(e.errno, f"{what}: {e.strerror}")
+
+
 def _load(path, fmt):
+    """A document file as a dict: OSError when it cannot be read (missing, a directory, no permission),
+    FormatError (a ValueError) when it is not the msid document `fmt` (not UTF-8 JSON text, another format)."""
+    path = os.fspath(path)
     try:
         with open(path, "r", encoding="utf-8") as fh:
             doc = json.load(fh)
     except OSError as e:
-        raise FormatError(f"cannot read '{path}': {e.strerror}") from None
+        raise _os_error(e, f"cannot read '{path}'") from None
+    except UnicodeDecodeError as e:
+        raise FormatError(f"'{path}' is not an {fmt} file: byte 0x{e.object[e.start]:02x} at offset {e.start} is "
+                          "not UTF-8 text (JSON)") from None
     except json.JSONDecodeError as e:
         raise FormatError(f"'{path}' is not valid JSON: {e}") from None
+    except RecursionError:
+        raise FormatError(f"'{path}' is not an {fmt} file: JSON nested too deeply") from None
     if not isinstance(doc, dict) or doc.get("format") != fmt:
         got = doc.get("format") if isinstance(doc, dict) else None
         raise FormatError(f"'{path}': format is {json.dumps(got)}, expected \"{fmt}\"")
@@ -82,19 +99,37 @@ def _load(path, fmt):
 
 
 def _write_atomic(path, doc):
-    """JSON to a temporary file next to `path`, then rename: a failed write leaves no file."""
+    """JSON to a temporary file next to `path`, then rename: a failed write leaves no file. The file
+    gets the umask's permissions (as open() and the command line give): created with mode 0666, which
+    the umask reduces (0644 under the default umask 022). Errors name `path`, never the temporary."""
     text = json.dumps(doc, indent=1, allow_nan=False)
+    _write_text_atomic(path, text + "\n")
+
+
+def _write_text_atomic(path, text):
+    path = os.fspath(path)
     d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=os.path.basename(path) + ".", suffix=".tmp", dir=d)
+    tmp = None
     try:
+        for _ in range(100):   # a name of its own: O_EXCL, as mkstemp, but with the umask's mode
+            cand = os.path.join(d, f"{os.path.basename(path)}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+            try:
+                fd = os.open(cand, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
+            except FileExistsError:
+                continue
+            tmp = cand
+            break
+        else:
+            raise FileExistsError(errno.EEXIST, "no free temporary name")
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
-            fh.write("\n")
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+        tmp = None
+    except OSError as e:
+        raise _os_error(e, f"cannot write '{path}'") from None
+    finally:
+        if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
-        raise
 
 
 def _unvec(v, ny, nu):
@@ -460,6 +495,16 @@ class Model:
     @property
     def n_outputs(self):
         return self.D.shape[0]
+
+    @property
+    def poles_at_bound(self):
+        """The poles (complex, in the model's variable s or z; pairs by their Im > 0 member) that the stable
+        pole-residue fit held on the stability bound: their damping is the constraint's, not an estimate
+        (`parameters.at_bound`, `pole_residue.poles[k].at_bound`). Empty for other models."""
+        pr = self.doc.get("pole_residue")
+        if not isinstance(pr, dict):
+            return []
+        return [complex(p["re"], p["im"]) for p in pr.get("poles", []) if isinstance(p, dict) and p.get("at_bound")]
 
     @property
     def stabilisation(self):

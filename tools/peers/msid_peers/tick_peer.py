@@ -1,0 +1,59 @@
+#!/usr/bin/env python3
+"""The tick loop a user would write without msid, with pymodbus: every tick write the torque command (float32,
+holding 100..101) and read the measured values (input 0..2), paced by time.sleep to the next deadline of
+time.monotonic(). It records each tick's lateness (wake-up minus deadline; of the ticks it slept for apart, the pacing's own
+precision) and round trip, and prints one JSON line: ticks, lateness and round-trip quantiles, CPU seconds of
+the loop. The peer of `msid bench ticks`.
+
+usage: tick_peer.py HOST PORT RATE TICKS"""
+import json
+import math
+import resource
+import struct
+import sys
+import time
+
+from pymodbus.client import ModbusTcpClient
+
+
+def quantiles(x):
+    x = sorted(x)
+    q = lambda p: x[min(len(x) - 1, max(0, math.ceil(p * len(x)) - 1))]
+    return {"median": q(0.5), "p99": q(0.99), "max": x[-1]}
+
+
+def main():
+    host, port, rate, ticks = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])
+    c = ModbusTcpClient(host, port=port, timeout=1)
+    if not c.connect():
+        sys.exit(f"tick_peer: cannot connect to {host}:{port}")
+    T = 1.0 / rate
+    late, wake, rtt, failed = [], [], [], 0
+    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
+    t0 = time.monotonic() + T
+    for n in range(ticks):
+        deadline = t0 + n * T
+        d = deadline - time.monotonic()
+        if d > 0:
+            time.sleep(d)
+        w = time.monotonic()
+        late.append(w - deadline)
+        if d > 0:
+            wake.append(w - deadline)   # the ticks it slept for: the pacing's own precision
+        u = 0.5 * math.sin(2 * math.pi * n / 64)
+        hi, lo = struct.unpack(">HH", struct.pack(">f", u))
+        a = c.write_registers(100, [hi, lo], device_id=1)
+        r = c.read_input_registers(0, count=3, device_id=1)   # Torque (float32) and Speed (int16)
+        rtt.append(time.monotonic() - w)
+        failed += a.isError() or r.isError()
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF)
+    c.write_registers(100, [0, 0], device_id=1)
+    c.close()
+    user = cpu1.ru_utime - cpu0.ru_utime
+    cpu = user + (cpu1.ru_stime - cpu0.ru_stime)
+    print(json.dumps({"ticks": ticks, "failed": failed, "lateness_s": quantiles(late), "wake_lateness_s": quantiles(wake),
+                      "round_trip_s": quantiles(rtt), "cpu_s": cpu, "cpu_user_s": user}))
+
+
+if __name__ == "__main__":
+    main()

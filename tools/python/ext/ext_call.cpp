@@ -1,0 +1,264 @@
+// msid._msid: calls without the GIL, their interrupt token, the planner lock and the exit (ext_call.hpp).
+#include "ext_call.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cxxabi.h>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+namespace msidpy {
+
+using Clock = std::chrono::steady_clock;
+using msidutil::Step;
+
+namespace {
+
+// How often the main thread's token asks Python for a pending signal: a check takes the GIL, which
+// another Python thread may hold for up to its switch interval (5 ms); 20 ms keeps an interrupt well
+// within 0.2 s and the work's cost of asking below 1%.
+constexpr auto POLL = std::chrono::milliseconds(20);
+// How long the interpreter's exit waits for the running calls to stop.
+constexpr auto EXIT_WAIT = std::chrono::seconds(10);
+
+std::atomic<bool> g_exiting{false};
+std::atomic<uint64_t> g_progress[(size_t)Step::count_];
+
+// The running calls: the exit waits until each has taken the GIL back.
+std::mutex g_run_mu;
+std::condition_variable g_run_cv;
+size_t g_running = 0;
+
+unsigned long main_thread_ident()
+{
+    static const unsigned long id = [] {
+        py::gil_scoped_acquire gil;
+        return py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
+    }();
+    return id;
+}
+
+}  // namespace
+
+// The token of one call: counts progress; on the thread that runs the interpreter's signal handlers
+// asks for a pending signal every POLL; stops every call when the interpreter exits.
+struct Call::Token : msidutil::Cancel {
+    PyThreadState **ts;                    // the calling thread's state while the GIL is released
+    std::thread::id owner = std::this_thread::get_id();
+    bool signals;                          // the main thread: Python runs signal handlers there
+    bool interruptible;
+    Clock::time_point next = Clock::now() + POLL;
+    std::atomic<bool> stop{false};
+    PyObject *type = nullptr, *value = nullptr, *tb = nullptr;   // what the signal handler raised
+
+    Token(PyThreadState **t, bool sig, bool intr) : ts(t), signals(sig), interruptible(intr) {}
+
+    bool proceed_or_stop(Step s, uint64_t n) override
+    {
+        if (n) g_progress[(size_t)s].fetch_add(n, std::memory_order_relaxed);
+        return interruptible && interrupted(false);
+    }
+
+    // Ask now (`now`) or when POLL has passed since the last question.
+    bool interrupted(bool now)
+    {
+        if (stop.load(std::memory_order_relaxed)) return true;
+        if (g_exiting.load(std::memory_order_relaxed)) return stop = true;
+        if (!signals || std::this_thread::get_id() != owner || !*ts) return false;
+        const Clock::time_point t = Clock::now();
+        if (!now && t < next) return false;
+        next = t + POLL;
+        PyEval_RestoreThread(*ts);   // the main thread: never ended by the exiting interpreter
+        if (PyErr_CheckSignals() != 0) {
+            PyErr_Fetch(&type, &value, &tb);
+            stop = true;
+        }
+        *ts = PyEval_SaveThread();
+        return stop;
+    }
+};
+
+bool Call::shutting_down() { return g_exiting.load(std::memory_order_relaxed); }
+
+Call::Call(const CallOptions &o) : o_(o)
+{
+    tok_ = std::make_unique<Token>(&ts_, PyThread_get_thread_ident() == main_thread_ident(), o.interruptible);
+    std::lock_guard<std::mutex> g(g_run_mu);
+    ++g_running;
+    registered_ = true;
+}
+
+void Call::leave()
+{
+    if (!registered_) return;
+    registered_ = false;
+    std::lock_guard<std::mutex> g(g_run_mu);
+    --g_running;
+    g_run_cv.notify_all();
+}
+
+Call::~Call()
+{
+    leave();
+    // a signal handler's exception that was never raised (the work failed first): dropped
+    Py_XDECREF(tok_->type);
+    Py_XDECREF(tok_->value);
+    Py_XDECREF(tok_->tb);
+}
+
+void Call::run(const std::function<void()> &work)
+{
+    std::exception_ptr err;
+    ts_ = PyEval_SaveThread();
+    try {
+        msidutil::CancelScope scope(tok_.get());
+        if (o_.jobs) {
+            job_lock().lock([&] { return tok_->interrupted(true); }, o_.what);
+            try {
+                work();
+            } catch (...) {
+                job_lock().unlock();
+                throw;
+            }
+            job_lock().unlock();
+        } else {
+            work();
+        }
+    } catch (abi::__forced_unwind &) {
+        throw;   // this thread is being ended: let it go
+    } catch (...) {
+        err = std::current_exception();
+    }
+    PyThreadState *ts = ts_;
+    ts_ = nullptr;
+    PyEval_RestoreThread(ts);   // a plain call: an exiting interpreter may end this thread here
+    leave();
+    if (tok_->stop) {
+        if (tok_->type) {
+            PyErr_Restore(tok_->type, tok_->value, tok_->tb);
+            tok_->type = tok_->value = tok_->tb = nullptr;
+            throw py::error_already_set();
+        }
+        if (g_exiting) {
+            PyErr_SetString(PyExc_KeyboardInterrupt, "the interpreter is exiting");
+            throw py::error_already_set();
+        }
+    }
+    if (err) std::rethrow_exception(err);
+}
+
+// ---- the planner lock ----
+
+namespace {
+struct LockState {
+    std::mutex mu;
+    std::condition_variable cv;
+    std::thread::id owner;
+    unsigned depth = 0;
+    std::deque<std::function<void()>> later;
+};
+LockState &lock_state()
+{
+    static LockState s;
+    return s;
+}
+}  // namespace
+
+void JobLock::lock(const std::function<bool()> &interrupted, const char *what)
+{
+    LockState &s = lock_state();
+    std::unique_lock<std::mutex> g(s.mu);
+    const std::thread::id me = std::this_thread::get_id();
+    if (s.depth && s.owner == me) {
+        ++s.depth;
+        return;
+    }
+    while (s.depth) {
+        s.cv.wait_for(g, POLL);
+        if (!s.depth) break;
+        g.unlock();   // the check may take the GIL: never while holding the lock's own mutex
+        const bool stop = interrupted();
+        g.lock();
+        if (stop)
+            throw msidutil::Cancelled{std::string(what) + " waited for another msid call (msid.measure or msid.frf "
+                                                          "in another thread holds FFTW's planner)"};
+    }
+    s.owner = me;
+    s.depth = 1;
+}
+
+void JobLock::unlock()
+{
+    LockState &s = lock_state();
+    std::unique_lock<std::mutex> g(s.mu);
+    if (--s.depth) return;
+    while (!s.later.empty()) {   // what other threads freed while this one held the lock
+        std::function<void()> f = std::move(s.later.front());
+        s.later.pop_front();
+        ++s.depth;
+        g.unlock();
+        f();
+        g.lock();
+        --s.depth;
+    }
+    s.owner = std::thread::id();
+    s.cv.notify_all();
+}
+
+void JobLock::release_later(std::function<void()> free)
+{
+    LockState &s = lock_state();
+    std::unique_lock<std::mutex> g(s.mu);
+    if (s.depth && s.owner != std::this_thread::get_id()) {
+        s.later.push_back(std::move(free));
+        return;
+    }
+    const std::thread::id prev = s.owner;
+    s.owner = std::this_thread::get_id();
+    ++s.depth;
+    g.unlock();
+    free();
+    g.lock();
+    if (--s.depth == 0) {
+        s.owner = prev;
+        s.cv.notify_all();
+    }
+}
+
+JobLock &job_lock()
+{
+    static JobLock l;
+    return l;
+}
+
+JobGuard::JobGuard(const char *what)
+{
+    job_lock().lock(
+        [] {
+            msidutil::Cancel *c = msidutil::current_cancel();
+            return c && c->proceed_or_stop(Step::solves, 0);
+        },
+        what);
+}
+JobGuard::~JobGuard() { job_lock().unlock(); }
+
+void shutdown_calls()
+{
+    g_exiting = true;
+    py::gil_scoped_release nogil;   // the main thread at exit: it is not ended in a destructor
+    std::unique_lock<std::mutex> g(g_run_mu);
+    g_run_cv.wait_for(g, EXIT_WAIT, [] { return g_running == 0; });
+}
+
+py::dict progress_counts()
+{
+    static const char *const NAMES[] = {"rows", "lines", "orders", "iterations", "solves"};
+    static_assert(sizeof NAMES / sizeof NAMES[0] == (size_t)Step::count_, "a name per step");
+    py::dict d;
+    for (size_t k = 0; k < (size_t)Step::count_; ++k) d[NAMES[k]] = g_progress[k].load(std::memory_order_relaxed);
+    return d;
+}
+
+}  // namespace msidpy
