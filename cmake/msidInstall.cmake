@@ -12,7 +12,9 @@ install(TARGETS msid EXPORT msidTargets ARCHIVE DESTINATION lib)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/ DESTINATION include FILES_MATCHING PATTERN "*.h")
 if(TARGET msid_daq)
   set_target_properties(msid_daq PROPERTIES EXPORT_NAME daq)
-  install(TARGETS msid_daq EXPORT msidTargets ARCHIVE DESTINATION lib)
+  # msid::devdesc_file reads msid-device/1 descriptions (C API; toml++ header-only inside)
+  set_target_properties(msid_devdesc_file PROPERTIES EXPORT_NAME devdesc_file)
+  install(TARGETS msid_daq msid_devdesc_file EXPORT msidTargets ARCHIVE DESTINATION lib)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/daq/include/ DESTINATION include FILES_MATCHING PATTERN "*.h")
 endif()
 if(TARGET msid_fit)
@@ -44,7 +46,7 @@ if(TARGET msid_frfjob)
   endif()
   install(TARGETS ${_host} EXPORT msidTargets ARCHIVE DESTINATION lib)
   install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
-                ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp
+                ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_cancel.hpp
                 ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp
                 ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_est.hpp
@@ -63,10 +65,12 @@ if(TARGET msid_frfjob)
   # the acquisition of a device (tools/acquire, over msid::daq)
   if(TARGET msid_acquire)
     set_target_properties(msid_acquire PROPERTIES EXPORT_NAME acquire)
-    install(TARGETS msid_acquire EXPORT msidTargets ARCHIVE DESTINATION lib)
+    set_target_properties(msid_canopen PROPERTIES EXPORT_NAME canopen)
+    install(TARGETS msid_acquire msid_canopen EXPORT msidTargets ARCHIVE DESTINATION lib)
     install(FILES ${PROJECT_SOURCE_DIR}/tools/acquire/msid_acquire.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_device_uri.hpp
                   ${PROJECT_SOURCE_DIR}/tools/acquire/msid_ondevice.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_can_replay.hpp
                   ${PROJECT_SOURCE_DIR}/tools/acquire/msid_param_upload.hpp ${PROJECT_SOURCE_DIR}/tools/acquire/msid_can_acq.hpp
+                  ${PROJECT_SOURCE_DIR}/tools/acquire/msid_canopen.hpp
             DESTINATION include/msid_host)
   endif()
 endif()

@@ -21,10 +21,12 @@ endfunction()
 
 # msid_demo_unity(target): in the demo build, compile this target's sources as one unity source (CMake
 # UNITY_BUILD), so that what they all instantiate (Eigen's matrix-product kernels, nlohmann-json) is
-# compiled once instead of once per file: Eigen template instantiation, not optimisation, is the build
-# time (docs/benchmarks.md "Demo build"). Sources marked SKIP_UNITY_BUILD_INCLUSION stay apart
-# (tools/fit's explicit instantiations, eigen_inst_*.cpp, which the second core compiles meanwhile).
-# With MSID_UNITY_BUILD (the sanitizer build of scripts/sanitize.sh) the same, in batches of a few
+# compiled once instead of once per file: template instantiation and its code, not header parsing nor
+# optimisation, is the build time (docs/benchmarks.md "Demo build"; a precompiled header of
+# nlohmann-json and Eigen takes `cmd_demo.cpp` only from 6.0 to 4.8 s of CPU and costs 7.8 s to build).
+# Sources marked SKIP_UNITY_BUILD_INCLUSION stay apart (tools/fit's explicit instantiations,
+# eigen_inst_*.cpp, which the second core compiles meanwhile; sources with file-local names of their
+# own). With MSID_UNITY_BUILD (the sanitizer build of scripts/sanitize.sh) the same, in batches of a few
 # sources that both cores compile side by side. The sources themselves are unchanged; the full build
 # compiles them one by one as before.
 option(MSID_UNITY_BUILD "Compile the Eigen-heavy host libraries as unity sources of a few files each" OFF)
@@ -36,10 +38,10 @@ function(msid_demo_unity target)
   endif()
 endfunction()
 
-# msid_unity_build(target): with MSID_UNITY_BUILD only, as msid_demo_unity (the demo build compiles
-# these targets one source at a time).
-function(msid_unity_build target)
-  if(MSID_UNITY_BUILD AND NOT MSID_DEMO)
-    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 4)
+# msid_demo_unity_only(target): as msid_demo_unity in the demo build; MSID_UNITY_BUILD compiles these
+# targets (light ones, no Eigen) one source at a time.
+function(msid_demo_unity_only target)
+  if(MSID_DEMO)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 0)
   endif()
 endfunction()

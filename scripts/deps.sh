@@ -6,6 +6,10 @@ trap 'echo "deps: failed (exit $?) at line $LINENO: $BASH_COMMAND" >&2' ERR
 
 APT_PKGS=(build-essential cmake ninja-build pkg-config libcmocka-dev libfftw3-dev libmatio-dev zlib1g-dev
           nlohmann-json3-dev libeigen3-dev python3 python3-pip)
+# Device descriptions (msid-device/1, TOML): toml++, header-only (daq/src/msid_devdesc_file.cpp).
+APT_PKGS+=(libtomlplusplus-dev)
+# msid bench ticks --instructions: user-space instructions per tick under valgrind's callgrind.
+APT_PKGS+=(valgrind)
 PY_MODS=(numpy jsonschema pytest)
 # Experiment-file tests and `msid bench io`: scipy (writes .mat v5), h5py (writes .mat v7.3), pandas (the CSV peer).
 PY_MODS+=(scipy h5py pandas)
@@ -28,7 +32,7 @@ DEMO_ONLY=0
 if [ "${1:-}" = demo ]; then
   DEMO_ONLY=1
   APT_PKGS=(build-essential cmake ninja-build pkg-config libfftw3-dev libmatio-dev zlib1g-dev nlohmann-json3-dev
-            libeigen3-dev libmodbus-dev python3 python3-pip)
+            libeigen3-dev libmodbus-dev libtomlplusplus-dev python3 python3-pip)
   PY_MODS=(numpy matplotlib)
 fi
 
@@ -281,15 +285,30 @@ need=$(py_missing)
 [ -z "$need" ] || { echo "deps: python modules still missing: $need" >&2; exit 1; }
 [ "$DEMO_ONLY" = 0 ] || exit 0
 
-# python-can and cantools (PyPI names) for the interpreter that runs the tests (tests/vcan).
+# python-can and cantools (PyPI names) for the interpreter that runs the tests (tests/vcan, tests/dbc);
+# cantools pinned: it is the peer of msid's DBC codec (tests/dbc/test_dbc_peer.py).
+CANTOOLS=45.1.0
 can_missing() { local out=(); python3 -c "import can" 2>/dev/null || out+=(python-can)
-  python3 -c "import cantools" 2>/dev/null || out+=(cantools); echo "${out[*]:-}"; }
+  python3 -c "import cantools, sys; sys.exit(cantools.__version__ != '$CANTOOLS')" 2>/dev/null ||
+    out+=("cantools==$CANTOOLS"); echo "${out[*]:-}"; }
 need=$(can_missing)
 if [ -n "$need" ]; then
   echo "deps: pip installing $need"
   { python3 -m pip install -q $need || python3 -m pip install -q --break-system-packages $need; } >> deps.log 2>&1 || {
     tail -20 deps.log; echo "deps: pip install $need failed (see deps.log)" >&2; exit 1; }
   [ -z "$(can_missing)" ] || { echo "deps: python modules still missing: $(can_missing)" >&2; exit 1; }
+fi
+
+# The DBC files tests/dbc compares on: cantools' source distribution (its tests/files/dbc) and the
+# opendbc wheel (production DBCs), pinned, into a cache (never committed; the test fetches them too).
+OPENDBC=0.3.1
+DBC_CACHE=${MSID_DBC_CACHE:-/var/cache/msid-dbc}
+if [ ! -f "$DBC_CACHE/cantools-$CANTOOLS.tar.gz" ] || ! ls "$DBC_CACHE"/opendbc-$OPENDBC-*.whl >/dev/null 2>&1; then
+  as_root mkdir -p "$DBC_CACHE"
+  echo "deps: fetching the DBC files of cantools $CANTOOLS and opendbc $OPENDBC into $DBC_CACHE"
+  { as_root python3 -m pip download -q --no-deps --no-binary :all: -d "$DBC_CACHE" "cantools==$CANTOOLS" &&
+    as_root python3 -m pip download -q --no-deps -d "$DBC_CACHE" "opendbc==$OPENDBC"; } >> deps.log 2>&1 ||
+    echo "deps: could not fetch the DBC files (tests/dbc fetches them itself; see deps.log)" >&2
 fi
 
 # scikit-build-core (PyPI; not in bookworm): the build backend of tools/python/pyproject.toml, which
@@ -332,6 +351,13 @@ mb_missing() { python3 -c "import pymodbus, serial, sys; sys.exit(pymodbus.__ver
   echo "pymodbus[serial]==$PYMODBUS"; }
 pip_pinned mb_missing "pymodbus $PYMODBUS"
 
+# canopen (PyPI, pinned): the independent CANopen node (a LocalNode from an EDS) of msid's CANopen master
+# on vcan in the VM (tests/vcan/in_vm/test_canopen.py).
+CANOPEN=2.4.1
+co_missing() { python3 -c "import canopen, sys; sys.exit(canopen.__version__ != '$CANOPEN')" 2>/dev/null ||
+  echo "canopen==$CANOPEN"; }
+pip_pinned co_missing "canopen $CANOPEN"
+
 # scikit-rf (PyPI, pinned): VectorFitting is the independent peer of the parametric fits
 # (tests/integration/test_fit_structures.py, msid bench fit); its Touchstone reader and example files
 # that of msid import (tests/integration/test_import.py).
@@ -343,6 +369,19 @@ pip_pinned skrf_missing "scikit-rf $SKRF"
 PYUFF=2.5.8
 pyuff_missing() { python3 -c "import pyuff, sys; sys.exit(pyuff.__version__ != '$PYUFF')" 2>/dev/null || echo "pyuff==$PYUFF"; }
 pip_pinned pyuff_missing "pyuff $PYUFF"
+
+# sdypy-EMA (PyPI, pinned): LSCF, the independent modal peer of ml on the real F-16 record
+# (tests/integration/test_f16_record.py, msid bench fit --only modal).
+SDYPY_EMA=0.31.0
+ema_missing() { python3 -c "import sdypy.EMA, sys; sys.exit(sdypy.EMA.__version__ != '$SDYPY_EMA')" 2>/dev/null ||
+  echo "sdypy-EMA==$SDYPY_EMA"; }
+pip_pinned ema_missing "sdypy-EMA $SDYPY_EMA"
+
+# Hypothesis (PyPI, pinned): the hostile-input campaign of the Python package (tests/python/test_py_hostile.py).
+HYPOTHESIS=6.155.2
+hypothesis_missing() { python3 -c "import hypothesis, sys; sys.exit(hypothesis.__version__ != '$HYPOTHESIS')" 2>/dev/null ||
+  echo "hypothesis==$HYPOTHESIS"; }
+pip_pinned hypothesis_missing "hypothesis $HYPOTHESIS"
 
 # python-control (PyPI `control`, pinned): FRD/StateSpace/TransferFunction conversion of the Python package.
 PYCONTROL=0.10.2

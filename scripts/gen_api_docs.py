@@ -20,14 +20,16 @@ OUT = ROOT / "docs" / "api"
 DECL = re.compile(r"^([A-Za-z_][\w \*]*?\b(msid_\w+))\s*\(([^;{]*)\)\s*;", re.S | re.M)
 
 
-def clean_comment(c):
+def clean_comment(c, names):
+    """The comment as Markdown; `::msid_x` links to msid_x's page when it has one (a function), else it
+    is set as code (a type or an object: no page of its own)."""
     c = re.sub(r"^/\*\*?|\*/$", "", c.strip())
     lines = [re.sub(r"^\s*\* ?", "", ln) for ln in c.splitlines()]
     text = "\n".join(lines).strip()
     text = re.sub(r"@brief\s*", "", text)
     text = re.sub(r"@param\s+(\w+)", r"- `\1`:", text)
     text = re.sub(r"@return\s*", "\nReturns: ", text)
-    text = re.sub(r"::(msid_\w+)", r"[\1](\1.md)", text)
+    text = re.sub(r"::(msid_\w+)", lambda m: f"[{m[1]}]({m[1]}.md)" if m[1] in names else f"`{m[1]}`", text)
     return text
 
 
@@ -48,9 +50,9 @@ def functions():
                     doc = before[k:]
             sig = " ".join(m.group(0).split())
             prefix = next(p for inc, p, _ in INCS if h.parent == inc)
-            out.append((name, h.name if prefix == "msid" else f"{prefix}/{h.name}", sig,
-                        clean_comment(doc) if doc else ""))
-    return out
+            out.append((name, h.name if prefix == "msid" else f"{prefix}/{h.name}", sig, doc))
+    names = {n for n, _, _, _ in out}
+    return [(n, h, s, clean_comment(d, names) if d else "") for n, h, s, d in out]
 
 
 def render(name, header, sig, doc):

@@ -215,7 +215,7 @@ static msid_status ct_lines(msid_design *d, const msid_design_cfg *c, uint8_t *b
     return MSID_OK;
 }
 
-/* Step: amplitudes A_{i,l} > 0 (all 1 without a table). */
+/* Step: amplitudes A_{i,l} in [MSID_MIN_AMPLITUDE, MSID_MAX_AMPLITUDE] (all 1 without a table). */
 static msid_status amplitudes(msid_design *d, const msid_design_cfg *c)
 {
     const uint32_t L = d->n_lines;
@@ -223,7 +223,7 @@ static msid_status amplitudes(msid_design *d, const msid_design_cfg *c)
         for (uint32_t l = 0; l < L; ++l) {
             double A = 1.0;
             if (c->amplitudes) A = c->amp_per_input ? c->amplitudes[(size_t)i * L + l] : c->amplitudes[l];
-            if (!msid__finite(A) || !(A > 0.0)) return fail(d, MSID_E_AMPLITUDE, (int32_t)l, -1, d->bins[l]);
+            if (!msid__finite(A) || !(A >= MSID_MIN_AMPLITUDE && A <= MSID_MAX_AMPLITUDE)) return fail(d, MSID_E_AMPLITUDE, (int32_t)l, -1, d->bins[l]);
             d->amp[(size_t)i * L + l] = A;
         }
     }

@@ -14,7 +14,7 @@ const char *msid_strerror(msid_status s)
     case MSID_E_LINE_DUP: return "the same line is given twice";
     case MSID_E_DIMS: return "number of inputs, outputs, channels or experiments out of range";
     case MSID_E_EXPERIMENTS: return "fewer experiments than inputs (need m >= nu)";
-    case MSID_E_AMPLITUDE: return "an amplitude is not finite and positive";
+    case MSID_E_AMPLITUDE: return "an amplitude is not finite, or outside [1e-150, 1e150]";
     case MSID_E_PHASE: return "a phase is not finite";
     case MSID_E_PATTERN: return "unknown MIMO pattern, or Hadamard pattern with a number of experiments that is not a power of 2";
     case MSID_E_SAMPLE_TIME: return "sample time is not finite and positive";

@@ -65,7 +65,8 @@ typedef struct msid_design_cfg {
     const double *omega;      /**< continuous-time design (used when bins == NULL): L frequencies in rad/s, >= 0 */
     double sample_time;       /**< continuous-time design: h in seconds, > 0 */
     double ct_tol;            /**< CT: tolerance in cycles on omega*P*h/(2 pi) being an integer; 0 selects 1e-6 */
-    const double *amplitudes; /**< NULL for all 1; else L values, or nu*L values [i*L + l] if amp_per_input */
+    const double *amplitudes; /**< NULL for all 1; else L values, or nu*L values [i*L + l] if amp_per_input,
+                                   each in [MSID_MIN_AMPLITUDE, MSID_MAX_AMPLITUDE] */
     int amp_per_input;        /**< 0: amplitudes shared by all inputs; 1: one row per input */
     msid_phase_mode phase_mode; /**< phase choice */
     const double *phases;     /**< MSID_PHASE_USER: nu*L phases in turns [i*L + l] (1 turn = 2 pi rad) */

@@ -21,7 +21,7 @@ typedef enum msid_status {
     MSID_E_LINE_DUP,           /**< the same line is given twice */
     MSID_E_DIMS,               /**< inputs/outputs/channels/experiments out of range */
     MSID_E_EXPERIMENTS,        /**< fewer experiments than inputs (m < nu) */
-    MSID_E_AMPLITUDE,          /**< an amplitude is not finite and positive */
+    MSID_E_AMPLITUDE,          /**< an amplitude is not finite, or outside [MSID_MIN_AMPLITUDE, MSID_MAX_AMPLITUDE] */
     MSID_E_PHASE,              /**< a user phase is not finite */
     MSID_E_PATTERN,            /**< unknown MIMO pattern, or Hadamard with m not a power of 2 */
     MSID_E_SAMPLE_TIME,        /**< sample time not finite and positive */

@@ -41,6 +41,13 @@ typedef struct msid_cplx {
 #define MSID_MAX_PERIOD (1u << 24)
 /** Smallest period, in samples. */
 #define MSID_MIN_PERIOD 2u
+/** Amplitudes of a design's lines lie in [MSID_MIN_AMPLITUDE, MSID_MAX_AMPLITUDE] (in the input's units).
+ *  The design squares them (input matrices, condition numbers, crest factors): A^2 stays within double
+ *  precision's normal range for A in [1e-150, 1e150]. Beyond it the design's own arithmetic overflows and an
+ *  amplitude of 1e308 was reported as a singular input matrix. (A record's magnitudes are checked again where
+ *  the FRF squares its spectra: MSID_E_RANGE.) */
+#define MSID_MAX_AMPLITUDE 1e150
+#define MSID_MIN_AMPLITUDE 1e-150
 
 #ifdef __cplusplus
 }
