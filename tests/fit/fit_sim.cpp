@@ -170,4 +170,19 @@ FrfData Runner::run(msid_rng &rng)
     return out;
 }
 
+CtBench::CtBench(const SSModel &pl, uint32_t P, uint32_t L, uint32_t K, double snr_db, uint64_t seed, uint32_t first)
+{
+    const double h = 0.01;
+    om.resize(L);
+    amp.assign(L, 1.0 / std::sqrt((double)L));
+    double py = 0;
+    for (uint32_t l = 0; l < L; ++l) {
+        om[l] = (l + first) * 2 * M_PI / (P * h);
+        py += 0.5 * std::norm(ss_eval(pl, cd(0, om[l]))(0, 0)) * amp[l] * amp[l];
+    }
+    b.design.period = P; b.design.n_lines = L; b.design.omega = om.data(); b.design.sample_time = h;
+    b.design.amplitudes = amp.data(); b.design.n_inputs = 1; b.design.n_experiments = 1; b.design.seed = seed;
+    b.ny = 1; b.K = K; b.sigma_y = std::sqrt(py) * std::pow(10.0, -snr_db / 20.0); b.clean = ct_plant(pl);
+}
+
 }  // namespace fitsim

@@ -37,6 +37,14 @@ std::function<void(const tsim_design &, uint32_t, size_t, double *)> ct_plant(co
 // y = sum_k phi_k q_k'' (accelerance: direct feedthrough D = sum_k phi_k psi_k^T).
 SSModel structure(const std::vector<double> &fn, const std::vector<double> &zeta, const MatR &phi, const MatR &psi);
 
+// A CT bench on bins first..first+L-1 of a P-sample period at h = 0.01 s, one input, output SNR in dB
+// (rms over rms) of the plant's first output.
+struct CtBench {
+    std::vector<double> om, amp;
+    Bench b;
+    CtBench(const SSModel &pl, uint32_t P, uint32_t L, uint32_t K, double snr_db, uint64_t seed, uint32_t first = 1);
+};
+
 class Runner {
 public:
     explicit Runner(const Bench &b);

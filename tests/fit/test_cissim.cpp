@@ -257,7 +257,7 @@ static void online_equals_offline(void **state)
     void *mp = (void *)(((uintptr_t)cm.data() + 63) & ~(uintptr_t)63);
     msid_cissim cs;
     assert_int_equal(msid_cissim_init(&cs, &cfg, mp, need - 1), MSID_E_MEM_SIZE);
-    // a misaligned block is named as such, before any size or later error (issue 13)
+    // a misaligned block is named as such, before any size or later error
     assert_int_equal(msid_cissim_init(&cs, &cfg, (char *)mp + 8, need), MSID_E_MEM_ALIGN);
     assert_int_equal(msid_cissim_init(&cs, &cfg, mp, need), MSID_OK);
     double worst = 0;
@@ -407,7 +407,7 @@ static void y2_trend(void **state)
     assert_true(last.w < 0.3);
 }
 
-// Few, sparse lines on lightly damped systems (the issue's "50 lines, 20 dB"): the published Alg. 4 + 5
+// Few, sparse lines on lightly damped systems ("50 lines, 20 dB"): the published Alg. 4 + 5
 // (unweighted), the weighted Alg. 4 and the ML refinement (cissim_refine) on the same phasors.
 static void sparse_refinement(void **state)
 {

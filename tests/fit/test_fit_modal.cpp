@@ -1,4 +1,4 @@
-// Monte Carlo tests (fixed seeds) of issue 9 items 4-6, through the real core
+// Monte Carlo tests (fixed seeds) of the modal fit, through the real core
 // (design -> simulated plant + noise -> msid_meas -> msid_frf -> fit):
 //  - modal parameters of a lightly damped 3-mode structure (accelerance, CT ml):
 //    the delta-method standard deviations of natural frequency, damping ratio and
@@ -36,25 +36,7 @@ static double min_dof(const std::vector<WeightedLine> &w)
     return n;
 }
 
-// A CT bench on bins first..first+L-1 of a P-sample period at h = 0.01 s, output SNR in dB (rms over rms).
-struct CtBench {
-    std::vector<double> om, amp;
-    fitsim::Bench b;
-    CtBench(const SSModel &pl, uint32_t P, uint32_t L, uint32_t K, double snr_db, uint64_t seed, uint32_t first = 1)
-    {
-        const double h = 0.01;
-        om.resize(L);
-        amp.assign(L, 1.0 / std::sqrt((double)L));
-        double py = 0;
-        for (uint32_t l = 0; l < L; ++l) {
-            om[l] = (l + first) * 2 * M_PI / (P * h);
-            py += 0.5 * std::norm(ss_eval(pl, cd(0, om[l]))(0, 0)) * amp[l] * amp[l];
-        }
-        b.design.period = P; b.design.n_lines = L; b.design.omega = om.data(); b.design.sample_time = h;
-        b.design.amplitudes = amp.data(); b.design.n_inputs = 1; b.design.n_experiments = 1; b.design.seed = seed;
-        b.ny = 1; b.K = K; b.sigma_y = std::sqrt(py) * std::pow(10.0, -snr_db / 20.0); b.clean = fitsim::ct_plant(pl);
-    }
-};
+using fitsim::CtBench;
 
 // ---------------- modal parameters: delta-method sd against the Monte Carlo spread ----------------
 

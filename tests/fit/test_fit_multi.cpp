@@ -1,5 +1,5 @@
 // Monte Carlo tests (fixed seeds) of the multiple-experiment ML (tools/fit/multi.hpp,
-// Markovsky & Pintelon; issue 14), against theory and an independent Cramer-Rao bound:
+// Markovsky & Pintelon), against theory and an independent Cramer-Rao bound:
 //  - noise-free records (M1 ring-downs, I/O transients) give the true parameters exactly;
 //  - case M1 (reference-cases.md): the error decays like 1/sqrt(N) (fitted slope), the
 //    estimates' spread matches the Cramer-Rao bound within 20% at SNR 100 and the reported

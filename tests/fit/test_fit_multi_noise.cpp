@@ -1,5 +1,5 @@
 // Monte Carlo tests (fixed seeds) of the multiple-experiment ML's order selection, coloured-noise
-// weighting and validation on records (tools/fit/multi_order.cpp, multi_noise.cpp; issue 14):
+// weighting and validation on records (tools/fit/multi_order.cpp, multi_noise.cpp):
 //  - the AR whitening factor W satisfies W^T W = Sigma^-1 for the Toeplitz covariance computed by
 //    an independent route (the impulse response of 1/c(q^-1));
 //  - --order auto (MDL with the initial conditions counted) picks the true order 6 of case M1 in

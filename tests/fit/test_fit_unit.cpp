@@ -1,7 +1,7 @@
 // Deterministic tests of the fitting library: closed forms of González et al.
 // 2025 §V-B (cases G1, G2), exact recovery of known systems from noiseless
 // FRFs (DT and CT, SISO and 2x2 4th order, by subspace, lmfd and ml), model
-// conversions and distances, and the errors the issue lists.
+// conversions and distances, and the errors of bad requests and data.
 #include "lmfd_fit.hpp"
 #include "order_select.hpp"
 #include "subspace.hpp"
@@ -251,7 +251,7 @@ static void stability_enforced(void **)
     assert_int_equal(st.reflected, 2);
 }
 
-// Issue 9 items 2-3: the default of msid fit (stable_auto, refinement). Data of an unstable plant
+// The default of msid fit (stable_auto, refinement). Data of an unstable plant
 // keep their unstable poles (the LR test rejects the reflected model); the refinement never raises
 // the cost and, from a perturbed A, recovers the exact model (cost -> 0) with its poles kept stable.
 static void subspace_refine_and_auto_stability(void **)
@@ -386,7 +386,7 @@ static void errors(void **)
     s = spec(2, 2);
     LmfdModel st = lmfd_sk(w, Domain::DT, 0, s, 0);
     st.Dm[0](0, 0) += 0.3;
-    // (issue 9: not an error any more — the best iterate comes back marked not converged, with its gradient)
+    // (not an error any more — the best iterate comes back marked not converged, with its gradient)
     {
         const MlResult nc = lmfd_ml(w, Domain::DT, 0, s, st, mo, true);
         assert_false(nc.converged);
@@ -401,7 +401,7 @@ static void errors(void **)
     expect_error([&] { parse_pin("Q0=1"); }, "expected e.g.");
 }
 
-// --pin and --order a:b are read by hand (text_scan.hpp, no <regex>: issue 13, compile time); the
+// --pin and --order a:b are read by hand (text_scan.hpp, no <regex>: compile time); the
 // grammars they replaced, ^\s*([DN])(\d+)(?:\[(\d+),(\d+)\])?\s*=\s*([-+0-9.eE]+)\s*$ and
 // ^(\d+):(?:(\d+):)?(\d+)$, accept exactly these and refuse every near miss below.
 static void option_parsers(void **)

@@ -37,7 +37,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     dev d = {{data, size}, 0, 0, 0};
     const uint32_t enc = fz_u8(&d.in) % 3, wo = fz_u8(&d.in) % 4, K = 2 + fz_u8(&d.in) % 4, P = 16;
-    const msid_mb_backend be = {"fuzz", rd, rh, wr, nop, rc0, exc, err, nop, NULL};
+    const msid_mb_backend be = {"fuzz", rd, rh, wr, nop, rc0, exc, err, nop, NULL, NULL, NULL};
     msid_mb_transport tr = {&be, &d};
     msid_mb_client cl;
     msid_mb_client_init(&cl, &tr, 1, 1);

@@ -41,7 +41,7 @@ def compressed(m):
 def mat_v5_cell_name():
     # a compressed 1x1 cell whose cell is a matrix with a name of 0xBE020001 bytes: libmatio 1.5.23
     # (ReadNextCell) rounds it up to 8 and asks for malloc(0xBE020008 + 1) = 3,187,802,121 bytes, the
-    # out-of-memory of issue 31, before it inflates a byte of the name
+    # out-of-memory the readers were bounded against, before it inflates a byte of the name
     cell = struct.pack("<II", MI_MATRIX, 64) + element(MI_UINT32, struct.pack("<II", DOUBLE, 0)) + \
         element(MI_INT32, struct.pack("<2I", 1, 1)) + struct.pack("<II", MI_INT8, 0xBE020001) + b"\0" * 24
     return mat_header() + compressed(matrix(CELL, (1, 1), b"c", cell)), 0xBE020008 + 1
@@ -54,7 +54,7 @@ def mat_v5_nested_cell_count():
 
 
 def mat_v5_uncompressed_nested_cell():
-    # the same nested cell count, uncompressed (the check of issue 15 bounded the top matrix only)
+    # the same nested cell count, uncompressed (an earlier check bounded the top matrix only)
     inner = matrix(CELL, (65536, 65536), b"", b"")
     return mat_header() + matrix(CELL, (1, 1), b"c", inner), 65536 * 65536 * 8
 

@@ -87,8 +87,10 @@ nomodbus|nocan)
     refuses --modbus-tcp 127.0.0.1:1502 "built without Modbus"
     echo "install test: CAN-only build ok"
   else
-    # the SocketCAN transport (the only user of ioctl/SIOCGIFINDEX) is left out; its entry point is the stub
-    ! has 'U ioctl' || fail "libmsid_daq.a still holds the SocketCAN transport"
+    # the SocketCAN transport's object is left out of the archive; its entry point is the stub
+    ar t "$lib" > "$work/members.txt"
+    ! grep -q '^msid_socketcan\.c\.o$' "$work/members.txt" || fail "libmsid_daq.a still holds the SocketCAN transport"
+    grep -q '^msid_transport_none\.c\.o$' "$work/members.txt" || fail "the left-out transport's stub is not in the archive"
     has 'T msid_socketcan_open' || fail "the SocketCAN entry point (stub) is missing"
     has 'T msid_modbus_open' || fail "the Modbus transport is missing"
     refuses --iface vcan0 "without SocketCAN"

@@ -465,6 +465,13 @@ def excite_ct_not_periodic(d):
 
 
 @case
+def excite_amplitude_beyond_double(d):
+    # every sample of 1e308 x 16 lines is infinite: it was refused as "the input matrix is singular at line 1"
+    return (["excite", "--period", 64, "--lines", "1:2:31", "--amplitudes", "1e308", "--csv", Path(d) / "csv"],
+            ["amplitude of line 1 is not finite and in [1e-150, 1e+150]"])
+
+
+@case
 def excite_line_at_nyquist(d):
     return (["excite", "--period", 16, "--lines", "1,8", "--csv", Path(d) / "csv"],
             ["line 8 is at or beyond Nyquist", "P/2 = 8"])

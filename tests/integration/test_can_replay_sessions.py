@@ -1,4 +1,4 @@
-"""`msid can replay` sessions and candump direction (issue 13), with logs written by msid's candump writer.
+"""`msid can replay` sessions and candump direction, with logs written by msid's candump writer.
 
 A session is one design upload (CFG BEGIN..COMMIT) and the experiments run with it (RUNNING .. DONE).
 The logs are msid-can/1 sessions of a 1x1 float32 device (the frames of tests/vcan/test_can_host.py:

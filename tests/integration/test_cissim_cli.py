@@ -1,4 +1,4 @@
-"""msid fit --method cissim end to end (issue 14): a periodic chirp record through the CLI,
+"""msid fit --method cissim end to end: a periodic chirp record through the CLI,
 checked against the true system with `msid compare`, the model file against the schema,
 and the bad inputs (not periodic, too few periods, lines that do not identify the order):
 one message, non-zero exit, no file."""

@@ -1,4 +1,4 @@
-"""`--help` and `-h` work everywhere (issue 13): every command and bench subcommand prints its
+"""`--help` and `-h` work everywhere: every command and bench subcommand prints its
 usage on stdout and exits 0, whatever else is on the line; `msid bench --help` lists every
 benchmark, can and modbus included. Typed option getters and parse_enum: one message naming
 the option and the valid values, exit 2. Negative controls: an unknown option is still refused."""
@@ -7,9 +7,9 @@ import pytest
 import helpers as h
 
 COMMANDS = [["excite"], ["frf"], ["frf", "--method", "lpm"], ["demo"], ["fit"], ["fit", "--order", "auto"],
-            ["validate"], ["compare"], ["modes"], ["can"], ["modbus"],
+            ["validate"], ["compare"], ["modes"], ["can"], ["modbus"], ["device"], ["device", "check"],
             ["bench", "frf"], ["bench", "fit"], ["bench", "lpm"], ["bench", "io"], ["bench", "target"],
-            ["bench", "wcet"], ["bench", "can"], ["bench", "modbus"]]
+            ["bench", "wcet"], ["bench", "can"], ["bench", "modbus"], ["bench", "ticks"]]
 
 
 @pytest.mark.parametrize("flag", ["--help", "-h"])
@@ -31,7 +31,7 @@ def test_help_wins_over_bad_options(flag):
 def test_bench_lists_every_benchmark(flag):
     r = h.run("bench", flag)
     assert r.returncode == 0
-    for name in ("frf", "fit", "lpm", "io", "can", "modbus", "target", "wcet"):
+    for name in ("frf", "fit", "lpm", "io", "can", "modbus", "ticks", "target", "wcet"):
         assert f"\n  {name} " in r.stdout, name
 
 
@@ -88,7 +88,7 @@ def test_usage_lists_every_command_of_the_table():
     assert r.returncode == 0
     listed = [ln.split()[0] for ln in r.stdout.splitlines() if ln.startswith("  ") and not ln.startswith("   ")]
     assert listed == ["measure", "excite", "frf", "demo", "fit", "modes", "validate", "compare", "can", "modbus",
-                      "plot", "export", "import", "bench", "version"]
+                      "device", "plot", "export", "import", "bench", "version"]
     for name in listed:
         if name in ("version", "demo", "measure"):
             continue

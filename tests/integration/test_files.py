@@ -497,19 +497,21 @@ def test_bad_npy_nan_found_by_the_lanes(tmp_path, data, case):
         _fails(tmp_path, files, extra, f"'{files[0]}': the input is not periodic")
 
 
-def test_npy_zero_copy_extreme_finite_values_pass_the_check(tmp_path, data):
-    """Negative control of the check above: the largest finite doubles, the smallest subnormal and
-    -0.0 are no NaN or Inf. The file is read and the FRF written (the period holding +-DBL_MAX
-    overflows in its DFT and is rejected by the core, not by the reader)."""
+def test_npy_zero_copy_extreme_values(tmp_path, data):
+    """Controls of the check above: the smallest subnormal and -0.0 are samples (the FRF is written);
+    the largest finite double is beyond the samples' range (1e150) and refused by the reader with its
+    place, in the zero-copy scan as in the others (it overflowed the core's DFT and lost its period)."""
     files = _npy_files(tmp_path, data)
     x = np.load(files[0])
-    x[-1, 3] = np.finfo(float).max
-    x[-2, 3] = -np.finfo(float).max
     x[-3, 2] = 5e-324
     x[-4, 2] = -0.0
     np.save(files[0], x)
     doc = _frf(tmp_path, files, ["--columns", "u1=1,u2=2,y1=3,y2=4"])
-    assert doc["experiments"][0]["periods_nonfinite"] == 1 and doc["experiments"][1]["periods_nonfinite"] == 0
+    assert doc["experiments"][0]["periods_nonfinite"] == 0 and doc["experiments"][1]["periods_nonfinite"] == 0
+    x[-2, 3] = -np.finfo(float).max
+    np.save(files[0], x)
+    _fails(tmp_path, files, ["--columns", "u1=1,u2=2,y1=3,y2=4"],
+           f"'{files[0]}' row {len(x) - 1}, column 4: -1.79769e+308 is beyond the samples' range (|x| <= 1e+150")
 
 
 def test_bad_npy_without_columns_and_truncated(tmp_path, data):
@@ -718,7 +720,7 @@ def test_streamed_csv_blocks_long_lines_pipe_and_error_order(tmp_path):
 
 
 def test_csv_memory_is_the_samples_plus_a_constant(tmp_path):
-    """Issue 15: the CSV is streamed, not held. A 55 MB file whose rows are
+    """The CSV is streamed, not held. A 55 MB file whose rows are
     mostly an ignored text column holds 8 MB of samples (500,000 rows x 2
     mapped columns): peak RSS (getrusage of the child) must stay under the
     samples + 32 MiB. The reader that held the file peaked at 69 MiB here

@@ -1,4 +1,4 @@
-"""Acceptance pass of the fitting step (issue 9) with the data a bench gives: channels in very
+"""Acceptance pass of the fitting step with the data a bench gives: channels in very
 different units, few periods, order scans that do not converge. Each test failed on the binary
 before the fixes it names (the "old" numbers in the comments are that binary's), so none of them
 can pass by construction. Generator: tools/peers/msid_peers/structures.py (12 modes, 267 lines)."""

@@ -228,7 +228,7 @@ def test_existing_model_untouched_on_failure(tmp_path, bench):
 
 @pytest.mark.parametrize("param", ["lmfd", "poles"])
 def test_non_convergence_keeps_the_best_iterate(tmp_path, bench, param):
-    # issue 9: iterations running out is not an error that loses the work: the best iterate is
+    # iterations running out is not an error that loses the work: the best iterate is
     # written, marked "converged": false with its cost and gradient norm, one warning, exit status 3
     out = tmp_path / "m.json"
     start = ("--start", "sk") if param == "lmfd" else ()   # --param poles runs all its starts (sk is refused there)

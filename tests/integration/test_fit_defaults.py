@@ -177,7 +177,7 @@ def test_pooled_never_worse_than_per_line(tmp_path, shape, dof):
     """2x2 DT order 6, 202 lines, 10 dB: ml's error against the truth with the default weights over
     that with each line's own (--weight-smooth 0). Covariances whose shape changes from line to line
     (rough) must not make pooling worse (measured 1.000 with 8 dof; the trace-only test, negative
-    control in docs/fitting.md, made it 1.011 at 8 dof and pooled the 1000-dof lines of the issue);
+    control in docs/fitting.md, made it 1.011 at 8 dof and pooled the 1000-dof lines);
     smooth ones must make it better where the dof are small (measured 0.755) and, with 1000 dof, the
     line's own weights are precise: nothing is pooled, the fits are the same."""
     pl = dt_plant(6, 2, 2, 50, EASY6)

@@ -1,4 +1,4 @@
-"""msid fit --method multi end to end (issue 14): records written by NumPy (closed-form
+"""msid fit --method multi end to end: records written by NumPy (closed-form
 ring-downs and a state-space recursion, independent of msid), the model file checked
 against the truth, the schema and itself (determinism); bad input refused with one
 message, a non-zero exit and no file."""

@@ -1,4 +1,4 @@
-"""`msid fit` on simulated structures as a bench engineer meets them (issue 9):
+"""`msid fit` on simulated structures as a bench engineer meets them:
 12 modes (2 rigid-body), 0.5-2% damping, accelerations (direct feedthrough),
 60-80 dB dynamic range, 267 lines, SISO, 1x3 and 2x3 — against vector fitting
 (scikit-rf's VectorFitting, the independent peer) at the same order; feedthrough
@@ -96,7 +96,7 @@ def test_ml_and_subspace_against_vector_fitting(data, kind):
     e_ml0 = S.rel_error(np.array([h.cplx(e["G"]) for e in ml0["frf"]]), D["G0"])
     print(f"{kind}: ml per-line weights rel {e_ml0:.4g}, pooled {e_ml:.4g}")
     assert e_ml0 > e_vf * 1.04 and ml0["settings"].get("weight_smooth") is None and ml["settings"]["weight_smooth"] == 4
-    # ... and the measured argument for that gap (issue 9 item 4, docs/fitting.md): with the true
+    # ... and the measured argument for that gap (docs/fitting.md): with the true
     # weights (white homoscedastic noise here, so --weight none) ml's error against the truth is
     # vector fitting's (measured -0.5% SISO at 22, -0.5% 2x3)
     _, mlt = _fit(D["dir"], D["path"], f"mlt-{kind}", "--method", "ml", "--order", n, "--weight", "none")
@@ -127,7 +127,7 @@ def test_negative_control_under_modelled(data):
 
 
 def test_subspace_cost_does_not_rise_with_order(data):
-    # issue 9 item 3: on the same data a subspace model of order n costs no more than the one of
+    # on the same data a subspace model of order n costs no more than the one of
     # order n - 2 (docs/fitting.md, "Subspace refinement"); the default model is stable (item 2)
     D = data["siso"]
     costs, raw = [], []
@@ -254,7 +254,7 @@ def test_refusal_three_outputs_two_periods(tmp_path, kind, periods):
 
 
 def test_pole_residue_modal_sd_monte_carlo(tmp_path):
-    # issue 9 item 5: ml's default (pole-residue) models carry delta-method sd of f_n and zeta;
+    # ml's default (pole-residue) models carry delta-method sd of f_n and zeta;
     # 100 runs of a 4-mode accelerance at 2% noise: reported sd match the spread (bound 25%: the
     # sample sd of 100 runs scatters by ~7%; the 150-run study in docs/fitting.md measures 0.88-1.01)
     st = S.structure("siso", 3, n_modes=4)
@@ -303,7 +303,7 @@ def _covered(misses, n, p=0.05):
 
 
 def test_lmfd_ml_bounds_finite_and_covering(tmp_path):
-    # issue 9 bug: `ml --param lmfd` wrote a null theta bound on 16-20 of 25 noisy 4-mode sets
+    # `ml --param lmfd` wrote a null theta bound on 16-20 of 25 noisy 4-mode sets
     # (sigma_min(J) from J^T J, condition 2e12 squared). The 25 sets of the modal Monte Carlo:
     # every number finite, Theorem 5's bounds (45)-(46) and the covariance's 95% intervals cover.
     st = S.structure("siso", 3, n_modes=4)
@@ -338,7 +338,7 @@ def test_lmfd_ml_bounds_finite_and_covering(tmp_path):
 
 
 def test_pooled_weights_monte_carlo(tmp_path):
-    # issue 9: ml's default pooled weights (--weight-smooth 4) against per-line weights, 60 runs of a
+    # ml's default pooled weights (--weight-smooth 4) against per-line weights, 60 runs of a
     # 4-mode accelerance at 2% noise, 16 periods: error against the truth lower, the model FRF's 95%
     # regions cover, validate (each line's own covariance) rejects about 5% at 5%
     st = S.structure("siso", 3, n_modes=4)
@@ -370,7 +370,7 @@ def test_pooled_weights_monte_carlo(tmp_path):
 
 
 def test_ml_against_vector_fitting_monte_carlo(tmp_path):
-    # issue 9: ml's error against the truth no worse than vector fitting's at the same order, on
+    # ml's error against the truth no worse than vector fitting's at the same order, on
     # average over noise seeds (one realisation cannot tell: per seed the ratio scatters by ~1.3%).
     # The 10-mode SISO structure of `msid bench fit --only 3` holds a mode whose peak is 0.1 x the
     # noise sd (6.28 Hz, residue 1e-4): the data identify 9 modes, order 18. At the nominal 20 the
@@ -479,8 +479,8 @@ def _check_contribution_tests(m):
 
 
 def test_modes_the_data_do_not_identify(tmp_path):
-    # At an over-sized order ml spends the free pole pairs on the noise (the one item of issue 9 no
-    # cost minimiser meets: docs/benchmarks.md). msid says so: a mode whose contribution to the FRF at
+    # At an over-sized order ml spends the free pole pairs on the noise (what no
+    # cost minimiser avoids: docs/benchmarks.md). msid says so: a mode whose contribution to the FRF at
     # the fitted lines is within the noise (Wald test of the contribution, p >= 1e-3) is marked NOT
     # identified, in the model file and the table. 12 noise seeds per case (24 in docs/fitting.md).
     # Structure 2, 10 modes: one mode 0.1 x the noise (the data identify order 18); structure 4,
@@ -524,7 +524,7 @@ def test_modes_the_data_do_not_identify(tmp_path):
 
 
 def test_ml_cost_reaches_vector_fitting_at_the_nominal_order(tmp_path):
-    # issue 9: ml's weighted cost no worse than vector fitting's at the same order. At the nominal
+    # ml's weighted cost no worse than vector fitting's at the same order. At the nominal
     # (over-sized) order of the SISO structures one pole pair is free and the cost has several
     # basins; the relaxed vector-fitting start (Gustavsen 2006: linear pole spacing, the scaling
     # function's constant free, relocated to convergence, as scikit-rf does) reaches scikit-rf's.

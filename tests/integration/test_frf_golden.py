@@ -1,10 +1,10 @@
-"""msid-frf/1 has one writer and one reader (tools/frffile, issue 11): every document the
+"""msid-frf/1 has one writer and one reader (tools/frffile): every document the
 estimators write and every model fitted from one is byte-identical to the files the code
 before that change wrote (commit 1fc65f9) for the same fixed seeds. The golden files in
 golden/ were produced by that commit; MSID_GOLDEN_WRITE=1 rewrites them (only do that on
 purpose, after a reviewed change of the format). The subspace models and their validations
 (periodic-/direct-model.json, -validate.json) were rewritten on 2026-11-24 when subspace began to run
-on noise-normalised channels (unit invariance, issue 9): the same model FRF to 3e-11 and cost to
+on noise-normalised channels (unit invariance): the same model FRF to 3e-11 and cost to
 1e-13, another state basis (A, B, C are not unique), validate's numbers in the last digits.
 The two model files were rewritten again on 2026-11-27 when stable models became the default of
 subspace and ml: `settings.stability` ("stable (default)") added and `subspace.stable_mode` "auto"

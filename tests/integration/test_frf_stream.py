@@ -1,5 +1,5 @@
 """`msid frf` on CSV records streams them through the core block by block (estimate_frf_files,
-README "CSV records", docs/reliability.md): the document is the same bits as from the same samples read whole (a
+docs/records.md, docs/reliability.md): the document is the same bits as from the same samples read whole (a
 .npy file, which takes the whole-record path), every problem gets the same message, and peak memory
 does not grow with the samples.
 

@@ -1,4 +1,4 @@
-"""Regressions of issue 15 through the command line: every field read from a file or an option is
+"""Regressions of the hardening review through the command line: every field read from a file or an option is
 range-checked before it sizes memory or work, and a result is never written with NaN/Inf (JSON null).
 Each case: one clear message, non-zero exit, no output file and no temporary left behind."""
 import json

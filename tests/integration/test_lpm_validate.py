@@ -1,4 +1,4 @@
-"""`msid validate` on LPM files (issue 10): neighbouring LPM lines share 2W of their 2W+1
+"""`msid validate` on LPM files: neighbouring LPM lines share 2W of their 2W+1
 window bins, so validate's statistic sums every (2W+1)-th line (independent). Monte Carlo with
 fixed seeds: the true model is rejected at 5% in about 5% of the records (every line, today's
 `--lpm-lines all`, is the negative control: far off), and a model with a 1% frequency error is

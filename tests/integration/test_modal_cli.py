@@ -1,4 +1,4 @@
-"""Issue 9 items 4-6 through the CLI: `msid fit --order a:b|auto` (order
+"""Through the CLI: `msid fit --order a:b|auto` (order
 selection written to the model file), `modes` in every model file and
 `msid modes`, `msid frf --realisations R` (robust BLA: noise and nonlinear
 distortion variances) with its use in `msid validate`, and the distortion

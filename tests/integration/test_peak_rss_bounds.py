@@ -47,7 +47,7 @@ def _frf(path, command="frf"):
 
 # (file name in hostile_files.FILES, what the one message must say); {f} is the file's path
 EXPECTED = {
-    # libmatio asked for malloc(3,187,802,121) here (the out-of-memory of issue 31); msid's v5 reader
+    # libmatio asked for malloc(3,187,802,121) here (the out-of-memory the readers are bounded against); msid's v5 reader
     # never reads inside a cell: the variable is skipped as not numeric
     "regress-mat-v5-cell-name-3g": "'{f}' holds no real numeric vectors or matrices (skipped: c)",
     "regress-mat-v5-nested-cell-count": "'{f}' holds no real numeric vectors or matrices (skipped: c)",

@@ -71,9 +71,13 @@ class Sim(canlib.Sim):
             self.link = ["--tcp", f"127.0.0.1:{self.port}"]
         return self
 
+    expect_exit = 0   # the simulator's exit status a test expects (9: --die-after)
+
     def __exit__(self, *exc):
         try:
-            self.stop(exc[0] is None)
+            self.stop(exc[0] is None and self.expect_exit == 0)
+            if exc[0] is None and self.expect_exit:
+                assert self.p.returncode == self.expect_exit, self.p.returncode
         finally:
             if self.rtu:
                 self.pty.__exit__(None, None, None)

@@ -1,4 +1,4 @@
-"""The adversarial Modbus device (issue 15): msid-devsim replies with garbage transaction ids, drips
+"""The adversarial Modbus device: msid-devsim replies with garbage transaction ids, drips
 its bytes one at a time, cuts replies short, sends replies longer than asked, or reports an absurd
 sample count in its header. Each run either recovers -- the FRF is bit-identical to the honest
 device's and the host counted every injected fault exactly -- or fails in bounded time with one clear

@@ -39,7 +39,7 @@ def test_no_loss_and_counters(live):
     assert a["samples"] == 2 * K * P == live["report"]["samples"]
     assert a["samples_lost"] == a["overrun_samples"] == a["device_overruns"] == 0
     # The device injected nothing. On a loaded machine a reply can still come after the response timeout
-    # (issue 15 #9: this asserted zero retries and failed once over RTU): a retry is allowed, but each has a
+    # (this asserted zero retries and failed once over RTU): a retry is allowed, but each has a
     # counted cause and no sample is lost (above); the FRF is checked against the truth below.
     assert a["exceptions"] == 0 and live["report"]["injected"]["delayed"] == 0
     assert a["retries"] <= a["timeouts"] + a["crc_errors"] + a["bad_replies"] + a["io_errors"]
@@ -78,7 +78,7 @@ def test_tcp_and_rtu_bit_identical(design, tmp_path):
 def test_paced_rate_sets_fs(design, tmp_path):
     """A device paced at 4 kHz over TCP: fs_hz in the file, no loss, and the device says it ran at that
     rate and waited for its clock (pacing checked by what the device reports, never by the host's
-    elapsed time: issue 15 #9; a loaded machine may make it late, never early). Control: unpaced, the
+    elapsed time: a loaded machine may make it late, never early). Control: unpaced, the
     same device never waits."""
     with c.Sim(tmp_path, "--seed", 2) as sim:
         r = c.measure(tmp_path, sim, design, "--rate", 4000, "--periods", 3)

@@ -41,7 +41,7 @@ def test_delayed_replies_time_out_and_are_retried(design, tmp_path, clean):
     # a late reply (500 ms > the 200 ms response timeout) costs the timeouts until the device is back
     # (the simulator is single-threaded: it answers nothing while it delays); each is answered by a reconnect.
     # How many attempts fall into the 500 ms depends on scheduling, so only the lower bound is asserted
-    # (it was `<= 3 * d`, a wall-clock assumption: issue 15 #9); the run recovering bounds the rest.
+    # (it was `<= 3 * d`, a wall-clock assumption); the run recovering bounds the rest.
     d = rep["injected"]["delayed"]
     assert d <= a["timeouts"] and a["reconnects"] == a["timeouts"] + a["io_errors"]
     assert a["samples_lost"] == 0 and a["stale_replies"] == 0
@@ -60,7 +60,9 @@ def test_dropped_rtu_line_goes_silent_and_recovers(design, tmp_path, clean):
     doc, rep, _, _ = run_fault(design, tmp_path, "--drop-at", "1:700", rtu=True)
     a = doc["acquisition"]
     assert rep["injected"]["dropped"] == 1 and rep["unanswered"] >= 1
-    assert a["timeouts"] == rep["unanswered"] and a["samples_lost"] == 0
+    # every request the device left unanswered is a timeout msid counted; a loaded machine may add one whose
+    # answer came after msid's timeout (answered for the device, late for msid): more, never fewer
+    assert a["timeouts"] >= rep["unanswered"] and a["samples_lost"] == 0
     assert c.frf_equal(doc, clean[True])
 
 
@@ -130,7 +132,7 @@ def test_device_restart_mid_run(design, tmp_path):
 def test_device_that_hangs_never_blocks_the_host(design, tmp_path):
     """SIGSTOP the device mid-run: the host gives up after its retries with one clear error. Bounded by
     its attempts (the message says 4), not asserted by the clock: measure's subprocess timeout is only
-    a hang detector (issue 15 #9)."""
+    a hang detector."""
     with c.Sim(tmp_path) as sim:
         threading.Timer(0.8, lambda: sim.p.send_signal(signal.SIGSTOP)).start()
         r = c.measure(tmp_path, sim, design, "--rate", 2000, "--response-timeout", 100, "--retries", 3, ok=False,
@@ -138,7 +140,18 @@ def test_device_that_hangs_never_blocks_the_host(design, tmp_path):
     c.fails(tmp_path, r, 1, "no valid reply", "after 4 attempts")
 
 
-# ---- adversarial device: the header's counts are checked against the design (issue 15 #2, #7) ----
+def test_device_that_dies_mid_run_is_named_as_gone(design, tmp_path):
+    """The device exits instead of answering its 300th request: every reconnect is refused, and the one
+    message says the connection is lost (it said "bad request" once the failed reconnect had left no socket)."""
+    with c.Sim(tmp_path, "--die-after", "300") as sim:
+        sim.expect_exit = 9
+        r = c.measure(tmp_path, sim, design, "--response-timeout", 100, "--retries", 3, ok=False, timeout=120)
+    c.fails(tmp_path, r, 1, "no valid reply", "after 4 attempts")
+    assert "bad request" not in r.stderr
+    assert "not connected" in r.stderr or "Connection refused" in r.stderr or "Connection reset" in r.stderr, r.stderr
+
+
+# ---- adversarial device: the header's counts are checked against the design ----
 
 def test_device_that_never_reports_done_ends_after_k_p(design, tmp_path, clean):
     """A device that keeps writing past K P samples and never reports DONE: with --transient off the
@@ -169,7 +182,7 @@ def test_device_that_answers_twice(design, tmp_path, clean):
     """Every reply sent twice. The host's own MBAP reader (daq/src/msid_mbap.c) reads the stale
     duplicate of request k while it waits for reply k+1, sees transaction id k, skips and counts it:
     deterministic recovery (libmodbus alone took the duplicate for the next reply and recovered only
-    when the timing let it, issue 15 #8). The FRF is the honest device's, bit for bit, with no fault
+    when the timing let it). The FRF is the honest device's, bit for bit, with no fault
     counted, and the host skipped exactly the device's duplicates but the last (sent after the host's
     last request, never read)."""
     with c.Sim(tmp_path, "--seed", 4, "--answer-twice") as sim:

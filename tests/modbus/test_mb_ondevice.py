@@ -1,4 +1,4 @@
-"""On-device estimation (issue 12; msid-modbus/1 extension estimate/1, docs/modbus-registers.md):
+"""On-device estimation (msid-modbus/1 extension estimate/1, docs/modbus-registers.md):
 msid-devsim runs lib/'s msid_meas + msid_frf on the samples it produces and the host reads each
 line's G, covariances and dof as float64 registers. Real libmodbus at both ends on 127.0.0.1 (and a
 socat pty pair for RTU).

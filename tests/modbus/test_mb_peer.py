@@ -95,7 +95,7 @@ def free_port():
 
 def wait_listening(port, limit_s=60):
     """Until 127.0.0.1:port accepts a connection. A pymodbus server prints "ready" before it listens, and a
-    fixed sleep after that raced on a loaded machine (issue 15 #9): the bound is a hang detector only."""
+    fixed sleep after that raced on a loaded machine: the bound is a hang detector only."""
     t0 = time.monotonic()
     while True:
         try:

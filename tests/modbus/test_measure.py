@@ -176,7 +176,7 @@ def test_measure_sigint_keeps_complete_periods(tmp_path, form):
 
 
 def test_measure_sigint_skips_the_fit_in_one_line(tmp_path):
-    """SIGINT after 3 periods of experiment 2 of `msid measure --fit ml --order auto` (the issue's case: the
+    """SIGINT after 3 periods of experiment 2 of `msid measure --fit ml --order auto` (the case where the
     cut-short experiment has too few periods for a weighted fit): no fit runs, one line says so and how
     to fit later, the FRF is kept ("complete": false), the report says INCOMPLETE, exit 130, no error."""
     out = tmp_path / "out"

@@ -1,4 +1,4 @@
-"""Issue 13 interop: int16 CAN samples decode with the DBC's factor exactly as cantools does.
+"""Interop: int16 CAN samples decode with the DBC's factor exactly as cantools does.
 
 The design uploads the int16 step as a float32 parameter (0.001f = 0.0010000000474974513); the DBC
 (daq/can/msid.dbc) and so cantools scale by the decimal 0.001. A candump log of a 1x1 int16 device is

@@ -79,7 +79,7 @@ def test_mat_confidence_scale_makes_gaussian_regions_exact(tmp_path):
     """showConfidence draws a Gaussian region: at SD standard deviations of CovarianceData a disc of radius
     SD sqrt(v/2) (DC lines: SD sqrt(v)). With CovarianceData95 = CovarianceData .* ConfidenceScale95 and
     SD = SD95 that radius is the exact 95% radius of msid.regions (F(2, 2 dof); DC F(1, dof)) at every dof,
-    and the unscaled region is too small by the factor the issue measured (1.7x at dof 1.6, 1.07x at 12)."""
+    and the unscaled region is too small by a factor (1.7x at dof 1.6, 1.07x at 12)."""
     dof = np.array([1.6, 12.0, 4.0, 1e6, 3.0])
     real = np.array([False, False, False, False, True])
     L = len(dof)

@@ -150,7 +150,7 @@ def test_export_equals_the_cli(demo, tmp_path, monkeypatch):
         for k in keys:
             assert _same_mat_value(x[k], y[k]), k
     before = sorted(p.name for p in tmp_path.iterdir())
-    with pytest.raises(ValueError, match="--mat only"):
+    with pytest.raises(ValueError, match="exports to mat only"):
         msid.export(model, tmp_path / "m.csv")
     with pytest.raises(ValueError, match="give a .csv or .mat"):
         msid.export(frf, tmp_path / "f.txt")

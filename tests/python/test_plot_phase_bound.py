@@ -1,4 +1,4 @@
-"""msid.plot (issue 13): the phase is not unwrapped across noise-dominated lines, and an ETFE file
+"""msid.plot: the phase is not unwrapped across noise-dominated lines, and an ETFE file
 (`msid frf --method etfe`) gets the band of its Tsiamis et al. 2024 bound.
 
 Needs no msid binary: the phase case is built here with a known phase, the ETFE case is the golden

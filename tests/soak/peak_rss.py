@@ -1,4 +1,4 @@
-"""Peak RSS of msid on huge inputs (issue 15, docs/reliability.md), by hand (not a ctest: minutes of CPU):
+"""Peak RSS of msid on huge inputs (docs/reliability.md), by hand (not a ctest: minutes of CPU):
     MSID_BIN=build/tools/msid python3 tests/soak/peak_rss.py [--rows 10000000] [--frames 10000000]
 1. a CSV of ROWS rows (u1, y1; a 1000-sample multisine period through a first-order filter plus noise)
    through `msid frf`;

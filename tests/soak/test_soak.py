@@ -1,4 +1,4 @@
-"""Soak with faults (issue 15): msid-devsim -> Modbus TCP on 127.0.0.1 -> the daq adapter
+"""Soak with faults: msid-devsim -> Modbus TCP on 127.0.0.1 -> the daq adapter
 (`msid modbus measure`) -> the core, round after round, each round with random faults drawn from a
 fixed seed: busy exceptions, delayed replies, dropped connections, stalls that overrun the ring,
 device restarts, garbage transaction ids, truncated, oversized and slow-drip replies.

@@ -121,7 +121,7 @@ static void config_upload(void **st)
         fr[4][6] ^= 1;
         for (size_t i = 0; i + 1 < n; ++i) msid_params_feed(&RX, fr[i], 8, 1);
         assert_int_equal(msid_params_feed(&RX, fr[n - 1], 8, 1), -MSID_CAN_ERR_CRC);
-        /* regression (issue 15 #4): a valid CRC does not make an absurd count acceptable. An upload asking
+        /* regression: a valid CRC does not make an absurd count acceptable. An upload asking
            for 5,000,000 periods (replay sized 4.58 GB from a 7 KB log), 1 period, or a period beyond
            MSID_MAX_PERIOD is refused at COMMIT; 100000 periods is the limit */
         const uint32_t bad_periods[] = {5000000u, 1u, MSID_PARAMS_MAX_PERIODS + 1u};
@@ -182,7 +182,7 @@ static void candump_lines(void **st)
     msid_candump_format(buf, sizeof buf, &f, "vcan0");
     assert_int_equal(msid_candump_parse(buf, &g, ifn, sizeof ifn), 0);
     assert_int_equal(g.id, MSID_CAN_EFF_FLAG | 0x1ABCDEF0u);
-    /* regressions (issue 15 #10): an RTR frame keeps its length (123#R8), an error frame read from a
+    /* regressions: an RTR frame keeps its length (123#R8), an error frame read from a
        log keeps only the error flag and its class bits */
     memset(&f, 0, sizeof f);
     f.id = MSID_CAN_RTR_FLAG | 0x123u; f.len = 8;
@@ -196,7 +196,7 @@ static void candump_lines(void **st)
     assert_int_equal(msid_candump_parse("(1.0) vcan0 E0000044#0004000000000000\n", &g, ifn, sizeof ifn), 0);
     assert_int_equal(g.id, MSID_CAN_ERR_FLAG | 0x44u);
     assert_int_equal(msid_candump_parse("   \n", &g, ifn, sizeof ifn), 1);
-    /* direction (issue 13): T sets MSID_CANF_TX and is written back, R and none are received frames,
+    /* direction: T sets MSID_CANF_TX and is written back, R and none are received frames,
        an error frame carries none; python-can's remote frame line "123#R T" reads too */
     memset(&f, 0, sizeof f);
     f.id = 0x201; f.len = 2; f.flags = MSID_CANF_TX;
@@ -418,7 +418,7 @@ static void decoder_gap_rejects_the_period(void **st)
     bench_free(&a);
 }
 
-/* Regression (issue 15 #1): a DONE frame claiming 0xFFFFFFFF samples. With the design's K P the
+/* Regression: a DONE frame claiming 0xFFFFFFFF samples. With the design's K P the
  * decoder closes at K P (counted as malformed and done_beyond): nothing is lost, the statistics are
  * those of the direct push; a sample index beyond K P is malformed. Without a bound the same DONE
  * costs O(1) (whole gap periods are counted, not walked). */

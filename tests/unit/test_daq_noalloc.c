@@ -1,6 +1,9 @@
-/* After init, the daq hot path allocates nothing (issue 15): malloc, calloc, realloc, aligned_alloc,
+/* After init, the daq hot path allocates nothing: malloc, calloc, realloc, aligned_alloc,
  * posix_memalign and free are interposed here and counted around (1) CAN frames -> decoder -> msid_meas
- * -> FRF, and (2) the Modbus ring poller reading an in-memory device -> msid_meas. A negative control
+ * -> FRF, (2) the Modbus ring poller reading an in-memory device -> msid_meas, and (3) a DBC's receive
+ * path (lookup by id, presence, decode, encode) after msid_dbc_init, and (4) the CANopen master: segmented
+ * SDO transfers, a PDO configured and put back, a CiA 402 drive enabled and disabled over SDO, heartbeat and
+ * EMCY frames decoded (against the test node of co_test_node.h). A negative control
  * proves the counter sees an allocation. Not built under ASan (it interposes the allocator itself). */
 #define _GNU_SOURCE
 #include <setjmp.h>
@@ -15,7 +18,13 @@
 
 #include "msid/msid.h"
 #include "msid_daq/msid_can_decoder.h"
+#include "msid_daq/msid_dbc.h"
 #include "msid_daq/msid_mb_acq.h"
+#include "msid_daq/msid_co_402.h"
+#include "msid_daq/msid_co_emcy.h"
+#include "msid_daq/msid_co_nmt.h"
+#include "msid_daq/msid_co_pdo.h"
+#include "co_test_node.h"
 
 /* ---- the interposer: glibc's own entry points underneath ---- */
 extern void *__libc_malloc(size_t);
@@ -140,7 +149,7 @@ static void modbus_hot_path_allocates_nothing(void **st)
         msid_mb_encode_value(r + 1, u, MSID_MB_ENC_F32, 0, 1.0);
         msid_mb_encode_value(r + 3, 0.5 * u + 0.01 * (double)((s * 7919u) % 13u), MSID_MB_ENC_F32, 0, 1.0);
     }
-    const msid_mb_backend be = {"mem", rd, rd, wr, nop, rc0, exc, err, nop, NULL};
+    const msid_mb_backend be = {"mem", rd, rd, wr, nop, rc0, exc, err, nop, NULL, NULL, NULL};
     msid_mb_transport tr = {&be, &DEV};
     msid_mb_client cl;
     msid_mb_client_init(&cl, &tr, 1, 1);
@@ -159,12 +168,92 @@ static void modbus_hot_path_allocates_nothing(void **st)
     assert_int_equal(q.st.cnt.samples, 6 * P);
 }
 
+/* (3) the DBC receive path: a frame's message by id, presence, decode and encode of every signal */
+static void dbc_receive_path_allocates_nothing(void **st)
+{
+    (void)st;
+    static const char text[] = "BO_ 2147483904 S: 8 A\n SG_ mux M : 0|8@1+ (1,0) [0|255] \"\" B\n"
+                               " SG_ v m1 : 15|16@0- (0.1,-5) [-100|100] \"V\" B\n SG_ f : 32|32@1- (1,0) [0|0] \"\" B\n"
+                               "SIG_VALTYPE_ 2147483904 f : 1;\n";
+    static _Alignas(8) unsigned char mem[4096];
+    msid_dbc d;
+    assert_true(msid_dbc_mem_size(text, sizeof text - 1) <= sizeof mem);
+    assert_int_equal(msid_dbc_init(&d, text, sizeof text - 1, mem, sizeof mem), 0);
+    uint8_t data[8] = {1, 0x12, 0x34, 0, 0, 0, 0xC0, 0x3F};
+    const long a0 = ALLOCS;
+    double sum = 0;
+    for (int n = 0; n < 1000; ++n) {
+        const msid_dbc_message *m = msid_dbc_message_by_id(&d, 0x100u | MSID_CAN_EFF_FLAG);
+        assert_non_null(m);
+        for (uint32_t k = 0; k < m->n_signals; ++k) {
+            const msid_dbc_signal *s = &d.signals[m->first_signal + k];
+            double v;
+            if (msid_dbc_present(&d, s, data, 8) == 1 && msid_dbc_decode(s, data, 8, &v) == 0) {
+                sum += v;
+                (void)msid_dbc_encode(s, v, data, 8);
+            }
+        }
+    }
+    assert_int_equal(ALLOCS - a0, 0);
+    assert_true(sum != 0);
+}
+
+/* (4) the CANopen master over the test node: a drive's records, its statusword following the controlword */
+static void co_follow(test_node *t, uint16_t index, uint8_t sub, uint32_t value)
+{
+    (void)sub;
+    if (index != 0x6040) return;
+    /* shutdown -> ready, switch on -> switched on, enable -> operation enabled, quick stop / disable -> disabled */
+    const uint32_t sw = value == 0x06 ? 0x21 : value == 0x07 ? 0x23 : value == 0x0F ? 0x27 : 0x40;
+    tn_find(t, 0x6041, 0)->value = sw;
+}
+
+static void canopen_master_allocates_nothing(void **st)
+{
+    (void)st;
+    static test_node t;
+    memset(&t, 0, sizeof t);
+    t.id = 3;
+    tn_add(&t, 0x6040, 0, 2, TN_RW, 1, 0);
+    tn_add(&t, 0x6041, 0, 2, TN_RO, 1, 0x40);
+    tn_add(&t, 0x6064, 0, 4, TN_RO, 1, 0);
+    tn_add_pdo(&t, 1, 1, 0x183, 1);
+    t.on_write = co_follow;
+    const msid_co_io io = tn_io(&t);
+    msid_co_sdo s;
+    assert_int_equal(msid_co_sdo_init(&s, &io, 3, 50), 0);
+    msid_co_hb hb;
+    assert_int_equal(msid_co_hb_init(&hb, 3, 100), 0);
+    const long a0 = ALLOCS;
+    msid_co_pdo_cfg saved, c = {.tx = 1, .num = 1, .trans_type = 1, .n = 2};
+    c.e[0] = (msid_co_pdo_entry){0x6041, 0, 16};
+    c.e[1] = (msid_co_pdo_entry){0x6064, 0, 32};
+    assert_int_equal(msid_co_pdo_save(&s, 1, 1, &saved), 0);
+    assert_int_equal(msid_co_pdo_configure(&s, &c, &saved), 0);
+    assert_int_equal(msid_co_pdo_restore(&s, &saved), 0);
+    msid_co402_state fin;
+    assert_int_equal(msid_co402_goto(&s, 1, 0, 1000, &fin), 0);
+    assert_int_equal(msid_co402_goto(&s, 0, 0, 1000, &fin), 0);
+    msid_can_frame f = {.id = 0x703, .len = 1, .data = {0x05}};
+    for (uint64_t ms = 0; ms < 1000; ms += 10) {
+        assert_int_equal(msid_co_hb_frame(&hb, &f, ms), 1);
+        assert_int_equal(msid_co_hb_check(&hb, ms + 5), MSID_CO_HB_ALIVE);
+    }
+    msid_can_frame e = {.id = 0x083, .len = 8, .data = {0x10, 0x23, 0x01}};
+    msid_co_emcy em;
+    assert_int_equal(msid_co_emcy_decode(&e, 3, &em), 1);
+    assert_int_equal(ALLOCS - a0, 0);
+    assert_int_equal(em.code, 0x2310);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(negative_control),
         cmocka_unit_test(can_hot_path_allocates_nothing),
         cmocka_unit_test(modbus_hot_path_allocates_nothing),
+        cmocka_unit_test(dbc_receive_path_allocates_nothing),
+        cmocka_unit_test(canopen_master_allocates_nothing),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

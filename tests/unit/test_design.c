@@ -174,9 +174,11 @@ static void test_amplitude_and_phase(void **state)
     msid_design_diag_t dg;
     const uint32_t b[] = {2, 5, 9};
     const double a0[] = {1, 0, 1}, a1[] = {1, 1, -2}, a2[] = {NAN, 1, 1}, a3[] = {1, HUGE_VAL, 1};
-    const double *as[] = {a0, a1, a2, a3};
-    const int32_t bad[] = {1, 2, 0, 1};
-    for (int k = 0; k < 4; ++k) {
+    /* finite but beyond what the design's squares hold (1e308 was reported as a singular input matrix) */
+    const double a4[] = {1, 1, 1e308}, a5[] = {1.01e150, 1, 1}, a6[] = {1, 0.99e-150, 1};
+    const double *as[] = {a0, a1, a2, a3, a4, a5, a6};
+    const int32_t bad[] = {1, 2, 0, 1, 2, 0, 1};
+    for (int k = 0; k < 7; ++k) {
         msid_design_cfg c = base_cfg(32, 3, b, 1, 1);
         c.amplitudes = as[k];
         UT_STATUS(try_design(&c, &dg), MSID_E_AMPLITUDE);
@@ -189,6 +191,11 @@ static void test_amplitude_and_phase(void **state)
     c.amp_per_input = 1;
     UT_STATUS(try_design(&c, &dg), MSID_E_AMPLITUDE);
     CHECK_DIAG(dg, 2, -1, 9);
+    /* the ends of the range are designs */
+    const double ends[] = {MSID_MAX_AMPLITUDE, 1, MSID_MIN_AMPLITUDE};
+    c = base_cfg(32, 3, b, 1, 1);
+    c.amplitudes = ends;
+    UT_STATUS(try_design(&c, &dg), MSID_OK);
     /* user phases: NaN at input 1, line 0; +inf at input 0, line 2 */
     const double p0[] = {0.1, 0.2, 0.3, NAN, 0.5, 0.6}, p1[] = {0.1, 0.2, HUGE_VAL, 0.4, 0.5, 0.6};
     c = base_cfg(32, 3, b, 2, 2);
@@ -356,15 +363,15 @@ static void test_schroeder_huge_amplitudes(void **state)
     uint32_t b[16];
     double amp[16];
     double cf[2];
-    const double scale[3] = {1.0, 1e150, 1e200};
+    const double scale[3] = {1.0, 1e149, 1e200};   /* 1e149 x (1 + 0.1 l) <= MSID_MAX_AMPLITUDE */
     for (int k = 0; k < 3; ++k) {
         for (uint32_t l = 0; l < 16; ++l) { b[l] = 1 + l; amp[l] = scale[k] * (1.0 + 0.1 * l); }
         msid_design_cfg c = base_cfg(256, 16, b, 1, 1);
         c.phase_mode = MSID_PHASE_SCHROEDER;
         c.amplitudes = amp;
         tsim_design t = {0};
-        if (k == 2) {
-            UT_STATUS(tsim_design_make(&t, &c), MSID_E_SINGULAR);
+        if (k == 2) {   /* beyond MSID_MAX_AMPLITUDE: named as the amplitude, not as a singular matrix */
+            UT_STATUS(tsim_design_make(&t, &c), MSID_E_AMPLITUDE);
             tsim_design_free(&t);
             continue;
         }
@@ -482,7 +489,7 @@ static void test_crest_and_samples(void **state)
     }
 }
 
-/* Issue 15 #6: crest factors by two real DFTs (MSID_CREST_FFT, O(m nu P log P)) equal direct synthesis
+/* Crest factors by two real DFTs (MSID_CREST_FFT, O(m nu P log P)) equal direct synthesis
  * up to rounding, for odd and even P with a DC line; MSID_CREST_NONE leaves them NaN; an FFT of the
  * wrong length or none is refused. Deterministic: two inits give the same bits. */
 static void test_crest_fft_equals_direct(void **state)

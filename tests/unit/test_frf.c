@@ -408,7 +408,7 @@ static void test_dc_line_real(void **state)
     UT_STATUS(scene_run(&s, &pp, &o), MSID_OK);
     check_dc_real(&pp.frf, "SISO noisy FFTW");
     pipe_free(&pp);
-    msid_fft_fftw_destroy(&fw);   /* issue 15 #9: the plan leaked (LeakSanitizer) */
+    msid_fft_fftw_destroy(&fw);   /* the plan leaked (LeakSanitizer) */
     o.path = MSID_DFT_STREAM;
     o.fft = NULL;
 #endif
@@ -506,7 +506,7 @@ static void test_dof_unbalanced_mimo(void **state)
     scene_free(&s);
 }
 
-/* Regression (issue 15 #5, #8): data scaled far from 1 never gives NaN/Inf results or a misleading
+/* Regression: data scaled far from 1 never gives NaN/Inf results or a misleading
  * "singular" status. Inputs and outputs both scaled by 1e78 (and 1e-78): the dof is scale-free and
  * equals the unscaled one; outputs near 1e155 overflow the covariances and inputs of 1e160 or 1e-200
  * overflow/underflow |U|^2: each is MSID_E_RANGE with the line named. */

@@ -1,6 +1,6 @@
-/* Golden values of the core, recorded before the refactoring of issue 11
- * (one layout routine per object, msid_frf_compute and msid_design_init in
- * named steps) and issue 12's spread period end: every change since must give
+/* Golden values of the core, recorded before its objects got one layout routine each and
+ * msid_frf_compute and msid_design_init their named steps, and before the spread period end:
+ * every change since must give
  * the same bits. Each case hashes (FNV-1a over the bytes) every output of an
  * object for fixed seeds; the expected hashes were printed by this test on the
  * integration commit 1fc65f9 (MSID_GOLDEN_PRINT=1 prints the actual ones).

@@ -189,7 +189,7 @@ static void test_capacity_sticky(void **state)
     done(&o);
 }
 
-/* Regression (issue 15 #1): a gap of 2^32 - 1 samples is accounted in O(1) (whole periods are counted,
+/* Regression: a gap of 2^32 - 1 samples is accounted in O(1) (whole periods are counted,
  * not walked), with the same counts as a short gap walked period by period, and a mark pending before a
  * run of whole gap periods does not leak into the next real period. */
 static void test_huge_gap_is_o1(void **state)

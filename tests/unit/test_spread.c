@@ -1,4 +1,4 @@
-/* Spread period end (issue 12, bounded per-sample time): msid_meas with
+/* Spread period end (bounded per-sample time): msid_meas with
  * cfg.spread = 1 defers the spectra copy and the period statistics of a
  * completed period to the samples of the next one. The statistics, counters,
  * history and the FRF must be the same bits as without spreading, whatever

@@ -1,4 +1,4 @@
-"""Duplicated and replayed DONE frames on CAN (issue 15, the adversarial device), through `msid can
+"""Duplicated and replayed DONE frames on CAN (the adversarial device), through `msid can
 replay` of msid-can/1 logs written here frame by frame (no CAN kernel needed; the live path shares
 the decoder, and msid-devsim has the same faults live: --done-twice, --replay-done-at E:N). The run
 either ends with the honest log's FRF or with one clear error; never an FRF from corrupted data."""

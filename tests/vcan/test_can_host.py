@@ -85,7 +85,7 @@ def test_replay_missing_file_and_bad_options(tmp_path):
     assert r.returncode == 0 and "msid can measure" in r.stdout
 
 
-# ---- hostile logs (issue 15 #1, #4): a msid-can/1 log written here, frame by frame ----
+# ---- hostile logs: a msid-can/1 log written here, frame by frame ----
 
 def _frame(t, fid, data):
     return f"({t:.6f}) vcan0 {fid:03X}#{bytes(data).hex().upper()}"

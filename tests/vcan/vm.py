@@ -31,9 +31,9 @@ import sys
 import tempfile
 import time
 
-MODULES = ["can", "can-raw", "can-dev", "vcan", "virtio_ring", "virtio", "virtio_pci_modern_dev",
+MODULES = ["can", "can-raw", "can-bcm", "can-dev", "vcan", "virtio_ring", "virtio", "virtio_pci_modern_dev",
            "virtio_pci_legacy_dev", "virtio_pci", "netfs", "fscache", "9pnet", "9pnet_virtio", "9p",
-           "sch_tbf"]   # sch_tbf: a rate-limited vcan0 makes sends fail with ENOBUFS (in_vm/test_enobufs.py)
+           "sch_tbf"]   # can-bcm: the CANopen SYNC producer (in_vm/test_canopen.py); sch_tbf: a rate-limited vcan0 makes sends fail with ENOBUFS (in_vm/test_enobufs.py)
 KDIR = os.environ.get("MSID_VCAN_DIR", "/var/cache/msid-vcan/k")
 QEMU = "qemu-system-x86_64"
 BUSYBOX = "/bin/busybox"

@@ -1,4 +1,4 @@
-"""Soak with faults on CAN (issue 15), inside the qemu VM of tests/vcan/vm.py (real SocketCAN, vcan0):
+"""Soak with faults on CAN, inside the qemu VM of tests/vcan/vm.py (real SocketCAN, vcan0):
 msid-devsim -> vcan0 -> `msid can measure` -> the core, rounds of random CAN faults from a fixed seed
 (random drops, duplicates, reorders, malformed frames, error frames, bus-off, device restarts) until
 MSID_SOAK_CAN_SECONDS (default 30) of rounds have started. Per round: exit 0 (no crash; a hang

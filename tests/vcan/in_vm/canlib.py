@@ -44,10 +44,10 @@ class Sim:
         self.start(self.args)
         return self
 
-    def start(self, argv):
-        """Runs argv and waits (20 s at most) for its ready line, which is returned."""
+    def start(self, argv, wait=20):
+        """Runs argv and waits (`wait` s at most) for its ready line, which is returned."""
         self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        r, _, _ = select.select([self.p.stdout], [], [], 20)
+        r, _, _ = select.select([self.p.stdout], [], [], wait)
         line = self.p.stdout.readline() if r else ""
         if "ready" not in line:
             self.p.kill()

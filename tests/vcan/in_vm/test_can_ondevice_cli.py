@@ -1,4 +1,4 @@
-"""`msid can measure --on-device` (issue 12; msid-can/1 extension estimate/1, docs/can-protocol.md):
+"""`msid can measure --on-device` (msid-can/1 extension estimate/1, docs/can-protocol.md):
 the C host over the CAN session. msid-devsim runs lib/'s msid_meas + msid_frf on the samples it
 produces and sends the result block as EST frames; the host writes msid-frf/1 from it.
 

@@ -34,7 +34,7 @@ def test_rate_the_bus_cannot_carry(design, tmp_path):
         # 2 kHz: 4000 frames/s * 135 bits = 0.54 Mbit/s fits 1 Mbit/s
         ok = c.measure(tmp_path, design, "--rate", 2000, "--bitrate", 1000000, "--periods", 3)
     assert ok.doc["fs_hz"] == 2000 and ok.doc["acquisition"]["rate_hz"] == 2000
-    # The device paces itself: checked by what it reports, never by wall-clock time (issue 15 #9: the
+    # The device paces itself: checked by what it reports, never by wall-clock time (the
     # stream time was 1.57 s against 0.77 s nominal on a loaded machine). It ran at the uploaded 2 kHz,
     # every sample went through its pacer (it waited for the sample's deadline, or found it already
     # passed on a loaded machine) and none was sent before its deadline. The unpaced control (--rate 0)

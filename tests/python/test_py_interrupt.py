@@ -1,0 +1,307 @@
+"""Ctrl-C lands during long calls. A SIGINT is sent at a random moment of each
+long call (seeded: a random share of the call's own work), and the call must raise KeyboardInterrupt
+long before it would have finished. Judged by the call's own progress (msid._msid._progress(): the
+units of work the libraries' checkpoints counted), never by the wall clock: the work done after the
+signal is a small share of the whole, and the call did not finish. Before the fix the interrupt
+waited until the call returned (the whole work done), and the result was then thrown away."""
+import os
+import random
+import signal
+import threading
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+import msid
+from msid import _msid as ext
+
+RNG = random.Random(45)
+
+
+class SigintAt:
+    """Send SIGINT to this process once `step`'s progress has grown by `target` units (a thread of its
+    own watches the counter); `at` is how far it had got when the signal was sent."""
+
+    def __init__(self, step, target):
+        self.step, self.target = step, target
+        self.base = ext._progress()[step]
+        self.at = None
+        self.t = threading.Thread(target=self._watch, daemon=True)
+        self.t.start()
+
+    def done(self):
+        return ext._progress()[self.step] - self.base
+
+    def _watch(self):
+        while self.done() < self.target:
+            time.sleep(0.0005)
+        self.at = self.done()
+        os.kill(os.getpid(), signal.SIGINT)
+
+
+def periodic_record(P, lines, periods, seed=1):
+    d = msid.design(period=P, lines=lines, amplitudes=0.3, seed=seed, periods=periods)
+    u = d.samples(0, periods)
+    y = 0.5 * u[:, 0] + 0.01 * np.random.default_rng(seed).standard_normal(len(u))
+    return d, np.column_stack([u[:, 0], y])
+
+
+def test_frf_streaming_path():
+    """msid.frf(dft="stream") on 2^20 samples of 1000 lines: interrupted after a random 5..50% of its rows."""
+    d, rec = periodic_record(4096, "1:1000", 256)
+    total = len(rec)
+    s = SigintAt("rows", int(RNG.uniform(0.05, 0.5) * total))
+    with pytest.raises(KeyboardInterrupt):
+        msid.frf(rec, design=d, dft="stream")
+    s.t.join()
+    got = s.done()
+    assert s.at is not None and s.at <= got < total, (s.at, got, total)
+    assert got - s.at <= 0.05 * total, (s.at, got, total)
+    # the module works on after it: the same call gives its FRF
+    f = msid.frf(rec[: 4096 * 4], design=d, dft="stream")
+    assert f.n_lines == 1000
+
+
+def test_lpm_on_a_long_record():
+    """msid.frf(method="lpm") on 2^21 samples of white noise (1,048,575 lines, blocks of 2048 on two
+    threads; then the document, which takes most of the call): interrupted after a random 5..50% of its
+    lines, at most a tenth more done after the signal."""
+    rng = np.random.default_rng(3)
+    N = 1 << 21
+    u = rng.standard_normal(N)
+    rec = np.column_stack([u, np.convolve(u, [0.5, 0.3, 0.1])[:N] + 0.01 * rng.standard_normal(N)])
+    total = N // 2 - 1
+    s = SigintAt("lines", int(RNG.uniform(0.05, 0.5) * total))
+    with pytest.raises(KeyboardInterrupt):
+        msid.frf(rec, method="lpm", n_inputs=1)
+    s.t.join()
+    got = s.done()
+    assert s.at is not None and s.at <= got < total and got - s.at <= 0.1 * total, (s.at, got, total)
+
+
+@pytest.fixture(scope="module")
+def scan_frf():
+    """A 2x2 FRF of 4 resonances (two inputs, two experiments, 300 lines): an ml order scan over it takes
+    tens of seconds."""
+    P, L = 2048, "2:2:600"
+    d = msid.design(period=P, lines=L, amplitudes=0.3, seed=5, inputs=2, periods=6)
+    rng = np.random.default_rng(5)
+    recs = []
+    poles = np.exp(np.array([-0.01 + 0.3j, -0.02 + 0.9j, -0.015 + 1.6j, -0.03 + 2.2j]))
+    for e in range(2):
+        u = d.samples(e, 6)
+        y = np.zeros_like(u)
+        for k, p in enumerate(poles):   # a second-order section per resonance, driven by both inputs
+            a1, a2 = -2 * p.real, abs(p) ** 2
+            x = u[:, 0] * (1 + 0.3 * k) + u[:, 1] * (0.5 - 0.1 * k)
+            s = np.zeros(len(x))
+            for n in range(2, len(x)):
+                s[n] = x[n] - a1 * s[n - 1] - a2 * s[n - 2]
+            y[:, 0] += 0.01 * s
+            y[:, 1] += 0.01 * s * (1 - 0.2 * k)
+        y += 0.001 * rng.standard_normal(y.shape)
+        recs.append(np.column_stack([u, y]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return msid.frf(recs, design=d, skip_periods=1)
+
+
+def test_fit_order_scan(scan_frf):
+    """msid.fit(method="ml", order="2:30"): interrupted after a random 1..8 of its 15 orders."""
+    total = 15   # 2, 4, .., 30 (two outputs: a step of 2)
+    s = SigintAt("orders", RNG.randint(1, 8))
+    with pytest.raises(KeyboardInterrupt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            msid.fit(scan_frf, method="ml", order="2:30")
+    s.t.join()
+    got = s.done()
+    assert s.at is not None and s.at <= got <= s.at + 1 and got < total, (s.at, got)
+
+
+def test_lmfd_at_high_order():
+    """msid.fit(method="lmfd") at order 300 on 300 lines: its one long step, the SVD of the interpolation
+    equations (600 x 903, seconds), counts one solve when it begins and one when it is done. SIGINT once
+    it began: KeyboardInterrupt before it is done (the step is abandoned: it ends on its own thread)."""
+    d, rec = periodic_record(4096, "1:300", 6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = msid.frf(rec, design=d, skip_periods=1)
+    s = SigintAt("solves", 1)
+    with pytest.raises(KeyboardInterrupt):
+        msid.fit(f, method="lmfd", order=300)
+    s.t.join()
+    assert s.at == 1 and s.done() == 1, (s.at, s.done())
+
+
+def test_wait_behind_a_measurement_in_another_thread(tmp_path):
+    """msid.frf in the main thread waits for the planner lock that msid.measure holds in another thread:
+    interrupted while it waits, long before the measurement ends (its own progress: periods)."""
+    from child import DESIGN, sim_module
+    mblib = sim_module()
+    d = msid.design(**DESIGN)
+    small, rec = periodic_record(64, "1:5", 4)
+    state = {"periods": 0, "stop": False}
+    started = threading.Event()
+
+    def progress(s):
+        state["periods"] = s["periods_total"]
+        started.set()
+        if state["stop"]:
+            raise KeyboardInterrupt
+
+    total = 2 * 400
+    with mblib.Sim(tmp_path, "--seed", 5) as sim:
+        out = {}
+
+        def run():
+            try:
+                out["f"] = msid.measure(f"modbus-tcp://127.0.0.1:{sim.port}", d, periods=400, rate=2000,
+                                        progress=progress)
+            except KeyboardInterrupt as e:
+                out["stopped"] = e
+
+        t = threading.Thread(target=run)
+        t.start()
+        assert started.wait(60)
+        at = state["periods"]
+        threading.Timer(RNG.uniform(0.05, 0.5), os.kill, (os.getpid(), signal.SIGINT)).start()
+        with pytest.raises(KeyboardInterrupt):
+            msid.frf(rec, design=small)   # waits: the measurement holds the planner lock
+        assert state["periods"] < total and t.is_alive(), (at, state)
+        state["stop"] = True
+        t.join(60)
+        assert "stopped" in out and not t.is_alive()
+
+
+def resonant_record(P, lines, periods, order, seed=1):
+    """A periodic record of a plant of `order` states (order / 2 lightly damped resonances over the band)."""
+    from scipy.signal import lfilter
+    d = msid.design(period=P, lines=lines, amplitudes=0.3, seed=seed, periods=periods)
+    u = d.samples(0, periods)[:, 0]
+    y = np.zeros(len(u))
+    for th in np.linspace(0.05, 2.8, order // 2):
+        p = 0.97 * np.exp(1j * th)
+        y += lfilter([0.1, 0.05], [1, -2 * p.real, abs(p) ** 2], u)
+    y += 0.01 * np.random.default_rng(seed).standard_normal(len(u))
+    return d, np.column_stack([u, y])
+
+
+def test_subspace_dense_steps():
+    """msid.fit(method="subspace") at order 200 on 1000 lines (tens of seconds): its dense steps (the QR of
+    the data, the eigendecompositions of each block-row count, the SVD of the resolvent's eigenvectors,
+    some of them on a second thread) count one solve when each begins and one when it is done. SIGINT
+    after a random 1..16 of their (about 24) counts: KeyboardInterrupt with at most two more counted (a step
+    begun on the other thread), and the model never evaluated at the lines (the fit's last part)."""
+    d, rec = periodic_record(4096, "1:1000", 6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = msid.frf(rec, design=d, skip_periods=1)
+    lines0 = ext._progress()["lines"]
+    s = SigintAt("solves", RNG.randint(1, 16))
+    with pytest.raises(KeyboardInterrupt):
+        msid.fit(f, method="subspace", order=200, refine="none")
+    s.t.join()
+    assert s.at is not None and s.done() - s.at <= 2, (s.at, s.done())
+    assert ext._progress()["lines"] == lines0
+
+
+@pytest.fixture(scope="module")
+def cissim_record():
+    return resonant_record(2048, "1:600", 8, 20)
+
+
+def test_cissim_refinement(cissim_record):
+    """msid.fit(method="cissim") at order 20 on 600 lines: the ML refinement's iterations (about 55, tens of
+    milliseconds each) are counted. SIGINT after a random 3..30 of them: KeyboardInterrupt at most 3
+    iterations later, before the FRF's covariance at the lines (the refinement's end) began."""
+    d, rec = cissim_record
+    lines0 = ext._progress()["lines"]
+    s = SigintAt("iterations", RNG.randint(3, 30))
+    with pytest.raises(KeyboardInterrupt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            msid.fit([rec], method="cissim", design=d, order=20)
+    s.t.join()
+    assert s.at is not None and s.done() - s.at <= 3, (s.at, s.done())
+    assert ext._progress()["lines"] == lines0
+
+
+def test_cissim_noise_covariance(cissim_record):
+    """The same fit's noise covariance (the constrained least squares of its thousands of solver iterations,
+    after the refinement's covariance at the 600 lines): SIGINT a random 100..2000 iterations into it,
+    KeyboardInterrupt within a fifth of its iterations."""
+    d, rec = cissim_record
+    state = {}
+
+    def watch():
+        lines0 = ext._progress()["lines"]
+        while ext._progress()["lines"] - lines0 < 600:   # the refinement is done
+            time.sleep(0.0005)
+        base = ext._progress()["iterations"]
+        target = RNG.randint(100, 2000)
+        while ext._progress()["iterations"] - base < target:
+            time.sleep(0.0005)
+        state["base"], state["at"] = base, ext._progress()["iterations"]
+        os.kill(os.getpid(), signal.SIGINT)
+
+    t = threading.Thread(target=watch, daemon=True)
+    t.start()
+    with pytest.raises(KeyboardInterrupt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            msid.fit([rec], method="cissim", design=d, order=20)
+    t.join()
+    got = ext._progress()["iterations"]
+    assert "at" in state and got - state["at"] <= 1000, (state, got)
+
+
+def test_multi_iterations():
+    """msid.fit(method="multi") at order 16 on two records of 10^5 samples: about 10 iterations of a second
+    or more each (every record filtered and projected per iteration). SIGINT after a random 1..6: at most one
+    more iteration begins."""
+    from scipy.signal import lfilter
+    rng = np.random.default_rng(2)
+    recs = []
+    for _ in range(2):
+        u = rng.standard_normal(100000)
+        y = np.zeros(len(u))
+        for th in np.linspace(0.2, 2.5, 8):
+            p = 0.95 * np.exp(1j * th)
+            y += lfilter([0.1, 0.05], [1, -2 * p.real, abs(p) ** 2], u)
+        recs.append(np.column_stack([u, y + 0.01 * rng.standard_normal(len(u))]))
+    s = SigintAt("iterations", RNG.randint(1, 6))
+    with pytest.raises(KeyboardInterrupt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            msid.fit(recs, method="multi", order=16, n_inputs=1)
+    s.t.join()
+    assert s.at is not None and s.done() - s.at <= 1, (s.at, s.done())
+
+
+def test_validate_at_high_order():
+    """msid.validate of an order-200 model on 1000 lines (a solve of order 200 per line: seconds): SIGINT
+    after a random 50..500 lines, KeyboardInterrupt within a tenth of the lines."""
+    from msid.files import Model
+    n = 200
+    d, rec = periodic_record(4096, "1:1000", 6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = msid.frf(rec, design=d, skip_periods=1)
+    rng = np.random.default_rng(4)
+    A = np.zeros((n, n))
+    for k, th in enumerate(np.linspace(0.01, 3.1, n // 2)):
+        A[2 * k:2 * k + 2, 2 * k:2 * k + 2] = 0.9 * np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    doc = {"format": "msid-model/1", "source": "", "domain": "dt", "sample_time": f.sample_time or 1.0,
+           "method": "external", "settings": {"weight": "cov"}, "order": n, "n_inputs": 1, "n_outputs": 1,
+           "A": (Q @ A @ Q.T).tolist(), "B": rng.standard_normal((n, 1)).tolist(),
+           "C": rng.standard_normal((1, n)).tolist(), "D": [[0.5]], "n_params": 0, "stable": True,
+           "stability": {"stable": True, "enforced": False, "max_abs_pole": 0.9}}
+    s = SigintAt("lines", RNG.randint(50, 500))
+    with pytest.raises(KeyboardInterrupt):
+        msid.validate(Model(doc), f)
+    s.t.join()
+    assert s.at is not None and s.done() - s.at <= 100 and s.done() < 1000, (s.at, s.done())
