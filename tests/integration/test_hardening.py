@@ -61,9 +61,9 @@ def test_validate_crafted_lmfd_order(bench, tmp_path, nN):
 
 
 def test_scaled_data_gives_finite_results_or_one_error(bench, tmp_path):
-    """#5, #8: inputs and outputs scaled by 1e78 give the same dof (it was null from csum^2/c2); outputs
-    near 1e155 overflow the covariances and inputs of 1e160 or 1e-200 overflow/underflow |U|^2 (they
-    were JSON null with exit 0, or a misleading "singular ... condition number 1"): one range error."""
+    """Inputs and outputs scaled by 1e78 give the same dof (it was null from csum^2/c2); outputs near 1e155
+    and inputs of 1e160 are refused at read, and inputs of 1e-200, which underflow |U|^2, get one range error
+    (they were JSON null with exit 0, or a misleading "singular ... condition number 1")."""
     base = h.load_json(bench["frf"])
     out = tmp_path / "f.json"
     r = frf(bench["bench"], scaled_csvs(bench["bench"], tmp_path, 1e78, 1e78), out)
@@ -73,9 +73,13 @@ def test_scaled_data_gives_finite_results_or_one_error(bench, tmp_path):
     for a, b in zip(doc["lines"], base["lines"]):
         assert a["dof"] == pytest.approx(b["dof"], rel=1e-12)
     out.unlink()
-    for su, sy in ((1.0, 1e155), (1e160, 1.0), (1e-200, 1.0)):
+    # samples beyond 1e150 are refused where they are read (file, line and column named); an input of 1e-200
+    # underflows |U|^2 in the estimate
+    for su, sy, needles in ((1.0, 1e155, ("column y1", "beyond the samples' range")),
+                            (1e160, 1.0, ("column u1", "beyond the samples' range")),
+                            (1e-200, 1.0, ("beyond what double precision can process",))):
         r = frf(bench["bench"], scaled_csvs(bench["bench"], tmp_path, su, sy), out)
-        fails(tmp_path, r, "beyond what double precision can process", out=out)
+        fails(tmp_path, r, *needles, out=out)
         assert "singular" not in r.stderr
 
 
