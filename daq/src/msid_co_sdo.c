@@ -4,6 +4,7 @@
    aborted itself or the link failed. */
 #include "msid_daq/msid_co_sdo.h"
 
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -267,11 +268,22 @@ static int download_segments(const xfer *x, const uint8_t *data, size_t len)
     return 0;
 }
 
+/* An SDO's size field holds 32 bits; a size_t of 32 bits always fits it (the test would be always false there). */
+static int beyond_size_field(size_t len)
+{
+#if SIZE_MAX > 0xFFFFFFFFu
+    return len > 0xFFFFFFFFu;
+#else
+    (void)len;
+    return 0;
+#endif
+}
+
 int msid_co_sdo_download(msid_co_sdo *s, uint16_t index, uint8_t sub, const void *data, size_t len)
 {
     xfer x;
     if (begin(&x, s, index, sub, "download") < 0) return -MSID_DAQ_E_ARG;
-    if ((!data && len) || (uint64_t)len > 0xFFFFFFFFu) {
+    if ((!data && len) || beyond_size_field(len)) {
         snprintf(s->err, sizeof s->err, "SDO download of 0x%04X:%02X: no data or more than 2^32-1 bytes", (unsigned)index,
                  (unsigned)sub);
         return -MSID_DAQ_E_ARG;
