@@ -153,13 +153,12 @@ static int read_(void *ctx, double *measure, msid_devio_times *t)
     return q;
 }
 
-/* Nothing to reconnect on a CAN bus: the frames queued during a failure are dropped, so that the next tick reads
- * its own. */
+/* Nothing to reconnect on a CAN bus. The frames queued since the failure stay: the next collection takes them all
+ * and the newest of each message is its sample, which may be the frame that answered this very tick (dropping the
+ * queue would lose it, and with a device that answers at once every tick after the first failure would fail). */
 static int recover_(void *ctx)
 {
     msid_can_map *m = ctx;
-    msid_can_frame f[16];
-    for (int k = 0; k < 64 && msid_can_recv(m->tr, f, 16, 0) > 0; ++k) {}
     memset(m->fresh, 0, sizeof m->fresh);
     return 0;
 }

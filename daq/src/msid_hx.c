@@ -298,6 +298,12 @@ double msid_hx_counter_rate(const msid_hx *h)
     return (n * T->cs_tc - T->cs_t * T->cs_c) / den;
 }
 
+void msid__hx_lose(msid_hx *h, uint64_t n)
+{
+    h->cnt.samples_lost += n;
+    msid_stream_lost(&h->st, n);
+}
+
 /* The timing of a successful measured tick. */
 void msid__hx_note_timing(msid_hx *h, const msid_devio_times *t, int64_t deadline)
 {
@@ -360,9 +366,9 @@ static void stream_by_tick(msid_hx *h, uint64_t idx, uint64_t *next_meas, int ok
 {
     if (idx > *next_meas) {
         h->cnt.missed += idx - *next_meas;
-        msid_stream_lost(&h->st, idx - *next_meas);
+        msid__hx_lose(h, idx - *next_meas);
     }
-    if (!ok) msid_stream_lost(&h->st, 1);
+    if (!ok) msid__hx_lose(h, 1);
     else {
         msid__hx_note_timing(h, t, deadline);
         msid__hx_make_row(h, v);
@@ -427,7 +433,7 @@ static int run_by_tick(msid_hx *h, const msid__hx_phase *p)
     /* measured ticks never reached (the loop fell behind past their end) are missing too */
     if (rc == 0 && next_meas < p->K) {
         h->cnt.missed += p->K - next_meas;
-        msid_stream_lost(&h->st, p->K - next_meas);
+        msid__hx_lose(h, p->K - next_meas);
     }
     return rc;
 }

@@ -120,11 +120,11 @@ static void account_read(msid_hx *h, counter_run *r, uint64_t n, double j, doubl
     const uint64_t idx = (uint64_t)(k - (double)r->m0);
     if (idx > r->next_meas) {
         h->cnt.cycles_not_read += idx - r->next_meas;
-        msid_stream_lost(&h->st, idx - r->next_meas);
+        msid__hx_lose(h, idx - r->next_meas);
     }
     if (off_test(&r->off, j)) {
         h->cnt.cycles_not_read++;
-        msid_stream_lost(&h->st, 1);
+        msid__hx_lose(h, 1);
     } else {
         /* the commanded value of cycle j is its sample */
         double v[MSID_MAX_INPUTS];
@@ -218,7 +218,7 @@ int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p)
     }
     if (rc == 0 && r.next_meas < p->K) {
         h->cnt.cycles_not_read += p->K - r.next_meas;
-        msid_stream_lost(&h->st, p->K - r.next_meas);
+        msid__hx_lose(h, p->K - r.next_meas);
     }
     return rc;
 }

@@ -28,6 +28,8 @@ void msid__hx_note_timing(msid_hx *h, const msid_devio_times *t, int64_t deadlin
 /* h->row from the read values (read-back inputs) or the values written v (commanded inputs). */
 void msid__hx_make_row(msid_hx *h, const double *v);
 double msid__hx_mid_ns(int64_t a, int64_t b);
+/* n samples of the measured timeline missing (the core marks the gap; the count is cnt.samples_lost). */
+void msid__hx_lose(msid_hx *h, uint64_t n);
 int msid__hx_fail(msid_hx *h, int rc, const char *fmt, ...);
 /* The experiment on the device's cycles (msid_hx_counter.c). */
 int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p);

@@ -250,4 +250,9 @@ def measure(tmp, sim, desc, *extra, period=64, lines="1:2:31", periods=8, skip=1
     if ok:
         assert r.returncode == 0, f"msid measure --map failed ({r.returncode}):\n{r.stderr}"
         r.doc = json.loads((o / "frf.json").read_text())
+        # every sample of the measured periods is in the estimate or counted as lost, whatever lost it
+        a = r.doc["acquisition"]
+        per_experiment = int(periods) * int(period)
+        total = a["samples"] + a["samples_lost"]
+        assert total >= per_experiment and total % per_experiment == 0, (a["samples"], a["samples_lost"])
     return r

@@ -177,9 +177,12 @@ def check_counts(doc, periods):
     assert e["periods_used"] + e["periods_gap"] + e["periods_nonfinite"] + len(e["transient_dropped"]) == periods - 1
     assert doc["periods_used"] == e["periods_used"] >= 2
     assert e["periods_nonfinite"] == 0
-    assert acq["samples_lost"] == t["measured_ticks_missed"] + t["exchanges_failed"]
+    # placed by the counter, a sample is lost when its cycle was not read or ran on another cycle's value (a
+    # failed exchange or a missed tick shows as such cycles); every measured sample is used or counted lost
+    assert acq["samples_lost"] == t["cycles_not_read"], t
+    assert acq["samples"] + acq["samples_lost"] == periods * doc["period_samples"], acq
     if e["periods_gap"]:   # a period with samples missing: msid counted why
-        assert acq["samples_lost"] + t["cycles_not_read"] > 0, t
+        assert acq["samples_lost"] > 0, t
     # the device answers every request it gets (on RTU an answer later than msid's timeout may be read as a bad
     # reply to the next request: counted, and its sample missing)
     assert acq["exceptions"] == 0 and acq["safe_values_written"] is True

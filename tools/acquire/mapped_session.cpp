@@ -172,7 +172,7 @@ struct HxRunner : ExperimentRunner {
         return true;
     }
     uint64_t samples() const override { return h.cnt.samples; }
-    uint64_t lost() const override { return h.cnt.missed + h.cnt.failed; }
+    uint64_t lost() const override { return h.cnt.samples_lost; }
     uint64_t link_errors() const override { return h.cnt.failed + h.cnt.failed_other; }
     void timing(ProgressState &s) const override
     {
@@ -458,12 +458,12 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     acq["fade_periods"] = desc.fade_periods;
     acq["probe_round_trip_s"] = {{"median", pr.median}, {"p90", pr.p90}, {"max", pr.max}, {"count", pr.n}};
     acq["samples"] = h.cnt.samples;
-    acq["samples_lost"] = h.cnt.missed + h.cnt.failed;
+    acq["samples_lost"] = h.cnt.samples_lost;
     acq["safe_values_written"] = frc == 0;
     acq["timing"] = timing_json(h, o.rate_hz, msid_devio_describe(&io), cp.counter >= 0 ? nominal_hz : 0.0);
     R.o.doc["acquisition"] = acq;
     set_summary(R, P, ny, nu, lr.done, fmt("%s (%s)", lname.c_str(), msid_devio_describe(&io)), h.cnt.samples,
-                h.cnt.missed + h.cnt.failed);
+                h.cnt.samples_lost);
     R.D = std::move(P.D);
     return R;
 }

@@ -94,6 +94,10 @@ typedef struct msid_hx_counters {
     uint64_t failed_other;     /**< exchanges of the other phases that failed */
     uint64_t recoveries;       /**< recover() calls after failures */
     uint64_t samples;          /**< rows pushed */
+    uint64_t samples_lost;     /**< samples of the measured periods marked missing in the core, whatever the
+                                    cause (a missed tick, a failed exchange, a value moved by max_step, a device
+                                    cycle not read or run on another cycle's value): samples + samples_lost is
+                                    every measured sample */
     uint64_t counter_steps[4]; /**< counter increments between successive read ticks: 0, 1, 2, more */
     uint64_t cycles_read_twice;   /**< index_by_counter: reads of a cycle already read (dropped) */
     uint64_t cycles_not_read;     /**< index_by_counter: device cycles of the measured periods no read returned,
