@@ -229,3 +229,30 @@ def test_every_public_class_has_a_repr():
     assert repr(v).startswith("<msid.Validation cost 1")
     m = mtypes.Modes({"report": {"model": "m.json", "modes": [{}]}, "text": ""})
     assert repr(m) == "<msid.Modes 1 mode(s) of m.json>"
+
+
+def test_what_needs_the_compiled_module(tmp_path, monkeypatch):
+    """The package docstring's claim, checked without the compiled module: msid-frf/1 and msid-model/1
+    files are read and written with NumPy only; another tool's FRF (.s2p, .uff, .unv, .csv, .mat) and the
+    estimators raise the ImportError that says how to build msid._msid, and the docstring names those
+    formats as needing it."""
+    from msid import _compiled
+    monkeypatch.setattr(_compiled, "_MODULE", None)
+    monkeypatch.setitem(sys.modules, "msid._msid", None)   # import msid._msid now fails
+    f = _frf()
+    msid.write_frf(tmp_path / "f.json", f)
+    g = msid.read_frf(tmp_path / "f.json")
+    assert np.array_equal(g.G, f.G)
+    m = _model()
+    msid.write_model(tmp_path / "m.json", m)
+    assert np.array_equal(msid.read_model(tmp_path / "m.json").A, m.A)
+    for name in ("dut.s2p", "modal.uff", "modal.unv", "frf.csv", "idfrd.mat"):
+        (tmp_path / name).write_text("x\n")
+        with pytest.raises(ImportError, match="compiled extension msid._msid"):
+            msid.read_frf(tmp_path / name)
+    with pytest.raises(ImportError, match="compiled extension msid._msid"):
+        msid.lpm(np.zeros((8, 2)), n_inputs=1)
+    doc = " ".join(msid.__doc__.split())
+    for ext in (".sNp", ".uff", ".csv", ".mat"):
+        assert ext in doc
+    assert "need NumPy only" in doc and "compiled module" in doc
