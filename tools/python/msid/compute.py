@@ -1,14 +1,16 @@
-"""msid in process: the FRF of samples held in NumPy arrays (msid.frf), a measurement fed block by
-block (msid.Measurement) and excitation designs (msid.design, msid.read_design), over the C++
-libraries of the msid command line (the compiled module msid._msid). The same samples give the same
-bits as `msid frf`; errors are msid's messages (ValueError; OSError for files). docs/python.md.
+"""msid in process, over the C++ libraries of the msid command line (the compiled module msid._msid):
+the FRF of samples held in NumPy arrays, one function per estimator (msid.frf: periodic records;
+msid.lpm, msid.etfe: records of any input), a measurement fed block by block (msid.Measurement), a
+device measured (msid.measure), excitation designs (msid.design, msid.read_design), fits (msid.fit)
+and exports for other tools (msid.export). The same samples give the same bits as `msid frf`; errors
+are msid's messages (ValueError; OSError for files). docs/python.md.
 
     d = msid.design(period=4096, lines="1:200", inputs=2)
     u = d.samples(experiment=0, periods=64)            # (64 * 4096, 2): drive the plant with it
     f = msid.frf([rec0, rec1], design=d)                 # rec: rows = samples, columns u1, u2, y1, y2
     f.G, f.cov, f.dof                                    # msid.FRF, as read_frf gives it
 
-Only the compiled functions need msid._msid; the rest of the package imports without it.
+msid._msid is loaded on the first call that needs it (msid._compiled).
 """
 import os
 import warnings

@@ -85,7 +85,7 @@ def _unvec(v, ny, nu):
 
 
 class FRF:
-    """An msid-frf/1 file.
+    """A frequency response with its uncertainty: an msid-frf/1 document as arrays (msid.frf, read_frf).
 
     Arrays (L lines, ny outputs, nu inputs, g = ny nu):
       bins (L,) int, freq (L,) cycles/sample, freq_hz (L,) or None, omega (L,) rad/s or None (CT files),
@@ -392,8 +392,9 @@ def frf_to_doc(frf: FRF, complete: bool = True) -> Dict[str, Any]:
 
 
 class Model:
-    """An msid-model/1 file: the state-space model (A, B, C, D), its domain and sample time, the model's
-    FRF at the data lines (frf_G: L x ny x nu, frf_freq), and `doc` (every key of the file)."""
+    """A parametric model, an msid-model/1 document (msid.fit, read_model): the state-space model (A, B,
+    C, D), its domain and sample time, the model's FRF at the data lines (frf_G: L x ny x nu, frf_freq),
+    and `doc` (every key of the file)."""
 
     def __init__(self, doc: Dict[str, Any], path: Optional[PathLike] = None) -> None:
         self.doc = doc
