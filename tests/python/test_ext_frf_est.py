@@ -201,21 +201,17 @@ def test_one_function_per_estimator(tmp_path):
         assert_same_bits(new, old)
         assert new.meta["method"] == method and new.notes == old.notes
         assert [str(x.message) for x in w_new] == [str(x.message) for x in w_old]
-    # files: the same bits as the arrays
-    paths = []
-    for k, r in enumerate(per):
-        p = tmp_path / f"e{k}.npy"
-        np.save(p, r)
-        paths.append(p)
-    cols = "u1=1,y1=2,y2=3"
+    # files: the same bits from the new function and the older call
+    def saved(records, stem):
+        out = []
+        for k, r in enumerate(records):
+            np.save(tmp_path / f"{stem}{k}.npy", r)
+            out.append(tmp_path / f"{stem}{k}.npy")
+        return out
+    paths, cols = saved(per, "e"), "u1=1,y1=2,y2=3"
     assert_same_bits(msid.etfe(paths, period=256, columns=cols), msid.frf(paths, method="etfe", period=256, columns=cols))
-    noise = []
-    for k, r in enumerate(recs):
-        p = tmp_path / f"n{k}.npy"
-        np.save(p, r)
-        noise.append(p)
-    cols = "u1=1,u2=2,y1=3,y2=4"
-    assert_same_bits(msid.lpm(noise, columns=cols), msid.frf(noise, method="lpm", columns=cols))
+    paths, cols = saved(recs, "n"), "u1=1,u2=2,y1=3,y2=4"
+    assert_same_bits(msid.lpm(paths, columns=cols), msid.frf(paths, method="lpm", columns=cols))
 
 
 def test_estimator_keywords_are_their_own():

@@ -169,7 +169,7 @@ def test_py_typed_marker():
     """py.typed (PEP 561) beside the modules: in the source, in the staged package (build/python, when
     the compiled module's build staged it) and in what `pip install` and `cmake --install` copy."""
     assert (SRC / "py.typed").is_file()
-    staged = os.environ.get("MSID_PYTHON_DIR")
+    staged = os.environ.get("MSID_PYTHON_STAGE") or os.environ.get("MSID_PYTHON_DIR")
     if staged:
         assert (Path(staged) / "msid" / "py.typed").is_file()
     root = SRC.parents[2]
