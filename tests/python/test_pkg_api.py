@@ -19,9 +19,8 @@ from msid import types as mtypes
 PKG = Path(msid.__file__).resolve().parent
 SRC = Path(__file__).resolve().parents[2] / "tools" / "python" / "msid"
 MODULES = sorted(p.stem for p in SRC.glob("*.py") if p.stem != "__init__")
-# the modules whose every public function and method carries type hints (plot and report are programs
-# with a command line: their entry points are typed too, through this list)
-TYPED = ["types", "files", "compute", "regions", "_args", "_compiled"]
+# every module of the package: each public function and method carries type hints
+TYPED = MODULES
 
 
 def _package_imports(path):
