@@ -62,7 +62,7 @@ def test_measure_in_process_same_bits_as_cli(tmp_path, monkeypatch):
     assert f.meta["complete"] is True and f.meta["experiments_completed"] == 2
     acq = f.meta["acquisition"]
     assert acq["transport"] == "modbus-tcp" and acq["samples_lost"] == 0 and acq["device"] == uri(sim)
-    inside, n = check_coverage(msid.frf_to_doc(f), truth)
+    inside, n = check_coverage(msid.files.frf_to_doc(f), truth)
     assert n == 40 * 2
     # progress: both experiments, periods counted up to the last one (a poll of a fast link can bring several)
     seen = [(s["experiment"], s["periods"]) for s in states]
@@ -187,7 +187,7 @@ def test_on_device_same_bits_as_cli(tmp_path, monkeypatch):
                 "--periods", 5, "--skip-periods", 1, "--on-device", "-o", out)
         assert r.returncode == 0, r.stderr
     same_bits(f, msid.read_frf(out))
-    inside, n = check_coverage(msid.frf_to_doc(f), truth)
+    inside, n = check_coverage(msid.files.frf_to_doc(f), truth)
     assert n == 40 * 2
 
 

@@ -290,7 +290,7 @@ def test_frf_option_and_shape_errors(tmp_path, d2, recs):
         msid.frf(recs, design=d2, skip_periods=-1)
     with pytest.raises(ValueError, match="bad range"):
         msid.frf(recs, period=P, lines="9:3", n_inputs=2)
-    with pytest.raises(ValueError, match="design applies to the periodic estimator, not to method='lpm'"):
+    with pytest.raises(TypeError, match=r"lpm\(\) got an unexpected keyword argument 'design'"):
         msid.frf(recs, design=d2, method="lpm")
     with pytest.raises(ValueError, match="no column 'Force'"):
         msid.frf(recs, design=d2, columns="u1=Force,u2=2,y1=3,y2=4")

@@ -133,11 +133,8 @@ def test_errors_as_cli(tmp_path):
     recs = noise_records(1, 1, 1)
     per = periodic_records(1, 1, 1)
     cases = [
-        (recs, {"method": "etfe", "order": 2}, ["--method", "etfe", "--order", 2]),
-        (recs, {"method": "lpm", "period": 64}, ["--method", "lpm", "--period", 64]),
         (recs, {"method": "lpm", "order": 9}, ["--method", "lpm", "--order", 9]),
         (recs, {"method": "lpm", "window": 0}, ["--method", "lpm", "--window", 0]),
-        (recs, {"method": "etfe"}, ["--method", "etfe"]),
         (per, {"method": "etfe", "period": 256, "delta": 1.5}, ["--method", "etfe", "--period", 256, "--delta", 1.5]),
         (recs, {"method": "lpm", "band": (0.1, 0.7)}, ["--method", "lpm", "--band", "0.1:0.7"]),
         (recs, {"method": "lpm", "band": (0.2, 0.1)}, ["--method", "lpm", "--band", "0.2:0.1"]),
@@ -162,9 +159,11 @@ def test_errors_as_cli(tmp_path):
 
 def test_keyword_errors():
     recs = noise_records(1, 1, 2)
-    with pytest.raises(ValueError, match="skip_periods applies to the periodic estimator, not to method='lpm'"):
+    # a keyword of another estimator: Python's own refusal of an unknown keyword, naming the function
+    # whose keywords they are not (msid.frf(method=...) is msid.lpm / msid.etfe)
+    with pytest.raises(TypeError, match=r"^lpm\(\) got an unexpected keyword argument 'skip_periods'$"):
         msid.frf(recs, method="lpm", n_inputs=1, skip_periods=1)
-    with pytest.raises(ValueError, match="order applies to method='lpm' or 'etfe'"):
+    with pytest.raises(TypeError, match=r"^frf\(\) got an unexpected keyword argument 'order'$"):
         msid.frf(recs, period=64, lines="1:10", n_inputs=1, order=2)
     with pytest.raises(ValueError, match=r"method must be 'periodic', 'lpm' or 'etfe', not 'arx'"):
         msid.frf(recs, method="arx", n_inputs=1)
@@ -180,3 +179,73 @@ def test_keyword_errors():
         msid.frf(recs, method="lpm", n_inputs=1, reference=r)
     with pytest.raises(ValueError, match="band must be"):
         msid.frf(recs, method="lpm", n_inputs=1, band=0.2)
+
+
+def test_one_function_per_estimator(tmp_path):
+    """msid.lpm and msid.etfe give the bits of msid.frf(method="lpm" | "etfe") with the same keywords,
+    on arrays and on files, notes included: the older call is the new function."""
+    import warnings
+    recs = noise_records(2, 2, 3)
+    per = periodic_records(1, 2, 2)
+    cases = [(msid.lpm, "lpm", recs, {"n_inputs": 2, "order": 1, "window": 4, "band": (0.01, 0.2)}),
+             (msid.lpm, "lpm", recs, {"n_inputs": 2, "fs": 1000.0, "band": "20:300", "threads": 1}),
+             (msid.etfe, "etfe", per, {"n_inputs": 1, "period": 256}),
+             (msid.etfe, "etfe", per, {"n_inputs": 1, "period": 256, "delta": 0.1, "gstar": 2.0, "fs": 50.0})]
+    for fn, method, r, kw in cases:
+        with warnings.catch_warnings(record=True) as w_new:
+            warnings.simplefilter("always")
+            new = fn(r, **kw)
+        with warnings.catch_warnings(record=True) as w_old:
+            warnings.simplefilter("always")
+            old = msid.frf(r, method=method, **kw)
+        assert_same_bits(new, old)
+        assert new.meta["method"] == method and new.notes == old.notes
+        assert [str(x.message) for x in w_new] == [str(x.message) for x in w_old]
+    # files: the same bits from the new function and the older call
+    def saved(records, stem):
+        out = []
+        for k, r in enumerate(records):
+            np.save(tmp_path / f"{stem}{k}.npy", r)
+            out.append(tmp_path / f"{stem}{k}.npy")
+        return out
+    paths, cols = saved(per, "e"), "u1=1,y1=2,y2=3"
+    assert_same_bits(msid.etfe(paths, period=256, columns=cols), msid.frf(paths, method="etfe", period=256, columns=cols))
+    paths, cols = saved(recs, "n"), "u1=1,u2=2,y1=3,y2=4"
+    assert_same_bits(msid.lpm(paths, columns=cols), msid.frf(paths, method="lpm", columns=cols))
+
+
+def test_estimator_keywords_are_their_own():
+    """Each estimator's function takes its own keywords only: another's is Python's TypeError for an
+    unknown keyword (never reaching the library), and the signatures say which they are."""
+    import inspect
+    recs = noise_records(1, 1, 1)
+    refused = [
+        (lambda: msid.frf(recs, n_inputs=1, period=64, lines="1:10", order=2), "frf", "order"),
+        (lambda: msid.frf(recs, n_inputs=1, window=3), "frf", "window"),
+        (lambda: msid.frf(recs, n_inputs=1, delta=0.1), "frf", "delta"),
+        (lambda: msid.lpm(recs, n_inputs=1, period=64), "lpm", "period"),
+        (lambda: msid.lpm(recs, n_inputs=1, skip_periods=1), "lpm", "skip_periods"),
+        (lambda: msid.lpm(recs, n_inputs=1, delta=0.1), "lpm", "delta"),
+        (lambda: msid.etfe(recs, n_inputs=1, period=64, order=2), "etfe", "order"),
+        (lambda: msid.etfe(recs, n_inputs=1, period=64, reference="r1"), "etfe", "reference"),
+        (lambda: msid.etfe(recs, n_inputs=1, period=64, design=None), "etfe", "design"),
+        # the older form: refused by the function it stands for
+        (lambda: msid.frf(recs, method="etfe", n_inputs=1, period=64, order=2), "etfe", "order"),
+        (lambda: msid.frf(recs, method="lpm", n_inputs=1, period=64), "lpm", "period"),
+        (lambda: msid.frf(recs, method="lpm", n_inputs=1, transient="off"), "lpm", "transient"),
+    ]
+    for call, fn, kw in refused:
+        with pytest.raises(TypeError) as e:
+            call()
+        assert str(e.value) == f"{fn}() got an unexpected keyword argument '{kw}'"
+    with pytest.raises(TypeError, match=r"etfe\(\) missing 1 required keyword-only argument: 'period'"):
+        msid.etfe(recs, n_inputs=1)
+    with pytest.raises(TypeError, match=r"etfe\(\) missing 1 required keyword-only argument: 'period'"):
+        msid.frf(recs, method="etfe", n_inputs=1)
+    shared = {"records", "fs", "columns", "n_inputs"}
+    params = {f.__name__: set(inspect.signature(f).parameters) - shared for f in (msid.frf, msid.lpm, msid.etfe)}
+    assert params["lpm"] == {"order", "window", "band", "reference", "threads"}
+    assert params["etfe"] == {"period", "delta", "gstar", "band", "threads"}
+    assert params["frf"] >= {"design", "period", "lines", "skip_periods", "detect_lines", "transient", "alpha", "dft",
+                             "block", "realisations", "direct"}
+    assert not params["frf"] & {"order", "window", "band", "reference", "delta", "gstar", "threads"}

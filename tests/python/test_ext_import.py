@@ -66,7 +66,7 @@ def test_control_ct_frd_fitted_as_continuous_time():
     assert m.domain == "ct" and m.sample_time is None
     np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(m.A)), np.sort_complex(sys.poles()), rtol=1e-6)
     # its document (write_frf) keeps it without a covariance: still unweighted
-    d = msid.frf_to_doc(f)
+    d = msid.files.frf_to_doc(f)
     assert "cov" not in d["lines"][0] and d["imported"]["format"] == "python-control FRD"
 
 

@@ -293,6 +293,9 @@ def test_pip_install(demo, tmp_path):
                         "--no-index", "-C", "wheel.cmake=false", "--target", str(tmp_path / "site"), str(src)],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
+    # every module and the PEP 561 marker, so that type checkers read the installed package's hints
+    installed = {p.name for p in (tmp_path / "site" / "msid").iterdir()}
+    assert {p.name for p in (ROOT / "tools" / "python" / "msid").glob("*.py")} | {"py.typed"} <= installed
     code = ("import msid, sys; f = msid.read_frf(sys.argv[1]); "
             "print(msid.__file__, f.G.shape, msid.plot.__name__, msid.report.__name__)")
     env = {k: v for k, v in __import__("os").environ.items() if k != "PYTHONPATH"}

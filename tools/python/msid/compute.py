@@ -1,30 +1,33 @@
-"""msid in process: the FRF of samples held in NumPy arrays (msid.frf), a measurement fed block by
-block (msid.Measurement) and excitation designs (msid.design, msid.read_design), over the C++
-libraries of the msid command line (the compiled module msid._msid). The same samples give the same
-bits as `msid frf`; errors are msid's messages (ValueError; OSError for files). docs/python.md.
+"""msid in process, over the C++ libraries of the msid command line (the compiled module msid._msid):
+the FRF of samples held in NumPy arrays, one function per estimator (msid.frf: periodic records;
+msid.lpm, msid.etfe: records of any input), a measurement fed block by block (msid.Measurement), a
+device measured (msid.measure), excitation designs (msid.design, msid.read_design), fits (msid.fit)
+and exports for other tools (msid.export). The same samples give the same bits as `msid frf`; errors
+are msid's messages (ValueError; OSError for files). docs/python.md.
 
     d = msid.design(period=4096, lines="1:200", inputs=2)
     u = d.samples(experiment=0, periods=64)            # (64 * 4096, 2): drive the plant with it
     f = msid.frf([rec0, rec1], design=d)                 # rec: rows = samples, columns u1, u2, y1, y2
     f.G, f.cov, f.dof                                    # msid.FRF, as read_frf gives it
 
-Only the compiled functions need msid._msid; the rest of the package imports without it.
+msid._msid is loaded on the first call that needs it (msid._compiled).
 """
-import math
 import os
-import sys
 import warnings
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .files import FRF, Model, frf_from_doc, frf_to_doc, model_to_doc, write_frf, write_model
+from ._args import (Bins, _below_nyquist, _column_spec, _float, _real_samples, _records, _uint,  # noqa: F401
+                    _uint_list)
+from ._compiled import ext as _ext
+from .files import write_frf, write_model
+from .types import FRF, Model, _frf_json
 
 PathLike = Union[str, "os.PathLike[str]"]
-Bins = Union[str, Sequence[int], np.ndarray]
 
-__all__ = ["frf", "Measurement", "measure", "MeasurementInterrupted", "Design", "design", "read_design", "fit", "validate", "Validation", "modes", "Modes",
-           "NoteWarning", "ConvergenceWarning"]
+__all__ = ["frf", "lpm", "etfe", "Measurement", "measure", "MeasurementInterrupted", "Design", "design",
+           "read_design", "fit", "export", "NoteWarning", "ConvergenceWarning"]
 
 
 class NoteWarning(UserWarning):
@@ -49,125 +52,6 @@ class MeasurementInterrupted(KeyboardInterrupt):
     def __init__(self, message, frf):
         super().__init__(message)
         self.frf = frf
-
-
-_MODULE = None
-
-
-def _ext():
-    global _MODULE
-    if _MODULE is not None:
-        return _MODULE
-    try:
-        from . import _msid
-    except ImportError as e:
-        raise ImportError(
-            f"this needs msid's compiled extension msid._msid, which this msid package does not have ({e}); build "
-            "it with the msid build (./bootstrap.sh build, then PYTHONPATH=build/python) or install the package "
-            "with it: pip install ./tools/python (docs/python.md)") from None
-    _MODULE = _msid
-    return _msid
-
-
-# ---- arguments as msid takes them ----
-
-# A range "a:b" of more items is refused before it is expanded, as the command line refuses it.
-_MAX_RANGE = 50_000_000
-# No period msid takes (at most 2^24 samples) has a line at or above 2^23.
-_NO_LINE = 1 << 23
-
-
-def _show(v):
-    """A value as a message quotes it: its repr, cut to 60 characters."""
-    r = repr(v)
-    return r if len(r) <= 60 else r[:57] + "..."
-
-
-def _uint(v, what, top=0xFFFFFFFF):
-    """A non-negative integer keyword: TypeError for another type (a float is not truncated), ValueError
-    out of 0..top (before anything is sized from it)."""
-    if type(v) is int and 0 <= v <= top:   # the common case, without the checks below
-        return v
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
-        raise TypeError(f"{what} must be an integer, not {type(v).__name__} {_show(v)}")
-    if v < 0:
-        raise ValueError(f"{what} must be a non-negative integer, not {_show(v)}")
-    if v > top:
-        raise ValueError(f"{what} must be at most {top}, not {_show(v)}")
-    return int(v)
-
-
-def _uint_list(v, what, stop_at=_NO_LINE):
-    """Bins as msid takes them: integers, or a string '1,2,10:20,1:2:9' (ranges include both ends). The
-    list ends after its first bin at or above `stop_at` (one msid refuses by name: at or beyond Nyquist),
-    so a range such as '1:1000000000' is never expanded past what can be checked."""
-    if isinstance(v, str):
-        if not v.strip():
-            raise ValueError(f"{what}: empty list")
-        out = []
-        for item in v.split(","):
-            parts = item.split(":")
-            try:
-                nums = [int(p) for p in parts]
-            except ValueError:
-                raise ValueError(f"{what}: bad item '{item}'") from None
-            if any(x < 0 for x in nums):
-                raise ValueError(f"{what}: '{item}' is not a non-negative integer")
-            if any(x > 0xFFFFFFFF for x in nums):
-                raise ValueError(f"{what}: '{item}' is too large")
-            if len(parts) == 1:
-                out.append(np.array(nums, dtype=np.int64))
-            elif len(parts) in (2, 3):
-                a, b, st = nums[0], nums[-1], (nums[1] if len(parts) == 3 else 1)
-                if st <= 0 or b < a:
-                    raise ValueError(f"{what}: bad range '{item}'")
-                if (b - a) // st > _MAX_RANGE:
-                    raise ValueError(f"{what}: range '{item}' is too long")
-                if b >= stop_at:   # up to the first bin msid refuses
-                    b = min(b, a + ((max(stop_at - a, 0) + st - 1) // st) * st)
-                out.append(np.arange(a, b + 1, st, dtype=np.int64))
-            else:
-                raise ValueError(f"{what}: bad item '{item}'")
-            if out[-1].size and out[-1][-1] >= stop_at:
-                break
-        a = np.concatenate(out)
-    elif type(v) is list and all(type(x) is int and 0 <= x < stop_at for x in v):   # plain ints: as given
-        return list(v)
-    else:
-        a = np.asarray(v)
-        if a.ndim > 1 or (a.size and a.dtype.kind not in "iu"):
-            if a.dtype.kind in "fc" or a.dtype == object:
-                raise TypeError(f"{what} must be integers (bins) or a string such as '1:200', not {_show(v)}")
-            raise ValueError(f"{what} must be integers (bins) or a string such as '1:200', not {_show(v)}")
-        a = a.reshape(-1).astype(np.int64, copy=False) if a.size else np.zeros(0, np.int64)
-        bad = np.flatnonzero((a < 0) | (a > 0xFFFFFFFF))
-        if bad.size:
-            raise ValueError(f"{what} must be non-negative integers, not {int(a[bad[0]])}")
-    beyond = np.flatnonzero(a >= stop_at)
-    if beyond.size:
-        a = a[:beyond[0] + 1]
-    return a.tolist()
-
-
-def _float(v, what):
-    """A real keyword: TypeError for another type, ValueError for NaN, an infinity or a subnormal
-    number (which the command line reads as no number: its reciprocal, a sample time, is infinite)."""
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{what} must be a number, not {type(v).__name__} {_show(v)}")
-    try:
-        x = float(v)
-    except OverflowError:
-        raise ValueError(f"{what} must be a finite number, not {_show(v)}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"{what} must be a finite number, not {_show(v)}")
-    if x != 0 and abs(x) < sys.float_info.min:
-        raise ValueError(f"{what}: {_show(v)} is below the smallest normal double ({sys.float_info.min:g})")
-    return x
-
-
-def _below_nyquist(period):
-    """The first bin at or beyond Nyquist of `period` (for _uint_list), or no bound when it is unknown."""
-    return (period + 1) // 2 if type(period) is int and period >= 0 else _NO_LINE
 
 
 def _options(skip_periods, fs, detect_lines, transient, alpha, dft, period=None):
@@ -195,79 +79,6 @@ def _design_arg(design):
     raise TypeError(f"design must be an msid.Design or a design file's path, not {type(design).__name__}")
 
 
-def _column_spec(columns):
-    if columns is None:
-        return ""
-    if isinstance(columns, dict):
-        return ",".join(f"{k}={v}" for k, v in columns.items())
-    return str(columns)
-
-
-def _real_samples(a, where):
-    """C-contiguous float64, the form the core reads in place; any other real dtype or layout is copied
-    once (integers, float32, a Fortran-order or strided array), anything else refused."""
-    if a.dtype.kind not in "fiu" or a.dtype.itemsize > 8:
-        raise ValueError(f"'{where}': dtype {a.dtype} is not supported (float16/32/64 or integers; complex is not)")
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _record(r, where, spec, n_inputs, free=False):
-    """One experiment's record as (samples, column names, nu): a 2-D array (rows are samples; columns
-    u1..u_nu then y1..y_ny, numbered from 1 as in a .npy) or a pandas DataFrame (named columns)."""
-    ext = _ext()
-    if isinstance(r, (str, bytes, os.PathLike)):
-        raise TypeError(f"'{where}' is a path among arrays: give every record as an array (or DataFrame), or "
-                        "every record as a file's path")
-    if hasattr(r, "columns") and hasattr(r, "iloc"):     # a pandas DataFrame
-        names = [str(c) for c in r.columns]
-        idx, nu, _ = ext.resolve_columns(where, names, spec, free)
-        if len(r) == 0:
-            raise ValueError(f"'{where}' holds no samples")
-        part = r.iloc[:, list(idx)]
-        kinds = {str(t) for t in part.dtypes}
-        try:   # pandas' nullable dtypes (Float64, Int64: missing values as pd.NA) as NaN, which msid names
-            a = part.to_numpy(dtype=np.float64, na_value=np.nan)
-        except (TypeError, ValueError):
-            raise ValueError(f"'{where}': columns of dtype {', '.join(sorted(kinds))} are not numbers "
-                             "(float32/64 or integers)") from None
-        return _real_samples(a, where), [names[i] for i in idx], nu
-    try:
-        a = np.asarray(r)
-    except (TypeError, ValueError) as e:
-        raise TypeError(f"'{where}' is not an array of samples ({e})") from None
-    if a.ndim != 2:
-        raise ValueError(f"'{where}': a {a.ndim}-dimensional array of shape {a.shape}; expected a samples x "
-                         "channels matrix (rows are samples; columns u1..u_nu, y1..y_ny)")
-    C = a.shape[1]
-    names = [str(k + 1) for k in range(C)]
-    if not spec:
-        if n_inputs is None:
-            raise ValueError(f"'{where}' holds one {a.shape[0]} x {C} matrix without column names: give n_inputs "
-                             "(or design), or map its columns (numbered from 1) with columns='u1=1,y1=2,...'")
-        nu = _uint(n_inputs, "n_inputs")
-        if (nu == 0 and not free) or C <= nu:
-            raise ValueError(f"'{where}' has {C} column(s): {nu} input(s) leave no output column")
-        if a.shape[0] == 0:
-            raise ValueError(f"'{where}' holds no samples")
-        return _real_samples(a, where), names, nu   # the columns in order: u1..u_nu, then y1..
-    idx, nu, _ = ext.resolve_columns(where, names, spec, free)
-    idx = list(idx)
-    if idx != list(range(C)):
-        a = a[:, idx]
-    if a.shape[0] == 0:
-        raise ValueError(f"'{where}' holds no samples")
-    return _real_samples(a, where), [names[i] for i in idx], nu
-
-
-def _records(records, columns, n_inputs, free=False, label="records"):
-    items = list(records) if isinstance(records, (list, tuple)) else [records]
-    if not items:
-        raise ValueError(f"no {label} given: one 2-D array (or DataFrame) per experiment")
-    spec = _column_spec(columns)
-    out = [_record(r, f"{label}[{k}]", spec, n_inputs, free) for k, r in enumerate(items)]
-    return [o[0] for o in out], [f"{label}[{k}]" for k in range(len(out))], [o[1] for o in out], [o[2] for o in out]
-
-
 def _result(res, where):
     a = res["frf"]   # the arrays of the FRF document (msid._msid: frf_to_py), numbers with their bits
     f = FRF._of_arrays(a)
@@ -278,18 +89,20 @@ def _result(res, where):
     return f
 
 
-# ---- the FRF of records ----
+# ---- the FRF of records: one function per estimator ----
 
-def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period: Union[int, str, None] = None,
-        lines: Optional[Bins] = None, skip_periods: int = 0, fs: Optional[float] = None, method: str = "periodic",
-        columns: Union[str, Dict[str, str], None] = None, n_inputs: Optional[int] = None,
-        detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
-        block: Optional[int] = None, realisations: Optional[int] = None, direct: bool = False,
-        order: Optional[int] = None, window: Optional[int] = None, band: Union[str, Tuple[float, float], None] = None,
-        reference: Any = None, delta: Optional[float] = None, gstar: Optional[float] = None,
-        threads: Optional[int] = None) -> FRF:
-    """The FRF of multisine records, as `msid frf` estimates it from files: the same request gives the
-    same bits (docs/statistics.md for the estimator and its exact statistics).
+Records = Any   # one 2-D array or DataFrame per experiment (or one alone), or experiment files' paths
+Columns = Union[str, Dict[str, str], None]
+
+
+def frf(records: Records, *, design: Union["Design", PathLike, None] = None, period: Union[int, str, None] = None,
+        lines: Optional[Bins] = None, skip_periods: int = 0, fs: Optional[float] = None, columns: Columns = None,
+        n_inputs: Optional[int] = None, detect_lines: Optional[Bins] = None, transient: str = "flag",
+        alpha: float = 0.01, dft: str = "auto", block: Optional[int] = None, realisations: Optional[int] = None,
+        direct: bool = False, method: str = "periodic", **estimator: Any) -> FRF:
+    """The FRF of periodic (multisine) records, as `msid frf` estimates it from files: the same request
+    gives the same bits (docs/statistics.md for the estimator and its exact statistics). For records of
+    any input (noise, sweeps, steps) see msid.lpm and msid.etfe.
 
     records: one experiment's samples, or a list with one per experiment. Each is a 2-D array (rows are
       samples, periods back to back; columns u1..u_nu then y1..y_ny, numbered from 1 for `columns`) or a
@@ -305,29 +118,20 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
     columns: which columns feed u1.., y1.. ("u1=Force,y1=Acc" or {"u1": "Force", "y1": "Acc"}), as --columns.
     skip_periods, fs, detect_lines, transient ("flag", "drop", "off"), alpha, dft ("auto", "stream",
       "fft"), block, realisations, direct: the options of `msid frf` (msid frf --help).
-    method: "periodic" (the multisine estimator, default), or for records of any input (noise, sweeps,
-      steps) "lpm", the local polynomial method, or "etfe", the ETFE with its finite-sample bound, as
-      `msid frf --method lpm|etfe` (docs/statistics.md). Their keywords, each as its option:
-      lpm: order (R, default 2), window (W), band ((f1, f2) or "F1:F2": Hz with fs, else cycles/sample),
-        threads, and for noisy inputs or a closed loop `reference`: the reference signal of each input,
-        as file or DataFrame column names ("r1=Cmd" or ["Cmd"]) or samples (one n_rows x n_inputs array
-        per record);
-      etfe: period (the input period M in samples, required), delta, gstar, band, threads.
+    method: "periodic" (default). method="lpm" or "etfe" with that estimator's keywords is msid.lpm or
+      msid.etfe, kept for older callers; a keyword of another estimator is a TypeError, as Python
+      gives for any unknown keyword.
 
     Returns an msid.FRF; its .notes are msid's notes (also issued as NoteWarning) and .reports what
     period/lines "auto" found. Raises ValueError with msid's message for bad records or options.
     """
     if method != "periodic":
-        return _frf_est(records, method, design=design, lines=lines, skip_periods=skip_periods, fs=fs,
-                        columns=columns, n_inputs=n_inputs, detect_lines=detect_lines, transient=transient,
-                        alpha=alpha, dft=dft, block=block, realisations=realisations, direct=direct,
-                        est={"period": period, "order": order, "window": window, "band": band,
-                             "reference": reference, "delta": delta, "gstar": gstar, "threads": threads})
-    for k, v in (("order", order), ("window", window), ("band", band), ("reference", reference),
-                 ("delta", delta), ("gstar", gstar), ("threads", threads)):
-        if v is not None:
-            raise ValueError(f"{k} applies to method='lpm' or 'etfe' (msid frf --method lpm|etfe), not to the "
-                             "periodic estimator")
+        return _frf_by_method(records, method, estimator, design=design, period=period, lines=lines,
+                              skip_periods=skip_periods, fs=fs, columns=columns, n_inputs=n_inputs,
+                              detect_lines=detect_lines, transient=transient, alpha=alpha, dft=dft, block=block,
+                              realisations=realisations, direct=direct)
+    if estimator:
+        raise TypeError(f"frf() got an unexpected keyword argument '{next(iter(estimator))}'")
     D = _design_arg(design)
     if n_inputs is None and D is not None:
         n_inputs = D.n_inputs
@@ -361,6 +165,68 @@ def frf(records: Any, *, design: Union["Design", PathLike, None] = None, period:
     return _result(_ext().frf(arrays, names, colnames, nus, opts, None if D is None else D._impl), "msid.frf")
 
 
+def _frf_by_method(records, method, estimator, **periodic):
+    """msid.frf(method="lpm" | "etfe", ...): that estimator's function on the keywords given. The
+    periodic estimator's keywords given a value of their own are passed on too, so that the call is
+    refused in Python's words for an unknown keyword, naming the function that refuses it."""
+    est = {"lpm": lpm, "etfe": etfe}.get(method) if isinstance(method, str) else None
+    if est is None:
+        raise ValueError(f"method must be 'periodic', 'lpm' or 'etfe', not {method!r}")
+    defaults = {"design": None, "period": None, "lines": None, "skip_periods": 0, "detect_lines": None,
+                "transient": "flag", "alpha": 0.01, "dft": "auto", "block": None, "realisations": None,
+                "direct": False, "fs": None, "columns": None, "n_inputs": None}
+    given = {k: v for k, v in periodic.items()
+             if k in ("fs", "columns", "n_inputs") or not (v is defaults[k] or (type(v) is type(defaults[k])
+                                                                             and v == defaults[k]))}
+    return est(records, **given, **estimator)
+
+
+def lpm(records: Records, *, order: Optional[int] = None, window: Optional[int] = None,
+        band: Union[str, Tuple[float, float], None] = None, reference: Any = None, fs: Optional[float] = None,
+        columns: Columns = None, n_inputs: Optional[int] = None, threads: Optional[int] = None) -> FRF:
+    """The FRF of records of any input (noise, sweeps, steps) by the local polynomial method, as
+    `msid frf --method lpm` (docs/statistics.md, "The local polynomial method").
+
+    records, columns, n_inputs, fs: as msid.frf (fs: the sample rate in Hz, for the frequency axis and band).
+    order: the local polynomials' degree R (0..8, default 2); window: the half-width W in bins (default
+      the smallest the order and the inputs allow).
+    band: (f1, f2) or "F1:F2": Hz with fs, else cycles/sample; only the lines inside are estimated.
+    reference: for noisy inputs or a closed loop, the reference signal of each input, as file or
+      DataFrame column names ("r1=Cmd" or ["Cmd"]) or samples (one n_rows x n_inputs array per record).
+    threads: worker threads (1..64; default: msid's).
+
+    Returns an msid.FRF (meta["method"] == "lpm"); ValueError with msid's message for bad records or options.
+    """
+    opts: Dict[str, Any] = {"method": "lpm"}
+    for k, v in (("order", order), ("window", window), ("threads", threads)):
+        if v is not None:
+            opts[k] = _uint(v, k)
+    return _frf_est(records, opts, band=band, reference=reference, fs=fs, columns=columns, n_inputs=n_inputs)
+
+
+def etfe(records: Records, *, period: int, delta: Optional[float] = None, gstar: Optional[float] = None,
+         band: Union[str, Tuple[float, float], None] = None, fs: Optional[float] = None, columns: Columns = None,
+         n_inputs: Optional[int] = None, threads: Optional[int] = None) -> FRF:
+    """The empirical transfer function estimate of records of any input, with its finite-sample bound,
+    as `msid frf --method etfe` (docs/statistics.md, "The ETFE").
+
+    records, columns, n_inputs, fs: as msid.frf.
+    period: the input's period M in samples (required).
+    delta: the bound's risk level in (0, 1); gstar: a bound on the plant's gain (>= 0), as --delta and
+      --gstar.
+    band: (f1, f2) or "F1:F2": Hz with fs, else cycles/sample. threads: worker threads (1..64).
+
+    Returns an msid.FRF (meta["method"] == "etfe"); ValueError with msid's message for bad records or options.
+    """
+    opts: Dict[str, Any] = {"method": "etfe", "period": _uint(period, "period")}
+    if threads is not None:
+        opts["threads"] = _uint(threads, "threads")
+    for k, v in (("delta", delta), ("gstar", gstar)):
+        if v is not None:
+            opts[k] = _float(v, k)
+    return _frf_est(records, opts, band=band, reference=None, fs=fs, columns=columns, n_inputs=n_inputs)
+
+
 def _band(band):
     """band as (f1, f2, text): a pair of numbers or msid's "F1:F2"."""
     if isinstance(band, str):
@@ -390,28 +256,11 @@ def _reference_names(reference):
     return names
 
 
-def _frf_est(records, method, *, design, lines, skip_periods, fs, columns, n_inputs, detect_lines, transient,
-             alpha, dft, block, realisations, direct, est):
-    """msid.frf(method="lpm" | "etfe"): the periodic estimator's keywords are refused, as the command line's."""
-    if method not in ("lpm", "etfe"):
-        raise ValueError(f"method must be 'periodic', 'lpm' or 'etfe', not {method!r}")
-    periodic = {"design": design is not None, "lines": lines is not None, "skip_periods": skip_periods != 0,
-                "detect_lines": detect_lines is not None, "transient": transient != "flag", "alpha": alpha != 0.01,
-                "dft": dft != "auto", "block": block is not None, "realisations": realisations is not None,
-                "direct": bool(direct)}
-    for k, given in periodic.items():
-        if given:
-            raise ValueError(f"{k} applies to the periodic estimator, not to method='{method}'")
-    opts = {"method": method, "fs": None if fs is None else _float(fs, "fs")}
-    for k in ("order", "window", "period", "threads"):
-        if est[k] is not None:
-            opts[k] = _uint(est[k], k)
-    for k in ("delta", "gstar"):
-        if est[k] is not None:
-            opts[k] = _float(est[k], k)
-    if est["band"] is not None:
-        opts["band"] = _band(est["band"])
-    reference = est["reference"]
+def _frf_est(records, opts, *, band, reference, fs, columns, n_inputs):
+    """msid.lpm and msid.etfe on arrays or files: `opts` holds the estimator's checked keywords."""
+    opts["fs"] = None if fs is None else _float(fs, "fs")
+    if band is not None:
+        opts["band"] = _band(band)
     paths = _file_paths(records)
     if paths is not None:
         if n_inputs is not None:
@@ -479,7 +328,7 @@ class Measurement:
 
     def __init__(self, design: Union["Design", PathLike], *, skip_periods: int = 0, fs: Optional[float] = None,
                  detect_lines: Optional[Bins] = None, transient: str = "flag", alpha: float = 0.01, dft: str = "auto",
-                 max_periods: Optional[int] = None):
+                 max_periods: Optional[int] = None) -> None:
         D = _design_arg(design)
         if D is None:
             raise ValueError("a Measurement needs a design (period, lines, inputs and experiments)")
@@ -509,7 +358,7 @@ class Measurement:
         """Close the measurement and estimate: an msid.FRF (ValueError if an experiment has too few periods)."""
         return _result(self._m.frf(), "msid.Measurement")
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"<msid.Measurement P = {self.design.period}, {self.design.n_lines} lines, "
                 f"{self.design.n_experiments} experiment(s), periods received {self.progress}>")
 
@@ -657,30 +506,43 @@ def _machine_memory():
 class Design:
     """An excitation design (msid-design/1): built by msid.design, read by msid.read_design."""
 
-    def __init__(self, impl):
-        self._impl = impl
-
-    period = property(lambda self: self._impl.period, doc="samples per period")
-    n_inputs = property(lambda self: self._impl.n_inputs)
-    n_experiments = property(lambda self: self._impl.n_experiments)
-    cond_max = property(lambda self: self._impl.cond_max, doc="largest condition number over the lines")
+    def __init__(self, impl: Any) -> None:
+        self._impl = impl   # msid._msid's design
 
     @property
-    def bins(self):
+    def period(self) -> int:
+        """Samples per period."""
+        return self._impl.period
+
+    @property
+    def n_inputs(self) -> int:
+        return self._impl.n_inputs
+
+    @property
+    def n_experiments(self) -> int:
+        return self._impl.n_experiments
+
+    @property
+    def cond_max(self) -> float:
+        """The largest condition number over the lines."""
+        return self._impl.cond_max
+
+    @property
+    def bins(self) -> np.ndarray:
         """Excited DFT bins (the line of each frequency)."""
         return np.array(self._impl.bins, dtype=int)
 
     @property
-    def n_lines(self):
+    def n_lines(self) -> int:
         return len(self._impl.bins)
 
     @property
-    def doc(self):
+    def doc(self) -> Dict[str, Any]:
         """The msid-design/1 document (a dict)."""
         return self._impl.doc
 
     @property
-    def periods(self):
+    def periods(self) -> Optional[int]:
         """Recommended periods per experiment (None if the design does not say)."""
         return self._impl.doc.get("periods")
 
@@ -716,7 +578,7 @@ class Design:
         """Write the design as an msid-design/1 file (atomic), as `msid excite -o` does."""
         self._impl.save(os.fspath(path))
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         b = self.bins
         return (f"<msid.Design P = {self.period}, {self.n_lines} lines (bins {b[0]}..{b[-1]}), "
                 f"{self.n_inputs} input(s) x {self.n_experiments} experiment(s), max cond {self.cond_max:.4g}>")
@@ -745,52 +607,6 @@ def read_design(path: PathLike) -> "Design":
 
 
 # ---- fits and validation ----
-
-def _file_text(path):
-    """A document file's text and its path as msid names it (OSError with msid's wording; ValueError
-    for a file that is not UTF-8 text, as no msid document is)."""
-    path = os.fspath(path)
-    try:
-        with open(path, "r", encoding="utf-8") as fh:
-            return fh.read(), path
-    except OSError as e:
-        raise OSError(e.errno, f"cannot open '{path}': {e.strerror}") from None
-    except UnicodeDecodeError as e:
-        raise ValueError(f"'{path}' is not an msid document: byte 0x{e.object[e.start]:02x} at offset {e.start} is "
-                         "not UTF-8 text (JSON)") from None
-
-
-def import_frf(path: PathLike, format: Optional[str] = None) -> FRF:
-    """An FRF file of any format msid reads, as an msid.FRF: msid-frf/1, or one measured by another tool
-    (format "touchstone", "uff", "csv" or "mat"; default: by the extension and content), converted by
-    `msid import`'s readers (docs/frf-format.md, "FRFs from other tools"). A network analyser's or modal
-    suite's FRF is continuous-time without a sample time; without standard deviations it has no
-    covariance (msid.fit then fits it unweighted, with no p-value). ValueError with msid's message for a
-    file msid refuses, OSError for one it cannot read."""
-    import json
-    path = os.fspath(path)
-    text = _ext().import_frf(path, "" if format is None else str(format))
-    return frf_from_doc(json.loads(text), f"'{path}'")
-
-
-def _frf_json(frf, what):
-    """An FRF (msid.FRF, or an FRF file's path) as JSON text and the name msid gives it: an msid-frf/1
-    file is handed over as written, so the fit reads the bytes `msid fit` reads and names it by its path;
-    another tool's file is imported as `msid fit` imports it."""
-    if isinstance(frf, (str, os.PathLike)):
-        path = os.fspath(frf)
-        if os.path.isfile(path) and _ext().frf_format(path, "") != "msid":
-            return _ext().import_frf(path, ""), path
-        return _file_text(frf)
-    if not isinstance(frf, FRF):
-        raise TypeError(f"{what} must be an msid.FRF or an msid-frf/1 file's path, not {type(frf).__name__}")
-    import json
-    doc = frf_to_doc(frf, complete=False)
-    try:
-        return json.dumps(doc, allow_nan=False), "(in-memory FRF)"
-    except ValueError as e:   # NaN or an infinity in the arrays
-        raise ValueError(f"{what}: {e} (an FRF holds finite numbers only)") from None
-
 
 def _order(order):
     if order is None:
@@ -857,7 +673,7 @@ def _multi_opts(order, o):
             "columns": _column_spec(o.get("columns")) or None}
 
 
-def fit(data: Any, method: str = "subspace", order: Union[int, str, range, None] = None, **options) -> Model:
+def fit(data: Any, method: str = "subspace", order: Union[int, str, range, None] = None, **options: Any) -> Model:
     """A parametric model, as `msid fit` fits it from files: the same data and options give the same model
     document (docs/fitting.md for the methods, their defaults and options).
 
@@ -919,101 +735,3 @@ def fit(data: Any, method: str = "subspace", order: Union[int, str, range, None]
     return m
 
 
-class Validation:
-    """What `msid validate MODEL FRF` reports: the weighted residual cost of the model on the FRF against
-    its law (docs/fitting.md, "Validation").
-
-    cost, expected, dof, p_value; consistent (p_value >= 0.05); report: the msid-validation/1 document
-    (`msid validate -o`), with per-line normalised residuals in report["lines"] and, when the FRF carries
-    it, the noise level against the nonlinear distortion in report["nonlinear_distortion"]; text: the
-    lines msid prints.
-    """
-
-    def __init__(self, res):
-        self.report = res["report"]
-        self.text = list(res["text"])
-        # None: an FRF without covariance (another tool's, msid.import_frf) has no noise scale, no verdict
-        self.consistent = None if res["consistent"] is None else bool(res["consistent"])
-        self.cost = self.report["cost"]
-        self.expected = self.report.get("expected")     # on records: the model's noise variance is the reference
-        self.dof = self.report["dof"]
-        self.p_value = self.report["p_value"]
-
-    @property
-    def normalised_residuals(self):
-        """Per line: the residual over its expectation under the model (about 1), an array (FRF validation)."""
-        return np.array([ln["normalised_residual"] for ln in self.report.get("lines", [])], dtype=float)
-
-    def __str__(self):
-        return "\n".join(self.text)
-
-    def __repr__(self):
-        ref = f", expected {self.expected:.6g}" if self.expected is not None else ""
-        if self.p_value is None:
-            return f"<msid.Validation unweighted cost {self.cost:.6g} (dof {self.dof:.0f}): no covariance, no verdict>"
-        verdict = "consistent" if self.consistent else "NOT consistent"
-        return (f"<msid.Validation cost {self.cost:.6g}{ref} (dof {self.dof:.0f}), p-value {self.p_value:.4g}: "
-                f"{verdict} at 5%>")
-
-
-def _model_json(model):
-    """A model (msid.Model, or an msid-model/1 file's path) as JSON text and the name msid gives it."""
-    import json
-    if isinstance(model, (str, os.PathLike)):
-        return _file_text(model)
-    if isinstance(model, Model):
-        return json.dumps(model_to_doc(model), allow_nan=False), os.fspath(model.path or "(in-memory model)")
-    raise TypeError(f"model must be an msid.Model or an msid-model/1 file's path, not {type(model).__name__}")
-
-
-def validate(model: Union[Model, PathLike], frf: Union[FRF, PathLike, None] = None, *, weight: Optional[str] = None,
-             lpm_lines: str = "independent", records: Any = None, lags: int = 10, own_records: bool = False,
-             columns: Union[str, Dict[str, str], None] = None, n_inputs: Optional[int] = None) -> Validation:
-    """`msid validate` in process. The model (msid.Model or a model file) on the FRF (msid.FRF or an FRF
-    file): weight "cov", "known-input" or "none" (default: the model's fit weight, known-input or cov),
-    lpm_lines "independent" (LPM files: every (2W+1)-th line) or "all". Or a model of method="multi" on
-    time records (records=: arrays or DataFrames as msid.fit takes them, columns / n_inputs as there;
-    lags: the whiteness test's lags; own_records=True: the records the model was fitted to, on which only
-    the whiteness test counts), as `msid validate MODEL --experiment ...`. Returns a Validation;
-    ValueError with msid's message when the model does not fit the data's channels or frequencies."""
-    mtext, mname = _model_json(model)
-    if records is not None:
-        if frf is not None:
-            raise ValueError("give an FRF or records, not both")
-        recs = _records(records, columns, n_inputs, free=True)
-        return Validation(_ext().validate_records(mtext, mname, recs, _uint(lags, "lags"), bool(own_records)))
-    if frf is None:
-        raise ValueError("give the FRF (or, for a multi model, records=) to validate the model on")
-    ftext, fname = _frf_json(frf, "frf")
-    opts = {"weight": None if weight is None else str(weight), "lpm_lines": str(lpm_lines)}
-    return Validation(_ext().validate(mtext, mname, ftext, fname, opts))
-
-
-class Modes:
-    """What `msid modes MODEL` reports: per pole pair (or real pole) the natural frequency, damping ratio
-    (and for FRF models the residues) with standard deviations. report: the msid-modes/1 document
-    (`msid modes -o`); modes: its list of modes (dicts); text: what msid prints."""
-
-    def __init__(self, res):
-        self.report = res["report"]
-        self.text = res["text"]
-        self.modes = list(self.report.get("modes", []))
-
-    @property
-    def at_bound(self):
-        """The modes (dicts of `modes`) whose pole lies on the stability bound of the constrained fit: their
-        damping is the constraint's, `sd_zeta` is None."""
-        return [m for m in self.modes if m.get("at_bound")]
-
-    def __str__(self):
-        return self.text
-
-    def __repr__(self):
-        return f"<msid.Modes {len(self.modes)} mode(s) of {self.report.get('model')}>"
-
-
-def modes(model: Union[Model, PathLike]) -> Modes:
-    """`msid modes MODEL` in process (Model.modes()): an msid.Modes; ValueError with msid's message for a
-    model without poles to report."""
-    mtext, mname = _model_json(model)
-    return Modes(_ext().modes(mtext, mname))

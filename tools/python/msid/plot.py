@@ -22,11 +22,14 @@ The figures are plain matplotlib Figure objects (no pyplot state): `bode(frf, mo
 import argparse
 import os
 import sys
+from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
 
 from . import regions
 from .files import FRF, Model, FormatError, read_frf, read_model
+
+PathLike = Union[str, "os.PathLike[str]"]
 
 REGION_LABEL = "95% region"
 BOUND_LABEL = "ETFE bound"
@@ -54,7 +57,7 @@ def _model_axis_points(frf, f_axis):
     return np.exp(2j * np.pi * f_axis * h)
 
 
-def unwrap_phase(G, noisy=None):
+def unwrap_phase(G: np.ndarray, noisy: Optional[np.ndarray] = None) -> np.ndarray:
     """Phase (radians) of G along axis 0, unwrapped across the lines where `noisy` is False only: each
     such line takes the branch nearest the previous one (np.unwrap where nothing is noisy); a noisy
     line takes the branch nearest the last line before it (the first clean line after it at the start),
@@ -82,7 +85,7 @@ def unwrap_phase(G, noisy=None):
     return flat_o.reshape(ang.shape)
 
 
-def etfe_bound(frf):
+def etfe_bound(frf: FRF) -> Optional[np.ndarray]:
     """The per-line ETFE bound (L,) of an `msid frf --method etfe` file, or None."""
     if frf.meta.get("method") != "etfe" or not frf.line_extra or not all("bound" in e for e in frf.line_extra):
         return None
@@ -111,7 +114,8 @@ def _grid(f):
     return np.linspace(lo, hi if hi > lo else lo + 1, 600)
 
 
-def bode(frf, model=None, level=0.95, which="cov", title=None):
+def bode(frf: Union[FRF, PathLike], model: Union[Model, PathLike, None] = None, level: float = 0.95,
+         which: str = "cov", title: Optional[str] = None) -> Any:
     """A matplotlib Figure: Bode magnitude/phase with `level` regions for every output/input pair of `frf`
     (an FRF or a path), the model overlay and residual rows when `model` (Model or path) is given, and
     the stabilisation diagram when the model carries one."""
@@ -209,13 +213,13 @@ def bode(frf, model=None, level=0.95, which="cov", title=None):
     return fig
 
 
-def mode_indicator(frf):
+def mode_indicator(frf: FRF) -> np.ndarray:
     """The complex mode indicator function of an FRF: the singular values of G at every line, (L, min(ny, nu)),
     largest first. Peaks of the first mark the modes (a SISO FRF: |G|)."""
     return np.linalg.svd(frf.G, compute_uv=False)
 
 
-def stabilisation(block, ax, model=None, frf=None):
+def stabilisation(block: dict, ax: Any, model: Optional[Model] = None, frf: Optional[FRF] = None) -> None:
     """Draw an `order_selection` block (docs/fitting.md) on `ax`: pole frequency against model order,
     one marker per stabilisation flag, the chosen order marked. With `frf` the axis spans the Bode plot's
     frequency range (poles outside it are counted in the title) and the FRF's mode indicator function
@@ -291,7 +295,7 @@ def _decades(ax):
     return np.log10(hi / lo) if lo > 0 and hi > lo else 0.0
 
 
-def incomplete_note(frf):
+def incomplete_note(frf: FRF) -> str:
     """'' for a complete measurement, else 'INCOMPLETE (reason; k of m experiments)': `msid measure`
     writes "complete": false when it was stopped (docs/frf-format.md)."""
     m = frf.meta
@@ -318,7 +322,7 @@ def _title(frf, model):
     return t
 
 
-def save(fig, path):
+def save(fig: Any, path: PathLike) -> None:
     """Save a figure (format from the extension: png, svg, pdf) atomically and reproducibly."""
     ext = os.path.splitext(path)[1].lower().lstrip(".")
     if ext not in ("png", "svg", "pdf"):
@@ -337,7 +341,7 @@ def save(fig, path):
             os.unlink(tmp)
 
 
-def main(argv=None):
+def main(argv: Optional[Sequence[str]] = None) -> int:
     ap = argparse.ArgumentParser(prog="python3 -m msid.plot",
                                  description="Bode plot of an msid-frf/1 file with exact 95%% regions, "
                                              "a model overlay and normalised residuals")
@@ -355,7 +359,7 @@ def main(argv=None):
                                                    which="known-input" if a.known_input else "cov"), a.output) or a.output)
 
 
-def run_cli(prog, job):
+def run_cli(prog: str, job: Callable[[], Any]) -> int:
     """The shared end of the plot/report entry points: exit 3 with one message without matplotlib,
     1 with one message on a bad file, else 0 after printing what `job()` wrote."""
     try:

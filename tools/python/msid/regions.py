@@ -12,11 +12,14 @@ Without a dof (or an infinite one) the law is the Gaussian limit chi2_2 / 2 (q =
 respectively chi2_1 — the asymptotic region, which under-covers with few periods.
 """
 import math
+from typing import Any, Optional
 
 import numpy as np
 
+ArrayLike = Any   # a number or what np.asarray takes
 
-def f2_quantile(level, dof):
+
+def f2_quantile(level: float, dof: Optional[ArrayLike]) -> np.ndarray:
     """`level` quantile of F(2, 2 dof) (dof may be an array; inf or None gives the chi2_2/2 limit)."""
     a = -math.log1p(-level)
     if dof is None:
@@ -27,7 +30,7 @@ def f2_quantile(level, dof):
     return np.where(np.isfinite(n), q, a)
 
 
-def f1_quantile(level, dof):
+def f1_quantile(level: float, dof: Optional[ArrayLike]) -> np.ndarray:
     """`level` quantile of F(1, dof) = t_dof((1 + level)/2)^2 (inf or None: chi2_1)."""
     from scipy import stats
     if dof is None:
@@ -37,7 +40,8 @@ def f1_quantile(level, dof):
     return np.where(fin, stats.f.ppf(level, 1, np.where(fin, n, 1.0)), stats.chi2.ppf(level, 1))
 
 
-def radius(var, dof=None, level=0.95, real=False):
+def radius(var: ArrayLike, dof: Optional[ArrayLike] = None, level: float = 0.95,
+           real: ArrayLike = False) -> np.ndarray:
     """Radius of the `level` confidence disc (interval half-width for real lines) of elements with
     variance `var` and complex dof `dof` (arrays broadcast together)."""
     var = np.asarray(var, dtype=float)
@@ -48,7 +52,7 @@ def radius(var, dof=None, level=0.95, real=False):
     return np.sqrt(np.maximum(var, 0.0) * q)
 
 
-def normalised_residual(e, var):
+def normalised_residual(e: ArrayLike, var: ArrayLike) -> np.ndarray:
     """|e| / sqrt(var): a model's residual at a line in units of the FRF's standard deviation."""
     var = np.asarray(var, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -17,12 +17,15 @@ import html
 import json
 import os
 import sys
+from typing import Optional, Sequence, Union
 
 import numpy as np
 
-
 from .files import read_frf, read_model
+from .types import Model
 from .plot import incomplete_note
+
+PathLike = Union[str, "os.PathLike[str]"]
 
 
 def _row(k, v):
@@ -62,7 +65,7 @@ def _frf_table(frf):
     return rows
 
 
-def format_bins(bins):
+def format_bins(bins: Sequence[int]) -> str:
     """1,3,5:2:11 - a bin list in msid's --lines syntax (runs of three or more as a:step:b)."""
     b = [int(x) for x in bins]
     out, i = [], 0
@@ -147,7 +150,7 @@ def _channel_table(frf):
     return rows
 
 
-def stability_text(model):
+def stability_text(model: Model) -> str:
     """One unambiguous sentence on the model's poles: stable, or how many are unstable, with the bound."""
     ev = np.linalg.eigvals(model.A) if model.order else np.zeros(0)
     n = len(ev)
@@ -187,7 +190,7 @@ def _model_table(model):
     return rows
 
 
-def write_report(outdir, command=None):
+def write_report(outdir: PathLike, command: Optional[str] = None) -> str:
     """Write OUTDIR/bode.png, OUTDIR/bode.svg and OUTDIR/report.html; returns the report's path.
     `command`: the command line that made OUTDIR (msid measure passes it), shown in the report."""
     from . import plot
@@ -241,7 +244,7 @@ Plot files: <a href="bode.png">bode.png</a>, <a href="bode.svg">bode.svg</a>.</p
     return out
 
 
-def main(argv=None):
+def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     usage = __doc__.strip().split("\n\n")[1].strip()
     if argv[:1] in (["-h"], ["--help"]):
