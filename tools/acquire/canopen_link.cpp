@@ -66,7 +66,8 @@ CoEntry parse_co_entry(const std::string &text)
     const size_t colon = text.find(':');
     char *end = nullptr;
     errno = 0;
-    const unsigned long index = std::strtoul(text.substr(0, colon).c_str(), &end, 16);
+    const std::string idx = text.substr(0, colon);   // named: strtoul's end points into it
+    const unsigned long index = std::strtoul(idx.c_str(), &end, 16);
     const bool index_ok = colon != std::string::npos && colon > 0 && *end == '\0' && !errno && index <= 0xFFFF;
     const std::string s = colon == std::string::npos ? "" : text.substr(colon + 1);
     const unsigned long sub = std::strtoul(s.c_str(), &end, 16);
