@@ -3,7 +3,9 @@
 # (LeakSanitizer included), in build-asan/. CI runs it after the README's test command (.ci/run).
 #   scripts/sanitize.sh [extra ctest args]
 # Not run here: the Modbus and vcan suites (they test links, not memory; the Modbus adapter's memory is
-# fuzzed by tests/fuzz/fuzz_mb_acq), the speed benchmarks (pytest_test_bench: timing runs of the same code
+# fuzzed by tests/fuzz/fuzz_mb_acq; the host-timed ones, test_map, test_map_peer, test_measure and
+# test_py_measure, would also lose ticks to ASan's slowdown), the real F-16 record's test (six minutes under
+# ASan: its readers and estimators run under ASan on the smaller records of the CLI and unit tests), the speed benchmarks (pytest_test_bench: timing runs of the same code
 # paths the other tests cover), the soak (it bounds RSS, which ASan shadow memory inflates: 137 MB) and the
 # fuzz label (its own clang build with the same sanitizers), the label montecarlo: the Monte Carlo suites
 # run the same estimators and `msid fit` / `msid validate` paths as the unit and CLI tests hundreds of times
@@ -26,4 +28,4 @@ export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 cd build-asan
 exec ctest --output-on-failure -j "$jobs" -L 'unit|stats|integration' -LE montecarlo \
-    -E 'pytest_test_mb_|pytest_test_bench|vcan|^fuzz_|^soak_|pytest_test_pkg_(plot|files)|pytest_test_plot_phase_bound' "$@"
+    -E 'pytest_test_mb_|pytest_test_(map|map_peer|measure|py_measure|f16_record)$|pytest_test_bench|vcan|^fuzz_|^soak_|pytest_test_pkg_(plot|files)|pytest_test_plot_phase_bound' "$@"
