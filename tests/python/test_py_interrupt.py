@@ -337,6 +337,47 @@ def test_multi_iterations():
     assert s.at is not None and s.done() - s.at <= 1, (s.at, s.done())
 
 
+def multi_records(n_records, samples, seed):
+    from scipy.signal import lfilter
+    rng = np.random.default_rng(seed)
+    recs = []
+    for _ in range(n_records):
+        u = rng.standard_normal(samples)
+        y = np.zeros(len(u))
+        for th in np.linspace(0.2, 2.5, 8):
+            p = 0.95 * np.exp(1j * th)
+            y += lfilter([0.1, 0.05], [1, -2 * p.real, abs(p) ** 2], u)
+        recs.append(np.column_stack([u, y + 0.01 * rng.standard_normal(len(u))]))
+    return recs
+
+
+def test_multi_within_one_evaluation():
+    """Within one evaluation of the multi fit (two records of 10^5 samples at order 16: each record's
+    filters, free-response basis by four columns, its QR and projections, then the stacked QR, each
+    counted as a solve; the cost of the first start value alone is 16 of them): SIGINT at a random 1..16th
+    solve, inside the first evaluation: KeyboardInterrupt within 8 more solves (the token asks every
+    20 ms), no iteration begun, and a small fit afterwards gives the bits it gave before."""
+    import json
+    small = multi_records(1, 3000, 7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        before = msid.fit(small, method="multi", order=4, n_inputs=1)
+    recs = multi_records(2, 100000, 2)
+    it0 = ext._progress()["iterations"]
+    s = SigintAtCheckpoint("solves", RNG.randint(1, 16))
+    with pytest.raises(KeyboardInterrupt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            msid.fit(recs, method="multi", order=16, n_inputs=1)
+    got = s.done()
+    assert s.target <= got <= s.target + 8, (s.target, got)
+    assert ext._progress()["iterations"] == it0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        after = msid.fit(small, method="multi", order=4, n_inputs=1)
+    assert json.dumps(after.doc, sort_keys=True) == json.dumps(before.doc, sort_keys=True)
+
+
 def test_validate_at_high_order():
     """msid.validate of an order-200 model on 1000 lines (a solve of order 200 per line: seconds): SIGINT
     after a random 50..500 lines, KeyboardInterrupt within a tenth of the lines."""
