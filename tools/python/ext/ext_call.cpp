@@ -272,6 +272,10 @@ void count_progress(Step s, uint64_t n) { add_progress(s, n); }
 void interrupt_at(const std::string &step, uint64_t at)
 {
     static const char *const NAMES[] = {"rows", "lines", "orders", "iterations", "solves", "document"};
+    if (step.empty()) {   // disarmed
+        g_armed_step = (uint32_t)Step::count_;
+        return;
+    }
     for (size_t k = 0; k < (size_t)Step::count_; ++k)
         if (step == NAMES[k]) {
             g_armed_at = g_progress[k].load() + at;
