@@ -81,6 +81,68 @@ def test_lpm_on_a_long_record():
     assert s.at is not None and s.at <= got < total and got - s.at <= 0.1 * total, (s.at, got, total)
 
 
+class SigintAtCheckpoint:
+    """SIGINT raised by the checkpoint that counts the `target`-th more unit of `step`
+    (msid._msid._interrupt_at): the signal placed by the work done, also in work that holds the GIL,
+    where a watcher thread cannot look."""
+
+    def __init__(self, step, target):
+        self.step, self.target = step, target
+        self.base = ext._progress()[step]
+        ext._interrupt_at(step, target)
+
+    def done(self):
+        return ext._progress()[self.step] - self.base
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        ext._interrupt_at("", 0)   # a call that ended before the target must not leave it armed
+        return False
+
+
+def long_lpm_record():
+    rng = np.random.default_rng(3)
+    N = 1 << 21
+    u = rng.standard_normal(N)
+    return np.column_stack([u, np.convolve(u, [0.5, 0.3, 0.1])[:N] + 0.01 * rng.standard_normal(N)])
+
+
+@pytest.mark.parametrize("phase", ["building", "conversion"])
+def test_lpm_document_steps(phase):
+    """The same LPM once its lines are done: the document of its 1,048,575 lines is built (without the
+    GIL), then turned into NumPy arrays and Python objects (about 17 passes over the lines, with the GIL
+    held) and freed, each pass counted per chunk of 1024 lines ("document"). SIGINT at a random chunk of
+    the building or of the conversion: KeyboardInterrupt within 64 chunks of it (the building asks every
+    20 ms, the conversion every chunk), nothing returned, and an LPM afterwards gives its earlier bits."""
+    rec = long_lpm_record()
+    small = rec[:4096]
+    before = msid.frf(small, method="lpm", n_inputs=1)
+    total = len(rec) // 2 - 1
+    lines0 = ext._progress()["lines"]
+    share = RNG.uniform(0.05, 0.9) if phase == "building" else RNG.uniform(1.1, 12.0)
+    out = None
+    with SigintAtCheckpoint("document", int(share * total)) as s, pytest.raises(KeyboardInterrupt):
+        out = msid.frf(rec, method="lpm", n_inputs=1)
+    got = s.done()
+    assert out is None
+    assert ext._progress()["lines"] - lines0 == total   # the lines' phase was done: the signal came after it
+    assert s.target <= got <= s.target + 64 * 1024, (s.target, got, total)
+    after = msid.frf(small, method="lpm", n_inputs=1)
+    assert after.G.tobytes() == before.G.tobytes() and after.cov.tobytes() == before.cov.tobytes()
+
+
+def test_lpm_document_passes_are_counted():
+    """The negative control of the test above: uninterrupted, the document's passes count more than 12
+    line counts (so a target up to 12 falls inside the call), and the call's result is whole."""
+    rec = long_lpm_record()
+    base = ext._progress()["document"]
+    f = msid.frf(rec, method="lpm", n_inputs=1)
+    total = len(rec) // 2 - 1
+    assert f.n_lines == total and ext._progress()["document"] - base > 12 * total
+
+
 @pytest.fixture(scope="module")
 def scan_frf():
     """A 2x2 FRF of 4 resonances (two inputs, two experiments, 300 lines): an ml order scan over it takes
@@ -279,6 +341,46 @@ def test_multi_iterations():
             msid.fit(recs, method="multi", order=16, n_inputs=1)
     s.t.join()
     assert s.at is not None and s.done() - s.at <= 1, (s.at, s.done())
+
+
+def multi_records(n_records, samples, seed):
+    from scipy.signal import lfilter
+    rng = np.random.default_rng(seed)
+    recs = []
+    for _ in range(n_records):
+        u = rng.standard_normal(samples)
+        y = np.zeros(len(u))
+        for th in np.linspace(0.2, 2.5, 8):
+            p = 0.95 * np.exp(1j * th)
+            y += lfilter([0.1, 0.05], [1, -2 * p.real, abs(p) ** 2], u)
+        recs.append(np.column_stack([u, y + 0.01 * rng.standard_normal(len(u))]))
+    return recs
+
+
+def test_multi_within_one_evaluation():
+    """Within one evaluation of the multi fit (two records of 10^5 samples at order 16: each record's
+    filters, free-response basis by four columns, its QR and projections, then the stacked QR, each
+    counted as a solve; the cost of the first start value alone is 16 of them): SIGINT at a random 1..16th
+    solve, inside the first evaluation: KeyboardInterrupt within 8 more solves (the token asks every
+    20 ms), no iteration begun, and a small fit afterwards gives the bits it gave before."""
+    import json
+    small = multi_records(1, 3000, 7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        before = msid.fit(small, method="multi", order=4, n_inputs=1)
+    recs = multi_records(2, 100000, 2)
+    it0 = ext._progress()["iterations"]
+    with SigintAtCheckpoint("solves", RNG.randint(1, 16)) as s, pytest.raises(KeyboardInterrupt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            msid.fit(recs, method="multi", order=16, n_inputs=1)
+    got = s.done()
+    assert s.target <= got <= s.target + 8, (s.target, got)
+    assert ext._progress()["iterations"] == it0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        after = msid.fit(small, method="multi", order=4, n_inputs=1)
+    assert json.dumps(after.doc, sort_keys=True) == json.dumps(before.doc, sort_keys=True)
 
 
 def test_validate_at_high_order():

@@ -83,7 +83,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
     Eigen::Index off = 0;
     for (size_t i = 0; i < recs.size(); ++i) {
         // one record's filters and projection at a time: a long record is seconds of the evaluation
-        msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
         const Eigen::Index T = recs[i].y.rows();
         // filtered inputs: column k nb + (d - d0) is q^-d / a(q^-1) u_k, zero pre-initial values
         F[i].resize(T, p);
@@ -100,18 +100,20 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
         Yw[i] = recs[i].y;
         whiten(L, Fw[i]);
         whiten(L, Yw[i]);
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");   // the record's filtered inputs
         MatR Fp = Fw[i], Yp = Yw[i];
         if (L.elim) {
             // free-response basis: pre-initial values e_k (§VI: the columns of P_T(theta) up to a change of basis)
             MatR X(T, n);
             for (int k = 0; k < n; ++k) {
+                if (k % 4 == 3) msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
                 VecR e = VecR::Zero(n);
                 e(k) = 1.0;
                 ar_filter(alpha, nullptr, e.data(), X.col(k).data(), T);
             }
             Xs[i] = X;
             whiten(L, X);
-            msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
+            msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
             qx[i].compute(X);
             Q[i] = qx[i].householderQ() * MatR::Identity(T, n);
             Fp -= Q[i] * (Q[i].transpose() * Fp);
@@ -125,9 +127,11 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
     Eigen::ColPivHouseholderQR<MatR> qf;
     MatR QF;
     if (p > 0) {
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");   // the QR of every record's rows
         qf.compute(Ft);
         e.beta = qf.solve(Yt);
         e.R = Yt - Ft * e.beta;
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
         QF = qf.householderQ() * MatR::Identity(S, qf.rank());
     } else {
         e.beta = MatR(0, ny);
@@ -149,7 +153,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
         MatR D(S, n);
         off = 0;
         for (size_t i = 0; i < recs.size(); ++i) {
-            msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
+            msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
             const Eigen::Index T = recs[i].y.rows();
             VecR ext(T + n);   // ext(n + t) = yhat(t), ext(n - k) = yhat(-k) = c(k-1)
             for (int k = 1; k <= n; ++k) ext(n - k) = e.c[i](k - 1, j);
@@ -159,7 +163,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
             ext.tail(T) = yh;
             VecR g(T);
             for (int m = 1; m <= n; ++m) {
-                if (m % 4 == 0) msidutil::checkpoint(msidutil::Step::solves, 0, "the multi fit");
+                if (m % 4 == 0) msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
                 for (Eigen::Index t = 0; t < T; ++t) g(t) = -ext(n + t - m);
                 ar_filter(alpha, g.data(), nullptr, D.col(m - 1).data() + off, T);
             }
@@ -172,6 +176,7 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
             e.Jfull.block(j * S, 0, S, n) = -D;
             if (p > 0) e.Jfull.block(j * S, n + j * p, S, p) = -Ft;
         }
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
         if (p > 0) D -= QF * (QF.transpose() * D);
         e.Ja.middleRows(j * S, S) = -D;
     }

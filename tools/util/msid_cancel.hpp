@@ -26,6 +26,7 @@ enum class Step : uint32_t {
     orders,       // orders of an order scan, each fitted and scored
     iterations,   // iterations of an iterative fit (ml, lmfd refinement, multi)
     solves,       // linear-algebra steps of one fit (a decomposition, a basis column block)
+    document,     // lines of a result document built, turned into Python objects or freed (per chunk)
     count_
 };
 

@@ -37,6 +37,14 @@ py::object json_to_py(const Json &j);
 // L x ny x nu and L x g x g complex, L-vectors), "meta" (every top-level key but lines) and
 // "line_extra" (per line, the other keys). The numbers keep their bits.
 py::dict frf_to_py(const Json &doc);
+// Free an FRF document: one of many lines on a thread of its own, so that the call that made it returns
+// (or raises KeyboardInterrupt) without waiting seconds for its memory to be freed.
+void release_document(Json &&doc);
+// release_document() of `doc` when the scope ends, however it ends (a KeyboardInterrupt in frf_to_py).
+struct DocumentRelease {
+    Json &doc;
+    ~DocumentRelease() { release_document(std::move(doc)); }
+};
 
 // The options every estimating call shares (a dict put in order by compute.py: skip_periods,
 // fs, detect_lines, transient, alpha, dft) into the request; a bad value is a UsageError.

@@ -7,6 +7,8 @@
 #include <cxxabi.h>
 #include <deque>
 #include <mutex>
+#include <stdexcept>
+#include <string>
 #include <thread>
 
 namespace msidpy {
@@ -25,6 +27,19 @@ constexpr auto EXIT_WAIT = std::chrono::seconds(10);
 
 std::atomic<bool> g_exiting{false};
 std::atomic<uint64_t> g_progress[(size_t)Step::count_];
+// The interrupt tests' hook: SIGINT as if pressed once the count of g_armed_step reaches g_armed_at
+// (count_ : none), so that a test places the signal by the work done, not by a watcher thread's timing.
+std::atomic<uint32_t> g_armed_step{(uint32_t)Step::count_};
+std::atomic<uint64_t> g_armed_at{0};
+
+void add_progress(Step s, uint64_t n)
+{
+    const uint64_t now = g_progress[(size_t)s].fetch_add(n, std::memory_order_relaxed) + n;
+    uint32_t armed = (uint32_t)s;
+    if (g_armed_step.load(std::memory_order_relaxed) == armed && now >= g_armed_at.load(std::memory_order_relaxed) &&
+        g_armed_step.compare_exchange_strong(armed, (uint32_t)Step::count_))
+        PyErr_SetInterrupt();   // safe without the GIL, from any thread: the handler runs on the main thread
+}
 
 // The running calls: the exit waits until each has taken the GIL back.
 std::mutex g_run_mu;
@@ -57,7 +72,7 @@ struct Call::Token : msidutil::Cancel {
 
     bool proceed_or_stop(Step s, uint64_t n) override
     {
-        if (n) g_progress[(size_t)s].fetch_add(n, std::memory_order_relaxed);
+        if (n) add_progress(s, n);
         return interruptible && interrupted(false);
     }
 
@@ -252,9 +267,27 @@ void shutdown_calls()
     g_run_cv.wait_for(g, EXIT_WAIT, [] { return g_running == 0; });
 }
 
+void count_progress(Step s, uint64_t n) { add_progress(s, n); }
+
+void interrupt_at(const std::string &step, uint64_t at)
+{
+    static const char *const NAMES[] = {"rows", "lines", "orders", "iterations", "solves", "document"};
+    if (step.empty()) {   // disarmed
+        g_armed_step = (uint32_t)Step::count_;
+        return;
+    }
+    for (size_t k = 0; k < (size_t)Step::count_; ++k)
+        if (step == NAMES[k]) {
+            g_armed_at = g_progress[k].load() + at;
+            g_armed_step = (uint32_t)k;
+            return;
+        }
+    throw std::invalid_argument("no step '" + step + "'");
+}
+
 py::dict progress_counts()
 {
-    static const char *const NAMES[] = {"rows", "lines", "orders", "iterations", "solves"};
+    static const char *const NAMES[] = {"rows", "lines", "orders", "iterations", "solves", "document"};
     static_assert(sizeof NAMES / sizeof NAMES[0] == (size_t)Step::count_, "a name per step");
     py::dict d;
     for (size_t k = 0; k < (size_t)Step::count_; ++k) d[NAMES[k]] = g_progress[k].load(std::memory_order_relaxed);

@@ -88,5 +88,10 @@ void shutdown_calls();
 
 // The progress of every call so far, per step (msidutil::Step), for the interrupt tests.
 py::dict progress_counts();
+// Count `n` units of `s` done by work that runs with the GIL held (no token is asked there).
+void count_progress(msidutil::Step s, uint64_t n);
+// For the interrupt tests: SIGINT (as by Ctrl-C) once `at` more units of `step` (a name of
+// progress_counts) are done, from the checkpoint that counts them; an empty `step` disarms it.
+void interrupt_at(const std::string &step, uint64_t at);
 
 }  // namespace msidpy

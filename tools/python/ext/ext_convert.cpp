@@ -2,10 +2,13 @@
 // and the check on the arrays the Python layer hands over.
 #include "ext.hpp"
 
+#include "ext_call.hpp"
 #include "msid_host_util.hpp"
 
 #include <algorithm>
 #include <complex>
+#include <system_error>
+#include <thread>
 
 namespace msidpy {
 
@@ -133,18 +136,41 @@ std::vector<msidrec::Record> records_of(const py::list &arrays, const py::list &
 
 namespace {
 
-// A document of a million lines takes seconds to convert, with the GIL held: Ctrl-C is asked every 4096
-// lines (PyErr_CheckSignals: the signal handler's exception is raised).
+// A document of a million lines takes seconds to convert, with the GIL held: every CHUNK lines of each
+// pass over them count as progress and Ctrl-C is asked (PyErr_CheckSignals: the signal handler's
+// exception is raised), about a millisecond of work apart.
+constexpr size_t CHUNK = 1024;
+
 void ask_for_signals(size_t l)
 {
-    if (l % 4096 == 4095 && PyErr_CheckSignals() != 0) throw py::error_already_set();
+    if (l % CHUNK != CHUNK - 1) return;
+    count_progress(msidutil::Step::document, CHUNK);
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
 }
+
+// While the collector is paused (GcPause), the young generations collected every CHUNK lines: the new
+// objects are scanned once either way, but in pieces between the questions for a signal, not by one
+// collection of millions of objects (seconds, no signal seen) at the first allocation after the pause.
+class YoungCollector {
+public:
+    YoungCollector() : collect_(py::module_::import("gc").attr("collect")) {}
+    void at(size_t l)
+    {
+        ask_for_signals(l);
+        if (l % CHUNK == CHUNK - 1) collect_(1);
+    }
+
+private:
+    py::object collect_;
+};
 
 // Every line of the document holds `key` (msid.FRF keeps an array only then, as frf_from_doc does).
 bool all_lines_have(const Json &lines, const char *key)
 {
-    for (const auto &l : lines)
-        if (!l.contains(key)) return false;
+    for (size_t l = 0; l < lines.size(); ++l) {
+        ask_for_signals(l);
+        if (!lines[l].contains(key)) return false;
+    }
     return true;
 }
 
@@ -172,11 +198,32 @@ py::array_t<T> column(const Json &lines, const char *key)
 {
     py::array_t<T> a((py::ssize_t)lines.size());
     auto v = a.template mutable_unchecked<1>();
-    for (size_t l = 0; l < lines.size(); ++l) v((py::ssize_t)l) = lines[l][key].get<T>();
+    for (size_t l = 0; l < lines.size(); ++l) {
+        ask_for_signals(l);
+        v((py::ssize_t)l) = lines[l][key].get<T>();
+    }
     return a;
 }
 
 }  // namespace
+
+void release_document(Json &&doc)
+{
+    // Freeing a document of a million lines takes seconds, with the GIL held and no signal seen:
+    // beyond this many lines it is freed on a thread of its own (it owns nothing but its memory).
+    constexpr size_t LARGE = 65536;
+    const auto lines = doc.is_object() ? doc.find("lines") : doc.end();
+    if (lines == doc.end() || !lines->is_array() || lines->size() < LARGE) {
+        Json().swap(doc);
+        return;
+    }
+    auto owned = std::make_unique<Json>(std::move(doc));
+    try {
+        std::thread([d = owned.get()] { delete d; }).detach();
+        owned.release();
+    } catch (const std::system_error &) {   // no thread to be had: freed here
+    }
+}
 
 py::dict frf_to_py(const Json &doc)
 {
@@ -197,16 +244,20 @@ py::dict frf_to_py(const Json &doc)
     if (!out.contains("real")) {   // a line without "real" is not a DC line
         py::array_t<bool> re((py::ssize_t)lines.size());
         auto v = re.mutable_unchecked<1>();
-        for (size_t l = 0; l < lines.size(); ++l) v((py::ssize_t)l) = lines[l].value("real", false);
+        for (size_t l = 0; l < lines.size(); ++l) {
+            ask_for_signals(l);
+            v((py::ssize_t)l) = lines[l].value("real", false);
+        }
         out["real"] = re;
     }
     GcPause pause;
+    YoungCollector young;
     py::dict meta;
     for (auto it = doc.begin(); it != doc.end(); ++it)
         if (it.key() != "lines") meta[py::str(it.key())] = to_py(it.value());
     py::list extra(lines.size());
     for (size_t l = 0; l < lines.size(); ++l) {
-        ask_for_signals(l);
+        young.at(l);
         py::dict e;
         for (auto it = lines[l].begin(); it != lines[l].end(); ++it)
             if (std::find(std::begin(ARRAYS), std::end(ARRAYS), it.key()) == std::end(ARRAYS))

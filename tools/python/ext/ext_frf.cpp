@@ -71,7 +71,7 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
     // The arrays stay alive in the caller's list; nothing in the call touches a Python object.
-    const FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
+    FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
         // As `msid frf` reads its files: the plain periodic job scans each block for NaN/Inf just
         // before it uses it; every other path reads samples first, so they are scanned first.
         const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;
@@ -80,6 +80,7 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
             else msidrec::check_finite(r, 0, r.n_rows);
         return msidjob::estimate_frf(rq, recs, plan);
     });
+    const DocumentRelease release{o.doc};
     py::dict out;
     out["frf"] = frf_to_py(o.doc);
     out["notes"] = o.notes;
@@ -98,8 +99,9 @@ static py::dict frf_files(const std::vector<std::string> &paths, const std::stri
     const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
     std::vector<std::string> reports;
     plan.report = [&](const std::string &s) { reports.push_back(s); };
-    const msidjob::FilesOutcome o =
+    msidjob::FilesOutcome o =
         without_gil({true, true, "msid.frf"}, [&] { return msidjob::estimate_frf_files(rq, paths, cols, plan); });
+    const DocumentRelease release{o.o.doc};
     py::dict out;
     out["frf"] = frf_to_py(o.o.doc);
     out["notes"] = o.o.notes;
@@ -179,11 +181,12 @@ static py::dict frf_est(const py::list &arrays, const py::list &names, const py:
                                            recs[k].nu));
         plan.reference_rows.push_back(r.view);
     }
-    const msidjob::FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
+    msidjob::FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
         for (Record &r : recs) msidrec::check_finite(r, 0, r.n_rows);
         for (Record &r : ref_recs) msidrec::check_finite(r, 0, r.n_rows);
         return msidjob::estimate_frf_est(rq, recs, plan);
     });
+    const DocumentRelease release{o.doc};
     return est_result(o);
 }
 
@@ -196,11 +199,12 @@ static py::dict frf_est_files(const std::vector<std::string> &paths, const std::
     msidjob::check_est_plan(plan, rq.fs);
     const msidrec::ColumnMap cols = columns.empty() ? msidrec::ColumnMap{} : msidrec::parse_column_map(columns);
     msidjob::check_reference_columns(plan.reference, cols);
-    const msidjob::FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
+    msidjob::FrfOutcome o = without_gil({true, true, "msid.frf"}, [&] {
         std::vector<Record> recs;
         for (const auto &p : paths) recs.push_back(msidrec::read_experiment(p, cols));
         return msidjob::estimate_frf_est(rq, recs, plan);
     });
+    const DocumentRelease release{o.doc};
     return est_result(o);
 }
 

@@ -91,8 +91,11 @@ PYBIND11_MODULE(_msid, m)
     msidpy::register_measure(m);
     msidpy::register_import(m);
     m.def("_progress", &msidpy::progress_counts,
-          "Units of work done by every call so far, per step (rows, lines, orders, iterations, solves): how far an "
+          "Units of work done by every call so far, per step (rows, lines, orders, iterations, solves, document): how far an "
           "interrupted call got (the interrupt tests).");
+    m.def("_interrupt_at", &msidpy::interrupt_at, pybind11::arg("step"), pybind11::arg("at"),
+          "SIGINT once `at` more units of `step` are done, raised by the checkpoint that counts them: the interrupt "
+          "tests place the signal by work done (step \"\": disarmed).");
     m.def("_python_words", &msidpy::python_words,
           "A message of the command line as the extension raises it (options as keywords): for the tests.");
     m.def("_shutdown", &msidpy::shutdown_calls, "Stop every running call and wait for them (registered with atexit).");
