@@ -311,16 +311,22 @@ static void lb_close(void *ctx) { (void)ctx; }
 static const msid_can_backend LOOPBACK = {"loopback", lb_recv, lb_send, lb_stats, lb_error, lb_close};
 static msid_can_transport tr = {&LOOPBACK, NULL};
 
-/* Every answered tick is a sample of that tick's device state; every unanswered one a missing sample, counted
- * exactly; a tick answered twice gives the newest frame; error frames counted. */
-static void test_exchange(void **state)
+/* The GOOD description over the scripted device, taking only what is queued (no wait). */
+static void open_loopback_map(void)
 {
-    (void)state;
     char text[4096], err[512];
     snprintf(text, sizeof text, "%s%s", HEAD, GOOD);
     if (msid_devdesc_parse(text, strlen(text), "dev.toml", &desc, err, sizeof err) != 0) fail_msg("%s", err);
     if (msid_can_map_init(&map, &desc, &dbc, &tr) != 0) fail_msg("%s", map.err);
     map.wait_ns = 0;
+}
+
+/* Every answered tick is a sample of that tick's device state; every unanswered one a missing sample, counted
+ * exactly; a tick answered twice gives the newest frame; error frames counted. */
+static void test_exchange(void **state)
+{
+    (void)state;
+    open_loopback_map();
     memset(&dev, 0, sizeof dev);
     dev.drop_every = 7;
     dev.twice_every = 5;
@@ -387,11 +393,7 @@ static uint8_t HMEM[1 << 20] __attribute__((aligned(64)));
 static void test_counter_run_with_lost_frames(void **state)
 {
     (void)state;
-    char text[4096], err[512];
-    snprintf(text, sizeof text, "%s%s", HEAD, GOOD);
-    if (msid_devdesc_parse(text, strlen(text), "dev.toml", &desc, err, sizeof err) != 0) fail_msg("%s", err);
-    if (msid_can_map_init(&map, &desc, &dbc, &tr) != 0) fail_msg("%s", map.err);
-    map.wait_ns = 0;
+    open_loopback_map();
     static msid_twiddle tw;
     static msid_design d;
     static msid_meas ms;
