@@ -199,19 +199,6 @@ static int resolve_drive(msid_can_map *m)
     return 0;
 }
 
-static int resolve_tick_message(msid_can_map *m)
-{
-    const msid_devdesc *d = m->desc;
-    if (d->clock != MSID_DEV_CLOCK_DEVICE) return 0;
-    for (uint32_t k = 0; k < m->n_st; ++k)
-        if (!strcmp(m->st[k].m->name, d->tick_message)) return 0;
-    if (!msid_dbc_message_by_name(m->dbc, d->tick_message))
-        return fail(m, -MSID_DAQ_E_ARG, "%s: tick_message '%s' is not a message of %s", d->source, d->tick_message,
-                    d->dbc);
-    return fail(m, -MSID_DAQ_E_ARG, "%s: tick_message '%s' carries no measure channel: the ticks are the arrivals of a "
-                "status message that a [[measure]] channel reads", d->source, d->tick_message);
-}
-
 int msid_can_map_init(msid_can_map *m, const msid_devdesc *d, const msid_dbc *dbc, msid_can_transport *tr)
 {
     memset(m, 0, sizeof *m);
@@ -223,7 +210,7 @@ int msid_can_map_init(msid_can_map *m, const msid_devdesc *d, const msid_dbc *db
     m->read_wait_ns = 1000000000;
     m->send_timeout_ms = 1;
     int rc;
-    if ((rc = resolve_measure(m)) || (rc = resolve_drive(m)) || (rc = resolve_tick_message(m))) return rc;
+    if ((rc = resolve_measure(m)) || (rc = resolve_drive(m))) return rc;
     msid_can_map_attach(m);
     return 0;
 }

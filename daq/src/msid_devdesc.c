@@ -325,12 +325,8 @@ int msid_devdesc_check(const msid_devdesc *d, char *err, size_t cap)
     }
     if (msid_devdesc_count(d, MSID_DEV_ROLE_COUNTER) > 1)
         return fail(err, cap, "%s: more than one channel with role = \"counter\"", s);
-    if (d->clock == MSID_DEV_CLOCK_DEVICE && d->transport == MSID_DEV_MODBUS &&
-        msid_devdesc_count(d, MSID_DEV_ROLE_COUNTER) == 0)
-        return fail(err, cap, "%s: clock = \"device\" on Modbus needs a channel with role = \"counter\" (the device's "
-                    "cycle counter paces the ticks)", s);
-    if (d->clock == MSID_DEV_CLOCK_DEVICE && d->transport == MSID_DEV_CAN && !d->tick_message[0])
-        return fail(err, cap, "%s: clock = \"device\" on CAN needs tick_message (the status message whose arrival is a "
-                    "tick)", s);
+    if (d->clock == MSID_DEV_CLOCK_DEVICE && msid_devdesc_count(d, MSID_DEV_ROLE_COUNTER) == 0)
+        return fail(err, cap, "%s: clock = \"device\" needs a channel with role = \"counter\" (the device's cycle "
+                    "counter paces the ticks)", s);
     return 0;
 }

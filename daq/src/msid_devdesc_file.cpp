@@ -209,8 +209,6 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             std::string p = get_string(v, c, "dbc");
             if (!p.empty() && p[0] != '/') p = folder_of(c.src) + p;
             copy(d.dbc, sizeof d.dbc, p, c, &v, "dbc");
-        } else if (key == "tick_message") {
-            copy(d.tick_message, sizeof d.tick_message, get_string(v, c, "tick_message"), c, &v, "tick_message");
         } else if (key == "drive" || key == "measure") {
             const toml::array *a = v.as_array();
             if (!a || !a->is_array_of_tables()) c.fail(&v, key + " must be an array of tables: [[" + key + "]]");
@@ -228,7 +226,7 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
         } else {
             c.fail(&v, "unknown key '" + key + "' (keys: " +
                            known({"format", "transport", "name", "unit", "fc23", "fade_periods", "clock", "cycle_hz",
-                                  "dbc", "tick_message", "[[drive]]", "[[measure]]"}) +
+                                  "dbc", "[[drive]]", "[[measure]]"}) +
                            ")");
         }
     }

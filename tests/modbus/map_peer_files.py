@@ -19,7 +19,7 @@ TYPES = {"int16": ("h", 1), "uint16": ("H", 1), "int32": ("i", 2), "uint32": ("I
 WORD_ORDERS = ("ABCD", "CDAB", "BADC", "DCBA")
 ROLES = ("input", "output", "reference", "counter")
 TOP_KEYS = {"format", "transport", "name", "unit", "fc23", "fade_periods", "clock", "cycle_hz", "dbc",
-            "tick_message", "drive", "measure"}
+            "drive", "measure"}
 CHANNEL_KEYS = {"name", "unit", "role", "scale", "offset", "register", "type", "word_order", "message", "signal",
                 "min", "max", "max_step", "safe", "operating_point", "amplitude", "reads_back"}
 

@@ -35,9 +35,6 @@ class CanMapped : public MappedLink {
 public:
     CanMapped(const DeviceUri &dev, const msid_devdesc &d) : desc_(d), dev_(dev), dbc_(read_dbc(d))
     {
-        if (d.clock == MSID_DEV_CLOCK_DEVICE)
-            throw UsageError(fmt("%s: clock = \"device\" on CAN (ticks paced by tick_message) is not measured by this "
-                                 "msid yet: use clock = \"host\" with a counter signal", d.source));
         if (msid_can_map_init(&m_, &d, &dbc_->db(), &sc_.tr) < 0) throw UsageError(m_.err);
         open_socket();
     }

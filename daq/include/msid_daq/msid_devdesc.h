@@ -97,7 +97,6 @@ typedef struct msid_devdesc {
     uint32_t clock;                   /**< ::msid_dev_clock */
     double cycle_hz;                  /**< the device's own cycle rate, when stated (NAN: unknown) */
     char dbc[MSID_DEV_PATH_CAP];      /**< CAN: the DBC, relative to the description's folder when not absolute */
-    char tick_message[MSID_DEV_NAME_CAP];   /**< CAN, device clock: the message whose arrival is a tick */
     uint32_t n_drive, n_measure;
     msid_dev_chan drive[MSID_DEV_MAX_DRIVE];
     msid_dev_chan measure[MSID_DEV_MAX_MEASURE];
