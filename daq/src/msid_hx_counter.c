@@ -31,6 +31,45 @@ static void off_mark(off_window *w, double cycle)
     if (d >= 0 && d < 64) w->bits |= (uint64_t)1 << (int)d;
 }
 
+
+/* The check that the device cycles once a tick, over windows of RATE_WINDOW reads: the cycles per tick elapsed (the
+   ticks a loaded host slept through included: per read, every missed tick looked like a device cycling twice as
+   fast; a read late within its tick moves the ratio by at most 1 / RATE_WINDOW). A window off the rate starts
+   another, and RATE_WINDOWS windows off in a row refuse the device: one starved window of a loaded machine (a
+   device that catches up its cycles in a burst) is not a device at another rate. */
+#define RATE_WINDOW 32u
+#define RATE_WINDOWS 3u
+typedef struct rate_window {
+    uint64_t n0;      /* the window's first tick */
+    double j0;        /* the cycle count read at it */
+    uint64_t reads0;  /* reads before the window */
+    unsigned off;     /* windows off the rate in a row */
+    int done;         /* a window at the rate was seen: no more checks */
+} rate_window;
+
+static int check_cycles_per_tick(msid_hx *h, rate_window *w, uint64_t n, double j)
+{
+    if (w->done) return 0;
+    const uint64_t *cs = h->cnt.counter_steps;
+    const uint64_t reads = cs[0] + cs[1] + cs[2] + cs[3];
+    if (reads - w->reads0 < RATE_WINDOW) return 0;
+    const double per_tick = n > w->n0 ? (j - w->j0) / (double)(n - w->n0) : 1.0;
+    if (per_tick > 0.75 && per_tick < 1.25) {
+        w->done = 1;
+        return 0;
+    }
+    if (++w->off >= RATE_WINDOWS)
+        return msid__hx_fail(h, -MSID_DAQ_E_DEVICE, "the device's counter advanced by %.2f per tick over %llu ticks "
+                             "(once a tick expected; %u windows of %u reads in a row): it does not cycle at the tick "
+                             "rate (about %.0f Hz); state its cycle_hz in the description (the samples are then placed "
+                             "by tick), or tick at its rate", per_tick, (unsigned long long)(n - w->n0), RATE_WINDOWS,
+                             RATE_WINDOW, per_tick * h->cfg.tick.rate_hz);
+    w->n0 = n;
+    w->j0 = j;
+    w->reads0 = reads;
+    return 0;
+}
+
 static int off_test(const off_window *w, double cycle)
 {
     const double d = cycle - w->base;
@@ -148,7 +187,7 @@ int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p)
     r.last_glitch = r.last_shift = 0;
     double v[MSID_MAX_INPUTS];
     int rc = 0, synced = 0;
-    uint64_t n_sync = 0;   /* the tick of the first read, whose cycle count is r.j0 - 2 */
+    rate_window rw = {0, 0, 0, 0, 0};
     const int64_t on_time_ns = (int64_t)(0.1 * h->tick.period_ns);
     int64_t prev_late = 0;
     for (;;) {
@@ -188,23 +227,10 @@ int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p)
                 r.off.base = j;
                 synced = 1;
                 r.next_retime = n + c->design->period;
-                n_sync = n;
+                rw.n0 = n;
+                rw.j0 = j;
             } else {
-                /* a device whose counter does not advance once a tick does not cycle at the tick rate: its samples
-                   cannot be placed by its cycles. Judged by the cycles per tick elapsed, the ticks a loaded host
-                   slept through included (per read, every missed tick looked like a device cycling twice as
-                   fast); a read late within its tick moves the ratio by at most 1/32 */
-                const uint64_t *cs = h->cnt.counter_steps;
-                const uint64_t reads = cs[0] + cs[1] + cs[2] + cs[3];
-                const double per_tick = n > n_sync ? (j - (r.j0 - 2)) / (double)(n - n_sync) : 1.0;
-                if (reads == 32 && !(per_tick > 0.75 && per_tick < 1.25)) {
-                    rc = msid__hx_fail(h, -MSID_DAQ_E_DEVICE, "the device's counter advanced by %.2f per tick over its "
-                                       "first %llu ticks (once a tick expected): it does not cycle at the tick rate "
-                                       "(about %.0f Hz); state its cycle_hz in the description (the samples are then "
-                                       "placed by tick), or tick at its rate", per_tick,
-                                       (unsigned long long)(n - n_sync), per_tick * h->cfg.tick.rate_hz);
-                    break;
-                }
+                if ((rc = check_cycles_per_tick(h, &rw, n, j)) < 0) break;
                 off_slide(&r.off, r.j_last + 1 < j ? r.j_last + 1 : j);
                 if (off) off_mark(&r.off, j + 1);
                 account_read(h, &r, n, j, target, late < on_time_ns && prev_late < on_time_ns,

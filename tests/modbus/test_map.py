@@ -182,9 +182,10 @@ def test_a_counter_that_runs_at_twice_the_tick_rate_is_named(tmp_path):
         one_error(r, "does not cycle at the tick rate", "state its cycle_hz")
         m = re.search(r"advanced by ([0-9.]+) per tick", r.stderr)
         assert m and 1.8 <= float(m.group(1)) <= 2.2, r.stderr
-    # refused within its first 32 reads (a few more ticks when the host was late), and left at the safe value
+    # refused within its first 3 windows of 32 reads (a few more ticks when the host was late), and left at the
+    # safe value
     rep = sim.report()
-    assert rep["writes_not_safe"] <= 40 and set(rep["setpoints"].values()) == {0.0}, rep
+    assert rep["writes_not_safe"] <= 3 * 32 + 8 and set(rep["setpoints"].values()) == {0.0}, rep
 
 
 def test_ticks_the_host_sleeps_through_are_not_a_fast_device(tmp_path):
