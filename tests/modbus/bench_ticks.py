@@ -4,8 +4,8 @@
 pymodbus, time.sleep pacing), in the same run against the same msid-devsim --map. Reported per loop: ticks,
 lateness (wake-up minus deadline) median, p99 and max, round trip of one tick's exchange, and CPU per tick
 of the process. msid runs as `msid measure --map` would (SCHED_FIFO and locked memory where permitted) and once
-with --no-realtime; its CPU includes the set-up and the FRF. The CAN part runs in the vcan VM
-(tests/vcan/in_vm/bench_ticks_can.py). Figures: docs/benchmarks.md."""
+with --no-realtime; its CPU includes the set-up and the FRF. The CAN part (`msid bench ticks --can`)
+runs in the vcan VM: tests/vcan/in_vm/bench_ticks_can.py. Figures: docs/benchmarks.md."""
 import argparse
 import json
 import os

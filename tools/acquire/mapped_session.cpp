@@ -181,6 +181,20 @@ struct HxRunner : ExperimentRunner {
     }
 };
 
+// What lost a run's samples, for the message of a run that gave no FRF: ticks missed, exchanges that read
+// nothing, device cycles not read, and the tick clock's lateness.
+std::string losses_summary(const msid_hx &h, double rate_hz, const std::string &exchange)
+{
+    if (!h.cnt.samples_lost) return "";
+    const Json t = timing_json(h, rate_hz, exchange, 0.0);
+    return fmt(" (of the run's %llu measured samples %llu were lost: %llu tick(s) missed, %llu exchange(s) that read "
+               "nothing, %llu device cycle(s) not read; tick lateness p99 %.3g ms, wake-up p99 %.3g ms at %g Hz)",
+               (unsigned long long)(h.cnt.samples + h.cnt.samples_lost), (unsigned long long)h.cnt.samples_lost,
+               (unsigned long long)h.cnt.missed, (unsigned long long)h.cnt.failed,
+               (unsigned long long)h.cnt.cycles_not_read, 1e3 * t["lateness_s"]["p99"].get<double>(),
+               1e3 * t["wake_lateness_s"]["p99"].get<double>(), rate_hz);
+}
+
 // The safe values on every way out: the destructor writes them unless the run finished with its ramp.
 // `patient` gives the link time to answer first (the tick's timeouts are for the ticks).
 struct SafeGuard {
@@ -409,7 +423,15 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
 
     // 5. every experiment through the shared loop; the safe values at the end (ramped) or on any way out
     HxRunner runner(h, o.rate_hz);
-    const LoopResult lr = run_experiments(runner, job.meas(), P, ctl);
+    // a run that ends without an FRF (too few usable periods) says what lost its samples: no file will hold it
+    const auto with_losses = [&](auto &&step) {
+        try {
+            return step();
+        } catch (const msidutil::Error &e) {   // the FRF job's errors and the acquisition's alike
+            throw Error(e.what() + losses_summary(h, o.rate_hz, msid_devio_describe(&io)), e.code, e.kind);
+        }
+    };
+    const LoopResult lr = with_losses([&] { return run_experiments(runner, job.meas(), P, ctl); });
     guard.patient();
     const int frc = msid_hx_finish(&h);
     guard.done = true;
@@ -437,7 +459,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
                             "straddled by a cycle) and %llu read twice (the second read dropped)",
                             (unsigned long long)h.cnt.cycles_not_read, (unsigned long long)h.cnt.writes_straddled,
                             (unsigned long long)h.cnt.cycles_read_twice));
-    MeasureResult R = finish_measure(job, P, lr, link->source(), notes);
+    MeasureResult R = with_losses([&] { return finish_measure(job, P, lr, link->source(), notes); });
     // the device's clock against the host's (from its counter): reported; with the samples placed by the counter
     // its offset moves no sample to another cycle, and without a counter it cannot be seen
     const double nominal_hz = std::isnan(desc.cycle_hz) ? o.rate_hz : desc.cycle_hz;

@@ -248,19 +248,38 @@ int bench_crest(int argc, char **argv)
     return msidbench::bench_crest(rq, console(true)).report.status;
 }
 
-// msid bench ticks: tests/modbus/bench_ticks.py with this build's msid and msid-devsim
+// msid bench ticks: tests/modbus/bench_ticks.py with this build's msid and msid-devsim; --can: the vcan VM
+// (tests/vcan/vm.py) running tests/vcan/in_vm/bench_ticks_can.py
 int bench_ticks(int argc, char **argv)
 {
     static const char *HELP =
         "usage: msid bench ticks [--rate HZ] [--periods K] [--instructions]\n"
-        "The host tick loop of a described device (msid measure --map) at 200 Hz over Modbus TCP on\n"
-        "127.0.0.1 against msid-devsim, beside the same loop written with pymodbus and time.sleep, in the same\n"
-        "run: ticks, lateness median/p99/max, round trip, CPU per tick. The CAN part runs in the vcan VM\n"
-        "(tests/vcan/in_vm/bench_ticks_can.py). --instructions: also the user-space instructions per tick of both\n"
-        "loops under valgrind's callgrind, which no load changes. See docs/benchmarks.md.\n";
-    const Args a(argc, argv, 3, HELP, {"rate", "periods"}, {"instructions"});
+        "       msid bench ticks --can [--rate HZ] [--periods K] [--results DIR]\n"
+        "The host tick loop of a described device (msid measure --map) beside the same loop written as a user\n"
+        "would without msid, in the same run against the same msid-devsim: ticks, lateness median/p99/max, round\n"
+        "trip, CPU per tick. Default: 200 Hz over Modbus TCP on 127.0.0.1, the peer written with pymodbus and\n"
+        "time.sleep; --instructions: also the user-space instructions per tick of both loops under valgrind's\n"
+        "callgrind, which no load changes. --can: 1 kHz on vcan0 in the qemu VM of tests/vcan/vm.py against\n"
+        "msid-devsim's DBC node, the peer written with python-can and cantools, with the command frames' jitter\n"
+        "on the bus and that of the kernel's broadcast manager (CAN_BCM) beside them. See docs/benchmarks.md.\n";
+    const Args a(argc, argv, 3, HELP, {"rate", "periods", "results"}, {"instructions", "can"});
     if (!a.positional().empty()) throw UsageError("msid bench ticks: unexpected argument " + a.positional()[0]);
-    std::vector<std::string> args = {"python3", std::string(MSID_SOURCE_DIR) + "/tests/modbus/bench_ticks.py"};
+    const bool can = a.has("can");
+    if (can && a.has("instructions"))
+        throw UsageError("msid bench ticks: --instructions counts the Modbus loops (valgrind is not in the VM)");
+    if (!can && a.has("results")) throw UsageError("msid bench ticks: --results is the VM's folder: it goes with --can");
+    const std::string src = MSID_SOURCE_DIR;
+    std::vector<std::string> args = {"python3"};
+    if (can) {
+        args.push_back(src + "/tests/vcan/vm.py");
+        if (a.has("results")) {
+            args.push_back("--results");
+            args.push_back(a.get("results"));
+        }
+        args.insert(args.end(), {"--", "python3", src + "/tests/vcan/in_vm/bench_ticks_can.py"});
+    } else {
+        args.push_back(src + "/tests/modbus/bench_ticks.py");
+    }
     for (const char *k : {"rate", "periods"})
         if (a.has(k)) {
             args.push_back(std::string("--") + k);

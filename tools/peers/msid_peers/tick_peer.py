@@ -15,11 +15,7 @@ import time
 
 from pymodbus.client import ModbusTcpClient
 
-
-def quantiles(x):
-    x = sorted(x)
-    q = lambda p: x[min(len(x) - 1, max(0, math.ceil(p * len(x)) - 1))]
-    return {"median": q(0.5), "p99": q(0.99), "max": x[-1]}
+from pacing import quantiles, sleep_until
 
 
 def main():
@@ -32,14 +28,7 @@ def main():
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.monotonic() + T
     for n in range(ticks):
-        deadline = t0 + n * T
-        d = deadline - time.monotonic()
-        if d > 0:
-            time.sleep(d)
-        w = time.monotonic()
-        late.append(w - deadline)
-        if d > 0:
-            wake.append(w - deadline)   # the ticks it slept for: the pacing's own precision
+        w = sleep_until(t0 + n * T, late, wake)
         u = 0.5 * math.sin(2 * math.pi * n / 64)
         hi, lo = struct.unpack(">HH", struct.pack(">f", u))
         a = c.write_registers(100, [hi, lo], device_id=1)

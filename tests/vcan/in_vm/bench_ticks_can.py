@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""`msid bench ticks --can` (run inside the vcan VM): the host tick loop of a described CAN device at 1 kHz on
+vcan0 against msid-devsim's DBC node (which cycles at 1 kHz under SCHED_FIFO 20), msid's against the loop a user
+would write without it (tools/peers/msid_peers/can_tick_peer.py: python-can and cantools, time.sleep pacing), in
+the same run against the same node. Reported per loop: ticks, lateness (wake-up minus deadline) median, p99 and
+max, round trip, CPU per tick, and the jitter of the command frames on the bus: the deviation of each interval
+between two command frames from the tick period, from the kernel's receive timestamps (candump -L). Beside them,
+the same jitter of a frame the kernel's broadcast manager (CAN_BCM) sends on its own 1 ms timer, its payload
+updated every tick from user space: what a BCM-timed command frame would give on this machine.
+
+msid runs as `msid measure --map` would (SCHED_FIFO and locked memory where permitted) and once with
+--no-realtime. Figures: docs/benchmarks.md."""
+import argparse
+import json
+import math
+import resource
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import canlib  # noqa: E402
+from mapcan import CanMapSim, description, maplib  # noqa: E402
+
+PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
+PEER = PEERS / "can_tick_peer.py"
+sys.path.insert(0, str(PEERS))
+from pacing import quantiles  # noqa: E402
+
+CMD_ID = 0x101   # DriveCmd of mapcan's DBC
+
+
+class FrameClock:
+    """candump -L of the command frames while a loop runs: the kernel's receive instants."""
+
+    def __init__(self, tmp, tag):
+        self.path = Path(tmp) / f"dump-{tag}.log"
+
+    def __enter__(self):
+        self.f = open(self.path, "w")
+        self.p = subprocess.Popen(["candump", "-L", "-r", str(4 << 20), f"vcan0,{CMD_ID:X}:7FF"], stdout=self.f)
+        time.sleep(0.5)
+        return self
+
+    def __exit__(self, *exc):
+        time.sleep(0.2)
+        self.p.terminate()
+        self.p.wait(10)
+        self.f.close()
+        return False
+
+    def jitter(self, T):
+        """|interval - T| of successive frames; intervals beyond 20 T (between a run's phases) are counted apart."""
+        t = [float(l.split()[0].strip("()")) for l in self.path.read_text().splitlines() if l.startswith("(")]
+        dev, gaps = [], 0
+        for a, b in zip(t, t[1:]):
+            if b - a > 20 * T:
+                gaps += 1
+            else:
+                dev.append(abs((b - a) - T))
+        return {"frames": len(t), "interval_deviation_s": quantiles(dev), "pauses": gaps}
+
+
+def child_cpu(cmd, timeout=1800):
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def msid_loop(tmp, sim, desc, rate, periods, realtime):
+    tag = "rt" if realtime else "nort"
+    out = Path(tmp) / f"out-{tag}"
+    cmd = [canlib.MSID, "measure", "--device", sim.uri, "--map", desc, "--period", 200, "--lines", "1:2:49",
+           "--periods", periods, "--skip-periods", 1, "--rate", rate, "--no-plots", "--quiet", "-o", out]
+    if not realtime:
+        cmd.insert(-2, "--no-realtime")
+    with FrameClock(tmp, tag) as fc:
+        r, cpu = child_cpu(cmd)
+    if r.returncode != 0:   # a loop that loses a sample in most periods gives no FRF: its message says what was lost
+        return {"failed": (r.stderr.strip().splitlines() or ["?"])[-1], "bus": fc.jitter(1.0 / rate)}
+    a = json.loads((out / "frf.json").read_text())["acquisition"]
+    t = a["timing"]
+    n = t["ticks"] + t["ticks_missed"]
+    return {"ticks": n, "stale": a["stale_ticks"], "lateness_s": t["lateness_s"],
+            "wake_lateness_s": t["wake_lateness_s"], "round_trip_s": t["round_trip_s"],
+            "cpu_per_tick_s": t["cpu_per_tick_s"], "user_per_tick_s": t["cpu_user_per_tick_s"],
+            "process_cpu_per_tick_s": cpu / n, "scheduling": t["scheduling"], "bus": fc.jitter(1.0 / rate)}
+
+
+def peer_loop(tmp, desc_dir, rate, ticks):
+    cmd = [sys.executable, PEER, "vcan0", Path(desc_dir) / "drive.dbc", "DriveCmd", "TorqueCmd", "DriveStatus",
+           rate, ticks]
+    with FrameClock(tmp, "peer") as fc:
+        r, cpu = child_cpu(cmd)
+    if r.returncode != 0:
+        raise RuntimeError(f"can_tick_peer failed: {r.stderr}")
+    j = json.loads(r.stdout)
+    return {"ticks": j["ticks"], "stale": j["stale"], "lateness_s": j["lateness_s"],
+            "wake_lateness_s": j["wake_lateness_s"], "round_trip_s": j["round_trip_s"],
+            "cpu_per_tick_s": j["cpu_s"] / j["ticks"], "user_per_tick_s": j["cpu_user_s"] / j["ticks"],
+            "process_cpu_per_tick_s": cpu / j["ticks"], "scheduling": "SCHED_OTHER (a Python script as written)",
+            "bus": fc.jitter(1.0 / rate)}
+
+
+# struct bcm_msg_head (linux/can/bcm.h) with native alignment, then one struct can_frame
+BCM_HEAD = "@3I4l2I0q"
+CAN_FRAME = "=IB3x8s"
+
+
+def bcm_msg(opcode, flags, ival2_us, data):
+    head = struct.pack(BCM_HEAD, opcode, flags, 0, 0, 0, ival2_us // 1000000, ival2_us % 1000000, CMD_ID, 1)
+    return head + struct.pack(CAN_FRAME, CMD_ID, 8, data)
+
+
+def bcm_loop(tmp, rate, ticks):
+    """The kernel's broadcast manager sends the command frame on its own timer (period 1 / rate); a Python loop
+    updates its payload every tick (TX_SETUP without SETTIMER: the next timer event sends the new payload)."""
+    T = 1.0 / rate
+    s = socket.socket(socket.AF_CAN, socket.SOCK_DGRAM, socket.CAN_BCM)
+    s.connect(("vcan0",))
+    with FrameClock(tmp, "bcm") as fc:
+        s.send(bcm_msg(socket.CAN_BCM_TX_SETUP, socket.CAN_BCM_SETTIMER | socket.CAN_BCM_STARTTIMER,
+                       int(round(T * 1e6)), bytes(8)))
+        t0 = time.monotonic() + T
+        for n in range(ticks):
+            d = t0 + n * T - time.monotonic()
+            if d > 0:
+                time.sleep(d)
+            v = int(round(5000 * math.sin(2 * math.pi * n / 64)))
+            s.send(bcm_msg(socket.CAN_BCM_TX_SETUP, 0, 0, struct.pack("<h6x", v)))
+        s.send(bcm_msg(socket.CAN_BCM_TX_DELETE, 0, 0, bytes(8)))
+    s.close()
+    return {"ticks": ticks, "bus": fc.jitter(T)}
+
+
+def us(x):
+    return f"{1e6 * x:7.0f}us"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rate", type=float, default=1000)
+    ap.add_argument("--periods", type=int, default=10, help="measured periods of 200 ticks (default 10)")
+    ap.add_argument("--json", help="also write the figures to this file")
+    a = ap.parse_args()
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        desc = description(tmp, counter=False)   # samples placed by tick: a late tick is not a lost cycle
+        A, B, C, D = maplib.siso_plant()
+        plant = maplib.write_plant(Path(tmp) / "plant.txt", A, B, C, D)
+        with CanMapSim(tmp, desc, "--plant", plant, "--cycle-hz", a.rate) as sim:
+            rows["msid"] = msid_loop(tmp, sim, desc, a.rate, a.periods, True)
+            rows["msid --no-realtime"] = msid_loop(tmp, sim, desc, a.rate, a.periods, False)
+            n = rows["msid"].get("ticks", a.periods * 200)
+            rows["python-can script"] = peer_loop(tmp, tmp, a.rate, n)
+        rows["CAN_BCM timer"] = bcm_loop(tmp, a.rate, rows["python-can script"]["ticks"])
+    print(f"host tick loop at {a.rate:g} Hz on vcan0 (in the qemu VM) against msid-devsim's DBC node: per tick the "
+          "status frames taken, one command frame sent")
+    print("wake: lateness of the ticks the loop slept for; late: of every tick; rtt: the tick's exchange; CPU/tick: "
+          "the loop alone (user: its part in user space); bus: |interval - period| of the command frames (kernel "
+          "receive timestamps)")
+    print(f"{'loop':20} {'ticks':>6} {'stale':>6} {'wake med':>9} {'wake p99':>9} {'late p99':>9} {'rtt p99':>9} "
+          f"{'CPU/tick':>9} {'user':>9} {'bus med':>9} {'bus p99':>9} {'bus max':>9}")
+    for name, r in rows.items():
+        if "failed" in r:
+            b = r["bus"]["interval_deviation_s"]
+            print(f"{name:20} no FRF (bus jitter median {us(b['median'])}, p99 {us(b['p99'])}): {r['failed']}")
+            continue
+        b = r["bus"]["interval_deviation_s"]
+        if "lateness_s" not in r:
+            print(f"{name:20} {r['ticks']:6d} {'':6} {'':9} {'':9} {'':9} {'':9} {'':9} {'':9} "
+                  f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
+            continue
+        W, L, R = r["wake_lateness_s"], r["lateness_s"], r["round_trip_s"]
+        print(f"{name:20} {r['ticks']:6d} {r['stale']:6d} {us(W['median'])} {us(W['p99'])} {us(L['p99'])} "
+              f"{us(R['p99'])} {1e6 * r['cpu_per_tick_s']:7.1f}us {1e6 * r['user_per_tick_s']:7.1f}us "
+              f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
+    p, m = rows["python-can script"], rows["msid"]
+    if "failed" not in m:
+        ratio = lambda x, y: x / max(y, 1e-12)
+        print(f"ratio script / msid: wake lateness p99 "
+              f"{ratio(p['wake_lateness_s']['p99'], m['wake_lateness_s']['p99']):.1f}x, lateness p99 "
+              f"{ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, CPU per tick "
+              f"{ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x (user space "
+              f"{ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x), bus jitter p99 "
+              f"{ratio(p['bus']['interval_deviation_s']['p99'], m['bus']['interval_deviation_s']['p99']):.1f}x")
+    for name, r in rows.items():
+        if "scheduling" in r:
+            print(f"  {name}: {r['scheduling']}")
+    if a.json:
+        Path(a.json).write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
