@@ -40,8 +40,10 @@ static void report_body(FILE *fp, const void *ctx)
 {
     const sim_canopen *s = ctx;
     const sim_co_counts *c = &s->node.cnt;
-    fprintf(fp, "syncs %llu\ntpdo_sent %llu\ntpdo_dropped %llu\ntpdo_inhibited %llu\nrpdo_taken %llu\nrpdo_bad %llu\n"
-                "heartbeats %llu\nemcy_sent %llu\nboots %llu\nsdo_aborts %llu\nsend_busy %llu\n",
+    fprintf(fp,
+            "{\"syncs\": %llu, \"tpdo_sent\": %llu, \"tpdo_dropped\": %llu, \"tpdo_inhibited\": %llu, "
+            "\"rpdo_taken\": %llu, \"rpdo_bad\": %llu, \"heartbeats\": %llu, \"emcy_sent\": %llu, \"boots\": %llu, "
+            "\"sdo_aborts\": %llu, \"send_busy\": %llu}\n",
             (unsigned long long)c->syncs, (unsigned long long)c->tpdo_sent, (unsigned long long)c->tpdo_dropped,
             (unsigned long long)c->tpdo_inhibited, (unsigned long long)c->rpdo_taken, (unsigned long long)c->rpdo_bad,
             (unsigned long long)c->heartbeats, (unsigned long long)c->emcy_sent, (unsigned long long)c->boots,
