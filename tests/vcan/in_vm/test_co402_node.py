@@ -212,3 +212,34 @@ def test_a_refused_mapping_leaves_the_old_one(tmp_path):
         assert r.returncode == 1 and "0x06040041" in r.stderr, r.stdout + r.stderr
         d.node.tpdo.read()
         assert [(v.index, v.length) for v in d.node.tpdo[2].map] == []   # the EDS default: nothing mapped
+
+
+def test_device_check_against_the_eds(tmp_path):
+    # a copy of the node's EDS with three entries made wrong: 0x1001 as UNSIGNED16, 0x1018:02 write only,
+    # 0x1018:04 (serial) gone
+    text = EDS.read_text()
+    text = text.replace("[1001]\nParameterName=Error register\nObjectType=0x7\nDataType=0x0005",
+                        "[1001]\nParameterName=Error register\nObjectType=0x7\nDataType=0x0006")
+    head, sep, tail = text.partition("[1018sub2]")
+    tail = tail.replace("AccessType=ro", "AccessType=wo", 1)
+    text = head + sep + tail
+    head, sep, tail = text.partition("[1018sub4]")
+    rest = tail[tail.index("\n["):]
+    text = head + rest.lstrip("\n")
+    text = text.replace("[1018]\nParameterName=Identity object\nObjectType=0x9\nSubNumber=5",
+                        "[1018]\nParameterName=Identity object\nObjectType=0x9\nSubNumber=4")
+    bad = tmp_path / "bad.eds"
+    bad.write_text(text)
+    with Drive(tmp_path):
+        r = msid("device", "check", "--device", URI, "--eds", EDS)
+        assert r.returncode == 0, r.stdout + r.stderr
+        assert "every entry read matches" in r.stdout, r.stdout
+        r = msid("device", "check", "--device", URI, "--eds", bad)
+        assert r.returncode == 1, r.stdout + r.stderr
+        lines = [l for l in r.stdout.splitlines() if l.startswith("EDS 0x")]
+        assert len(lines) == 3, r.stdout
+        assert any(l.startswith("EDS 0x1001:00: the EDS (line") and "gives UNSIGNED16 (2 bytes), the node answered 1 bytes"
+                   in l for l in lines), lines
+        assert any(l.startswith("EDS 0x1018:02: write only in the EDS") for l in lines), lines
+        assert any(l.startswith("EDS 0x1018:04: the node has it, the EDS does not") for l in lines), lines
+        assert "3 problem(s)" in r.stderr, r.stderr
