@@ -14,6 +14,7 @@
 #include "sim_can.h"
 #include "sim_modbus.h"
 #include "sim_candbc.h"
+#include "sim_canopen.h"
 #include "sim_mbmap.h"
 #include "msid_daq/msid_devdesc_file.h"
 
@@ -93,6 +94,16 @@ static const char *USAGE_MAP =
     "  --late-every K[:US]   (CAN) every K-th status cycle's frames are sent US microseconds late (default 500)\n"
     "  --die-after N         (CAN) exit at once after N status cycles; --cycle-hz, --clock-ppm, --noise-*, --report,\n"
     "                        --idle-exit as for Modbus\n";
+static const char USAGE_CO[] =
+    "A CANopen node (CiA 301, a CiA 402 servo drive stepping a two-mass plant once per SYNC):\n"
+    "  --canopen N --iface IF  serve node N (1..127) on IF\n"
+    "  --eds FILE            its object dictionary (default: the tests' drive402.eds)\n"
+    "  --sdo-abort IDX:SUB[:CODE]  abort SDO reads and writes of IDX:SUB with CODE (default 0x08000020)\n"
+    "  --emcy-at N           at the N-th SYNC a drive fault: EMCY 0x2310, error register 0x03, state fault\n"
+    "  --heartbeat-stop-after S  send no heartbeat S seconds (node clock) after boot-up\n"
+    "  --refuse-map IDX:SUB  refuse mapping IDX:SUB into a PDO (object cannot be mapped)\n"
+    "  --clock-ppm X         the node's own clock (heartbeat, inhibit time, SDO timeout) against the host's\n"
+    "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -145,6 +156,26 @@ static void kv(const char *opt, const char *v, uint64_t *k, uint64_t *val, uint6
     *val = b ? num_u(opt, b) : def;
 }
 
+/* IDX:SUB[:CODE] of an object dictionary entry (code: NULL when none is taken) */
+static void entry_opt(const char *opt, const char *v, uint16_t *index, uint8_t *sub, uint32_t *code, uint32_t def)
+{
+    char buf[64];
+    snprintf(buf, sizeof buf, "%s", v);
+    char *a = strtok(buf, ":"), *b = strtok(NULL, ":"), *c = strtok(NULL, ":");
+    if (!a || !b || (c && !code) || strtok(NULL, ":")) {
+        fprintf(stderr, "msid-devsim: error: %s wants IDX:SUB%s (got '%s')\n", opt, code ? "[:CODE]" : "", v);
+        exit(2);
+    }
+    const uint64_t i = num_u(opt, a), s = num_u(opt, b), k = c ? num_u(opt, c) : def;
+    if (i < 1 || i > 0xFFFF || s > 0xFF || k > 0xFFFFFFFFu || (code && k == 0)) {
+        fprintf(stderr, "msid-devsim: error: %s: '%s' is not an entry 0x0001..0xFFFF:0..0xFF%s\n", opt, v,
+                code ? " with a non-zero 32-bit code" : "");
+        exit(2);
+    }
+    *index = (uint16_t)i, *sub = (uint8_t)s;
+    if (code) *code = (uint32_t)k;
+}
+
 static volatile sig_atomic_t stop_flag;
 static void on_signal(int s) { (void)s; stop_flag = 1; }
 
@@ -167,11 +198,15 @@ int main(int argc, char **argv)
     sim_opts *const o = &dev.o;
     const char *plant = "builtin";
     const char *map = NULL;
+    sim_canopen_opts co;
+    memset(&co, 0, sizeof co);
+    co.eds = MSID_DEVSIM_DEFAULT_EDS;
+    int co_on = 0;
     sim_mapdev_opts mo = {0, 0, 0, 0, 0};
     uint64_t late_every = 0, late_us = 0;
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); fputs(USAGE_MAP, stdout); return 0; }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); fputs(USAGE_MAP, stdout); fputs(USAGE_CO, stdout); return 0; }
         if (!strcmp(a, "--version")) {
             printf("msid-devsim %s (msid-can/%u, msid-modbus/%u)\n", MSID_VERSION, MSID_CAN_PROTO_VERSION,
                    MSID_MB_PROTO_VERSION);
@@ -207,6 +242,12 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--rcvbuf")) o->rcvbuf = (int)num_u(a, v);
         else if (!strcmp(a, "--modbus-tcp")) o->mb_tcp = v;
         else if (!strcmp(a, "--map")) map = v;
+        else if (!strcmp(a, "--canopen")) co.node = (unsigned)num_u(a, v), co_on = 1;
+        else if (!strcmp(a, "--eds")) co.eds = v;
+        else if (!strcmp(a, "--sdo-abort")) entry_opt(a, v, &co.f.abort_index, &co.f.abort_sub, &co.f.abort_code, 0x08000020u);
+        else if (!strcmp(a, "--emcy-at")) co.f.emcy_at_sync = num_u(a, v);
+        else if (!strcmp(a, "--heartbeat-stop-after")) co.f.hb_stop_after_s = num_d(a, v, 1e-3, 1e9);
+        else if (!strcmp(a, "--refuse-map")) entry_opt(a, v, &co.f.refuse_index, &co.f.refuse_sub, NULL, 0);
         else if (!strcmp(a, "--cycle-hz")) mo.cycle_hz = num_d(a, v, 1e-3, 1e6);
         else if (!strcmp(a, "--clock-ppm")) mo.ppm = num_d(a, v, -1e4, 1e4);
         else if (!strcmp(a, "--drop-after")) o->drop_after = num_u(a, v);
@@ -239,6 +280,16 @@ int main(int argc, char **argv)
             o->stall_exp = (int)d4[0]; o->stall_at = d4[1]; o->stall_samples = d4[2]; o->stall_ms = d4[3];
         }
         else { fprintf(stderr, "msid-devsim: error: unknown option %s\n%s", a, USAGE); return 2; }
+    }
+    if (co_on) {
+        if (!o->iface) die("--canopen N is served with --iface IF");
+        if (map || o->mb_tcp || o->mb_rtu) die("--canopen takes none of --map, --modbus-tcp, --modbus-rtu");
+        if (co.node < 1 || co.node > 127) die("--canopen: the node id must be 1..127");
+        co.f.clock_ppm = mo.ppm;
+        co.f.drop_every = o->drop_every;
+        signal(SIGTERM, on_signal);
+        signal(SIGINT, on_signal);
+        return sim_canopen_main(&dev, &co);
     }
     if (map) {
         static msid_devdesc desc;

@@ -59,8 +59,10 @@ struct CanopenCheck {
 };
 
 // Identity 0x1018, device type 0x1000, error register 0x1001 and the first four TPDOs and RPDOs as the node
-// holds them; nothing written. A node that does not answer is an IoError.
-CanopenCheck check_canopen(const CanopenUri &uri);
+// holds them; nothing written. A node that does not answer is an IoError. eds (when not empty): the node's
+// EDS/DCF, against which every entry read is checked (in the file, readable, of the size the node answered);
+// each mismatch is a line and a problem.
+CanopenCheck check_canopen(const CanopenUri &uri, const std::string &eds = "");
 
 // Bytes written in hex, two digits a byte ("" for none); UsageError naming `what` (an option) and the text.
 std::vector<uint8_t> parse_hex_bytes(const std::string &hex, const std::string &what);

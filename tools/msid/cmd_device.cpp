@@ -13,7 +13,7 @@ namespace msidcli {
 
 static const char *DEVICE_HELP =
     "usage: msid device check --map DEVICE.toml --device URI\n"
-    "       msid device check --device canopen://IFACE?node=N\n"
+    "       msid device check --device canopen://IFACE?node=N [--eds FILE]\n"
     "\n"
     "Read the description (every key, type, range and register checked), connect, write the drive\n"
     "channels' safe values (nothing else is written), read every measure channel once and the drive\n"
@@ -25,7 +25,9 @@ static const char *DEVICE_HELP =
     "\n"
     "A CANopen node (canopen://IFACE?node=N[&timeout=MS]) is read by SDO without a description: its\n"
     "device type, identity 0x1018, error register 0x1001 and the mapping of TPDO1-4 and RPDO1-4.\n"
-    "Nothing is written. Exit status 1 when the node does not answer or reports an error.\n";
+    "Nothing is written. Exit status 1 when the node does not answer or reports an error.\n"
+    "  --eds FILE     the node's EDS or DCF: each entry read is checked against it (in the file, readable,\n"
+    "                 of the size the node answered); a mismatch is a line and exit status 1\n";
 
 // Print a check's lines; exit status 1 with `problems` named when there are any, else the ok line.
 static int report_check(const std::vector<std::string> &lines, unsigned problems, const char *what, const char *ok)
@@ -41,13 +43,15 @@ static int report_check(const std::vector<std::string> &lines, unsigned problems
 
 static int cmd_check(int argc, char **argv)
 {
-    Args a(argc, argv, 3, DEVICE_HELP, {"map", "device"}, {});
+    Args a(argc, argv, 3, DEVICE_HELP, {"map", "device", "eds"}, {});
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "'");
     if (msidacq::is_canopen_uri(a.require("device"))) {
         if (a.has("map")) throw UsageError("--map: a CANopen node is checked without a description (for now)");
-        const msidacq::CanopenCheck r = msidacq::check_canopen(msidacq::parse_canopen_uri(a.get("device")));
-        return report_check(r.lines, r.problems, "problem(s) the node reports", "the node answered; nothing was written");
+        const msidacq::CanopenCheck r = msidacq::check_canopen(msidacq::parse_canopen_uri(a.get("device")), a.get("eds"));
+        return report_check(r.lines, r.problems, "problem(s) the node reports or the EDS check found",
+                            "the node answered; nothing was written");
     }
+    if (a.has("eds")) throw UsageError("--eds: only a CANopen node (canopen://) is checked against an EDS");
     const msid_devdesc desc = msidacq::load_description(a.require("map"));
     const DeviceUri dev = parse_device_uri(a.require("device"));
     const msidacq::CheckResult r = msidacq::check_device(dev, desc);
