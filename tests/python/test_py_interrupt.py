@@ -22,7 +22,9 @@ RNG = random.Random(45)
 
 class SigintAt:
     """Send SIGINT to this process once `step`'s progress has grown by `target` units (a thread of its
-    own watches the counter); `at` is how far it had got when the signal was sent."""
+    own watches the counter); `at` is how far it had got once the signal had arrived (the extension's
+    count of SIGINTs moved: from then on every checkpoint of the call stops, so the work counted after
+    `at` is the blocks in flight, however late the kernel ran the handler on a loaded machine)."""
 
     def __init__(self, step, target):
         self.step, self.target = step, target
@@ -37,8 +39,12 @@ class SigintAt:
     def _watch(self):
         while self.done() < self.target:
             time.sleep(0.0005)
-        self.at = self.done()
+        n0 = ext._sigints()
         os.kill(os.getpid(), signal.SIGINT)
+        give_up = time.monotonic() + 60   # only against a hang: the handler runs once the kernel schedules it
+        while ext._sigints() == n0 and time.monotonic() < give_up:
+            time.sleep(0.0005)
+        self.at = self.done()
 
 
 def periodic_record(P, lines, periods, seed=1):
@@ -67,7 +73,7 @@ def test_frf_streaming_path():
 def test_lpm_on_a_long_record():
     """msid.frf(method="lpm") on 2^21 samples of white noise (1,048,575 lines, blocks of 2048 on two
     threads; then the document, which takes most of the call): interrupted after a random 5..50% of its
-    lines, at most a tenth more done after the signal."""
+    lines, at most the block each thread had in flight (2048 lines, to a multiple of 16) done after it."""
     rng = np.random.default_rng(3)
     N = 1 << 21
     u = rng.standard_normal(N)
@@ -78,7 +84,7 @@ def test_lpm_on_a_long_record():
         msid.frf(rec, method="lpm", n_inputs=1)
     s.t.join()
     got = s.done()
-    assert s.at is not None and s.at <= got < total and got - s.at <= 0.1 * total, (s.at, got, total)
+    assert s.at is not None and s.at <= got < total and got - s.at <= 2 * (2048 + 16), (s.at, got, total)
 
 
 class SigintAtCheckpoint:

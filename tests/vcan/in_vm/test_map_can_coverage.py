@@ -96,12 +96,16 @@ def test_coverage_with_the_nodes_clock_100_ppm_fast(tmp_path, plant):
 def test_coverage_against_the_peer_with_the_input_read_back_and_its_clock_100_ppm_fast(tmp_path, plant):
     # one peer for every run (python-can, cantools and numpy load slowly in the VM); each run is a new excitation,
     # and the peer's noise goes on, so the runs are independent. Its clock runs 100 ppm fast, the host's ticks on
-    # the host's clock: the samples are placed by its counter
+    # the host's clock: the samples are placed by its counter. The peer (Python in the VM) takes a command on its
+    # cycle after the frame arrived: on a loaded machine some arrive a cycle late, the input read back shows it, and
+    # the periods' spread of the input can leave a line below the 10 dB input SNR msid requires, which it refuses
+    # (the line named; never a wrong FRF). Such a run is made again, as one that lost its periods is.
+    retry = ("usable period(s)", "do not excite line", "barely excite")
     desc = description(tmp_path)
     pv = []
     with PeerSim(tmp_path, desc, "--plant", plant[0], "--seed", 5, "--clock-ppm", 100, *NOISE) as sim:
         for s in range(51, 57):
-            r = measure(tmp_path, sim, desc, seed=s, out=f"peer{s}", rate=PEER_RATE, skip=2)
+            r = measure(tmp_path, sim, desc, seed=s, out=f"peer{s}", rate=PEER_RATE, skip=2, retry_on=retry)
             assert r.doc["acquisition"]["timing"]["samples_placed_by"] == "device counter"
             pv.append(maplib.element_pvalues(r.doc, dt_truth(plant)))
     st = sim.state()   # written when the peer exits

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <csignal>
 #include <cxxabi.h>
 #include <deque>
 #include <mutex>
@@ -38,8 +39,77 @@ void add_progress(Step s, uint64_t n)
     uint32_t armed = (uint32_t)s;
     if (g_armed_step.load(std::memory_order_relaxed) == armed && now >= g_armed_at.load(std::memory_order_relaxed) &&
         g_armed_step.compare_exchange_strong(armed, (uint32_t)Step::count_))
-        PyErr_SetInterrupt();   // safe without the GIL, from any thread: the handler runs on the main thread
+        ::raise(SIGINT);   // the real signal, on this thread: through the wrapper (below) and Python's C handler
 }
+
+// ---- SIGINT seen without the GIL ----
+// Python's C-level handler only marks a signal; its Python handler runs when the main thread asks
+// (PyErr_CheckSignals, with the GIL: every POLL), and a loaded machine may leave the main thread
+// unscheduled for long while the call's other threads work on. A call on the main thread whose
+// SIGINT handler is Python's default (it raises KeyboardInterrupt) does not wait for that question:
+// while it runs, Python's C handler is wrapped by one that also counts the signal, and every
+// checkpoint of the call's threads sees the count change and stops; the main thread then asks
+// Python, whose handler raises. The work done after the signal is the blocks in flight when it
+// arrived, whatever the load. A handler installed by Python code during the call (signal.signal in
+// a callback) replaces the wrapper and is asked every POLL as before.
+std::atomic<uint64_t> g_sigints{0};
+struct sigaction g_prev_sigint;   // Python's C handler, chained by the wrapper
+int g_wrap_depth = 0;             // the main thread's nested calls (changed with the GIL held)
+
+void on_sigint(int sig, siginfo_t *info, void *ctx)
+{
+    g_sigints.fetch_add(1);
+    if (g_prev_sigint.sa_flags & SA_SIGINFO)
+        g_prev_sigint.sa_sigaction(sig, info, ctx);
+    else if (g_prev_sigint.sa_handler != SIG_DFL && g_prev_sigint.sa_handler != SIG_IGN)
+        g_prev_sigint.sa_handler(sig);
+}
+
+// With the GIL held on the main thread: whether Python's SIGINT handler is its default, and if so
+// the wrapper installed (once for nested calls). False: the call asks every POLL only.
+bool wrap_sigint()
+{
+    PyObject *sig = PyImport_ImportModule("signal");
+    if (!sig) {
+        PyErr_Clear();
+        return false;
+    }
+    PyObject *h = PyObject_CallMethod(sig, "getsignal", "i", SIGINT);
+    PyObject *d = PyObject_GetAttrString(sig, "default_int_handler");
+    const bool dflt = h && d && h == d;
+    Py_XDECREF(h);
+    Py_XDECREF(d);
+    Py_DECREF(sig);
+    PyErr_Clear();
+    if (!dflt) return false;
+    if (g_wrap_depth == 0) {
+        struct sigaction cur, w;
+        if (sigaction(SIGINT, nullptr, &cur) != 0) return false;
+        if (!(cur.sa_flags & SA_SIGINFO) && (cur.sa_handler == SIG_DFL || cur.sa_handler == SIG_IGN)) return false;
+        g_prev_sigint = cur;
+        w = cur;
+        w.sa_sigaction = on_sigint;
+        w.sa_flags = cur.sa_flags | SA_SIGINFO;
+        if (sigaction(SIGINT, &w, nullptr) != 0) return false;
+    }
+    ++g_wrap_depth;
+    return true;
+}
+
+// The call that wrapped it ends: Python's handler back when it was the last and nothing replaced it.
+void unwrap_sigint()
+{
+    if (--g_wrap_depth) return;
+    struct sigaction cur;
+    if (sigaction(SIGINT, nullptr, &cur) == 0 && (cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_sigint)
+        sigaction(SIGINT, &g_prev_sigint, nullptr);
+}
+
+}  // namespace
+
+uint64_t sigints_seen() { return g_sigints.load(); }
+
+namespace {
 
 // The running calls: the exit waits until each has taken the GIL back.
 std::mutex g_run_mu;
@@ -64,6 +134,8 @@ struct Call::Token : msidutil::Cancel {
     std::thread::id owner = std::this_thread::get_id();
     bool signals;                          // the main thread: Python runs signal handlers there
     bool interruptible;
+    bool wrapped = false;                  // SIGINT counted by the wrapper: a count past `sigints0` stops
+    uint64_t sigints0 = 0;
     Clock::time_point next = Clock::now() + POLL;
     std::atomic<bool> stop{false};
     PyObject *type = nullptr, *value = nullptr, *tb = nullptr;   // what the signal handler raised
@@ -81,6 +153,7 @@ struct Call::Token : msidutil::Cancel {
     {
         if (stop.load(std::memory_order_relaxed)) return true;
         if (g_exiting.load(std::memory_order_relaxed)) return stop = true;
+        if (wrapped && g_sigints.load() != sigints0) return stop = true;   // any of the call's threads
         if (!signals || std::this_thread::get_id() != owner || !*ts) return false;
         const Clock::time_point t = Clock::now();
         if (!now && t < next) return false;
@@ -100,6 +173,10 @@ bool Call::shutting_down() { return g_exiting.load(std::memory_order_relaxed); }
 Call::Call(const CallOptions &o) : o_(o)
 {
     tok_ = std::make_unique<Token>(&ts_, PyThread_get_thread_ident() == main_thread_ident(), o.interruptible);
+    if (tok_->signals && tok_->interruptible && wrap_sigint()) {
+        tok_->wrapped = true;
+        tok_->sigints0 = g_sigints.load();
+    }
     std::lock_guard<std::mutex> g(g_run_mu);
     ++g_running;
     registered_ = true;
@@ -109,6 +186,7 @@ void Call::leave()
 {
     if (!registered_) return;
     registered_ = false;
+    if (tok_->wrapped) unwrap_sigint();
     std::lock_guard<std::mutex> g(g_run_mu);
     --g_running;
     g_run_cv.notify_all();
@@ -160,6 +238,7 @@ void Call::run(const std::function<void()> &work)
             PyErr_SetString(PyExc_KeyboardInterrupt, "the interpreter is exiting");
             throw py::error_already_set();
         }
+        if (tok_->wrapped && PyErr_CheckSignals() != 0) throw py::error_already_set();   // the handler raised
     }
     if (err) std::rethrow_exception(err);
 }

@@ -93,5 +93,8 @@ void count_progress(msidutil::Step s, uint64_t n);
 // For the interrupt tests: SIGINT (as by Ctrl-C) once `at` more units of `step` (a name of
 // progress_counts) are done, from the checkpoint that counts them; an empty `step` disarms it.
 void interrupt_at(const std::string &step, uint64_t at);
+// How many SIGINTs the wrapper of a running call's handler has counted (the interrupt tests: once it
+// moved, every checkpoint of the call stops).
+uint64_t sigints_seen();
 
 }  // namespace msidpy

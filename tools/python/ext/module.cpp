@@ -96,6 +96,9 @@ PYBIND11_MODULE(_msid, m)
     m.def("_interrupt_at", &msidpy::interrupt_at, pybind11::arg("step"), pybind11::arg("at"),
           "SIGINT once `at` more units of `step` are done, raised by the checkpoint that counts them: the interrupt "
           "tests place the signal by work done (step \"\": disarmed).");
+    m.def("_sigints", &msidpy::sigints_seen,
+          "SIGINTs counted while a call ran on the main thread (the interrupt tests: once the count moved, every checkpoint "
+          "of the call stops).");
     m.def("_python_words", &msidpy::python_words,
           "A message of the command line as the extension raises it (options as keywords): for the tests.");
     m.def("_shutdown", &msidpy::shutdown_calls, "Stop every running call and wait for them (registered with atexit).");
