@@ -144,3 +144,45 @@ def test_huge_skip_periods(bench, tmp_path):
     out = tmp_path / "f.json"
     r = frf(bench["bench"], bench["bench"]["experiments"], out, "--skip-periods", 4294967295)
     fails(tmp_path, r, out=out)
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_signal_while_writing_leaves_no_temporary(tmp_path, sig):
+    """Ctrl-C or SIGTERM while a result is being written ended the process and left e1.csv.tmp.PID behind.
+    The signal is placed inside the write, whatever the machine's load: the command is stopped (SIGSTOP) as
+    soon as its temporary file appears, the signal is sent, and the command continued. The temporary is gone,
+    the file it would have replaced is the earlier one byte for byte, and the process ended by that signal."""
+    import os
+    import signal
+    import time
+    csv = tmp_path / "csv"
+    csv.mkdir()
+    old = csv / "e1.csv"
+    old.write_text("u1\n0.5\n")
+    landed = False
+    for periods in (64, 256, 1024):   # a larger file if the write was over before it could be stopped
+        p = subprocess.Popen([h.msid_bin(), "excite", "--period", "65536", "--lines", "1:2:2001", "--periods",
+                              str(periods), "-o", str(tmp_path / "d.json"), "--csv", str(csv)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        try:
+            tmp = []
+            while p.poll() is None and not tmp:
+                tmp = [f for f in os.listdir(csv) if ".tmp." in f]
+            if not tmp:
+                continue
+            p.send_signal(signal.SIGSTOP)
+            landed = (csv / tmp[0]).exists()   # stopped inside the write (not already renamed)
+            p.send_signal(getattr(signal, sig))
+            p.send_signal(signal.SIGCONT)
+            p.wait(timeout=300)
+        finally:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        if landed:
+            break
+        old.write_text("u1\n0.5\n")   # the write was complete before the stop: the file was replaced
+    assert landed, "the command was never stopped inside its write"
+    assert p.returncode == -getattr(signal, sig), (p.returncode, p.stderr.read())
+    assert not [f for f in os.listdir(csv) if ".tmp." in f], os.listdir(csv)
+    assert old.read_text() == "u1\n0.5\n"

@@ -27,6 +27,7 @@ void CanAcq::open_log(const std::string &path)
 {
     log_path = path;
     log_tmp = path + ".tmp." + std::to_string(getpid());
+    log_partial = std::make_unique<msidutil::PartialFile>(log_tmp);
     log = std::fopen(log_tmp.c_str(), "w");
     if (!log) throw Error("cannot write '" + path + "': " + std::strerror(errno));
 }

@@ -10,6 +10,9 @@ extern "C" {
 }
 
 #include <cstdio>
+#include <memory>
+
+#include "msid_partial_file.hpp"
 
 namespace msidacq {
 
@@ -20,6 +23,7 @@ struct CanAcq {
     msid_can_decoder dec{};
     FILE *log = nullptr;
     std::string log_path, log_tmp, iface;
+    std::unique_ptr<msidutil::PartialFile> log_partial;   // the temporary, for a signal that ends the process
     ~CanAcq();
     // Start the candump log (Error when it cannot be created).
     void open_log(const std::string &path);

@@ -5,6 +5,7 @@
 #include "matio_dl.hpp"   // libmatio on first use (tools/records)
 #include "model_io.hpp"
 #include "msid_json_file.hpp"
+#include "msid_partial_file.hpp"
 #include "stats.hpp"
 
 #include <cerrno>
@@ -288,6 +289,7 @@ void write_model_mat(const std::string &path, const std::string &tmp)
 template <class F> void write_atomically(const std::string &out, F write)
 {
     const std::string tmp = out + fmt(".tmp.%d", (int)getpid());
+    const msidutil::PartialFile partial(tmp);
     try {
         write(tmp);
         if (std::rename(tmp.c_str(), out.c_str()) != 0)

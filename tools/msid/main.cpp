@@ -1,6 +1,7 @@
 // msid: multisine system identification on the bench.
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "stop_signal.hpp"
 
 #include <algorithm>
 #include <csignal>
@@ -96,6 +97,7 @@ int main(int argc, char **argv)
     // A file size limit (ulimit -f) must end a run with an error, not SIGXFSZ: then write() fails with
     // EFBIG and the temporary file is removed (no out.json.tmp.PID is left behind).
     std::signal(SIGXFSZ, SIG_IGN);
+    msidcli::remove_partials_on_fatal_signals();
     try {
         for (const Command &c : COMMANDS)
             if (cmd == c.name) return c.run(argc, argv);

@@ -16,6 +16,10 @@ private:
     struct sigaction old_int_{}, old_term_{};
 };
 bool measure_stop_requested();
+// For the whole command: SIGINT, SIGTERM, SIGHUP and SIGPIPE, where not ignored, remove the temporary
+// files being written (msid_partial_file.hpp) and then end the process by the same signal, as before:
+// no OUT.tmp.PID is left by a command ended from outside.
+void remove_partials_on_fatal_signals();
 int measure_stop_signal();     // the signal that asked (0: none)
 
 }  // namespace msidcli

@@ -1,4 +1,5 @@
 #include "msid_host_util.hpp"
+#include "msid_partial_file.hpp"
 
 #include <cerrno>
 #include <cstdarg>
@@ -26,6 +27,7 @@ void write_file_atomic(const std::string &path, const std::string &data, bool du
 void write_file_atomic(const std::string &path, const std::vector<std::string_view> &pieces, bool durable)
 {
     std::string tmp = path + ".tmp." + std::to_string(getpid());
+    const PartialFile partial(tmp);   // removed by a signal that ends the process (the CLI's handler)
     // mode 0666 less the umask, as any program's new file (0644 under the default umask 022)
     int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
     if (fd < 0) throw IoError("cannot write '" + path + "': " + std::strerror(errno));
