@@ -47,6 +47,7 @@ if(TARGET msid_frfjob)
   install(TARGETS ${_host} EXPORT msidTargets ARCHIVE DESTINATION lib)
   install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
                 ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_cancel.hpp
+                ${PROJECT_SOURCE_DIR}/tools/util/msid_partial_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp
                 ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_est.hpp

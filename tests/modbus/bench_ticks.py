@@ -9,8 +9,6 @@ runs in the vcan VM: tests/vcan/in_vm/bench_ticks_can.py. Figures: docs/benchmar
 import argparse
 import json
 import os
-import resource
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -20,15 +18,10 @@ sys.path.insert(0, str(HERE))
 import maplib  # noqa: E402
 from mblib import MSID  # noqa: E402
 
-PEER = HERE.parents[1] / "tools" / "peers" / "msid_peers" / "tick_peer.py"
-
-
-def child_cpu(cmd):
-    """Run cmd; its stdout, exit status and the CPU seconds it used (getrusage of the waited child)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=900)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+PEERS = HERE.parents[1] / "tools" / "peers" / "msid_peers"
+PEER = PEERS / "tick_peer.py"
+sys.path.insert(0, str(PEERS))
+from loopcost import callgrind_ir, child_cpu  # noqa: E402
 
 
 def msid_loop(tmp, sim, desc, rate, periods, realtime):
@@ -59,17 +52,6 @@ def peer_loop(sim, rate, ticks):
             "round_trip_s": j["round_trip_s"], "cpu_per_tick_s": j["cpu_s"] / j["ticks"],
             "user_per_tick_s": j["cpu_user_s"] / j["ticks"],
             "process_cpu_per_tick_s": cpu / j["ticks"], "scheduling": "SCHED_OTHER (a Python script as written)"}
-
-
-def callgrind_ir(cmd, tmp, tag):
-    """Instructions the process ran in user space (valgrind --tool=callgrind), from its summary line."""
-    out = Path(tmp) / f"cg-{tag}.out"
-    r = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *[str(c) for c in cmd]],
-                       capture_output=True, text=True, timeout=1800)
-    for line in r.stderr.splitlines():
-        if "Collected :" in line:
-            return int(line.split(":")[-1].strip().replace(",", ""))
-    raise RuntimeError(f"callgrind gave no count for {tag}: {r.stderr[-500:]}")
 
 
 def instructions_per_tick(tmp, sim, desc, rate):

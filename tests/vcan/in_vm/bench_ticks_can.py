@@ -13,7 +13,6 @@ msid runs as `msid measure --map` would (SCHED_FIFO and locked memory where perm
 import argparse
 import json
 import math
-import resource
 import socket
 import struct
 import subprocess
@@ -30,6 +29,7 @@ from mapcan import CanMapSim, description, maplib  # noqa: E402
 PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
 PEER = PEERS / "can_tick_peer.py"
 sys.path.insert(0, str(PEERS))
+from loopcost import callgrind_ir, child_cpu  # noqa: E402
 from pacing import quantiles  # noqa: E402
 
 CMD_ID = 0x101   # DriveCmd of mapcan's DBC
@@ -65,13 +65,6 @@ class FrameClock:
             else:
                 dev.append(abs((b - a) - T))
         return {"frames": len(t), "interval_deviation_s": quantiles(dev), "pauses": gaps}
-
-
-def child_cpu(cmd, timeout=1800):
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def msid_loop(tmp, sim, desc, rate, periods, realtime):
@@ -142,6 +135,20 @@ def bcm_loop(tmp, rate, ticks):
     return {"ticks": ticks, "bus": fc.jitter(T)}
 
 
+def instructions_per_tick(tmp, sim, desc, desc_dir, rate):
+    """User-space instructions per tick, from two runs of different lengths (their difference: set-up, start and
+    the FRF's fixed part cancel), for msid and for the script; independent of the machine's load."""
+    def msid_cmd(periods, tag):
+        return [canlib.MSID, "measure", "--device", sim.uri, "--map", desc, "--period", PERIOD, "--lines", "1:2:9",
+                "--periods", periods, "--skip-periods", 0, "--rate", rate, "--no-plots", "--quiet", "--no-realtime",
+                "-o", Path(tmp) / f"cg-{tag}"]
+    m = (callgrind_ir(msid_cmd(12, "m12"), tmp, "m12") - callgrind_ir(msid_cmd(4, "m4"), tmp, "m4")) / (8 * PERIOD)
+    peer = lambda n: [sys.executable, PEER, "vcan0", Path(desc_dir) / "drive.dbc", "DriveCmd", "TorqueCmd",
+                      "DriveStatus", rate, n]
+    p = (callgrind_ir(peer(300), tmp, "p300") - callgrind_ir(peer(100), tmp, "p100")) / 200
+    return m, p
+
+
 def us(x):
     return f"{1e6 * x:7.0f}us"
 
@@ -151,6 +158,8 @@ def main():
     ap.add_argument("--rate", type=float, default=1000)
     ap.add_argument("--periods", type=int, default=100, help="measured periods of 20 ticks (default 100)")
     ap.add_argument("--json", help="also write the figures to this file")
+    ap.add_argument("--instructions", action="store_true",
+                    help="also count the user-space instructions per tick of both loops under callgrind (at 50 Hz)")
     a = ap.parse_args()
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -163,6 +172,10 @@ def main():
             n = rows["msid"].get("ticks", a.periods * PERIOD)
             rows["python-can script"] = peer_loop(tmp, tmp, a.rate, n)
         rows["CAN_BCM timer"] = bcm_loop(tmp, a.rate, rows["python-can script"]["ticks"])
+        insn = None
+        if a.instructions:
+            with CanMapSim(tmp, desc, "--plant", plant, "--cycle-hz", 50) as sim50:
+                insn = instructions_per_tick(tmp, sim50, desc, tmp, 50)
     print(f"host tick loop at {a.rate:g} Hz on vcan0 (in the qemu VM) against msid-devsim's DBC node: per tick the "
           "status frames taken, one command frame sent")
     print("wake: lateness of the ticks the loop slept for; late: of every tick; rtt: the tick's exchange; CPU/tick: "
@@ -193,6 +206,10 @@ def main():
               f"{ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x (user space "
               f"{ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x), bus jitter p99 "
               f"{ratio(p['bus']['interval_deviation_s']['p99'], m['bus']['interval_deviation_s']['p99']):.1f}x")
+    if insn:
+        print(f"user-space instructions per tick (callgrind, 50 Hz): msid {insn[0]:.0f}, python-can script "
+              f"{insn[1]:.0f} ({insn[1] / insn[0]:.1f}x)")
+        rows["instructions_per_tick"] = {"msid": insn[0], "python-can script": insn[1]}
     for name, r in rows.items():
         if "scheduling" in r:
             print(f"  {name}: {r['scheduling']}")
