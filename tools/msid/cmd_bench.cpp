@@ -255,17 +255,26 @@ int bench_ticks(int argc, char **argv)
     static const char *HELP =
         "usage: msid bench ticks [--rate HZ] [--periods K] [--instructions]\n"
         "       msid bench ticks --can [--rate HZ] [--periods K] [--instructions] [--results DIR]\n"
+        "       msid bench ticks --canopen [--rate HZ] [--periods K] [--results DIR]\n"
         "The host tick loop of a described device (msid measure --map) beside the same loop written as a user\n"
         "would without msid, in the same run against the same msid-devsim: ticks, lateness median/p99/max, round\n"
         "trip, CPU per tick. Default: 200 Hz over Modbus TCP on 127.0.0.1, the peer written with pymodbus and\n"
         "time.sleep; --instructions: also the user-space instructions per tick of both loops under valgrind's\n"
         "callgrind, which no load changes. --can: 1 kHz on vcan0 in the qemu VM of tests/vcan/vm.py against\n"
         "msid-devsim's DBC node, the peer written with python-can and cantools, with the command frames' jitter\n"
-        "on the bus and that of the kernel's broadcast manager (CAN_BCM) beside them. See docs/benchmarks.md.\n";
-    const Args a(argc, argv, 3, HELP, {"rate", "periods", "results"}, {"instructions", "can"});
+        "on the bus and that of the kernel's broadcast manager (CAN_BCM) beside them. --canopen: the SYNC loop of\n"
+        "a CiA 402 drive in CST (msid measure over canopen://) at 1 kHz in the same VM against msid-devsim's node,\n"
+        "the peer written with the canopen package, with the SYNC frames' jitter on the bus and a CAN_BCM SYNC\n"
+        "timer's beside them. See docs/benchmarks.md.\n";
+    const Args a(argc, argv, 3, HELP, {"rate", "periods", "results"}, {"instructions", "can", "canopen"});
     if (!a.positional().empty()) throw UsageError("msid bench ticks: unexpected argument " + a.positional()[0]);
-    const bool can = a.has("can");
-    if (!can && a.has("results")) throw UsageError("msid bench ticks: --results is the VM's folder: it goes with --can");
+    const bool canopen = a.has("canopen");
+    if (canopen && a.has("can")) throw UsageError("msid bench ticks: --can or --canopen, not both");
+    if (canopen && a.has("instructions"))
+        throw UsageError("msid bench ticks: --instructions counts the Modbus and CAN loops, not the CANopen one");
+    const bool can = a.has("can") || canopen;
+    if (!can && a.has("results"))
+        throw UsageError("msid bench ticks: --results is the VM's folder: it goes with --can or --canopen");
     const std::string src = MSID_SOURCE_DIR;
     std::vector<std::string> args = {"python3"};
     if (can) {
@@ -274,7 +283,8 @@ int bench_ticks(int argc, char **argv)
             args.push_back("--results");
             args.push_back(a.get("results"));
         }
-        args.insert(args.end(), {"--", "python3", src + "/tests/vcan/in_vm/bench_ticks_can.py"});
+        args.insert(args.end(), {"--", "python3",
+                                 src + (canopen ? "/tests/vcan/in_vm/bench_ticks_canopen.py" : "/tests/vcan/in_vm/bench_ticks_can.py")});
     } else {
         args.push_back(src + "/tests/modbus/bench_ticks.py");
     }

@@ -37,14 +37,16 @@ PERIOD = 20      # ticks per period of the excitation
 
 
 class FrameClock:
-    """candump -L of the command frames while a loop runs: the kernel's receive instants."""
+    """candump -L of one identifier's frames (the command frame unless told) while a loop runs: the kernel's
+    receive instants."""
 
-    def __init__(self, tmp, tag):
+    def __init__(self, tmp, tag, can_id=CMD_ID):
         self.path = Path(tmp) / f"dump-{tag}.log"
+        self.can_id = can_id
 
     def __enter__(self):
         self.f = open(self.path, "w")
-        self.p = subprocess.Popen(["candump", "-L", "-r", str(4 << 20), f"vcan0,{CMD_ID:X}:7FF"], stdout=self.f)
+        self.p = subprocess.Popen(["candump", "-L", "-r", str(4 << 20), f"vcan0,{self.can_id:X}:7FF"], stdout=self.f)
         time.sleep(0.5)
         return self
 

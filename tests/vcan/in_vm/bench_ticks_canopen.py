@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""`msid bench ticks --canopen` (run inside the vcan VM): the SYNC loop of a CiA 402 drive in cyclic synchronous
+torque on vcan0, msid's (`msid measure --device canopen://vcan0?node=5 --map`: the target in RPDO1, one SYNC, the
+TPDO that SYNC asked for) against the loop a user would write with the canopen package
+(tools/peers/msid_peers/canopen_tick_peer.py: the same PDOs, time.sleep pacing), in the same run against the same
+node (msid-devsim --canopen 5 under SCHED_FIFO 20). Reported per loop: ticks, ticks without their TPDO, lateness
+(wake-up minus deadline) median, p99 and max, round trip, CPU per tick, and the jitter of the SYNC frames on the
+bus: the deviation of each interval between two SYNCs from the period, from the kernel's receive timestamps
+(candump -L). Beside them, the same jitter of SYNCs the kernel's broadcast manager (CAN_BCM) sends on its own
+timer. Figures: docs/benchmarks.md."""
+import argparse
+import json
+import socket
+import struct
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import canlib  # noqa: E402
+import comap  # noqa: E402
+from bench_ticks_can import BCM_HEAD, CAN_FRAME, FrameClock, us  # noqa: E402
+
+PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
+PEER = PEERS / "canopen_tick_peer.py"
+sys.path.insert(0, str(PEERS))
+from loopcost import child_cpu  # noqa: E402
+
+SYNC_ID = 0x080
+PERIOD = 20   # ticks per period: a loaded VM's lost sample rejects one short period, and the FRF (with the
+              # timing block) is still given
+
+
+def msid_loop(tmp, sim, desc, rate, periods, realtime):
+    tag = "rt" if realtime else "nort"
+    out = Path(tmp) / f"out-{tag}"
+    cmd = [canlib.MSID, "measure", "--device", sim.uri, "--map", desc, "--period", PERIOD, "--lines", "1:2:9",
+           "--periods", periods, "--skip-periods", 1, "--rate", rate, "--no-plots", "--quiet", "-o", out]
+    if not realtime:
+        cmd.insert(-2, "--no-realtime")
+    with FrameClock(tmp, "sync-" + tag, SYNC_ID) as fc:
+        r, cpu = child_cpu(cmd)
+    if r.returncode != 0:
+        return {"failed": (r.stderr.strip().splitlines() or ["?"])[-1], "bus": fc.jitter(1.0 / rate)}
+    a = json.loads((out / "frf.json").read_text())["acquisition"]
+    t = a["timing"]
+    n = t["ticks"] + t["ticks_missed"]
+    return {"ticks": n, "stale": t.get("measured_ticks_missed", 0) + t.get("exchanges_failed", 0),
+            "lateness_s": t["lateness_s"], "wake_lateness_s": t["wake_lateness_s"], "round_trip_s": t["round_trip_s"],
+            "cpu_per_tick_s": t["cpu_per_tick_s"], "user_per_tick_s": t["cpu_user_per_tick_s"],
+            "process_cpu_per_tick_s": cpu / n, "scheduling": t["scheduling"], "bus": fc.jitter(1.0 / rate)}
+
+
+def peer_loop(tmp, rate, ticks):
+    cmd = [sys.executable, PEER, "vcan0", comap.NODE, comap.EDS, rate, ticks]
+    with FrameClock(tmp, "sync-peer", SYNC_ID) as fc:
+        r, cpu = child_cpu(cmd)
+    if r.returncode != 0:
+        raise RuntimeError(f"canopen_tick_peer failed: {r.stderr}")
+    j = json.loads(r.stdout)
+    return {"ticks": j["ticks"], "stale": j["stale"], "lateness_s": j["lateness_s"],
+            "wake_lateness_s": j["wake_lateness_s"], "round_trip_s": j["round_trip_s"],
+            "cpu_per_tick_s": j["cpu_s"] / j["ticks"], "user_per_tick_s": j["cpu_user_s"] / j["ticks"],
+            "process_cpu_per_tick_s": cpu / j["ticks"], "scheduling": "SCHED_OTHER (a Python script as written)",
+            "bus": fc.jitter(1.0 / rate)}
+
+
+def bcm_sync(tmp, rate, ticks):
+    """SYNC frames sent by the kernel's broadcast manager on its own timer (period 1 / rate), nothing in user space
+    per tick: the SYNC carries no data."""
+    T = 1.0 / rate
+    s = socket.socket(socket.AF_CAN, socket.SOCK_DGRAM, socket.CAN_BCM)
+    s.connect(("vcan0",))
+    ival = int(round(T * 1e6))
+    head = struct.pack(BCM_HEAD, socket.CAN_BCM_TX_SETUP, socket.CAN_BCM_SETTIMER | socket.CAN_BCM_STARTTIMER, 0, 0,
+                       0, ival // 1000000, ival % 1000000, SYNC_ID, 1)
+    with FrameClock(tmp, "sync-bcm", SYNC_ID) as fc:
+        s.send(head + struct.pack(CAN_FRAME, SYNC_ID, 0, bytes(8)))
+        time.sleep(ticks * T)
+        s.send(struct.pack(BCM_HEAD, socket.CAN_BCM_TX_DELETE, 0, 0, 0, 0, 0, 0, SYNC_ID, 0))
+    s.close()
+    return {"ticks": ticks, "bus": fc.jitter(T)}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rate", type=float, default=1000)
+    ap.add_argument("--periods", type=int, default=100, help=f"measured periods of {PERIOD} ticks (default 100)")
+    ap.add_argument("--json", help="also write the figures to this file")
+    a = ap.parse_args()
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        desc = comap.preset(tmp)
+        with comap.Drive(tmp) as sim:
+            rows["msid"] = msid_loop(tmp, sim, desc, a.rate, a.periods, True)
+            rows["msid --no-realtime"] = msid_loop(tmp, sim, desc, a.rate, a.periods, False)
+            n = rows["msid"].get("ticks", (a.periods + 1) * PERIOD)
+            rows["canopen script"] = peer_loop(tmp, a.rate, n)
+        rows["CAN_BCM SYNC timer"] = bcm_sync(tmp, a.rate, rows["canopen script"]["ticks"])
+    print(f"SYNC loop at {a.rate:g} Hz on vcan0 (in the qemu VM) against msid-devsim's CiA 402 node in CST: per tick "
+          "the target in RPDO1, one SYNC, the TPDO it asked for")
+    print("wake: lateness of the ticks the loop slept for; late: of every tick; rtt: the tick's exchange; CPU/tick: "
+          "the loop alone (user: its part in user space); bus: |interval - period| of the SYNC frames (kernel "
+          "receive timestamps); lost: ticks without their TPDO")
+    print(f"{'loop':20} {'ticks':>6} {'lost':>6} {'wake med':>9} {'wake p99':>9} {'late p99':>9} {'rtt p99':>9} "
+          f"{'CPU/tick':>9} {'user':>9} {'bus med':>9} {'bus p99':>9} {'bus max':>9}")
+    for name, r in rows.items():
+        b = r["bus"]["interval_deviation_s"]
+        if "failed" in r:
+            print(f"{name:20} no FRF (bus jitter median {us(b['median'])}, p99 {us(b['p99'])}): {r['failed']}")
+            continue
+        if "lateness_s" not in r:
+            print(f"{name:20} {r['ticks']:6d} {'':6} {'':9} {'':9} {'':9} {'':9} {'':9} {'':9} "
+                  f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
+            continue
+        W, L, R = r["wake_lateness_s"], r["lateness_s"], r["round_trip_s"]
+        print(f"{name:20} {r['ticks']:6d} {r['stale']:6d} {us(W['median'])} {us(W['p99'])} {us(L['p99'])} "
+              f"{us(R['p99'])} {1e6 * r['cpu_per_tick_s']:7.1f}us {1e6 * r['user_per_tick_s']:7.1f}us "
+              f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
+    p, m = rows["canopen script"], rows["msid"]
+    if "failed" not in m:
+        ratio = lambda x, y: x / max(y, 1e-12)
+        print(f"ratio script / msid: lateness p99 {ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, "
+              f"SYNC jitter p99 {ratio(p['bus']['interval_deviation_s']['p99'], m['bus']['interval_deviation_s']['p99']):.1f}x, "
+              f"CPU per tick {ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x (user space "
+              f"{ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x)")
+    for name, r in rows.items():
+        if "scheduling" in r:
+            print(f"  {name}: {r['scheduling']}")
+    if a.json:
+        Path(a.json).write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
