@@ -81,7 +81,7 @@ def main():
         with maplib.MapSim(tmp, desc, "--cycle-hz", a.rate) as sim:
             rows["msid"] = msid_loop(tmp, sim, desc, a.rate, a.periods, True)
             rows["msid --no-realtime"] = msid_loop(tmp, sim, desc, a.rate, a.periods, False)
-            rows["pymodbus script"] = peer_loop(sim, a.rate, rows["msid"]["ticks"])
+            rows["pymodbus script"] = peer_loop(sim, a.rate, rows["msid"].get("ticks", (a.periods + 1) * 200))
         insn = None
         if a.instructions:
             with maplib.MapSim(tmp, desc, "--cycle-hz", 50) as sim50:
@@ -104,10 +104,11 @@ def main():
               f"{1e6 * r['user_per_tick_s']:7.1f}us {1e6 * r['process_cpu_per_tick_s']:7.1f}us")
     p, m = rows["pymodbus script"], rows["msid"]
     ratio = lambda a, b: a / max(b, 1e-12)
-    print(f"ratio script / msid: wake lateness p99 {ratio(p['wake_lateness_s']['p99'], m['wake_lateness_s']['p99']):.1f}x, "
-          f"lateness p99 {ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, "
-          f"CPU per tick {ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x "
-          f"(user space {ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x)")
+    if "failed" not in m:
+        print(f"ratio script / msid: wake lateness p99 {ratio(p['wake_lateness_s']['p99'], m['wake_lateness_s']['p99']):.1f}x, "
+              f"lateness p99 {ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, "
+              f"CPU per tick {ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x "
+              f"(user space {ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x)")
     if insn:
         print(f"user-space instructions per tick (callgrind): msid {insn[0]:.0f}, pymodbus script {insn[1]:.0f} "
               f"({insn[1] / insn[0]:.1f}x)")

@@ -155,6 +155,35 @@ def us(x):
     return f"{1e6 * x:7.0f}us"
 
 
+def print_rows(rows, script, missing="stale"):
+    """The table of the loops (msid's, the script's, a kernel timer's bus jitter alone) and the script / msid ratios;
+    `missing`: the header of the ticks that found nothing to read."""
+    print(f"{'loop':20} {'ticks':>6} {missing:>6} {'wake med':>9} {'wake p99':>9} {'late p99':>9} {'rtt p99':>9} "
+          f"{'CPU/tick':>9} {'user':>9} {'bus med':>9} {'bus p99':>9} {'bus max':>9}")
+    for name, r in rows.items():
+        b = r["bus"]["interval_deviation_s"]
+        if "failed" in r:
+            print(f"{name:20} no FRF (bus jitter median {us(b['median'])}, p99 {us(b['p99'])}): {r['failed']}")
+            continue
+        if "lateness_s" not in r:
+            print(f"{name:20} {r['ticks']:6d} {'':6} {'':9} {'':9} {'':9} {'':9} {'':9} {'':9} "
+                  f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
+            continue
+        W, L, R = r["wake_lateness_s"], r["lateness_s"], r["round_trip_s"]
+        print(f"{name:20} {r['ticks']:6d} {r['stale']:6d} {us(W['median'])} {us(W['p99'])} {us(L['p99'])} "
+              f"{us(R['p99'])} {1e6 * r['cpu_per_tick_s']:7.1f}us {1e6 * r['user_per_tick_s']:7.1f}us "
+              f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
+    p, m = rows[script], rows["msid"]
+    if "failed" not in m:
+        ratio = lambda x, y: x / max(y, 1e-12)
+        print(f"ratio script / msid: wake lateness p99 "
+              f"{ratio(p['wake_lateness_s']['p99'], m['wake_lateness_s']['p99']):.1f}x, lateness p99 "
+              f"{ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, CPU per tick "
+              f"{ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x (user space "
+              f"{ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x), bus jitter p99 "
+              f"{ratio(p['bus']['interval_deviation_s']['p99'], m['bus']['interval_deviation_s']['p99']):.1f}x")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rate", type=float, default=1000)
@@ -183,31 +212,7 @@ def main():
     print("wake: lateness of the ticks the loop slept for; late: of every tick; rtt: the tick's exchange; CPU/tick: "
           "the loop alone (user: its part in user space); bus: |interval - period| of the command frames (kernel "
           "receive timestamps)")
-    print(f"{'loop':20} {'ticks':>6} {'stale':>6} {'wake med':>9} {'wake p99':>9} {'late p99':>9} {'rtt p99':>9} "
-          f"{'CPU/tick':>9} {'user':>9} {'bus med':>9} {'bus p99':>9} {'bus max':>9}")
-    for name, r in rows.items():
-        if "failed" in r:
-            b = r["bus"]["interval_deviation_s"]
-            print(f"{name:20} no FRF (bus jitter median {us(b['median'])}, p99 {us(b['p99'])}): {r['failed']}")
-            continue
-        b = r["bus"]["interval_deviation_s"]
-        if "lateness_s" not in r:
-            print(f"{name:20} {r['ticks']:6d} {'':6} {'':9} {'':9} {'':9} {'':9} {'':9} {'':9} "
-                  f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
-            continue
-        W, L, R = r["wake_lateness_s"], r["lateness_s"], r["round_trip_s"]
-        print(f"{name:20} {r['ticks']:6d} {r['stale']:6d} {us(W['median'])} {us(W['p99'])} {us(L['p99'])} "
-              f"{us(R['p99'])} {1e6 * r['cpu_per_tick_s']:7.1f}us {1e6 * r['user_per_tick_s']:7.1f}us "
-              f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
-    p, m = rows["python-can script"], rows["msid"]
-    if "failed" not in m:
-        ratio = lambda x, y: x / max(y, 1e-12)
-        print(f"ratio script / msid: wake lateness p99 "
-              f"{ratio(p['wake_lateness_s']['p99'], m['wake_lateness_s']['p99']):.1f}x, lateness p99 "
-              f"{ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, CPU per tick "
-              f"{ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x (user space "
-              f"{ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x), bus jitter p99 "
-              f"{ratio(p['bus']['interval_deviation_s']['p99'], m['bus']['interval_deviation_s']['p99']):.1f}x")
+    print_rows(rows, "python-can script")
     if insn:
         print(f"user-space instructions per tick (callgrind, 50 Hz): msid {insn[0]:.0f}, python-can script "
               f"{insn[1]:.0f} ({insn[1] / insn[0]:.1f}x)")

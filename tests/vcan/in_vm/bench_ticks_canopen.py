@@ -21,7 +21,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import canlib  # noqa: E402
 import comap  # noqa: E402
-from bench_ticks_can import BCM_HEAD, CAN_FRAME, FrameClock, us  # noqa: E402
+from bench_ticks_can import BCM_HEAD, CAN_FRAME, FrameClock, print_rows  # noqa: E402
 
 PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
 PEER = PEERS / "canopen_tick_peer.py"
@@ -104,28 +104,7 @@ def main():
     print("wake: lateness of the ticks the loop slept for; late: of every tick; rtt: the tick's exchange; CPU/tick: "
           "the loop alone (user: its part in user space); bus: |interval - period| of the SYNC frames (kernel "
           "receive timestamps); lost: ticks without their TPDO")
-    print(f"{'loop':20} {'ticks':>6} {'lost':>6} {'wake med':>9} {'wake p99':>9} {'late p99':>9} {'rtt p99':>9} "
-          f"{'CPU/tick':>9} {'user':>9} {'bus med':>9} {'bus p99':>9} {'bus max':>9}")
-    for name, r in rows.items():
-        b = r["bus"]["interval_deviation_s"]
-        if "failed" in r:
-            print(f"{name:20} no FRF (bus jitter median {us(b['median'])}, p99 {us(b['p99'])}): {r['failed']}")
-            continue
-        if "lateness_s" not in r:
-            print(f"{name:20} {r['ticks']:6d} {'':6} {'':9} {'':9} {'':9} {'':9} {'':9} {'':9} "
-                  f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
-            continue
-        W, L, R = r["wake_lateness_s"], r["lateness_s"], r["round_trip_s"]
-        print(f"{name:20} {r['ticks']:6d} {r['stale']:6d} {us(W['median'])} {us(W['p99'])} {us(L['p99'])} "
-              f"{us(R['p99'])} {1e6 * r['cpu_per_tick_s']:7.1f}us {1e6 * r['user_per_tick_s']:7.1f}us "
-              f"{us(b['median'])} {us(b['p99'])} {us(b['max'])}")
-    p, m = rows["canopen script"], rows["msid"]
-    if "failed" not in m:
-        ratio = lambda x, y: x / max(y, 1e-12)
-        print(f"ratio script / msid: lateness p99 {ratio(p['lateness_s']['p99'], m['lateness_s']['p99']):.1f}x, "
-              f"SYNC jitter p99 {ratio(p['bus']['interval_deviation_s']['p99'], m['bus']['interval_deviation_s']['p99']):.1f}x, "
-              f"CPU per tick {ratio(p['cpu_per_tick_s'], m['cpu_per_tick_s']):.1f}x (user space "
-              f"{ratio(p['user_per_tick_s'], m['user_per_tick_s']):.1f}x)")
+    print_rows(rows, "canopen script", missing="lost")
     for name, r in rows.items():
         if "scheduling" in r:
             print(f"  {name}: {r['scheduling']}")

@@ -8,7 +8,6 @@ precision) and round trip (wake-up to the command sent), and prints one JSON lin
 status frame, lateness and round-trip quantiles, CPU seconds of the loop. The CAN peer of `msid bench ticks`.
 
 usage: can_tick_peer.py IFACE DBC COMMAND_MESSAGE SIGNAL STATUS_MESSAGE RATE TICKS"""
-import json
 import math
 import resource
 import sys
@@ -17,7 +16,7 @@ import time
 import can
 import cantools
 
-from pacing import quantiles, sleep_until
+from pacing import report, sleep_until
 
 
 def main():
@@ -53,11 +52,7 @@ def main():
     bus.send(can.Message(arbitration_id=cmd.frame_id, is_extended_id=cmd.is_extended_frame,
                          data=cmd.encode({cmd_sig: 0.0, **others}, strict=False)))
     bus.shutdown()
-    user = cpu1.ru_utime - cpu0.ru_utime
-    cpu = user + (cpu1.ru_stime - cpu0.ru_stime)
-    print(json.dumps({"ticks": ticks, "stale": stale, "lateness_s": quantiles(late),
-                      "wake_lateness_s": quantiles(wake), "round_trip_s": quantiles(rtt), "cpu_s": cpu,
-                      "cpu_user_s": user}))
+    print(report(ticks, late, wake, rtt, cpu0, cpu1, stale=stale))
 
 
 if __name__ == "__main__":

@@ -11,7 +11,6 @@ prints one JSON line: ticks, ticks without their TPDO, lateness and round-trip q
 loop. The CANopen peer of the SYNC bench.
 
 usage: canopen_tick_peer.py IFACE NODE EDS RATE TICKS"""
-import json
 import math
 import resource
 import sys
@@ -19,7 +18,7 @@ import time
 
 import canopen
 
-from pacing import quantiles, sleep_until
+from pacing import report, sleep_until
 
 
 def configure(node, rate):
@@ -76,11 +75,7 @@ def main():
     node.sdo[0x6040].raw = 0x00   # disable voltage
     node.nmt.state = "PRE-OPERATIONAL"
     net.disconnect()
-    user = cpu1.ru_utime - cpu0.ru_utime
-    cpu = user + (cpu1.ru_stime - cpu0.ru_stime)
-    print(json.dumps({"ticks": ticks, "stale": missing, "lateness_s": quantiles(late),
-                      "wake_lateness_s": quantiles(wake), "round_trip_s": quantiles(rtt), "cpu_s": cpu,
-                      "cpu_user_s": user}))
+    print(report(ticks, late, wake, rtt, cpu0, cpu1, stale=missing))
 
 
 if __name__ == "__main__":

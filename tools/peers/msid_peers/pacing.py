@@ -1,5 +1,6 @@
 """The pacing and statistics of the peers' tick loops (tick_peer.py, can_tick_peer.py): time.sleep to each
 deadline of time.monotonic(), as a user's script would, and nearest-rank quantiles."""
+import json
 import math
 import time
 
@@ -24,3 +25,12 @@ def sleep_until(deadline, late, wake):
     if d > 0:
         wake.append(w - deadline)
     return w
+
+
+def report(ticks, late, wake, rtt, cpu0, cpu1, **counts):
+    """The JSON line a peer prints at its end: ticks, its own counts (`counts`), the quantiles of lateness, wake-up
+    lateness and round trip, and the loop's CPU seconds between the getrusage() results cpu0 and cpu1."""
+    user = cpu1.ru_utime - cpu0.ru_utime
+    return json.dumps({"ticks": ticks, **counts, "lateness_s": quantiles(late), "wake_lateness_s": quantiles(wake),
+                       "round_trip_s": quantiles(rtt), "cpu_s": user + (cpu1.ru_stime - cpu0.ru_stime),
+                       "cpu_user_s": user})

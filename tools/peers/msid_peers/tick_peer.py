@@ -6,7 +6,6 @@ precision) and round trip, and prints one JSON line: ticks, lateness and round-t
 the loop. The peer of `msid bench ticks`.
 
 usage: tick_peer.py HOST PORT RATE TICKS"""
-import json
 import math
 import resource
 import struct
@@ -15,7 +14,7 @@ import time
 
 from pymodbus.client import ModbusTcpClient
 
-from pacing import quantiles, sleep_until
+from pacing import report, sleep_until
 
 
 def main():
@@ -38,10 +37,7 @@ def main():
     cpu1 = resource.getrusage(resource.RUSAGE_SELF)
     c.write_registers(100, [0, 0], device_id=1)
     c.close()
-    user = cpu1.ru_utime - cpu0.ru_utime
-    cpu = user + (cpu1.ru_stime - cpu0.ru_stime)
-    print(json.dumps({"ticks": ticks, "failed": failed, "lateness_s": quantiles(late), "wake_lateness_s": quantiles(wake),
-                      "round_trip_s": quantiles(rtt), "cpu_s": cpu, "cpu_user_s": user}))
+    print(report(ticks, late, wake, rtt, cpu0, cpu1, failed=failed))
 
 
 if __name__ == "__main__":
