@@ -103,7 +103,8 @@ static const char USAGE_CO[] =
     "  --heartbeat-stop-after S  send no heartbeat S seconds (node clock) after boot-up\n"
     "  --refuse-map IDX:SUB  refuse mapping IDX:SUB into a PDO (object cannot be mapped)\n"
     "  --clock-ppm X         the node's own clock (heartbeat, inhibit time, SDO timeout) against the host's\n"
-    "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n";
+    "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n"
+    "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it reports (0x606C)\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -287,6 +288,8 @@ int main(int argc, char **argv)
         if (co.node < 1 || co.node > 127) die("--canopen: the node id must be 1..127");
         co.f.clock_ppm = mo.ppm;
         co.f.drop_every = o->drop_every;
+        co.f.noise_vel = o->sigma_y;   /* --noise-y: on the velocity the node reports (rad/s) */
+        co.f.seed = o->seed;
         signal(SIGTERM, on_signal);
         signal(SIGINT, on_signal);
         return sim_canopen_main(&dev, &co);
@@ -295,6 +298,7 @@ int main(int argc, char **argv)
         static msid_devdesc desc;
         char err[512];
         if (msid_devdesc_load(map, &desc, err, sizeof err) != 0) die(err);
+        if (desc.transport == MSID_DEV_CANOPEN) die("--map: a CANopen drive is served with --canopen N --iface IF");
         if (desc.transport == MSID_DEV_CAN && !o->iface) die("--map: a CAN description is served with --iface IF");
         if (desc.transport == MSID_DEV_MODBUS && !o->mb_tcp && !o->mb_rtu)
             die("--map needs --modbus-tcp HOST:PORT or --modbus-rtu DEVICE");
