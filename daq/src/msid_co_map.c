@@ -93,28 +93,77 @@ static void check_heartbeat(msid_co_map *m, int64_t now)
                  (unsigned)m->node, (unsigned)m->hb.time_ms);
 }
 
-/* Every frame already waiting: TPDOs of an earlier SYNC are late, the rest is watched. */
-static int drain(msid_co_map *m)
+/* One frame of the queue, in bus order: the echo of msid's own SYNC opens the answers to it; a TPDO behind
+ * the echo of the last SYNC sent is that SYNC's (a second one of the same PDO replaces the first, which was a
+ * late answer to an older SYNC); a TPDO before it answers an older SYNC (late). */
+static void take(msid_co_map *m, const msid_can_frame *f)
+{
+    if (f->id == MSID_CO_COB_SYNC && !(f->id & MSID_CAN_ERR_FLAG)) {
+        if (m->echo_due) m->echo_due--;
+        if (!m->echo_due) m->echo_ns = f->t_ns;
+        return;
+    }
+    const int k = tpdo_index(m, f);
+    if (k < 0) {
+        watch(m, f, ms_of(msid_now_ns()));
+        return;
+    }
+    if (m->echo_due) { m->cnt.late++; return; }
+    if (f->len != m->tpdo_len[k]) { m->cnt.bad_tpdos++; return; }
+    if (m->got & (1u << k)) m->cnt.late++;
+    memcpy(m->buf[k], f->data, f->len);
+    m->got |= 1u << k;
+    if (f->t_ns && m->echo_ns && f->t_ns >= m->echo_ns) {
+        const double lat = 1e-9 * (double)(f->t_ns - m->echo_ns);
+        m->cnt.latency_sum_s += lat;
+        m->cnt.latency_n++;
+        if (lat > m->cnt.latency_max_s) m->cnt.latency_max_s = lat;
+    }
+}
+
+/* The last SYNC's answers are all in (or no SYNC was sent yet). */
+static int complete(const msid_co_map *m)
+{
+    return !m->syncs_sent || (!m->echo_due && m->got == (1u << m->n_tpdo) - 1u);
+}
+
+/* Every frame already waiting, in order (msid_can_recv does not block with 0); then, while the last SYNC's
+ * answers are not complete, frames as they come for at most wait_ns. */
+static int collect(msid_co_map *m, int64_t wait_ns)
 {
     msid_can_frame fr[16];
-    for (int round = 0; round < 64; ++round) {
+    const int64_t deadline = msid_now_ns() + wait_ns;
+    for (int round = 0; round < 64; ++round) {   /* a bounded drain: a busy bus cannot hold the tick */
         const int n = msid_can_recv(m->t, fr, 16, 0);
-        if (n == -MSID_DAQ_E_TIMEOUT) return 0;
+        if (n == -MSID_DAQ_E_TIMEOUT) break;
         if (n < 0) return failv(m, n, "node %u: receive: %s", (unsigned)m->node, msid_can_error(m->t));
-        for (int i = 0; i < n; ++i) msid_co_map_offer(m, &fr[i], ms_of(msid_now_ns()));
+        for (int i = 0; i < n; ++i) take(m, &fr[i]);
+    }
+    while (!complete(m)) {
+        const int64_t left = deadline - msid_now_ns();
+        if (left <= 0) break;
+        const int n = msid_can_recv(m->t, fr, 16, (int)((left + 999999) / 1000000));
+        if (n == -MSID_DAQ_E_TIMEOUT) continue;
+        if (n < 0) return failv(m, n, "node %u: receive: %s", (unsigned)m->node, msid_can_error(m->t));
+        for (int i = 0; i < n; ++i) take(m, &fr[i]);
     }
     return 0;
 }
 
-/* One tick: RPDO of `drive`, SYNC, and (need_tpdo) the TPDOs of that SYNC into `measure`. */
+/* One tick: the TPDOs of the previous tick's SYNC into `measure` (need_tpdo), then the RPDO of `drive` and
+ * this tick's SYNC. A tick's samples are read one tick later, so the node has a whole tick to answer; the
+ * demand and the actual values come from one TPDO set, so the FRF does not see the shift. */
 static int tick(msid_co_map *m, const double *drive, double *measure, msid_devio_times *t, int need_tpdo)
 {
     const msid_devdesc *d = m->d;
-    int rc = drain(m);
+    int rc = collect(m, need_tpdo ? m->wait_ns : 0);
     if (rc < 0) return rc;
     check_heartbeat(m, msid_now_ns());
     /* after a way out was found only writes go on: the safe values still go to the node */
     if (m->fatal[0] && need_tpdo) return failv(m, -MSID_DAQ_E_DEVICE, "%s", m->fatal);
+    if (m->echo_due > 3)
+        return failv(m, -MSID_DAQ_E_IO, "node %u: msid's own SYNC frames do not come back from the bus (the socket "
+                     "receives its own frames: is loopback off on %s?)", (unsigned)m->node, "the interface");
     msid_can_frame rp, sy;
     memset(&rp, 0, sizeof rp);
     rp.id = MSID_CO_COB_RPDO1 + m->node;
@@ -123,6 +172,14 @@ static int tick(msid_co_map *m, const double *drive, double *measure, msid_devio
         if (msid_co_map_encode(&d->drive[i], drive[i], rp.data + m->rpdo_off[i]) != 0)
             return failv(m, -MSID_DAQ_E_ARG, "'%s' = %g does not fit object 0x%04X:%02X (%s)", d->drive[i].name,
                          drive[i], d->drive[i].co_index, d->drive[i].co_sub, msid_dev_type_name(d->drive[i].type));
+    /* the previous SYNC's answers, complete or not: this tick's SYNC opens new ones */
+    const uint32_t want = (1u << m->n_tpdo) - 1u;
+    const int have = m->syncs_sent > 0 && m->echo_due == 0 && m->got == want;
+    if (have)
+        for (uint32_t i = 0; i < d->n_measure; ++i)
+            m->value[i] = msid_co_map_decode(&d->measure[i], m->buf[m->tpdo_of[i]] + m->tpdo_off[i]);
+    const uint32_t missing = want & ~(m->echo_due ? 0u : m->got);
+    m->got = 0;
     msid_co_sync_frame(&sy, 0);
     t->w0 = msid_now_ns();
     if ((rc = msid_can_send(m->t, &rp, m->send_timeout_ms)) < 0 ||
@@ -130,58 +187,19 @@ static int tick(msid_co_map *m, const double *drive, double *measure, msid_devio
         m->cnt.send_failures++;
         return failv(m, rc, "node %u: send: %s", (unsigned)m->node, msid_can_error(m->t));
     }
-    m->cnt.syncs++;
+    t->w1 = msid_now_ns();
     t->transactions = 2;
-    /* our own SYNC back first: every TPDO behind it answers this SYNC (or a later one) */
-    const int64_t deadline = msid_now_ns() + m->wait_ns;
-    int seen_sync = 0;
-    uint32_t got = 0, want = (1u << m->n_tpdo) - 1u;
-    uint8_t buf[MSID_DEV_CO_TPDOS][8];
-    for (;;) {
-        if (seen_sync && got == want) break;
-        const int64_t now = msid_now_ns();
-        const int64_t left = deadline - now;
-        if (left <= 0 && seen_sync) break;
-        /* the own SYNC comes back at once on a working socket; it is awaited past the tick's wait */
-        const int wait_ms = left > 0 ? (int)((left + 999999) / 1000000) : (seen_sync ? 0 : 100);
-        msid_can_frame f;
-        const int n = msid_can_recv(m->t, &f, 1, wait_ms);
-        if (n == -MSID_DAQ_E_TIMEOUT) {
-            if (!seen_sync && left <= 0) return failv(m, -MSID_DAQ_E_IO, "node %u: the SYNC sent did not come back "
-                                                      "from the bus", (unsigned)m->node);
-            if (left <= 0) break;
-            continue;
-        }
-        if (n < 0) return failv(m, n, "node %u: receive: %s", (unsigned)m->node, msid_can_error(m->t));
-        if (f.id == MSID_CO_COB_SYNC && f.len == 0) {
-            if (!seen_sync) t->w1 = msid_now_ns();
-            seen_sync = 1;
-            continue;
-        }
-        const int k = tpdo_index(m, &f);
-        if (k < 0) {
-            watch(m, &f, ms_of(msid_now_ns()));
-            continue;
-        }
-        if (!seen_sync) { m->cnt.late++; continue; }
-        if (f.len != m->tpdo_len[k]) { m->cnt.bad_tpdos++; continue; }
-        memcpy(buf[k], f.data, f.len);
-        got |= 1u << k;
-        t->r0 = t->r1 = msid_now_ns();
-    }
+    m->cnt.syncs++;
+    m->syncs_sent++;
+    m->echo_due++;
     if (!need_tpdo) return 0;
-    if (m->fatal[0]) return failv(m, -MSID_DAQ_E_DEVICE, "%s", m->fatal);
-    if (got != want) {
+    if (!have) {
         m->cnt.lost++;
-        return failv(m, -MSID_DAQ_E_TIMEOUT, "node %u: TPDO%s of SYNC %llu not received within %.3g ms", (unsigned)m->node,
-                     (want & ~got) == 1u ? "1" : (want & ~got) == 2u ? "2" : "1 and TPDO2",
-                     (unsigned long long)m->cnt.syncs, 1e-6 * (double)m->wait_ns);
+        return failv(m, -MSID_DAQ_E_TIMEOUT, "node %u: TPDO%s of the previous SYNC not received within the tick",
+                     (unsigned)m->node, missing == 1u ? "1" : missing == 2u ? "2" : "1 and TPDO2");
     }
     m->cnt.tpdos += m->n_tpdo;
-    for (uint32_t i = 0; i < d->n_measure; ++i) {
-        m->value[i] = msid_co_map_decode(&d->measure[i], buf[m->tpdo_of[i]] + m->tpdo_off[i]);
-        if (measure) measure[i] = m->value[i];
-    }
+    if (measure) memcpy(measure, m->value, sizeof(double) * d->n_measure);
     m->err[0] = 0;
     return 0;
 }
@@ -205,7 +223,7 @@ static int be_read(void *ctx, double *measure, msid_devio_times *t)
     return 0;
 }
 
-static int be_recover(void *ctx) { return drain(ctx); }
+static int be_recover(void *ctx) { return collect(ctx, 0); }
 
 static const char *be_error(void *ctx) { return ((msid_co_map *)ctx)->err; }
 
@@ -223,7 +241,6 @@ int msid_co_map_init(msid_co_map *m, const msid_devdesc *d, unsigned node, unsig
     m->d = d;
     m->t = t;
     m->node = (uint8_t)node;
-    m->wait_ns = 1000000000;
     m->send_timeout_ms = 100;
     unsigned off = 0;
     for (uint32_t i = 0; i < d->n_drive; ++i) {

@@ -1,7 +1,8 @@
 /* CANopen drives in msid-device/1 and their tick backend (msid_devdesc_file.h, msid_co_map.h): the presets'
  * channels and PDO packing, explicit objects, the refusals naming their key, the little-endian codec, and one
  * tick on frames in memory against a node written here: the RPDO and SYNC sent, the SYNC back first, the
- * TPDOs of that SYNC decoded; a TPDO of an earlier SYNC dropped as late; a TPDO missing lost; an EMCY fatal. */
+ * TPDOs of that SYNC decoded at the next tick; a TPDO of an older SYNC dropped as late; a TPDO missing lost;
+ * an EMCY fatal. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -205,7 +206,6 @@ static void test_one_tick(void **state)
     msid_can_transport t = {&NODE, &s};
     static msid_co_map m;
     assert_int_equal(msid_co_map_init(&m, &d, 5, 0, &t), 0);
-    m.wait_ns = 1000000;
     msid_co_pdo_cfg rp, tp[2];
     msid_co_map_pdos(&m, &rp, tp);
     assert_int_equal(rp.n, 1);
@@ -216,28 +216,39 @@ static void test_one_tick(void **state)
     double drive = 0.5, y[4];
     msid_devio_times tm;
     memset(&tm, 0, sizeof tm);
-    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
-    assert_int_equal(s.sent[0].id, 0x205);   /* the RPDO first: 0.5 N m = 250 per mille of 2 N m */
+    /* a write: the RPDO first (0.5 N m = 250 per mille of 2 N m), then the SYNC; nothing is read yet */
+    assert_int_equal(msid_devio_write(&m.io, &drive, &tm), 0);
+    assert_int_equal(s.sent[0].id, 0x205);
     assert_memory_equal(s.sent[0].data, ((const uint8_t[]){250, 0}), 2);
     assert_int_equal(s.sent[1].id, 0x080);
+    /* the next tick returns the answers to that SYNC, and sends its own */
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
     assert_true(fabs(y[0] - 0.2) < 1e-12 && fabs(y[2] + 5.0) < 1e-12 && y[3] == 123456.0);
-    /* a TPDO of an earlier SYNC in the queue: dropped as late, this SYNC's taken */
+    assert_int_equal(s.n_sent, 4);
+    /* a TPDO of an older SYNC before the echo: dropped as late, the SYNC's own taken */
     s.late_first = 1;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
     assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
     assert_int_equal(m.cnt.late, 1);
     assert_true(fabs(y[0] - 0.2) < 1e-12);
-    /* TPDO2 missing: a lost sample */
+    /* TPDO2 not sent on a SYNC: the next tick's sample is lost, and that tick's write still goes out */
     s.answer = 1;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    s.answer = 2;
+    const int sent = s.n_sent;
     assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_TIMEOUT);
     assert_int_equal(m.cnt.lost, 1);
     assert_non_null(strstr(m.err, "TPDO2"));
-    /* an EMCY: fatal, and every later tick refused */
-    s.answer = 2;
+    assert_int_equal(s.n_sent, sent + 2);
+    /* an EMCY answers a SYNC: the next tick is refused, and every one after it */
     s.emcy = 1;
-    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_DEVICE);
-    assert_non_null(strstr(m.fatal, "EMCY 0x2310"));
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
     s.emcy = 0;
     assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_DEVICE);
+    assert_non_null(strstr(m.fatal, "EMCY 0x2310"));
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_DEVICE);
+    /* the safe values still go out after it */
+    assert_int_equal(msid_devio_write(&m.io, &drive, &tm), 0);
     /* a value the target's type cannot carry: refused before anything is sent */
     const int before = s.n_sent;
     m.fatal[0] = 0;

@@ -136,13 +136,16 @@ public:
     std::string source() const override { return fmt("canopen:%s:%u", dev_.iface.c_str(), dev_.node); }
     void prepare(const std::vector<double> &, std::vector<std::string> &notes) override
     {
-        notes.push_back(fmt("node %u in %s, SYNC every %u us from msid's tick (0x1006), %s", dev_.node,
+        notes.push_back(fmt("node %u in %s, SYNC every %u us from msid's tick (0x1006), %s; each tick's TPDOs are "
+                            "read at the next tick (input and output alike)", dev_.node,
                             msid_co402_mode_name((int)d_.co_mode), period_us_, m_.describe));
     }
-    // a tick waits for its TPDOs for most of the tick
+    // a tick's TPDOs are read at the next tick, which waits a quarter of a tick more for answers not yet in
+    // (a node that answers within 1.25 ticks loses no sample); the probe waits for each answer (its round
+    // trip is then the cost of the sends alone: the node's latency is in tpdo_latency_s)
     void tick_timeouts(double T) override
     {
-        m_.wait_ns = (int64_t)std::llround(std::min(0.7 * T, 1.0) * 1e9);
+        m_.wait_ns = (int64_t)std::llround(std::min(0.25 * T, 1.0) * 1e9);
         m_.send_timeout_ms = std::max(1, (int)std::floor(0.2 * T * 1000.0));
     }
     void probe_timeouts() override
@@ -152,7 +155,7 @@ public:
     }
     void exit_timeouts() override
     {
-        m_.wait_ns = 50000000;
+        m_.wait_ns = 0;
         m_.send_timeout_ms = 200;
     }
     std::string error() const override { return m_.err; }
@@ -189,6 +192,9 @@ public:
         acq["emcy"] = m_.cnt.emcy;
         acq["heartbeats"] = m_.cnt.heartbeats;
         acq["send_failures"] = m_.cnt.send_failures;
+        if (m_.cnt.latency_n)
+            acq["tpdo_latency_s"] = {{"mean", m_.cnt.latency_sum_s / (double)m_.cnt.latency_n},
+                                     {"max", m_.cnt.latency_max_s}, {"count", m_.cnt.latency_n}};
         acq["kernel_drops"] = ls.kernel_drops;
         acq["restore_pdo"] = d_.restore_pdo != 0;
     }

@@ -9,13 +9,14 @@
  * transmission type 1 (every SYNC) on the predefined connection set's COB-IDs. Values are little endian on
  * the bus, physical = raw * scale + offset as for every transport.
  *
- * One tick (::msid_devio_exchange): the frames waiting on the socket are taken first (EMCY, heartbeat, and
- * TPDOs of an earlier SYNC, which are counted `late` and dropped); then the RPDO with the tick's values and
- * the SYNC are sent; the socket receives its own SYNC back (CAN_RAW_RECV_OWN_MSGS), so that every TPDO
- * behind it on the bus is an answer to this SYNC or a later one; the tick waits at most wait_ns for the
- * TPDO(s). A TPDO missing by then is a lost sample (counted; the exchange fails and the tick loop marks the
- * sample missing, never interpolated). The node's demand and actual values in the TPDO of SYNC k are the
- * ones it sampled on SYNC k, so input and output share the node's timebase.
+ * One tick (::msid_devio_exchange): the frames waiting on the socket are taken, in bus order; the socket
+ * receives msid's own SYNC back (CAN_RAW_RECV_OWN_MSGS), so the TPDOs behind the echo of the previous tick's
+ * SYNC are that SYNC's answers (those before it answer an older SYNC: counted `late`, dropped; EMCY and
+ * heartbeat are watched). They are the sample this exchange returns; then the RPDO with the tick's values and
+ * this tick's SYNC are sent. So the node has a whole tick to answer, and a tick's samples are returned one
+ * tick later: the demand (the FRF's input) and the actual values come from the same TPDOs of the same SYNC,
+ * so the shift moves input and output alike and the FRF does not see it. A TPDO missing by the next tick is a
+ * lost sample (counted; the exchange fails and the tick loop marks the sample missing, never interpolated).
  *
  * Ways out the backend itself sees: an EMCY other than an error reset, a heartbeat later than heartbeat_ms
  * (when the description sets it), a heartbeat or boot-up that shows the node out of operational. Each makes
@@ -48,6 +49,8 @@ typedef struct msid_co_map_counters {
     uint64_t emcy;           /**< EMCY frames (error resets included) */
     uint64_t heartbeats;     /**< heartbeat frames */
     uint64_t send_failures;  /**< RPDO or SYNC sends that failed */
+    double latency_sum_s, latency_max_s;   /**< TPDO after the SYNC's echo, kernel receive times (s) */
+    uint64_t latency_n;
 } msid_co_map_counters;
 
 /** The backend's state (caller-owned). */
@@ -61,12 +64,18 @@ typedef struct msid_co_map {
     uint8_t rpdo_off[MSID_DEV_MAX_DRIVE];        /**< byte offset of each drive channel in RPDO1 */
     uint8_t tpdo_of[MSID_DEV_MAX_MEASURE];       /**< 0: TPDO1, 1: TPDO2 */
     uint8_t tpdo_off[MSID_DEV_MAX_MEASURE];      /**< byte offset in its TPDO */
-    int64_t wait_ns;                  /**< how long a tick waits for its TPDO(s) after its SYNC */
     int send_timeout_ms;              /**< a full send queue is retried this long */
+    int64_t wait_ns;                  /**< how long an exchange waits for the previous SYNC's answers when they
+                                           are not all in yet (0: not at all) */
     int operational;                  /**< 1 while the node should be operational (heartbeat states watched) */
     msid_co_hb hb;                    /**< heartbeat consumer (time_ms 0: none) */
     msid_co_emcy last_emcy;           /**< the last EMCY with an error */
     double value[MSID_DEV_MAX_MEASURE];   /**< the last values read */
+    uint8_t buf[MSID_DEV_CO_TPDOS][8];    /**< the TPDOs of the last SYNC as they came */
+    uint32_t got;                     /**< bit k: TPDO k+1 of the last SYNC is in buf */
+    uint32_t echo_due;                /**< SYNCs sent whose echo has not been taken yet */
+    uint64_t syncs_sent;
+    uint64_t echo_ns;                 /**< kernel receive time of the last SYNC's echo (0: unknown) */
     msid_co_map_counters cnt;
     char fatal[240];                  /**< why the run must end ("" while it may go on) */
     char err[240];                    /**< detail of the last failure */
