@@ -93,9 +93,11 @@ static void check_heartbeat(msid_co_map *m, int64_t now)
                  (unsigned)m->node, (unsigned)m->hb.time_ms);
 }
 
-/* One frame of the queue, in bus order: the echo of msid's own SYNC opens the answers to it; a TPDO behind
- * the echo of the last SYNC sent is that SYNC's (a second one of the same PDO replaces the first, which was a
- * late answer to an older SYNC); a TPDO before it answers an older SYNC (late). */
+/* One frame of the queue, in bus order: the echo of msid's own SYNC opens the answers to it; a TPDO before
+ * it answers an older SYNC (late). Behind it, a TPDO answers that SYNC, unless the previous SYNC's answer of
+ * that PDO was still owed when it was sent: a node that answers in order then sends the late one first (it
+ * is dropped, and the sample whose answer it could be taken for is lost, never misplaced); a second one of
+ * the same PDO replaces the first. */
 static void take(msid_co_map *m, const msid_can_frame *f)
 {
     if (f->id == MSID_CO_COB_SYNC && !(f->id & MSID_CAN_ERR_FLAG)) {
@@ -108,11 +110,22 @@ static void take(msid_co_map *m, const msid_can_frame *f)
         watch(m, f, ms_of(msid_now_ns()));
         return;
     }
-    if (m->echo_due) { m->cnt.late++; return; }
+    const uint32_t bit = 1u << k;
+    if (m->echo_due) {   /* an older SYNC's: the owed answer came before this SYNC */
+        m->cnt.late++;
+        m->owed &= ~bit;
+        return;
+    }
+    if (m->owed & bit) {   /* the first behind the echo is the owed late answer */
+        m->cnt.late++;
+        m->owed &= ~bit;
+        m->owed_taken |= bit;
+        return;
+    }
     if (f->len != m->tpdo_len[k]) { m->cnt.bad_tpdos++; return; }
-    if (m->got & (1u << k)) m->cnt.late++;
+    if (m->got & bit) m->cnt.late++;
     memcpy(m->buf[k], f->data, f->len);
-    m->got |= 1u << k;
+    m->got |= bit;
     if (f->t_ns && m->echo_ns && f->t_ns >= m->echo_ns) {
         const double lat = 1e-9 * (double)(f->t_ns - m->echo_ns);
         m->cnt.latency_sum_s += lat;
@@ -179,6 +192,10 @@ static int tick(msid_co_map *m, const double *drive, double *measure, msid_devio
         for (uint32_t i = 0; i < d->n_measure; ++i)
             m->value[i] = msid_co_map_decode(&d->measure[i], m->buf[m->tpdo_of[i]] + m->tpdo_off[i]);
     const uint32_t missing = want & ~(m->echo_due ? 0u : m->got);
+    /* what the new SYNC's window owes first: an answer of the last SYNC not in yet (once: a window that took
+       an owed answer and got none of its own owes nothing, so a node that dropped a TPDO is followed again) */
+    m->owed = m->syncs_sent ? missing & ~m->owed_taken : 0;
+    m->owed_taken = 0;
     m->got = 0;
     msid_co_sync_frame(&sy, 0);
     t->w0 = msid_now_ns();

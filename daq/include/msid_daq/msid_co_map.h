@@ -16,7 +16,9 @@
  * this tick's SYNC are sent. So the node has a whole tick to answer, and a tick's samples are returned one
  * tick later: the demand (the FRF's input) and the actual values come from the same TPDOs of the same SYNC,
  * so the shift moves input and output alike and the FRF does not see it. A TPDO missing by the next tick is a
- * lost sample (counted; the exchange fails and the tick loop marks the sample missing, never interpolated).
+ * lost sample (counted; the exchange fails and the tick loop marks the sample missing, never interpolated);
+ * the first TPDO behind the next SYNC's echo is then taken for that late answer and dropped, so that a late
+ * answer is never placed as the next SYNC's sample (a node answers in order).
  *
  * Ways out the backend itself sees: an EMCY other than an error reset, a heartbeat later than heartbeat_ms
  * (when the description sets it), a heartbeat or boot-up that shows the node out of operational. Each makes
@@ -74,6 +76,9 @@ typedef struct msid_co_map {
     uint8_t buf[MSID_DEV_CO_TPDOS][8];    /**< the TPDOs of the last SYNC as they came */
     uint32_t got;                     /**< bit k: TPDO k+1 of the last SYNC is in buf */
     uint32_t echo_due;                /**< SYNCs sent whose echo has not been taken yet */
+    uint32_t owed;                    /**< bit k: the previous SYNC's TPDO k+1 was not in when this SYNC went out:
+                                           the first one behind this SYNC's echo is that late answer */
+    uint32_t owed_taken;              /**< bit k: this window took an owed answer */
     uint64_t syncs_sent;
     uint64_t echo_ns;                 /**< kernel receive time of the last SYNC's echo (0: unknown) */
     msid_co_map_counters cnt;

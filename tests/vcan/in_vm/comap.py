@@ -14,7 +14,7 @@ import maplib  # noqa: E402  (one measurement, the element p-values, the binomia
 
 EDS = Path(__file__).resolve().parent / "data" / "drive402.eds"
 NODE = 5
-RATE, P, LINES, BINS = 100, 64, "1:2:31", list(range(1, 32, 2))
+RATE, P, LINES, BINS = 50, 64, "1:2:31", list(range(1, 32, 2))
 
 PRESET = """format = "msid-device/1"
 transport = "canopen"
