@@ -151,10 +151,16 @@ typedef struct node {
     int answer;          /* TPDOs answered per SYNC (0, 1, 2) */
     int late_first;      /* put a TPDO1 before the next SYNC's echo */
     int emcy;            /* answer the next SYNC with an EMCY */
+    int count;           /* the demand is the SYNC's number (which SYNC a sample came from) */
+    int hold;            /* hold the next SYNC's answers until after the echo of the one after it */
+    int syncs;
+    msid_can_frame held[2];
+    int n_held;
 } node;
 
 static void push(node *s, uint32_t id, const uint8_t *data, uint8_t len)
 {
+    assert_true(s->n < 32);
     msid_can_frame *f = &s->q[s->n++];
     memset(f, 0, sizeof *f);
     f->id = id;
@@ -168,6 +174,7 @@ static int nd_recv(void *ctx, msid_can_frame *f, int n, int timeout_ms)
     (void)timeout_ms;
     int k = 0;
     while (k < n && s->at < s->n) f[k++] = s->q[s->at++];
+    if (s->at == s->n) s->at = s->n = 0;   /* all taken: the queue starts over */
     return k ? k : -MSID_DAQ_E_TIMEOUT;
 }
 
@@ -182,10 +189,21 @@ static int nd_send(void *ctx, const msid_can_frame *f, int timeout_ms)
         s->late_first = 0;
     }
     push(s, 0x080, NULL, 0);   /* the own SYNC back */
+    s->syncs++;
     if (s->emcy) push(s, 0x085, (const uint8_t[]){0x10, 0x23, 0x03, 0, 0, 0, 0, 0}, 8);
-    /* demand 100 per mille, torque 100, velocity -5000 counts; position 123456 */
-    if (s->answer >= 1) push(s, 0x185, (const uint8_t[]){100, 0, 100, 0, 0x78, 0xEC, 0xFF, 0xFF}, 8);
+    for (int i = 0; i < s->n_held; ++i) s->q[s->n++] = s->held[i];   /* the late answers, in order */
+    s->n_held = 0;
+    const int at = s->n;
+    /* demand 100 per mille (or the SYNC's number), torque 100, velocity -5000 counts; position 123456 */
+    const uint8_t dem = (uint8_t)(s->count ? s->syncs : 100);
+    if (s->answer >= 1) push(s, 0x185, (const uint8_t[]){dem, 0, 100, 0, 0x78, 0xEC, 0xFF, 0xFF}, 8);
     if (s->answer >= 2) push(s, 0x285, (const uint8_t[]){0x40, 0xE2, 0x01, 0x00}, 4);
+    if (s->hold) {   /* this SYNC's answers come after the next SYNC */
+        s->n_held = s->n - at;
+        memcpy(s->held, &s->q[at], sizeof(msid_can_frame) * (size_t)s->n_held);
+        s->n = at;
+        s->hold = 0;
+    }
     return 0;
 }
 
@@ -254,6 +272,19 @@ static void test_one_tick(void **state)
     assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_DEVICE);
     /* the safe values still go out after it */
     assert_int_equal(msid_devio_write(&m.io, &drive, &tm), 0);
+    /* a SYNC answered only after the next SYNC's echo (and that one's answers behind it): the late answers
+       are taken for what they are, the sample is lost, and the next sample is the next SYNC's own */
+    m.fatal[0] = 0;
+    s.count = 1;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    s.hold = 1;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);   /* sends SYNC h, its answers held */
+    const int h = s.syncs;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_TIMEOUT);   /* h's: not in */
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);   /* h's late, then h + 1's */
+    assert_true(fabs(y[0] - (h + 1) * 2e-3) < 1e-12);
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    assert_true(fabs(y[0] - (h + 2) * 2e-3) < 1e-12);
     /* a value the target's type cannot carry: refused before anything is sent */
     const int before = s.n_sent;
     m.fatal[0] = 0;
