@@ -97,10 +97,12 @@ public:
         }
         sdo_or_throw(msid_co402_set_mode(&sdo_, (msid_co402_mode)d_.co_mode, 1000), "setting the mode of operation");
         nmt(MSID_CO_NMT_START);
-        m_.operational = 1;
         msid_co402_state st;
         if (msid_co402_goto(&sdo_, 1, 0, 2000, &st))
             throw Error(fmt("%s: on the way to \"operation enabled\": %s", dev_.text.c_str(), sdo_.err));
+        // watched from here: a heartbeat the node sent before it took the NMT start came before the walk's
+        // SDO answers (a node answers in order), so it was seen while not yet watched
+        m_.operational = 1;
     }
 
     // The way out, once: safe target, quick stop and disable voltage, pre-operational, the mapping restored.

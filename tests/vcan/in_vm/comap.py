@@ -142,14 +142,14 @@ def plant_ab(ts=1e-3, jm=1e-4, jl=2e-4, k=50.0, dmp=2e-3, bm=1e-4, bl=1e-4):
     return e[:4, :4], e[:4, 4]
 
 
-def velocity_truth(rate=RATE):
+def velocity_truth(rate=RATE, bins=BINS):
     """The FRF msid must find from the torque demand to the velocity, both from the TPDO of one SYNC: the node's
     TPDO of SYNC k carries the demand tau[k-1] held over the period before it and omega[k] (docs/devices.md), so
     the pair is H(z) = z e2' (zI - A)^-1 B = e2' A (zI - A)^-1 B + e2' B (rad/s per N m)."""
     A, b = plant_ab(1.0 / rate)
     B = b.reshape(4, 1)
     e2 = np.array([[0.0, 1.0, 0.0, 0.0]])
-    return maplib.dt_frf(A, B, e2 @ A, e2 @ B, BINS, P)
+    return maplib.dt_frf(A, B, e2 @ A, e2 @ B, bins, P)
 
 
 def row_pvalues(doc, truth, output):
@@ -164,7 +164,7 @@ def row_pvalues(doc, truth, output):
         V = canlib.cplx(line["cov"])
         q = abs(G[i, 0] - g0[0, 0]) ** 2 / V[i, i].real   # a = j * ny + i with j = 0
         out.append(canlib.f_sf(q, 2, 2 * line["dof"]))
-    assert len(out) == len(BINS) and ny >= 1
+    assert len(out) == len(truth) == len(doc["lines"]) and ny >= 1
     return np.array(out)
 
 

@@ -6,7 +6,8 @@ and one SYNC per tick, the samples from the synchronous TPDOs of that SYNC) agai
 - safety: after a normal end and after SIGINT mid-run, the node itself (read by the canopen package, not by
   msid) is in "switch on disabled" or "quick stop active" with the safe target in 0x6071, and a python-can
   listener sees no SYNC after msid exits; with restore_pdo the node holds its mapping of before;
-- an EMCY from the node ends the run with the EMCY named, the node out of "operation enabled";
+- an EMCY from the node ends the run with the EMCY named, the node out of "operation enabled"; so does a lost
+  heartbeat (heartbeat_ms), the node left with the safe target;
 - bad input: an entry the node lacks, a read-only entry as a target, a mapping longer than 8 bytes, a node id
   out of range, a node that never answers: one message, a non-zero exit, the node not enabled.
 No check depends on the VM being fast: a TPDO a loaded VM delivers late is a lost sample, counted, and a run
@@ -83,6 +84,19 @@ def test_an_emcy_ends_the_run_and_is_named(tmp_path):
         assert syncs_within(0.3) == 0
         st = sim.state()
     assert state_name(st["statusword"]) != "operation enabled", st
+
+
+def test_a_lost_heartbeat_ends_the_run_and_is_named(tmp_path):
+    # the node's heartbeat watched with 300 ms (its 0x1017 set to 150 ms); it stops 6 s after its boot-up
+    desc = preset(tmp_path, top="heartbeat_ms = 300\n")
+    with Drive(tmp_path, "--heartbeat-stop-after", 6) as sim:
+        r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "o")], capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode != 0, r.stderr
+        assert "heartbeat was lost" in r.stderr, r.stderr
+        st = sim.state()
+    assert state_name(st["statusword"]) in OUT_OF_ENABLED, st
+    assert st["target_torque"] == 0, st
 
 
 PROGRESS = re.compile(r"^msid measure: (experiment |note: )")
