@@ -205,6 +205,7 @@ int main(int argc, char **argv)
     int co_on = 0;
     sim_mapdev_opts mo = {0, 0, 0, 0, 0};
     uint64_t late_every = 0, late_us = 0;
+    double co_noise = 0;   /* the CANopen node's velocity noise: none unless --noise-y says (the others' default is not its) */
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); fputs(USAGE_MAP, stdout); fputs(USAGE_CO, stdout); return 0; }
@@ -224,7 +225,7 @@ int main(int argc, char **argv)
         if (!strcmp(a, "--iface")) o->iface = v;
         else if (!strcmp(a, "--base")) o->base = (uint32_t)num_u(a, v);
         else if (!strcmp(a, "--plant")) plant = v;
-        else if (!strcmp(a, "--noise-y")) o->sigma_y = num_d(a, v, 0, 1e6);
+        else if (!strcmp(a, "--noise-y")) o->sigma_y = co_noise = num_d(a, v, 0, 1e6);
         else if (!strcmp(a, "--noise-u")) o->sigma_u = num_d(a, v, 0, 1e6);
         else if (!strcmp(a, "--noise-color")) o->color = num_d(a, v, 0, 0.999999);
         else if (!strcmp(a, "--seed")) o->seed = num_u(a, v);
@@ -288,7 +289,7 @@ int main(int argc, char **argv)
         if (co.node < 1 || co.node > 127) die("--canopen: the node id must be 1..127");
         co.f.clock_ppm = mo.ppm;
         co.f.drop_every = o->drop_every;
-        co.f.noise_vel = o->sigma_y;   /* --noise-y: on the velocity the node reports (rad/s) */
+        co.f.noise_vel = co_noise;   /* --noise-y: on the velocity the node reports (rad/s) */
         co.f.seed = o->seed;
         signal(SIGTERM, on_signal);
         signal(SIGINT, on_signal);
