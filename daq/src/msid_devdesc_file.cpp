@@ -337,6 +337,9 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             d.heartbeat_ms = get_uint(v, c, "heartbeat_ms", 0, 65535);
             continue;
         }
+        if (co && (key == "unit" || key == "fc23" || key == "clock" || key == "cycle_hz" || key == "dbc"))
+            c.fail(&v, "key '" + key + "' is not for transport = \"canopen\" (the node id is the URI's ?node=N; "
+                           "msid's SYNC is the node's clock)");
         if (key == "name") copy(d.name, sizeof d.name, get_string(v, c, "name"), c, &v, "name");
         else if (key == "unit") d.unit = get_uint(v, c, "unit", 0, 247);
         else if (key == "fade_periods") d.fade_periods = get_uint(v, c, "fade_periods", 0, 8);

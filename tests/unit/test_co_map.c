@@ -114,6 +114,9 @@ static void test_refusals(void **state)
     *strstr(t, "cst\"") = 'x';
     expect_refused(t, "preset = \"xst\"");
     expect_refused("format = \"msid-device/1\"\ntransport = \"modbus\"\npreset = \"cst\"\n", "preset goes with");
+    const char *rest = strstr(EXPLICIT, "[[drive]]");
+    snprintf(t, sizeof t, "%.*sdbc = \"x.dbc\"\n%s", (int)(rest - EXPLICIT), EXPLICIT, rest);
+    expect_refused(t, "key 'dbc' is not for transport = \"canopen\"");
     /* 5 x int32 = 20 bytes do not fit two TPDOs */
     char five[4096] = "format = \"msid-device/1\"\ntransport = \"canopen\"\nmode = \"csv\"\n"
                       "[[drive]]\nname = \"v\"\nobject = \"0x60FF:0\"\ntype = \"int32\"\nsafe = 0\n";
