@@ -103,7 +103,8 @@ static const char USAGE_CO[] =
     "  --heartbeat-stop-after S  send no heartbeat S seconds (node clock) after boot-up\n"
     "  --refuse-map IDX:SUB  refuse mapping IDX:SUB into a PDO (object cannot be mapped)\n"
     "  --clock-ppm X         the node's own clock (heartbeat, inhibit time, SDO timeout) against the host's\n"
-    "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n";
+    "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n"
+    "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it reports (0x606C)\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {
@@ -204,6 +205,7 @@ int main(int argc, char **argv)
     int co_on = 0;
     sim_mapdev_opts mo = {0, 0, 0, 0, 0};
     uint64_t late_every = 0, late_us = 0;
+    double co_noise = 0;   /* the CANopen node's velocity noise: none unless --noise-y says (the others' default is not its) */
     for (int i = 1; i < argc; ++i) {
         const char *a = argv[i];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(USAGE, stdout); fputs(USAGE_MAP, stdout); fputs(USAGE_CO, stdout); return 0; }
@@ -223,7 +225,7 @@ int main(int argc, char **argv)
         if (!strcmp(a, "--iface")) o->iface = v;
         else if (!strcmp(a, "--base")) o->base = (uint32_t)num_u(a, v);
         else if (!strcmp(a, "--plant")) plant = v;
-        else if (!strcmp(a, "--noise-y")) o->sigma_y = num_d(a, v, 0, 1e6);
+        else if (!strcmp(a, "--noise-y")) o->sigma_y = co_noise = num_d(a, v, 0, 1e6);
         else if (!strcmp(a, "--noise-u")) o->sigma_u = num_d(a, v, 0, 1e6);
         else if (!strcmp(a, "--noise-color")) o->color = num_d(a, v, 0, 0.999999);
         else if (!strcmp(a, "--seed")) o->seed = num_u(a, v);
@@ -287,6 +289,8 @@ int main(int argc, char **argv)
         if (co.node < 1 || co.node > 127) die("--canopen: the node id must be 1..127");
         co.f.clock_ppm = mo.ppm;
         co.f.drop_every = o->drop_every;
+        co.f.noise_vel = co_noise;   /* --noise-y: on the velocity the node reports (rad/s) */
+        co.f.seed = o->seed;
         signal(SIGTERM, on_signal);
         signal(SIGINT, on_signal);
         return sim_canopen_main(&dev, &co);
@@ -295,6 +299,7 @@ int main(int argc, char **argv)
         static msid_devdesc desc;
         char err[512];
         if (msid_devdesc_load(map, &desc, err, sizeof err) != 0) die(err);
+        if (desc.transport == MSID_DEV_CANOPEN) die("--map: a CANopen drive is served with --canopen N --iface IF");
         if (desc.transport == MSID_DEV_CAN && !o->iface) die("--map: a CAN description is served with --iface IF");
         if (desc.transport == MSID_DEV_MODBUS && !o->mb_tcp && !o->mb_rtu)
             die("--map needs --modbus-tcp HOST:PORT or --modbus-rtu DEVICE");

@@ -274,7 +274,8 @@ static void drive_step(sim_co_node *n)
     sim_twomass_step(&n->plant, tau);
     sim_co_od_set(&n->od, 0x6074, 0, (uint16_t)pm);
     sim_co_od_set(&n->od, 0x6077, 0, (uint16_t)pm);
-    sim_co_od_set(&n->od, 0x606C, 0, (uint32_t)sim_co402_vel_to_bus(n->plant.x[1]));
+    const double w_noise = n->f.noise_vel > 0 ? n->f.noise_vel * msid_rng_normal(&n->rng) : 0.0;
+    sim_co_od_set(&n->od, 0x606C, 0, (uint32_t)sim_co402_vel_to_bus(n->plant.x[1] + w_noise));
     sim_co_od_set(&n->od, 0x6064, 0, (uint32_t)sim_co402_pos_to_bus(n->plant.x[0]));
 }
 
@@ -390,6 +391,7 @@ int sim_co_node_init(sim_co_node *n, const msid_co_eds *eds, unsigned node, cons
     }
     n->id = (uint8_t)node;
     n->f = *f;
+    msid_rng_seed(&n->rng, f->seed);
     n->send = send;
     n->ctx = ctx;
     n->host0_ms = host_ms;

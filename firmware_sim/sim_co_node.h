@@ -21,6 +21,7 @@
 
 #include <stdint.h>
 
+#include "msid/msid_rng.h"
 #include "msid_daq/msid_can_transport.h"
 #include "sim_co402.h"
 #include "sim_co_od.h"
@@ -39,6 +40,9 @@ typedef struct sim_co_faults {
     uint8_t refuse_sub;
     double clock_ppm;         /**< the node's clock against the host's, ppm, |x| <= 1e4 */
     uint64_t drop_every;      /**< the k-th, 2k-th, ... TPDO due is not sent (0: none) */
+    double noise_vel;         /**< std of white Gaussian noise on the velocity the node reports (0x606C), rad/s;
+                                   the plant and the drive's loops see the true velocity (0: none) */
+    uint64_t seed;            /**< of that noise */
 } sim_co_faults;
 
 /** NMT states as the heartbeat shows them. */
@@ -61,6 +65,7 @@ typedef struct sim_co_node {
     void (*send)(void *ctx, const msid_can_frame *f);
     void *ctx;
     sim_co_faults f;
+    msid_rng rng;               /**< the velocity noise's (f.seed) */
     sim_co_counts cnt;
     uint64_t boot_ms;           /**< node time of the last boot-up */
     uint64_t next_hb_ms;        /**< node time of the next heartbeat (0: none due) */

@@ -26,6 +26,35 @@ void msid_devdesc_defaults(msid_devdesc *d)
     d->fade_periods = 1;
     d->clock = MSID_DEV_CLOCK_HOST;
     d->cycle_hz = NAN;
+    d->rated_torque = NAN;
+    d->velocity_scale = d->position_scale = 1.0;
+    memcpy(d->velocity_unit, "count/s", 8);
+    memcpy(d->position_unit, "count", 6);
+}
+
+uint32_t msid_dev_co_bytes(const msid_dev_chan *c)
+{
+    switch (c->type) {
+    case MSID_DEV_INT16: case MSID_DEV_UINT16: return 2;
+    case MSID_DEV_INT32: case MSID_DEV_UINT32: case MSID_DEV_FLOAT32: return 4;
+    default: return 0;
+    }
+}
+
+uint32_t msid_devdesc_co_pack(const msid_devdesc *d, uint8_t *tpdo_of)
+{
+    uint32_t k = 0, bytes = 0, n = 0;
+    for (uint32_t i = 0; i < d->n_measure; ++i) {
+        const uint32_t b = msid_dev_co_bytes(&d->measure[i]);
+        if (bytes + b > MSID_DEV_CO_PDO_BYTES || n >= 8u) {
+            if (++k >= MSID_DEV_CO_TPDOS) return 0;
+            bytes = n = 0;
+        }
+        bytes += b;
+        ++n;
+        if (tpdo_of) tpdo_of[i] = (uint8_t)k;
+    }
+    return d->n_measure ? k + 1 : 0;
 }
 
 uint32_t msid_dev_type_regs(uint32_t t)
@@ -217,6 +246,18 @@ static int check_drive(const msid_devdesc *d, const msid_dev_chan *c, char *err,
     if (!isnan(c->amplitude) && !(c->amplitude > 0 && isfinite(c->amplitude)))
         return fail(err, cap, "%s line %u: drive channel '%s': amplitude must be positive (got %g)", s, c->line,
                     c->name, c->amplitude);
+    if (d->transport == MSID_DEV_CANOPEN) {
+        if (!representable(c, c->safe))
+            return fail(err, cap, "%s line %u: drive channel '%s': the safe value %g does not fit %s with scale %g and "
+                        "offset %g (key safe)", s, c->line, c->name, c->safe, msid_dev_type_name(c->type), c->scale,
+                        c->offset);
+        if (!isnan(c->min) && !representable(c, c->min))
+            return fail(err, cap, "%s line %u: drive channel '%s': min %g does not fit %s with scale %g and offset %g "
+                        "(key min)", s, c->line, c->name, c->min, msid_dev_type_name(c->type), c->scale, c->offset);
+        if (!isnan(c->max) && !representable(c, c->max))
+            return fail(err, cap, "%s line %u: drive channel '%s': max %g does not fit %s with scale %g and offset %g "
+                        "(key max)", s, c->line, c->name, c->max, msid_dev_type_name(c->type), c->scale, c->offset);
+    }
     if (d->transport == MSID_DEV_MODBUS) {
         if (c->table != MSID_DEV_HOLDING)
             return fail(err, cap, "%s line %u: drive channel '%s' is in the input registers, which are read-only: a "
@@ -245,6 +286,13 @@ static int check_address(const msid_devdesc *d, const msid_dev_chan *c, char *er
         if (c->addr + n > 65536u)
             return fail(err, cap, "%s line %u: channel '%s': register %u + %u is beyond 65535", s, c->line, c->name,
                         c->addr, n);
+    } else if (d->transport == MSID_DEV_CANOPEN) {
+        if (!c->co_index)
+            return fail(err, cap, "%s line %u: channel '%s' needs object = \"0xINDEX:SUB\" (a CANopen channel is an "
+                        "object dictionary entry)", s, c->line, c->name);
+        if (!msid_dev_co_bytes(c))
+            return fail(err, cap, "%s line %u: channel '%s': type must be int16, uint16, int32, uint32 or float32 (key "
+                        "type: what a PDO carries of object 0x%04X:%02X)", s, c->line, c->name, c->co_index, c->co_sub);
     } else if (!c->message[0] || !c->signal[0]) {
         return fail(err, cap, "%s line %u: channel '%s' needs message and signal (a CAN channel is a DBC signal)", s,
                     c->line, c->name);
@@ -266,8 +314,8 @@ static int overlap(const msid_dev_chan *a, const msid_dev_chan *b)
 int msid_devdesc_check(const msid_devdesc *d, char *err, size_t cap)
 {
     const char *s = d->source;
-    if (d->transport != MSID_DEV_MODBUS && d->transport != MSID_DEV_CAN)
-        return fail(err, cap, "%s: transport must be \"modbus\" or \"can\"", s);
+    if (d->transport != MSID_DEV_MODBUS && d->transport != MSID_DEV_CAN && d->transport != MSID_DEV_CANOPEN)
+        return fail(err, cap, "%s: transport must be \"modbus\", \"can\" or \"canopen\"", s);
     if (d->n_drive == 0) return fail(err, cap, "%s: no [[drive]] channel: msid needs one to excite the device", s);
     if (d->n_drive > MSID_DEV_MAX_DRIVE || d->n_measure > MSID_DEV_MAX_MEASURE)
         return fail(err, cap, "%s: at most %u drive and %u measure channels", s, MSID_DEV_MAX_DRIVE,
@@ -325,6 +373,30 @@ int msid_devdesc_check(const msid_devdesc *d, char *err, size_t cap)
     }
     if (msid_devdesc_count(d, MSID_DEV_ROLE_COUNTER) > 1)
         return fail(err, cap, "%s: more than one channel with role = \"counter\"", s);
+    if (d->transport == MSID_DEV_CANOPEN) {
+        if (d->co_mode != 8 && d->co_mode != 9 && d->co_mode != 10)
+            return fail(err, cap, "%s: a CANopen drive runs in a cyclic synchronous mode: give preset = \"cst\", "
+                        "\"csv\" or \"csp\", or mode = ... with explicit channels (key mode)", s);
+        uint32_t bytes = 0;
+        for (uint32_t i = 0; i < d->n_drive; ++i) bytes += msid_dev_co_bytes(&d->drive[i]);
+        if (bytes > MSID_DEV_CO_PDO_BYTES)
+            return fail(err, cap, "%s: the drive channels map %u bytes (key object of each [[drive]]): the one RPDO "
+                        "msid writes each SYNC carries at most %u", s, bytes, MSID_DEV_CO_PDO_BYTES);
+        if (!msid_devdesc_co_pack(d, NULL)) {
+            bytes = 0;
+            for (uint32_t i = 0; i < d->n_measure; ++i) bytes += msid_dev_co_bytes(&d->measure[i]);
+            return fail(err, cap, "%s: the measure channels map %u bytes in %u objects (key object of each "
+                        "[[measure]]): msid maps them into two TPDOs of at most %u bytes and 8 objects each, packed "
+                        "in order", s, bytes, d->n_measure, MSID_DEV_CO_PDO_BYTES);
+        }
+        if (d->clock == MSID_DEV_CLOCK_DEVICE)
+            return fail(err, cap, "%s: clock = \"device\" is not for CANopen: msid's SYNC is the node's clock", s);
+        if (!isnan(d->rated_torque) && !(d->rated_torque > 0 && isfinite(d->rated_torque)))
+            return fail(err, cap, "%s: rated_torque must be positive (N m)", s);
+        if (!(d->velocity_scale != 0 && isfinite(d->velocity_scale)) ||
+            !(d->position_scale != 0 && isfinite(d->position_scale)))
+            return fail(err, cap, "%s: velocity_scale and position_scale must be finite and non-zero", s);
+    }
     if (d->clock == MSID_DEV_CLOCK_DEVICE && msid_devdesc_count(d, MSID_DEV_ROLE_COUNTER) == 0)
         return fail(err, cap, "%s: clock = \"device\" needs a channel with role = \"counter\" (the device's cycle "
                     "counter paces the ticks)", s);

@@ -11,6 +11,7 @@ extern "C" {
 
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -128,8 +129,26 @@ uint32_t parse_role(const toml::node &n, const Ctx &c)
     c.fail(&n, "role = \"" + s + "\": must be input, output, reference or counter");
 }
 
+// "0x6071:00": a CANopen object dictionary entry, index and subindex in hex.
+void parse_object(const toml::node &n, const Ctx &c, msid_dev_chan &ch)
+{
+    const std::string s = get_string(n, c, "object");
+    const size_t colon = s.find(':');
+    const std::string a = s.substr(0, colon), b = colon == std::string::npos ? "" : s.substr(colon + 1);
+    char *ea = nullptr, *eb = nullptr;
+    const unsigned long index = a.empty() ? 0 : std::strtoul(a.c_str(), &ea, 16);
+    const unsigned long sub = b.empty() ? 0 : std::strtoul(b.c_str(), &eb, 16);
+    if (a.empty() || b.empty() || *ea || *eb || a[0] == '-' || b[0] == '-' || index == 0 || index > 0xFFFF || sub > 0xFF)
+        c.fail(&n, "object = \"" + s + "\": write INDEX:SUB in hex, e.g. \"0x6071:00\" (index 0x0001..0xFFFF, "
+                   "subindex 0x00..0xFF)");
+    ch.co_index = (uint16_t)index;
+    ch.co_sub = (uint8_t)sub;
+}
+
 // One [[drive]] or [[measure]] table. reads_back names a drive channel: resolved after every table is read.
-void parse_channel(const toml::table &t, const Ctx &c, bool drive, msid_dev_chan &ch, std::string &reads_back)
+// named: a table without a name is refused (a preset's drive table may leave it to the preset).
+void parse_channel(const toml::table &t, const Ctx &c, bool drive, msid_dev_chan &ch, std::string &reads_back,
+                   bool named = true)
 {
     msid_dev_chan_defaults(&ch);
     ch.line = line_of(t);
@@ -145,6 +164,7 @@ void parse_channel(const toml::table &t, const Ctx &c, bool drive, msid_dev_chan
         else if (key == "word_order") ch.word_order = parse_word_order(v, c);
         else if (key == "message") copy(ch.message, sizeof ch.message, get_string(v, c, "message"), c, &v, "message");
         else if (key == "signal") copy(ch.signal, sizeof ch.signal, get_string(v, c, "signal"), c, &v, "signal");
+        else if (key == "object") parse_object(v, c, ch);
         else if (drive && key == "min") ch.min = get_number(v, c, "min");
         else if (drive && key == "max") ch.max = get_number(v, c, "max");
         else if (drive && key == "max_step") ch.max_step = get_number(v, c, "max_step");
@@ -156,15 +176,97 @@ void parse_channel(const toml::table &t, const Ctx &c, bool drive, msid_dev_chan
         else
             c.fail(&v, "unknown key '" + key + "' in a [[" + (drive ? "drive" : "measure") + "]] table (keys: " +
                            (drive ? known({"name", "unit", "register", "type", "word_order", "scale", "offset",
-                                           "message", "signal", "min", "max", "max_step", "safe", "operating_point",
-                                           "amplitude"})
+                                           "message", "signal", "object", "min", "max", "max_step", "safe",
+                                           "operating_point", "amplitude"})
                                   : known({"name", "unit", "role", "register", "type", "word_order", "scale",
-                                           "offset", "message", "signal", "reads_back"})) +
+                                           "offset", "message", "signal", "object", "reads_back"})) +
                            ")");
     }
-    if (!ch.name[0]) c.fail(&t, std::string("a [[") + (drive ? "drive" : "measure") + "]] table without a name");
+    if (!ch.name[0] && named)
+        c.fail(&t, std::string("a [[") + (drive ? "drive" : "measure") + "]] table without a name");
     if (!drive && !ch.role) c.fail(&t, "measure channel '" + std::string(ch.name) + "' has no role");
     if (!has_type && (ch.table || ch.addr)) c.fail(&t, "channel '" + std::string(ch.name) + "' has a register but no type");
+}
+
+// A CiA 402 preset: the mode it runs and the objects it maps (docs/devices.md, CANopen drives).
+struct PresetChan {
+    const char *name;
+    uint16_t index;
+    uint32_t type, quantity, role;
+};
+struct Preset {
+    const char *key;
+    uint32_t mode;
+    PresetChan drive;
+};
+const Preset PRESETS[] = {
+    {"cst", 10, {"Target torque", 0x6071, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, 0}},
+    {"csv", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}},
+    {"csp", 8, {"Target position", 0x607A, MSID_DEV_INT32, MSID_DEV_CO_POSITION, 0}},
+};
+// What every preset reads each SYNC: the demand the drive applied (the FRF's input) and the actual values,
+// packed as TPDO1 (8 bytes: 0x6074, 0x6077, 0x606C) and TPDO2 (0x6064).
+const PresetChan PRESET_MEASURE[] = {
+    {"Torque demand", 0x6074, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_INPUT},
+    {"Torque actual", 0x6077, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_OUTPUT},
+    {"Velocity actual", 0x606C, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, MSID_DEV_ROLE_OUTPUT},
+    {"Position actual", 0x6064, MSID_DEV_INT32, MSID_DEV_CO_POSITION, MSID_DEV_ROLE_OUTPUT},
+};
+
+void fill_preset_chan(msid_dev_chan &ch, const PresetChan &p)
+{
+    if (!ch.name[0]) std::snprintf(ch.name, sizeof ch.name, "%s", p.name);
+    ch.co_index = p.index;
+    ch.co_sub = 0;
+    ch.type = p.type;
+    ch.co_quantity = (uint8_t)p.quantity;
+    if (p.role) ch.role = p.role;
+}
+
+// The preset's channels: the description's one [[drive]] table gives the target's limits, its measure channels
+// come first and the description's own [[measure]] tables after them.
+void apply_preset(const Preset &p, const Ctx &c, msid_devdesc &d, const toml::node *at)
+{
+    if (d.n_drive != 1)
+        c.fail(at, std::string("preset = \"") + p.key + "\" takes one [[drive]] table: the limits of " + p.drive.name +
+                       " (safe, min, max, max_step, amplitude, operating_point); got " + std::to_string(d.n_drive));
+    msid_dev_chan &dr = d.drive[0];
+    if (dr.co_index || dr.type || dr.scale != 1.0 || dr.offset != 0.0)
+        c.fail(at, std::string("preset = \"") + p.key + "\": the [[drive]] table (line " + std::to_string(dr.line) +
+                       ") gives the limits only; object, type, scale and offset are the preset's (" + p.drive.name +
+                       ", 0x" + [&] { char b[8]; std::snprintf(b, sizeof b, "%04X", p.drive.index); return std::string(b); }() +
+                       ":00); leave out preset to map the objects yourself");
+    fill_preset_chan(dr, p.drive);
+    const uint32_t n_own = d.n_measure, n_pre = sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
+    if (n_own + n_pre > MSID_DEV_MAX_MEASURE) c.fail(at, "too many [[measure]] channels beside the preset's");
+    for (uint32_t i = n_own; i-- > 0;) d.measure[i + n_pre] = d.measure[i];
+    for (uint32_t i = 0; i < n_pre; ++i) {
+        msid_dev_chan &m = d.measure[i];
+        msid_dev_chan_defaults(&m);
+        m.line = dr.line;
+        fill_preset_chan(m, PRESET_MEASURE[i]);
+    }
+    d.n_measure = n_own + n_pre;
+    d.co_preset = d.co_mode = p.mode;
+}
+
+// The scale and unit of the channels whose raw value counts a quantity of CiA 402.
+void resolve_quantities(msid_devdesc &d)
+{
+    for (uint32_t i = 0; i < d.n_drive + d.n_measure; ++i) {
+        msid_dev_chan &ch = i < d.n_drive ? d.drive[i] : d.measure[i - d.n_drive];
+        const char *unit = nullptr;
+        switch (ch.co_quantity) {
+        case MSID_DEV_CO_TORQUE:
+            ch.scale = (std::isnan(d.rated_torque) ? 1.0 : d.rated_torque) * 1e-3;   // again by the link from 0x6076
+            unit = "N m";
+            break;
+        case MSID_DEV_CO_VELOCITY: ch.scale = d.velocity_scale; unit = d.velocity_unit; break;
+        case MSID_DEV_CO_POSITION: ch.scale = d.position_scale; unit = d.position_unit; break;
+        default: continue;
+        }
+        if (!ch.unit[0]) std::snprintf(ch.unit, sizeof ch.unit, "%s", unit);
+    }
 }
 
 // The folder of the description, for a relative DBC path.
@@ -181,15 +283,63 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
     if (get_string(*fmt, c, "format") != "msid-device/1")
         c.fail(fmt, "format = \"" + get_string(*fmt, c, "format") + "\": msid reads msid-device/1");
     const toml::node *tr = root.get("transport");
-    if (!tr) c.fail(nullptr, "no transport key (\"modbus\" or \"can\")");
+    if (!tr) c.fail(nullptr, "no transport key (\"modbus\", \"can\" or \"canopen\")");
     const std::string t = get_string(*tr, c, "transport");
     if (t == "modbus") d.transport = MSID_DEV_MODBUS;
     else if (t == "can") d.transport = MSID_DEV_CAN;
-    else c.fail(tr, "transport = \"" + t + "\": must be \"modbus\" or \"can\"");
+    else if (t == "canopen") d.transport = MSID_DEV_CANOPEN;
+    else c.fail(tr, "transport = \"" + t + "\": must be \"modbus\", \"can\" or \"canopen\"");
+    const bool co = d.transport == MSID_DEV_CANOPEN;
+    const toml::node *preset_at = root.get("preset");
+    const Preset *preset = nullptr;
+    if (preset_at) {
+        if (!co) c.fail(preset_at, "preset goes with transport = \"canopen\" (a CiA 402 drive)");
+        const std::string ps = get_string(*preset_at, c, "preset");
+        for (const Preset &p : PRESETS)
+            if (ps == p.key) preset = &p;
+        if (!preset) c.fail(preset_at, "preset = \"" + ps + "\": must be \"cst\", \"csv\" or \"csp\"");
+    }
     std::string drive_refs[MSID_DEV_MAX_MEASURE];
     for (const auto &[k, v] : root) {
         const std::string key(k.str());
-        if (key == "format" || key == "transport") continue;
+        if (key == "format" || key == "transport" || key == "preset") continue;
+        // the CANopen keys
+        if (co && key == "mode") {
+            const std::string m = get_string(v, c, "mode");
+            d.co_mode = m == "cst" ? 10 : m == "csv" ? 9 : m == "csp" ? 8 : 0;
+            if (!d.co_mode) c.fail(&v, "mode = \"" + m + "\": must be \"cst\", \"csv\" or \"csp\"");
+            if (preset && preset->mode != d.co_mode)
+                c.fail(&v, "mode = \"" + m + "\" contradicts preset = \"" + preset->key + "\" (the preset sets the mode)");
+            continue;
+        }
+        if (co && key == "rated_torque") {
+            d.rated_torque = get_number(v, c, "rated_torque");
+            if (!(d.rated_torque > 0)) c.fail(&v, "rated_torque must be positive (N m)");
+            continue;
+        }
+        if (co && (key == "velocity_scale" || key == "position_scale")) {
+            const double x = get_number(v, c, key.c_str());
+            if (x == 0) c.fail(&v, key + " must be non-zero (physical units per count)");
+            (key[0] == 'v' ? d.velocity_scale : d.position_scale) = x;
+            continue;
+        }
+        if (co && (key == "velocity_unit" || key == "position_unit")) {
+            char *dst = key[0] == 'v' ? d.velocity_unit : d.position_unit;
+            copy(dst, MSID_DEV_UNIT_CAP, get_string(v, c, key.c_str()), c, &v, key.c_str());
+            continue;
+        }
+        if (co && key == "restore_pdo") {
+            if (!v.is_boolean()) c.fail(&v, "restore_pdo must be true or false");
+            d.restore_pdo = *v.value<bool>() ? 1 : 0;
+            continue;
+        }
+        if (co && key == "heartbeat_ms") {
+            d.heartbeat_ms = get_uint(v, c, "heartbeat_ms", 0, 65535);
+            continue;
+        }
+        if (co && (key == "unit" || key == "fc23" || key == "clock" || key == "cycle_hz" || key == "dbc"))
+            c.fail(&v, "key '" + key + "' is not for transport = \"canopen\" (the node id is the URI's ?node=N; "
+                           "msid's SYNC is the node's clock)");
         if (key == "name") copy(d.name, sizeof d.name, get_string(v, c, "name"), c, &v, "name");
         else if (key == "unit") d.unit = get_uint(v, c, "unit", 0, 247);
         else if (key == "fade_periods") d.fade_periods = get_uint(v, c, "fade_periods", 0, 8);
@@ -219,17 +369,28 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
                     c.fail(&e, "more than " + std::to_string(drive ? MSID_DEV_MAX_DRIVE : MSID_DEV_MAX_MEASURE) +
                                    " [[" + key + "]] channels");
                 std::string ref;
-                parse_channel(*e.as_table(), c, drive, drive ? d.drive[n] : d.measure[n], ref);
+                parse_channel(*e.as_table(), c, drive, drive ? d.drive[n] : d.measure[n], ref, !(drive && preset));
                 if (!drive) drive_refs[n] = ref;
                 ++n;
             }
         } else {
             c.fail(&v, "unknown key '" + key + "' (keys: " +
-                           known({"format", "transport", "name", "unit", "fc23", "fade_periods", "clock", "cycle_hz",
-                                  "dbc", "[[drive]]", "[[measure]]"}) +
+                           (co ? known({"format", "transport", "name", "preset", "mode", "rated_torque",
+                                        "velocity_scale", "velocity_unit", "position_scale", "position_unit",
+                                        "restore_pdo", "heartbeat_ms", "fade_periods", "[[drive]]", "[[measure]]"})
+                               : known({"format", "transport", "name", "unit", "fc23", "fade_periods", "clock",
+                                        "cycle_hz", "dbc", "[[drive]]", "[[measure]]"})) +
                            ")");
         }
     }
+    if (preset) {
+        apply_preset(*preset, c, d, preset_at);
+        // the description's own measure channels moved behind the preset's, and their reads_back with them
+        const uint32_t n_pre = sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
+        for (uint32_t i = d.n_measure; i-- > n_pre;) drive_refs[i] = drive_refs[i - n_pre];
+        for (uint32_t i = 0; i < n_pre; ++i) drive_refs[i].clear();
+    }
+    if (co) resolve_quantities(d);
     for (uint32_t i = 0; i < d.n_measure; ++i) {
         if (drive_refs[i].empty()) continue;
         msid_dev_chan &m = d.measure[i];

@@ -23,7 +23,7 @@ BAD = [
     ('register = "holding:100"', 'register = "40101"', "holding:100"),
     ('safe = 0.0', '', "no safe value"),
     ('role = "output"', 'role = "outptu"', 'role = "outptu"'),
-    ('transport = "modbus"', 'transport = "profibus"', 'must be "modbus" or "can"'),
+    ('transport = "modbus"', 'transport = "profibus"', 'must be "modbus", "can" or "canopen"'),
 ]
 
 

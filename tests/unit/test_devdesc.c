@@ -199,7 +199,7 @@ static void test_refusals(void **state)
     expect_refused("max = 2.0", "max = 2.0 2", "dev.toml line 12");   /* a TOML syntax error names its line */
     expect_refused("role = \"input\"", "role = \"input\"\nreads_back = \"Torque cmd\"", "names no drive channel");
     expect_refused("scale = 0.001", "scale = 0", "scale must be finite and non-zero");
-    expect_refused("transport = \"modbus\"", "transport = \"profibus\"", "must be \"modbus\" or \"can\"");
+    expect_refused("transport = \"modbus\"", "transport = \"profibus\"", "must be \"modbus\", \"can\" or \"canopen\"");
 }
 
 static void test_missing_file(void **state)

@@ -1,5 +1,6 @@
 // Device URIs (msid_device_uri.hpp).
 #include "msid_device_uri.hpp"
+#include "msid_canopen.hpp"
 #include "msid_host_util.hpp"
 
 #include <cerrno>
@@ -17,6 +18,7 @@ std::string DeviceUri::name() const
     case MODBUS_TCP: return "tcp:" + (host.find(':') != std::string::npos ? "[" + host + "]" : host) + ":" +
                             std::to_string(port);
     case MODBUS_RTU: return "rtu:" + device;
+    case CANOPEN: return "canopen:" + iface + ":" + std::to_string(node);
     default: return "can:" + iface;
     }
 }
@@ -45,12 +47,21 @@ DeviceUri parse_device_uri(const std::string &uri)
     std::string rest = uri.substr(sep + 3), query;
     const size_t q = rest.find('?');
     if (q != std::string::npos) { query = rest.substr(q + 1); rest = rest.substr(0, q); }
+    if (scheme == "canopen") {
+        // its own parser (node 1..127, timeout), shared with msid device check|sdo|pdo
+        const CanopenUri co = parse_canopen_uri(uri);
+        d.kind = DeviceUri::CANOPEN;
+        d.iface = co.iface;
+        d.node = co.node;
+        d.co_timeout_ms = co.timeout_ms;
+        return d;
+    }
     if (scheme == "modbus-tcp") d.kind = DeviceUri::MODBUS_TCP;
     else if (scheme == "modbus-rtu") d.kind = DeviceUri::MODBUS_RTU;
     else if (scheme == "can") d.kind = DeviceUri::CAN;
     else
         throw UsageError("device URI '" + uri + "': unknown scheme '" + scheme +
-                         "' (modbus-tcp, modbus-rtu or can)");
+                         "' (modbus-tcp, modbus-rtu, can or canopen)");
 
     if (d.kind == DeviceUri::MODBUS_TCP) {
         std::string port;

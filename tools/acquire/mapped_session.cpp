@@ -80,8 +80,14 @@ void check_transport(const DeviceUri &dev, const msid_devdesc &d)
 {
     if (d.transport == MSID_DEV_MODBUS && !dev.is_modbus())
         throw UsageError(fmt("%s describes a Modbus device, but the device URI is %s", d.source, dev.text.c_str()));
-    if (d.transport == MSID_DEV_CAN && dev.is_modbus())
+    if (d.transport == MSID_DEV_CAN && dev.kind != DeviceUri::CAN)
         throw UsageError(fmt("%s describes a CAN device, but the device URI is %s", d.source, dev.text.c_str()));
+    if (d.transport == MSID_DEV_CANOPEN && dev.kind != DeviceUri::CANOPEN)
+        throw UsageError(fmt("%s describes a CANopen drive, but the device URI is %s: use canopen://IFACE?node=N",
+                             d.source, dev.text.c_str()));
+    if (d.transport != MSID_DEV_CANOPEN && dev.kind == DeviceUri::CANOPEN)
+        throw UsageError(fmt("%s does not describe a CANopen drive (transport = \"canopen\"), but the device URI is %s",
+                             d.source, dev.text.c_str()));
 }
 
 // The drive channels as the runner sees them: the operating point, the gain that gives the amplitude, limits.
@@ -148,13 +154,15 @@ Probe probe_round_trip(msid_devio &io, const msid_devdesc &d, uint32_t n, bool w
 // The ticks of the shared loop: msid_hx_run per experiment; tick() every ~20 ms of ticks.
 struct HxRunner : ExperimentRunner {
     msid_hx &h;
+    const MappedLink &link;
     const std::function<bool()> *tick = nullptr;
     uint32_t every = 1, count = 0;
-    explicit HxRunner(msid_hx &h_, double rate) : h(h_), every(std::max(1u, (uint32_t)(rate / 50))) {}
+    HxRunner(msid_hx &h_, const MappedLink &l, double rate) : h(h_), link(l), every(std::max(1u, (uint32_t)(rate / 50))) {}
     static int on_tick(void *u)
     {
         auto *r = static_cast<HxRunner *>(u);
         if (++r->count % r->every) return 0;
+        if (!r->link.fatal().empty()) return 1;
         return (*r->tick)() ? 1 : 0;
     }
     bool run(uint32_t e, uint32_t, const std::function<bool()> &t) override
@@ -163,6 +171,10 @@ struct HxRunner : ExperimentRunner {
         h.cfg.on_tick = on_tick;
         h.cfg.user = this;
         const int rc = msid_hx_run(&h, e);
+        const std::string why = link.fatal();
+        if (!why.empty())
+            throw Error(fmt("experiment %u: %s: the run ended (safe target, quick stop, disable voltage)", e + 1,
+                            why.c_str()), 1, msidutil::ErrorKind::io);
         if (rc == -MSID_DAQ_E_STOPPED) return false;
         if (rc < 0) {
             if (msid_daq_core_status(rc) != MSID_OK) msidutil::check(msid_daq_core_status(rc), "measurement");
@@ -287,7 +299,10 @@ Json channels_json(const msid_devdesc &d)
             static const char *const roles[] = {"", "input", "output", "reference", "counter"};
             j["role"] = roles[c.role];
         }
-        if (d.transport == MSID_DEV_MODBUS) {
+        if (d.transport == MSID_DEV_CANOPEN) {
+            j["object"] = fmt("0x%04X:%02X", (unsigned)c.co_index, (unsigned)c.co_sub);
+            j["type"] = msid_dev_type_name(c.type);
+        } else if (d.transport == MSID_DEV_MODBUS) {
             j["register"] = fmt("%s:%u", c.table == MSID_DEV_HOLDING ? "holding" : "input", c.addr);
             j["type"] = msid_dev_type_name(c.type);
             j["word_order"] = msid_mb_word_order_name(c.word_order);
@@ -336,7 +351,9 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     // 1. the link
     std::unique_ptr<MappedLink> link;
     if (desc.transport == MSID_DEV_CAN) link = open_can_mapped(dev, desc);
+    else if (desc.transport == MSID_DEV_CANOPEN) link = open_canopen_mapped(dev, desc, o.rate_hz);
     else link = std::make_unique<ModbusMapped>(dev, desc);
+    const msid_devdesc &rdesc = link->resolved() ? *link->resolved() : desc;
     msid_devio &io = link->io();
     const std::string lname = link->name();
 
@@ -422,7 +439,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     notes.insert(notes.end(), early_notes.begin(), early_notes.end());
 
     // 5. every experiment through the shared loop; the safe values at the end (ramped) or on any way out
-    HxRunner runner(h, o.rate_hz);
+    HxRunner runner(h, *link, o.rate_hz);
     // a run that ends without an FRF (too few usable periods) says what lost its samples: no file will hold it
     const auto with_losses = [&](auto &&step) {
         try {
@@ -436,6 +453,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     const int frc = msid_hx_finish(&h);
     guard.done = true;
     if (frc < 0) notes.push_back(std::string("at the end: ") + h.err);
+    link->close(notes);
 
     // 6. the FRF of what was measured, what it rests on, and the timing
     if (h.cnt.missed)
@@ -476,7 +494,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     acq["description"] = o.desc_path.empty() ? std::string(desc.source) : o.desc_path;
     if (desc.name[0]) acq["device_name"] = desc.name;
     acq["input"] = cp.read_back ? "read back" : "commanded";
-    acq["channels"] = channels_json(desc);
+    acq["channels"] = channels_json(rdesc);
     acq["fade_periods"] = desc.fade_periods;
     acq["probe_round_trip_s"] = {{"median", pr.median}, {"p90", pr.p90}, {"max", pr.max}, {"count", pr.n}};
     acq["samples"] = h.cnt.samples;
@@ -494,6 +512,9 @@ CheckResult check_device(const DeviceUri &dev, const msid_devdesc &desc)
 {
     check_transport(dev, desc);
     if (desc.transport == MSID_DEV_CAN) return check_can_device(dev, desc);
+    if (desc.transport == MSID_DEV_CANOPEN)
+        throw UsageError(fmt("%s: check a CANopen node with msid device check --device %s (and --eds FILE): it reads "
+                             "the node's identity and PDO mapping without a description", desc.source, dev.text.c_str()));
     CheckResult r;
     ModbusLink l = mapped_link(dev, desc);
     MbLink L;

@@ -2,6 +2,7 @@
 //   modbus-tcp://HOST[:PORT][?unit=N]                      Modbus TCP, port 502 by default
 //   modbus-rtu:///dev/ttyX[?baud=N&parity=N|E|O&unit=N&data-bits=7|8&stop-bits=1|2]   Modbus RTU
 //   can://IFACE[?fd=0|1&base=ID]                           SocketCAN (msid-can/1)
+//   canopen://IFACE?node=N[&timeout=MS]                    a CANopen node (msid_canopen.hpp), with --map only
 #pragma once
 #include <cstdint>
 #include <string>
@@ -9,7 +10,7 @@
 namespace msidacq {
 
 struct DeviceUri {
-    enum Kind { MODBUS_TCP, MODBUS_RTU, CAN } kind = MODBUS_TCP;
+    enum Kind { MODBUS_TCP, MODBUS_RTU, CAN, CANOPEN } kind = MODBUS_TCP;
     std::string text;          // as given
     std::string host;          // TCP: address (IPv6 without brackets)
     uint32_t port = 502;       // TCP
@@ -21,7 +22,9 @@ struct DeviceUri {
     std::string iface;         // CAN interface
     bool fd = false;           // CAN FD sample frames
     uint32_t base = 0x200;     // CAN base identifier
-    bool is_modbus() const { return kind != CAN; }
+    uint32_t node = 0;         // CANopen node id, 1..127
+    int co_timeout_ms = 500;   // CANopen: each SDO response awaited this long
+    bool is_modbus() const { return kind == MODBUS_TCP || kind == MODBUS_RTU; }
     // "tcp:HOST:PORT", "rtu:/dev/ttyX", "can:IFACE": the short name used in messages and sources
     std::string name() const;
 };

@@ -50,6 +50,9 @@ void check_input_resolution(const MeasurePlan &P, bool integer)
 
 MeasureResult measure_device(const DeviceUri &dev, const PlanFn &plan, Control &ctl)
 {
+    if (dev.kind == DeviceUri::CANOPEN)
+        throw UsageError("a CANopen node (" + dev.text + ") runs no msid firmware: describe it and give --map "
+                         "DEVICE.toml --rate HZ (docs/devices.md, CANopen drives)");
     return dev.kind == DeviceUri::CAN ? measure_can(can_link_from_uri(dev), plan, ctl)
                                       : measure_modbus(modbus_link_from_uri(dev), plan, ctl);
 }

@@ -36,7 +36,20 @@ extern "C" {
 #define MSID_DEV_PATH_CAP 512u     /**< bytes of a path, with the NUL */
 
 /** Transports. */
-typedef enum msid_dev_transport { MSID_DEV_MODBUS = 1, MSID_DEV_CAN = 2 } msid_dev_transport;
+typedef enum msid_dev_transport { MSID_DEV_MODBUS = 1, MSID_DEV_CAN = 2, MSID_DEV_CANOPEN = 3 } msid_dev_transport;
+
+/** What a CANopen channel's raw value counts (its scale is resolved by the link where it depends on the node). */
+typedef enum msid_dev_co_quantity {
+    MSID_DEV_CO_RAW = 0,       /**< the description's scale and offset, as written */
+    MSID_DEV_CO_TORQUE = 1,    /**< per mille of the rated torque: scale = rated torque (N m) / 1000, from the
+                                    description's rated_torque or the node's 0x6076 (mN m) */
+    MSID_DEV_CO_VELOCITY = 2,  /**< the description's velocity_scale */
+    MSID_DEV_CO_POSITION = 3   /**< the description's position_scale */
+} msid_dev_co_quantity;
+
+/** Bytes one RPDO or TPDO carries (classic CAN), and TPDOs msid maps the measure channels into. */
+#define MSID_DEV_CO_PDO_BYTES 8u
+#define MSID_DEV_CO_TPDOS 2u
 
 /** Roles of measure channels. */
 typedef enum msid_dev_role {
@@ -82,6 +95,10 @@ typedef struct msid_dev_chan {
     char signal[MSID_DEV_NAME_CAP];
     int32_t reads_back;           /**< role input: index of the drive channel it reads back (-1: the k-th input
                                        channel reads back the k-th drive channel) */
+    /* CANopen: the object dictionary entry the channel is mapped from (type: int16, uint16, int32, uint32, float32) */
+    uint16_t co_index;            /**< 0x0001..0xFFFF; 0: not given */
+    uint8_t co_sub;
+    uint8_t co_quantity;          /**< ::msid_dev_co_quantity */
     uint32_t line;                /**< line of the channel's table in the description (messages) */
 } msid_dev_chan;
 
@@ -97,6 +114,14 @@ typedef struct msid_devdesc {
     uint32_t clock;                   /**< ::msid_dev_clock */
     double cycle_hz;                  /**< the device's own cycle rate, when stated (NAN: unknown) */
     char dbc[MSID_DEV_PATH_CAP];      /**< CAN: the DBC, relative to the description's folder when not absolute */
+    /* CANopen (CiA 402 drives) */
+    uint32_t co_preset;               /**< the preset that filled the channels: its mode (8 CSP, 9 CSV, 10 CST; 0: none) */
+    uint32_t co_mode;                 /**< modes of operation 0x6060 written before the run (8, 9, 10) */
+    double rated_torque;              /**< N m (NAN: the node's 0x6076, read by SDO) */
+    double velocity_scale, position_scale;   /**< physical units per count of 0x606C/0x60FF, 0x6064/0x607A */
+    char velocity_unit[MSID_DEV_UNIT_CAP], position_unit[MSID_DEV_UNIT_CAP];
+    int32_t restore_pdo;              /**< 1: the PDO mapping read before the run is written back after it */
+    uint32_t heartbeat_ms;            /**< consumer time msid watches the node's heartbeat with (0: none) */
     uint32_t n_drive, n_measure;
     msid_dev_chan drive[MSID_DEV_MAX_DRIVE];
     msid_dev_chan measure[MSID_DEV_MAX_MEASURE];
@@ -115,7 +140,10 @@ void msid_dev_chan_defaults(msid_dev_chan *c);
  *        holding registers, registers inside 0..65535 and not overlapping
  *        another channel's, values representable in their type, CAN channels
  *        with message and signal, at least one drive and one output channel,
- *        every input channel reading back a drive channel exactly once.
+ *        every input channel reading back a drive channel exactly once;
+ *        CANopen: every channel with its object and an int16, uint16, int32,
+ *        uint32 or float32 type, the drive channels in one RPDO (8 bytes) and
+ *        the measure channels in two TPDOs (8 bytes, 8 objects each), a mode.
  * @param err  message (names the channel and its line), cap bytes
  * @return 0, or -1 with err set
  */
@@ -126,6 +154,17 @@ uint32_t msid_devdesc_count(const msid_devdesc *d, msid_dev_role role);
 
 /** @brief Index of the measure channel reading back drive channel i (-1: none). */
 int msid_devdesc_readback(const msid_devdesc *d, uint32_t i);
+
+/**
+ * @brief Where the measure channels go in the TPDOs: channels are packed in order, TPDO1 first, a channel that
+ *        does not fit the remaining room of TPDO1 opening TPDO2.
+ * @param tpdo_of  [n_measure] receives 0 or 1 (may be NULL)
+ * @return TPDOs used (1 or 2), or 0 when the channels do not fit in two
+ */
+uint32_t msid_devdesc_co_pack(const msid_devdesc *d, uint8_t *tpdo_of);
+
+/** @brief Bytes a CANopen channel's object takes in a PDO (2 or 4; 0 for a type a PDO does not carry here). */
+uint32_t msid_dev_co_bytes(const msid_dev_chan *c);
 
 /** @brief Registers one value of a type takes (1, 2 or 4; 0 if unknown). */
 uint32_t msid_dev_type_regs(uint32_t type);

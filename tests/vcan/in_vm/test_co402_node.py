@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.linalg
 
 from canlib import Sim
+from comap import plant_ab  # the node's plant (docs/devices.md), shared with test_measure_canopen
 
 EDS = Path(__file__).resolve().parent / "data" / "drive402.eds"
 NODE = 5
@@ -75,17 +75,6 @@ def test_aborts(tmp_path, op, index, sub, value, code):
             else:
                 d.node.sdo.download(index, sub, value)
         assert e.value.code == code
-
-
-def plant_ab(ts=1e-3, jm=1e-4, jl=2e-4, k=50.0, dmp=2e-3, bm=1e-4, bl=1e-4):
-    """A, B of the node's plant (docs/devices.md): ZOH of the two-mass model over the SYNC period."""
-    f = np.array([[0, 1, 0, 0], [-k / jm, -(dmp + bm) / jm, k / jm, dmp / jm], [0, 0, 0, 1],
-                  [k / jl, dmp / jl, -k / jl, -(dmp + bl) / jl]])
-    m = np.zeros((5, 5))
-    m[:4, :4] = f
-    m[:4, 4] = [0, 1 / jm, 0, 0]
-    e = scipy.linalg.expm(m * ts)
-    return e[:4, :4], e[:4, 4]
 
 
 def enable(node, mode):

@@ -1,0 +1,121 @@
+/**
+ * @file msid_co_map.h
+ * @brief A CANopen drive described by msid-device/1 (transport "canopen") as the host's tick loop sees it:
+ *        the ::msid_devio backend that carries one tick as an RPDO and a SYNC, and reads that tick's samples
+ *        from the synchronous TPDOs the node sends on that SYNC.
+ *
+ * The mapping: the drive channels, in order, are RPDO1 (at most 8 bytes); the measure channels, in order,
+ * are TPDO1 and, when they do not fit in 8 bytes or 8 objects, TPDO2 (::msid_devdesc_co_pack); all of
+ * transmission type 1 (every SYNC) on the predefined connection set's COB-IDs. Values are little endian on
+ * the bus, physical = raw * scale + offset as for every transport.
+ *
+ * One tick (::msid_devio_exchange): the frames waiting on the socket are taken, in bus order; the socket
+ * receives msid's own SYNC back (CAN_RAW_RECV_OWN_MSGS), so the TPDOs behind the echo of the previous tick's
+ * SYNC are that SYNC's answers (those before it answer an older SYNC: counted `late`, dropped; EMCY and
+ * heartbeat are watched). They are the sample this exchange returns; then the RPDO with the tick's values and
+ * this tick's SYNC are sent. So the node has a whole tick to answer, and a tick's samples are returned one
+ * tick later: the demand (the FRF's input) and the actual values come from the same TPDOs of the same SYNC,
+ * so the shift moves input and output alike and the FRF does not see it. A TPDO missing by the next tick is a
+ * lost sample (counted; the exchange fails and the tick loop marks the sample missing, never interpolated);
+ * the first TPDO behind the next SYNC's echo is then taken for that late answer and dropped, so that a late
+ * answer is never placed as the next SYNC's sample (a node answers in order).
+ *
+ * Ways out the backend itself sees: an EMCY other than an error reset, a heartbeat later than heartbeat_ms
+ * (when the description sets it), a heartbeat or boot-up that shows the node out of operational. Each makes
+ * ::msid_co_map::fatal non-empty and every later exchange fail: the caller ends the run (safe target, quick
+ * stop, disable voltage, no more SYNC). Nothing here allocates; configuration by SDO is the caller's (it
+ * uses ::msid_co_map_pdos for the PDOs to write).
+ */
+#ifndef MSID_CO_MAP_H
+#define MSID_CO_MAP_H
+
+#include <stdint.h>
+#include "msid_co_emcy.h"
+#include "msid_co_nmt.h"
+#include "msid_co_pdo.h"
+#include "msid_devdesc.h"
+#include "msid_devio.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Counters of a run (cumulative). */
+typedef struct msid_co_map_counters {
+    uint64_t syncs;          /**< SYNC frames sent */
+    uint64_t rpdos;          /**< RPDOs sent */
+    uint64_t tpdos;          /**< TPDOs taken as a tick's samples */
+    uint64_t lost;           /**< ticks whose TPDO(s) had not come by the end of the wait */
+    uint64_t late;           /**< TPDOs of an earlier SYNC, found before a tick's SYNC (dropped) */
+    uint64_t bad_tpdos;      /**< TPDOs of another length than the mapping's (dropped) */
+    uint64_t emcy;           /**< EMCY frames (error resets included) */
+    uint64_t heartbeats;     /**< heartbeat frames */
+    uint64_t send_failures;  /**< RPDO or SYNC sends that failed */
+    double latency_sum_s, latency_max_s;   /**< TPDO after the SYNC's echo, kernel receive times (s) */
+    uint64_t latency_n;
+} msid_co_map_counters;
+
+/** The backend's state (caller-owned). */
+typedef struct msid_co_map {
+    msid_devio io;                    /**< the tick loop's device */
+    const msid_devdesc *d;            /**< resolved (scales known); lives as long as the map */
+    const msid_can_transport *t;      /**< a socket that receives its own frames, filtered to the node's */
+    uint8_t node;
+    uint32_t n_tpdo;                  /**< 1 or 2 */
+    uint8_t rpdo_len, tpdo_len[MSID_DEV_CO_TPDOS];
+    uint8_t rpdo_off[MSID_DEV_MAX_DRIVE];        /**< byte offset of each drive channel in RPDO1 */
+    uint8_t tpdo_of[MSID_DEV_MAX_MEASURE];       /**< 0: TPDO1, 1: TPDO2 */
+    uint8_t tpdo_off[MSID_DEV_MAX_MEASURE];      /**< byte offset in its TPDO */
+    int send_timeout_ms;              /**< a full send queue is retried this long */
+    int64_t wait_ns;                  /**< how long an exchange waits for the previous SYNC's answers when they
+                                           are not all in yet (0: not at all) */
+    int operational;                  /**< 1 while the node should be operational (heartbeat states watched) */
+    msid_co_hb hb;                    /**< heartbeat consumer (time_ms 0: none) */
+    msid_co_emcy last_emcy;           /**< the last EMCY with an error */
+    double value[MSID_DEV_MAX_MEASURE];   /**< the last values read */
+    uint8_t buf[MSID_DEV_CO_TPDOS][8];    /**< the TPDOs of the last SYNC as they came */
+    uint32_t got;                     /**< bit k: TPDO k+1 of the last SYNC is in buf */
+    uint32_t echo_due;                /**< SYNCs sent whose echo has not been taken yet */
+    uint32_t owed;                    /**< bit k: the previous SYNC's TPDO k+1 was not in when this SYNC went out:
+                                           the first one behind this SYNC's echo is that late answer */
+    uint32_t owed_taken;              /**< bit k: this window took an owed answer */
+    uint64_t syncs_sent;
+    uint64_t echo_ns;                 /**< kernel receive time of the last SYNC's echo (0: unknown) */
+    msid_co_map_counters cnt;
+    char fatal[240];                  /**< why the run must end ("" while it may go on) */
+    char err[240];                    /**< detail of the last failure */
+    char describe[96];                /**< "RPDO1 (2 bytes) + SYNC + TPDO1 (8 bytes) + TPDO2 (4 bytes)" */
+} msid_co_map;
+
+/**
+ * @brief Set up the backend of a CANopen description (msid_devdesc_check passed, scales resolved).
+ * @param node 1..127
+ * @param heartbeat_ms consumer time of the node's heartbeat (0: not watched)
+ * @return 0, or -MSID_DAQ_E_ARG with m->err
+ */
+int msid_co_map_init(msid_co_map *m, const msid_devdesc *d, unsigned node, unsigned heartbeat_ms,
+                     const msid_can_transport *t);
+
+/**
+ * @brief The PDO configurations the description needs: RPDO1 from the drive channels, TPDO1 (and TPDO2)
+ *        from the measure channels, transmission type 1, predefined COB-IDs.
+ * @param tpdo [MSID_DEV_CO_TPDOS]; m->n_tpdo of them are filled
+ */
+void msid_co_map_pdos(const msid_co_map *m, msid_co_pdo_cfg *rpdo, msid_co_pdo_cfg *tpdo);
+
+/**
+ * @brief Offer a frame that arrived outside a tick (the SDO client's other-frame hook): EMCY and heartbeat
+ *        are watched, TPDOs are counted late. now_ms: the io clock.
+ */
+void msid_co_map_offer(msid_co_map *m, const msid_can_frame *f, uint64_t now_ms);
+
+/** @brief A drive channel's value as the bytes of its object (little endian): 0, or -1 when it does not fit. */
+int msid_co_map_encode(const msid_dev_chan *c, double v, uint8_t *bytes);
+
+/** @brief The physical value of a channel's object bytes (little endian). */
+double msid_co_map_decode(const msid_dev_chan *c, const uint8_t *bytes);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,141 @@
+"""msid measure --device canopen://vcan0?node=5 --map (msid as the CANopen master of a CiA 402 drive, one RPDO
+and one SYNC per tick, the samples from the synchronous TPDOs of that SYNC) against msid-devsim --canopen 5:
+- coverage: over several seeds (a new excitation and new velocity noise each), the 95% regions of the FRF from
+  the torque demand to the velocity cover the node's exact discrete plant (docs/devices.md) within binomial
+  bounds (alpha 1e-3); the preset "cst" with the rated torque read from 0x6076;
+- safety: after a normal end and after SIGINT mid-run, the node itself (read by the canopen package, not by
+  msid) is in "switch on disabled" or "quick stop active" with the safe target in 0x6071, and a python-can
+  listener sees no SYNC after msid exits; with restore_pdo the node holds its mapping of before;
+- an EMCY from the node ends the run with the EMCY named, the node out of "operation enabled"; so does a lost
+  heartbeat (heartbeat_ms), the node left with the safe target;
+- bad input: an entry the node lacks, a read-only entry as a target, a mapping longer than 8 bytes, a node id
+  out of range, a node that never answers: one message, a non-zero exit, the node not enabled.
+No check depends on the VM being fast: a TPDO a loaded VM delivers late is a lost sample, counted, and a run
+left with too few usable periods is made again (maplib.measure). Two periods are skipped: the plant's slow pole
+(viscous friction over the total inertia, 0.67 1/s) keeps most of the fade-in's transient for a period."""
+import re
+import subprocess
+
+import numpy as np
+import pytest
+
+import canlib
+from comap import (BINS, LINES, P, RATE, Drive, explicit, maplib, measure, preset, row_pvalues, state_name,
+                   syncs_within, velocity_truth)
+
+NOISE = ("--noise-y", "0.5")   # rad/s on the velocity the node reports
+OUT_OF_ENABLED = ("switch on disabled", "quick stop active")
+
+
+def test_coverage_of_the_two_mass_plant_in_cst(tmp_path):
+    desc = preset(tmp_path)
+    truth = velocity_truth()
+    pv = []
+    for s in range(1, 6):
+        with Drive(tmp_path, "--seed", s, *NOISE) as sim:
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}")
+        a = r.doc["acquisition"]
+        assert a["transport"] == "canopen" and a["input"] == "read back", a
+        assert a["mode"].startswith("cyclic synchronous torque"), a
+        assert a["rated_torque_nm"] == pytest.approx(1.0), a   # 0x6076 = 1000 mN m, read by SDO
+        assert a["tpdos"] >= 2 * a["samples"] and a["syncs"] >= a["samples"] + a["samples_lost"], a
+        assert r.doc["output_names"] == ["Torque actual", "Velocity actual", "Position actual"]
+        assert [l["bin"] for l in r.doc["lines"]] == BINS
+        pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
+    maplib.covered(np.concatenate(pv))
+
+
+def cmd(sim, desc, out, *extra):
+    return [canlib.MSID, "measure", "--device", sim.uri, "--map", desc, "--period", P, "--lines", LINES,
+            "--periods", 6, "--skip-periods", 1, "--rate", RATE, "--seed", 3, "--no-plots", *extra, "-o", out]
+
+
+def assert_safe(st, safe_raw):
+    assert state_name(st["statusword"]) in OUT_OF_ENABLED, st
+    assert st["target_torque"] == safe_raw, st
+
+
+def test_safe_state_after_the_end_and_after_ctrl_c(tmp_path):
+    # safe 0.02 N m (20 per mille) apart from the operating point 0: the node's 0x6071 shows which was written last
+    desc = preset(tmp_path, safe=0.02, op=0.0, top="restore_pdo = true\n")
+    with Drive(tmp_path) as sim:
+        before = sim.state()
+        r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "end")], capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode == 0, r.stderr
+        assert syncs_within(0.5) == 0
+        st = sim.state()
+        assert_safe(st, 20)
+        assert (st["tpdo1"], st["rpdo1"]) == (before["tpdo1"], before["rpdo1"]), (st, before)   # restore_pdo
+        rc, err = maplib.interrupt_after_periods(cmd(sim, desc, tmp_path / "int"), 2, timeout=300)
+        assert rc == 130, err
+        assert syncs_within(0.5) == 0
+        assert_safe(sim.state(), 20)
+    assert sim.report()["rpdo_taken"] > 0
+
+
+def test_an_emcy_ends_the_run_and_is_named(tmp_path):
+    desc = preset(tmp_path)
+    with Drive(tmp_path, "--emcy-at", 300) as sim:
+        r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "o")], capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode != 0, r.stderr
+        assert "EMCY 0x2310" in r.stderr, r.stderr
+        assert syncs_within(0.3) == 0
+        st = sim.state()
+    assert state_name(st["statusword"]) != "operation enabled", st
+
+
+def test_a_lost_heartbeat_ends_the_run_and_is_named(tmp_path):
+    # the node's heartbeat watched with 300 ms (its 0x1017 set to 150 ms); it stops 6 s after its boot-up
+    desc = preset(tmp_path, top="heartbeat_ms = 300\n")
+    with Drive(tmp_path, "--heartbeat-stop-after", 6) as sim:
+        r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "o")], capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode != 0, r.stderr
+        assert "heartbeat was lost" in r.stderr, r.stderr
+        st = sim.state()
+    assert state_name(st["statusword"]) in OUT_OF_ENABLED, st
+    assert st["target_torque"] == 0, st
+
+
+PROGRESS = re.compile(r"^msid measure: (experiment |note: )")
+
+
+def one_message(r, needle):
+    assert r.returncode != 0, r.stderr
+    lines = [l for l in r.stderr.splitlines() if l.strip() and not PROGRESS.match(l)]
+    assert len(lines) == 1, r.stderr
+    assert needle in lines[0], r.stderr
+
+
+@pytest.mark.parametrize("case, needle", [
+    ("lacks", "refuses to read it: object does not exist"),
+    ("read_only", "refuses a write of it"),
+    ("too_long", "the drive channels map 12 bytes"),
+    ("node_range", "node must be 1..127"),
+    ("silent", "node 9 does not answer"),
+])
+def test_bad_input_is_one_message(tmp_path, case, needle):
+    with Drive(tmp_path) as sim:
+        desc = {"lacks": lambda: explicit(tmp_path, output="0x2100:00"),
+                "read_only": lambda: explicit(tmp_path, drive="0x6077:00"),
+                "too_long": lambda: too_long(tmp_path)}.get(case, lambda: preset(tmp_path))()
+        if case == "node_range":
+            sim.uri = "canopen://vcan0?node=200"
+        if case == "silent":
+            sim.uri = "canopen://vcan0?node=9&timeout=200"
+        r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "o")], capture_output=True, text=True,
+                           timeout=120)
+        one_message(r, needle)
+        assert not (tmp_path / "o" / "frf.json").exists()
+        assert state_name(sim.state()["statusword"]) == "switch on disabled"
+
+
+def too_long(tmp):
+    p = tmp / "long.toml"
+    drives = "".join(f'\n[[drive]]\nname = "T{i}"\nobject = "0x60FF:00"\ntype = "int32"\nsafe = 0\nmin = -1\nmax = 1\n'
+                     for i in range(3))
+    p.write_text('format = "msid-device/1"\ntransport = "canopen"\nmode = "csv"\n' + drives +
+                 '\n[[measure]]\nname = "V"\nrole = "output"\nobject = "0x606C:00"\ntype = "int32"\n')
+    return p
