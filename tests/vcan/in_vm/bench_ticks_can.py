@@ -94,10 +94,15 @@ def msid_loop(tmp, sim, desc, rate, periods, realtime):
 def peer_loop(tmp, desc_dir, rate, ticks):
     cmd = [sys.executable, PEER, "vcan0", Path(desc_dir) / "drive.dbc", "DriveCmd", "TorqueCmd", "DriveStatus",
            rate, ticks]
-    with FrameClock(tmp, "peer") as fc:
+    return run_peer(cmd, rate, FrameClock(tmp, "peer"))
+
+
+def run_peer(cmd, rate, clock):
+    """One peer script's loop while `clock` records the bus: its row of the table (from its JSON report)."""
+    with clock as fc:
         r, cpu = child_cpu(cmd)
     if r.returncode != 0:
-        raise RuntimeError(f"can_tick_peer failed: {r.stderr}")
+        raise RuntimeError(f"{Path(str(cmd[1])).name} failed: {r.stderr}")
     j = json.loads(r.stdout)
     return {"ticks": j["ticks"], "stale": j["stale"], "lateness_s": j["lateness_s"],
             "wake_lateness_s": j["wake_lateness_s"], "round_trip_s": j["round_trip_s"],

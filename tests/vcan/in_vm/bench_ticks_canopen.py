@@ -21,7 +21,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import canlib  # noqa: E402
 import comap  # noqa: E402
-from bench_ticks_can import BCM_HEAD, CAN_FRAME, FrameClock, print_rows  # noqa: E402
+from bench_ticks_can import BCM_HEAD, CAN_FRAME, FrameClock, print_rows, run_peer  # noqa: E402
 
 PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
 PEER = PEERS / "canopen_tick_peer.py"
@@ -55,16 +55,7 @@ def msid_loop(tmp, sim, desc, rate, periods, realtime):
 
 def peer_loop(tmp, rate, ticks):
     cmd = [sys.executable, PEER, "vcan0", comap.NODE, comap.EDS, rate, ticks]
-    with FrameClock(tmp, "sync-peer", SYNC_ID) as fc:
-        r, cpu = child_cpu(cmd)
-    if r.returncode != 0:
-        raise RuntimeError(f"canopen_tick_peer failed: {r.stderr}")
-    j = json.loads(r.stdout)
-    return {"ticks": j["ticks"], "stale": j["stale"], "lateness_s": j["lateness_s"],
-            "wake_lateness_s": j["wake_lateness_s"], "round_trip_s": j["round_trip_s"],
-            "cpu_per_tick_s": j["cpu_s"] / j["ticks"], "user_per_tick_s": j["cpu_user_s"] / j["ticks"],
-            "process_cpu_per_tick_s": cpu / j["ticks"], "scheduling": "SCHED_OTHER (a Python script as written)",
-            "bus": fc.jitter(1.0 / rate)}
+    return run_peer(cmd, rate, FrameClock(tmp, "sync-peer", SYNC_ID))
 
 
 def bcm_sync(tmp, rate, ticks):
