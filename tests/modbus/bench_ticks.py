@@ -21,7 +21,7 @@ from mblib import MSID  # noqa: E402
 PEERS = HERE.parents[1] / "tools" / "peers" / "msid_peers"
 PEER = PEERS / "tick_peer.py"
 sys.path.insert(0, str(PEERS))
-from loopcost import callgrind_ir, child_cpu  # noqa: E402
+from loopcost import callgrind_ir, child_cpu, finish  # noqa: E402
 
 
 def msid_loop(tmp, sim, desc, rate, periods, realtime):
@@ -113,11 +113,7 @@ def main():
         print(f"user-space instructions per tick (callgrind): msid {insn[0]:.0f}, pymodbus script {insn[1]:.0f} "
               f"({insn[1] / insn[0]:.1f}x)")
         rows["instructions_per_tick"] = {"msid": insn[0], "pymodbus script": insn[1]}
-    for name, r in rows.items():
-        if "scheduling" in r:
-            print(f"  {name}: {r['scheduling']}")
-    if a.json:
-        Path(a.json).write_text(json.dumps(rows, indent=1))
+    finish(rows, a.json)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ from mapcan import CanMapSim, description, maplib  # noqa: E402
 PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
 PEER = PEERS / "can_tick_peer.py"
 sys.path.insert(0, str(PEERS))
-from loopcost import callgrind_ir, child_cpu  # noqa: E402
+from loopcost import callgrind_ir, child_cpu, finish  # noqa: E402
 from pacing import quantiles  # noqa: E402
 
 CMD_ID = 0x101   # DriveCmd of mapcan's DBC
@@ -222,11 +222,7 @@ def main():
         print(f"user-space instructions per tick (callgrind, 50 Hz): msid {insn[0]:.0f}, python-can script "
               f"{insn[1]:.0f} ({insn[1] / insn[0]:.1f}x)")
         rows["instructions_per_tick"] = {"msid": insn[0], "python-can script": insn[1]}
-    for name, r in rows.items():
-        if "scheduling" in r:
-            print(f"  {name}: {r['scheduling']}")
-    if a.json:
-        Path(a.json).write_text(json.dumps(rows, indent=1))
+    finish(rows, a.json)
 
 
 if __name__ == "__main__":

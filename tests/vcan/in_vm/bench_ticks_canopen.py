@@ -26,7 +26,7 @@ from bench_ticks_can import BCM_HEAD, CAN_FRAME, FrameClock, print_rows, run_pee
 PEERS = canlib.SRC / "tools" / "peers" / "msid_peers"
 PEER = PEERS / "canopen_tick_peer.py"
 sys.path.insert(0, str(PEERS))
-from loopcost import child_cpu  # noqa: E402
+from loopcost import child_cpu, finish  # noqa: E402
 
 SYNC_ID = 0x080
 PERIOD = 20   # ticks per period: a loaded VM's lost sample rejects one short period, and the FRF (with the
@@ -96,11 +96,7 @@ def main():
           "the loop alone (user: its part in user space); bus: |interval - period| of the SYNC frames (kernel "
           "receive timestamps); lost: ticks without their TPDO")
     print_rows(rows, "canopen script", missing="lost")
-    for name, r in rows.items():
-        if "scheduling" in r:
-            print(f"  {name}: {r['scheduling']}")
-    if a.json:
-        Path(a.json).write_text(json.dumps(rows, indent=1))
+    finish(rows, a.json)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
-"""What a tick loop costs, for the tick benches (tests/modbus/bench_ticks.py, tests/vcan/in_vm/bench_ticks_can.py):
+"""What a tick loop costs, and the end of the report, for the tick benches (tests/modbus/bench_ticks.py, tests/vcan/in_vm/bench_ticks_can.py):
 the CPU seconds of a child process, and the user-space instructions it ran under callgrind, which no load changes."""
+import json
 import resource
 import subprocess
 from pathlib import Path
@@ -22,3 +23,12 @@ def callgrind_ir(cmd, tmp, tag, timeout=3600):
         if "Collected :" in line:
             return int(line.split(":")[-1].strip().replace(",", ""))
     raise RuntimeError(f"callgrind gave no count for {tag}: {r.stderr[-500:]}")
+
+
+def finish(rows, json_path=None):
+    """The end of a tick bench's report: how each loop was scheduled, and every figure to `json_path` if given."""
+    for name, r in rows.items():
+        if "scheduling" in r:
+            print(f"  {name}: {r['scheduling']}")
+    if json_path:
+        Path(json_path).write_text(json.dumps(rows, indent=1))
