@@ -57,16 +57,18 @@ class FrameClock:
         self.f.close()
         return False
 
-    def jitter(self, T):
-        """|interval - T| of successive frames; intervals beyond 20 T (between a run's phases) are counted apart."""
+    def jitter(self, T, skip=0):
+        """|interval - T| of successive frames after the first `skip` (those a loop sent before its ticks, such as
+        a latency probe's back-to-back frames); intervals beyond 20 T (between a run's phases) are counted apart."""
         t = [float(l.split()[0].strip("()")) for l in self.path.read_text().splitlines() if l.startswith("(")]
+        t = t[skip:]
         dev, gaps = [], 0
         for a, b in zip(t, t[1:]):
             if b - a > 20 * T:
                 gaps += 1
             else:
                 dev.append(abs((b - a) - T))
-        return {"frames": len(t), "interval_deviation_s": quantiles(dev), "pauses": gaps}
+        return {"frames": len(t), "frames_left_out": skip, "interval_deviation_s": quantiles(dev), "pauses": gaps}
 
 
 def msid_loop(tmp, sim, desc, rate, periods, realtime):
