@@ -51,7 +51,7 @@ def frf(bench, exps, out, *extra):
 
 @pytest.mark.parametrize("nN", [4294967295, 2147483647])
 def test_validate_crafted_lmfd_order(bench, tmp_path, nN):
-    """#3: lmfd.nN cast to int without a range check crashed `msid validate` (SIGSEGV; UBSan overflow)."""
+    """Hardening finding 3 (docs/reliability.md): lmfd.nN cast to int without a range check crashed `msid validate` (SIGSEGV; UBSan overflow)."""
     m = json.loads(bench["model"].read_text())
     m["lmfd"] = {"nD": 1, "nN": nN, "D": [[[1, 0], [0, 1]]], "N": []}
     p = tmp_path / "crafted.json"
@@ -84,7 +84,7 @@ def test_scaled_data_gives_finite_results_or_one_error(bench, tmp_path):
 
 
 def test_denormal_sample_rate(bench, tmp_path):
-    """#5: --fs 4.9e-324 wrote null frequencies with exit 0."""
+    """Hardening finding 5 (docs/reliability.md): --fs 4.9e-324 wrote null frequencies with exit 0."""
     out = tmp_path / "f.json"
     r = frf(bench["bench"], bench["bench"]["experiments"], out, "--fs", "4.9e-324")
     if r.returncode == 0:   # an accepted rate must give a finite, schema-valid file
@@ -94,7 +94,7 @@ def test_denormal_sample_rate(bench, tmp_path):
 
 
 def test_compare_against_zero_reference(bench, tmp_path):
-    """#5: relative distances to an all-zero model were written as null with exit 0."""
+    """Hardening finding 5 (docs/reliability.md): relative distances to an all-zero model were written as null with exit 0."""
     z = json.loads(bench["model"].read_text())
     for k in ("B", "C", "D"):
         z[k] = [[0.0] * len(row) for row in z[k]]
@@ -111,7 +111,7 @@ def test_compare_against_zero_reference(bench, tmp_path):
     ("n_experiments", 2 ** 31, "'n_experiments' must be 1..64"),
 ])
 def test_fit_range_checks_frf_fields(bench, tmp_path, field, value, msg):
-    """#5: fit/validate accepted dof <= 0 and n_experiments = 2^31."""
+    """Hardening finding 5 (docs/reliability.md): fit/validate accepted dof <= 0 and n_experiments = 2^31."""
     d = json.loads(bench["frf"].read_text())
     if field == "dof":
         d["lines"][1]["dof"] = value
@@ -124,7 +124,7 @@ def test_fit_range_checks_frf_fields(bench, tmp_path, field, value, msg):
 
 
 def test_file_size_limit_leaves_no_temporary(bench, tmp_path):
-    """#10: a run killed by SIGXFSZ left out.json.tmp.PID behind; now write() fails (EFBIG) and the
+    """Hardening finding 10 (docs/reliability.md): a run killed by SIGXFSZ left out.json.tmp.PID behind; now write() fails (EFBIG) and the
     temporary is removed: one error, no file."""
     out = tmp_path / "f.json"
     args = ["frf", "--design", bench["bench"]["design"]]
@@ -140,7 +140,7 @@ def test_file_size_limit_leaves_no_temporary(bench, tmp_path):
 
 
 def test_huge_skip_periods(bench, tmp_path):
-    """#10: a huge --skip-periods wrapped the first check (skip + 2 in 32 bits)."""
+    """Hardening finding 10 (docs/reliability.md): a huge --skip-periods wrapped the first check (skip + 2 in 32 bits)."""
     out = tmp_path / "f.json"
     r = frf(bench["bench"], bench["bench"]["experiments"], out, "--skip-periods", 4294967295)
     fails(tmp_path, r, out=out)

@@ -131,7 +131,7 @@ def _hostile_log(path, periods=4, done=None, P=64):
 
 
 def test_replay_done_beyond_the_design_is_bounded(tmp_path):
-    """#1: a DONE claiming 0xFFFFFFFF samples made replay run ~50 s and exit 0 with 4.29e9 missing samples.
+    """Hardening finding 1 (docs/reliability.md): a DONE claiming 0xFFFFFFFF samples made replay run ~50 s and exit 0 with 4.29e9 missing samples.
     It is closed at the design's K P now: a note, nothing missing, the same FRF as the honest log."""
     _hostile_log(tmp_path / "ok.log")
     _hostile_log(tmp_path / "bad.log", done=0xFFFFFFFF)
@@ -146,7 +146,7 @@ def test_replay_done_beyond_the_design_is_bounded(tmp_path):
 
 
 def test_replay_upload_asking_for_absurd_periods(tmp_path):
-    """#4: an upload asking for 5,000,000 periods (valid CRC) made replay take 4.58 GB: it is not a
+    """Hardening finding 4 (docs/reliability.md): an upload asking for 5,000,000 periods (valid CRC) made replay take 4.58 GB: it is not a
     complete design upload now (2..100000 periods), one clear error, nothing written."""
     _hostile_log(tmp_path / "big.log", periods=4)
     lines = (tmp_path / "big.log").read_text().splitlines()
