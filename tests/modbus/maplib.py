@@ -158,7 +158,7 @@ def make_realtime(pid, prio=20):
         subprocess.run(["chrt", "-f", "-p", str(prio), str(pid)], check=True, capture_output=True)
 
 
-class MapSim(mblib.canlib.Sim):
+class MapSim(mblib.ModbusSim):
     """msid-devsim --map DESC --modbus-tcp 127.0.0.1:0 (or RTU on a socat pty pair); .uri is the device URI."""
 
     def __init__(self, tmp, desc, *args, rtu=False, baud=115200):
@@ -187,17 +187,6 @@ class MapSim(mblib.canlib.Sim):
             self.uri = f"modbus-tcp://127.0.0.1:{self.port}"
         return self
 
-    expect_exit = 0   # the simulator's exit status a test expects (9: --die-after)
-
-    def __exit__(self, *exc):
-        try:
-            self.stop(exc[0] is None and self.expect_exit == 0)
-            if exc[0] is None and self.expect_exit:
-                assert self.p.returncode == self.expect_exit, self.p.returncode
-        finally:
-            if self.rtu:
-                self.pty.__exit__(None, None, None)
-        return False
 
     def holding(self, addr, count):
         """The device's own holding registers, read over Modbus TCP by pymodbus (not by msid)."""

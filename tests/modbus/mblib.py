@@ -45,7 +45,23 @@ class PtyPair:
         return False
 
 
-class Sim(canlib.Sim):
+class ModbusSim(canlib.Sim):
+    """An msid-devsim on Modbus TCP or on an RTU pty pair (`rtu`, `pty`): its exit is checked and the pair closed."""
+
+    expect_exit = 0   # the simulator's exit status a test expects (9: --die-after)
+
+    def __exit__(self, *exc):
+        try:
+            self.stop(exc[0] is None and self.expect_exit == 0)
+            if exc[0] is None and self.expect_exit:
+                assert self.p.returncode == self.expect_exit, self.p.returncode
+        finally:
+            if self.rtu:
+                self.pty.__exit__(None, None, None)
+        return False
+
+
+class Sim(ModbusSim):
     """msid-devsim --modbus-tcp 127.0.0.1:0 (a free port) or --modbus-rtu <pty>; `link` gives the
     matching msid options. Stops it with SIGTERM."""
 
@@ -71,17 +87,6 @@ class Sim(canlib.Sim):
             self.link = ["--tcp", f"127.0.0.1:{self.port}"]
         return self
 
-    expect_exit = 0   # the simulator's exit status a test expects (9: --die-after)
-
-    def __exit__(self, *exc):
-        try:
-            self.stop(exc[0] is None and self.expect_exit == 0)
-            if exc[0] is None and self.expect_exit:
-                assert self.p.returncode == self.expect_exit, self.p.returncode
-        finally:
-            if self.rtu:
-                self.pty.__exit__(None, None, None)
-        return False
 
 
 excite = canlib.excite
