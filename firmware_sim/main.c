@@ -104,6 +104,7 @@ static const char USAGE_CO[] =
     "  --refuse-map IDX:SUB  refuse mapping IDX:SUB into a PDO (object cannot be mapped)\n"
     "  --clock-ppm X         the node's own clock (heartbeat, inhibit time, SDO timeout) against the host's\n"
     "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n"
+    "  --late-sync-every K[:MS]  take every K-th SYNC MS ms (default 30) late, and the frames behind it in order\n"
     "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it reports (0x606C)\n";
 
 static uint64_t num_u(const char *opt, const char *v)
@@ -249,6 +250,7 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--sdo-abort")) entry_opt(a, v, &co.f.abort_index, &co.f.abort_sub, &co.f.abort_code, 0x08000020u);
         else if (!strcmp(a, "--emcy-at")) co.f.emcy_at_sync = num_u(a, v);
         else if (!strcmp(a, "--heartbeat-stop-after")) co.f.hb_stop_after_s = num_d(a, v, 1e-3, 1e9);
+        else if (!strcmp(a, "--late-sync-every")) kv(a, v, &co.f.late_sync_every, &co.f.late_sync_ms, 30);
         else if (!strcmp(a, "--refuse-map")) entry_opt(a, v, &co.f.refuse_index, &co.f.refuse_sub, NULL, 0);
         else if (!strcmp(a, "--cycle-hz")) mo.cycle_hz = num_d(a, v, 1e-3, 1e6);
         else if (!strcmp(a, "--clock-ppm")) mo.ppm = num_d(a, v, -1e4, 1e4);

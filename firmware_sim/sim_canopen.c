@@ -43,11 +43,12 @@ static void report_body(FILE *fp, const void *ctx)
     fprintf(fp,
             "{\"syncs\": %llu, \"tpdo_sent\": %llu, \"tpdo_dropped\": %llu, \"tpdo_inhibited\": %llu, "
             "\"rpdo_taken\": %llu, \"rpdo_bad\": %llu, \"heartbeats\": %llu, \"emcy_sent\": %llu, \"boots\": %llu, "
-            "\"sdo_aborts\": %llu, \"send_busy\": %llu}\n",
+            "\"sdo_aborts\": %llu, \"send_busy\": %llu, \"late_syncs\": %llu, \"sdo_downloads\": %llu}\n",
             (unsigned long long)c->syncs, (unsigned long long)c->tpdo_sent, (unsigned long long)c->tpdo_dropped,
             (unsigned long long)c->tpdo_inhibited, (unsigned long long)c->rpdo_taken, (unsigned long long)c->rpdo_bad,
             (unsigned long long)c->heartbeats, (unsigned long long)c->emcy_sent, (unsigned long long)c->boots,
-            (unsigned long long)s->node.sdo.aborts_sent, (unsigned long long)s->send_busy);
+            (unsigned long long)s->node.sdo.aborts_sent, (unsigned long long)s->send_busy,
+            (unsigned long long)c->late_syncs, (unsigned long long)c->sdo_downloads);
 }
 
 int sim_canopen_main(sim_device *d, const sim_canopen_opts *o)

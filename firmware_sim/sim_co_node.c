@@ -320,15 +320,15 @@ static void on_nmt(sim_co_node *n, const msid_can_frame *f)
     }
 }
 
-void sim_co_node_rx(sim_co_node *n, const msid_can_frame *f, double host_ms)
+static void take_frame(sim_co_node *n, const msid_can_frame *f)
 {
-    n->now_ms = node_ms(n, host_ms);
     if (f->id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG | MSID_CAN_ERR_FLAG)) return;
     const uint32_t id = f->id & 0x7FFu;
     if (id == 0) { on_nmt(n, f); return; }
     if (n->nmt == SIM_CO_NMT_STOPPED) return;
     if (id == 0x080u) { on_sync(n); return; }
     if (id == 0x600u + n->id) {
+        if (f->len >= 1 && f->data[0] >> 5 == 1u) n->cnt.sdo_downloads++;
         msid_can_frame r;
         if (sim_co_sdo_rx(&n->sdo, f, &r, n->now_ms)) n->send(n->ctx, &r);
         return;
@@ -340,9 +340,35 @@ void sim_co_node_rx(sim_co_node *n, const msid_can_frame *f, double host_ms)
     }
 }
 
+/* The held frames, in order, once their late SYNC is due. */
+static void release_held(sim_co_node *n)
+{
+    if (!n->n_held || n->now_ms < n->held_until_ms) return;
+    const uint32_t k = n->n_held;
+    n->n_held = 0;
+    for (uint32_t i = 0; i < k; ++i) take_frame(n, &n->held[i]);
+}
+
+void sim_co_node_rx(sim_co_node *n, const msid_can_frame *f, double host_ms)
+{
+    n->now_ms = node_ms(n, host_ms);
+    release_held(n);
+    const int sync = (f->id & (MSID_CAN_EFF_FLAG | MSID_CAN_RTR_FLAG | MSID_CAN_ERR_FLAG)) == 0 && f->id == 0x080u;
+    if (sync) n->syncs_in++;
+    if (!n->n_held && sync && n->f.late_sync_every && n->syncs_in % n->f.late_sync_every == 0) {
+        n->held_until_ms = n->now_ms + n->f.late_sync_ms;
+        n->cnt.late_syncs++;
+    } else if (!n->n_held || n->n_held >= SIM_CO_HELD_MAX) {
+        take_frame(n, f);
+        return;
+    }
+    n->held[n->n_held++] = *f;   /* the late SYNC, or a frame behind it: taken in order when it is due */
+}
+
 void sim_co_node_poll(sim_co_node *n, double host_ms)
 {
     n->now_ms = node_ms(n, host_ms);
+    release_held(n);
     msid_can_frame r;
     if (sim_co_sdo_poll(&n->sdo, &r, n->now_ms)) n->send(n->ctx, &r);
     if (!n->next_hb_ms || n->now_ms < n->next_hb_ms) return;
@@ -359,6 +385,10 @@ double sim_co_node_next_ms(const sim_co_node *n)
     double t = INFINITY;
     const double k = 1.0 + 1e-6 * n->f.clock_ppm;
     if (n->next_hb_ms) t = n->host0_ms + (double)n->next_hb_ms / k;
+    if (n->n_held) {
+        const double h = n->host0_ms + (double)n->held_until_ms / k;
+        if (h < t) t = h;
+    }
     if (n->sdo.state) {
         const double s = n->host0_ms + (double)(n->sdo.last_ms + SIM_CO_SDO_TIMEOUT_MS) / k;
         if (s < t) t = s;

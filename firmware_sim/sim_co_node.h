@@ -40,6 +40,10 @@ typedef struct sim_co_faults {
     uint8_t refuse_sub;
     double clock_ppm;         /**< the node's clock against the host's, ppm, |x| <= 1e4 */
     uint64_t drop_every;      /**< the k-th, 2k-th, ... TPDO due is not sent (0: none) */
+    uint64_t late_sync_every; /**< the k-th, 2k-th, ... SYNC is taken late_sync_ms late, as a SYNC the bus or the
+                                   node's interrupt held up: it and every frame behind it wait, then are taken in
+                                   order (the plant still steps once per SYNC; 0: none) */
+    uint64_t late_sync_ms;    /**< node time, ms */
     double noise_vel;         /**< std of white Gaussian noise on the velocity the node reports (0x606C), rad/s;
                                    the plant and the drive's loops see the true velocity (0: none) */
     uint64_t seed;            /**< of that noise */
@@ -51,7 +55,12 @@ enum { SIM_CO_NMT_BOOT = 0x00, SIM_CO_NMT_STOPPED = 0x04, SIM_CO_NMT_OPERATIONAL
 /** Counters. */
 typedef struct sim_co_counts {
     uint64_t syncs, tpdo_sent, tpdo_dropped, tpdo_inhibited, rpdo_taken, rpdo_bad, heartbeats, emcy_sent, boots;
+    uint64_t late_syncs;      /**< SYNCs held by late_sync_every */
+    uint64_t sdo_downloads;   /**< SDO download (write) requests initiated */
 } sim_co_counts;
+
+/** Frames a late SYNC holds behind it at most (more are taken at once, out of order). */
+#define SIM_CO_HELD_MAX 64u
 
 /** The node (caller-owned, about 20 kB). */
 typedef struct sim_co_node {
@@ -77,6 +86,10 @@ typedef struct sim_co_node {
     int fault_done;
     double host0_ms;            /**< host time at init, ms */
     uint64_t now_ms;            /**< node time of the last call, ms */
+    uint64_t syncs_in;          /**< SYNC frames received (late_sync_every counts these) */
+    msid_can_frame held[SIM_CO_HELD_MAX];   /**< a late SYNC and the frames behind it, in order */
+    uint32_t n_held;
+    uint64_t held_until_ms;     /**< node time they are taken */
 } sim_co_node;
 
 /**

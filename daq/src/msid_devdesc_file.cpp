@@ -333,6 +333,13 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             d.restore_pdo = *v.value<bool>() ? 1 : 0;
             continue;
         }
+        if (co && key == "eds") {
+            std::string p = get_string(v, c, "eds");
+            if (p.empty()) c.fail(&v, "eds must name the node's EDS or DCF file");
+            if (p[0] != '/') p = folder_of(c.src) + p;
+            copy(d.co_eds, sizeof d.co_eds, p, c, &v, "eds");
+            continue;
+        }
         if (co && key == "heartbeat_ms") {
             d.heartbeat_ms = get_uint(v, c, "heartbeat_ms", 0, 65535);
             continue;
@@ -377,7 +384,7 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             c.fail(&v, "unknown key '" + key + "' (keys: " +
                            (co ? known({"format", "transport", "name", "preset", "mode", "rated_torque",
                                         "velocity_scale", "velocity_unit", "position_scale", "position_unit",
-                                        "restore_pdo", "heartbeat_ms", "fade_periods", "[[drive]]", "[[measure]]"})
+                                        "restore_pdo", "heartbeat_ms", "eds", "fade_periods", "[[drive]]", "[[measure]]"})
                                : known({"format", "transport", "name", "unit", "fc23", "fade_periods", "clock",
                                         "cycle_hz", "dbc", "[[drive]]", "[[measure]]"})) +
                            ")");

@@ -457,6 +457,56 @@ static void test_sync_every_n_and_drops(void **state)
     assert_int_equal(B.n_seen, 0);
 }
 
+/* every 4th SYNC taken 30 ms late: no answer to it until then, the target and SYNC behind it held and taken
+   in order after it, and the answers (the plant's steps) the same as a node without the fault gives */
+static void late_sync_run(const sim_co_faults *f, int32_t vel[12], int *missing_at_once)
+{
+    start(f);
+    msid_co_sdo s;
+    sdo(&s);
+    sync_setup(&s, 1);
+    msid_can_frame sync;
+    msid_co_sync_frame(&sync, 0);
+    int got = 0;
+    *missing_at_once = 0;
+    for (int j = 0; j < 12; ++j) {
+        send_target((int16_t)(j % 3 == 0 ? 400 : -200));
+        B.n_seen = 0;
+        io_send(&B, &sync);
+        drain();
+        if (B.n_seen == 0) (*missing_at_once)++;
+        B.now += 10.0;   /* 10 ms to the next tick; a held SYNC is due 30 ms after it came */
+        sim_co_node_poll(&B.node, B.now);
+        drain();
+        for (int k = 0; k < B.n_seen; ++k)
+            if (B.seen[k].id == 0x180 + NODE && got < 12) vel[got++] = le(&B.seen[k].data[4], 4);
+    }
+    for (int k = 0; k < 4; ++k) { B.now += 10.0; sim_co_node_poll(&B.node, B.now); }
+    B.n_seen = 0;
+    drain();
+    for (int k = 0; k < B.n_seen; ++k)
+        if (B.seen[k].id == 0x180 + NODE && got < 12) vel[got++] = le(&B.seen[k].data[4], 4);
+    assert_int_equal(got, 12);
+}
+
+static void test_late_sync(void **state)
+{
+    (void)state;
+    int32_t on_time[12], late[12];
+    int missing = 0;
+    late_sync_run(NULL, on_time, &missing);
+    assert_int_equal(missing, 0);
+    sim_co_faults f = NO_FAULTS;
+    f.late_sync_every = 4;
+    f.late_sync_ms = 30;
+    late_sync_run(&f, late, &missing);
+    /* SYNCs 4, 8 and 12 (counted from the first after the setup's) held, and the ones behind them */
+    assert_int_equal(B.node.cnt.late_syncs, 3);
+    assert_true(missing >= 3);
+    assert_memory_equal(on_time, late, sizeof late);
+    assert_true(on_time[11] != on_time[10]);   /* the plant moved */
+}
+
 /* the continuous model's derivative, for an independent integration */
 static void deriv(const sim_twomass_par *p, const double x[4], double tau, double dx[4])
 {
@@ -551,7 +601,7 @@ int main(void)
         cmocka_unit_test(test_boot_and_heartbeat), cmocka_unit_test(test_heartbeat_stops),
         cmocka_unit_test(test_sdo_sizes),          cmocka_unit_test(test_sdo_aborts),
         cmocka_unit_test(test_pdo_rules),          cmocka_unit_test(test_402_walk_and_fault),
-        cmocka_unit_test(test_sync_plant),         cmocka_unit_test(test_sync_every_n_and_drops),
+        cmocka_unit_test(test_sync_plant),         cmocka_unit_test(test_sync_every_n_and_drops), cmocka_unit_test(test_late_sync),
         cmocka_unit_test(test_plant_frf),          cmocka_unit_test(test_plant_step_exact),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

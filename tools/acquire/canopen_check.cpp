@@ -17,17 +17,12 @@ using msidutil::fmt;
 using msidutil::IoError;
 using msidutil::UsageError;
 
-// An EDS/DCF read whole (a node's dictionary has some hundreds of entries; 4096 is room for any drive's).
-struct EdsFile {
-    std::vector<msid_co_od_entry> mem = std::vector<msid_co_od_entry>(4096);
-    msid_co_eds eds{};
-    explicit EdsFile(const std::string &path)
-    {
-        const int rc = msid_co_eds_load(path.c_str(), &eds, mem.data(), (uint32_t)mem.size());
-        if (rc == -MSID_DAQ_E_IO) throw IoError(eds.err);
-        if (rc) throw UsageError(eds.err);
-    }
-};
+EdsFile::EdsFile(const std::string &path)
+{
+    const int rc = msid_co_eds_load(path.c_str(), &eds, mem.data(), (uint32_t)mem.size());
+    if (rc == -MSID_DAQ_E_IO) throw IoError(eds.err);
+    if (rc) throw UsageError(eds.err);
+}
 
 // `device check --eds FILE`: every entry the check read, against the node's EDS/DCF: in the file, readable
 // there, and of the size msid read it with (the node answered that size). One line per mismatch, each a problem.

@@ -53,8 +53,10 @@ CanopenUri parse_canopen_uri(const std::string &uri)
             have_node = true;
         } else if (k == "timeout") {
             u.timeout_ms = (int)query_number(uri, "timeout (ms)", v, 1, 60000);
+        } else if (k == "bitrate") {
+            u.bitrate = (uint32_t)query_number(uri, "bitrate (bit/s)", v, 10000, 1000000);
         } else {
-            throw UsageError("device URI '" + uri + "': unknown parameter '" + k + "' (node, timeout)");
+            throw UsageError("device URI '" + uri + "': unknown parameter '" + k + "' (node, timeout, bitrate)");
         }
     }
     if (!have_node) throw UsageError("device URI '" + uri + "': give the node id: canopen://" + u.iface + "?node=N");

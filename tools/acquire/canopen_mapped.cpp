@@ -1,5 +1,7 @@
 // A CiA 402 drive described by msid-device/1 (transport "canopen", canopen://IFACE?node=N --map FILE): msid
-// as the node's CANopen master. Before the run, by SDO: every mapped object read once (the node has it, of
+// as the node's CANopen master. Before any frame goes out: the bus budget of the SYNC cycle at the rate (the
+// URI's bitrate= or 1 Mbit/s assumed) and, with the description's eds, every entry the run uses checked
+// against the node's EDS/DCF. Then, by SDO: every mapped object read once (the node has it, of
 // the size its type says), the safe target written (a read-only target is refused by the node), the rated
 // torque 0x6076 read when the description does not give it, NMT pre-operational, RPDO1 and TPDO1(/2) mapped
 // with transmission type 1 (what was there read first), the cycle period 0x1006, the mode 0x6060, NMT start
@@ -62,6 +64,7 @@ public:
     // the way out, which undoes what was done.
     void configure(double rate_hz)
     {
+        precheck(rate_hz);
         // the node answers at all (its statusword), before anything is written
         uint32_t sw = 0;
         if (msid_co_sdo_read_uint(&sdo_, MSID_CO402_STATUSWORD, 0, 2, &sw))
@@ -199,6 +202,10 @@ public:
                                      {"max", m_.cnt.latency_max_s}, {"count", m_.cnt.latency_n}};
         acq["kernel_drops"] = ls.kernel_drops;
         acq["restore_pdo"] = d_.restore_pdo != 0;
+        acq["bus_bitrate"] = bitrate_;
+        acq["bus_bitrate_assumed"] = dev_.co_bitrate == 0;
+        acq["bus_max_rate_hz"] = max_rate_;
+        if (d_.co_eds[0]) acq["eds"] = d_.co_eds;
     }
 
 private:
@@ -236,6 +243,24 @@ private:
     {
         if (msid_co_nmt_send(&io_, cmd, dev_.node))
             throw Error(fmt("%s: NMT %s: %s", dev_.text.c_str(), msid_co_nmt_cmd_name(cmd), hook_.can.err));
+    }
+
+    // Before any frame goes to the node: the bus budget of the SYNC cycle at rate_hz, and with `eds` every
+    // entry the run uses against the node's EDS/DCF (on a map of its own: the run's map is set up after the
+    // node's answers, so that no frame before them is counted in it).
+    void precheck(double rate_hz)
+    {
+        msid_co_map pre;
+        if (msid_co_map_init(&pre, &d_, dev_.node, d_.heartbeat_ms, &sock_.tr) < 0) throw UsageError(pre.err);
+        bitrate_ = dev_.co_bitrate ? dev_.co_bitrate : MSID_CO_MAP_BITRATE_DEFAULT;
+        char err[2 * MSID_DEV_PATH_CAP];
+        if (msid_co_map_check_bus(&pre, bitrate_, rate_hz, &max_rate_, err, sizeof err))
+            throw UsageError(fmt("%s: --rate %g: %s%s", dev_.text.c_str(), rate_hz, err,
+                                 dev_.co_bitrate ? "" : fmt(" (a bus of %u kbit/s assumed: the URI gives no bitrate=BPS)",
+                                                            bitrate_ / 1000).c_str()));
+        if (!d_.co_eds[0]) return;
+        const EdsFile f(d_.co_eds);
+        if (msid_co_map_check_eds(&pre, &f.eds, err, sizeof err)) throw UsageError(err);
     }
 
     // the torque channels' scale from the node's rated torque 0x6076 (mN m) when the description gives none
@@ -320,7 +345,8 @@ private:
     msid_co_sdo sdo_{};
     msid_co_map m_{};
     msid_co_pdo_cfg saved_[1 + MSID_DEV_CO_TPDOS]{};
-    uint32_t n_saved_ = 0, period_us_ = 0;
+    uint32_t n_saved_ = 0, period_us_ = 0, bitrate_ = 0;
+    double max_rate_ = 0;   // the highest SYNC rate the bus carries for the mapping (Hz)
 };
 
 }  // namespace

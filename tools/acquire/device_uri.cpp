@@ -54,6 +54,7 @@ DeviceUri parse_device_uri(const std::string &uri)
         d.iface = co.iface;
         d.node = co.node;
         d.co_timeout_ms = co.timeout_ms;
+        d.co_bitrate = co.bitrate;
         return d;
     }
     if (scheme == "modbus-tcp") d.kind = DeviceUri::MODBUS_TCP;

@@ -1,5 +1,6 @@
 // CANopen nodes on SocketCAN, as msid's master reaches them (docs/devices.md, CANopen):
-//   canopen://IFACE?node=N[&timeout=MS]   node 1..127 on interface IFACE, SDO responses awaited MS ms
+//   canopen://IFACE?node=N[&timeout=MS][&bitrate=BPS]   node 1..127 on interface IFACE, SDO responses awaited
+//   MS ms; BPS the bus's bit rate (10000..1000000), for the bus budget of a measurement's SYNC rate
 // The link opens a raw CAN socket that receives only the node's SDO responses, heartbeat and EMCY, and
 // holds daq/'s SDO client of that node. check_canopen reads what `msid device check` reports and writes
 // nothing.
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "msid_daq/msid_co_eds.h"
 #include "msid_daq/msid_co_pdo.h"
 #include "msid_daq/msid_co_sdo.h"
 
@@ -19,6 +21,7 @@ struct CanopenUri {
     std::string iface;
     unsigned node = 0;           // 1..127
     int timeout_ms = MSID_CO_SDO_TIMEOUT_MS;
+    uint32_t bitrate = 0;        // bit/s; 0: not given (msid measure assumes MSID_CO_MAP_BITRATE_DEFAULT)
 };
 
 // True for a canopen:// URI (whether valid or not).
@@ -51,6 +54,14 @@ public:
 private:
     struct Impl;
     std::unique_ptr<Impl> p_;
+};
+
+// A node's EDS/DCF read whole (a dictionary has some hundreds of entries; 4096 is room for any drive's): an
+// IoError when the file cannot be read, a UsageError naming the line msid refuses.
+struct EdsFile {
+    std::vector<msid_co_od_entry> mem = std::vector<msid_co_od_entry>(4096);
+    msid_co_eds eds{};
+    explicit EdsFile(const std::string &path);
 };
 
 struct CanopenCheck {

@@ -2,7 +2,7 @@
 //   modbus-tcp://HOST[:PORT][?unit=N]                      Modbus TCP, port 502 by default
 //   modbus-rtu:///dev/ttyX[?baud=N&parity=N|E|O&unit=N&data-bits=7|8&stop-bits=1|2]   Modbus RTU
 //   can://IFACE[?fd=0|1&base=ID]                           SocketCAN (msid-can/1)
-//   canopen://IFACE?node=N[&timeout=MS]                    a CANopen node (msid_canopen.hpp), with --map only
+//   canopen://IFACE?node=N[&timeout=MS&bitrate=BPS]        a CANopen node (msid_canopen.hpp), with --map only
 #pragma once
 #include <cstdint>
 #include <string>
@@ -24,6 +24,7 @@ struct DeviceUri {
     uint32_t base = 0x200;     // CAN base identifier
     uint32_t node = 0;         // CANopen node id, 1..127
     int co_timeout_ms = 500;   // CANopen: each SDO response awaited this long
+    uint32_t co_bitrate = 0;   // CANopen: the bus's bit rate (bit/s) for the SYNC rate's budget (0: not given)
     bool is_modbus() const { return kind == MODBUS_TCP || kind == MODBUS_RTU; }
     // "tcp:HOST:PORT", "rtu:/dev/ttyX", "can:IFACE": the short name used in messages and sources
     std::string name() const;

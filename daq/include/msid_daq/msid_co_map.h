@@ -30,6 +30,7 @@
 #define MSID_CO_MAP_H
 
 #include <stdint.h>
+#include "msid_co_eds.h"
 #include "msid_co_emcy.h"
 #include "msid_co_nmt.h"
 #include "msid_co_pdo.h"
@@ -114,6 +115,38 @@ int msid_co_map_encode(const msid_dev_chan *c, double v, uint8_t *bytes);
 
 /** @brief The physical value of a channel's object bytes (little endian). */
 double msid_co_map_decode(const msid_dev_chan *c, const uint8_t *bytes);
+
+/** Bit rate assumed for the bus budget when the device URI gives none (a virtual CAN has none): 1 Mbit/s,
+ *  classic CAN's highest, so that only a rate no classic bus carries is refused then. */
+#define MSID_CO_MAP_BITRATE_DEFAULT 1000000u
+/** Share of the bit rate the cyclic frames (SYNC, RPDO, TPDOs) may take: the rest is room for heartbeats,
+ *  EMCY, other nodes' frames and the lower-priority frames' arbitration delays. */
+#define MSID_CO_MAP_BUS_SHARE 0.7
+
+/**
+ * @brief The bus budget of the run before anything is sent: the SYNC (no data), RPDO1 and the TPDO(s) of the
+ *        mapping every cycle, at their worst-case length (msid_co_bus.h), within ::MSID_CO_MAP_BUS_SHARE of
+ *        bitrate at rate_hz.
+ * @param bitrate bit/s of the bus (> 0)
+ * @param max_rate receives the highest SYNC rate (Hz) the bus carries for this mapping (may be NULL)
+ * @return 0, or -MSID_DAQ_E_ARG with err saying the bits a cycle takes and the rate the bus carries
+ */
+int msid_co_map_check_bus(const msid_co_map *m, uint32_t bitrate, double rate_hz, double *max_rate, char *err,
+                          size_t len);
+
+/**
+ * @brief Every entry the run reads or writes, against the node's EDS/DCF, before anything is written: each
+ *        channel's object (in the file, of the CiA 301 type its `type` names: int16 INTEGER16, uint16
+ *        UNSIGNED16, int32 INTEGER32, uint32 UNSIGNED32, float32 REAL32; PDO-mappable; a drive channel
+ *        writable, a measure channel readable), the PDO parameters written (0x1400/0x1600, 0x1800/0x1A00 of
+ *        the PDOs used; a TPDO's inhibit time 0x18xx:03 only when the file has it), the controlword 0x6040
+ *        and statusword 0x6041, the modes 0x6060/0x6061, the cycle period 0x1006, the producer heartbeat time
+ *        0x1017 (heartbeat_ms) and the rated torque 0x6076 (read when the description gives none).
+ * @param m after ::msid_co_map_init (m->d's rated_torque still NAN when the node's 0x6076 is to be read)
+ * @return 0, or -MSID_DAQ_E_ARG with err naming the entry, its use (the channel and its line in the
+ *         description), the problem and the file
+ */
+int msid_co_map_check_eds(const msid_co_map *m, const msid_co_eds *eds, char *err, size_t len);
 
 #ifdef __cplusplus
 }

@@ -122,6 +122,8 @@ typedef struct msid_devdesc {
     char velocity_unit[MSID_DEV_UNIT_CAP], position_unit[MSID_DEV_UNIT_CAP];
     int32_t restore_pdo;              /**< 1: the PDO mapping read before the run is written back after it */
     uint32_t heartbeat_ms;            /**< consumer time msid watches the node's heartbeat with (0: none) */
+    char co_eds[MSID_DEV_PATH_CAP];   /**< the node's EDS/DCF every entry is checked against before the run, relative
+                                           to the description's folder when not absolute ("": none) */
     uint32_t n_drive, n_measure;
     msid_dev_chan drive[MSID_DEV_MAX_DRIVE];
     msid_dev_chan measure[MSID_DEV_MAX_MEASURE];

@@ -2,6 +2,7 @@
 descriptions, msid-devsim's node as a context manager with its URI, the node's state read by the canopen
 package (not by msid), a SYNC listener, and the exact FRF msid must find (the node's plant, docs/devices.md)."""
 import json
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -39,7 +40,7 @@ EXPLICIT = """format = "msid-device/1"
 transport = "canopen"
 mode = "cst"
 rated_torque = 1.0
-
+{top}
 [[drive]]
 name = "Target torque"
 unit = "N m"
@@ -73,10 +74,16 @@ def preset(tmp, *, safe=0.0, op=0.0, top="", name="drive.toml"):
     return p
 
 
-def explicit(tmp, *, drive="0x6071:00", output="0x606C:00", name="explicit.toml"):
+def explicit(tmp, *, drive="0x6071:00", output="0x606C:00", top="", name="explicit.toml"):
     p = Path(tmp) / name
-    p.write_text(EXPLICIT.format(drive=drive, output=output))
+    p.write_text(EXPLICIT.format(drive=drive, output=output, top=top))
     return p
+
+
+def with_eds(tmp):
+    """The description key naming the node's EDS, relative to the description's folder (a copy there)."""
+    shutil.copy(EDS, Path(tmp) / "drive402.eds")
+    return 'eds = "drive402.eds"\n'
 
 
 class Drive(canlib.Sim):

@@ -8,8 +8,14 @@ and one SYNC per tick, the samples from the synchronous TPDOs of that SYNC) agai
   listener sees no SYNC after msid exits; with restore_pdo the node holds its mapping of before;
 - an EMCY from the node ends the run with the EMCY named, the node out of "operation enabled"; so does a lost
   heartbeat (heartbeat_ms), the node left with the safe target;
-- bad input: an entry the node lacks, a read-only entry as a target, a mapping longer than 8 bytes, a node id
-  out of range, a node that never answers: one message, a non-zero exit, the node not enabled.
+- coverage again with the node's faults on: every 300th SYNC taken 30 ms (1.5 ticks) late, every 1000th TPDO
+  not sent, the node's clock 300 ppm off, and the description checked against the node's EDS (eds): the
+  regions still cover, and the lost and late answers are counted in the acquisition block;
+- bad input: an entry the node lacks, a read-only entry as a target (by the node's abort, and by the EDS
+  before anything is written), an entry the EDS lacks, a mapping longer than 8 bytes, a rate the bus cannot
+  carry for the mapped PDOs (bitrate= in the URI), a node id out of range, a node that never answers: one
+  message, a non-zero exit, the node not enabled; where the check comes before the first write (the EDS, the
+  bus budget) the node took no SDO download and no SYNC, and holds what it held.
 No check depends on the VM being fast: a TPDO a loaded VM delivers late is a lost sample, counted, and a run
 left with too few usable periods is made again (maplib.measure). Two periods are skipped: the plant's slow pole
 (viscous friction over the total inertia, 0.67 1/s) keeps most of the fade-in's transient for a period."""
@@ -21,7 +27,7 @@ import pytest
 
 import canlib
 from comap import (BINS, LINES, P, RATE, Drive, explicit, maplib, measure, preset, row_pvalues, state_name,
-                   syncs_within, velocity_truth)
+                   syncs_within, velocity_truth, with_eds)
 
 NOISE = ("--noise-y", "0.5")   # rad/s on the velocity the node reports
 OUT_OF_ENABLED = ("switch on disabled", "quick stop active")
@@ -41,6 +47,28 @@ def test_coverage_of_the_two_mass_plant_in_cst(tmp_path):
         assert a["tpdos"] >= 2 * a["samples"] and a["syncs"] >= a["samples"] + a["samples_lost"], a
         assert r.doc["output_names"] == ["Torque actual", "Velocity actual", "Position actual"]
         assert [l["bin"] for l in r.doc["lines"]] == BINS
+        pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
+    maplib.covered(np.concatenate(pv))
+
+
+# every 300th SYNC taken 30 ms late (the tick is 20 ms: its answers miss the tick that waits for them), every
+# 1000th TPDO due not sent (the answer never comes: a lost tick and a late one, whatever the VM's timing), the
+# node's clock 300 ppm fast
+FAULTS = ("--late-sync-every", "300:30", "--drop-every", 1000, "--clock-ppm", 300)
+
+
+def test_coverage_with_late_syncs_dropped_tpdos_and_a_clock_offset(tmp_path):
+    desc = preset(tmp_path, top=with_eds(tmp_path))
+    truth = velocity_truth()
+    pv = []
+    for s in range(1, 4):
+        with Drive(tmp_path, "--seed", s, *NOISE, *FAULTS) as sim:
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=8)
+        rep = sim.report()
+        a = r.doc["acquisition"]
+        assert rep["late_syncs"] >= 1 and rep["tpdo_dropped"] >= 1, rep
+        assert a["lost_ticks"] >= 1 and a["late_tpdos"] >= 1 and a["samples_lost"] >= 1, a
+        assert a["eds"].endswith("/drive402.eds") and a["bus_bitrate_assumed"] and a["bus_max_rate_hz"] > RATE, a
         pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
     maplib.covered(np.concatenate(pv))
 
@@ -112,7 +140,10 @@ def one_message(r, needle):
 @pytest.mark.parametrize("case, needle", [
     ("lacks", "refuses to read it: object does not exist"),
     ("read_only", "refuses a write of it"),
+    ("eds_lacks", "measure channel 'Velocity' (object = \"0x2100:00\"): 0x2100:00 is not in "),
+    ("eds_read_only", "(Torque actual value) is read only: a drive channel is a target msid writes"),
     ("too_long", "the drive channels map 12 bytes"),
+    ("bus", "above 70% of the 10 kbit/s bus: it carries them at up to 19 Hz"),
     ("node_range", "node must be 1..127"),
     ("silent", "node 9 does not answer"),
 ])
@@ -120,16 +151,32 @@ def test_bad_input_is_one_message(tmp_path, case, needle):
     with Drive(tmp_path) as sim:
         desc = {"lacks": lambda: explicit(tmp_path, output="0x2100:00"),
                 "read_only": lambda: explicit(tmp_path, drive="0x6077:00"),
+                "eds_lacks": lambda: explicit(tmp_path, output="0x2100:00", top=with_eds(tmp_path)),
+                "eds_read_only": lambda: explicit(tmp_path, drive="0x6077:00", top=with_eds(tmp_path)),
                 "too_long": lambda: too_long(tmp_path)}.get(case, lambda: preset(tmp_path))()
         if case == "node_range":
             sim.uri = "canopen://vcan0?node=200"
         if case == "silent":
             sim.uri = "canopen://vcan0?node=9&timeout=200"
+        if case == "bus":   # 0.7 x 10 kbit/s over the 360 bits of SYNC, RPDO1 (2 bytes), TPDO1 (8), TPDO2 (4)
+            sim.uri += "&bitrate=10000"
+        before = sim.state()
         r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "o")], capture_output=True, text=True,
                            timeout=120)
         one_message(r, needle)
+        if case.startswith("eds"):
+            assert str(tmp_path / "drive402.eds") in r.stderr, r.stderr
         assert not (tmp_path / "o" / "frf.json").exists()
-        assert state_name(sim.state()["statusword"]) == "switch on disabled"
+        after = sim.state()
+        assert state_name(after["statusword"]) == "switch on disabled"
+    rep = sim.report()
+    if case in ("eds_lacks", "eds_read_only", "bus", "lacks"):
+        # refused before the first write: the node took no SDO download and no SYNC, and holds what it held
+        assert rep["sdo_downloads"] == 0 and rep["syncs"] == 0, rep
+        assert after == before, (after, before)
+    if case == "read_only":
+        # without the EDS the node itself refuses the write: the count above does see downloads
+        assert rep["sdo_downloads"] >= 1, rep
 
 
 def too_long(tmp):
