@@ -202,6 +202,31 @@ def test_multi_records_same_model_as_cli(tmp_path, bench):
         msid.fit(bad, method="multi", order=2, n_inputs=1)
 
 
+def test_multi_long_stack_same_model_as_cli(tmp_path, bench):
+    """Two white inputs through four resonances (order 8), 20,000 samples: a stacked least squares of
+    20,000 rows by 18 columns (past the 2^20 multiply-adds from which the extension runs it abandonable,
+    on a thread of its own; the command line runs it in place): the same model, bit for bit."""
+    from scipy.signal import lfilter
+    n = 20000
+    rng = np.random.default_rng(8)
+    u = rng.standard_normal((n, 2))
+    y = 0.02 * rng.standard_normal(n)
+    for th in (0.3, 0.8, 1.4, 2.2):
+        p = 0.93 * np.exp(1j * th)
+        for j in range(2):
+            y += lfilter([0.1 + 0.05 * j, 0.05], [1, -2 * p.real, abs(p) ** 2], u[:, j])
+    assert n * (2 * 9) ** 2 >= 1 << 20
+    np.save(tmp_path / "long.npy", np.column_stack([u, y]))
+    out = tmp_path / "multi.json"
+    cli("fit", "--method", "multi", "--order", "8", "--experiment", tmp_path / "long.npy", "--columns",
+        "u1=1,u2=2,y1=3", "-o", out)
+    want = json.loads(out.read_text())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", msid.NoteWarning)
+        m = msid.fit(np.load(tmp_path / "long.npy"), method="multi", order=8, columns="u1=1,u2=2,y1=3")
+    assert m.doc == named_as(want, {str(tmp_path / "long.npy"): "records[0]"})
+
+
 def test_modes_same_report_and_text_as_cli(tmp_path, frf_path):
     cli("fit", "--method", "ml", "--order", "6", frf_path, "-o", tmp_path / "m.json")
     r = cli("modes", tmp_path / "m.json", "-o", tmp_path / "modes.json")

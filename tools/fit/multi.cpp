@@ -8,6 +8,8 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <string>
 
 namespace msidfit {
@@ -72,6 +74,40 @@ struct Eval {
     MatR Jfull;                   // Jacobian wrt theta with the ICs projected out (for the covariance)
 };
 
+// The linear parameters of every record at once: the least squares of the stacked, projected rows
+// (column-pivoting QR of Ft, then beta, the residual and the orthonormal basis of Ft's columns).
+struct StackedLs {
+    MatR beta, R, QF;
+};
+
+// Below this many multiply-adds (rows x columns^2, about a millisecond) the stacked least squares
+// runs here: a thread costs more than the step.
+constexpr double STACKED_ABANDONABLE_FLOPS = 1 << 20;
+
+// The stacked least squares as one step of the caller's: the QR of a long stack (rows of every
+// record, columns the inputs' numerator coefficients) is seconds of Eigen's work without a checkpoint
+// inside, so from STACKED_ABANDONABLE_FLOPS on it runs abandonable (msid_cancel.hpp) on the rows it
+// shares, and a stop lands while it runs. It counts one solve when it begins and one when it is done,
+// either way; the arithmetic is the same on either thread.
+StackedLs stacked_ls(std::shared_ptr<const MatR> Ft, std::shared_ptr<const MatR> Yt)
+{
+    auto work = [Ft, Yt] {
+        Eigen::ColPivHouseholderQR<MatR> qf(*Ft);
+        StackedLs ls;
+        ls.beta = qf.solve(*Yt);
+        ls.R = *Yt - *Ft * ls.beta;
+        ls.QF = qf.householderQ() * MatR::Identity(Ft->rows(), qf.rank());
+        return ls;
+    };
+    const double flops = (double)Ft->rows() * (double)Ft->cols() * (double)Ft->cols();
+    if (flops >= STACKED_ABANDONABLE_FLOPS)
+        return msidutil::abandonable<StackedLs>(std::function<StackedLs()>(work), msidutil::Step::solves, "the multi fit");
+    msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");   // the step began
+    StackedLs ls = work();
+    msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");   // the step is done
+    return ls;
+}
+
 Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR &alpha, bool jac, bool full)
 {
     const int n = L.n, p = L.p(), ny = L.ny;
@@ -79,7 +115,9 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
     for (const auto &r : recs) S += r.y.rows();
     std::vector<Eigen::HouseholderQR<MatR>> qx(recs.size());
     std::vector<MatR> Q(recs.size()), F(recs.size()), Xs(recs.size()), Fw(recs.size()), Yw(recs.size());
-    MatR Ft(S, p), Yt(S, ny);
+    // the stacked rows, shared with the stacked least squares (which may finish on a thread of its own)
+    const auto Ftp = std::make_shared<MatR>(S, p), Ytp = std::make_shared<MatR>(S, ny);
+    MatR &Ft = *Ftp, &Yt = *Ytp;
     Eigen::Index off = 0;
     for (size_t i = 0; i < recs.size(); ++i) {
         // one record's filters and projection at a time: a long record is seconds of the evaluation
@@ -124,15 +162,12 @@ Eval evaluate(const std::vector<MultiRecord> &recs, const Layout &L, const VecR 
         off += T;
     }
     Eval e;
-    Eigen::ColPivHouseholderQR<MatR> qf;
     MatR QF;
     if (p > 0) {
-        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");   // the QR of every record's rows
-        qf.compute(Ft);
-        e.beta = qf.solve(Yt);
-        e.R = Yt - Ft * e.beta;
-        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
-        QF = qf.householderQ() * MatR::Identity(S, qf.rank());
+        StackedLs ls = stacked_ls(Ftp, Ytp);
+        e.beta = std::move(ls.beta);
+        e.R = std::move(ls.R);
+        QF = std::move(ls.QF);
     } else {
         e.beta = MatR(0, ny);
         e.R = Yt;

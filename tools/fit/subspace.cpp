@@ -462,24 +462,26 @@ SubspaceResult fit_subspace(const FrfData &f, Domain d, const std::vector<Weight
     return r;
 }
 
-static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const std::vector<WeightedLine> &w,
-                                              bool weighted, const SubspaceOptions &o)
+// Pintelon 2002 Thm 2: with sample covariances from M periods, A and C need M >= 2, B and D
+// (inverse-covariance weighted) M >= 4; dof = M - 1 per experiment. Refused before any work.
+static void check_weight_periods(const std::vector<WeightedLine> &w, bool weighted)
 {
-    (void)f;
-    if (w.empty()) throw FitError("no lines");
-    const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows();
-    // Pintelon 2002 Thm 2: with sample covariances from M periods, A and C need M >= 2,
-    // B and D (inverse-covariance weighted) M >= 4; dof = M - 1 per experiment.
-    if (weighted) {
-        double dmin = 1e300;
-        for (const auto &l : w) dmin = std::min(dmin, l.dof);
-        if (dmin < 1.0)
-            throw FitError("the weights rest on fewer than 2 periods: the sample subspace algorithm needs M >= 2");
-        if (dmin < 3.0)
-            throw FitError("the weights rest on " + std::to_string((int)std::lround(dmin + 1)) +
-                           " periods: B and D weighted by the inverse sample covariance need M >= 4 "
-                           "(Pintelon 2002, Theorem 2); measure more periods or use --weight none");
-    }
+    if (!weighted) return;
+    double dmin = 1e300;
+    for (const auto &l : w) dmin = std::min(dmin, l.dof);
+    if (dmin < 1.0) throw FitError("the weights rest on fewer than 2 periods: the sample subspace algorithm needs M >= 2");
+    if (dmin < 3.0)
+        throw FitError("the weights rest on " + std::to_string((int)std::lround(dmin + 1)) +
+                       " periods: B and D weighted by the inverse sample covariance need M >= 4 "
+                       "(Pintelon 2002, Theorem 2); measure more periods or use --weight none");
+}
+
+// The lines' points of the algorithm: the z-domain points as they are (dt), or the s-domain points
+// mapped by the bilinear w = (s/ws - 1) / (s/ws + 1) onto the unit circle (ct; ws the geometric mean
+// of the lines' extreme angular frequencies unless given), where the Vandermonde-like powers of the
+// data stay well conditioned.
+static Shared frequency_map(Domain d, const std::vector<WeightedLine> &w, const SubspaceOptions &o)
+{
     Shared sh;
     if (d == Domain::CT) {
         double lo = 1e300, hi = 0;
@@ -496,7 +498,18 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
     } else {
         for (const auto &l : w) sh.xi.push_back(l.x);
     }
-    // rank limits: Z^T has 2 F nu rows (real lines give nu zero rows) and r (nu + ny) columns
+    return sh;
+}
+
+// The rank limits: Z^T has 2 F nu rows (real lines give nu zero rows) and r (nu + ny) columns, so the
+// block rows are at most rmax and the order at most rmax - 1; the order asked for is checked there.
+struct RankLimits {
+    int rmax, max_order;
+};
+
+static RankLimits rank_limits(const std::vector<WeightedLine> &w, const SubspaceOptions &o)
+{
+    const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows();
     const double eq = real_equations(w);
     const int rmax = (int)std::floor(eq * nu / (double)(nu + ny)) - 1;
     if (rmax < 2) throw FitError("too few lines for subspace identification");
@@ -505,119 +518,142 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
         throw FitError("order " + std::to_string(o.order) + " is too high for " + std::to_string(w.size()) +
                        " lines: the largest order these lines support is " + std::to_string(max_order));
     if (o.order < 0) throw FitError("the order must be positive");
-    SubspaceResult res;
-    res.wscale = sh.wscale;
-    int n = o.order;
-    if (n == 0) {
-        const int r0 = o.r ? o.r : std::min(rmax, 12);
-        MatR A, C;
-        std::vector<double> sv;
-        const auto pc0 = precompute_step(w, sh, r0, weighted);
-        estimate_AC(pc0, r0, 1, A, C, sv);
-        n = auto_order(sv, std::min(r0 - 1, max_order));
-    }
-    // Block-row counts tried: r in {1.5n, 2n, 3n, 4n} within [n + 1, rmax] (a scan of every r in
-    // [1.5n, 6n] cost 30-100 fits; these four bracket the best r on the simulated structures;
-    // the trials run in parallel).
+    return {rmax, max_order};
+}
+
+// The order to fit: the one given, or (order 0) the largest gap of the singular values of one fit at
+// r0 block rows (given, else at most 12).
+static int model_order(const std::vector<WeightedLine> &w, const Shared &sh, bool weighted, const SubspaceOptions &o,
+                       const RankLimits &lim)
+{
+    if (o.order != 0) return o.order;
+    const int r0 = o.r ? o.r : std::min(lim.rmax, 12);
+    MatR A, C;
+    std::vector<double> sv;
+    const auto pc0 = precompute_step(w, sh, r0, weighted);
+    estimate_AC(pc0, r0, 1, A, C, sv);
+    return auto_order(sv, std::min(r0 - 1, lim.max_order));
+}
+
+// Block-row counts tried: the one given (checked against [n + 1, rmax]), else r in {1.5n, 2n, 3n, 4n}
+// within [n + 1, rmax] (a scan of every r in [1.5n, 6n] cost 30-100 fits; these four bracket the best
+// r on the simulated structures), ascending.
+static std::vector<int> block_row_counts(const SubspaceOptions &o, int n, int rmax)
+{
     std::vector<int> rs;
     if (o.r) {
         if (o.r <= n || o.r > rmax)
             throw FitError("block rows r = " + std::to_string(o.r) + " must lie in [" + std::to_string(n + 1) + ", " +
                            std::to_string(rmax) + "]");
         rs.push_back(o.r);
-    } else {
-        for (int r : {(int)std::ceil(1.5 * n), 2 * n, 3 * n, 4 * n}) {
-            r = std::min(std::max(r, n + 1), rmax);
-            if (std::find(rs.begin(), rs.end(), r) == rs.end()) rs.push_back(r);
-        }
-        std::sort(rs.begin(), rs.end());
+        return rs;
     }
-    const int rhi = rs.back();
-    double best = 1e300;
-    const auto pc = precompute_step(w, sh, rhi, weighted);
-    // Each block-row count is an independent fit: run them on the available cores.
-    struct Trial {
-        SSModel m;
-        std::vector<double> sv;
-        double V = 1e300;
-        int refl = 0;
-        std::string err;
-    };
-    const int nr = (int)rs.size();
-    std::vector<Trial> trials((size_t)nr);
-    auto work = [&](int i) {
-        const int r = rs[(size_t)i];
-        Trial &t = trials[(size_t)i];
-        try {
-            SSModel &m = t.m;
-            m.domain = d;
-            m.h = f.h;
-            MatR Aw, Cw;
-            estimate_AC(pc, r, n, Aw, Cw, t.sv);
-            if (d == Domain::CT) {
-                // w-domain (A_w, C_w) to s: A = ws (I - A_w)^{-1}(I + A_w), C = 2 C_w (I - A_w)^{-1}
-                const MatR I = MatR::Identity(n, n);
-                Eigen::PartialPivLU<MatR> lu(I - Aw), luT((I - Aw).transpose());
-                m.A = sh.wscale * lu.solve(I + Aw);
-                m.C = 2.0 * luT.solve(Cw.transpose()).transpose();   // 2 C_w (I - A_w)^{-1}
-            } else {
-                m.A = Aw;
-                m.C = Cw;
-            }
-            m.B = MatR::Zero(n, nu);
-            m.D = MatR::Zero(ny, nu);
-            if (o.stable) t.refl = ss_reflect_unstable(m);
-            t.V = fit_BD(m, w, o.estimate_D);
-        } catch (const std::exception &e) {
-            t.err = e.what();
+    for (int r : {(int)std::ceil(1.5 * n), 2 * n, 3 * n, 4 * n}) {
+        r = std::min(std::max(r, n + 1), rmax);
+        if (std::find(rs.begin(), rs.end(), r) == rs.end()) rs.push_back(r);
+    }
+    std::sort(rs.begin(), rs.end());
+    return rs;
+}
+
+// The fit at one block-row count: its model, singular values, cost (1e300: failed, err says why) and
+// the number of unstable poles reflected.
+struct Trial {
+    SSModel m;
+    std::vector<double> sv;
+    double V = 1e300;
+    int refl = 0;
+    std::string err;
+};
+
+// One block-row count's fit: A and C from the shared precomputation (mapped back from the w-domain
+// for ct), the unstable poles reflected when asked, then B and D by weighted least squares. A failure
+// is the trial's, not the fit's (the other counts may succeed); a stop (Cancelled) goes through.
+static void fit_trial(Trial &t, const std::shared_ptr<const Precomp> &pc, const FrfData &f, Domain d,
+                      const std::vector<WeightedLine> &w, const Shared &sh, int r, int n, const SubspaceOptions &o)
+{
+    const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows();
+    try {
+        SSModel &m = t.m;
+        m.domain = d;
+        m.h = f.h;
+        MatR Aw, Cw;
+        estimate_AC(pc, r, n, Aw, Cw, t.sv);
+        if (d == Domain::CT) {
+            // w-domain (A_w, C_w) to s: A = ws (I - A_w)^{-1}(I + A_w), C = 2 C_w (I - A_w)^{-1}
+            const MatR I = MatR::Identity(n, n);
+            Eigen::PartialPivLU<MatR> lu(I - Aw), luT((I - Aw).transpose());
+            m.A = sh.wscale * lu.solve(I + Aw);
+            m.C = 2.0 * luT.solve(Cw.transpose()).transpose();   // 2 C_w (I - A_w)^{-1}
+        } else {
+            m.A = Aw;
+            m.C = Cw;
         }
-    };
+        m.B = MatR::Zero(n, nu);
+        m.D = MatR::Zero(ny, nu);
+        if (o.stable) t.refl = ss_reflect_unstable(m);
+        t.V = fit_BD(m, w, o.estimate_D);
+    } catch (const std::exception &e) {
+        t.err = e.what();
+    }
+}
+
+// work(0..nr-1), each block-row count an independent fit, on the available cores: hw - 1 threads
+// beside this one, which takes its own share (one thread start saved). The caller's cancellation token
+// is every thread's; this thread, the only one that can see the caller's stop, asks it while it waits
+// for the others (a stop is then seen at their next checkpoint), and every thread has ended before the
+// stop is thrown.
+template <class Work> static void run_trials(int nr, const Work &work)
+{
     const unsigned hw = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
-    if (hw > 1 && nr > 1) {
-        // hw - 1 threads beside this one, which takes its own share (one thread start saved). The
-        // caller's cancellation token is every thread's; this thread, the only one that can see the
-        // caller's stop, asks it while it waits for the others (a stop is then seen at their next
-        // checkpoint), and every thread has ended before the stop is thrown
-        msidutil::Cancel *const cancel = msidutil::current_cancel();
-        std::atomic<bool> stopped{false};
-        std::mutex mu;
-        std::condition_variable cv;
-        unsigned busy = hw;
-        auto share = [&](unsigned t) {
-            msidutil::CancelScope scope(cancel);
-            try {
-                for (int i = (int)t; i < nr && !stopped; i += (int)hw) work(i);
-            } catch (const msidutil::Cancelled &) {
-                stopped = true;
-            }
-            std::lock_guard<std::mutex> g(mu);
-            --busy;
-            cv.notify_all();
-        };
-        std::vector<std::thread> pool;
-        for (unsigned t = 1; t < hw; ++t) pool.emplace_back(share, t);
-        share(0);
-        std::unique_lock<std::mutex> g(mu);
-        while (busy) {
-            cv.wait_for(g, std::chrono::milliseconds(5));
-            if (!busy || stopped) continue;
-            g.unlock();
-            try {
-                msidutil::checkpoint(msidutil::Step::solves, 0, "the subspace fit");
-            } catch (const msidutil::Cancelled &) {
-                stopped = true;
-            }
-            g.lock();
-        }
-        g.unlock();
-        for (auto &th : pool) th.join();
-        if (stopped) throw msidutil::Cancelled{"the subspace fit"};
-    } else {
+    if (hw <= 1 || nr <= 1) {
         for (int i = 0; i < nr; ++i) work(i);
+        return;
     }
-    for (int i = 0; i < nr; ++i) {   // in order: ties go to the smaller r, deterministically
-        const int r = rs[(size_t)i];
-        Trial &t = trials[(size_t)i];
+    msidutil::Cancel *const cancel = msidutil::current_cancel();
+    std::atomic<bool> stopped{false};
+    std::mutex mu;
+    std::condition_variable cv;
+    unsigned busy = hw;
+    auto share = [&](unsigned t) {
+        msidutil::CancelScope scope(cancel);
+        try {
+            for (int i = (int)t; i < nr && !stopped; i += (int)hw) work(i);
+        } catch (const msidutil::Cancelled &) {
+            stopped = true;
+        }
+        std::lock_guard<std::mutex> g(mu);
+        --busy;
+        cv.notify_all();
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < hw; ++t) pool.emplace_back(share, t);
+    share(0);
+    std::unique_lock<std::mutex> g(mu);
+    while (busy) {
+        cv.wait_for(g, std::chrono::milliseconds(5));
+        if (!busy || stopped) continue;
+        g.unlock();
+        try {
+            msidutil::checkpoint(msidutil::Step::solves, 0, "the subspace fit");
+        } catch (const msidutil::Cancelled &) {
+            stopped = true;
+        }
+        g.lock();
+    }
+    g.unlock();
+    for (auto &th : pool) th.join();
+    if (stopped) throw msidutil::Cancelled{"the subspace fit"};
+}
+
+// The scan over the block-row counts into res (every count's cost), and the model of the lowest
+// finite cost, taken in order so that ties go to the smaller r, deterministically.
+static void keep_best_trial(const std::vector<int> &rs, const std::vector<Trial> &trials, SubspaceResult &res)
+{
+    double best = 1e300;
+    for (size_t i = 0; i < rs.size(); ++i) {
+        const int r = rs[i];
+        const Trial &t = trials[i];
         res.scan.emplace_back(r, t.V);
         if (std::isfinite(t.V) && t.V < best) {
             best = t.V;
@@ -629,65 +665,110 @@ static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const 
         }
     }
     if (!(best < 1e300)) throw FitError("subspace identification failed at every block-row count");
+}
+
+// With the feedthrough estimated and left to the data: the likelihood-ratio test of D = 0,
+// 2 (V0 - V1) ~ chi2 with ny nu dof (cost (35) in likelihood units); D = 0 kept unless p < 0.01.
+static void test_feedthrough(SubspaceResult &res, const std::vector<WeightedLine> &w, bool weighted,
+                             const SubspaceOptions &o)
+{
     res.feedthrough = o.estimate_D;
-    if (o.estimate_D && o.feedthrough_auto && weighted) {
-        // likelihood-ratio test of D = 0: 2 (V0 - V1) ~ chi2 with ny nu dof (cost (35) in likelihood units)
-        SSModel m0 = res.model;
-        const double V0 = fit_BD(m0, w, false);
-        res.feedthrough_p = chi2_sf((double)(ny * nu), std::max(0.0, 2.0 * (V0 - res.cost)));
-        if (res.feedthrough_p >= 0.01) { res.model = m0; res.cost = V0; res.feedthrough = false; }
+    if (!(o.estimate_D && o.feedthrough_auto && weighted)) return;
+    const Eigen::Index nu = w[0].G.cols(), ny = w[0].G.rows();
+    SSModel m0 = res.model;
+    const double V0 = fit_BD(m0, w, false);
+    res.feedthrough_p = chi2_sf((double)(ny * nu), std::max(0.0, 2.0 * (V0 - res.cost)));
+    if (res.feedthrough_p >= 0.01) { res.model = m0; res.cost = V0; res.feedthrough = false; }
+}
+
+// The r scan left unstable poles and stability is the default: the unconstrained and the reflected
+// (constrained) refinements on the refinement's weights wr, the constrained one from two starts; the
+// unconstrained model is kept only if it became stable at no higher cost.
+static void refine_to_stable(SubspaceResult &res, const std::vector<WeightedLine> &wr, bool weighted, int it)
+{
+    SSModel mu = res.model, ms = res.model;
+    const SubspaceRefine ru = refine_subspace(mu, wr, res.feedthrough, false, it);
+    int k = ss_reflect_unstable(ms);
+    double Vs = fit_BD(ms, wr, res.feedthrough);
+    SubspaceRefine rc = refine_subspace(ms, wr, res.feedthrough, true, it);
+    if (rc.refined) Vs = rc.cost;
+    const double Vu = ru.refined ? ru.cost : res.cost;
+    if (!ss_stable(mu)) {
+        // second constrained start: the refined unconstrained model with its (by now small)
+        // unstable terms reflected
+        SSModel m2 = mu;
+        const int k2 = ss_reflect_unstable(m2);
+        double V2 = fit_BD(m2, wr, res.feedthrough);
+        const SubspaceRefine r2 = refine_subspace(m2, wr, res.feedthrough, true, it);
+        if (r2.refined) V2 = r2.cost;
+        if (V2 < Vs) { ms = m2; Vs = V2; k = k2; rc = r2; }
     }
-    if (o.refine_iter > 0 || o.stable_auto) {
-        res.cost_unrefined = res.cost;
-        const int it = std::max(0, o.refine_iter);
-        // the refinement's weights (pooled: sample-ML weights from few periods cost accuracy; docs/fitting.md)
-        const std::vector<WeightedLine> &wr = o.refine_w ? *o.refine_w : w;
-        if (o.refine_w) res.cost = weighted_cost_ss(res.model, wr);
-        if (o.stable_auto && !o.stable && !ss_stable(res.model)) {
-            // the r scan left unstable poles: the unconstrained and the reflected (constrained) refinements
-            SSModel mu = res.model, ms = res.model;
-            const SubspaceRefine ru = refine_subspace(mu, wr, res.feedthrough, false, it);
-            int k = ss_reflect_unstable(ms);
-            double Vs = fit_BD(ms, wr, res.feedthrough);
-            SubspaceRefine rc = refine_subspace(ms, wr, res.feedthrough, true, it);
-            if (rc.refined) Vs = rc.cost;
-            const double Vu = ru.refined ? ru.cost : res.cost;
-            if (!ss_stable(mu)) {
-                // second constrained start: the refined unconstrained model with its (by now small)
-                // unstable terms reflected
-                SSModel m2 = mu;
-                const int k2 = ss_reflect_unstable(m2);
-                double V2 = fit_BD(m2, wr, res.feedthrough);
-                const SubspaceRefine r2 = refine_subspace(m2, wr, res.feedthrough, true, it);
-                if (r2.refined) V2 = r2.cost;
-                if (V2 < Vs) { ms = m2; Vs = V2; k = k2; rc = r2; }
-            }
-            res.cost_unconstrained = Vu;
-            if (ss_stable(mu) && Vu <= Vs) {
-                res.model = mu;   // the unconstrained refinement moved the poles into the stable region
-                res.cost = Vu;
-                res.refine_steps = ru.iterations;
-            } else {
-                // stable by default: the constrained model is kept. The likelihood-ratio statistic
-                // 2 (Vs - Vu) ~ chi2(k) is written as a diagnostic only: it assumes the model is right, and
-                // with model error (nonlinear distortion, too low an order) unstable poles lower the cost
-                // of a stable plant's fit as well (docs/fitting.md "Stable by default")
-                res.stable_lr_p = weighted ? chi2_sf((double)k, std::max(0.0, 2.0 * (Vs - Vu))) : 1.0;
-                res.model = ms;
-                res.cost = Vs;
-                res.reflected = k;
-                res.refine_steps = rc.iterations;
-            }
-        } else if (it > 0) {
-            const SubspaceRefine rr = refine_subspace(res.model, wr, res.feedthrough, o.stable || o.stable_auto, it);
-            if (rr.refined) { res.cost = rr.cost; res.refine_steps = rr.iterations; }
-        }
-        if (o.refine_w) res.cost = weighted_cost_ss(res.model, w);   // reported on the r scan's weights
+    res.cost_unconstrained = Vu;
+    if (ss_stable(mu) && Vu <= Vs) {
+        res.model = mu;   // the unconstrained refinement moved the poles into the stable region
+        res.cost = Vu;
+        res.refine_steps = ru.iterations;
+    } else {
+        // stable by default: the constrained model is kept. The likelihood-ratio statistic
+        // 2 (Vs - Vu) ~ chi2(k) is written as a diagnostic only: it assumes the model is right, and
+        // with model error (nonlinear distortion, too low an order) unstable poles lower the cost
+        // of a stable plant's fit as well (docs/fitting.md "Stable by default")
+        res.stable_lr_p = weighted ? chi2_sf((double)k, std::max(0.0, 2.0 * (Vs - Vu))) : 1.0;
+        res.model = ms;
+        res.cost = Vs;
+        res.reflected = k;
+        res.refine_steps = rc.iterations;
     }
+}
+
+// The refinement of the chosen model (asked for, or needed to make it stable by default) on the
+// refinement's weights (pooled: sample-ML weights from few periods cost accuracy; docs/fitting.md);
+// the cost is reported on the r scan's weights.
+static void refine_model(SubspaceResult &res, const std::vector<WeightedLine> &w, bool weighted, const SubspaceOptions &o)
+{
+    if (!(o.refine_iter > 0 || o.stable_auto)) return;
+    res.cost_unrefined = res.cost;
+    const int it = std::max(0, o.refine_iter);
+    const std::vector<WeightedLine> &wr = o.refine_w ? *o.refine_w : w;
+    if (o.refine_w) res.cost = weighted_cost_ss(res.model, wr);
+    if (o.stable_auto && !o.stable && !ss_stable(res.model)) {
+        refine_to_stable(res, wr, weighted, it);
+    } else if (it > 0) {
+        const SubspaceRefine rr = refine_subspace(res.model, wr, res.feedthrough, o.stable || o.stable_auto, it);
+        if (rr.refined) { res.cost = rr.cost; res.refine_steps = rr.iterations; }
+    }
+    if (o.refine_w) res.cost = weighted_cost_ss(res.model, w);   // reported on the r scan's weights
+}
+
+// The three block-row counts' models of the lowest cost (ties in r's order), for the caller's choice.
+static void keep_candidates(const std::vector<Trial> &trials, SubspaceResult &res)
+{
     std::vector<int> order_idx;
-    for (int i = 0; i < nr; ++i) if (std::isfinite(trials[(size_t)i].V)) order_idx.push_back(i);
+    for (int i = 0; i < (int)trials.size(); ++i) if (std::isfinite(trials[(size_t)i].V)) order_idx.push_back(i);
     std::stable_sort(order_idx.begin(), order_idx.end(), [&](int a, int b) { return trials[(size_t)a].V < trials[(size_t)b].V; });
     for (size_t k = 0; k < order_idx.size() && k < 3; ++k) res.candidates.push_back(trials[(size_t)order_idx[k]].m);
+}
+
+static SubspaceResult fit_subspace_normalised(const FrfData &f, Domain d, const std::vector<WeightedLine> &w,
+                                              bool weighted, const SubspaceOptions &o)
+{
+    if (w.empty()) throw FitError("no lines");
+    check_weight_periods(w, weighted);
+    const Shared sh = frequency_map(d, w, o);
+    const RankLimits lim = rank_limits(w, o);
+    SubspaceResult res;
+    res.wscale = sh.wscale;
+    const int n = model_order(w, sh, weighted, o, lim);
+    const std::vector<int> rs = block_row_counts(o, n, lim.rmax);
+    // one precomputation for the largest count serves every count
+    const auto pc = precompute_step(w, sh, rs.back(), weighted);
+    const int nr = (int)rs.size();
+    std::vector<Trial> trials((size_t)nr);
+    run_trials(nr, [&](int i) { fit_trial(trials[(size_t)i], pc, f, d, w, sh, rs[(size_t)i], n, o); });
+    keep_best_trial(rs, trials, res);
+    test_feedthrough(res, w, weighted, o);
+    refine_model(res, w, weighted, o);
+    keep_candidates(trials, res);
     return res;
 }
 

@@ -80,15 +80,19 @@ struct PathCols {
     int re = -1, im = -1, sd = -1, coh = -1;
 };
 
-}  // namespace
-
-Imported read_frf_csv(const std::string &path)
-{
-    const std::string text = read_text(path);
+// The file's lines sorted: the metadata of the '#' lines before the header, the header's cells and
+// line number, and every later non-comment line's cells with its line number (checked later, so that
+// an error names the line).
+struct CsvLines {
     Meta meta;
     std::vector<std::string> header;
     size_t header_line = 0;
     std::vector<std::pair<size_t, std::vector<std::string>>> rows;
+};
+
+CsvLines csv_lines(const std::string &path, const std::string &text)
+{
+    CsvLines L;
     size_t lineno = 0;
     for (size_t a = 0; a < text.size();) {
         size_t b = text.find('\n', a);
@@ -98,149 +102,195 @@ Imported read_frf_csv(const std::string &path)
         ++lineno;
         if (line.empty()) continue;
         if (line[0] == '#') {
-            if (header.empty()) take_meta(meta, path, lineno, line.substr(1));
+            if (L.header.empty()) take_meta(L.meta, path, lineno, line.substr(1));
             continue;
         }
-        if (header.empty()) {
-            header = split(line, ',');
-            header_line = lineno;
+        if (L.header.empty()) {
+            L.header = split(line, ',');
+            L.header_line = lineno;
             continue;
         }
-        rows.emplace_back(lineno, split(line, ','));
+        L.rows.emplace_back(lineno, split(line, ','));
     }
-    if (header.empty()) throw Error("'" + path + "' has no header line (docs/frf-format.md, \"CSV\")");
-    // the header: one frequency column, then G_OUT_IN_PART columns
+    if (L.header.empty()) throw Error("'" + path + "' has no header line (docs/frf-format.md, \"CSV\")");
+    return L;
+}
+
+// What the header's columns hold: the frequency column and its scale to rad/s (or rad/sample), the
+// outputs' and inputs' names in their order of appearance, each path's columns, the dof column (-1:
+// none), and whether every path has a standard deviation or a coherence column (all or none).
+struct CsvColumns {
     int fcol = -1;
     double fscale = 0;
     std::vector<std::string> outs, ins;
     std::map<std::pair<size_t, size_t>, PathCols> paths;
     int dofcol = -1;
-    const bool dt = meta.domain == "dt";
+    bool with_sd = false, with_coh = false;
+};
+
+// The header's columns: one frequency column (omega first, then freq_hz, then freq: msid export
+// writes all three), the columns msid export adds (bin, a second frequency, dof), then
+// G_OUT_IN_PART columns, each once.
+CsvColumns header_columns(const std::string &path, const CsvLines &L)
+{
+    const std::vector<std::string> &header = L.header;
+    const bool dt = L.meta.domain == "dt";
+    CsvColumns cols;
     for (size_t c = 0; c < header.size(); ++c) {
         const std::string &h = header[c];
         if (h == "omega" || h == "freq_hz" || (h == "freq" && dt)) {
-            // omega first, then freq_hz, then freq (msid export writes all three)
-            const double s = h == "omega" ? 1.0 : h == "freq_hz" ? 2 * M_PI : 2 * M_PI / (meta.sample_time > 0 ? meta.sample_time : 1.0);
+            const double s = h == "omega" ? 1.0 : h == "freq_hz" ? 2 * M_PI : 2 * M_PI / (L.meta.sample_time > 0 ? L.meta.sample_time : 1.0);
             const int rank = h == "omega" ? 3 : h == "freq_hz" ? 2 : 1;
-            const int have = fcol < 0 ? 0 : header[(size_t)fcol] == "omega" ? 3 : header[(size_t)fcol] == "freq_hz" ? 2 : 1;
-            if (rank > have) { fcol = (int)c; fscale = s; }
+            const int have = cols.fcol < 0 ? 0 : header[(size_t)cols.fcol] == "omega" ? 3 : header[(size_t)cols.fcol] == "freq_hz" ? 2 : 1;
+            if (rank > have) { cols.fcol = (int)c; cols.fscale = s; }
             continue;
         }
         if (h == "bin" || h == "freq") continue;
-        if (h == "dof") { dofcol = (int)c; continue; }
+        if (h == "dof") { cols.dofcol = (int)c; continue; }
         const std::vector<std::string> p = split(h, '_');
         if (p.size() != 4 || p[0] != "G" || p[1].empty() || p[2].empty() ||
             (p[3] != "re" && p[3] != "im" && p[3] != "sd" && p[3] != "coh"))
-            throw Error(at_line(path, header_line, "column " + std::to_string(c + 1) + " '" + h +
-                                                       "' is not a frequency (freq_hz, omega) nor G_OUT_IN_re|im|sd|coh "
-                                                       "(names without '_')"));
+            throw Error(at_line(path, L.header_line, "column " + std::to_string(c + 1) + " '" + h +
+                                                         "' is not a frequency (freq_hz, omega) nor G_OUT_IN_re|im|sd|coh "
+                                                         "(names without '_')"));
         auto index = [](std::vector<std::string> &v, const std::string &n) {
             auto it = std::find(v.begin(), v.end(), n);
             if (it == v.end()) { v.push_back(n); return v.size() - 1; }
             return (size_t)(it - v.begin());
         };
-        const size_t i = index(outs, p[1]), j = index(ins, p[2]);
-        PathCols &pc = paths[{i, j}];
+        const size_t i = index(cols.outs, p[1]), j = index(cols.ins, p[2]);
+        PathCols &pc = cols.paths[{i, j}];
         int &slot = p[3] == "re" ? pc.re : p[3] == "im" ? pc.im : p[3] == "sd" ? pc.sd : pc.coh;
-        if (slot >= 0) throw Error(at_line(path, header_line, "column '" + h + "' appears twice"));
+        if (slot >= 0) throw Error(at_line(path, L.header_line, "column '" + h + "' appears twice"));
         slot = (int)c;
     }
-    if (fcol < 0)
-        throw Error(at_line(path, header_line, std::string("no frequency column (freq_hz in Hz or omega in rad/s") +
-                                                   (dt ? ", or freq in cycles/sample" : "") + ")"));
-    if (outs.empty()) throw Error(at_line(path, header_line, "no G_OUT_IN_re / G_OUT_IN_im columns"));
-    if (outs.size() > 16 || ins.size() > 16)
-        throw Error(at_line(path, header_line, std::to_string(outs.size()) + " outputs x " + std::to_string(ins.size()) +
-                                                   " inputs; msid takes 1..16 of each"));
+    if (cols.fcol < 0)
+        throw Error(at_line(path, L.header_line, std::string("no frequency column (freq_hz in Hz or omega in rad/s") +
+                                                     (dt ? ", or freq in cycles/sample" : "") + ")"));
+    if (cols.outs.empty()) throw Error(at_line(path, L.header_line, "no G_OUT_IN_re / G_OUT_IN_im columns"));
+    if (cols.outs.size() > 16 || cols.ins.size() > 16)
+        throw Error(at_line(path, L.header_line, std::to_string(cols.outs.size()) + " outputs x " +
+                                                     std::to_string(cols.ins.size()) + " inputs; msid takes 1..16 of each"));
+    return cols;
+}
+
+// Every output/input pair has its _re and _im columns and at most one of _sd and _coh, and either
+// every pair has the same kind of uncertainty or none has; coherence needs the averages.
+void check_paths(const std::string &path, const CsvLines &L, CsvColumns &cols)
+{
     int with_sd = 0, with_coh = 0;
-    for (size_t i = 0; i < outs.size(); ++i)
-        for (size_t j = 0; j < ins.size(); ++j) {
-            const std::string n = "G_" + outs[i] + "_" + ins[j];
-            if (!paths.count({i, j}) || paths[{i, j}].re < 0 || paths[{i, j}].im < 0)
-                throw Error(at_line(path, header_line, "no columns " + n + "_re and " + n + "_im: every output/input "
-                                                           "pair needs both"));
-            const PathCols &pc = paths[{i, j}];
+    for (size_t i = 0; i < cols.outs.size(); ++i)
+        for (size_t j = 0; j < cols.ins.size(); ++j) {
+            const std::string n = "G_" + cols.outs[i] + "_" + cols.ins[j];
+            if (!cols.paths.count({i, j}) || cols.paths[{i, j}].re < 0 || cols.paths[{i, j}].im < 0)
+                throw Error(at_line(path, L.header_line, "no columns " + n + "_re and " + n + "_im: every output/input "
+                                                             "pair needs both"));
+            const PathCols &pc = cols.paths[{i, j}];
             if (pc.sd >= 0 && pc.coh >= 0)
-                throw Error(at_line(path, header_line, n + " has both _sd and _coh: give one of them"));
+                throw Error(at_line(path, L.header_line, n + " has both _sd and _coh: give one of them"));
             with_sd += pc.sd >= 0;
             with_coh += pc.coh >= 0;
         }
-    const int npaths = (int)(outs.size() * ins.size());
+    const int npaths = (int)(cols.outs.size() * cols.ins.size());
     if ((with_sd && with_sd != npaths) || (with_coh && with_coh != npaths))
-        throw Error(at_line(path, header_line, "uncertainty columns (_sd or _coh) for some pairs only: give them for "
-                                               "every pair or none"));
-    if (with_coh && !(meta.averages > 0))
-        throw Error(at_line(path, header_line, "coherence columns need the number of averages ('# averages: n')"));
+        throw Error(at_line(path, L.header_line, "uncertainty columns (_sd or _coh) for some pairs only: give them for "
+                                                 "every pair or none"));
+    if (with_coh && !(L.meta.averages > 0))
+        throw Error(at_line(path, L.header_line, "coherence columns need the number of averages ('# averages: n')"));
+    cols.with_sd = with_sd != 0;
+    cols.with_coh = with_coh != 0;
+}
+
+// The FRF's frame before its lines: sizes, domain, the channels' names and (given any) units.
+Imported imported_frame(const std::string &path, const CsvLines &L, const CsvColumns &cols)
+{
+    const bool dt = L.meta.domain == "dt";
     Imported im;
     im.path = path;
     im.format = "csv";
-    im.ny = (uint32_t)outs.size();
-    im.nu = (uint32_t)ins.size();
+    im.ny = (uint32_t)cols.outs.size();
+    im.nu = (uint32_t)cols.ins.size();
     im.ct = !dt;
-    im.sample_time = dt ? meta.sample_time : 0.0;
-    im.output_names = outs;
-    im.input_names = ins;
-    for (const auto &n : ins) im.input_units.push_back(meta.units.count(n) ? meta.units[n] : "");
-    for (const auto &n : outs) im.output_units.push_back(meta.units.count(n) ? meta.units[n] : "");
-    if (meta.units.empty()) im.input_units.clear(), im.output_units.clear();
+    im.sample_time = dt ? L.meta.sample_time : 0.0;
+    im.output_names = cols.outs;
+    im.input_names = cols.ins;
+    const std::map<std::string, std::string> &units = L.meta.units;
+    for (const auto &n : cols.ins) im.input_units.push_back(units.count(n) ? units.at(n) : "");
+    for (const auto &n : cols.outs) im.output_units.push_back(units.count(n) ? units.at(n) : "");
+    if (units.empty()) im.input_units.clear(), im.output_units.clear();
+    return im;
+}
+
+// One row's line: its frequency, G and (with uncertainty columns) the diagonal covariance of vec G
+// from the standard deviations or, by Bendat & Piersol (9.73), the coherence, and its dof. Every
+// cell a finite number, named by line and column where it is not.
+void take_row(Imported &im, const std::string &path, const CsvLines &L, const CsvColumns &cols, size_t ln,
+              const std::vector<std::string> &v)
+{
+    const std::vector<std::string> &header = L.header;
+    const Meta &meta = L.meta;
+    if (v.size() != header.size())
+        throw Error(at_line(path, ln, std::to_string(v.size()) + " columns, the header has " + std::to_string(header.size())));
+    auto number = [&](int c) {
+        const std::string &t = v[(size_t)c];
+        const char *s = t.c_str();
+        double x = 0;
+        if (!take_number(s, s + t.size(), x) || *s)
+            throw Error(at_line(path, ln, "column '" + header[(size_t)c] + "': '" + t + "' is not a number"));
+        if (!std::isfinite(x)) throw Error(at_line(path, ln, "column '" + header[(size_t)c] + "' is not finite (" + t + ")"));
+        return x;
+    };
     const size_t g = (size_t)im.ny * im.nu;
-    for (const auto &row : rows) {
-        const size_t ln = row.first;
-        const std::vector<std::string> &v = row.second;
-        if (v.size() != header.size())
-            throw Error(at_line(path, ln, std::to_string(v.size()) + " columns, the header has " +
-                                              std::to_string(header.size())));
-        auto number = [&](int c) {
-            const std::string &t = v[(size_t)c];
-            const char *s = t.c_str();
-            double x = 0;
-            if (!take_number(s, s + t.size(), x) || *s)
-                throw Error(at_line(path, ln, "column '" + header[(size_t)c] + "': '" + t + "' is not a number"));
-            if (!std::isfinite(x))
-                throw Error(at_line(path, ln, "column '" + header[(size_t)c] + "' is not finite (" + t + ")"));
-            return x;
-        };
-        im.omega.push_back(number(fcol) * fscale);
-        MatC G(im.ny, im.nu);
-        MatC C = MatC::Zero((Eigen::Index)g, (Eigen::Index)g);
-        for (size_t i = 0; i < outs.size(); ++i)
-            for (size_t j = 0; j < ins.size(); ++j) {
-                const PathCols &pc = paths[{i, j}];
-                const cd x(number(pc.re), number(pc.im));
-                G((Eigen::Index)i, (Eigen::Index)j) = x;
-                const Eigen::Index a = (Eigen::Index)(i + im.ny * j);   // vec stacks columns
-                if (pc.sd >= 0) {
-                    const double sd = number(pc.sd);
-                    if (!(sd > 0))
-                        throw Error(at_line(path, ln, "column '" + header[(size_t)pc.sd] +
-                                                          "': a standard deviation must be positive"));
-                    C(a, a) = sd * sd;
-                }
-                if (pc.coh >= 0) {
-                    // Bendat & Piersol (9.73): the complex variance of an H1 estimate from n averages,
-                    // E|Ghat - G|^2 = (1 - coh) / (coh n) |G|^2 (magnitude and phase errors alike)
-                    const double coh = number(pc.coh);
-                    if (!(coh > 0 && coh < 1))
-                        throw Error(at_line(path, ln, "column '" + header[(size_t)pc.coh] +
-                                                          "': a coherence must lie in (0, 1) (1 gives no noise level)"));
-                    C(a, a) = (1 - coh) / (coh * meta.averages) * std::norm(x);
-                    if (!(C(a, a).real() > 0))
-                        throw Error(at_line(path, ln, "G is zero where the coherence sets its variance: no noise level"));
-                }
+    im.omega.push_back(number(cols.fcol) * cols.fscale);
+    MatC G(im.ny, im.nu);
+    MatC C = MatC::Zero((Eigen::Index)g, (Eigen::Index)g);
+    for (size_t i = 0; i < cols.outs.size(); ++i)
+        for (size_t j = 0; j < cols.ins.size(); ++j) {
+            const PathCols &pc = cols.paths.at({i, j});
+            const cd x(number(pc.re), number(pc.im));
+            G((Eigen::Index)i, (Eigen::Index)j) = x;
+            const Eigen::Index a = (Eigen::Index)(i + im.ny * j);   // vec stacks columns
+            if (pc.sd >= 0) {
+                const double sd = number(pc.sd);
+                if (!(sd > 0))
+                    throw Error(at_line(path, ln, "column '" + header[(size_t)pc.sd] + "': a standard deviation must be positive"));
+                C(a, a) = sd * sd;
             }
-        im.G.push_back(G);
-        if (with_sd || with_coh) {
-            im.cov.push_back(C);
-            // the dof: an exported file's column, else "# dof:", else the averages (coherence), else
-            // the sd are taken as known (a large dof: the chi-square law)
-            const double dof = dofcol >= 0 ? number(dofcol) : meta.dof > 0 ? meta.dof : with_coh ? meta.averages : 1e9;
-            if (!(dof >= 1)) throw Error(at_line(path, ln, "dof must be at least 1"));
-            im.dof.push_back(dof);
+            if (pc.coh >= 0) {
+                // Bendat & Piersol (9.73): the complex variance of an H1 estimate from n averages,
+                // E|Ghat - G|^2 = (1 - coh) / (coh n) |G|^2 (magnitude and phase errors alike)
+                const double coh = number(pc.coh);
+                if (!(coh > 0 && coh < 1))
+                    throw Error(at_line(path, ln, "column '" + header[(size_t)pc.coh] +
+                                                      "': a coherence must lie in (0, 1) (1 gives no noise level)"));
+                C(a, a) = (1 - coh) / (coh * meta.averages) * std::norm(x);
+                if (!(C(a, a).real() > 0))
+                    throw Error(at_line(path, ln, "G is zero where the coherence sets its variance: no noise level"));
+            }
         }
+    im.G.push_back(G);
+    if (cols.with_sd || cols.with_coh) {
+        im.cov.push_back(C);
+        // the dof: an exported file's column, else "# dof:", else the averages (coherence), else
+        // the sd are taken as known (a large dof: the chi-square law)
+        const double dof = cols.dofcol >= 0 ? number(cols.dofcol) : meta.dof > 0 ? meta.dof : cols.with_coh ? meta.averages : 1e9;
+        if (!(dof >= 1)) throw Error(at_line(path, ln, "dof must be at least 1"));
+        im.dof.push_back(dof);
     }
-    if (rows.empty()) throw Error("'" + path + "' has a header but no rows");
-    im.info["uncertainty"] = with_sd ? "standard deviations" : with_coh ? "coherence" : "none";
-    if (with_coh) im.info["averages"] = meta.averages;
+}
+
+}  // namespace
+
+Imported read_frf_csv(const std::string &path)
+{
+    const CsvLines L = csv_lines(path, read_text(path));
+    CsvColumns cols = header_columns(path, L);
+    check_paths(path, L, cols);
+    Imported im = imported_frame(path, L, cols);
+    for (const auto &row : L.rows) take_row(im, path, L, cols, row.first, row.second);
+    if (L.rows.empty()) throw Error("'" + path + "' has a header but no rows");
+    im.info["uncertainty"] = cols.with_sd ? "standard deviations" : cols.with_coh ? "coherence" : "none";
+    if (cols.with_coh) im.info["averages"] = L.meta.averages;
     return im;
 }
 
