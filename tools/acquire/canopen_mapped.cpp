@@ -259,8 +259,13 @@ private:
                                  dev_.co_bitrate ? "" : fmt(" (a bus of %u kbit/s assumed: the URI gives no bitrate=BPS)",
                                                             bitrate_ / 1000).c_str()));
         if (!d_.co_eds[0]) return;
-        const EdsFile f(d_.co_eds);
-        if (msid_co_map_check_eds(&pre, &f.eds, err, sizeof err)) throw UsageError(err);
+        std::unique_ptr<EdsFile> f;
+        try {
+            f = std::make_unique<EdsFile>(d_.co_eds);
+        } catch (const msidutil::IoError &e) {   // the description names a file that is not there
+            throw UsageError(fmt("%s (key eds): %s", d_.source, e.what()));
+        }
+        if (msid_co_map_check_eds(&pre, &f->eds, err, sizeof err)) throw UsageError(err);
     }
 
     // the torque channels' scale from the node's rated torque 0x6076 (mN m) when the description gives none
