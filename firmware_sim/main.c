@@ -104,7 +104,8 @@ static const char USAGE_CO[] =
     "  --refuse-map IDX:SUB  refuse mapping IDX:SUB into a PDO (object cannot be mapped)\n"
     "  --clock-ppm X         the node's own clock (heartbeat, inhibit time, SDO timeout) against the host's\n"
     "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n"
-    "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it reports (0x606C)\n";
+    "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it measures: reported (0x606C)\n"
+    "                        and fed back by its velocity loop (CSV, CSP), whose gains follow the SYNC period 0x1006\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {

@@ -40,8 +40,10 @@ typedef struct sim_co_faults {
     uint8_t refuse_sub;
     double clock_ppm;         /**< the node's clock against the host's, ppm, |x| <= 1e4 */
     uint64_t drop_every;      /**< the k-th, 2k-th, ... TPDO due is not sent (0: none) */
-    double noise_vel;         /**< std of white Gaussian noise on the velocity the node reports (0x606C), rad/s;
-                                   the plant and the drive's loops see the true velocity (0: none) */
+    double noise_vel;         /**< std of white Gaussian noise on the velocity the drive measures, rad/s: the
+                                   velocity it reports (0x606C) and the one its velocity loop (CSV, CSP) feeds
+                                   back are that one measurement, as an encoder's noise; the plant moves with
+                                   the demand (0: none) */
     uint64_t seed;            /**< of that noise */
 } sim_co_faults;
 
@@ -76,6 +78,7 @@ typedef struct sim_co_node {
     uint8_t rpdo_pending[4];
     int fault_done;
     double host0_ms;            /**< host time at init, ms */
+    double w_meas;              /**< the velocity the drive measured for the state it holds (0x606C), rad/s */
     uint64_t now_ms;            /**< node time of the last call, ms */
 } sim_co_node;
 
