@@ -90,7 +90,7 @@ def test_closed_loop_plant_and_sensitivity_through_the_reference(tmp_path):
     for s in range(1, 6):
         with Drive(tmp_path, "--seed", s, *NOISE) as sim:
             assert sim.write(0x6076, RATED_MNM) == RATED_MNM
-            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}")
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=10)
             assert syncs_within(0.5) == 0
             st = sim.state()
             assert state_name(st["statusword"]) in ("switch on disabled", "quick stop active"), st
@@ -120,6 +120,7 @@ def test_the_preset_csv_loop_refuses_a_description_of_two_drives(tmp_path):
     desc = tmp_path / "two.toml"
     desc.write_text(DESC + "\n[[drive]]\nname = \"second\"\nsafe = 0.0\n")
     r = subprocess.run([str(canlib.MSID), "measure", "--device", f"canopen://vcan0?node={NODE}", "--map", str(desc),
-                        "--rate", str(RATE), "-o", str(tmp_path / "o")], capture_output=True, text=True, timeout=60)
+                        "--rate", str(RATE), "--period", str(P), "--lines", LINES, "-o", str(tmp_path / "o")],
+                       capture_output=True, text=True, timeout=60)
     assert r.returncode != 0
     assert "preset = \"csv-loop\" takes one [[drive]] table" in r.stderr, r.stderr
