@@ -13,6 +13,7 @@ sim_co402_gains sim_co402_gains_for(double ts)
      *   1 kHz: 0.528 +- 0.667j (the shaft's mode), 0.914, 0.952;
      *   100 Hz: -0.632 +- 0.549j (the shaft's mode, aliased; |z| 0.837), 0.851, 0.933;
      *   50 Hz: 0.037 +- 0.748j (the shaft's mode, aliased; |z| 0.749), 0.841, 0.938;
+ *   25 Hz: -0.538 +- 0.051j (the shaft's mode, aliased), 0.822, 0.945;
      *   20 Hz: 0.359 +- 0.298j, 0.814, 0.947.
      * The loop's own poles are real (well damped; its slowest, 0.93..0.95, settles in about 16 SYNCs at any
      * rate), and the shaft's mode keeps about the damping it has open loop. Not at 300 Hz: the shaft's mode
