@@ -105,7 +105,8 @@ static const char USAGE_CO[] =
     "  --clock-ppm X         the node's own clock (heartbeat, inhibit time, SDO timeout) against the host's\n"
     "  --drop-every K        every K-th TPDO due is not sent; --report, --idle-exit as above\n"
     "  --late-sync-every K[:MS]  take every K-th SYNC MS ms (default 30) late, and the frames behind it in order\n"
-    "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it reports (0x606C)\n";
+    "  --noise-y S --seed N  white Gaussian noise of std S rad/s on the velocity it measures: reported (0x606C)\n"
+    "                        and fed back by its velocity loop (CSV, CSP), whose gains follow the SYNC period 0x1006\n";
 
 static uint64_t num_u(const char *opt, const char *v)
 {

@@ -3,13 +3,29 @@
 
 #include <math.h>
 
-sim_co402_gains sim_co402_default_gains(void)
+sim_co402_gains sim_co402_gains_for(double ts)
 {
-    /* total inertia 3e-4 kg m^2: kp = J wc at wc = 2 pi 20 Hz, integral corner a quarter of it */
-    const double wc = 2.0 * 3.14159265358979323846 * 20.0;
-    const sim_co402_gains g = {3e-4 * wc, 3e-4 * wc * wc / 4.0, 2.0 * 3.14159265358979323846 * 5.0, 3000.0};
+    /* total inertia J = 3e-4 kg m^2: kp = J wc, the integral corner at wc / 4, the position loop at wc / 4.
+     * wc = 2 pi 20 Hz where the SYNC is fast enough (kp T / J <= 0.2), else wc = 0.2 / T: the discrete loop
+     * (tau[k] = kp e[k] + I[k], I[k] = I[k-1] + ki T e[k], x[k+1] = A x[k] + B tau[k], A, B of sim_twomass at
+     * T) then keeps its poles where a 1 kHz SYNC has them. Its poles (beside the position's z = 1, which the
+     * velocity loop does not see), by the eigenvalues of that 5-state map for the default mechanics:
+     *   1 kHz: 0.528 +- 0.667j (the shaft's mode), 0.914, 0.952;
+     *   100 Hz: -0.632 +- 0.549j (the shaft's mode, aliased; |z| 0.837), 0.851, 0.933;
+     *   50 Hz: 0.037 +- 0.748j (the shaft's mode, aliased; |z| 0.749), 0.841, 0.938;
+ *   25 Hz: -0.538 +- 0.051j (the shaft's mode, aliased), 0.822, 0.945;
+     *   20 Hz: 0.359 +- 0.298j, 0.814, 0.947.
+     * The loop's own poles are real (well damped; its slowest, 0.93..0.95, settles in about 16 SYNCs at any
+     * rate), and the shaft's mode keeps about the damping it has open loop. Not at 300 Hz: the shaft's mode
+     * aliases next to Nyquist there and the loop pushes it out of the unit circle (z = -1.06). */
+    const double two_pi = 2.0 * 3.14159265358979323846, J = 3e-4;
+    double wc = two_pi * 20.0;
+    if (ts > 0 && wc * ts > 0.2) wc = 0.2 / ts;
+    const sim_co402_gains g = {J * wc, J * wc * wc / 4.0, wc / 4.0, 3000.0};
     return g;
 }
+
+sim_co402_gains sim_co402_default_gains(void) { return sim_co402_gains_for(1e-3); }
 
 void sim_co402_init(sim_co402 *d, const sim_co402_gains *g)
 {

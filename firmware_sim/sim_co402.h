@@ -43,8 +43,13 @@ typedef struct sim_co402 {
     double integ;           /**< velocity loop integrator, N m */
 } sim_co402;
 
-/** @brief Gains for the default mechanics (sim_twomass_default): a 20 Hz velocity loop, a 5 Hz position
- *         loop; limit 3000 per mille. */
+/** @brief Gains for the default mechanics (sim_twomass_default) at a SYNC period of ts s (> 0): a 20 Hz
+ *         velocity loop where 2 pi 20 Hz ts <= 0.2, else its crossover at 0.2 / ts rad/s (stable and well
+ *         damped down to a 20 Hz SYNC, see the poles in sim_co402.c); the integral corner and the position
+ *         loop at a quarter of the crossover; limit 3000 per mille. */
+sim_co402_gains sim_co402_gains_for(double ts);
+
+/** @brief sim_co402_gains_for(1e-3): a 20 Hz velocity loop, a 5 Hz position loop (a 1 kHz SYNC). */
 sim_co402_gains sim_co402_default_gains(void);
 
 /** @brief Power on: "switch on disabled" (the "not ready" state passes at once). */

@@ -45,8 +45,10 @@ static void boot(sim_co_node *n, int reset_app)
 {
     if (reset_app) {
         sim_co_od_reset(&n->od, 0x0000, 0xFFFF);
-        sim_co402_init(&n->drive, &n->drive.g);
+        const sim_co402_gains g = sim_co402_gains_for(sync_period_s(n));
+        sim_co402_init(&n->drive, &g);
         sim_twomass_init(&n->plant, &n->mech, sync_period_s(n));
+        n->w_meas = 0;
         n->fault_done = 0;
     } else
         sim_co_od_reset(&n->od, 0x1000, 0x1FFF);
@@ -175,6 +177,7 @@ static uint32_t on_write(void *ctx, sim_co_var *v, const uint8_t *data, size_t l
         memcpy(x, n->plant.x, sizeof x);
         sim_twomass_init(&n->plant, &n->mech, sync_period_s(n));
         memcpy(n->plant.x, x, sizeof x);
+        n->drive.g = sim_co402_gains_for(sync_period_s(n));   /* the loop stays tuned to the SYNC it runs on */
     }
     return 0;
 }
@@ -266,7 +269,7 @@ static void drive_step(sim_co_node *n)
     io.target_vel = (int32_t)sim_co_od_get(&n->od, 0x60FF, 0);
     io.target_pos = (int32_t)sim_co_od_get(&n->od, 0x607A, 0);
     io.rated_mnm = (uint32_t)sim_co_od_get(&n->od, 0x6076, 0);
-    io.omega = n->plant.x[1];
+    io.omega = n->w_meas;   /* the loop feeds back what the drive measured and 0x606C shows */
     io.theta = n->plant.x[0];
     io.ts = n->plant.ts;
     int16_t pm;
@@ -275,7 +278,8 @@ static void drive_step(sim_co_node *n)
     sim_co_od_set(&n->od, 0x6074, 0, (uint16_t)pm);
     sim_co_od_set(&n->od, 0x6077, 0, (uint16_t)pm);
     const double w_noise = n->f.noise_vel > 0 ? n->f.noise_vel * msid_rng_normal(&n->rng) : 0.0;
-    sim_co_od_set(&n->od, 0x606C, 0, (uint32_t)sim_co402_vel_to_bus(n->plant.x[1] + w_noise));
+    n->w_meas = n->plant.x[1] + w_noise;
+    sim_co_od_set(&n->od, 0x606C, 0, (uint32_t)sim_co402_vel_to_bus(n->w_meas));
     sim_co_od_set(&n->od, 0x6064, 0, (uint32_t)sim_co402_pos_to_bus(n->plant.x[0]));
 }
 
@@ -426,8 +430,6 @@ int sim_co_node_init(sim_co_node *n, const msid_co_eds *eds, unsigned node, cons
     n->ctx = ctx;
     n->host0_ms = host_ms;
     n->mech = sim_twomass_default();
-    const sim_co402_gains g = sim_co402_default_gains();
-    sim_co402_init(&n->drive, &g);
     sim_co_sdo_init(&n->sdo, &n->od, node, on_write, on_read, n);
     boot(n, 1);
     return 0;

@@ -44,8 +44,10 @@ typedef struct sim_co_faults {
                                    node's interrupt held up: it and every frame behind it wait, then are taken in
                                    order (the plant still steps once per SYNC; 0: none) */
     uint64_t late_sync_ms;    /**< node time, ms */
-    double noise_vel;         /**< std of white Gaussian noise on the velocity the node reports (0x606C), rad/s;
-                                   the plant and the drive's loops see the true velocity (0: none) */
+    double noise_vel;         /**< std of white Gaussian noise on the velocity the drive measures, rad/s: the
+                                   velocity it reports (0x606C) and the one its velocity loop (CSV, CSP) feeds
+                                   back are that one measurement, as an encoder's noise; the plant moves with
+                                   the demand (0: none) */
     uint64_t seed;            /**< of that noise */
 } sim_co_faults;
 
@@ -85,6 +87,7 @@ typedef struct sim_co_node {
     uint8_t rpdo_pending[4];
     int fault_done;
     double host0_ms;            /**< host time at init, ms */
+    double w_meas;              /**< the velocity the drive measured for the state it holds (0x606C), rad/s */
     uint64_t now_ms;            /**< node time of the last call, ms */
     uint64_t syncs_in;          /**< SYNC frames received (late_sync_every counts these) */
     msid_can_frame held[SIM_CO_HELD_MAX];   /**< a late SYNC and the frames behind it, in order */

@@ -198,16 +198,27 @@ struct Preset {
     const char *key;
     uint32_t mode;
     PresetChan drive;
+    bool closed_loop;
 };
 const Preset PRESETS[] = {
-    {"cst", 10, {"Target torque", 0x6071, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, 0}},
-    {"csv", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}},
-    {"csp", 8, {"Target position", 0x607A, MSID_DEV_INT32, MSID_DEV_CO_POSITION, 0}},
+    {"cst", 10, {"Target torque", 0x6071, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, 0}, false},
+    {"csv", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}, false},
+    {"csp", 8, {"Target position", 0x607A, MSID_DEV_INT32, MSID_DEV_CO_POSITION, 0}, false},
+    {"csv-loop", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}, true},
 };
 // What every preset reads each SYNC: the demand the drive applied (the FRF's input) and the actual values,
 // packed as TPDO1 (8 bytes: 0x6074, 0x6077, 0x606C) and TPDO2 (0x6064).
 const PresetChan PRESET_MEASURE[] = {
     {"Torque demand", 0x6074, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_INPUT},
+    {"Torque actual", 0x6077, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_OUTPUT},
+    {"Velocity actual", 0x606C, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, MSID_DEV_ROLE_OUTPUT},
+    {"Position actual", 0x6064, MSID_DEV_INT32, MSID_DEV_CO_POSITION, MSID_DEV_ROLE_OUTPUT},
+};
+// The closed-loop preset reads the velocity target the drive applied on that SYNC beside them (the reference:
+// the FRF's input) and the demand as an output: TPDO1 (0x60FF, 0x6074, 0x6077), TPDO2 (0x606C, 0x6064).
+const PresetChan PRESET_LOOP_MEASURE[] = {
+    {"Velocity reference", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, MSID_DEV_ROLE_INPUT},
+    {"Torque demand", 0x6074, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_OUTPUT},
     {"Torque actual", 0x6077, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_OUTPUT},
     {"Velocity actual", 0x606C, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, MSID_DEV_ROLE_OUTPUT},
     {"Position actual", 0x6064, MSID_DEV_INT32, MSID_DEV_CO_POSITION, MSID_DEV_ROLE_OUTPUT},
@@ -237,17 +248,21 @@ void apply_preset(const Preset &p, const Ctx &c, msid_devdesc &d, const toml::no
                        ", 0x" + [&] { char b[8]; std::snprintf(b, sizeof b, "%04X", p.drive.index); return std::string(b); }() +
                        ":00); leave out preset to map the objects yourself");
     fill_preset_chan(dr, p.drive);
-    const uint32_t n_own = d.n_measure, n_pre = sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
+    const PresetChan *pm = p.closed_loop ? PRESET_LOOP_MEASURE : PRESET_MEASURE;
+    const uint32_t n_own = d.n_measure,
+                   n_pre = p.closed_loop ? sizeof PRESET_LOOP_MEASURE / sizeof PRESET_LOOP_MEASURE[0]
+                                         : sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
     if (n_own + n_pre > MSID_DEV_MAX_MEASURE) c.fail(at, "too many [[measure]] channels beside the preset's");
     for (uint32_t i = n_own; i-- > 0;) d.measure[i + n_pre] = d.measure[i];
     for (uint32_t i = 0; i < n_pre; ++i) {
         msid_dev_chan &m = d.measure[i];
         msid_dev_chan_defaults(&m);
         m.line = dr.line;
-        fill_preset_chan(m, PRESET_MEASURE[i]);
+        fill_preset_chan(m, pm[i]);
     }
     d.n_measure = n_own + n_pre;
     d.co_preset = d.co_mode = p.mode;
+    d.co_closed_loop = p.closed_loop ? 1u : 0u;
 }
 
 // The scale and unit of the channels whose raw value counts a quantity of CiA 402.
@@ -297,7 +312,8 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
         const std::string ps = get_string(*preset_at, c, "preset");
         for (const Preset &p : PRESETS)
             if (ps == p.key) preset = &p;
-        if (!preset) c.fail(preset_at, "preset = \"" + ps + "\": must be \"cst\", \"csv\" or \"csp\"");
+        if (!preset)
+            c.fail(preset_at, "preset = \"" + ps + "\": must be \"cst\", \"csv\", \"csp\" or \"csv-loop\"");
     }
     std::string drive_refs[MSID_DEV_MAX_MEASURE];
     for (const auto &[k, v] : root) {

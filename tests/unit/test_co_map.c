@@ -72,6 +72,33 @@ static void test_preset_cst(void **state)
     assert_memory_equal(of, ((const uint8_t[]){0, 0, 0, 1}), 4);
 }
 
+/* the closed-loop preset: the velocity target read back is the FRF's input (the reference), the demand an output */
+static void test_preset_csv_loop(void **state)
+{
+    (void)state;
+    static msid_devdesc d;
+    char err[512];
+    static const char loop[] = "format = \"msid-device/1\"\ntransport = \"canopen\"\npreset = \"csv-loop\"\n"
+                               "rated_torque = 2.0\nvelocity_scale = 0.001\n[[drive]]\nsafe = 0.0\noperating_point = 5\n"
+                               "min = -10.0\nmax = 10.0\n";
+    assert_int_equal(parse(loop, &d, err, sizeof err), 0);
+    assert_int_equal(d.co_mode, 9);
+    assert_int_equal(d.co_closed_loop, 1);
+    assert_int_equal(d.drive[0].co_index, 0x60FF);
+    assert_int_equal(d.n_measure, 5);
+    const uint16_t want[] = {0x60FF, 0x6074, 0x6077, 0x606C, 0x6064};
+    for (int i = 0; i < 5; ++i) assert_int_equal(d.measure[i].co_index, want[i]);
+    assert_int_equal(d.measure[0].role, MSID_DEV_ROLE_INPUT);
+    assert_int_equal(d.measure[1].role, MSID_DEV_ROLE_OUTPUT);
+    assert_int_equal(msid_devdesc_readback(&d, 0), 0);
+    assert_true(fabs(d.measure[0].scale - 1e-3) < 1e-15);   /* velocity_scale, as the target's */
+    uint8_t of[5];
+    assert_int_equal(msid_devdesc_co_pack(&d, of), 2);
+    assert_memory_equal(of, ((const uint8_t[]){0, 0, 0, 1, 1}), 5);
+    assert_int_equal(parse(PRESET, &d, err, sizeof err), 0);
+    assert_int_equal(d.co_closed_loop, 0);
+}
+
 static void test_explicit_objects(void **state)
 {
     (void)state;
@@ -299,7 +326,7 @@ static void test_one_tick(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_preset_cst), cmocka_unit_test(test_explicit_objects), cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_preset_cst), cmocka_unit_test(test_preset_csv_loop), cmocka_unit_test(test_explicit_objects), cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_codec),      cmocka_unit_test(test_one_tick),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

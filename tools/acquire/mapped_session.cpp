@@ -502,6 +502,19 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     acq["safe_values_written"] = frc == 0;
     acq["timing"] = timing_json(h, o.rate_hz, msid_devio_describe(&io), cp.counter >= 0 ? nominal_hz : 0.0);
     R.o.doc["acquisition"] = acq;
+    if (desc.co_closed_loop) {
+        // the FRF ran on the reference (the velocity target the drive applied); the plant through it is the file
+        const auto it = std::find(cp.output_names.begin(), cp.output_names.end(), std::string("Torque demand"));
+        const uint32_t iu = (uint32_t)(it - cp.output_names.begin());
+        R.o.notes.push_back("closed loop (preset csv-loop): frf.json is the plant from the torque demand to the "
+                            "actual values, estimated through the reference (G = G_yr G_ur^-1); reference.json is the "
+                            "FRF from the velocity reference to every signal (its torque demand row the control "
+                            "sensitivity C S, its velocity row the complementary sensitivity T as the TPDOs sample it)");
+        R.reference = R.o.doc;
+        R.o.doc = plant_through_reference(R.reference, iu);
+        if (R.o.doc.contains("notes")) R.o.doc["notes"].push_back(R.o.notes.back());
+        if (R.reference.contains("notes")) R.reference["notes"].push_back(R.o.notes.back());
+    }
     set_summary(R, P, ny, nu, lr.done, fmt("%s (%s)", lname.c_str(), msid_devio_describe(&io)), h.cnt.samples,
                 h.cnt.samples_lost);
     R.D = std::move(P.D);

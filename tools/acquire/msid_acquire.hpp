@@ -76,6 +76,7 @@ struct MeasureResult {
     int stop_reason = 0;       // Control::stop()'s answer when stopped
     std::string summary;       // one line: lines, size, experiments, link, samples, periods
     std::shared_ptr<const msidfmt::Design> D;   // the design that ran
+    Json reference;            // the closed-loop preset: the FRF of the reference path (null: none), beside o.doc
 };
 
 // The checks of a plan that every caller shares: 2..MSID_PARAMS_MAX_PERIODS periods, skip leaves 2,

@@ -41,6 +41,11 @@ ChannelPlan channel_plan(const msid_devdesc &d);
 MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, const MappedOptions &o,
                              const PlanFn &plan, Control &ctl);
 
+// The closed-loop preset: from the periodic FRF of one reference r to the signals z (msid-frf/1), the plant
+// from z_u to the others through the reference, G = G_yr G_ur^-1 with its linearised covariance (an msid-frf/1
+// document of one input; its `reference` block says how it was made). Throws Error for a line where G_ur = 0.
+Json plant_through_reference(const Json &ref, uint32_t u);
+
 // `msid device check`: read every channel once, write nothing but the safe values, and report what the
 // device answered against the description: one line per channel and the problems found.
 struct CheckResult {

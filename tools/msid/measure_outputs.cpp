@@ -21,7 +21,7 @@ namespace msidcli {
 
 void clear_previous_outputs(const std::string &outdir)
 {
-    for (const char *f : {"model.json", "bode.png", "bode.svg", "report.html", "validation.json"})
+    for (const char *f : {"model.json", "bode.png", "bode.svg", "report.html", "validation.json", "reference.json"})
         ::unlink((outdir + "/" + f).c_str());
 }
 

@@ -1,6 +1,7 @@
 """The CANopen drive of the in-VM measurement tests (msid measure --device canopen://vcan0?node=5 --map): its
 descriptions, msid-devsim's node as a context manager with its URI, the node's state read by the canopen
 package (not by msid), a SYNC listener, and the exact FRF msid must find (the node's plant, docs/devices.md)."""
+import contextlib
 import json
 import shutil
 import sys
@@ -95,18 +96,31 @@ class Drive(canlib.Sim):
 
     def state(self):
         """The node's own statusword 0x6041, target torque 0x6071 and NMT view, by an independent master."""
-        import canopen
-        net = canopen.Network()
-        net.connect(interface="socketcan", channel="vcan0")
-        try:
-            n = canopen.RemoteNode(NODE, str(EDS))
-            net.add_node(n)
-            n.sdo.RESPONSE_TIMEOUT = 2.0
+        with remote_node() as n:
             return {"statusword": n.sdo[0x6041].raw, "target_torque": n.sdo[0x6071].raw,
                     "tpdo1": [n.sdo[0x1A00][i].raw for i in range(1, n.sdo[0x1A00][0].raw + 1)],
                     "rpdo1": [n.sdo[0x1600][i].raw for i in range(1, n.sdo[0x1600][0].raw + 1)]}
-        finally:
-            net.disconnect()
+
+    def write(self, index, value):
+        """An entry written by the independent master's SDO; the node's value read back."""
+        with remote_node() as n:
+            n.sdo[index].raw = value
+            return n.sdo[index].raw
+
+
+@contextlib.contextmanager
+def remote_node():
+    """The canopen package's RemoteNode of the node on vcan0 (its own network, disconnected after)."""
+    import canopen
+    net = canopen.Network()
+    net.connect(interface="socketcan", channel="vcan0")
+    try:
+        n = canopen.RemoteNode(NODE, str(EDS))
+        net.add_node(n)
+        n.sdo.RESPONSE_TIMEOUT = 2.0
+        yield n
+    finally:
+        net.disconnect()
 
 
 def syncs_within(seconds):
