@@ -28,6 +28,7 @@ extern "C" {
 }
 
 using namespace msidfit;
+using namespace msidstat;   // the robust BLA (tools/frfstat)
 
 static double min_dof(const std::vector<WeightedLine> &w)
 {
