@@ -113,7 +113,7 @@ int cmd_frf(int argc, char **argv)
         request_from_design(rq, *D);
         plan.design = D.get();
     }
-    const bool auto_period = plan.auto_period, auto_lines = plan.auto_lines;
+    const bool auto_lines = plan.auto_lines;
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};

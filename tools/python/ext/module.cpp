@@ -106,8 +106,8 @@ PYBIND11_MODULE(_msid, m)
           "A message of the command line as the extension raises it (options as keywords): for the tests.");
     m.def(
         "_render_options",
-        [](const std::string &m, bool keywords) {
-            return msidutil::render_options(m, keywords ? msidutil::OptionWords::keyword : msidutil::OptionWords::flag);
+        [](const std::string &text, bool keywords) {
+            return msidutil::render_options(text, keywords ? msidutil::OptionWords::keyword : msidutil::OptionWords::flag);
         },
         pybind11::arg("message"), pybind11::arg("keywords"),
         "A library's message with its neutral option names (0x1f name 0x1f) as keywords or as flags: for the tests.");
