@@ -52,7 +52,8 @@ if(TARGET msid_frfjob)
     install(DIRECTORY ${PROJECT_SOURCE_DIR}/tools/est/ DESTINATION include/msid_est FILES_MATCHING PATTERN "*.hpp")
   endif()
   install(TARGETS ${_host} EXPORT msidTargets ARCHIVE DESTINATION lib)
-  install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
+  install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_options.hpp
+                ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
                 ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_cancel.hpp
                 ${PROJECT_SOURCE_DIR}/tools/util/msid_partial_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp
