@@ -17,6 +17,13 @@ if(TARGET msid_daq)
   install(TARGETS msid_daq msid_devdesc_file EXPORT msidTargets ARCHIVE DESTINATION lib)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/daq/include/ DESTINATION include FILES_MATCHING PATTERN "*.h")
 endif()
+# the FRF stage's statistics (tools/frfstat), beneath the FRF job and the fits
+if(TARGET msid_frfstat)
+  set_target_properties(msid_frfstat PROPERTIES EXPORT_NAME frfstat)
+  install(TARGETS msid_frfstat EXPORT msidTargets ARCHIVE DESTINATION lib)
+  install(FILES ${PROJECT_SOURCE_DIR}/tools/frfstat/stats.hpp ${PROJECT_SOURCE_DIR}/tools/frfstat/bla.hpp
+          DESTINATION include/msid_host)
+endif()
 if(TARGET msid_fit)
   set_target_properties(msid_fit PROPERTIES EXPORT_NAME fit)
   # msid::fit reads FRF files through msid_frffile (tools/frffile), exported beside it as msid::frffile
@@ -45,7 +52,8 @@ if(TARGET msid_frfjob)
     install(DIRECTORY ${PROJECT_SOURCE_DIR}/tools/est/ DESTINATION include/msid_est FILES_MATCHING PATTERN "*.hpp")
   endif()
   install(TARGETS ${_host} EXPORT msidTargets ARCHIVE DESTINATION lib)
-  install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
+  install(FILES ${PROJECT_SOURCE_DIR}/tools/util/msid_host_error.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_options.hpp
+                ${PROJECT_SOURCE_DIR}/tools/util/msid_host_util.hpp
                 ${PROJECT_SOURCE_DIR}/tools/util/msid_fftw_planner.hpp ${PROJECT_SOURCE_DIR}/tools/util/msid_cancel.hpp
                 ${PROJECT_SOURCE_DIR}/tools/util/msid_partial_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp

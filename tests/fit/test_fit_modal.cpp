@@ -28,6 +28,9 @@ extern "C" {
 }
 
 using namespace msidfit;
+using msidstat::BlaLine;   // the robust BLA (tools/frfstat)
+using msidstat::bla_line;
+using msidstat::bla_summary;
 
 static double min_dof(const std::vector<WeightedLine> &w)
 {

@@ -16,7 +16,18 @@ sys.path.insert(0, os.environ.get("MSID_PYTHON_DIR") or str(ROOT / "tools" / "py
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "common"))
 import msid_emulator  # noqa: E402
 from no_process import refuse_processes  # noqa: E402,F401
+from keyword_messages import keyword_messages  # noqa: E402,F401  (the fixture, for _keyword_messages)
 msid_emulator.wrap_binaries()   # cross builds: MSID_EMULATOR runs the binaries (tests/common/msid_emulator.py)
+
+
+@pytest.fixture(autouse=True)
+def _keyword_messages(request):
+    """The compiled module's tests (test_ext_*): each bad-input case's message names keywords, never
+    flags (keyword_messages.py)."""
+    if not request.module.__name__.split(".")[-1].startswith("test_ext_"):
+        yield
+        return
+    yield request.getfixturevalue("keyword_messages")
 
 
 def msid(*args, cwd=None, check=True):

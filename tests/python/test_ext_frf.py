@@ -303,6 +303,45 @@ def test_frf_option_and_shape_errors(tmp_path, d2, recs):
     assert str(e.value) == msid._msid._python_words(want)
 
 
+def test_request_rules_once_in_keywords(tmp_path, d2, recs):
+    """The request's rules are the job's alone (msidjob::check_plan, check_est_plan): the command line
+    names the options by their flags, Python by its keywords, with the same message otherwise."""
+    d2.save(tmp_path / "design.json")
+    D = ("--design", tmp_path / "design.json")
+    cases = [
+        (D + ("--direct", "--realisations", 2), dict(design=d2, direct=True, realisations=2),
+         "realisations does not apply to direct"),
+        (D + ("--direct", "--alpha", 0.05), dict(design=d2, direct=True, alpha=0.05), "alpha does not apply to direct"),
+        (D + ("--direct", "--detect-lines", 41), dict(design=d2, direct=True, detect_lines=[41]),
+         "detect_lines does not apply to direct"),
+        (("--period", P, "--lines", LINES, "--direct"), dict(period=P, lines=LINES, n_inputs=2, direct=True),
+         "direct needs design (the input is the design's exact multisine)"),
+        (("--period", "auto", "--lines", LINES, "--direct"), dict(period="auto", lines=LINES, n_inputs=2, direct=True),
+         "direct needs design (no auto period/lines)"),
+        (D + ("--block", 0), dict(design=d2, block=0), "block must be positive"),
+        (D + ("--fs", -2), dict(design=d2, fs=-2.0), "fs must be positive"),
+        (D + ("--alpha", 1.5), dict(design=d2, alpha=1.5), "alpha must be in (0, 1)"),
+        (D + ("--period", P), dict(design=d2, period=P), "give either design or period/lines, not both"),
+        (("--period", P), dict(period=P, n_inputs=2), "give design, or both period and lines"),
+    ]
+    for args, kw, want in cases:
+        flags = cli_error(tmp_path, recs, 2, *args)
+        assert "--" in flags and msid._msid._python_words(flags) == want, (args, flags)
+        with pytest.raises(ValueError) as e:
+            msid.frf(recs, **kw)
+        assert str(e.value) == want, kw
+    # the arbitrary-record estimators: the job's ranges of threads and fs
+    for args, call, want in [
+        (("--method", "lpm", "--threads", 0), lambda: msid.lpm(recs, n_inputs=2, threads=0), "threads must be 1..64"),
+        (("--method", "lpm", "--fs", 0), lambda: msid.lpm(recs, n_inputs=2, fs=0.0), "fs must be positive"),
+    ]:
+        flags = cli_error(tmp_path, recs, 2, *args)
+        assert "--" in flags and msid._msid._python_words(flags) == want, (args, flags)
+        with pytest.raises(ValueError) as e:
+            call()
+        assert str(e.value) == want
+
+
 # ---- Measurement ----
 
 @pytest.mark.parametrize("block", [1, 7, 1000, None])

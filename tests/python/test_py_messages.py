@@ -36,6 +36,34 @@ def test_python_words_rule():
     assert w("needs a model of msid fit --method multi (not --order)") == "needs a model of msid fit --method multi (not order)"
 
 
+def test_options_rendered_per_front_end():
+    """A library names an option neutrally (0x1f name 0x1f); the command line renders its flag, Python its keyword."""
+    r = ext._render_options
+    m = "\x1fskip_periods\x1f 3 leaves fewer than 2 periods; \x1fdirect\x1f needs \x1fdesign\x1f"
+    assert r(m, False) == "--skip-periods 3 leaves fewer than 2 periods; --direct needs --design"
+    assert r(m, True) == "skip_periods 3 leaves fewer than 2 periods; direct needs design"
+    assert r("without \x1fno_realtime\x1f", False) == "without --no-realtime"
+    assert r("without \x1fno_realtime\x1f", True) == "without realtime=False"   # the table's own words
+    assert r("no option named", True) == "no option named"
+    assert r("an unpaired \x1fmark", True) == "an unpaired mark"
+
+
+def test_keyword_check_reports_flags():
+    """The check every test_ext_* bad-input case passes through (keyword_messages.py) fails on a flag:
+    its negative control."""
+    from keyword_messages import checking_raises
+    seen = []
+    raises = checking_raises(pytest.raises, ext._python_words, seen)
+    with pytest.raises(AssertionError, match="names a command-line flag"):
+        with raises(ValueError):
+            raise ValueError("--skip-periods 3 leaves fewer than 2 of the 3 periods")
+    with raises(ValueError):
+        raise ValueError("skip_periods 3 leaves fewer than 2 of the 3 periods")
+    with raises(ValueError):   # a command line quoted in prose, and a quoted file name, stay as they are
+        raise ValueError("'a --b.csv': needs a model of msid fit --method multi")
+    assert len(seen) == 3
+
+
 def test_keywords_not_flags(data):
     d, rec = data
     cases = [

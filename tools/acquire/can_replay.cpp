@@ -146,7 +146,7 @@ LogScan scan_sessions(msid_candump_reader &rd, const std::string &path, uint32_t
 // The log holds an msid-can/1 device of this host's protocol version and a committed upload.
 void check_log(const LogScan &sc, const std::string &path, uint32_t base)
 {
-    if (!sc.have_info) throw Error("'" + path + "': no device INFO frame at base " + hex(base) + " (wrong --base, or not an msid-can log?)");
+    if (!sc.have_info) throw Error("'" + path + "': no device INFO frame at base " + hex(base) + " (wrong " MSID_OPT("base") ", or not an msid-can log?)");
     if (sc.version != MSID_CAN_PROTO_VERSION)
         throw Error(fmt("'%s': protocol version mismatch: the log's device speaks msid-can/%u, this host msid-can/%u",
                         path.c_str(), sc.version, MSID_CAN_PROTO_VERSION));
@@ -166,7 +166,7 @@ std::vector<size_t> select_sessions(const LogScan &sc, const ReplayRequest &r)
         for (size_t i = 0; i < ns; ++i)
             if (sc.sessions[i].t_begin >= r.since && sc.sessions[i].t_end <= r.until) sel.push_back(i);
         if (sel.empty())
-            throw Error(fmt("'%s' holds %zu session(s), none from %s to %s (sessions %s .. %s; see --list)", path.c_str(),
+            throw Error(fmt("'%s' holds %zu session(s), none from %s to %s (sessions %s .. %s; see " MSID_OPT("list") ")", path.c_str(),
                             ns, log_time(r.since).c_str(), r.until == UINT64_MAX ? "the end" : log_time(r.until).c_str(),
                             log_time(sc.sessions.front().t_begin).c_str(), log_time(sc.sessions.back().t_end).c_str()));
     }
@@ -178,7 +178,7 @@ std::vector<size_t> select_sessions(const LogScan &sc, const ReplayRequest &r)
     }
     if (designs > 1)
         throw Error(fmt("'%s' holds %zu sessions of %zu different designs%s: pooling them is refused; replay one with "
-                        "--session N (1..%zu) or a time range with --since/--until (--list shows them)",
+                        MSID_OPT("session") " N (1..%zu) or a time range with " MSID_OPT("since") "/" MSID_OPT("until") " (" MSID_OPT("list") " shows them)",
                         path.c_str(), sel.size(), designs, sel.size() < ns ? " in the selected range" : "", ns));
     return sel;
 }
@@ -287,7 +287,7 @@ ReplayResult replay_can_log(const ReplayRequest &r)
     const uint32_t ny = sc.ny, nu = got->n_inputs, m = got->n_experiments;
     if (ny == 0 || ny > MSID_MAX_OUTPUTS) throw Error(fmt("'%s': the device reports %u outputs", path.c_str(), ny));
     if ((uint64_t)rq.skip + 2 > got->periods)
-        throw Error(fmt("--skip-periods %u leaves fewer than 2 of the %u periods", rq.skip, got->periods), 1,
+        throw Error(fmt(MSID_OPT("skip_periods") " %u leaves fewer than 2 of the %u periods", rq.skip, got->periods), 1,
                     msidutil::ErrorKind::usage);
 
     // Pass 3: decode. The history is sized by what the log can hold, not by the periods its upload asks

@@ -136,9 +136,9 @@ MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Control &ctl)
         const double rate = P.sf.rate, load = rate * chunks * tf;
         if (load > 1.0)
             throw Error(fmt("the bus cannot carry %u channels at %g Hz: %u %s frame(s) per sample, %.0f frames/s, "
-                            "need %.2f times the bus capacity at %g bit/s (worst-case bit stuffing); lower --rate%s",
+                            "need %.2f times the bus capacity at %g bit/s (worst-case bit stuffing); lower " MSID_OPT("rate") "%s",
                             C, rate, chunks, P.sf.fd ? "CAN FD" : "classic", rate * chunks, load, l.bitrate,
-                            P.sf.fd ? "" : ", or use --fd"));
+                            P.sf.fd ? "" : ", or use " MSID_OPT("fd")));
     }
 
     // the estimation job and its decoder, then the design upload as parameters

@@ -142,7 +142,7 @@ void parse_pdo_map(const std::string &list, msid_co_pdo_cfg &c)
     while (!rest.empty()) {
         const size_t comma = rest.find(',');
         if (c.n >= MSID_CO_PDO_MAX_ENTRIES)
-            throw UsageError(fmt("--map: more than %u objects: a PDO of 8 bytes holds at most %u", MSID_CO_PDO_MAX_ENTRIES,
+            throw UsageError(fmt(MSID_OPT("map") ": more than %u objects: a PDO of 8 bytes holds at most %u", MSID_CO_PDO_MAX_ENTRIES,
                                  MSID_CO_PDO_MAX_ENTRIES));
         c.e[c.n++] = parse_pdo_entry(rest.substr(0, comma));
         rest = comma == std::string::npos ? "" : rest.substr(comma + 1);

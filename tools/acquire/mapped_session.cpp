@@ -331,7 +331,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
 {
     check_transport(dev, desc);
     if (!(o.rate_hz > 0 && o.rate_hz <= 100000))
-        throw UsageError("a described device needs the tick rate: --rate HZ (0 < HZ <= 100000)");
+        throw UsageError("a described device needs the tick rate: " MSID_OPT("rate") " HZ (0 < HZ <= 100000)");
     const ChannelPlan cp = channel_plan(desc);
     MeasurePlan P;
     plan(desc.n_drive, P);
@@ -420,7 +420,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     hc.index_by_counter = cp.counter >= 0 && cycles_at_rate ? 1 : 0;
     if (hc.follow_counter && !cycles_at_rate)
         throw UsageError(fmt("%s: clock = \"device\" follows a device that cycles at the tick rate, but cycle_hz is %g and "
-                             "--rate %g", desc.source, desc.cycle_hz, o.rate_hz));
+                             MSID_OPT("rate") " %g", desc.source, desc.cycle_hz, o.rate_hz));
     hc.io = &io;
     hc.meas = job.meas();
     hc.tick.rate_hz = o.rate_hz;
@@ -445,7 +445,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
         try {
             return step();
         } catch (const msidutil::Error &e) {   // the FRF job's errors and the acquisition's alike
-            throw Error(e.what() + losses_summary(h, o.rate_hz, msid_devio_describe(&io)), e.code, e.kind);
+            throw Error(e.text() + losses_summary(h, o.rate_hz, msid_devio_describe(&io)), e.code, e.kind);
         }
     };
     const LoopResult lr = with_losses([&] { return run_experiments(runner, job.meas(), P, ctl); });
@@ -526,7 +526,7 @@ CheckResult check_device(const DeviceUri &dev, const msid_devdesc &desc)
     check_transport(dev, desc);
     if (desc.transport == MSID_DEV_CAN) return check_can_device(dev, desc);
     if (desc.transport == MSID_DEV_CANOPEN)
-        throw UsageError(fmt("%s: check a CANopen node with msid device check --device %s (and --eds FILE): it reads "
+        throw UsageError(fmt("%s: check a CANopen node with msid device check --device %s (and " MSID_OPT("eds") " FILE): it reads "
                              "the node's identity and PDO mapping without a description", desc.source, dev.text.c_str()));
     CheckResult r;
     ModbusLink l = mapped_link(dev, desc);

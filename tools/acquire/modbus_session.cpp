@@ -185,7 +185,7 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Control &c
     if (ny == 0 || ny > MSID_MAX_OUTPUTS || C > MSID_MAX_CHANNELS) throw Error(fmt("the device reports %u outputs", ny));
     const uint32_t W = msid_mb_sample_regs(l.encoding, C);
     if (W > l.max_regs)
-        throw Error(fmt("one sample of %u %s channels takes %u registers, more than --max-regs %u", C,
+        throw Error(fmt("one sample of %u %s channels takes %u registers, more than " MSID_OPT("max_regs") " %u", C,
                         msid_mb_encoding_name(l.encoding), W, l.max_regs));
 
     // 2. can the link carry it?
@@ -193,7 +193,7 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Control &c
     if (P.sf.rate > 0 && (double)P.sf.rate * W > 0.8 * lrate)
         throw Error(fmt("the link cannot carry %u channels at %u Hz: %.0f registers/s (%u per sample: a tag and %u %s "
                         "value(s)) but %s carries about %.0f registers/s %s (80%% of it is usable beside header "
-                        "polls and retries); lower --rate%s",
+                        "polls and retries); lower " MSID_OPT("rate") "%s",
                         C, P.sf.rate, (double)P.sf.rate * W, W, C, msid_mb_encoding_name(l.encoding), l.name.c_str(),
                         lrate,
                         !l.rtu ? "(measured with 125-register reads)"

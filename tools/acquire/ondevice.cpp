@@ -262,7 +262,7 @@ void identify_modbus(Device &dev, const msid_design &d, uint32_t &nu, uint32_t &
     const std::vector<uint16_t> x = dev.ext();
     if (!(x[MSID_MB_IR_EXT] & MSID_MB_EXT_ESTIMATE) || x[MSID_MB_IR_EST_VERSION] != MSID_MB_EST_VERSION)
         throw Error(fmt("the device on %s does not estimate on board (msid-modbus/1 without the estimate/%u extension: "
-                        "input register 40 is %u); measure without --on-device",
+                        "input register 40 is %u); measure without " MSID_OPT("on_device"),
                         dev.name.c_str(), MSID_MB_EST_VERSION, x[MSID_MB_IR_EXT]));
 }
 
@@ -416,8 +416,8 @@ EstStatus can_est_status(const msid_can_est_view &x) { return {x.status, x.need,
 void check_ondevice_request(FrfRequest &rq)
 {
     if (!rq.detect.empty())
-        throw UsageError("--detect-lines is not available with --on-device (the device solves the excited lines only)");
-    if (rq.skip > 0xFFFFu) throw UsageError("--skip-periods must be below 65536 with --on-device");
+        throw UsageError(MSID_OPT("detect_lines") " is not available with " MSID_OPT("on_device") " (the device solves the excited lines only)");
+    if (rq.skip > 0xFFFFu) throw UsageError(MSID_OPT("skip_periods") " must be below 65536 with " MSID_OPT("on_device"));
     rq.path = MSID_DFT_STREAM;   // the device's line DFT path (the host's, for the stream check)
 }
 
@@ -483,7 +483,7 @@ OnDeviceResult measure_can_ondevice(const CanLink &link, const MeasurePlan &P, c
     // a bitrate bounds a sample stream; estimating on the device no sample crosses the bus. The stream check
     // streams every sample on a bus `msid can measure --bitrate` would judge: it runs on a virtual bus.
     if (R.checked && (link.bitrate > 0 || link.data_bitrate > 0))
-        throw UsageError("--stream-check streams every sample: run it on a virtual bus (without --bitrate)");
+        throw UsageError(MSID_OPT("stream_check") " streams every sample: run it on a virtual bus (without " MSID_OPT("bitrate") ")");
     const FrfRequest &rq = P.rq;
     const StreamFmt &sf = P.sf;
     const std::string &iface = link.iface;
@@ -525,7 +525,7 @@ OnDeviceResult measure_can_ondevice(const CanLink &link, const MeasurePlan &P, c
         can_failed(*s, rc);
     rc = msid_can_session_est_setup(s.get(), R.checked ? MSID_MB_EST_STREAM : MSID_MB_EST_ONLY, (uint32_t)rq.transient,
                                     rq.skip, rq.alpha);
-    if (rc == -MSID_DAQ_E_PROTOCOL) throw Error(fmt("%s on %s; measure without --on-device", s->err, iface.c_str()));
+    if (rc == -MSID_DAQ_E_PROTOCOL) throw Error(fmt("%s on %s; measure without " MSID_OPT("on_device"), s->err, iface.c_str()));
     if (rc == -MSID_DAQ_E_DEVICE)
         throw Error("the device cannot estimate on board: " + est_failure(can_est_status(s->est), rq, "24-bit value index"));
     if (rc < 0) can_failed(*s, rc);

@@ -41,7 +41,7 @@ void check_input_resolution(const MeasurePlan &P, bool integer)
         double peak = 0;
         for (uint32_t l = 0; l < d.n_lines; ++l) peak += std::fabs(d.amp[(size_t)i * d.n_lines + l]);
         if (peak < 0.5 * (double)P.sf.scale)
-            throw UsageError(fmt("--scale %g (the value of one step of the samples' integers) is more than twice the "
+            throw UsageError(fmt(MSID_OPT("scale") " %g (the value of one step of the samples' integers) is more than twice the "
                                  "largest sample of input %u (at most %.3g): the input would be sent as zeros and its "
                                  "lines not excited; a scale of at most %.3g keeps 10 bits of it",
                                  (double)P.sf.scale, i + 1, peak, peak / 1024.0));
@@ -51,8 +51,8 @@ void check_input_resolution(const MeasurePlan &P, bool integer)
 MeasureResult measure_device(const DeviceUri &dev, const PlanFn &plan, Control &ctl)
 {
     if (dev.kind == DeviceUri::CANOPEN)
-        throw UsageError("a CANopen node (" + dev.text + ") runs no msid firmware: describe it and give --map "
-                         "DEVICE.toml --rate HZ (docs/devices.md, CANopen drives)");
+        throw UsageError("a CANopen node (" + dev.text + ") runs no msid firmware: describe it and give " MSID_OPT("map") " "
+                         "DEVICE.toml " MSID_OPT("rate") " HZ (docs/devices.md, CANopen drives)");
     return dev.kind == DeviceUri::CAN ? measure_can(can_link_from_uri(dev), plan, ctl)
                                       : measure_modbus(modbus_link_from_uri(dev), plan, ctl);
 }

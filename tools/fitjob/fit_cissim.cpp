@@ -27,13 +27,13 @@ void check_records(const std::vector<Record> &recs, const CissimRequest &rq, Fit
                             r.path.c_str(), r.nu, r.ny, recs[0].path.c_str(), nu, ny));
         const size_t K = r.n_rows / P;
         if (K < (size_t)skip + 2)
-            throw Error(fmt("'%s' holds %zu whole period(s) of %u samples: cissim needs at least %u (--skip-periods %u, "
+            throw Error(fmt("'%s' holds %zu whole period(s) of %u samples: cissim needs at least %u (" MSID_OPT("skip_periods") " %u, "
                             "plus 2 to check that the input is periodic, Assumption 4)",
                             r.path.c_str(), K, P, skip + 2, skip));
         const double eta = msidjob::nonperiodic_fraction(r, P, skip, K - skip);
         if (!(eta <= msidjob::NONPERIODIC_FRACTION))
             throw Error(fmt("'%s': the input is not periodic with period %u: %.0f%% of its power changes from period to "
-                            "period (You et al. Assumption 4 needs u(k + P) = u(k)); give the right --period "
+                            "period (You et al. Assumption 4 needs u(k + P) = u(k)); give the right " MSID_OPT("period") " "
                             "(`msid frf --period auto` finds it) or use `msid frf --method lpm`",
                             r.path.c_str(), P, 100.0 * eta));
         if (r.n_rows % P)
@@ -100,7 +100,7 @@ int noise_lags(const Record &r0, const CissimRequest &rq, int n)
     if (M < Mmin) throw UsageError(fmt("%s is below ceil(n^2 / ny^2) + 1 = %d (Assumption 8)", lags.c_str(), Mmin));
     if ((uint64_t)M >= N / 2)
         throw UsageError(fmt("%s needs M << N = %llu samples (Assumption 8)%s", lags.c_str(), (unsigned long long)N,
-                             rq.lags ? "" : ": a lower order, more periods, or --no-covariance"));
+                             rq.lags ? "" : ": a lower order, more periods, or " MSID_OPT("no_covariance")));
     return M;
 }
 
@@ -247,26 +247,26 @@ Json cost_json(const CissimRequest &rq, const std::vector<IspResult> &isp, const
 void check_cissim(const CissimRequest &rq)
 {
     const uint32_t P = rq.period;
-    if (P < 4) throw UsageError("--period must be at least 4 samples");
-    if (rq.lines.empty()) throw UsageError("--lines is empty");
+    if (P < 4) throw UsageError(MSID_OPT("period") " must be at least 4 samples");
+    if (rq.lines.empty()) throw UsageError(MSID_OPT("lines") " is empty");
     for (uint32_t b : rq.lines)
-        if (2 * (uint64_t)b >= P) throw UsageError(fmt("--lines: bin %u is not below P/2 = %u", b, P / 2));
-    if (rq.order && *rq.order == 0) throw UsageError("--order must be positive");
-    if (rq.max_order && *rq.max_order == 0) throw UsageError("--max-order must be positive");
+        if (2 * (uint64_t)b >= P) throw UsageError(fmt(MSID_OPT("lines") ": bin %u is not below P/2 = %u", b, P / 2));
+    if (rq.order && *rq.order == 0) throw UsageError(MSID_OPT("order") " must be positive");
+    if (rq.max_order && *rq.max_order == 0) throw UsageError(MSID_OPT("max_order") " must be positive");
     // the order sizes matrices of order x order and more: a state-space model of more states than this
     // is beyond memory (and would wrap to a negative order)
     for (auto [v, name] : {std::make_pair(rq.order, "--order"), std::make_pair(rq.max_order, "--max-order"),
                            std::make_pair(rq.block_rows, "--block-rows"), std::make_pair(rq.lags, "--lags")})
         if (v && *v > MAX_STATES) throw UsageError(fmt("%s %u is too large (at most %u)", name, *v, MAX_STATES));
     if (rq.isp != "auto" && rq.isp != "direct" && rq.isp != "fft")
-        throw UsageError("--isp must be auto, direct or fft (got '" + rq.isp + "')");
-    if (rq.refine != "ml" && rq.refine != "none") throw UsageError("--refine must be ml or none (got '" + rq.refine + "')");
+        throw UsageError(MSID_OPT("isp") " must be auto, direct or fft (got '" + rq.isp + "')");
+    if (rq.refine != "ml" && rq.refine != "none") throw UsageError(MSID_OPT("refine") " must be ml or none (got '" + rq.refine + "')");
 }
 
 FitOutcome fit_cissim(const std::vector<Record> &recs, const CissimRequest &rq, const Report &report)
 {
     check_cissim(rq);
-    if (recs.empty()) throw UsageError("missing --experiment <file.csv>");
+    if (recs.empty()) throw UsageError("missing " MSID_OPT("experiment") " <file.csv>");
     FitOutcome out;
     check_records(recs, rq, out, report);
     CissimOptions o;

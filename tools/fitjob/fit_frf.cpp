@@ -97,7 +97,7 @@ Domain parse_domain(const FitRequest &rq, const FrfData &f)
     Domain d = f.domain;
     if (!rq.domain.empty()) d = msidutil::parse_enum(rq.domain, "--domain", {"dt", "ct"}) == 0 ? Domain::DT : Domain::CT;
     if (d == Domain::CT && f.h <= 0 && f.domain != Domain::CT)
-        throw Error("a continuous-time model needs the sample time of the FRF file (give --fs to msid frf)");
+        throw Error("a continuous-time model needs the sample time of the FRF file (give " MSID_OPT("fs") " to msid frf)");
     return d;
 }
 
@@ -105,7 +105,7 @@ Feedthrough parse_feedthrough(const FitRequest &rq)
 {
     if (rq.no_d) {
         if (!rq.feedthrough.empty() && rq.feedthrough != "no")
-            throw UsageError("--no-d contradicts --feedthrough " + rq.feedthrough);
+            throw UsageError(MSID_OPT("no_d") " contradicts " MSID_OPT("feedthrough") " " + rq.feedthrough);
         return Feedthrough::No;
     }
     if (rq.feedthrough.empty()) return Feedthrough::Auto;
@@ -117,7 +117,7 @@ Feedthrough parse_feedthrough(const FitRequest &rq)
 int order_value(const FitRequest &rq)
 {
     const uint32_t n = msidutil::parse_u32(rq.order, "--order");
-    if (n > MAX_STATES) throw UsageError(fmt("--order %u is too large (at most %u states)", n, MAX_STATES));
+    if (n > MAX_STATES) throw UsageError(fmt(MSID_OPT("order") " %u is too large (at most %u states)", n, MAX_STATES));
     return (int)n;
 }
 
@@ -139,16 +139,16 @@ void weigh_lines(Fit &c)
         c.note("note: '" + f.path + "' has no FRF covariance: an unweighted fit (unit weights); the cost has no noise "
                "scale, so no p-value and no standard deviations that mean anything");
     const double noise_var = rq.noise_var.value_or(0.0);
-    if (rq.noise_var && !(noise_var > 0)) throw UsageError("--noise-var must be positive");
+    if (rq.noise_var && !(noise_var > 0)) throw UsageError(MSID_OPT("noise_var") " must be positive");
     c.w = weigh(f, c.d, c.wt, noise_var);
     c.known = noise_var > 0;
     const std::string &method = rq.method;
     const int wsmooth = (int)rq.weight_smooth.value_or((uint32_t)ML_WEIGHT_SMOOTH);
     if (!rq.start.empty() && method != "ml")
-        throw UsageError("--start belongs to --method ml (subspace|sk for --param lmfd, a model file for --param poles)");
+        throw UsageError(MSID_OPT("start") " belongs to " MSID_OPT("method") " ml (subspace|sk for " MSID_OPT("param") " lmfd, a model file for " MSID_OPT("param") " poles)");
     if (rq.weight_smooth && ((method != "ml" && method != "subspace") || c.wt == Weight::None || c.known))
-        throw UsageError("--weight-smooth belongs to --method ml or subspace with estimated weights "
-                         "(--weight cov|known-input)");
+        throw UsageError(MSID_OPT("weight_smooth") " belongs to " MSID_OPT("method") " ml or subspace with estimated weights "
+                         "(" MSID_OPT("weight") " cov|known-input)");
     // Pooling needs the window to be a small part of the band: by default only with at least
     // ML_WEIGHT_SMOOTH_MIN_WINDOWS windows of lines (docs/fitting.md, "Pooled weights").
     const bool dense = c.w.size() >= (size_t)ML_WEIGHT_SMOOTH_MIN_WINDOWS * (size_t)(2 * wsmooth + 1);
@@ -194,15 +194,15 @@ void weigh_lines(Fit &c)
 void stability_rule(Fit &c)
 {
     const FitRequest &rq = c.rq;
-    if (rq.stable && rq.allow_unstable) throw UsageError("--stable contradicts --allow-unstable");
+    if (rq.stable && rq.allow_unstable) throw UsageError(MSID_OPT("stable") " contradicts " MSID_OPT("allow_unstable"));
     c.allow_unstable = rq.allow_unstable;
     c.settings["stability"] = c.allow_unstable ? "allow-unstable" : rq.stable ? "stable" : "stable (default)";
     c.enforced_stable = !c.allow_unstable && rq.method != "lmfd";
     if (rq.method == "lmfd" && (rq.stable || c.allow_unstable))
-        throw UsageError("--stable and --allow-unstable belong to --method subspace and ml: the closed-form lmfd "
+        throw UsageError(MSID_OPT("stable") " and " MSID_OPT("allow_unstable") " belong to " MSID_OPT("method") " subspace and ml: the closed-form lmfd "
                          "interpolates the data, whatever its poles");
     if (rq.method == "lmfd") c.settings.erase("stability");
-    if (rq.method != "subspace" && !rq.refine.empty()) throw UsageError("--refine belongs to --method subspace");
+    if (rq.method != "subspace" && !rq.refine.empty()) throw UsageError(MSID_OPT("refine") " belongs to " MSID_OPT("method") " subspace");
 }
 
 void fit_by_subspace(Fit &c)
@@ -211,7 +211,7 @@ void fit_by_subspace(Fit &c)
     const size_t nu = c.f.nu, ny = c.f.ny;
     SubspaceOptions o;
     o.order = rq.order.empty() ? 0 : order_value(rq);
-    if (!rq.order.empty() && o.order == 0) throw UsageError("--order must be positive");
+    if (!rq.order.empty() && o.order == 0) throw UsageError(MSID_OPT("order") " must be positive");
     o.r = (int)rq.r.value_or(0);
     o.stable = rq.stable;
     o.stable_auto = !c.allow_unstable;
@@ -219,7 +219,7 @@ void fit_by_subspace(Fit &c)
     // Gaussian FRF errors); a number is the step budget (ml = 30, none = 0)
     const std::string rspec = rq.refine.empty() ? "ml" : rq.refine;
     if (rspec != "ml" && rspec != "none" && (rspec.empty() || rspec.find_first_not_of("0123456789") != std::string::npos))
-        throw UsageError("--refine must be ml, none or a number of steps (got '" + rspec + "')");
+        throw UsageError(MSID_OPT("refine") " must be ml, none or a number of steps (got '" + rspec + "')");
     o.refine_iter = rspec == "ml" ? 30 : rspec == "none" ? 0 : (int)msidutil::parse_u32(rspec, "--refine");
     o.estimate_D = c.ft != Feedthrough::No;
     o.feedthrough_auto = c.ft == Feedthrough::Auto;
@@ -268,9 +268,9 @@ void fit_by_subspace(Fit &c)
 std::vector<cd> model_start_poles(const std::string &path, Domain d, double h)
 {
     if (path == "subspace" || path == "sk")
-        throw UsageError("--start " + path + " chooses the start of --param lmfd; --param poles runs every start "
+        throw UsageError(MSID_OPT("start") " " + path + " chooses the start of " MSID_OPT("param") " lmfd; " MSID_OPT("param") " poles runs every start "
                          "(vector fitting, relaxed vector fitting, subspace at several r) and keeps the best; "
-                         "--start MODEL.json refines a model from its poles");
+                         MSID_OPT("start") " MODEL.json refines a model from its poles");
     ModelFile mf;
     try {
         mf = read_model(path);
@@ -314,11 +314,11 @@ void fit_by_ml_poles(Fit &c)
     const FitRequest &rq = c.rq;
     const Domain d = c.d;
     if (rq.nd || rq.nn || !rq.pins.empty())
-        throw UsageError("--nd/--nn/--pin belong to the LMFD parametrisation: add --param lmfd");
+        throw UsageError(MSID_OPT("nd") "/" MSID_OPT("nn") "/" MSID_OPT("pin") " belong to the LMFD parametrisation: add " MSID_OPT("param") " lmfd");
     PrOptions po;
     if (!rq.order.empty()) {
         po.order = order_value(rq);
-        if (po.order == 0) throw UsageError("--order must be positive");
+        if (po.order == 0) throw UsageError(MSID_OPT("order") " must be positive");
     }
     if (!rq.start.empty()) {   // refine a model: its poles are the only start (docs/fitting.md, "Starting from a model")
         const std::string &sp = rq.start;
@@ -327,14 +327,14 @@ void fit_by_ml_poles(Fit &c)
         for (const cd &p : po.pole_starts.back().second) cnt += p.imag() > 0 ? 2 : 1;
         if (rq.order.empty()) po.order = cnt;
         else if (po.order != cnt)
-            throw UsageError(fmt("--order %d and the start model '%s' has %d distinct poles (pairs count twice): "
-                                 "give its order or leave --order out", po.order, sp.c_str(), cnt));
+            throw UsageError(fmt(MSID_OPT("order") " %d and the start model '%s' has %d distinct poles (pairs count twice): "
+                                 "give its order or leave " MSID_OPT("order") " out", po.order, sp.c_str(), cnt));
         c.settings["start"] = sp;
     }
-    if (po.order == 0) throw UsageError("give --order");
+    if (po.order == 0) throw UsageError("give " MSID_OPT("order"));
     // the step rules of the LMFD refinement: given here they were taken and ignored
     if (rq.delta || rq.beta)
-        throw UsageError("--delta and --beta are the step rules of --param lmfd; the pole-residue fit (--param poles) "
+        throw UsageError(MSID_OPT("delta") " and " MSID_OPT("beta") " are the step rules of " MSID_OPT("param") " lmfd; the pole-residue fit (" MSID_OPT("param") " poles) "
                          "takes neither");
     // --weight none: the cost has no noise scale for the likelihood-ratio test, auto keeps D (as subspace)
     po.feedthrough = c.ft == Feedthrough::Auto && !c.weighted ? Feedthrough::Yes : c.ft;
@@ -415,15 +415,15 @@ LmfdSpec lmfd_spec(const Fit &c, bool &auto_nn)
     LmfdSpec s;
     auto_nn = false;
     if (rq.nd || rq.nn) {
-        if (!rq.order.empty()) throw UsageError("give --order or --nd/--nn, not both");
+        if (!rq.order.empty()) throw UsageError("give " MSID_OPT("order") " or " MSID_OPT("nd") "/" MSID_OPT("nn") ", not both");
         for (auto [v, name] : {std::make_pair(rq.nd, "--nd"), std::make_pair(rq.nn, "--nn")})
             if (v && *v > MAX_STATES) throw UsageError(fmt("%s %u is too large (at most %u)", name, *v, MAX_STATES));
         s.nD = (int)rq.nd.value_or(1);
         s.nN = rq.nn ? (int)*rq.nn : (d == Domain::CT ? s.nD - 1 : s.nD);
     } else if (!rq.order.empty()) {
         const uint32_t n = msidutil::parse_u32(rq.order, "--order");
-        if (n == 0 || n % ny) throw UsageError("--order must be a positive multiple of the number of outputs for an LMFD");
-        if (n > MAX_STATES) throw UsageError(fmt("--order %u is too large (at most %u states)", n, MAX_STATES));
+        if (n == 0 || n % ny) throw UsageError(MSID_OPT("order") " must be a positive multiple of the number of outputs for an LMFD");
+        if (n > MAX_STATES) throw UsageError(fmt(MSID_OPT("order") " %u is too large (at most %u states)", n, MAX_STATES));
         s.nD = (int)(n / ny);
         // properness from --feedthrough: CT yes -> nN = nD (direct term), no -> nN = nD - 1,
         // auto -> both, kept by a likelihood-ratio test; DT: the direct term is N_0 (pinned to 0 for no)
@@ -432,7 +432,7 @@ LmfdSpec lmfd_spec(const Fit &c, bool &auto_nn)
         // --weight none: the cost has no noise scale for the test, auto keeps D (as subspace)
         auto_nn = d == Domain::CT && c.ft == Feedthrough::Auto && rq.method == "ml" && c.weighted;
     } else {
-        throw UsageError("give --order or --nd/--nn");
+        throw UsageError("give " MSID_OPT("order") " or " MSID_OPT("nd") "/" MSID_OPT("nn"));
     }
     if (s.nN < 0) s.nN = 0;
     for (const auto &p : rq.pins) s.pins.push_back(parse_pin(p));
@@ -526,8 +526,8 @@ void fit_by_lmfd(Fit &c)
     const FitRequest &rq = c.rq;
     const size_t ny = c.f.ny, nu = c.f.nu;
     if (rq.method == "ml" && !rq.start.empty() && rq.start != "subspace" && rq.start != "sk")
-        throw UsageError("--start " + rq.start + ": --param lmfd starts from subspace or sk; a model file is refined "
-                         "in the pole-residue form: add --param poles" +
+        throw UsageError(MSID_OPT("start") " " + rq.start + ": " MSID_OPT("param") " lmfd starts from subspace or sk; a model file is refined "
+                         "in the pole-residue form: add " MSID_OPT("param") " poles" +
                          (rq.param.empty() ? std::string(" (ml's default for discrete time with several inputs is lmfd)")
                                            : std::string()));
     bool auto_nn = false;
@@ -541,7 +541,7 @@ void fit_by_lmfd(Fit &c)
     mo.delta = rq.delta.value_or(mo.delta);
     mo.beta = rq.beta.value_or(mo.beta);
     if (!(mo.delta > 0 && mo.delta <= 1) || !(mo.beta > 0 && mo.beta < 1))
-        throw UsageError("--delta must be in (0, 1] and --beta in (0, 1)");
+        throw UsageError(MSID_OPT("delta") " must be in (0, 1] and " MSID_OPT("beta") " in (0, 1)");
     const LmfdModel lm = rq.method == "lmfd" ? fit_lmfd_closed(c, s, mo) : fit_lmfd_ml(c, s, auto_nn, mo);
     try {
         c.ss = lmfd_to_ss(lm);
@@ -720,7 +720,7 @@ FitOutcome fit_frf_at_order(const FrfData &f, const FitRequest &rq, const Report
     // multi and cissim have their own entries: listed so that a wrong name shows every method
     msidutil::parse_enum(rq.method, "--method", {"subspace", "lmfd", "ml", "multi", "cissim"});
     if (rq.method == "multi" || rq.method == "cissim")
-        throw UsageError("--method " + rq.method + " fits time records, not an FRF");
+        throw UsageError(MSID_OPT("method") " " + rq.method + " fits time records, not an FRF");
     Fit c(f, rq, report);
     try {
         weigh_lines(c);

@@ -56,7 +56,7 @@ struct Plan {
 Plan plan(const MultiRequest &rq, bool noise_records)
 {
     Plan p;
-    if (rq.order.empty()) throw UsageError("give --order n (the number of poles), auto or a:b");
+    if (rq.order.empty()) throw UsageError("give " MSID_OPT("order") " n (the number of poles), auto or a:b");
     p.scan = is_scan(rq);
     if (p.scan) {
         try {
@@ -67,46 +67,46 @@ Plan plan(const MultiRequest &rq, bool noise_records)
         p.o.order = p.orders.front();
     } else {
         p.o.order = (int)msidutil::parse_u32(rq.order, "--order");
-        if (p.o.order < 1 || p.o.order > 200) throw UsageError("--order must be 1..200, auto or a:b");
+        if (p.o.order < 1 || p.o.order > 200) throw UsageError(MSID_OPT("order") " must be 1..200, auto or a:b");
     }
     p.rule = rq.order_rule.empty() ? "mdl" : rq.order_rule;
-    if (p.rule != "mdl" && p.rule != "aic") throw UsageError("--order-rule must be mdl or aic (got '" + p.rule + "')");
-    if (!rq.order_rule.empty() && !p.scan) throw UsageError("--order-rule needs --order auto or a:b");
+    if (p.rule != "mdl" && p.rule != "aic") throw UsageError(MSID_OPT("order_rule") " must be mdl or aic (got '" + p.rule + "')");
+    if (!rq.order_rule.empty() && !p.scan) throw UsageError(MSID_OPT("order_rule") " needs " MSID_OPT("order") " auto or a:b");
     if (!rq.noise_ar.empty() && (rq.noise_ar_order || noise_records))
-        throw UsageError("give the noise model either as --noise-ar c1,..,cp or estimate it with --noise-ar-order p");
+        throw UsageError("give the noise model either as " MSID_OPT("noise_ar") " c1,..,cp or estimate it with " MSID_OPT("noise_ar_order") " p");
     if (noise_records && !rq.noise_ar_order)
-        throw UsageError("--noise-record needs --noise-ar-order p (the order of the AR model to estimate)");
+        throw UsageError(MSID_OPT("noise_record") " needs " MSID_OPT("noise_ar_order") " p (the order of the AR model to estimate)");
     if (!rq.noise_ar.empty()) {
-        if (rq.noise_ar.size() > 50) throw UsageError("--noise-ar takes 1..50 comma-separated coefficients c1,...,cp");
+        if (rq.noise_ar.size() > 50) throw UsageError(MSID_OPT("noise_ar") " takes 1..50 comma-separated coefficients c1,...,cp");
         p.o.noise_ar = Eigen::Map<const VecR>(rq.noise_ar.data(), (Eigen::Index)rq.noise_ar.size());
         try {
             multi_noise_from_ar(p.o.noise_ar);
         } catch (const FitError &e) {
-            throw UsageError(std::string("--noise-ar: ") + e.what());
+            throw UsageError(std::string(MSID_OPT("noise_ar") ": ") + e.what());
         }
     }
     if (rq.input_noise_ratio) {
         p.eiv = true;
         p.eiv_ratio = *rq.input_noise_ratio;
         if (!(p.eiv_ratio >= 0) || !std::isfinite(p.eiv_ratio))
-            throw UsageError("--input-noise-ratio must be a finite number >= 0");
+            throw UsageError(MSID_OPT("input_noise_ratio") " must be a finite number >= 0");
         if (!rq.noise_ar.empty() || rq.noise_ar_order)
-            throw UsageError("--input-noise-ratio (noisy inputs) takes white noise: leave out --noise-ar / --noise-ar-order");
+            throw UsageError(MSID_OPT("input_noise_ratio") " (noisy inputs) takes white noise: leave out " MSID_OPT("noise_ar") " / " MSID_OPT("noise_ar_order"));
     }
     if (rq.noise_ar_order) {
         p.o.noise_ar_order = (int)*rq.noise_ar_order;
-        if (p.o.noise_ar_order < 1 || p.o.noise_ar_order > 50) throw UsageError("--noise-ar-order must be 1..50");
+        if (p.o.noise_ar_order < 1 || p.o.noise_ar_order > 50) throw UsageError(MSID_OPT("noise_ar_order") " must be 1..50");
     }
     if (rq.fs) {
-        if (!(*rq.fs > 0) || !std::isfinite(*rq.fs)) throw UsageError("--fs must be a positive sample rate in Hz");
+        if (!(*rq.fs > 0) || !std::isfinite(*rq.fs)) throw UsageError(MSID_OPT("fs") " must be a positive sample rate in Hz");
         p.o.h = 1.0 / *rq.fs;
     }
     if (rq.feedthrough != "no" && rq.feedthrough != "yes")
-        throw UsageError("--feedthrough must be no or yes (got '" + rq.feedthrough + "')");
+        throw UsageError(MSID_OPT("feedthrough") " must be no or yes (got '" + rq.feedthrough + "')");
     p.o.feedthrough = rq.feedthrough == "yes";
     p.o.start = rq.start;
     if (p.o.start != "auto" && p.o.start != "kung" && p.o.start != "prony" && p.o.start != "sm")
-        throw UsageError("--start must be auto, kung, prony or sm (got '" + p.o.start + "')");
+        throw UsageError(MSID_OPT("start") " must be auto, kung, prony or sm (got '" + p.o.start + "')");
     if (rq.max_iter) p.o.max_iter = (int)*rq.max_iter;
     return p;
 }
@@ -293,7 +293,7 @@ std::vector<MultiRecord> multi_records(const std::vector<Record> &recs)
     for (size_t i = 0; i < recs.size(); ++i) {
         const Record &r = recs[i];
         if (r.nu != recs[0].nu || r.ny != recs[0].ny)
-            throw Error(fmt("'%s' has %u input(s) and %u output(s), '%s' has %u and %u: every record of --method multi "
+            throw Error(fmt("'%s' has %u input(s) and %u output(s), '%s' has %u and %u: every record of " MSID_OPT("method") " multi "
                             "must have the same channels",
                             r.path.c_str(), r.nu, r.ny, recs[0].path.c_str(), recs[0].nu, recs[0].ny));
         const size_t C = (size_t)r.nu + r.ny;
@@ -315,7 +315,7 @@ void check_multi(const MultiRequest &rq, bool noise_records) { plan(rq, noise_re
 FitOutcome fit_multi(const std::vector<Record> &files, const std::vector<Record> &noise_recs, const MultiRequest &rq,
                      const Report &)
 {
-    if (files.empty()) throw UsageError("give at least one record with --experiment FILE");
+    if (files.empty()) throw UsageError("give at least one record with " MSID_OPT("experiment") " FILE");
     Plan p = plan(rq, !noise_recs.empty());
     MultiOptions &o = p.o;
     const std::vector<MultiRecord> recs = multi_records(files);
@@ -330,10 +330,10 @@ FitOutcome fit_multi(const std::vector<Record> &files, const std::vector<Record>
     else if (o.noise_ar_order > 0)
         noise_source = fmt("estimated from the residuals (two-stage, Yule-Walker AR(%d))", o.noise_ar_order);
     if (p.eiv && (nu == 0 || ny != 1))
-        throw UsageError("--input-noise-ratio needs input columns and one output (noisy inputs, one output)");
-    if (nu == 0 && o.feedthrough) throw UsageError("--feedthrough yes needs input columns: free responses have no inputs");
-    if (nu == 0 && o.start == "sm") throw UsageError("--start sm needs input columns; free responses use kung or prony");
-    if (nu > 0 && o.start == "kung") throw UsageError("--start kung needs free responses (records without input columns)");
+        throw UsageError(MSID_OPT("input_noise_ratio") " needs input columns and one output (noisy inputs, one output)");
+    if (nu == 0 && o.feedthrough) throw UsageError(MSID_OPT("feedthrough") " yes needs input columns: free responses have no inputs");
+    if (nu == 0 && o.start == "sm") throw UsageError(MSID_OPT("start") " sm needs input columns; free responses use kung or prony");
+    if (nu > 0 && o.start == "kung") throw UsageError(MSID_OPT("start") " kung needs free responses (records without input columns)");
 
     FitOutcome out;
     try {

@@ -130,9 +130,9 @@ std::string scan_table(const OrderSelection &sel, size_t stride)
 FitOutcome fit_frf_scan(const FrfData &f, const FitRequest &rq, const Report &report)
 {
     const std::string range = rq.order.empty() ? "auto" : rq.order;
-    if (rq.method == "lmfd") throw UsageError("--order auto/a:b needs --method subspace or ml (lmfd interpolates at every order)");
+    if (rq.method == "lmfd") throw UsageError(MSID_OPT("order") " auto/a:b needs " MSID_OPT("method") " subspace or ml (lmfd interpolates at every order)");
     if (!rq.start.empty() && rq.start != "subspace" && rq.start != "sk")
-        throw UsageError("--start " + rq.start + " starts one order (the model's): give one --order or leave it out, not " +
+        throw UsageError(MSID_OPT("start") " " + rq.start + " starts one order (the model's): give one " MSID_OPT("order") " or leave it out, not " +
                          range);
     const int step = rq.method == "subspace" ? 1 : (int)f.ny;
     bool is_auto = false;

@@ -5,7 +5,6 @@
 #include "fit_job_detail.hpp"
 #include "validation_stat.hpp"
 
-#include "bla.hpp"
 #include "msid_cancel.hpp"
 #include "nl_verdict.hpp"
 #include "stats.hpp"

@@ -17,7 +17,7 @@ ValidateOutcome validate_records(const Json &model_doc, const std::string &path,
                                  int lags, std::optional<bool> own_given)
 {
     const MultiModelDoc m = multi_model_doc(model_doc, path);
-    if (lags < 1) throw UsageError("--lags must be at least 1");
+    if (lags < 1) throw UsageError(MSID_OPT("lags") " must be at least 1");
     const std::vector<MultiRecord> recs = multi_records(rr);
     const uint32_t nu = rr.empty() ? 0 : rr[0].nu, ny = rr.empty() ? 0 : rr[0].ny;
     if ((int)nu != m.nu || (int)ny != m.ny)

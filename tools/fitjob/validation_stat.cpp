@@ -16,7 +16,7 @@ using msidutil::fmt;
 size_t lpm_line_stride(const FrfData &f, const std::string &mode)
 {
     if (mode != "independent" && mode != "all")
-        throw UsageError("--lpm-lines must be independent or all (got '" + mode + "')");
+        throw UsageError(MSID_OPT("lpm_lines") " must be independent or all (got '" + mode + "')");
     if (f.method != "lpm" || mode == "all") return 1;
     if (f.lpm_window < 1 || f.lpm_window > 1000000)
         throw FitError("'" + f.path + "' is an LPM file without a valid lpm.window: cannot tell which lines are independent");

@@ -30,7 +30,7 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
         throw Error(fmt("period %u is outside [%u, %u] samples", p.period, MSID_MIN_PERIOD, MSID_MAX_PERIOD));
     if (L == 0) throw Error("no lines given");
     if (ct && !(p.sample_time > 0.0 && std::isfinite(p.sample_time)))
-        throw Error("a continuous-time design needs a finite, positive --sample-time");
+        throw Error("a continuous-time design needs a finite, positive " MSID_OPT("sample_time"));
     if (!p.amplitudes.empty() && p.amplitudes.size() != L && p.amplitudes.size() != (size_t)p.n_inputs * L)
         throw Error(fmt("%zu amplitudes for %zu lines: give 1, %zu or %zu values", p.amplitudes.size(), L, L,
                         (size_t)p.n_inputs * L));
@@ -121,7 +121,7 @@ std::unique_ptr<Design> build_design(const DesignParams &p)
             throw Error(fmt("the %u x %u input matrix is singular at line %s", p.n_inputs, p.n_experiments,
                             line_name(p, g.line_a).c_str()));
         case MSID_E_PATTERN:
-            throw Error(fmt("the Hadamard pattern needs a power-of-2 number of experiments (got %u); use --pattern dft",
+            throw Error(fmt("the Hadamard pattern needs a power-of-2 number of experiments (got %u); use " MSID_OPT("pattern") " dft",
                             p.n_experiments));
         default:
             check(st, "design");

@@ -94,7 +94,7 @@ Format format_of(const std::string &path, const std::string &name)
         const std::vector<std::string> names = {"msid", "touchstone", "uff", "csv", "mat"};
         const auto it = std::find(names.begin(), names.end(), name);
         if (it == names.end())
-            throw Error("--format must be msid, touchstone, uff, csv or mat (got '" + name + "')",
+            throw Error(MSID_OPT("format") " must be msid, touchstone, uff, csv or mat (got '" + name + "')",
                         msidutil::ErrorKind::usage);
         return (Format)(it - names.begin());
     }

@@ -1,16 +1,15 @@
 // `msid frf --realisations R`: the best linear approximation and the split of
 // the FRF variance into noise (period to period) and nonlinear distortion
 // (realisation to realisation), Pintelon & Schoukens 2012 §4.3.1 (robust
-// method; equations in tools/fit/bla.hpp and docs/statistics.md). When some realisation has one
+// method; equations in tools/frfstat/bla.hpp and docs/statistics.md). When some realisation has one
 // usable period (the nonlinear-benchmark layout: R realisations of one period each) only the BLA
 // and its total covariance exist (total_only): the split needs the periods' noise.
 #include "frf_job_detail.hpp"
 #include "frf_bla.hpp"
 #include "periodicity.hpp"
 
-#include "bla.hpp"
-#include "stats.hpp"
-#include "frf_data.hpp"
+#include "bla.hpp"     // the robust BLA and its tests (tools/frfstat)
+#include "frf_file.hpp"
 
 #include <cstdio>
 
@@ -18,8 +17,8 @@
 
 namespace msidjob {
 
-using msidfit::MatC;
-using msidfit::cd;
+using msidfrf::MatC;
+using msidfrf::cd;
 
 // A matrix of a document this job built (shape from the document itself).
 static MatC jcmat(const Json &v)
@@ -30,7 +29,7 @@ static MatC jcmat(const Json &v)
 
 static Json cjson(const MatC &M) { return msidfrf::cmat(M); }
 
-static std::vector<double> vvec(const msidfit::VecR &v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+static std::vector<double> vvec(const msidstat::VecR &v) { return std::vector<double>(v.data(), v.data() + v.size()); }
 
 // f() for realisation r (0-based) of `per` experiments, its error naming the realisation.
 template <class F> static auto in_realisation(uint32_t r, size_t per, F f) -> decltype(f())
@@ -39,7 +38,7 @@ template <class F> static auto in_realisation(uint32_t r, size_t per, F f) -> de
         return f();
     } catch (const msidutil::Error &e) {
         throw msidutil::Error("realisation " + std::to_string(r + 1) + " (experiments " + std::to_string(r * per + 1) +
-                                  ".." + std::to_string((r + 1) * per) + "): " + e.what(),
+                                  ".." + std::to_string((r + 1) * per) + "): " + e.text(),
                               e.code, e.kind);
     }
 }
@@ -173,7 +172,7 @@ static FrfOutcome total_only(const FrfRequest &rq, const std::vector<Record> &re
 {
     const uint32_t nu = recs[0].nu, ny = recs[0].ny, g = nu * ny;
     if (R < g + 1)
-        throw UsageError(fmt("--realisations %u with one period per realisation: the total covariance of the %u entries "
+        throw UsageError(fmt(MSID_OPT("realisations") " %u with one period per realisation: the total covariance of the %u entries "
                              "of G is the spread of the realisations' FRFs, of rank at most R - 1 = %u: at least %u "
                              "realisations are needed",
                              R, g, R - 1, g + 1));
@@ -217,7 +216,7 @@ static FrfOutcome total_only(const FrfRequest &rq, const std::vector<Record> &re
             G.push_back(x.G[l]);
             if (std::isfinite(x.cond[l])) cond = std::max(cond, x.cond[l]);
         }
-        const msidfit::BlaLine b = msidfit::bla_total(G);
+        const msidstat::BlaLine b = msidstat::bla_total(G);
         Json e = line_position(rq, l);
         e["G"] = cjson(b.G);
         e["cov"] = cjson(b.cov);
@@ -252,9 +251,9 @@ static FrfOutcome total_only(const FrfRequest &rq, const std::vector<Record> &re
 
 FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> &recs, uint32_t R)
 {
-    if (R < 2) throw UsageError("--realisations must be at least 2 (one realisation: use --detect-lines for the distortion level)");
+    if (R < 2) throw UsageError(MSID_OPT("realisations") " must be at least 2 (one realisation: use " MSID_OPT("detect_lines") " for the distortion level)");
     if (recs.size() % R)
-        throw UsageError("--realisations " + std::to_string(R) + ": the " + std::to_string(recs.size()) +
+        throw UsageError(MSID_OPT("realisations") " " + std::to_string(R) + ": the " + std::to_string(recs.size()) +
                          " experiments do not split into " + std::to_string(R) + " blocks of equal size");
     const size_t per = recs.size() / R;
     if (rq.period >= 1)
@@ -287,7 +286,7 @@ FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> 
     doc["periods_rejected"] = rej;
     doc["experiments"] = exps;
     doc["noise_cov"] = cjson(ncov);
-    std::vector<msidfit::BlaLine> bl;
+    std::vector<msidstat::BlaLine> bl;
     for (size_t l = 0; l < L; ++l) {
         std::vector<MatC> G, C;
         std::vector<double> dof;
@@ -302,7 +301,7 @@ FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> 
             cki = r ? MatC(cki + k) : k;
             dki += e.contains("dof_known_input") ? e["dof_known_input"].get<double>() : dof.back();
         }
-        const msidfit::BlaLine b = msidfit::bla_line(G, C, dof);
+        const msidstat::BlaLine b = msidstat::bla_line(G, C, dof);
         Json &e = doc["lines"][l];
         e["G"] = cjson(b.G);
         e["cov"] = cjson(b.cov);
@@ -324,7 +323,7 @@ FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> 
         }
         bl.push_back(b);
     }
-    const msidfit::BlaSummary s = msidfit::bla_summary(bl);
+    const msidstat::BlaSummary s = msidstat::bla_summary(bl);
     Json nl;
     nl["method"] = "robust (Pintelon & Schoukens 2012 §4.3.1): BLA = mean over realisations; cov = total covariance "
                    "from the realisation-to-realisation spread; cov_noise from the periods; var_nl = diag(cov - cov_noise)";
@@ -368,7 +367,7 @@ Json detection_distortion(const Json &doc)
         }
     }
     int n = 0, sig = 0;
-    const double p = msidfit::fisher_combined(pv, &n, &sig);
+    const double p = msidstat::fisher_combined(pv, &n, &sig);
     if (!n) return nullptr;
     const double excess = qsum / (double)pv.size() - (dof > 1 ? dof / (dof - 1.0) : 1.0);
     Json o;
@@ -379,7 +378,7 @@ Json detection_distortion(const Json &doc)
     o["entries_tested"] = n;
     o["entries_significant_1pct"] = sig;
     o["p_value"] = p;   // Fisher's combination of the detection-line p-values
-    o["distortion_detected"] = p < msidfit::BLA_DETECT_ALPHA;
+    o["distortion_detected"] = p < msidstat::BLA_DETECT_ALPHA;
     o["nl_to_noise_db"] = excess > 0 ? Json(10.0 * std::log10(excess)) : Json(nullptr);
     return o;
 }

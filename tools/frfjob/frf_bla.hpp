@@ -8,7 +8,7 @@ namespace msidjob {
 
 // The experiments split into R consecutive blocks of equal size, one block per
 // realisation (each block a complete design: m >= nu experiments); each block
-// goes through run_frf, then the BLA and the variance split (tools/fit/bla.hpp). When some
+// goes through run_frf, then the BLA and the variance split (tools/frfstat/bla.hpp). When some
 // experiment has one usable period (after --skip-periods): the BLA and its total covariance only
 // (dof R - 1; R >= ny nu + 1), no noise part, a note saying so (docs/statistics.md).
 FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> &recs, uint32_t R);

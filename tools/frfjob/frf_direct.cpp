@@ -13,7 +13,7 @@ FrfOutcome run_frf_direct(const FrfRequest &rq, const Design &D, const std::vect
 {
     FrfOutcome out;
     const msid_design &d = D.d;
-    if (recs.empty()) throw Error("no experiment files given (--experiment)");
+    if (recs.empty()) throw Error("no experiment files given (" MSID_OPT("experiment") ")");
     const uint32_t nu = recs[0].nu, ny = recs[0].ny, m = (uint32_t)recs.size();
     for (const auto &r : recs)
         if (r.nu != nu || r.ny != ny) throw Error("'" + r.path + "' has other columns than '" + recs[0].path + "'");

@@ -24,7 +24,7 @@ EstPlan::Method est_method(const std::string &name)
 {
     if (name == "lpm") return EstPlan::Method::lpm;
     if (name == "etfe") return EstPlan::Method::etfe;
-    throw UsageError("--method must be periodic, lpm or etfe (got '" + name + "')");
+    throw UsageError(MSID_OPT("method") " must be periodic, lpm or etfe (got '" + name + "')");
 }
 
 // ---- the plan: what applies to which method, and its ranges ----
@@ -33,7 +33,7 @@ void check_est_plan(const EstPlan &p, double fs)
 {
     const bool lpm = p.method == EstPlan::Method::lpm;
     auto only = [](const char *k, const char *m) {
-        throw UsageError(std::string("--") + k + " applies to --method " + m + " only");
+        throw UsageError(msidutil::option_mark(k) + " applies to " MSID_OPT("method") " " + m + " only");
     };
     if (!lpm && p.order) only("order", "lpm");
     if (!lpm && p.window) only("window", "lpm");
@@ -41,32 +41,34 @@ void check_est_plan(const EstPlan &p, double fs)
     if (lpm && p.period) only("period", "etfe");
     if (lpm && p.delta) only("delta", "etfe");
     if (lpm && p.gstar) only("gstar", "etfe");
-    if (p.order && *p.order > 8) throw UsageError("--order must be 0..8");
-    if (p.window && *p.window == 0) throw UsageError("--window must be at least 1");
+    if (p.order && *p.order > 8) throw UsageError(MSID_OPT("order") " must be 0..8");
+    if (p.window && *p.window == 0) throw UsageError(MSID_OPT("window") " must be at least 1");
     // 2W+1 bins of a record's spectrum: no record msid reads has more than 2^24 (and 2W+1 must not wrap)
     if (p.window && *p.window >= (1u << 23))
-        throw UsageError(msidutil::fmt("--window %u: a window of 2W+1 = %llu bins is more than any record's spectrum "
+        throw UsageError(msidutil::fmt(MSID_OPT("window") " %u: a window of 2W+1 = %llu bins is more than any record's spectrum "
                                        "holds (at most 8388607)", *p.window, 2ull * *p.window + 1));
-    if (p.delta && !(*p.delta > 0 && *p.delta < 1)) throw UsageError("--delta must be in (0, 1)");
-    if (p.gstar && !(*p.gstar >= 0)) throw UsageError("--gstar must be >= 0");
-    if (p.threads > 64) throw UsageError("--threads must be 1..64");
-    if (!lpm && !p.period) throw UsageError("--method etfe needs --period M (samples per input period)");
+    if (p.delta && !(*p.delta > 0 && *p.delta < 1)) throw UsageError(MSID_OPT("delta") " must be in (0, 1)");
+    if (p.gstar && !(*p.gstar >= 0)) throw UsageError(MSID_OPT("gstar") " must be >= 0");
+    if (p.given.has("threads") ? p.threads == 0 || p.threads > 64 : p.threads > 64)
+        throw UsageError(MSID_OPT("threads") " must be 1..64");
+    if (p.given.has("fs") && !(fs > 0)) throw UsageError(MSID_OPT("fs") " must be positive");
+    if (!lpm && !p.period) throw UsageError(MSID_OPT("method") " etfe needs " MSID_OPT("period") " M (samples per input period)");
     if (!p.band) return;
     const char *s = p.band_text.c_str();
     const double nyq = fs > 0 ? fs / 2 : 0.5;
     const char *unit = fs > 0 ? "Hz" : "cycles/sample";
-    if (!(p.f1 >= 0) || !(p.f2 > p.f1)) throw UsageError(fmt("--band %s: need 0 <= F1 < F2", s));
+    if (!(p.f1 >= 0) || !(p.f2 > p.f1)) throw UsageError(fmt(MSID_OPT("band") " %s: need 0 <= F1 < F2", s));
     if (p.f2 > nyq)
-        throw UsageError(fmt("--band %s: F2 = %g %s is above Nyquist (%g %s)%s", s, p.f2, unit, nyq, unit,
-                             fs > 0 ? "" : "; without --fs the band is in cycles/sample"));
+        throw UsageError(fmt(MSID_OPT("band") " %s: F2 = %g %s is above Nyquist (%g %s)%s", s, p.f2, unit, nyq, unit,
+                             fs > 0 ? "" : "; without " MSID_OPT("fs") " the band is in cycles/sample"));
 }
 
 void check_reference_columns(const std::vector<std::string> &ref, const msidrec::ColumnMap &cols)
 {
     for (size_t k = 0; k < ref.size() && cols.empty(); ++k)
         if (ref[k] != fmt("r%zu", k + 1) && ref[k] != fmt("R%zu", k + 1))
-            throw UsageError(fmt("--reference r%zu=%s names a column: name the inputs and outputs too, with --columns "
-                                 "u1=NAME,...,y1=NAME,... (or call the reference columns r1.. and give --reference r1,..)",
+            throw UsageError(fmt(MSID_OPT("reference") " r%zu=%s names a column: name the inputs and outputs too, with " MSID_OPT("columns") " "
+                                 "u1=NAME,...,y1=NAME,... (or call the reference columns r1.. and give " MSID_OPT("reference") " r1,..)",
                                  k + 1, ref[k].c_str()));
 }
 
@@ -79,7 +81,7 @@ std::pair<size_t, size_t> band_range(const EstPlan &p, size_t n, double fscale, 
     if (!p.band) return {1, hi_max};
     const size_t lo = std::max<size_t>(1, (size_t)std::ceil(p.f1 * n / fscale - 1e-9));
     const size_t hi = std::min<size_t>(hi_max, (size_t)std::floor(p.f2 * n / fscale + 1e-9));
-    if (lo > hi) throw UsageError(fmt("--band %s holds no %s", p.band_text.c_str(), what.c_str()));
+    if (lo > hi) throw UsageError(fmt(MSID_OPT("band") " %s holds no %s", p.band_text.c_str(), what.c_str()));
     return {lo, hi};
 }
 
@@ -100,7 +102,7 @@ std::vector<msidest::RecordView> record_views(const std::vector<Record> &recs, c
             throw Error(fmt("'%s' has %u input(s) and %u output(s), '%s' has %u and %u", r.path.c_str(), r.nu, r.ny,
                             recs[0].path.c_str(), nu, ny));
         if (r.n_rows != recs[0].n_rows)
-            throw Error(fmt("--method %s needs records of equal length: '%s' has %zu samples, '%s' has %zu", method,
+            throw Error(fmt(MSID_OPT("method") " %s needs records of equal length: '%s' has %zu samples, '%s' has %zu", method,
                             r.path.c_str(), r.n_rows, recs[0].path.c_str(), recs[0].n_rows));
         views.push_back({r.data(), r.n_rows, (size_t)(nu + ny)});
     }
@@ -341,7 +343,7 @@ Json run_etfe(FrfRequest &rq, const std::vector<Record> &recs, const std::vector
     check_etfe_records(recs, views, *p.period);
     c.du_max = msidest::max_input_norm(views, nu);
     const size_t lmax = (c.M - 1) / 2;
-    if (lmax < 1) throw UsageError("--period must be at least 3 samples");
+    if (lmax < 1) throw UsageError(MSID_OPT("period") " must be at least 3 samples");
     if (p.band)
         std::tie(c.l_lo, c.l_hi) =
             band_range(p, c.M, rq.fs > 0 ? rq.fs : 1.0, lmax, fmt("line of period %zu", c.M));

@@ -17,7 +17,7 @@ namespace msidjob {
 static Record reference_record(const Record &r, const std::vector<std::string> &ref)
 {
     if (ref.size() != r.nu)
-        throw UsageError(fmt("--reference names %zu column(s) for %u input(s): one reference per input", ref.size(), r.nu));
+        throw UsageError(fmt(MSID_OPT("reference") " names %zu column(s) for %u input(s): one reference per input", ref.size(), r.nu));
     msidrec::ColumnMap m;
     for (size_t k = 0; k < ref.size(); ++k) m.map.emplace_back(fmt("u%zu", k + 1), ref[k]);
     m.map.emplace_back("y1", r.columns.at(r.nu));
@@ -33,6 +33,39 @@ static std::vector<Record> reference_records(const std::vector<Record> &recs, co
     std::vector<Record> out;
     for (const Record &r : recs) out.push_back(reference_record(r, ref));
     return out;
+}
+
+void check_options(const FrfRequest &rq, const GivenOptions &g, const Design *design)
+{
+    if (g.has("fs")) {
+        if (!(rq.fs > 0)) throw UsageError(MSID_OPT("fs") " must be positive");
+        if (design && design->is_ct())
+            throw UsageError(MSID_OPT("fs") " does not apply to a continuous-time design (it has a sample time)");
+    }
+    if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError(MSID_OPT("alpha") " must be in (0, 1)");
+    if (g.has("block") && rq.block == 0) throw UsageError(MSID_OPT("block") " must be positive");
+}
+
+void check_plan(const FrfRequest &rq, const FrfPlan &plan)
+{
+    const GivenOptions &g = plan.given;
+    const bool design = g.has("design") || plan.design;
+    const bool period = g.has("period") || plan.auto_period, lines = g.has("lines") || plan.auto_lines;
+    if (design && (period || lines))
+        throw UsageError("give either " MSID_OPT("design") " or " MSID_OPT("period") "/" MSID_OPT("lines") ", not both");
+    // a request its caller filled (the period and lines set, none of them named as given) needs neither
+    const bool filled = rq.period && !rq.bins.empty() && !period && !lines;
+    if (!design && !(period && lines) && !filled)
+        throw UsageError("give " MSID_OPT("design") ", or both " MSID_OPT("period") " and " MSID_OPT("lines"));
+    if (plan.direct && (plan.auto_period || plan.auto_lines))
+        throw UsageError(MSID_OPT("direct") " needs " MSID_OPT("design") " (no auto period/lines)");
+    check_options(rq, g, plan.design);
+    if (plan.direct) {
+        if (!design) throw UsageError(MSID_OPT("direct") " needs " MSID_OPT("design") " (the input is the design's exact multisine)");
+        for (const char *k : {"detect_lines", "dft", "block", "transient", "alpha"})
+            if (g.has(k)) throw UsageError(msidutil::option_mark(k) + " does not apply to " MSID_OPT("direct"));
+        if (plan.bla) throw UsageError(MSID_OPT("realisations") " does not apply to " MSID_OPT("direct"));
+    }
 }
 
 // Step 1: the records' shapes, the period and the inputs (a record whose input is not periodic is
@@ -117,7 +150,7 @@ static void find_lines_if_asked(FrfRequest &rq, const std::vector<Record> &recs,
                                 std::string &undecided)
 {
     if (!plan.auto_lines) {
-        if (!plan.reference.empty()) throw UsageError("--reference applies to --lines auto (and --method lpm)");
+        if (!plan.reference.empty()) throw UsageError(MSID_OPT("reference") " applies to " MSID_OPT("lines") " auto (and " MSID_OPT("method") " lpm)");
         return;
     }
     std::string rep;
@@ -156,7 +189,7 @@ FrfOutcome frf_without_unusable_lines(FrfRequest &rq, const FrfPlan &plan, Dropp
             if (!plan.auto_lines || !rq.omega.empty()) throw;   // given lines (a design's) are refused
             const size_t L = rq.bins.size();
             if (u.weak.size() + u.dependent.size() >= L)
-                throw Error(fmt("--lines auto: none of the %zu line(s) found leaves the FRF enough input (%s)", L, u.what()));
+                throw Error(fmt(MSID_OPT("lines") " auto: none of the %zu line(s) found leaves the FRF enough input (%s)", L, u.what()));
             std::vector<uint8_t> out(L, 0);
             for (uint32_t l : u.weak) {
                 out[l] = 1;
@@ -227,9 +260,8 @@ void add_detection_distortion(FrfOutcome &o)
 FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan,
                         std::unique_ptr<FrfJob> *keep)
 {
-    if (plan.direct && (plan.auto_period || plan.auto_lines)) throw UsageError("--direct needs --design (no auto period/lines)");
-    if (plan.direct && !plan.design) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
-    if (plan.direct && plan.bla) throw UsageError("--realisations does not apply to --direct");
+    check_plan(rq, plan);
+    if (plan.direct && !plan.design) throw std::logic_error("estimate_frf: direct without the design (FrfPlan::design)");
     FrfOutcome o;
     Json lines_auto;
     std::string undecided;

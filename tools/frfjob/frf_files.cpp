@@ -131,7 +131,7 @@ uint32_t stream_find_period(const Record &info, const FrfPlan &plan)
     // from the excitation's reference when the lines come from it (as estimate_frf()): exactly periodic
     const bool ref = plan.auto_lines && !plan.reference.empty();
     if (ref && plan.reference.size() != info.nu)
-        throw UsageError(fmt("--reference names %zu column(s) for %u input(s): one reference per input",
+        throw UsageError(fmt(MSID_OPT("reference") " names %zu column(s) for %u input(s): one reference per input",
                              plan.reference.size(), info.nu));
     msidrec::ColumnMap mc;
     for (uint32_t k = 0; k < info.nu; ++k)
@@ -178,7 +178,7 @@ std::vector<LineScan> scan_lines(const FrfRequest &rq, const std::vector<std::st
     const uint32_t m = (uint32_t)paths.size(), P = rq.period, nu = src.at(0).head.nu;
     check_lines_period(P);
     if (!reference.empty() && reference.size() != nu)
-        throw UsageError(fmt("--reference names %zu column(s) for %u input(s): one reference per input",
+        throw UsageError(fmt(MSID_OPT("reference") " names %zu column(s) for %u input(s): one reference per input",
                              reference.size(), nu));
     std::vector<LineScan> scans;
     for (uint32_t e = 0; e < m; ++e) scans.emplace_back(P, nu, paths[e]);
@@ -389,6 +389,7 @@ bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msi
 FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
                                 FrfPlan plan, std::unique_ptr<FrfJob> *keep)
 {
+    check_plan(rq, plan);   // before any file is opened
     FilesOutcome out;
     const bool plain = !plan.direct && !plan.bla && !plan.auto_period && !plan.auto_lines;
     // --reference without --lines auto is refused by estimate_frf()

@@ -28,13 +28,16 @@ struct EstPlan {
     std::optional<double> delta, gstar;
     // threads over the bins (1..64; 0: up to 2). The bits do not depend on it.
     uint32_t threads = 0;
+    // the options given, by their neutral names ("threads", "fs"): a given value out of range is refused
+    GivenOptions given;
 };
 
 // "lpm" / "etfe" -> Method; UsageError "--method must be periodic, lpm or etfe (got 'x')" otherwise.
 EstPlan::Method est_method(const std::string &name);
 
-// The plan's own checks (what applies to which method, ranges, the band below Nyquist of `fs`,
-// 0 if not given), before any record is read; estimate_frf_est() runs them too. Throws UsageError.
+// The plan's own checks (what applies to which method, ranges, --fs given positive, the band below
+// Nyquist of `fs`, 0 if not given), before any record is read; estimate_frf_est() runs them too.
+// Throws UsageError naming the options neutrally (MSID_OPT).
 void check_est_plan(const EstPlan &p, double fs);
 
 // Reference columns named without a column map: only the files' own r1.. (or R1..) can be found

@@ -95,6 +95,20 @@ class FrfJob;
 // still maps the process costs a TLB shootdown each, on the path to the result.
 FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep = nullptr);
 
+// The options a caller gave, by their neutral names (MSID_OPT, msid_options.hpp: "detect_lines",
+// "alpha"): the rules between options (check_plan, check_est_plan) refuse what does not apply however
+// the front end took them (a flag, a keyword), and name it in the front end's words.
+struct GivenOptions {
+    std::vector<std::string> names;
+    void add(const char *id) { names.emplace_back(id); }
+    bool has(const char *id) const
+    {
+        for (const std::string &n : names)
+            if (n == id) return true;
+        return false;
+    }
+};
+
 // How estimate_frf() runs the job: what to find from the input, which estimator.
 struct FrfPlan {
     bool auto_period = false;          // find the period from the inputs' repetition (rq.period ignored)
@@ -109,7 +123,20 @@ struct FrfPlan {
     std::vector<std::string> reference;
     // what was found (--period auto, --lines auto), one line or two, as it is found
     std::function<void(const std::string &)> report;
+    // the options given ("design", "period", "lines", "fs", "detect_lines", "transient", "alpha", "dft",
+    // "block", "realisations", "direct", "reference"): the rules between them (check_plan)
+    GivenOptions given;
 };
+
+// The request's own rules, every front end's (msid frf, msid.frf): the design or the period and lines,
+// what --direct takes (a design, no --realisations, none of the periodic path's options), and the
+// ranges of --fs, --block and --alpha. Its messages name the options neutrally (MSID_OPT). estimate_frf()
+// and estimate_frf_files() run it first; a front end calls it only to refuse before it reads anything.
+// Throws UsageError.
+void check_plan(const FrfRequest &rq, const FrfPlan &plan);
+// Its part for the estimating options alone (--fs given positive and not with a continuous-time
+// `design`, --alpha in (0, 1), --block given positive), for the paths without a plan (a measurement).
+void check_options(const FrfRequest &rq, const GivenOptions &given, const Design *design = nullptr);
 
 // The whole FRF job on records, every step once and in one order: the records' shapes, the
 // period (plan.auto_period), the inputs' periodicity, the lines (plan.auto_lines), the estimator

@@ -366,8 +366,8 @@ static void check_lines_hold_input(const Record &r, uint32_t P, uint32_t skip, s
                    : fmt("%zu of %zu line/input pairs show a period mean beyond its standard error (chance alone gives "
                          "%.1f)", ev.shown, ev.tested, PERIODIC_BIN_ALPHA * (double)ev.tested);
     throw Error(fmt("'%s': the input is periodic with period %u, but not at the given lines: %s, and the input's "
-                    "periodic power is at bins %s (%zu bins, the --lines auto test). Give those lines (--lines %s, or "
-                    "--lines auto)",
+                    "periodic power is at bins %s (%zu bins, the " MSID_OPT("lines") " auto test). Give those lines (" MSID_OPT("lines") " %s, or "
+                    MSID_OPT("lines") " auto)",
                     r.path.c_str(), P, why.c_str(), format_bins(found).c_str(), found.size(), format_bins(found).c_str()));
 }
 
@@ -495,9 +495,9 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
         if (Q) {
             // what the wrong period does to the estimate, when it shows (nothing to say: no clause)
             const std::string sym = wrong_period_symptoms(r, P, skip, bins);
-            throw Error(fmt("'%s': --period %u does not fit the input: it repeats every %u samples (the part of the input "
+            throw Error(fmt("'%s': " MSID_OPT("period") " %u does not fit the input: it repeats every %u samples (the part of the input "
                             "that changes from period to period is %.2g%% of its power with %u, %.2g%% with %u)%s. Use "
-                            "--period %u",
+                            MSID_OPT("period") " %u",
                             r.path.c_str(), P, Q, 100 * eta_n, Q, 100 * eta, P,
                             sym.empty() ? "" : fmt("; with %u, %s", P, sym.c_str()).c_str(), Q));
         }
@@ -507,7 +507,7 @@ void check_periodic_inputs(uint32_t P, uint32_t skip, const std::vector<uint32_t
                             "period (its spectrum differs between periods), %zu of %zu %s show a period mean beyond "
                             "its standard error (chance alone gives %.1f; a periodic input with noise shows many), and "
                             "it repeats with no other period either. For a sweep, chirp, noise or operating data use "
-                            "--method lpm (any excitation)",
+                            MSID_OPT("method") " lpm (any excitation)",
                             r.path.c_str(), P, 100 * eta, ev.shown, ev.tested,
                             bins.empty() ? "bin/input pairs" : "excited line/input pairs",
                             PERIODIC_BIN_ALPHA * (double)ev.tested));
@@ -549,7 +549,7 @@ static double *input_autocorrelation(const Record &r, size_t N, size_t nf)
     const size_t C = r.nu + r.ny, nc = nf / 2 + 1;
     fftw_planner_ready();
     double *buf = fftw_alloc_real(2 * nc);
-    if (!buf) throw Error(fmt("out of memory for --period auto's FFT of length %zu", nf));
+    if (!buf) throw Error(fmt("out of memory for " MSID_OPT("period") " auto's FFT of length %zu", nf));
     fftw_complex *spec = reinterpret_cast<fftw_complex *>(buf);
     // one plan at a time: a transform of this length has tens of MB of twiddle factors
     const fftw_plan fw = fftw_plan_dft_r2c_1d((int)nf, buf, spec, FFTW_ESTIMATE);
@@ -582,11 +582,11 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report, const
     // (whose first rows are all there is yet) and the record read whole find the same period
     const size_t N = std::min(r.n_rows, PERIOD_SEARCH_ROWS);
     if (N < 2 * MSID_MIN_PERIOD)
-        throw Error(fmt("'%s': %zu samples are too few to find a period (--period auto)", r.path.c_str(), r.n_rows));
+        throw Error(fmt("'%s': %zu samples are too few to find a period (" MSID_OPT("period") " auto)", r.path.c_str(), r.n_rows));
     for (size_t n = 0; n < N; ++n)   // lost samples (a candump log's NaN rows): no autocorrelation
         for (size_t j = 0; j < r.nu; ++j)
             if (!std::isfinite(r.data()[n * (r.nu + r.ny) + j]))
-                throw Error(fmt("'%s' lost samples (row %zu): --period auto needs a record without; give --period",
+                throw Error(fmt("'%s' lost samples (row %zu): " MSID_OPT("period") " auto needs a record without; give " MSID_OPT("period"),
                                 r.path.c_str(), n + 1));
     // The search reads lags up to N / 2 only, so N + N / 2 points hold them without wrap-around
     // (2 N would hold every lag): 2^k or 3 * 2^k, whichever is shorter, for a fast transform. At the
@@ -598,7 +598,7 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report, const
     const std::unique_ptr<double, void (*)(void *)> acbuf(input_autocorrelation(r, N, nf), fftw_free);
     const double *ac = acbuf.get();
     if (!(ac[0] > 0))
-        throw Error(fmt("'%s': the %ss are constant: no period to find (--period auto)", r.path.c_str(), signal));
+        throw Error(fmt("'%s': the %ss are constant: no period to find (" MSID_OPT("period") " auto)", r.path.c_str(), signal));
     // rho(tau): unbiased autocorrelation normalised by the variance
     auto rho = [&](size_t t) { return ac[t] / (double)(N - t) / (ac[0] / (double)N); };
     size_t t0 = 1;
@@ -684,7 +684,7 @@ uint32_t find_period(const std::vector<Record> &recs, std::string &report, const
     if (!P || (eta > level && !noisy))
         throw Error(fmt("'%s': the %s does not repeat: no period with at least 2 repetitions leaves less than %.0f%% "
                         "of the %s power changing from period to period (half of what a non-periodic %s "
-                        "gives)%s. Give --period, or for a sweep, chirp, noise or operating data use --method lpm",
+                        "gives)%s. Give " MSID_OPT("period") ", or for a sweep, chirp, noise or operating data use " MSID_OPT("method") " lpm",
                         r.path.c_str(), signal, 100 * (P ? level : NONPERIODIC_FRACTION), signal, signal,
                         P ? fmt(" (best: %u samples, %.0f%% changing)", P, 100 * eta).c_str() : ""));
     report = fmt("period %u samples (found from the %s's repetition: %.2g%% of the %s power changes from "
@@ -734,7 +734,7 @@ void LineScan::push(const double *rows, size_t C)
 
 void check_lines_period(uint32_t P)
 {
-    if (P < 3) throw Error(fmt("period %u has no bins between DC and Nyquist for --lines auto", P));
+    if (P < 3) throw Error(fmt("period %u has no bins between DC and Nyquist for " MSID_OPT("lines") " auto", P));
 }
 
 std::vector<uint32_t> lines_from_scans(const std::vector<LineScan> &scans, uint32_t P, uint32_t skip,
@@ -751,7 +751,7 @@ std::vector<uint32_t> lines_from_scans(const std::vector<LineScan> &scans, uint3
     for (const LineScan &sc : scans) {
         const LineScan::Impl &s = *sc.p_;
         if (s.K < 2)
-            throw Error(fmt("'%s': --lines auto needs at least 2 whole periods of %u samples after skipping %u",
+            throw Error(fmt("'%s': " MSID_OPT("lines") " auto needs at least 2 whole periods of %u samples after skipping %u",
                             s.source.c_str(), P, skip));
         Kmin = std::min(Kmin, s.K);
         const double n = (double)(s.K - 1);
@@ -774,7 +774,7 @@ std::vector<uint32_t> lines_from_scans(const std::vector<LineScan> &scans, uint3
     std::vector<uint32_t> bins;
     for (size_t k = 1; k <= M; ++k) if (exc[k]) bins.push_back((uint32_t)k);
     if (bins.empty())
-        throw Error(fmt("--lines auto: no bin of period %u carries a periodic input component (F test over %zu periods, "
+        throw Error(fmt(MSID_OPT("lines") " auto: no bin of period %u carries a periodic input component (F test over %zu periods, "
                         "family-wise false-alarm probability %g): is the input periodic with this period?",
                         P, Kmin, LINES_AUTO_ALPHA));
     report = fmt("%zu excited bins of %zu (F test of the period mean against the period-to-period variation over %zu "

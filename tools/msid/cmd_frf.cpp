@@ -88,28 +88,32 @@ int cmd_frf(int argc, char **argv)
     if (!a.positional().empty()) throw UsageError("unexpected argument '" + a.positional()[0] + "' (use --experiment)");
     const std::string out = a.require("output");
     FrfRequest rq;
-    std::unique_ptr<Design> D;
-    if (a.has("design")) {
-        if (a.has("period") || a.has("lines")) throw UsageError("give either --design or --period/--lines, not both");
-        D = read_design_file(a.get("design"));
-        request_from_design(rq, *D);
-    } else {
-        if (!a.has("period") || !a.has("lines")) throw UsageError("give --design, or both --period and --lines");
-        if (a.get("period") != "auto") rq.period = a.u32("period", 0);
-        if (a.get("lines") != "auto") rq.bins = parse_uint_list(a.get("lines"), "--lines");
-    }
-    const bool auto_period = !D && a.get("period") == "auto", auto_lines = !D && a.get("lines") == "auto";
-    if ((auto_period || auto_lines) && a.has("direct")) throw UsageError("--direct needs --design (no auto period/lines)");
-    if (a.has("fs")) {
-        rq.fs = a.f64("fs", 0.0);
-        if (!(rq.fs > 0)) throw UsageError("--fs must be positive");
-        if (D && D->is_ct()) throw UsageError("--fs does not apply to a continuous-time design (it has a sample time)");
-    }
+    // the options as given; their rules (a design or the period and lines, what --direct takes, the
+    // ranges) are the job's (msidjob::check_plan), checked before anything is read
+    msidjob::FrfPlan plan;
+    for (const char *k : {"design", "period", "lines", "fs", "detect-lines", "transient", "alpha", "dft", "block",
+                          "realisations", "direct", "reference"})
+        if (a.has(k)) plan.given.names.push_back(msidutil::option_id(k));
+    plan.auto_period = !a.has("design") && a.get("period") == "auto";
+    plan.auto_lines = !a.has("design") && a.get("lines") == "auto";
+    plan.direct = a.has("direct");
+    plan.bla = a.has("realisations");
+    plan.realisations = a.u32("realisations", 1);
+    if (a.has("period") && a.get("period") != "auto") rq.period = a.u32("period", 0);
+    if (a.has("lines") && a.get("lines") != "auto") rq.bins = parse_uint_list(a.get("lines"), "--lines");
+    if (a.has("fs")) rq.fs = a.f64("fs", 0.0);
     parse_estimate_options(a, rq);
     rq.path = a.enum_<msid_dft_path>("dft", MSID_DFT_AUTO,
                                      {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});
     rq.block = a.u64("block", 0);
-    if (a.has("block") && rq.block == 0) throw UsageError("--block must be positive");
+    msidjob::check_plan(rq, plan);
+    std::unique_ptr<Design> D;
+    if (a.has("design")) {
+        D = read_design_file(a.get("design"));
+        request_from_design(rq, *D);
+        plan.design = D.get();
+    }
+    const bool auto_lines = plan.auto_lines;
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");
 
     const ColumnMap cols = a.has("columns") ? parse_column_map(a.get("columns")) : ColumnMap{};
@@ -122,20 +126,6 @@ int cmd_frf(int argc, char **argv)
         (auto_lines || rq.path == MSID_DFT_FFT ||
          msid_linedft_choose(rq.period, (uint32_t)(rq.bins.size() + rq.detect.size()), 1, 1) == MSID_DFT_FFT))
         fftw_warmup_start(rq.period);
-    // option conflicts of the direct estimator
-    if (a.has("direct")) {
-        if (!D) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
-        for (const char *k : {"detect-lines", "dft", "block", "transient", "alpha"})
-            if (a.has(k)) throw UsageError(std::string("--") + k + " does not apply to --direct");
-    }
-    if (a.has("realisations") && a.has("direct")) throw UsageError("--realisations does not apply to --direct");
-    msidjob::FrfPlan plan;
-    plan.auto_period = auto_period;
-    plan.auto_lines = auto_lines;
-    plan.direct = a.has("direct");
-    plan.bla = a.has("realisations");
-    plan.realisations = a.u32("realisations", 1);
-    plan.design = D.get();
     // --lines auto from the excitation's reference: named, or the file's own r1.. columns
     if (a.has("reference")) plan.reference = parse_reference(a.get("reference"));
     plan.report = [](const std::string &s) { std::fputs(s.c_str(), stdout); };

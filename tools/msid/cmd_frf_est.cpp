@@ -63,8 +63,10 @@ msidjob::EstPlan est_plan(const Args &a)
     if (a.has("delta")) p.delta = a.f64("delta", 0.0);
     if (a.has("gstar")) p.gstar = a.f64("gstar", 0.0);
     if (a.has("reference")) p.reference = parse_reference(a.get("reference"));
-    const unsigned threads = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
-    p.threads = a.u32("threads", threads, 1, 64);
+    // not given: the job's default (up to 2); the ranges are the job's (check_est_plan)
+    for (const char *k : {"threads", "fs"})
+        if (a.has(k)) p.given.add(k);
+    p.threads = a.u32("threads", 0);
     parse_band(a, p);
     return p;
 }
@@ -80,7 +82,6 @@ int cmd_frf_est(int argc, char **argv)
     const msidjob::EstPlan plan = est_plan(a);
     FrfRequest rq;
     rq.fs = a.f64("fs", 0.0);
-    if (a.has("fs") && !(rq.fs > 0)) throw UsageError("--fs must be positive");
     msidjob::check_est_plan(plan, rq.fs);
     const std::string out = a.require("output");
     if (a.all("experiment").empty()) throw UsageError("missing --experiment <file.csv>");

@@ -11,7 +11,7 @@ void parse_estimate_options(const Args &a, FrfRequest &rq)
         "transient", MSID_TRANSIENT_FLAG,
         {{"flag", MSID_TRANSIENT_FLAG}, {"drop", MSID_TRANSIENT_DROP}, {"off", MSID_TRANSIENT_OFF}});
     rq.alpha = a.f64("alpha", rq.alpha);
-    if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("--alpha must be in (0, 1)");
+    msidjob::check_options(rq, {});   // --alpha's range: the job's rule
     // line DFT path, for commands that list --dft (a device estimates on the stream path)
     rq.path = a.enum_<msid_dft_path>("dft", rq.path,
                                      {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});

@@ -54,7 +54,7 @@ void refuse_candump_without_dbc(const std::string &path)
     std::fclose(f);
     if (candump)
         throw ColumnSpecError("'" + path + "' is a candump log: give the DBC file that describes its frames (--dbc FILE) "
-                              "and the signals of each input and output (--columns u1=MESSAGE.SIGNAL,...,y1=MESSAGE.SIGNAL)");
+                              "and the signals of each input and output (" MSID_OPT("columns") " u1=MESSAGE.SIGNAL,...,y1=MESSAGE.SIGNAL)");
 }
 
 }  // namespace msidrec

@@ -25,12 +25,12 @@ struct Col {
 std::vector<Col> resolve(const DbcFile &dbc, const ColumnMap &cols, uint32_t &nu, uint32_t &ny)
 {
     if (cols.empty())
-        throw ColumnSpecError("--dbc needs --columns u1=MESSAGE.SIGNAL,...,y1=MESSAGE.SIGNAL,... (the signals of '" +
+        throw ColumnSpecError(MSID_OPT("dbc") " needs " MSID_OPT("columns") " u1=MESSAGE.SIGNAL,...,y1=MESSAGE.SIGNAL,... (the signals of '" +
                               dbc.path() + "' that are the inputs and outputs)");
     nu = ny = 0;
     for (const auto &kv : cols.map) (kv.first[0] == 'u' || kv.first[0] == 'U' ? nu : ny)++;
-    if (nu == 0 && !cols.inputs_optional) throw ColumnSpecError("--columns names no input (u1=MESSAGE.SIGNAL)");
-    if (ny == 0) throw ColumnSpecError("--columns names no output (y1=MESSAGE.SIGNAL)");
+    if (nu == 0 && !cols.inputs_optional) throw ColumnSpecError(MSID_OPT("columns") " names no input (u1=MESSAGE.SIGNAL)");
+    if (ny == 0) throw ColumnSpecError(MSID_OPT("columns") " names no output (y1=MESSAGE.SIGNAL)");
     std::vector<Col> out(nu + ny);
     for (const auto &kv : cols.map) {
         const bool in = kv.first[0] == 'u' || kv.first[0] == 'U';

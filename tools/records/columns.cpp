@@ -64,15 +64,15 @@ ColumnMap parse_column_map(const std::string &spec, bool inputs_optional)
         const std::string item = trim(items[it]);
         const size_t eq = item.find('=');
         if (eq == std::string::npos || trim(item.substr(0, eq)).empty() || trim(item.substr(eq + 1)).empty())
-            throw ColumnSpecError("--columns: '" + item + "' is not <u<k>|y<k>>=<column name>");
+            throw ColumnSpecError(MSID_OPT("columns") ": '" + item + "' is not <u<k>|y<k>>=<column name>");
         std::string dst = trim(item.substr(0, eq)), src = trim(item.substr(eq + 1));
         if (src.size() >= 2 && src.front() == '"' && src.back() == '"') src = src.substr(1, src.size() - 2);
         if (uy_name(dst).first < 0)
-            throw ColumnSpecError("--columns: '" + dst + "' is not u<k> or y<k> (k = 1..64)");
+            throw ColumnSpecError(MSID_OPT("columns") ": '" + dst + "' is not u<k> or y<k> (k = 1..64)");
         for (auto &ch : dst) ch = (char)std::tolower((unsigned char)ch);
         for (const auto &e : m.map) {
-            if (e.first == dst) throw ColumnSpecError("--columns: " + dst + " is mapped twice");
-            if (e.second == src) throw ColumnSpecError("--columns: column '" + src + "' is mapped twice");
+            if (e.first == dst) throw ColumnSpecError(MSID_OPT("columns") ": " + dst + " is mapped twice");
+            if (e.second == src) throw ColumnSpecError(MSID_OPT("columns") ": column '" + src + "' is mapped twice");
         }
         m.map.emplace_back(dst, src);
     }
@@ -83,9 +83,9 @@ ColumnMap parse_column_map(const std::string &spec, bool inputs_optional)
         uint32_t &mx = kind == 0 ? maxu : maxy;
         mx = std::max(mx, k);
     }
-    if ((cu == 0 && !inputs_optional) || cy == 0) throw ColumnSpecError("--columns must map at least u1 and y1");
-    if (cu != maxu) throw ColumnSpecError(fmt("--columns: inputs must be u1..u%u without gaps", maxu));
-    if (cy != maxy) throw ColumnSpecError(fmt("--columns: outputs must be y1..y%u without gaps", maxy));
+    if ((cu == 0 && !inputs_optional) || cy == 0) throw ColumnSpecError(MSID_OPT("columns") " must map at least u1 and y1");
+    if (cu != maxu) throw ColumnSpecError(fmt(MSID_OPT("columns") ": inputs must be u1..u%u without gaps", maxu));
+    if (cy != maxy) throw ColumnSpecError(fmt(MSID_OPT("columns") ": outputs must be y1..y%u without gaps", maxy));
     return m;
 }
 
@@ -133,7 +133,7 @@ std::vector<size_t> resolve_columns(const std::string &path, const std::vector<s
                                  uy_name("u" + names[i].substr(1)).first == 0;
                 if (names[i].empty() || is_time_name(names[i]) || ref || !strict) continue;
                 throw Error(fmt("'%s' line 1: column '%s' is not u<k>, y<k> or a time column (t, time, n, sample, "
-                                "index); map named columns with --columns u1=NAME,y1=NAME",
+                                "index); map named columns with " MSID_OPT("columns") " u1=NAME,y1=NAME",
                                 path.c_str(), names[i].c_str()));
             }
             std::string d = fmt("%c%u", kind == 0 ? 'u' : 'y', k);
@@ -148,10 +148,10 @@ std::vector<size_t> resolve_columns(const std::string &path, const std::vector<s
         if (kind == 0) { ++cu; maxu = std::max(maxu, k); } else { ++cy; maxy = std::max(maxy, k); }
     }
     if (cu == 0 && !cols.inputs_optional)
-        throw Error(fmt("'%s' has no input columns (u1, u2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
+        throw Error(fmt("'%s' has no input columns (u1, u2, ...): it has %s; map them with " MSID_OPT("columns") " u1=NAME,y1=NAME",
                         path.c_str(), list_names(names).c_str()));
     if (cy == 0)
-        throw Error(fmt("'%s' has no output columns (y1, y2, ...): it has %s; map them with --columns u1=NAME,y1=NAME",
+        throw Error(fmt("'%s' has no output columns (y1, y2, ...): it has %s; map them with " MSID_OPT("columns") " u1=NAME,y1=NAME",
                         path.c_str(), list_names(names).c_str()));
     if (cu != maxu) throw Error(fmt("'%s': input columns must be u1..u%u without gaps", path.c_str(), maxu));
     if (cy != maxy) throw Error(fmt("'%s': output columns must be y1..y%u without gaps", path.c_str(), maxy));

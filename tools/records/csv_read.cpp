@@ -502,7 +502,7 @@ CsvStream::CsvStream(const std::string &path, const ColumnMap &cols, bool split,
     if (!header.empty() && header.back() == '\r') header.remove_suffix(1);
     if (trim(header).empty())
         throw Error("'" + path + "' is empty" + (comments ? fmt(" after %zu comment lines", comments) : std::string()) +
-                    ": expected a header row with columns u1.. and y1.. (or named columns and --columns)");
+                    ": expected a header row with columns u1.. and y1.. (or named columns and " MSID_OPT("columns") ")");
     // Delimiter: the most frequent of ',', ';' and tab in the header (',' on a tie).
     long nc = 0, ns = 0, nt = 0;   // outside quotes ("Force, N";"Acc" is ';'-delimited)
     bool in_q = false;

@@ -22,19 +22,19 @@ const msid_dbc_signal &DbcFile::signal(const std::string &spec, const std::strin
 {
     const size_t dot = spec.find('.');
     if (dot == std::string::npos || dot == 0 || dot + 1 == spec.size() || spec.find('.', dot + 1) != std::string::npos)
-        throw ColumnSpecError("--columns " + target + "=" + spec +
-                              ": with --dbc a column is MESSAGE.SIGNAL (a message and one of its signals in '" + path_ +
+        throw ColumnSpecError(MSID_OPT("columns") " " + target + "=" + spec +
+                              ": with " MSID_OPT("dbc") " a column is MESSAGE.SIGNAL (a message and one of its signals in '" + path_ +
                               "')");
     const std::string msg = spec.substr(0, dot), sig = spec.substr(dot + 1);
     const msid_dbc_message *m = msid_dbc_message_by_name(&d_, msg.c_str());
-    if (!m) throw ColumnSpecError("--columns " + target + "=" + spec + ": '" + path_ + "' has no message " + msg);
+    if (!m) throw ColumnSpecError(MSID_OPT("columns") " " + target + "=" + spec + ": '" + path_ + "' has no message " + msg);
     const msid_dbc_signal *s = msid_dbc_signal_by_name(&d_, m, sig.c_str());
     if (!s) {
         std::string have;
         for (uint32_t k = 0; k < m->n_signals && k < 12; ++k)
             have += std::string(k ? ", " : "") + d_.signals[m->first_signal + k].name;
         if (m->n_signals > 12) have += ", ...";
-        throw ColumnSpecError("--columns " + target + "=" + spec + ": message " + msg + " of '" + path_ +
+        throw ColumnSpecError(MSID_OPT("columns") " " + target + "=" + spec + ": message " + msg + " of '" + path_ +
                               "' has no signal " + sig + (have.empty() ? " (it has none)" : " (it has " + have + ")"));
     }
     return *s;

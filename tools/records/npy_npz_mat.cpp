@@ -128,7 +128,7 @@ Record assemble(const std::string &path, const std::vector<Array> &arrs, const C
     }
     if (npy_file && cols.empty())
         throw Error(fmt("'%s' holds one %zu x %zu matrix without column names: map its columns (numbered from 1) with "
-                        "--columns u1=1,y1=2,...", path.c_str(), arrs[0].n, arrs[0].C));
+                        MSID_OPT("columns") " u1=1,y1=2,...", path.c_str(), arrs[0].n, arrs[0].C));
     Record r;
     r.path = path;
     const std::vector<size_t> src = resolve_columns(path, names, cols, false, r.nu, r.ny);

@@ -27,10 +27,10 @@ std::vector<std::string> parse_reference(const std::string &spec)
             }
         }
         if (k == 0 || k > 64 || used + 1 != dst.size() || src.empty())
-            throw UsageError("--reference: '" + item + "' is not r<k>=<column name> or r<k> (k = 1..64)");
+            throw UsageError(MSID_OPT("reference") ": '" + item + "' is not r<k>=<column name> or r<k> (k = 1..64)");
         for (const auto &e : it) {
-            if (e.first == k) throw UsageError(fmt("--reference: r%u is given twice", k));
-            if (e.second == src) throw UsageError("--reference: column '" + src + "' is given twice");
+            if (e.first == k) throw UsageError(fmt(MSID_OPT("reference") ": r%u is given twice", k));
+            if (e.second == src) throw UsageError(MSID_OPT("reference") ": column '" + src + "' is given twice");
         }
         it.emplace_back(k, src);
         if (b == std::string::npos) break;
@@ -39,7 +39,7 @@ std::vector<std::string> parse_reference(const std::string &spec)
     std::vector<std::string> out(it.size());
     for (const auto &e : it) {
         if (e.first > it.size())
-            throw UsageError(fmt("--reference: r%u without r1..r%u: references are numbered from r1 without gaps",
+            throw UsageError(fmt(MSID_OPT("reference") ": r%u without r1..r%u: references are numbered from r1 without gaps",
                                  e.first, e.first - 1));
         out[e.first - 1] = e.second;
     }
@@ -51,7 +51,7 @@ std::vector<double> rows_with_reference(const Record &rec, const std::vector<std
     const unsigned nu = rec.nu, ny = rec.ny, nr = (unsigned)ref.size();
     if (nr != nu)
         throw Error(fmt("'%s': %u reference column(s) for %u input(s): the noisy-input LPM needs one reference per "
-                        "input (--reference r1=COL%s)", rec.path.c_str(), nr, nu, nu > 1 ? fmt(",...,r%u=COL", nu).c_str() : ""));
+                        "input (" MSID_OPT("reference") " r1=COL%s)", rec.path.c_str(), nr, nu, nu > 1 ? fmt(",...,r%u=COL", nu).c_str() : ""));
     // the reference columns as "inputs", the record's first output along (a reader needs one)
     ColumnMap m;
     for (unsigned k = 0; k < nr; ++k) m.map.emplace_back(fmt("u%u", k + 1), ref[k]);

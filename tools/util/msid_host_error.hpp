@@ -2,6 +2,8 @@
 // what kind of problem it names, so that a caller maps it once (the command line to an exit
 // status, the Python extension to ValueError or OSError) without knowing which library threw.
 #pragma once
+#include "msid_options.hpp"
+
 #include <stdexcept>
 #include <string>
 
@@ -14,11 +16,20 @@ enum class ErrorKind {
     io,      // a file or device that cannot be opened, read or written (exit status 1; OSError)
 };
 
+// The message names options neutrally (MSID_OPT, msid_options.hpp): what() is it in the command line's
+// words (flags), the one every caller that only prints it shows; text() keeps the neutral names for a
+// front end with words of its own (the Python extension: keywords).
 struct Error : std::runtime_error {
     int code;          // the command line's exit status for it
     ErrorKind kind;
     explicit Error(const std::string &m, int c = 1, ErrorKind k = ErrorKind::data)
-        : std::runtime_error(m), code(c), kind(k) {}
+        : std::runtime_error(render_options(m, OptionWords::flag)), code(c), kind(k),
+          neutral_(m.find(OPTION_MARK) == std::string::npos ? std::string() : m) {}
+    // the message with its options' neutral names (what() when it names none)
+    std::string text() const { return neutral_.empty() ? std::string(what()) : neutral_; }
+
+private:
+    std::string neutral_;
 };
 
 // A bad request (exit status 2).

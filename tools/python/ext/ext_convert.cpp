@@ -77,21 +77,20 @@ void request_options(const py::dict &opts, FrfRequest &rq, const Design *D)
     using msidutil::UsageError;
     auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
     if (has("skip_periods")) rq.skip = opts["skip_periods"].cast<uint32_t>();
-    if (has("fs")) {
-        rq.fs = opts["fs"].cast<double>();
-        if (!(rq.fs > 0)) throw UsageError("fs must be positive");
-        if (D && D->is_ct()) throw UsageError("fs does not apply to a continuous-time design (it has a sample time)");
-    }
+    msidjob::GivenOptions given;
+    for (const auto &kv : opts)
+        if (!kv.second.is_none()) given.names.push_back(kv.first.cast<std::string>());
+    if (has("fs")) rq.fs = opts["fs"].cast<double>();
     if (has("detect_lines")) rq.detect = opts["detect_lines"].cast<std::vector<uint32_t>>();
     if (has("transient"))
         rq.transient = choose<msid_transient_mode>(
             "transient", opts["transient"].cast<std::string>(),
             {{"flag", MSID_TRANSIENT_FLAG}, {"drop", MSID_TRANSIENT_DROP}, {"off", MSID_TRANSIENT_OFF}});
     if (has("alpha")) rq.alpha = opts["alpha"].cast<double>();
-    if (!(rq.alpha > 0 && rq.alpha < 1)) throw UsageError("alpha must be in (0, 1)");
     if (has("dft"))
         rq.path = choose<msid_dft_path>("dft", opts["dft"].cast<std::string>(),
                                         {{"auto", MSID_DFT_AUTO}, {"stream", MSID_DFT_STREAM}, {"fft", MSID_DFT_FFT}});
+    msidjob::check_options(rq, given, D);   // the job's rules, in neutral words
 }
 
 const double *samples_of(const py::array &a, size_t &rows, size_t &cols)

@@ -7,6 +7,8 @@
 #include "msid_host_util.hpp"
 #include "msid_reference.hpp"
 
+#include <algorithm>
+
 namespace msidpy {
 
 using msidjob::FrfOutcome;
@@ -14,51 +16,32 @@ using msidjob::FrfPlan;
 using msidrec::Record;
 using msidutil::UsageError;
 
-// The period and lines: from the design, or given (either may be "auto"), as `msid frf` takes them.
-static void request_lines(const py::dict &opts, FrfRequest &rq, FrfPlan &plan, const Design *D)
-{
-    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
-    plan.auto_period = has("auto_period") && opts["auto_period"].cast<bool>();
-    plan.auto_lines = has("auto_lines") && opts["auto_lines"].cast<bool>();
-    const bool period = has("period") || plan.auto_period, lines = has("lines") || plan.auto_lines;
-    if (D) {
-        if (period || lines) throw UsageError("give either design or period/lines, not both");
-        request_from_design(rq, *D);
-        return;
-    }
-    if (!period || !lines) throw UsageError("give design, or both period and lines");
-    if (has("period")) rq.period = opts["period"].cast<uint32_t>();
-    if (has("lines")) rq.bins = opts["lines"].cast<std::vector<uint32_t>>();
-}
-
-// The estimator: periodic (default), realisations' BLA, or direct.
-static void request_estimator(const py::dict &opts, FrfRequest &rq, FrfPlan &plan, const Design *D)
-{
-    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
-    plan.direct = has("direct") && opts["direct"].cast<bool>();
-    plan.bla = has("realisations");
-    plan.realisations = plan.bla ? opts["realisations"].cast<uint32_t>() : 1;
-    plan.design = D;
-    if (has("block")) {
-        rq.block = opts["block"].cast<size_t>();
-        if (rq.block == 0) throw UsageError("block must be positive");
-    }
-    if (plan.direct) {
-        if (plan.auto_period || plan.auto_lines) throw UsageError("direct needs design (no auto period/lines)");
-        if (!D) throw UsageError("direct needs design (the input is the design's exact multisine)");
-        for (const char *k : {"detect_lines", "dft", "block", "transient", "alpha"})
-            if (has(k)) throw UsageError(std::string(k) + " does not apply to direct");
-        if (plan.bla) throw UsageError("realisations does not apply to direct");
-    }
-}
-
-// The whole request of msid.frf's options and design (an msid.Design or None).
+// The whole request of msid.frf's options (compute.py passes only those given, their types checked)
+// and design (an msid.Design or None). Only their conversion: the rules between them are the job's
+// (msidjob::check_plan), which names the keywords (the options' neutral names) in its messages.
 static void request_of(const py::dict &opts, const py::object &design, FrfRequest &rq, FrfPlan &plan)
 {
+    auto has = [&](const char *k) { return opts.contains(k) && !opts[k].is_none(); };
+    for (const auto &kv : opts)
+        if (!kv.second.is_none()) plan.given.names.push_back(kv.first.cast<std::string>());
     const Design *D = design.is_none() ? nullptr : design.cast<const PyDesign &>().d.get();
-    request_lines(opts, rq, plan, D);
+    if (D) {
+        plan.given.add("design");
+        request_from_design(rq, *D);
+    }
+    plan.design = D;
+    plan.auto_period = has("auto_period") && opts["auto_period"].cast<bool>();
+    plan.auto_lines = has("auto_lines") && opts["auto_lines"].cast<bool>();
+    if (has("period")) rq.period = opts["period"].cast<uint32_t>();
+    if (has("lines")) rq.bins = opts["lines"].cast<std::vector<uint32_t>>();
+    if (has("block")) rq.block = opts["block"].cast<size_t>();
     request_options(opts, rq, D);
-    request_estimator(opts, rq, plan, D);
+    plan.direct = has("direct") && opts["direct"].cast<bool>();
+    if (!plan.direct) plan.given.names.erase(std::remove(plan.given.names.begin(), plan.given.names.end(), "direct"),
+                                             plan.given.names.end());
+    plan.bla = has("realisations");
+    plan.realisations = plan.bla ? opts["realisations"].cast<uint32_t>() : 1;
+    msidjob::check_plan(rq, plan);
 }
 
 static py::dict frf(const py::list &arrays, const py::list &names, const py::list &columns,
@@ -133,18 +116,16 @@ static msidjob::EstPlan est_plan_of(const py::dict &opts)
     if (has("gstar")) p.gstar = opts["gstar"].cast<double>();
     if (has("threads")) {
         p.threads = opts["threads"].cast<uint32_t>();
-        if (p.threads == 0) throw UsageError("--threads must be 1..64");
+        p.given.add("threads");
     }
+    if (has("fs")) p.given.add("fs");
     if (has("reference")) p.reference = opts["reference"].cast<std::vector<std::string>>();
     return p;
 }
 
 static double fs_of(const py::dict &opts)
 {
-    if (!opts.contains("fs") || opts["fs"].is_none()) return 0.0;
-    const double fs = opts["fs"].cast<double>();
-    if (!(fs > 0)) throw UsageError("--fs must be positive");
-    return fs;
+    return !opts.contains("fs") || opts["fs"].is_none() ? 0.0 : opts["fs"].cast<double>();
 }
 
 static py::dict est_result(const msidjob::FrfOutcome &o)

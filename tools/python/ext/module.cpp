@@ -10,10 +10,12 @@
 
 namespace msidpy {
 
-// msid's message in Python's words: an option of the command line outside quotes ('--skip-periods')
-// is the keyword (skip_periods), as msid.frf, msid.fit and msid.measure take it. Quoted text (file
-// names, column names, values) and a command line quoted in prose ("msid fit --method multi", up to the
-// end of its clause) are left as they are.
+// msid's message in Python's words. The options a library names neutrally (MSID_OPT) are keywords
+// (msidutil::render_options). A message that still names a flag (one a library built from another
+// message's what(), or a note's text) has it read as its keyword: an option of the command line outside
+// quotes ('--skip-periods') is the keyword (skip_periods), as msid.frf, msid.fit and msid.measure take
+// it. Quoted text (file names, column names, values) and a command line quoted in prose ("msid fit
+// --method multi", up to the end of its clause) are left as they are.
 static std::string python_words(const std::string &m)
 {
     std::string out;
@@ -67,7 +69,8 @@ static void translate(std::exception_ptr p)
     } catch (const msidutil::Cancelled &e) {   // normally Call::run raised the signal handler's exception
         raise(PyExc_KeyboardInterrupt, std::string("interrupted: ") + e.what());
     } catch (const msidutil::Error &e) {
-        raise(e.kind == msidutil::ErrorKind::io ? PyExc_OSError : PyExc_ValueError, e.what());
+        raise(e.kind == msidutil::ErrorKind::io ? PyExc_OSError : PyExc_ValueError,
+              msidutil::render_options(e.text(), msidutil::OptionWords::keyword));
     } catch (const msidfrf::IoError &e) {
         raise(PyExc_OSError, e.what());
     } catch (const msidfrf::Error &e) {
@@ -101,6 +104,13 @@ PYBIND11_MODULE(_msid, m)
           "of the call stops).");
     m.def("_python_words", &msidpy::python_words,
           "A message of the command line as the extension raises it (options as keywords): for the tests.");
+    m.def(
+        "_render_options",
+        [](const std::string &text, bool keywords) {
+            return msidutil::render_options(text, keywords ? msidutil::OptionWords::keyword : msidutil::OptionWords::flag);
+        },
+        pybind11::arg("message"), pybind11::arg("keywords"),
+        "A library's message with its neutral option names (0x1f name 0x1f) as keywords or as flags: for the tests.");
     m.def("_shutdown", &msidpy::shutdown_calls, "Stop every running call and wait for them (registered with atexit).");
     // At the interpreter's exit, before it ends the threads still running: a call in a daemon thread
     // stops at its next checkpoint, a measurement tells its device to stop.

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-namespace msidfit {
+namespace msidstat {
 
 // Series for P(a,x) when x < a+1, continued fraction for Q(a,x) otherwise.
 double gamma_q(double a, double x)
@@ -69,9 +69,9 @@ double cost_pvalue(const CostLaw &L, double V)
     return chi2_sf(L.k, V / L.c);
 }
 
-}  // namespace msidfit
+}  // namespace msidstat
 
-namespace msidfit {
+namespace msidstat {
 
 // Continued fraction of I_x(a, b) (modified Lentz), used where it converges fast:
 // x < (a + 1) / (a + b + 2); the symmetry I_x(a, b) = 1 - I_{1-x}(b, a) otherwise.
@@ -123,4 +123,4 @@ double binom_sf(int n, double p, int k)
     return beta_inc((double)k, (double)(n - k + 1), p);   // P(X >= k) = I_p(k, n - k + 1)
 }
 
-}  // namespace msidfit
+}  // namespace msidstat

@@ -18,9 +18,16 @@
 // per-entry p-value. Over all lines and entries the p-values combine by
 // Fisher's method, -2 sum ln p ~ chi2(2N) without distortion: the global p-value.
 #pragma once
-#include "fit_types.hpp"
+#include <Eigen/Dense>
 
-namespace msidfit {
+#include <cmath>
+#include <complex>
+#include <vector>
+
+namespace msidstat {
+
+using MatC = Eigen::MatrixXcd;
+using VecR = Eigen::VectorXd;
 
 struct BlaLine {
     MatC G;                 // ny x nu
@@ -60,4 +67,4 @@ struct BlaSummary {
 double fisher_combined(const std::vector<double> &p, int *n = nullptr, int *significant = nullptr);
 BlaSummary bla_summary(const std::vector<BlaLine> &lines);
 
-}  // namespace msidfit
+}  // namespace msidstat

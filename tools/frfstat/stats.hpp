@@ -1,7 +1,8 @@
-// Small distribution helpers for the fitting tools.
+// The distribution laws the FRF stage tests with (the BLA's F tests, the detection lines) and the
+// fitting stage builds on (the cost's law, the likelihood-ratio tests).
 #pragma once
 
-namespace msidfit {
+namespace msidstat {
 
 // Regularized upper incomplete gamma Q(a, x) = Gamma(a, x) / Gamma(a), a > 0, x >= 0.
 double gamma_q(double a, double x);
@@ -17,13 +18,13 @@ struct CostLaw {
 CostLaw cost_law(double nu, double n, double p);
 double cost_pvalue(const CostLaw &law, double V);
 
-}  // namespace msidfit
+}  // namespace msidstat
 
-namespace msidfit {
+namespace msidstat {
 // Regularized incomplete beta I_x(a, b), a, b > 0, 0 <= x <= 1.
 double beta_inc(double a, double b, double x);
 // P(F(d1, d2) > x).
 double f_sf(double d1, double d2, double x);
 // P(Binomial(n, p) >= k).
 double binom_sf(int n, double p, int k);
-}  // namespace msidfit
+}  // namespace msidstat

@@ -4,13 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
-namespace msidfit {
+namespace msidstat {
 
 BlaLine bla_total(const std::vector<MatC> &G)
 {
     const size_t R = G.size();
-    if (R < 2) throw FitError("the robust BLA needs at least 2 realisations");
+    if (R < 2) throw std::invalid_argument("the robust BLA needs at least 2 realisations");
     const Eigen::Index ny = G[0].rows(), nu = G[0].cols(), g = ny * nu;
     BlaLine b;
     b.G = MatC::Zero(ny, nu);
@@ -31,7 +32,7 @@ BlaLine bla_total(const std::vector<MatC> &G)
 BlaLine bla_line(const std::vector<MatC> &G, const std::vector<MatC> &cov, const std::vector<double> &dof)
 {
     const size_t R = G.size();
-    if (R < 2 || cov.size() != R || dof.size() != R) throw FitError("the robust BLA needs at least 2 realisations");
+    if (R < 2 || cov.size() != R || dof.size() != R) throw std::invalid_argument("the robust BLA needs at least 2 realisations");
     const Eigen::Index g = G[0].rows() * G[0].cols();
     BlaLine b = bla_total(G);
     b.cov_noise = MatC::Zero(g, g);
@@ -82,4 +83,4 @@ BlaSummary bla_summary(const std::vector<BlaLine> &lines)
     return s;
 }
 
-}  // namespace msidfit
+}  // namespace msidstat
