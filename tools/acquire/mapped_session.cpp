@@ -485,7 +485,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
         R.o.notes.push_back("the device's clock is not observed (no channel with role = \"counter\"): a device that "
                             "samples on its own clock drifts against the host's unseen; docs/devices.md");
     if (!cp.read_back && !by_counter) {
-        const std::string note = add_timing_bias(R.o.doc, tick_timing(h, desc.cycle_hz), o.rate_hz, d.period);
+        const std::string note = add_timing_bias(R.o.tree(), tick_timing(h, desc.cycle_hz), o.rate_hz, d.period);
         if (!note.empty()) R.o.notes.push_back(note);
     }
     Json acq;
@@ -501,7 +501,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     acq["samples_lost"] = h.cnt.samples_lost;
     acq["safe_values_written"] = frc == 0;
     acq["timing"] = timing_json(h, o.rate_hz, msid_devio_describe(&io), cp.counter >= 0 ? nominal_hz : 0.0);
-    R.o.doc["acquisition"] = acq;
+    R.o.tail()["acquisition"] = acq;
     set_summary(R, P, ny, nu, lr.done, fmt("%s (%s)", lname.c_str(), msid_devio_describe(&io)), h.cnt.samples,
                 h.cnt.samples_lost);
     R.D = std::move(P.D);

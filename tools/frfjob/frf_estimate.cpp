@@ -213,9 +213,9 @@ void report_dropped_lines(const FrfRequest &rq, const FrfPlan &plan, const std::
 // Step 4: one realisation with detection lines: the distortion level beside the noise.
 void add_detection_distortion(FrfOutcome &o)
 {
-    const Json nl = detection_distortion(o.doc);
+    const Json nl = detection_distortion(o.doc.is_null() ? detection_summary(o.frf) : o.doc);
     if (nl.is_null()) return;
-    o.doc["nonlinear_distortion"] = nl;
+    o.tail()["nonlinear_distortion"] = nl;
     if (nl["distortion_detected"].get<bool>())
         o.notes.push_back("the detection lines show nonlinear distortion (" +
                           (nl["nl_to_noise_db"].is_number() ? fmt("%.1f dB", nl["nl_to_noise_db"].get<double>())
@@ -254,7 +254,7 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
     }
     if (!plan.direct && !plan.bla) add_detection_distortion(o);
     report_dropped_lines(rq, plan, found, dropped, lines_auto, o.notes);
-    if (!lines_auto.is_null()) o.doc["lines_auto"] = lines_auto;
+    if (!lines_auto.is_null()) o.tail()["lines_auto"] = lines_auto;
     if (!undecided.empty()) o.notes.push_back("--lines auto: " + undecided);
     return o;
 }

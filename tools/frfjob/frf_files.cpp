@@ -374,7 +374,7 @@ bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msi
     out.o = frf_without_unusable_lines(rq, plan, dropped, run);
     add_detection_distortion(out.o);
     report_dropped_lines(rq, plan, found, dropped, lines_auto, out.o.notes);
-    if (!lines_auto.is_null()) out.o.doc["lines_auto"] = lines_auto;
+    if (!lines_auto.is_null()) out.o.tail()["lines_auto"] = lines_auto;
     if (!undecided.empty()) out.o.notes.push_back("--lines auto: " + undecided);
     out.nu = nu;
     out.ny = ny;

@@ -7,6 +7,7 @@
 #include "msid_design_file.hpp"
 #include "msid_host_util.hpp"
 #include "frf_text.hpp"
+#include "msid_frf_result.hpp"
 
 #include <functional>
 
@@ -66,12 +67,28 @@ constexpr double MIN_INPUT_SNR_DB = 10.0;
 // The neighbours of a line in that median: this many lines on either side, the line itself left out.
 constexpr size_t SCREEN_NEIGHBOURS = 4;
 
+// An estimator's result: the periodic job's typed result (`frf`), or the document of an estimator
+// that builds one (--direct, --realisations, lpm, etfe; `doc` not null). tree() turns the typed
+// result into its document, for a caller that edits or compares documents.
 struct FrfOutcome {
-    Json doc;                  // msid-frf/1
+    FrfResult frf;             // the periodic job (FrfJob::finish); empty when `doc` holds the result
+    Json doc;                  // msid-frf/1 of the other estimators; null for the periodic job
     std::vector<std::string> notes;      // warnings for stderr
     std::string dft_path;                // "stream" or "fft"
     msidfrf::Prerendered lines_text;     // FrfRequest::lines_as_text: key "lines", n = 0 if not used
+
+    // The document (built from `frf` once, which is then left empty).
+    Json &tree();
+    // The members a caller appends after the result's own (lines_auto, a session's acquisition block):
+    // frf.tail, or the document.
+    Json &tail() { return doc.is_null() ? frf.tail : doc; }
+    uint64_t periods_used() const;
+    uint64_t periods_rejected() const;
 };
+
+// The msid-frf/1 file of an outcome: write_frf_file() of its typed result, or its document
+// (msidfmt::write_json_file).
+void write_outcome(const std::string &path, const FrfOutcome &o, bool durable = true);
 
 // The signals' names and units from the records' column names (the file's, or those --columns
 // mapped), when the request has none: a name "Force [N]" (or "Force (N)") is the signal Force in
