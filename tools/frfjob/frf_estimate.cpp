@@ -224,8 +224,7 @@ void add_detection_distortion(FrfOutcome &o)
                           "(--realisations R) to include it");
 }
 
-FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan,
-                        std::unique_ptr<FrfJob> *keep)
+FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan)
 {
     if (plan.direct && (plan.auto_period || plan.auto_lines)) throw UsageError("--direct needs --design (no auto period/lines)");
     if (plan.direct && !plan.design) throw UsageError("--direct needs --design (the input is the design's exact multisine)");
@@ -240,11 +239,10 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
         check_inputs(rq, recs, plan);
         find_lines_if_asked(rq, recs, plan, lines_auto, undecided);
         // Step 3: the estimator
-        rq.lines_as_text = rq.lines_as_text && !plan.direct && !plan.bla;
         found = rq.bins;
         o = plan.direct ? run_frf_direct(rq, *plan.design, recs)
             : plan.bla  ? run_frf_realisations(rq, recs, plan.realisations)
-                        : frf_without_unusable_lines(rq, plan, dropped, [&] { return run_frf(rq, recs, keep); });
+                        : frf_without_unusable_lines(rq, plan, dropped, [&] { return run_frf(rq, recs); });
     } catch (...) {
         // a record taken without its NaN/Inf scan (Record::finite_unchecked): the reader's message
         // comes first, as when the reader scanned, whatever the run found later (the first bad record)

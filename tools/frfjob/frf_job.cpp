@@ -211,7 +211,7 @@ void measure_records(FrfJob &job, const FrfRequest &rq, const std::vector<Record
     });
 }
 
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep)
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
 {
     std::vector<std::string> notes;
     validate_lines(rq);
@@ -231,14 +231,11 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
     // Two experiments at once on two lanes (threads), each experiment's statistics the same bits as
     // measured alone; an error is that of the first failing experiment in file order, as serially.
     const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
-    auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
-    FrfJob &job = *jobp;
+    FrfJob job(rq, nu, ny, m, maxK, maxK, lanes);
     measure_records(job, rq, recs);
     std::vector<ExpSource> src;
     for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
-    FrfOutcome out = job.finish(src, notes);
-    if (keep) *keep = std::move(jobp);
-    return out;
+    return job.finish(src, notes);
 }
 
 struct FrfJob::Impl {
