@@ -59,6 +59,7 @@ if(TARGET msid_frfjob)
                 ${PROJECT_SOURCE_DIR}/tools/records/msid_records.hpp ${PROJECT_SOURCE_DIR}/tools/records/msid_reference.hpp
                 ${PROJECT_SOURCE_DIR}/tools/formats/msid_design_file.hpp ${PROJECT_SOURCE_DIR}/tools/formats/msid_json_file.hpp
                 ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_job.hpp ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_est.hpp
+                ${PROJECT_SOURCE_DIR}/tools/frfjob/msid_frf_result.hpp
           DESTINATION include/msid_host)
   # fitting and validation as one call (tools/fitjob, over msid::fit), FRFs of other tools
   # (tools/frfimport) and the FRF and model exporters (tools/frfexport)

@@ -71,7 +71,7 @@ std::string job(const std::vector<double> &x, uint32_t K)
     if (msid_meas_end(ms, nullptr) != MSID_OK) return "end";
     try {
         const FrfOutcome o = j.finish({{"sim:experiment 1", (uint64_t)K * P, K, 0}});
-        return o.doc["lines"].size() == BINS.size() ? "" : "lines";
+        return o.frf.n_lines() == BINS.size() ? "" : "lines";
     } catch (const Error &e) {
         return e.what();
     }

@@ -1,13 +1,10 @@
 // msidfrf::dump's fast forms against its plain one-thread text, byte for byte, on
 // FRF-shaped documents (fixed seed): the lines' array written in two halves by two
-// threads (two_threads), and the lines pre-rendered element by element with
-// dump_element() and spliced in (Prerendered: msid frf writes each line's text as it
-// builds it, without a tree of the lines; dump_around() leaves them for the writer to
-// write after the text before them). Numbers of every layout (integers as
-// doubles, 1e-5 .. 1e+20 borders, subnormals, -0.0, 17 digits), 1 to 501 lines, every
-// split point class. A NaN or infinite number throws NonFinite in every form.
-// Negative control: the same comparison on elements rendered one level too deep, or
-// with one number changed in its last digit, reports a difference.
+// threads (two_threads), and line_element() (the typed result's writer writes each line
+// with it) against dump_element() of the tree. Numbers of every layout (integers as
+// doubles, 1e-5 .. 1e+20 borders, subnormals, -0.0, 17 digits), 1 to 501 lines. A NaN or
+// infinite number throws NonFinite in every form. Negative control: the same comparison
+// with one number changed in its last digit reports a difference.
 #include "frf_text.hpp"
 
 #include <cmath>
@@ -101,26 +98,6 @@ std::string plain(const Json &doc)
     return s;
 }
 
-// The document's lines rendered by dump_element() at `level` in two parts split at h, and
-// the document with an empty "lines" in their place.
-struct Rendered {
-    Json doc;
-    msidfrf::Prerendered pre;
-};
-
-Rendered prerender(const Json &doc, size_t h, int level)
-{
-    Rendered x{doc, {}};
-    const Json &lines = doc["lines"];
-    x.pre.key = "lines";
-    x.pre.n = lines.size();
-    x.pre.parts.resize(2);
-    for (size_t i = 0; i < lines.size(); ++i) msidfrf::dump_element(lines[i], i, 1, level, x.pre.parts[i < h]);
-    std::swap(x.pre.parts[0], x.pre.parts[1]);   // parts[1] held [0, h): put it first
-    x.doc["lines"] = Json::array();
-    return x;
-}
-
 const uint32_t SIZES[] = {1, 2, 63, 64, 65, 200, 501};
 
 void test_two_threads_equal_one(void **)
@@ -134,32 +111,6 @@ void test_two_threads_equal_one(void **)
             msidfrf::dump(doc, 1, two, true);
             if (two != plain(doc)) std::fprintf(stderr, "two threads differ: L = %u, ct = %d\n", L, (int)ct);
             assert_true(two == plain(doc));
-        }
-}
-
-void test_prerendered_equal_tree(void **)
-{
-    msid_rng r;
-    msid_rng_seed(&r, 11);
-    for (uint32_t L : SIZES)
-        for (bool ct : {false, true}) {
-            const Json doc = random_doc(r, L, ct);
-            const std::string want = plain(doc);
-            for (size_t h : {(size_t)0, (size_t)1, (size_t)L / 2, (size_t)L - 1, (size_t)L}) {
-                const Rendered x = prerender(doc, h, 1);
-                for (bool two : {false, true}) {
-                    std::string got;
-                    msidfrf::dump(x.doc, 1, got, two, &x.pre);
-                    if (got != want) std::fprintf(stderr, "pre-rendered differs: L = %u, h = %zu\n", L, h);
-                    assert_true(got == want);
-                    // the writer's form: the text around the parts, the parts written after `at`
-                    std::string around;
-                    const size_t at = msidfrf::dump_around(x.doc, 1, around, two, x.pre);
-                    assert_true(at != std::string::npos);
-                    around.insert(at, x.pre.parts[0] + x.pre.parts[1]);
-                    assert_true(around == want);
-                }
-            }
         }
 }
 
@@ -197,16 +148,11 @@ void test_negative_control(void **)
     msid_rng_seed(&r, 13);
     const Json doc = random_doc(r, 80, false);
     const std::string want = plain(doc);
-    const Rendered deep = prerender(doc, 40, 2);   // one level too deep: other indentation
-    std::string got;
-    msidfrf::dump(deep.doc, 1, got, false, &deep.pre);
-    assert_true(got != want);
     Json other = doc;   // one number one ulp off
     const double v = other["lines"][41]["G"]["re"][1][0].get<double>();
     other["lines"][41]["G"]["re"][1][0] = std::nextafter(v, HUGE_VAL);
-    const Rendered x = prerender(other, 40, 1);
-    got.clear();
-    msidfrf::dump(x.doc, 1, got, true, &x.pre);
+    std::string got;
+    msidfrf::dump(other, 1, got, true);
     assert_true(got != want);
 }
 
@@ -369,7 +315,6 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_threads_equal_one),
-        cmocka_unit_test(test_prerendered_equal_tree),
         cmocka_unit_test(test_nonfinite_throws_in_every_form),
         cmocka_unit_test(test_negative_control),
         cmocka_unit_test(test_line_element_equals_tree),

@@ -323,7 +323,7 @@ ReplayResult replay_can_log(const ReplayRequest &r)
     for (size_t i : sel)
         sj.push_back({{"session", i + 1}, {"start", log_time(sc.sessions[i].t_begin)}, {"end", log_time(sc.sessions[i].t_end)}});
     acqj["sessions"] = sj;
-    R.o.doc["acquisition"] = acqj;
+    R.o.tail()["acquisition"] = acqj;
     const std::string which = sel.size() == 1 ? fmt("session %zu of %zu", sel[0] + 1, ns) : fmt("%zu of %zu sessions", sel.size(), ns);
     R.summary = fmt("%zu lines, %u x %u, %u experiment(s) replayed from %s (%s), %llu samples, %llu missing",
                     rq.bins.size(), ny, nu, m, path.c_str(), which.c_str(), (unsigned long long)acq.dec.cnt.samples,

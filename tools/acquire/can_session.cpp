@@ -168,7 +168,7 @@ MeasureResult measure_can(const CanLink &l, const PlanFn &plan, Control &ctl)
     Json aj = can_acquisition_json(acq, ls, "socketcan", l.base, *cfg, crc);
     aj["queries"] = s->cnt.queries;
     aj["done_recovered"] = s->cnt.done_recovered;
-    R.o.doc["acquisition"] = aj;
+    R.o.tail()["acquisition"] = aj;
     acq.close_log();
     set_summary(R, P, ny, nu, lr.done, fmt("%s (%s)", iface.c_str(), can_format_name(*cfg).c_str()), acq.dec.cnt.samples,
                 acq.dec.cnt.samples_lost);

@@ -485,7 +485,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
         R.o.notes.push_back("the device's clock is not observed (no channel with role = \"counter\"): a device that "
                             "samples on its own clock drifts against the host's unseen; docs/devices.md");
     if (!cp.read_back && !by_counter) {
-        const std::string note = add_timing_bias(R.o.doc, tick_timing(h, desc.cycle_hz), o.rate_hz, d.period);
+        const std::string note = add_timing_bias(R.o.tree(), tick_timing(h, desc.cycle_hz), o.rate_hz, d.period);
         if (!note.empty()) R.o.notes.push_back(note);
     }
     Json acq;
@@ -501,7 +501,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     acq["samples_lost"] = h.cnt.samples_lost;
     acq["safe_values_written"] = frc == 0;
     acq["timing"] = timing_json(h, o.rate_hz, msid_devio_describe(&io), cp.counter >= 0 ? nominal_hz : 0.0);
-    R.o.doc["acquisition"] = acq;
+    R.o.tail()["acquisition"] = acq;
     if (desc.co_closed_loop) {
         // the FRF ran on the reference (the velocity target the drive applied); the plant through it is the file
         const auto it = std::find(cp.output_names.begin(), cp.output_names.end(), std::string("Torque demand"));
@@ -510,7 +510,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
                             "actual values, estimated through the reference (G = G_yr G_ur^-1); reference.json is the "
                             "FRF from the velocity reference to every signal (its torque demand row the control "
                             "sensitivity C S, its velocity row the complementary sensitivity T as the TPDOs sample it)");
-        R.reference = R.o.doc;
+        R.reference = R.o.tree();   // the document of the reference path (the typed result left empty)
         R.o.doc = plant_through_reference(R.reference, iu);
         if (R.o.doc.contains("notes")) R.o.doc["notes"].push_back(R.o.notes.back());
         if (R.reference.contains("notes")) R.reference["notes"].push_back(R.o.notes.back());

@@ -250,7 +250,7 @@ MeasureResult measure_modbus(const ModbusLink &l, const PlanFn &plan, Control &c
         notes.push_back(fmt("%llu stale or foreign repl(ies) skipped (transaction or unit id not the request's)",
                             (unsigned long long)cl.cnt.skipped_replies));
     MeasureResult R = finish_measure(job, P, lr, "modbus:" + l.name, notes);
-    R.o.doc["acquisition"] = acquisition_json(l, cl, q, (double)P.sf.scale, P.sf.rate, crc, lrate);
+    R.o.tail()["acquisition"] = acquisition_json(l, cl, q, (double)P.sf.scale, P.sf.rate, crc, lrate);
     set_summary(R, P, ny, nu, lr.done,
                 fmt("%s (%s %s)", l.name.c_str(), msid_mb_encoding_name(l.encoding), msid_mb_word_order_name(l.word_order)),
                 q.st.cnt.samples, q.st.cnt.samples_lost);

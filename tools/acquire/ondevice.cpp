@@ -229,7 +229,7 @@ void finish_ondevice(OnDeviceResult &R, Json acq, const std::string &check_name,
     acq["samples"] = samples;   // the device's samples: it holds every one (none crossed the link without a stream check)
     doc["acquisition"] = acq;
     if (R.checked) {
-        const std::string diff = first_difference(doc, R.host.o.doc);
+        const std::string diff = first_difference(doc, R.host.o.tree());
         if (!diff.empty())
             R.mismatch = fmt("the device's FRF differs from the host's estimate from the streamed samples (%s): %s%s",
                              check_name.c_str(), diff.c_str(), why.c_str());
@@ -394,10 +394,10 @@ struct CanStream {
                            msid_pstats_get_counts(msid_meas_stats(ms, e)).offered, msid_meas_leftover(ms, e)});
         FrfOutcome o = job->finish(src);
         const msid_can_counters &k = dec.cnt;
-        o.doc["acquisition"] = {{"transport", "socketcan"}, {"interface", iface}, {"frames", k.frames},
+        o.tail()["acquisition"] = {{"transport", "socketcan"}, {"interface", iface}, {"frames", k.frames},
                                 {"sample_frames", k.sample_frames}, {"samples", k.samples},
                                 {"samples_lost", k.samples_lost}, {"gap_events", k.gap_events}};
-        return o.doc;
+        return o.tree();
     }
 };
 

@@ -155,7 +155,7 @@ MeasureResult finish_measure(msidjob::FrfJob &job, const MeasurePlan &P, const L
     R.o = job.finish(sources, notes);
     R.complete = !L.stopped;
     R.stop_reason = L.reason;
-    mark_completeness(R.o.doc, R.complete, L.done, m, why);
+    mark_completeness(R.o.tail(), R.complete, L.done, m, why);
     return R;
 }
 
@@ -167,8 +167,8 @@ void set_summary(MeasureResult &R, const MeasurePlan &P, uint32_t ny, uint32_t n
                     "%llu periods used, %llu rejected%s",
                     P.rq.bins.size(), ny, nu, done, R.complete ? "" : fmt(" of %u", m).c_str(), link.c_str(),
                     (unsigned long long)samples, (unsigned long long)lost,
-                    (unsigned long long)R.o.doc["periods_used"].get<uint64_t>(),
-                    (unsigned long long)R.o.doc["periods_rejected"].get<uint64_t>(),
+                    (unsigned long long)R.o.periods_used(),
+                    (unsigned long long)R.o.periods_rejected(),
                     R.complete ? "" : " (INCOMPLETE: stopped)");
 }
 

@@ -67,29 +67,20 @@ std::string nonfinite_at(const Json &j, const std::string &at)
     return "";
 }
 
-void write_json_file(const std::string &path, const Json &doc, bool durable, const msidfrf::Prerendered *pre)
+void write_json_file(const std::string &path, const Json &doc, bool durable)
 {
     // A result is never written with a silent null for NaN/Inf (it would fail the schema): one message, no file.
     // The text is nlohmann's dump(1) layout with std::to_chars' shortest round-trip numbers (msidfrf::dump).
     std::string s;
     s.reserve(1 << 16);
-    size_t at = std::string::npos;   // where pre's parts go (written from their own strings)
     try {
-        if (pre) at = msidfrf::dump_around(doc, 1, s, true, *pre);
-        else msidfrf::dump(doc, 1, s, true);
+        msidfrf::dump(doc, 1, s, true);
     } catch (const msidfrf::NonFinite &) {
         throw Error("'" + path + "' not written: the result is not finite at " + nonfinite_at(doc, "") +
                     " (inputs beyond double precision's range, e.g. data scaled near 1e150 or a sample rate near 0)");
     }
     s += '\n';
-    if (at == std::string::npos) {
-        write_file_atomic(path, s, durable);
-        return;
-    }
-    std::vector<std::string_view> pieces{std::string_view(s).substr(0, at)};
-    for (const std::string &t : pre->parts) pieces.emplace_back(t);
-    pieces.push_back(std::string_view(s).substr(at));
-    write_file_atomic(path, pieces, durable);
+    write_file_atomic(path, s, durable);
 }
 
 }  // namespace msidfmt

@@ -32,9 +32,7 @@ double jnum(const Json &v, const std::string &what, const std::string &file);
 std::string nonfinite_at(const Json &j, const std::string &at = "");
 
 // Serialise with a trailing newline and write atomically (no partial file on error);
-// `durable` as msidutil::write_file_atomic(). `pre`: one member's elements as text
-// (msidfrf::Prerendered). A NaN or Inf anywhere is an error naming its place.
-void write_json_file(const std::string &path, const Json &doc, bool durable = true,
-                     const msidfrf::Prerendered *pre = nullptr);
+// `durable` as msidutil::write_file_atomic(). A NaN or Inf anywhere is an error naming its place.
+void write_json_file(const std::string &path, const Json &doc, bool durable = true);
 
 }  // namespace msidfmt

@@ -457,8 +457,7 @@ static void dump_string(const std::string &s, std::string &out)
     out += '"';
 }
 
-static void dump_at(const Json &v, int indent, int level, std::string &out, bool split = false,
-                    const Prerendered *pre = nullptr, size_t *at = nullptr);
+static void dump_at(const Json &v, int indent, int level, std::string &out, bool split = false);
 
 // Arrays of at least this many elements (an FRF file's lines) are written by two threads.
 static const size_t SPLIT_MIN_ELEMENTS = 64;
@@ -703,8 +702,7 @@ static void dump_elements_split(const Json &v, int indent, int level, std::strin
     out += second;
 }
 
-static void dump_at(const Json &v, int indent, int level, std::string &out, bool split, const Prerendered *pre,
-                    size_t *at)
+static void dump_at(const Json &v, int indent, int level, std::string &out, bool split)
 {
     char buf[48];
     switch (v.type()) {
@@ -717,17 +715,6 @@ static void dump_at(const Json &v, int indent, int level, std::string &out, bool
             out.append((size_t)(indent * (level + 1)), ' ');
             dump_string(it.key(), out);
             out += ": ";
-            if (pre && it.key() == pre->key && it.value().is_array() && it.value().empty() && pre->n) {
-                // the member's elements as dump_element() wrote them (array at level + 1)
-                out += "[\n";
-                if (at) *at = out.size();   // dump_around(): the caller writes the parts there
-                else
-                    for (const std::string &t : pre->parts) out += t;
-                out += '\n';
-                out.append((size_t)(indent * (level + 1)), ' ');
-                out += ']';
-                continue;
-            }
             dump_at(it.value(), indent, level + 1, out, split);
         }
         out += '\n';
@@ -769,21 +756,9 @@ static void dump_at(const Json &v, int indent, int level, std::string &out, bool
     }
 }
 
-void dump(const Json &doc, int indent, std::string &out, bool two_threads, const Prerendered *pre)
+void dump(const Json &doc, int indent, std::string &out, bool two_threads)
 {
-    if (pre) {
-        size_t n = out.size() + 4096;
-        for (const std::string &t : pre->parts) n += t.size();
-        out.reserve(n);
-    }
-    dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2, pre);
-}
-
-size_t dump_around(const Json &doc, int indent, std::string &out, bool two_threads, const Prerendered &pre)
-{
-    size_t at = std::string::npos;
-    dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2, &pre, &at);
-    return at;
+    dump_at(doc, indent, 0, out, two_threads && std::thread::hardware_concurrency() >= 2);
 }
 
 }  // namespace msidfrf

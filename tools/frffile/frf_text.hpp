@@ -18,16 +18,8 @@ struct NonFinite : std::runtime_error {
 // through std::to_chars' shortest round-trip digits, so reading the text back gives
 // the same bits, and without the serializer's per-character virtual calls. Appends
 // to `out`. Throws NonFinite at a NaN or infinite number. `two_threads`: arrays of 64 elements
-// or more (the lines) are written in two halves by two threads, the same bytes. `pre`: the text
-// of one top-level member's elements written beforehand (see Prerendered).
-struct Prerendered;
-void dump(const Json &doc, int indent, std::string &out, bool two_threads = false, const Prerendered *pre = nullptr);
-
-// dump() with `pre`, but the pre-rendered parts are not copied: the text goes to `out` without
-// them and the offset in `out` where they belong (in order) is returned (npos: the member is not
-// in the document, or not an empty array there; nothing is to be inserted). The writer then
-// writes the pieces one after the other (no copy of the lines' text).
-size_t dump_around(const Json &doc, int indent, std::string &out, bool two_threads, const Prerendered &pre);
+// or more (the lines) are written in two halves by two threads, the same bytes.
+void dump(const Json &doc, int indent, std::string &out, bool two_threads = false);
 
 // Element i of an array at `level`, as dump() writes it inside the array's brackets: ",\n"
 // before every element but the first, the indent, the element's text.
@@ -51,16 +43,6 @@ struct LineArrays {
 // whose statistics `a` holds (LineStats without pcov), written directly: no tree, no Eigen
 // copies (msid frf writes 10^2-10^4 lines this way). Throws NonFinite where dump() would.
 void line_element(const Position &p, const LineArrays &a, size_t i, int indent, int level, std::string &out);
-
-// The elements of the top-level member `key` (n of them, n >= 1) written by dump_element() at
-// level 1 (an array member of the document), concatenated in `parts` in order; the document
-// holds an empty array there. dump() writes the member from these texts: the bytes of dumping
-// the elements themselves, without a tree of them (msid frf renders each line as it is built).
-struct Prerendered {
-    std::string key;
-    size_t n = 0;
-    std::vector<std::string> parts;
-};
 
 // One double in that layout (shortest round-trip digits); `buf` holds >= 32 chars.
 // Returns the end of the text. `v` must be finite.

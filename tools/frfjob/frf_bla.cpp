@@ -66,6 +66,7 @@ static uint64_t usable_periods(const Record &r, const FrfRequest &rq)
 static RealisationFrf from_periodic(const FrfRequest &rq, const std::vector<Record> &block)
 {
     FrfOutcome o = run_frf(rq, block);
+    o.tree();
     RealisationFrf f;
     for (const auto &e : o.doc["lines"]) {
         f.G.push_back(jcmat(e["G"]));
@@ -264,6 +265,7 @@ FrfOutcome run_frf_realisations(const FrfRequest &rq, const std::vector<Record> 
         std::vector<Record> block(recs.begin() + (long)(r * per), recs.begin() + (long)((r + 1) * per));
         outs.push_back(in_realisation(r, per, [&] { return run_frf(rq, block); }));
     }
+    for (FrfOutcome &x : outs) x.tree();
     FrfOutcome o = outs[0];
     Json &doc = o.doc;
     const size_t L = doc["lines"].size();

@@ -246,9 +246,9 @@ void report_dropped_lines(const FrfRequest &rq, const FrfPlan &plan, const std::
 // Step 4: one realisation with detection lines: the distortion level beside the noise.
 void add_detection_distortion(FrfOutcome &o)
 {
-    const Json nl = detection_distortion(o.doc);
+    const Json nl = detection_distortion(o.doc.is_null() ? detection_summary(o.frf) : o.doc);
     if (nl.is_null()) return;
-    o.doc["nonlinear_distortion"] = nl;
+    o.tail()["nonlinear_distortion"] = nl;
     if (nl["distortion_detected"].get<bool>())
         o.notes.push_back("the detection lines show nonlinear distortion (" +
                           (nl["nl_to_noise_db"].is_number() ? fmt("%.1f dB", nl["nl_to_noise_db"].get<double>())
@@ -257,8 +257,7 @@ void add_detection_distortion(FrfOutcome &o)
                           "(--realisations R) to include it");
 }
 
-FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan,
-                        std::unique_ptr<FrfJob> *keep)
+FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan)
 {
     check_plan(rq, plan);
     if (plan.direct && !plan.design) throw std::logic_error("estimate_frf: direct without the design (FrfPlan::design)");
@@ -272,11 +271,10 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
         check_inputs(rq, recs, plan);
         find_lines_if_asked(rq, recs, plan, lines_auto, undecided);
         // Step 3: the estimator
-        rq.lines_as_text = rq.lines_as_text && !plan.direct && !plan.bla;
         found = rq.bins;
         o = plan.direct ? run_frf_direct(rq, *plan.design, recs)
             : plan.bla  ? run_frf_realisations(rq, recs, plan.realisations)
-                        : frf_without_unusable_lines(rq, plan, dropped, [&] { return run_frf(rq, recs, keep); });
+                        : frf_without_unusable_lines(rq, plan, dropped, [&] { return run_frf(rq, recs); });
     } catch (...) {
         // a record taken without its NaN/Inf scan (Record::finite_unchecked): the reader's message
         // comes first, as when the reader scanned, whatever the run found later (the first bad record)
@@ -286,7 +284,7 @@ FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const F
     }
     if (!plan.direct && !plan.bla) add_detection_distortion(o);
     report_dropped_lines(rq, plan, found, dropped, lines_auto, o.notes);
-    if (!lines_auto.is_null()) o.doc["lines_auto"] = lines_auto;
+    if (!lines_auto.is_null()) o.tail()["lines_auto"] = lines_auto;
     if (!undecided.empty()) o.notes.push_back("--lines auto: " + undecided);
     return o;
 }

@@ -313,7 +313,7 @@ ExpSource measure_source(msid_meas &ms, uint32_t e, Source &s, const FrfRequest 
 // auto found: rq.period holds it). The steps run in estimate_frf()'s order: the files' shapes, the
 // period, the input checks, the lines, the estimator, the distortion level.
 bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
-                FrfPlan &plan, std::unique_ptr<FrfJob> *keep, FilesOutcome &out)
+                FrfPlan &plan, FilesOutcome &out)
 {
     std::vector<Source> src = open_sources(paths, cols, plan.auto_period ? 0 : input_check_rows(rq.period, rq.skip));
     uint32_t maxK;
@@ -374,20 +374,19 @@ bool stream_frf(FrfRequest &rq, const std::vector<std::string> &paths, const msi
     out.o = frf_without_unusable_lines(rq, plan, dropped, run);
     add_detection_distortion(out.o);
     report_dropped_lines(rq, plan, found, dropped, lines_auto, out.o.notes);
-    if (!lines_auto.is_null()) out.o.doc["lines_auto"] = lines_auto;
+    if (!lines_auto.is_null()) out.o.tail()["lines_auto"] = lines_auto;
     if (!undecided.empty()) out.o.notes.push_back("--lines auto: " + undecided);
     out.nu = nu;
     out.ny = ny;
     out.m = m;
     out.streamed = true;
-    if (keep) *keep = std::move(jobp);
     return true;
 }
 
 }  // namespace
 
 FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
-                                FrfPlan plan, std::unique_ptr<FrfJob> *keep)
+                                FrfPlan plan)
 {
     check_plan(rq, plan);   // before any file is opened
     FilesOutcome out;
@@ -396,11 +395,11 @@ FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &
     bool stream = !plan.direct && !plan.bla && !paths.empty() && (plan.auto_lines || plan.reference.empty()) &&
                   (plan.auto_period || (rq.period >= MSID_MIN_PERIOD && rq.period <= MSID_MAX_PERIOD));
     for (const auto &p : paths) stream = stream && msidrec::is_csv_path(p) && regular_file(p);
-    if (stream && stream_frf(rq, paths, cols, plan, keep, out)) return out;
+    if (stream && stream_frf(rq, paths, cols, plan, out)) return out;
     // the records whole: a .npy used in place, scanned for NaN/Inf block by block on the plain path
     out.recs = msidrec::read_experiments(paths, cols, true, plain);
     if (plan.auto_lines && plan.reference.empty()) plan.reference = msidrec::own_reference_columns(out.recs.at(0));
-    out.o = estimate_frf(rq, out.recs, plan, keep);
+    out.o = estimate_frf(rq, out.recs, plan);
     out.nu = out.recs[0].nu;
     out.ny = out.recs[0].ny;
     out.m = (uint32_t)out.recs.size();

@@ -14,25 +14,18 @@ extern "C" {
 #include <exception>
 #include <system_error>
 #include <thread>
-#include <atomic>
 
 namespace msidjob {
 
 
 static_assert(sizeof(std::complex<double>) == sizeof(msid_cplx), "msid_cplx is {re, im}");
 
-// A row-major rows x cols msid_cplx array of the core as a matrix for the msid-frf/1 writer.
-static msidfrf::MatC cmat_of(const msid_cplx *a, size_t rows, size_t cols)
-{
-    return msidfrf::from_row_major(reinterpret_cast<const std::complex<double> *>(a), rows, cols);
-}
-
 Json cmat_json(const msid_cplx *a, size_t rows, size_t cols)
 {
     return msidfrf::cmat(reinterpret_cast<const std::complex<double> *>(a), rows, cols);
 }
 
-Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
+static msidfrf::Header header_of(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
 {
     msidfrf::Header h;
     h.period = rq.period;
@@ -46,8 +39,10 @@ Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m)
     h.output_names = rq.output_names;
     h.input_units = rq.input_units;
     h.output_units = rq.output_units;
-    return msidfrf::header(h);
+    return h;
 }
+
+Json frf_header(const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m) { return msidfrf::header(header_of(rq, nu, ny, m)); }
 
 // The position fields of line l (msidfrf::position() gives their tree).
 static msidfrf::Position line_pos(const FrfRequest &rq, size_t l)
@@ -216,7 +211,7 @@ void measure_records(FrfJob &job, const FrfRequest &rq, const std::vector<Record
     });
 }
 
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep)
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs)
 {
     std::vector<std::string> notes;
     validate_lines(rq);
@@ -236,14 +231,11 @@ FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::u
     // Two experiments at once on two lanes (threads), each experiment's statistics the same bits as
     // measured alone; an error is that of the first failing experiment in file order, as serially.
     const uint32_t lanes = m >= 2 && std::thread::hardware_concurrency() >= 2 ? 2 : 1;
-    auto jobp = std::make_unique<FrfJob>(rq, nu, ny, m, maxK, maxK, lanes);
-    FrfJob &job = *jobp;
+    FrfJob job(rq, nu, ny, m, maxK, maxK, lanes);
     measure_records(job, rq, recs);
     std::vector<ExpSource> src;
     for (const Record &r : recs) src.push_back({r.path, r.n_rows, r.n_rows / P, r.n_rows % P});
-    FrfOutcome out = job.finish(src, notes);
-    if (keep) *keep = std::move(jobp);
-    return out;
+    return job.finish(src, notes);
 }
 
 struct FrfJob::Impl {
@@ -396,6 +388,47 @@ static UnusableLines unusable_lines(const msid_frf &f, const FrfRequest &rq, uin
     return u;
 }
 
+// The core's FRF as the typed result: every array copied out of the core's memory (freed with the job).
+static FrfResult frf_result(const msid_frf &f, const FrfRequest &rq, uint32_t nu, uint32_t ny, uint32_t m, uint64_t used,
+                            uint64_t rejected, const std::string &dft_path, std::vector<msidfrf::Experiment> exps)
+{
+    const size_t L = rq.bins.size(), Ld = rq.detect.size(), g = (size_t)nu * ny;
+    FrfResult r;
+    r.header = header_of(rq, nu, ny, m);
+    r.periods_used = used;
+    r.periods_rejected = rejected;
+    r.dft_path = dft_path;
+    auto cplx = [](const msid_cplx *a) { return reinterpret_cast<const std::complex<double> *>(a); };
+    auto put = [](std::vector<std::complex<double>> &v, const std::complex<double> *a, size_t n) { v.insert(v.end(), a, a + n); };
+    put(r.noise_cov, cplx(msid_frf_noise_cov_time(&f)), (size_t)ny * ny);
+    r.experiments = std::move(exps);
+    r.pos.reserve(L);
+    r.G.reserve(L * g);
+    r.cov.reserve(L * g * g);
+    r.cov_ki.reserve(L * g * g);
+    r.noise.reserve(L * ny * ny);
+    r.snr.reserve(L * ny);
+    for (uint32_t l = 0; l < (uint32_t)L; ++l) {
+        r.pos.push_back(line_pos(rq, l));
+        put(r.G, cplx(msid_frf_G(&f, l)), g);
+        put(r.cov, cplx(msid_frf_cov(&f, l)), g * g);
+        r.dof.push_back(msid_frf_dof(&f, l));
+        put(r.cov_ki, cplx(msid_frf_cov_known_input(&f, l)), g * g);
+        r.dof_ki.push_back(msid_frf_dof_known_input(&f, l));
+        put(r.noise, cplx(msid_frf_noise_cov(&f, l)), (size_t)ny * ny);
+        r.snr.insert(r.snr.end(), msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
+        r.cond.push_back(msid_frf_cond(&f, l));
+        r.input_snr.push_back(msid_frf_input_snr_db(&f, l));
+    }
+    for (uint32_t d = 0; d < (uint32_t)Ld; ++d) {
+        r.detect_bins.push_back(rq.detect[d]);
+        put(r.detect_mean, cplx(msid_frf_detect_mean(&f, d)), (size_t)m * ny);
+        r.detect_var.insert(r.detect_var.end(), msid_frf_detect_var(&f, d), msid_frf_detect_var(&f, d) + ny);
+        r.detect_p.insert(r.detect_p.end(), msid_frf_detect_pvalue(&f, d), msid_frf_detect_pvalue(&f, d) + ny);
+    }
+    return r;
+}
+
 FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::string> notes)
 {
     Impl &I = *p_;
@@ -406,7 +439,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
     out.notes = std::move(notes);
     out.dft_path = I.dft_path;
     // Per-experiment accounting, and enough periods left?
-    Json exps = Json::array();
+    std::vector<msidfrf::Experiment> exps;
     uint64_t used = 0, rejected = 0;
     std::vector<const msid_pstats *> ps(m);
     for (uint32_t e = 0; e < m; ++e) {
@@ -480,7 +513,7 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         x.drift = c.drift != 0;
         x.drift_p_value = dp;
         x.leftover_samples = r.leftover;
-        exps.push_back(msidfrf::experiment(x));
+        exps.push_back(std::move(x));
         used += c.used;
         rejected += c.gap + c.nonfinite + c.transient_dropped;
         if (c.used < 2) {   // which rule rejected them: the fix differs (the link, the data, the settling)
@@ -526,115 +559,33 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         throw Error(fmt("'%s': fewer than 2 usable periods", src[(size_t)f.bad_experiment].source.c_str()));
     check(st, "FRF");
 
-    const size_t g = (size_t)nu * ny;
-    Json doc = frf_header(rq, nu, ny, m);
-    // room for every member (and a caller's few more): a reallocation would copy the lines' subtrees
-    doc.get_ref<Json::object_t &>().reserve(doc.size() + 16);
-    doc["periods_used"] = used;
-    doc["periods_rejected"] = rejected;
-    doc["dft_path"] = out.dft_path;
-    doc["vec_convention"] = msidfrf::VEC_CONVENTION;
-    doc["noise_cov"] = cmat_json(msid_frf_noise_cov_time(&f), ny, ny);
-    doc["experiments"] = std::move(exps);
-    // The lines' subtrees (thousands of small allocations) built in two halves on two threads
-    // when there are many, appended in line order: the same document. rq.lines_as_text: each
-    // line's text written straight from the core's arrays (msidfrf::line_element: the text dump()
-    // gives of the subtree, element l of an array member of the document): no tree of the lines.
-    std::string text[2];
-    std::atomic<bool> as_text{rq.lines_as_text};
-    auto build = [&](uint32_t l0, uint32_t l1, std::vector<Json> &part, std::string *txt) {
-        if (!txt) part.reserve(l1 - l0);
-        for (uint32_t l = l0; l < l1; ++l) {
-            if (txt) {   // the text of the tree below, written directly (msidfrf::line_element)
-                msidfrf::LineArrays a;
-                a.ny = ny;
-                a.nu = nu;
-                a.G = reinterpret_cast<const std::complex<double> *>(msid_frf_G(&f, l));
-                a.cov = reinterpret_cast<const std::complex<double> *>(msid_frf_cov(&f, l));
-                a.dof = msid_frf_dof(&f, l);
-                a.cov_ki = reinterpret_cast<const std::complex<double> *>(msid_frf_cov_known_input(&f, l));
-                a.dof_ki = msid_frf_dof_known_input(&f, l);
-                a.noise = reinterpret_cast<const std::complex<double> *>(msid_frf_noise_cov(&f, l));
-                a.snr = msid_frf_snr_db(&f, l);
-                a.cond = msid_frf_cond(&f, l);
-                a.input_snr = msid_frf_input_snr_db(&f, l);
-                try {
-                    msidfrf::line_element(line_pos(rq, l), a, l, 1, 1, *txt);
-                } catch (const msidfrf::NonFinite &) {   // the tree instead (below), and the writer's message
-                    as_text = false;
-                    return;
-                }
-                if (l == l0) txt->reserve(txt->size() * (l1 - l0) / 8 * 9 + 4096);   // lines are alike in size
-                continue;
-            }
-            msidfrf::LineStats s;
-            s.G = cmat_of(msid_frf_G(&f, l), ny, nu);
-            s.cov = cmat_of(msid_frf_cov(&f, l), g, g);
-            s.dof = msid_frf_dof(&f, l);
-            s.cov_ki = cmat_of(msid_frf_cov_known_input(&f, l), g, g);
-            s.dof_ki = msid_frf_dof_known_input(&f, l);
-            s.noise = cmat_of(msid_frf_noise_cov(&f, l), ny, ny);
-            s.snr.assign(msid_frf_snr_db(&f, l), msid_frf_snr_db(&f, l) + ny);
-            s.cond = msid_frf_cond(&f, l);
-            s.input_snr = msid_frf_input_snr_db(&f, l);
-            part.push_back(msidfrf::line(line_position(rq, l), s));
-        }
-    };
-    std::vector<Json> part[2];
-    const uint32_t half = L >= 64 && std::thread::hardware_concurrency() >= 2 ? (uint32_t)L / 2 : (uint32_t)L;
-    auto build_all = [&](bool txt) {
-        std::exception_ptr part_err;
-        std::thread th;
-        if (half < L) {
-            try {
-                th = std::thread([&] {
-                    try {
-                        build(half, (uint32_t)L, part[1], txt ? &text[1] : nullptr);
-                    } catch (...) {
-                        part_err = std::current_exception();
-                    }
-                });
-            } catch (const std::system_error &) {
-            }
-        }
-        try {
-            build(0, half, part[0], txt ? &text[0] : nullptr);
-        } catch (...) {
-            if (th.joinable()) th.join();
-            throw;
-        }
-        if (th.joinable()) th.join();
-        else if (half < L) build(half, (uint32_t)L, part[1], txt ? &text[1] : nullptr);
-        if (part_err) std::rethrow_exception(part_err);
-    };
-    build_all(as_text.load());
-    if (rq.lines_as_text && !as_text) build_all(false);   // a line is not finite
-    Json lines = Json::array();
-    if (as_text) {
-        out.lines_text.key = "lines";
-        out.lines_text.n = L;
-        // moved one by one: an initializer list's elements are const, so {move(a), move(b)} copied
-        // both texts into fresh pages
-        out.lines_text.parts.resize(2);
-        out.lines_text.parts[0] = std::move(text[0]);
-        out.lines_text.parts[1] = std::move(text[1]);
-    } else {
-        lines.get_ref<Json::array_t &>().reserve(L);
-        for (auto &pt : part)
-            for (auto &x : pt) lines.push_back(std::move(x));
-    }
-    doc["lines"] = std::move(lines);
-    if (Ld) {
-        Json dl = Json::array();
-        for (uint32_t d = 0; d < Ld; ++d)
-            dl.push_back(msidfrf::detection_line(rq.detect[d], P, rq.fs, cmat_of(msid_frf_detect_mean(&f, d), m, ny),
-                                                 std::vector<double>(msid_frf_detect_var(&f, d), msid_frf_detect_var(&f, d) + ny),
-                                                 std::vector<double>(msid_frf_detect_pvalue(&f, d),
-                                                                     msid_frf_detect_pvalue(&f, d) + ny)));
-        doc["detection_lines"] = std::move(dl);
-    }
-    out.doc = std::move(doc);
+    out.frf = frf_result(f, rq, nu, ny, m, used, rejected, out.dft_path, std::move(exps));
     return out;
+}
+
+Json &FrfOutcome::tree()
+{
+    if (doc.is_null()) {
+        doc = frf_document(frf);
+        frf = FrfResult();
+    }
+    return doc;
+}
+
+uint64_t FrfOutcome::periods_used() const
+{
+    return doc.is_null() ? frf.periods_used : doc.at("periods_used").get<uint64_t>();
+}
+
+uint64_t FrfOutcome::periods_rejected() const
+{
+    return doc.is_null() ? frf.periods_rejected : doc.at("periods_rejected").get<uint64_t>();
+}
+
+void write_outcome(const std::string &path, const FrfOutcome &o, bool durable)
+{
+    if (o.doc.is_null()) write_frf_file(path, o.frf, durable);
+    else msidfmt::write_json_file(path, o.doc, durable);
 }
 
 }  // namespace msidjob

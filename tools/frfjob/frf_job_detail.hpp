@@ -59,6 +59,9 @@ FrfOutcome frf_without_unusable_lines(FrfRequest &rq, const FrfPlan &plan, Dropp
 // --lines auto found, for the ranges the note names.
 void report_dropped_lines(const FrfRequest &rq, const FrfPlan &plan, const std::vector<uint32_t> &found,
                           const DroppedLines &dropped, Json &lines_auto, std::vector<std::string> &notes);
+// The members of r's document that detection_distortion() (nl_verdict.hpp) reads: n_experiments,
+// n_outputs, the experiments' periods_used and the detection lines.
+Json detection_summary(const FrfResult &r);
 // The transient test's history per experiment (16 bytes x lines x channels per period) holds at
 // most this: the periods after it are used untested (msid_pstats beyond_history).
 constexpr double HISTORY_BYTES = 32.0 * 1024 * 1024;

@@ -7,6 +7,7 @@
 #include "msid_design_file.hpp"
 #include "msid_host_util.hpp"
 #include "frf_text.hpp"
+#include "msid_frf_result.hpp"
 
 #include <functional>
 
@@ -47,11 +48,6 @@ struct FrfRequest {
     // before --lines auto); else run_frf() runs it. FrfJob::finish() always runs
     // check_periodic_lines() on the core's period statistics (every host path).
     bool inputs_checked = false;
-    // FrfJob::finish() writes the lines' text as it builds them (FrfOutcome::lines_text) and
-    // leaves "lines" an empty array in the document: for a caller that only writes the file
-    // (msid frf) with write_json_file(..., &lines_text). Not when a line is not finite: then the
-    // lines are in the document as always (and the writer names the entry).
-    bool lines_as_text = false;
     // --lines auto found rq.bins (estimate_frf sets it): FrfJob::finish() also refuses the lines whose
     // neighbours among them leave the input too weak (screened_weak_lines, docs/statistics.md "Closed
     // loop"), listing every line it cannot use, for the caller to leave them out.
@@ -66,12 +62,27 @@ constexpr double MIN_INPUT_SNR_DB = 10.0;
 // The neighbours of a line in that median: this many lines on either side, the line itself left out.
 constexpr size_t SCREEN_NEIGHBOURS = 4;
 
+// An estimator's result: the periodic job's typed result (`frf`), or the document of an estimator
+// that builds one (--direct, --realisations, lpm, etfe; `doc` not null). tree() turns the typed
+// result into its document, for a caller that edits or compares documents.
 struct FrfOutcome {
-    Json doc;                  // msid-frf/1
+    FrfResult frf;             // the periodic job (FrfJob::finish); empty when `doc` holds the result
+    Json doc;                  // msid-frf/1 of the other estimators; null for the periodic job
     std::vector<std::string> notes;      // warnings for stderr
     std::string dft_path;                // "stream" or "fft"
-    msidfrf::Prerendered lines_text;     // FrfRequest::lines_as_text: key "lines", n = 0 if not used
+
+    // The document (built from `frf` once, which is then left empty).
+    Json &tree();
+    // The members a caller appends after the result's own (lines_auto, a session's acquisition block):
+    // frf.tail, or the document.
+    Json &tail() { return doc.is_null() ? frf.tail : doc; }
+    uint64_t periods_used() const;
+    uint64_t periods_rejected() const;
 };
+
+// The msid-frf/1 file of an outcome: write_frf_file() of its typed result, or its document
+// (msidfmt::write_json_file).
+void write_outcome(const std::string &path, const FrfOutcome &o, bool durable = true);
 
 // The signals' names and units from the records' column names (the file's, or those --columns
 // mapped), when the request has none: a name "Force [N]" (or "Force (N)") is the signal Force in
@@ -88,12 +99,8 @@ void request_from_core_design(FrfRequest &rq, const msid_design &d);
 // experiments (m >= nu, the design's), for a caller that checks the inputs' periodicity first.
 void check_records(const FrfRequest &rq, const std::vector<Record> &recs, bool count = true);
 
-class FrfJob;
-// Validate everything, run the core, build the document. Throws Error. `keep`: the job (its
-// measurement memory, some MB, and FFTW plans) is handed over instead of freed, for a caller that
-// leaves it to the process exit (msid frf): freeing mapped blocks while the other threads' CPU
-// still maps the process costs a TLB shootdown each, on the path to the result.
-FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs, std::unique_ptr<FrfJob> *keep = nullptr);
+// Validate everything, run the core, give the typed result. Throws Error.
+FrfOutcome run_frf(const FrfRequest &rq, const std::vector<Record> &recs);
 
 // The options a caller gave, by their neutral names (MSID_OPT, msid_options.hpp: "detect_lines",
 // "alpha"): the rules between options (check_plan, check_est_plan) refuse what does not apply however
@@ -142,9 +149,8 @@ void check_options(const FrfRequest &rq, const GivenOptions &given, const Design
 // period (plan.auto_period), the inputs' periodicity, the lines (plan.auto_lines), the estimator
 // (periodic, realisations' BLA or direct), and for one realisation with detection lines the
 // nonlinear distortion level (o.doc["nonlinear_distortion"], a note). Throws msidutil::Error
-// (msidjob::Error, msidrec::Error, UsageError) with one message. `keep` as in run_frf().
-FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan,
-                        std::unique_ptr<FrfJob> *keep = nullptr);
+// (msidjob::Error, msidrec::Error, UsageError) with one message.
+FrfOutcome estimate_frf(FrfRequest &rq, const std::vector<Record> &recs, const FrfPlan &plan);
 
 // The FRF job on experiment files (msid frf): what estimate_frf() gives on the records the files
 // hold. Regular CSV files on the periodic path (one realisation, not --direct) pass through the core
@@ -166,7 +172,7 @@ struct FilesOutcome {
     std::vector<Record> recs;       // the records read whole (empty when streamed)
 };
 FilesOutcome estimate_frf_files(FrfRequest &rq, const std::vector<std::string> &paths, const msidrec::ColumnMap &cols,
-                                FrfPlan plan, std::unique_ptr<FrfJob> *keep = nullptr);
+                                FrfPlan plan);
 
 // What the document reports about where each experiment came from.
 struct ExpSource {

@@ -168,7 +168,7 @@ static int cmd_replay(int argc, char **argv)
     }
     r.options = [&](FrfRequest &rq) { parse_estimate_options(a, rq); };
     msidacq::ReplayResult R = msidacq::replay_can_log(r);
-    write_json_file(out, R.o.doc);
+    msidjob::write_outcome(out, R.o);
     for (const auto &n : R.o.notes) std::fprintf(stderr, "msid can: note: %s\n", n.c_str());
     std::printf("wrote %s: %s\n", out.c_str(), R.summary.c_str());
     return 0;

@@ -245,7 +245,7 @@ int cmd_demo(int argc, char **argv)
 
     std::unique_ptr<msidfit::ModelFile> mf;
     if (!run.model.empty()) mf = std::make_unique<msidfit::ModelFile>(msidfit::read_model(run.model));
-    const Score s = score_against_truth(run.m.o.doc, read_json_file(o.dir + "/truth.json"), mf.get());
+    const Score s = score_against_truth(run.m.o.doc.is_null() ? msidjob::frf_document(run.m.o.frf) : run.m.o.doc, read_json_file(o.dir + "/truth.json"), mf.get());
     if (mf && !o.quiet) print_poles(run.model, pl);
     std::printf("\n%zu of %zu true FRF values lie inside their 95%% region (expected %.1f +- %.1f).\n", s.inside,
                 s.total, s.expected(), s.sd());

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
-#include <tuple>
 
 namespace msidcli {
 
@@ -56,24 +55,20 @@ static const char *FRF_HELP =
 // --dbc: every experiment is a candump log decoded with the DBC (msidrec::read_record_candump), then the
 // FRF job on those records; what the reader counted (lost frames, ...) leads the notes.
 static msidjob::FilesOutcome estimate_frf_dbc(const Args &a, FrfRequest &rq, const ColumnMap &cols,
-                                              const msidjob::FrfPlan &plan, std::unique_ptr<FrfJob> *job)
+                                              const msidjob::FrfPlan &plan)
 {
     if (a.has("reference")) throw UsageError("--reference does not apply to --dbc");
     const msidrec::DbcFile dbc(a.get("dbc"));
     msidjob::FilesOutcome fo;
     std::vector<std::string> notes;
     for (const std::string &p : a.all("experiment")) fo.recs.push_back(msidrec::read_record_candump(p, dbc, cols, notes));
-    fo.o = msidjob::estimate_frf(rq, fo.recs, plan, job);
+    fo.o = msidjob::estimate_frf(rq, fo.recs, plan);
     fo.o.notes.insert(fo.o.notes.begin(), notes.begin(), notes.end());
     fo.nu = fo.recs[0].nu;
     fo.ny = fo.recs[0].ny;
     fo.m = (uint32_t)fo.recs.size();
     return fo;
 }
-
-// see the end of cmd_frf
-extern void *volatile frf_left_to_exit;
-void *volatile frf_left_to_exit = nullptr;
 
 int cmd_frf(int argc, char **argv)
 {
@@ -129,28 +124,17 @@ int cmd_frf(int argc, char **argv)
     // --lines auto from the excitation's reference: named, or the file's own r1.. columns
     if (a.has("reference")) plan.reference = parse_reference(a.get("reference"));
     plan.report = [](const std::string &s) { std::fputs(s.c_str(), stdout); };
-    rq.lines_as_text = true;   // only written to the file below
-    std::unique_ptr<FrfJob> job;   // left to the exit with the document (see the end)
-    msidjob::FilesOutcome fo = a.has("dbc") ? estimate_frf_dbc(a, rq, cols, plan, &job)
-                                            : msidjob::estimate_frf_files(rq, a.all("experiment"), cols, plan, &job);
+    msidjob::FilesOutcome fo = a.has("dbc") ? estimate_frf_dbc(a, rq, cols, plan)
+                                            : msidjob::estimate_frf_files(rq, a.all("experiment"), cols, plan);
     FrfOutcome &o = fo.o;
     // no fsync: the file is reproduced by running msid frf again on the same files
     // (msid measure, whose samples are gone after the run, keeps it)
-    write_json_file(out, o.doc, false, o.lines_text.n ? &o.lines_text : nullptr);
+    msidjob::write_outcome(out, o, false);
     for (const auto &n : o.notes) std::fprintf(stderr, "msid frf: note: %s\n", n.c_str());
     std::printf("wrote %s: %zu lines, %u output(s) x %u input(s), %zu experiment(s), %llu periods used, %llu rejected "
                 "(%s)\n",
                 out.c_str(), rq.bins.size(), fo.ny, fo.nu, (size_t)fo.m,
-                (unsigned long long)o.doc["periods_used"].get<uint64_t>(),
-                (unsigned long long)o.doc["periods_rejected"].get<uint64_t>(), o.dft_path.c_str());
-    // The process ends now: the document's tree (some 10^5 nodes), the records and the job's
-    // measurement memory are left to the exit instead of being freed node by node and block by
-    // block (munmap while threads ran elsewhere): nothing would use the freed memory.
-    // Still reachable (not a leak for LeakSanitizer): held by a volatile global with external linkage,
-    // which no optimiser may drop (a function-local static was dropped at -O1 and LeakSanitizer failed
-    // every msid frf run); cmd_frf runs once per process (main.cpp).
-    frf_left_to_exit = new std::tuple<Json, std::vector<Record>, std::unique_ptr<FrfJob>>(std::move(o.doc), std::move(fo.recs),
-                                                                                          std::move(job));
+                (unsigned long long)o.periods_used(), (unsigned long long)o.periods_rejected(), o.dft_path.c_str());
     return 0;
 }
 

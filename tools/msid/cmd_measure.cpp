@@ -132,7 +132,7 @@ MeasureRun run_measure(const MeasureOptions &opt, Progress &pg)
         throw Error("cannot create directory '" + outdir + "': " + std::strerror(errno));
     clear_previous_outputs(outdir);
     write_json_file(outdir + "/design.json", design_to_json(*run.m.D));
-    write_json_file(outdir + "/frf.json", run.m.o.doc);
+    msidjob::write_outcome(outdir + "/frf.json", run.m.o);
     if (!run.m.reference.is_null()) write_json_file(outdir + "/reference.json", run.m.reference);
     run.frf = outdir + "/frf.json";
     for (const auto &n : run.m.o.notes) std::fprintf(stderr, "msid measure: note: %s\n", n.c_str());

@@ -107,7 +107,7 @@ int cmd_can_ondevice(int argc, char **argv)
     if (!(P.timeout > 0 && P.timeout <= 86400)) throw UsageError("--timeout must be positive (at most 86400 s)");
     link.rcvbuf = a.has("rcvbuf") ? (int)parse_u32(a.get("rcvbuf"), "--rcvbuf") : 0;
     msidacq::OnDeviceResult R = msidacq::measure_can_ondevice(link, P, host_file);
-    if (R.checked) write_json_file(host_file, R.host.o.doc);
+    if (R.checked) msidjob::write_outcome(host_file, R.host.o);
     return write_ondevice(R, out);
 }
 

@@ -185,10 +185,10 @@ std::string make_plots(const std::string &outdir, const std::string &frf, const 
 
 int write_measure_result(MeasureResult &R, const std::string &out, const std::string &cmd)
 {
-    Json doc = R.o.doc;
+    // a complete run keeps the historic file: no completeness members (R is written once, at the end)
     if (R.complete)
-        for (const char *k : {"complete", "experiments_completed", "experiments_planned"}) doc.erase(k);
-    write_json_file(out, doc);
+        for (const char *k : {"complete", "experiments_completed", "experiments_planned"}) R.o.tail().erase(k);
+    msidjob::write_outcome(out, R.o);
     for (const auto &n : R.o.notes) std::fprintf(stderr, "msid %s: note: %s\n", cmd.c_str(), n.c_str());
     std::printf("wrote %s: %s\n", out.c_str(), R.summary.c_str());
     if (R.complete) return 0;

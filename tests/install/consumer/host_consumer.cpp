@@ -40,8 +40,8 @@ int main()
     rq.bins = bins;
     msidjob::FrfPlan plan;
     try {
-        const msidjob::FrfOutcome o = msidjob::estimate_frf(rq, {r}, plan);
-        const auto &lines = o.doc.at("lines");
+        msidjob::FrfOutcome o = msidjob::estimate_frf(rq, {r}, plan);
+        const auto &lines = o.tree().at("lines");
         if (lines.size() != bins.size()) { std::fprintf(stderr, "host consumer: %zu lines\n", lines.size()); return 1; }
         for (size_t l = 0; l < bins.size(); ++l) {
             const double w = 2 * pi * bins[l] / P;

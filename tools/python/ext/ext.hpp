@@ -37,6 +37,9 @@ py::object json_to_py(const Json &j);
 // L x ny x nu and L x g x g complex, L-vectors), "meta" (every top-level key but lines) and
 // "line_extra" (per line, the other keys). The numbers keep their bits.
 py::dict frf_to_py(const Json &doc);
+// The same dict of an estimator's outcome: the periodic job's typed result straight from its arrays
+// (no document in between), the other estimators' documents as above.
+py::dict frf_to_py(const msidjob::FrfOutcome &o);
 // Free an FRF document: one of many lines on a thread of its own, so that the call that made it returns
 // (or raises KeyboardInterrupt) without waiting seconds for its memory to be freed.
 void release_document(Json &&doc);

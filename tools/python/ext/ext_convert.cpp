@@ -6,6 +6,7 @@
 #include "msid_host_util.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <complex>
 #include <system_error>
 #include <thread>
@@ -261,6 +262,82 @@ py::dict frf_to_py(const Json &doc)
         for (auto it = lines[l].begin(); it != lines[l].end(); ++it)
             if (std::find(std::begin(ARRAYS), std::end(ARRAYS), it.key()) == std::end(ARRAYS))
                 e[py::str(it.key())] = to_py(it.value());
+        extra[l] = std::move(e);
+    }
+    out["meta"] = std::move(meta);
+    out["line_extra"] = std::move(extra);
+    return out;
+}
+
+py::dict frf_to_py(const msidjob::FrfOutcome &o)
+{
+    if (!o.doc.is_null()) return frf_to_py(o.doc);
+    const msidjob::FrfResult &r = o.frf;
+    const size_t L = r.n_lines(), ny = r.header.ny, nu = r.header.nu, g = ny * nu;
+    auto stack = [&](const std::vector<std::complex<double>> &v, size_t rows, size_t cols) {
+        py::array_t<std::complex<double>> a({L, rows, cols});
+        std::copy(v.begin(), v.end(), a.mutable_data());
+        return a;
+    };
+    auto vec = [](const std::vector<double> &v) {
+        py::array_t<double> a((py::ssize_t)v.size());
+        std::copy(v.begin(), v.end(), a.mutable_data());
+        return a;
+    };
+    py::array_t<int64_t> bin((py::ssize_t)L);
+    py::array_t<double> freq((py::ssize_t)L), freq_hz((py::ssize_t)L), omega((py::ssize_t)L);
+    py::array_t<bool> real((py::ssize_t)L);
+    const bool ct = r.header.ct, has_hz = ct || r.header.fs > 0;
+    for (size_t l = 0; l < L; ++l) {   // the values msidfrf::position() writes
+        const msidfrf::Position &p = r.pos[l];
+        bin.mutable_data()[l] = p.bin;
+        freq.mutable_data()[l] = (double)p.bin / p.period;
+        omega.mutable_data()[l] = p.omega;
+        freq_hz.mutable_data()[l] = ct ? p.omega / (2 * M_PI) : (double)p.bin / p.period * p.fs;
+        real.mutable_data()[l] = p.bin == 0;
+    }
+    py::dict out;
+    out["bin"] = bin;
+    out["freq"] = freq;
+    if (L && has_hz) out["freq_hz"] = freq_hz;
+    if (L && ct) out["omega"] = omega;
+    if (L && r.pos[0].bin == 0 && L == 1) out["real"] = real;   // as a document whose every line says "real"
+    out["G"] = stack(r.G, ny, nu);
+    out["cov"] = stack(r.cov, g, g);
+    out["dof"] = vec(r.dof);
+    out["cov_known_input"] = stack(r.cov_ki, g, g);
+    out["dof_known_input"] = vec(r.dof_ki);
+    if (!out.contains("real")) out["real"] = real;
+    py::dict meta;
+    const Json m = msidjob::frf_meta(r);
+    for (auto it = m.begin(); it != m.end(); ++it) meta[py::str(it.key())] = to_py(it.value());
+    // per line the members not held in arrays, as a document's line holds them
+    auto number_or_none = [](double v) -> py::object { return std::isfinite(v) ? py::object(py::float_(v)) : py::none(); };
+    py::list extra(L);
+    py::str k_noise("noise_cov"), k_snr("snr"), k_cond("cond"), k_isnr("input_snr"), k_re("re"), k_im("im");
+    for (size_t l = 0; l < L; ++l) {
+        ask_for_signals(l);
+        const std::complex<double> *nc = &r.noise[l * ny * ny];
+        py::list re(ny), im(ny);
+        for (size_t i = 0; i < ny; ++i) {
+            py::list a(ny), b(ny);
+            for (size_t j = 0; j < ny; ++j) {
+                a[j] = py::float_(nc[i * ny + j].real());
+                b[j] = py::float_(nc[i * ny + j].imag());
+            }
+            re[i] = std::move(a);
+            im[i] = std::move(b);
+        }
+        py::dict n;
+        n[k_re] = std::move(re);
+        n[k_im] = std::move(im);
+        py::list snr(ny);
+        for (size_t i = 0; i < ny; ++i) snr[i] = number_or_none(r.snr[l * ny + i]);
+        py::dict e;
+        e[k_noise] = std::move(n);
+        e[k_snr] = std::move(snr);
+        e[k_cond] = py::float_(r.cond[l]);
+        e[k_isnr] = number_or_none(r.input_snr[l]);
         extra[l] = std::move(e);
     }
     out["meta"] = std::move(meta);

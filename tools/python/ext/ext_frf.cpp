@@ -65,7 +65,7 @@ static py::dict frf(const py::list &arrays, const py::list &names, const py::lis
     });
     const DocumentRelease release{o.doc};
     py::dict out;
-    out["frf"] = frf_to_py(o.doc);
+    out["frf"] = frf_to_py(o);
     out["notes"] = o.notes;
     out["reports"] = reports;
     return out;
@@ -86,7 +86,7 @@ static py::dict frf_files(const std::vector<std::string> &paths, const std::stri
         without_gil({true, true, "msid.frf"}, [&] { return msidjob::estimate_frf_files(rq, paths, cols, plan); });
     const DocumentRelease release{o.o.doc};
     py::dict out;
-    out["frf"] = frf_to_py(o.o.doc);
+    out["frf"] = frf_to_py(o.o);
     out["notes"] = o.o.notes;
     out["reports"] = reports;
     out["streamed"] = o.streamed;
@@ -131,7 +131,7 @@ static double fs_of(const py::dict &opts)
 static py::dict est_result(const msidjob::FrfOutcome &o)
 {
     py::dict out;
-    out["frf"] = frf_to_py(o.doc);
+    out["frf"] = frf_to_py(o);
     out["notes"] = o.notes;
     out["reports"] = std::vector<std::string>{};
     return out;

@@ -191,12 +191,12 @@ static py::dict measure(const std::string &device, py::object design, const py::
         }
     });
     py::dict out;
-    out["frf"] = frf_to_py(R.o.doc);
+    out["frf"] = frf_to_py(R.o);
     out["notes"] = R.o.notes;
     out["complete"] = R.complete;
     out["summary"] = R.summary;
     out["interrupted"] = ctl.interrupted();
-    if (on_device && OD.checked && R.complete) out["host"] = frf_to_py(OD.host.o.doc);
+    if (on_device && OD.checked && R.complete) out["host"] = frf_to_py(OD.host.o);
     return out;
 }
 
@@ -230,7 +230,7 @@ static py::dict measure_mapped(const std::string &device, py::object design, con
         R = msidacq::measure_mapped(dev, desc, mo, [&](uint32_t, msidacq::MeasurePlan &P) { P = std::move(plan); }, ctl);
     });
     py::dict out;
-    out["frf"] = frf_to_py(R.o.doc);
+    out["frf"] = frf_to_py(R.o);
     out["notes"] = R.o.notes;
     out["complete"] = R.complete;
     out["summary"] = R.summary;

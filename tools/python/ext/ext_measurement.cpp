@@ -116,7 +116,7 @@ public:
             return r;
         });
         py::dict out;
-        out["frf"] = frf_to_py(o.doc);
+        out["frf"] = frf_to_py(o);
         out["notes"] = o.notes;
         return out;
     }
