@@ -158,6 +158,14 @@ def make_realtime(pid, prio=20):
         subprocess.run(["chrt", "-f", "-p", str(prio), str(pid)], check=True, capture_output=True)
 
 
+def validate_frf(doc):
+    """The FRF document against docs/schemas/msid-frf-1.schema.json (its acquisition block included)."""
+    import jsonschema
+    schema = json.loads((mblib.SRC / "docs" / "schemas" / "msid-frf-1.schema.json").read_text())
+    errs = list(jsonschema.Draft202012Validator(schema).iter_errors(doc))
+    assert not errs, [f"{list(e.absolute_path)}: {e.message}" for e in errs[:3]]
+
+
 class MapSim(mblib.ModbusSim):
     """msid-devsim --map DESC --modbus-tcp 127.0.0.1:0 (or RTU on a socat pty pair); .uri is the device URI."""
 

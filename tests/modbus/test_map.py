@@ -48,6 +48,7 @@ def test_the_issue_example_as_written(tmp_path):
     assert doc["fs_hz"] == 200 and len(doc["lines"]) == 50
     a = doc["acquisition"]
     assert a["protocol"] == "msid-device/1" and a["input"] == "read back"
+    maplib.validate_frf(doc)
     t = a["timing"]
     for k in ("rate_hz", "rate_achieved_hz", "lateness_s", "round_trip_s", "ticks_missed", "exchange", "scheduling"):
         assert k in t, k

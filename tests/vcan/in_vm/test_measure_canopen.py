@@ -47,6 +47,7 @@ def test_coverage_of_the_two_mass_plant_in_cst(tmp_path):
         assert a["tpdos"] >= 2 * a["samples"] and a["syncs"] >= a["samples"] + a["samples_lost"], a
         assert r.doc["output_names"] == ["Torque actual", "Velocity actual", "Position actual"]
         assert [l["bin"] for l in r.doc["lines"]] == BINS
+        maplib.validate_frf(r.doc)
         pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
     maplib.covered(np.concatenate(pv))
 
