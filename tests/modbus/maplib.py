@@ -230,11 +230,11 @@ def interrupt_after_periods(cmd, after, timeout=120):
 
 
 def measure(tmp, sim, desc, *extra, period=64, lines="1:2:31", periods=8, skip=1, rate=200, seed=1, ok=True,
-            out="out", timeout=300, attempts=None, retry_on=("usable period(s)",)):
+            out="out", timeout=300, attempts=None, retry_on=("usable period(s)", "do not excite line")):
     """One msid measure --map. With attempts > 1 a run that msid refuses for too few usable periods (a loaded
-    machine lost a sample in most of them: counted, never a wrong result) is made again; any other failure is not.
-    `retry_on` names the refusals made again (a test of a peer that applies some commands a cycle late on a loaded
-    machine adds the refusal of a line whose read-back input varies too much from period to period).
+    machine lost a sample in most of them: counted, never a wrong result) is made again, and so is one refused
+    for a line whose read-back input varied from period to period (a link error or a late exchange on a loaded
+    machine left one period's input apart); any other failure is not. `retry_on` names the refusals made again.
     A run expected to succeed gets 3 attempts unless told; one expected to fail gets 1 (its device may be the
     fault that left the periods unusable, and a second run would meet a device in another state)."""
     if attempts is None:
