@@ -109,18 +109,25 @@ class Drive(canlib.Sim):
 
 
 @contextlib.contextmanager
-def remote_node():
-    """The canopen package's RemoteNode of the node on vcan0 (its own network, disconnected after)."""
+def package_node(kind="RemoteNode", node=NODE, eds=EDS):
+    """A node of the canopen package on vcan0 (RemoteNode: its master's view of the node; LocalNode: a node it
+    serves itself), on a network of its own, disconnected after."""
     import canopen
     net = canopen.Network()
     net.connect(interface="socketcan", channel="vcan0")
     try:
-        n = canopen.RemoteNode(NODE, str(EDS))
+        n = getattr(canopen, kind)(node, str(eds))
         net.add_node(n)
-        n.sdo.RESPONSE_TIMEOUT = 2.0
+        if kind == "RemoteNode":
+            n.sdo.RESPONSE_TIMEOUT = 2.0
         yield n
     finally:
         net.disconnect()
+
+
+def remote_node():
+    """The canopen package's RemoteNode of the node on vcan0 (its own network, disconnected after)."""
+    return package_node("RemoteNode")
 
 
 def syncs_within(seconds):

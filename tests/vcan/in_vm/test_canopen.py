@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+import comap
+
 EDS = Path(__file__).resolve().parent / "data" / "drive402.eds"
 PROBE = os.environ.get("MSID_CO_PROBE", "")
 NODE = 5
@@ -25,15 +27,8 @@ def probe(*args):
 
 @pytest.fixture()
 def node():
-    import canopen
-    net = canopen.Network()
-    net.connect(interface="socketcan", channel="vcan0")
-    try:
-        n = canopen.LocalNode(NODE, str(EDS))
-        net.add_node(n)
+    with comap.package_node("LocalNode", NODE, EDS) as n:
         yield n
-    finally:
-        net.disconnect()
 
 
 def u32(n, index, sub):
