@@ -96,8 +96,29 @@ typedef struct counter_run {
     uint64_t last_shift;    /* tick of the last half-period shift */
     uint64_t last_glitch;   /* tick of the last glitch on an on-time tick */
     uint64_t next_retime;
+    int anchored;           /* the anchor was confirmed by the read after it, or moved once */
     off_window off;
 } counter_run;
+
+/* The timeline from cycle j read at tick n: the first write of the timeline (sample 0) reaches cycle j + 1 at the
+   next tick's exchange; the device runs one cycle per tick, so that exchange reads j + 1 and writes for j + 2. */
+static void anchor_at(counter_run *r, rate_window *rw, uint64_t n, double j, uint64_t period)
+{
+    r->j_last = j;
+    r->j0 = j + 2;
+    r->off.base = j;
+    r->off.bits = 0;
+    r->next_retime = n + period;
+    rw->n0 = n;
+    rw->j0 = j;
+}
+
+/* Whether the read of cycle j, the first after the anchor, shows the anchor stale: a device that cycles once a
+   tick cannot have run more than two cycles since (one more for a tick that ran late). A transport that queues the
+   status (a CAN socket) returns at the run's first exchange what was queued before it, and a queue that filled
+   while the host prepared the run holds only old frames: the anchor would then be many cycles behind the device,
+   the timeline's samples would all have passed, and the run would end at once with every sample missing. */
+static int anchor_stale(const counter_run *r, double j) { return !r->anchored && j - r->j_last > 2; }
 
 /* follow_counter: the tick clock at the counter's rate, once a period from two periods of reads on. */
 static void follow_rate(msid_hx *h, counter_run *r, uint64_t n)
@@ -220,16 +241,15 @@ int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p)
             if (!first && j - before == 1) h->cnt.counter_steps[1]++;
             else if (!first) h->cnt.counter_steps[j - before == 0 ? 0 : j - before == 2 ? 2 : 3]++;
             if (!synced) {
-                /* the first write of the timeline (sample 0) reaches cycle j + 1 at the next tick's exchange: the
-                   device runs one cycle per tick, so that exchange reads j + 1 and writes for j + 2 */
-                r.j_last = j;
-                r.j0 = j + 2;
-                r.off.base = j;
+                anchor_at(&r, &rw, n, j, c->design->period);
                 synced = 1;
-                r.next_retime = n + c->design->period;
-                rw.n0 = n;
-                rw.j0 = j;
+            } else if (anchor_stale(&r, j)) {
+                /* this tick wrote sample 0 for the stale anchor: it reaches cycle j + 1, before the new timeline */
+                anchor_at(&r, &rw, n, j, c->design->period);
+                h->cnt.stale_anchors++;
+                r.anchored = 1;   /* once: a device that runs faster than the ticks is refused by the rate check */
             } else {
+                r.anchored = 1;
                 if ((rc = check_cycles_per_tick(h, &rw, n, j)) < 0) break;
                 off_slide(&r.off, r.j_last + 1 < j ? r.j_last + 1 : j);
                 if (off) off_mark(&r.off, j + 1);

@@ -99,6 +99,7 @@ Json timing_json(const msid_hx &h, double rate_hz, const std::string &exchange, 
         j["cycles_read_twice"] = h.cnt.cycles_read_twice;
         j["cycles_not_read"] = h.cnt.cycles_not_read;
         j["writes_straddled"] = h.cnt.writes_straddled;
+        j["stale_anchors"] = h.cnt.stale_anchors;
     } else {
         j["samples_placed_by"] = "tick";
     }

@@ -104,6 +104,9 @@ typedef struct msid_hx_counters {
                                        or whose applied value is not their sample */
     uint64_t writes_straddled;    /**< index_by_counter: exchanges whose write a device cycle may have taken or
                                        not (the counter moved between the reads before and after the write) */
+    uint64_t stale_anchors;       /**< index_by_counter: first reads of a run that the next read showed stale (the
+                                       device had run more than two cycles in one tick: a queue that held status
+                                       from before the run); the timeline restarted from the next read */
     uint64_t retimes, phase_shifts;   /**< follow_counter: rate updates, half-period shifts */
 } msid_hx_counters;
 

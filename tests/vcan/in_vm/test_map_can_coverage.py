@@ -10,7 +10,10 @@
 - against the peer, with the input read back and its clock 100 ppm fast.
 
 No check depends on the VM being fast: a sample a loaded VM loses is a missing sample, counted, and a run that is
-left with too few usable periods is made again (maplib.measure). Two periods are skipped: the plant's slow pole
+left with too few usable periods is made again (maplib.measure). The node cycles and the host ticks at 50 Hz here, not
+at the other CAN files' 100 Hz: a VM that shares two emulated cores with CI's other tests is late by up to 10 ms
+(p99), which at 100 Hz loses a sample in every period of most runs, and at 50 Hz in few. Six runs a case: 96 lines,
+of which fewer than 83 (86%) inside their region fail (eight runs: fewer than 112 of 128, 87.5%). Two periods are skipped: the plant's slow pole
 (0.985) keeps 0.985^64 = 0.38 of the fade-in's transient a period later."""
 import numpy as np
 
@@ -18,6 +21,8 @@ import canlib
 from mapcan import BINS, P, PEER_RATE, CanMapSim, PeerSim, description, maplib, measure, plant  # noqa: F401
 
 NOISE = ("--noise-y", "0.02", "--noise-u", "0.002")
+COV_RATE = 50   # the host's ticks and the node's cycles (Hz)
+SEEDS = 6       # runs a case
 
 
 def dt_truth(plant):
@@ -27,9 +32,11 @@ def dt_truth(plant):
 def devsim_runs(tmp_path, plant, desc, seeds, *sim_args, truth, **kw):
     """One node and one measurement per seed; the element p-values of all runs, and their documents."""
     kw.setdefault("skip", 2)
+    kw.setdefault("rate", COV_RATE)
     pv, docs = [], []
     for s in seeds:
-        with CanMapSim(tmp_path, desc, "--plant", plant[0], "--seed", s, *NOISE, *sim_args) as sim:
+        with CanMapSim(tmp_path, desc, "--plant", plant[0], "--seed", s, *NOISE, "--cycle-hz", COV_RATE,
+                       *sim_args) as sim:
             r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", **kw)
         docs.append(r.doc)
         pv.append(maplib.element_pvalues(r.doc, truth))
@@ -38,7 +45,7 @@ def devsim_runs(tmp_path, plant, desc, seeds, *sim_args, truth, **kw):
 
 def test_coverage_input_read_back(tmp_path, plant):
     desc = description(tmp_path)
-    pv, docs = devsim_runs(tmp_path, plant, desc, range(1, 9), truth=dt_truth(plant))
+    pv, docs = devsim_runs(tmp_path, plant, desc, range(1, 1 + SEEDS), truth=dt_truth(plant))
     maplib.covered(pv)
     for d in docs:
         assert d["acquisition"]["input"] == "read back"
@@ -47,7 +54,7 @@ def test_coverage_input_read_back(tmp_path, plant):
 
 def test_coverage_commanded_input_by_the_nodes_counter(tmp_path, plant):
     desc = description(tmp_path, readback=False)
-    pv, docs = devsim_runs(tmp_path, plant, desc, range(21, 29), truth=dt_truth(plant))
+    pv, docs = devsim_runs(tmp_path, plant, desc, range(21, 21 + SEEDS), truth=dt_truth(plant))
     maplib.covered(pv)
     for d in docs:
         assert d["acquisition"]["input"] == "commanded"
@@ -57,9 +64,10 @@ def test_coverage_commanded_input_by_the_nodes_counter(tmp_path, plant):
 def test_coverage_commanded_input_and_its_bias_bound(tmp_path, plant):
     # no counter, a node that cycles 4 times per tick: which cycle takes a command depends on the host's timing,
     # and each line reports the bias that timing implies
-    desc = description(tmp_path, readback=False, counter=False, extra="cycle_hz = 400\n")
+    desc = description(tmp_path, readback=False, counter=False, extra=f"cycle_hz = {4 * COV_RATE}\n")
     G0 = maplib.held_frf(*plant[1], BINS, P, 4)
-    _, docs = devsim_runs(tmp_path, plant, desc, range(31, 39), "--cycle-hz", 400, truth=maplib.truth_doc(G0, BINS))
+    _, docs = devsim_runs(tmp_path, plant, desc, range(31, 31 + SEEDS), "--cycle-hz", 4 * COV_RATE,
+                          truth=maplib.truth_doc(G0, BINS))
     # the regions widened by each line's bias bound cover (the error less |G0| bound against the F law: at least as
     # many inside as an unbiased estimate would have), and the error is within the bound plus 3 sd
     pv, within, n = [], 0, 0
@@ -83,7 +91,7 @@ def test_coverage_commanded_input_and_its_bias_bound(tmp_path, plant):
 def test_coverage_with_the_nodes_clock_100_ppm_fast(tmp_path, plant):
     # the host's ticks follow the node's counter (clock = "device"): its cycles get their samples whatever the offset
     desc = description(tmp_path, extra='clock = "device"\n')
-    pv, docs = devsim_runs(tmp_path, plant, desc, range(41, 49), "--clock-ppm", "100", truth=dt_truth(plant),
+    pv, docs = devsim_runs(tmp_path, plant, desc, range(41, 41 + SEEDS), "--clock-ppm", "100", truth=dt_truth(plant),
                            periods=10)
     maplib.covered(pv)
     for d in docs:

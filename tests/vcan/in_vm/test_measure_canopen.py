@@ -91,7 +91,9 @@ def test_safe_state_after_the_end_and_after_ctrl_c(tmp_path):
         before = sim.state()
         r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "end")], capture_output=True, text=True,
                            timeout=300)
-        assert r.returncode == 0, r.stderr
+        # the end of the run is the way out tested: a loaded VM that lost a sample in most periods makes msid refuse
+        # the result (one message, exit 1) after the same end, so that refusal is the end too
+        assert r.returncode == 0 or (r.returncode == 1 and "usable period(s)" in r.stderr), r.stderr
         assert syncs_within(0.5) == 0
         st = sim.state()
         assert_safe(st, 20)
