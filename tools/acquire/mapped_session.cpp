@@ -199,12 +199,16 @@ std::string losses_summary(const msid_hx &h, double rate_hz, const std::string &
 {
     if (!h.cnt.samples_lost) return "";
     const Json t = timing_json(h, rate_hz, exchange, 0.0);
-    return fmt(" (of the run's %llu measured samples %llu were lost: %llu tick(s) missed, %llu exchange(s) that read "
-               "nothing, %llu device cycle(s) not read; tick lateness p99 %.3g ms, wake-up p99 %.3g ms at %g Hz)",
+    // placed by the device's counter, a tick the host slept through loses no sample of its own: the cycles it
+    // did not read are counted as such, and the tick clock's own count says how far the host fell behind
+    const bool by_counter = h.cfg.index_by_counter || h.cfg.follow_counter;
+    const std::string missed = by_counter ? fmt("%llu tick(s) the host slept through", (unsigned long long)h.tick.missed)
+                                          : fmt("%llu tick(s) missed", (unsigned long long)h.cnt.missed);
+    return fmt(" (of the run's %llu measured samples %llu were lost: %s, %llu exchange(s) that read nothing, %llu "
+               "device cycle(s) not read; tick lateness p99 %.3g ms, wake-up p99 %.3g ms at %g Hz)",
                (unsigned long long)(h.cnt.samples + h.cnt.samples_lost), (unsigned long long)h.cnt.samples_lost,
-               (unsigned long long)h.cnt.missed, (unsigned long long)h.cnt.failed,
-               (unsigned long long)h.cnt.cycles_not_read, 1e3 * t["lateness_s"]["p99"].get<double>(),
-               1e3 * t["wake_lateness_s"]["p99"].get<double>(), rate_hz);
+               missed.c_str(), (unsigned long long)h.cnt.failed, (unsigned long long)h.cnt.cycles_not_read,
+               1e3 * t["lateness_s"]["p99"].get<double>(), 1e3 * t["wake_lateness_s"]["p99"].get<double>(), rate_hz);
 }
 
 // The safe values on every way out: the destructor writes them unless the run finished with its ramp.
