@@ -189,7 +189,7 @@ def test_the_bit_rate_of_a_virtual_interface_is_assumed_and_lo_is_not_can(tmp_pa
     kernel reports with no link kind, is refused as not CAN before any socket is opened."""
     desc = preset(tmp_path)
     with Drive(tmp_path) as sim:
-        r = measure(tmp_path, sim, desc, period=16, lines="1:1:3", periods=2, skip=1)
+        r = measure(tmp_path, sim, desc, period=16, lines="1:1:3", periods=3, skip=0)
         a = r.doc["acquisition"]
         assert a["bus_bitrate"] == 1000000 and a["bus_bitrate_assumed"], a
         assert a["bus_bitrate_source"] == "assumed (virtual interface)" and "bus_data_bitrate" not in a, a
