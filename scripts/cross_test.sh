@@ -53,8 +53,9 @@ sel=()
 if [ "$subset" = ci ]; then
   # lib/ (every object's unit test but the three long exhaustive ones), the scalar kernels, lib/'s outputs
   # against x86-64's bit for bit, daq/ (codecs, stream, CAN session, the Modbus client against msid-devsim)
-  # and msid-devsim's CANopen node through daq's CANopen master (test_co_node), its tick backend (test_co_map) and the checks before a run (test_co_map_check)
-  sel=(-R '^(test_(status|design|gen|linedft|linedft_scalar|linedft_f32|spread|meas|frf|plant|determinism|golden|can_decoder|dbc|mb_proto|stream|can_session|mb_est|mb_acq|mbap|daq_noalloc|noalloc|co_node|co_map|co_map_check)|target_linux_bits)$')
+  # and msid-devsim's CANopen node through daq's CANopen master (test_co_node), its tick backend (test_co_map),
+  # the checks before a run (test_co_map_check) and an interface's bit rate read from the kernel (test_can_bitrate)
+  sel=(-R '^(test_(status|design|gen|linedft|linedft_scalar|linedft_f32|spread|meas|frf|plant|determinism|golden|can_decoder|dbc|mb_proto|stream|can_session|mb_est|mb_acq|mbap|daq_noalloc|noalloc|co_node|co_map|co_map_check|can_bitrate)|target_linux_bits)$')
 fi
 cd "$dir"
 # the prefix of cmake/linux-cross.cmake (why LD_LIBRARY_PATH: there), for the pytest files registered

@@ -4,6 +4,7 @@
 #include "msid_daq/msid_modbus.h"
 #include "msid_daq/msid_socketcan.h"
 #include "msid_daq/msid_co_sync.h"
+#include "msid_daq/msid_can_bitrate.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -44,4 +45,30 @@ int msid_co_sync_start(msid_co_sync *s, const char *iface, uint32_t period_us, u
 }
 
 void msid_co_sync_stop(msid_co_sync *s) { (void)s; }
+
+static int bitrate_none(msid_can_bitrate *out)
+{
+    if (!out) return -MSID_DAQ_E_ARG;
+    memset(out, 0, sizeof *out);
+    out->status = MSID_CAN_BITRATE_FAILED;
+    snprintf(out->err, sizeof out->err, "this msid was built without SocketCAN: configure with -DMSID_WITH_CAN=ON");
+    return -MSID_DAQ_E_NOSUPPORT;
+}
+
+int msid_can_bitrate_parse(const void *reply, size_t len, msid_can_bitrate *out)
+{
+    (void)reply, (void)len;
+    return bitrate_none(out);
+}
+
+int msid_can_bitrate_query(const char *iface, msid_can_bitrate *out)
+{
+    (void)iface;
+    return bitrate_none(out);
+}
+
+const char *msid_can_bitrate_status_name(msid_can_bitrate_status s)
+{
+    return s == MSID_CAN_BITRATE_FAILED ? "failed" : "(names not built: MSID_WITH_CAN=OFF)";
+}
 #endif

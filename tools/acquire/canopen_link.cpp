@@ -1,4 +1,5 @@
-// canopen:// URIs and the SDO link to one node (msid_canopen.hpp).
+// canopen:// URIs, the bus's bit rate for a run (the URI's or the interface's)
+// and the SDO link to one node (msid_canopen.hpp).
 #include "msid_canopen.hpp"
 #include "msid_host_util.hpp"
 
@@ -6,7 +7,9 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "msid_daq/msid_can_bitrate.h"
 #include "msid_daq/msid_co_can.h"
+#include "msid_daq/msid_co_map.h"
 #include "msid_daq/msid_socketcan.h"
 
 namespace msidacq {
@@ -61,6 +64,46 @@ CanopenUri parse_canopen_uri(const std::string &uri)
     }
     if (!have_node) throw UsageError("device URI '" + uri + "': give the node id: canopen://" + u.iface + "?node=N");
     return u;
+}
+
+CanopenBitrate canopen_bitrate(const std::string &uri_text, const std::string &iface, uint32_t uri_bitrate)
+{
+    msid_can_bitrate k{};
+    msid_can_bitrate_query(iface.c_str(), &k);   // a failure is k.status FAILED, k.err saying why
+    const char *u = uri_text.c_str(), *i = iface.c_str();
+    if (k.status == MSID_CAN_BITRATE_NOT_CAN)
+        throw UsageError(fmt("%s: %s is not a CAN interface (%s): give a SocketCAN interface (can0, vcan0)", u, i,
+                             k.kind[0] ? fmt("its link kind is %s", k.kind).c_str() : "it has no link kind"));
+    CanopenBitrate b;
+    if (k.status == MSID_CAN_BITRATE_KNOWN) b.data_bitrate = k.data_bitrate;
+    if (uri_bitrate) {
+        if (k.status == MSID_CAN_BITRATE_KNOWN && k.bitrate != uri_bitrate)
+            throw UsageError(fmt("%s: the URI's bitrate=%u is not the %u bit/s %s is set to (ip -details link show %s): "
+                                 "leave bitrate= out, or give the interface the bus's rate (ip link set %s type can "
+                                 "bitrate %u)", u, (unsigned)uri_bitrate, (unsigned)k.bitrate, i, i, i,
+                                 (unsigned)uri_bitrate));
+        b.bitrate = uri_bitrate;
+        b.source = "uri";
+        return b;
+    }
+    if (k.status == MSID_CAN_BITRATE_KNOWN) {
+        b.bitrate = k.bitrate;
+        b.source = "interface";
+        return b;
+    }
+    b.bitrate = MSID_CO_MAP_BITRATE_DEFAULT;
+    if (k.status == MSID_CAN_BITRATE_VIRTUAL) {
+        b.source = "assumed (virtual interface)";
+        b.why = fmt("%s is a virtual interface (%s)", i, k.kind);
+    } else if (k.status == MSID_CAN_BITRATE_UNSET) {
+        b.source = "assumed (no bit rate set)";
+        b.why = fmt("%s has no bit rate set", i);
+    } else {
+        b.source = "assumed (interface not read)";
+        b.why = fmt("the bit rate of %s could not be read: %s", i,
+                    k.status == MSID_CAN_BITRATE_MISSING ? "no such interface" : k.err);
+    }
+    return b;
 }
 
 CoEntry parse_co_entry(const std::string &text)

@@ -1,6 +1,7 @@
 // A CiA 402 drive described by msid-device/1 (transport "canopen", canopen://IFACE?node=N --map FILE): msid
 // as the node's CANopen master. Before any frame goes out: the bus budget of the SYNC cycle at the rate (the
-// URI's bitrate= or 1 Mbit/s assumed) and, with the description's eds, every entry the run uses checked
+// URI's bitrate=, else the interface's as the kernel reports it, else 1 Mbit/s assumed: canopen_bitrate) and,
+// with the description's eds, every entry the run uses checked
 // against the node's EDS/DCF. Then, by SDO: every mapped object read once (the node has it, of
 // the size its type says), the safe target written (a read-only target is refused by the node), the rated
 // torque 0x6076 read when the description does not give it, NMT pre-operational, RPDO1 and TPDO1(/2) mapped
@@ -40,6 +41,7 @@ public:
         if (dev.kind != DeviceUri::CANOPEN)
             throw UsageError(fmt("%s describes a CANopen drive, but the device URI is %s: use canopen://IFACE?node=N",
                                  d.source, dev.text.c_str()));
+        bitrate_ = canopen_bitrate(dev.text, dev.iface, dev.co_bitrate);   // refuses an interface that is not CAN
         open_socket();
         msid_co_io io;
         msid_co_can_io(&hook_.can, &sock_.tr, 100, &io);
@@ -202,8 +204,10 @@ public:
                                      {"max", m_.cnt.latency_max_s}, {"count", m_.cnt.latency_n}};
         acq["kernel_drops"] = ls.kernel_drops;
         acq["restore_pdo"] = d_.restore_pdo != 0;
-        acq["bus_bitrate"] = bitrate_;
-        acq["bus_bitrate_assumed"] = dev_.co_bitrate == 0;
+        acq["bus_bitrate"] = bitrate_.bitrate;
+        acq["bus_bitrate_assumed"] = bitrate_.assumed();
+        acq["bus_bitrate_source"] = bitrate_.source;
+        if (bitrate_.data_bitrate) acq["bus_data_bitrate"] = bitrate_.data_bitrate;
         acq["bus_max_rate_hz"] = max_rate_;
         if (d_.co_eds[0]) acq["eds"] = d_.co_eds;
     }
@@ -252,12 +256,9 @@ private:
     {
         msid_co_map pre;
         if (msid_co_map_init(&pre, &d_, dev_.node, d_.heartbeat_ms, &sock_.tr) < 0) throw UsageError(pre.err);
-        bitrate_ = dev_.co_bitrate ? dev_.co_bitrate : MSID_CO_MAP_BITRATE_DEFAULT;
         char err[2 * MSID_DEV_PATH_CAP];
-        if (msid_co_map_check_bus(&pre, bitrate_, rate_hz, &max_rate_, err, sizeof err))
-            throw UsageError(fmt("%s: --rate %g: %s%s", dev_.text.c_str(), rate_hz, err,
-                                 dev_.co_bitrate ? "" : fmt(" (a bus of %u kbit/s assumed: the URI gives no bitrate=BPS)",
-                                                            bitrate_ / 1000).c_str()));
+        if (msid_co_map_check_bus(&pre, bitrate_.bitrate, rate_hz, &max_rate_, err, sizeof err))
+            throw UsageError(fmt("%s: --rate %g: %s%s", dev_.text.c_str(), rate_hz, err, bus_said().c_str()));
         if (!d_.co_eds[0]) return;
         std::unique_ptr<EdsFile> f;
         try {
@@ -266,6 +267,17 @@ private:
             throw UsageError(fmt("%s (key eds): %s", d_.source, e.what()));
         }
         if (msid_co_map_check_eds(&pre, &f->eds, err, sizeof err)) throw UsageError(err);
+    }
+
+    // where the budget's bit rate came from, for the message that refuses a rate (the URI's: nothing to add)
+    std::string bus_said() const
+    {
+        if (bitrate_.source == "interface")
+            return fmt(" (the %u kbit/s %s is set to)", bitrate_.bitrate / 1000, dev_.iface.c_str());
+        if (bitrate_.assumed())
+            return fmt(" (a bus of %u kbit/s assumed: %s, and the URI gives no bitrate=BPS)", bitrate_.bitrate / 1000,
+                       bitrate_.why.c_str());
+        return "";
     }
 
     // the torque channels' scale from the node's rated torque 0x6076 (mN m) when the description gives none
@@ -350,7 +362,8 @@ private:
     msid_co_sdo sdo_{};
     msid_co_map m_{};
     msid_co_pdo_cfg saved_[1 + MSID_DEV_CO_TPDOS]{};
-    uint32_t n_saved_ = 0, period_us_ = 0, bitrate_ = 0;
+    uint32_t n_saved_ = 0, period_us_ = 0;
+    CanopenBitrate bitrate_;
     double max_rate_ = 0;   // the highest SYNC rate the bus carries for the mapping (Hz)
 };
 

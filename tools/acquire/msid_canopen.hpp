@@ -1,6 +1,7 @@
 // CANopen nodes on SocketCAN, as msid's master reaches them (docs/devices.md, CANopen):
 //   canopen://IFACE?node=N[&timeout=MS][&bitrate=BPS]   node 1..127 on interface IFACE, SDO responses awaited
-//   MS ms; BPS the bus's bit rate (10000..1000000), for the bus budget of a measurement's SYNC rate
+//   MS ms; BPS the bus's bit rate (10000..1000000), for the bus budget of a measurement's SYNC rate (default:
+//   the interface's, read from the kernel: canopen_bitrate)
 // The link opens a raw CAN socket that receives only the node's SDO responses, heartbeat and EMCY, and
 // holds daq/'s SDO client of that node. check_canopen reads what `msid device check` reports and writes
 // nothing.
@@ -21,8 +22,25 @@ struct CanopenUri {
     std::string iface;
     unsigned node = 0;           // 1..127
     int timeout_ms = MSID_CO_SDO_TIMEOUT_MS;
-    uint32_t bitrate = 0;        // bit/s; 0: not given (msid measure assumes MSID_CO_MAP_BITRATE_DEFAULT)
+    uint32_t bitrate = 0;        // bit/s; 0: not given (msid measure takes the interface's: canopen_bitrate)
 };
+
+// The bus's bit rate for the budget of a run's SYNC cycle (docs/devices.md, CANopen drives): the URI's
+// bitrate= when it gives one, else the rate the kernel reports for the interface (ip -details link show
+// IFACE), else MSID_CO_MAP_BITRATE_DEFAULT assumed: a virtual bus (vcan) has no rate, a controller may have
+// none set, and the kernel may not answer.
+struct CanopenBitrate {
+    uint32_t bitrate = 0;        // bit/s for the budget
+    uint32_t data_bitrate = 0;   // bit/s of the CAN FD data phase the interface reports (0: none)
+    // "uri", "interface", "assumed (virtual interface)", "assumed (no bit rate set)", "assumed (interface not
+    // read)": the FRF file's acquisition.bus_bitrate_source
+    std::string source;
+    std::string why;             // why assumed, for a message ("vcan0 is a virtual interface (vcan)"); "" otherwise
+    bool assumed() const { return source.compare(0, 7, "assumed") == 0; }
+};
+// A UsageError naming the URI when iface is not a CAN interface (lo, a veth) or when the URI's bitrate= is
+// not the rate the kernel reports for it; an interface that is not there is left to the socket's open.
+CanopenBitrate canopen_bitrate(const std::string &uri_text, const std::string &iface, uint32_t uri_bitrate);
 
 // True for a canopen:// URI (whether valid or not).
 bool is_canopen_uri(const std::string &uri);

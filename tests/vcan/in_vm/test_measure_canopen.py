@@ -15,7 +15,9 @@ and one SYNC per tick, the samples from the synchronous TPDOs of that SYNC) agai
   before anything is written), an entry the EDS lacks, a mapping longer than 8 bytes, a rate the bus cannot
   carry for the mapped PDOs (bitrate= in the URI), a node id out of range, a node that never answers: one
   message, a non-zero exit, the node not enabled; where the check comes before the first write (the EDS, the
-  bus budget) the node took no SDO download and no SYNC, and holds what it held.
+  bus budget) the node took no SDO download and no SYNC, and holds what it held;
+- the bus's bit rate as the kernel reports vcan0 (virtual: 1 Mbit/s assumed, the acquisition block says
+  why), and lo refused as not a CAN interface.
 No check depends on the VM being fast: a TPDO a loaded VM delivers late is a lost sample, counted, and a run
 left with too few usable periods is made again (maplib.measure). Two periods are skipped: the plant's slow pole
 (viscous friction over the total inertia, 0.67 1/s) keeps most of the fade-in's transient for a period."""
@@ -70,6 +72,7 @@ def test_coverage_with_late_syncs_dropped_tpdos_and_a_clock_offset(tmp_path):
         assert rep["late_syncs"] >= 1 and rep["tpdo_dropped"] >= 1, rep
         assert a["lost_ticks"] >= 1 and a["late_tpdos"] >= 1 and a["samples_lost"] >= 1, a
         assert a["eds"].endswith("/drive402.eds") and a["bus_bitrate_assumed"] and a["bus_max_rate_hz"] > RATE, a
+        assert a["bus_bitrate_source"] == "assumed (virtual interface)", a
         pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
     maplib.covered(np.concatenate(pv))
 
@@ -180,6 +183,29 @@ def test_bad_input_is_one_message(tmp_path, case, needle):
     if case == "read_only":
         # without the EDS the node itself refuses the write: the count above does see downloads
         assert rep["sdo_downloads"] >= 1, rep
+
+
+def test_the_bit_rate_of_a_virtual_interface_is_assumed_and_lo_is_not_can(tmp_path):
+    """The kernel reports vcan0 as virtual (kind vcan, no bit timing): a short run's acquisition block says
+    1 Mbit/s was assumed and why; a rate no 1 Mbit/s bus carries is refused naming the reason; lo, which the
+    kernel reports with no link kind, is refused as not CAN before any socket is opened."""
+    desc = preset(tmp_path)
+    with Drive(tmp_path) as sim:
+        r = measure(tmp_path, sim, desc, period=16, lines="1:1:3", periods=3, skip=0)
+        a = r.doc["acquisition"]
+        assert a["bus_bitrate"] == 1000000 and a["bus_bitrate_assumed"], a
+        assert a["bus_bitrate_source"] == "assumed (virtual interface)" and "bus_data_bitrate" not in a, a
+        maplib.validate_frf(r.doc)
+        # 360 bits a cycle at 5 kHz: 1.8 Mbit/s, above 70% of the 1 Mbit/s assumed
+        fast = cmd(sim, desc, tmp_path / "fast")
+        fast[fast.index("--rate") + 1] = 5000
+        r = subprocess.run([str(x) for x in fast], capture_output=True, text=True, timeout=120)
+        one_message(r, "(a bus of 1000 kbit/s assumed: vcan0 is a virtual interface (vcan), and the URI gives no")
+        sim.uri = "canopen://lo?node=5"
+        r = subprocess.run([str(x) for x in cmd(sim, desc, tmp_path / "lo")], capture_output=True, text=True,
+                           timeout=120)
+        one_message(r, "canopen://lo?node=5: lo is not a CAN interface (it has no link kind)")
+    assert sim.report()["syncs"] > 0   # the control: the first run did reach the node
 
 
 def too_long(tmp):
