@@ -59,6 +59,7 @@ def test_measure_in_process_same_bits_as_cli(tmp_path, monkeypatch):
                 "--skip-periods", 1, "--no-plots", "--quiet", "-o", out)
         assert r.returncode == 0, r.stderr
     same_bits(f, msid.read_frf(out / "frf.json"))
+    assert f.reference_frf is None and not (out / "reference.json").exists()   # no reference path
     assert f.meta["complete"] is True and f.meta["experiments_completed"] == 2
     acq = f.meta["acquisition"]
     assert acq["transport"] == "modbus-tcp" and acq["samples_lost"] == 0 and acq["device"] == uri(sim)
@@ -242,6 +243,7 @@ def test_measure_a_described_device_in_process(tmp_path):
     acq = f.meta["acquisition"]
     assert acq["protocol"] == "msid-device/1" and acq["timing"]["samples_placed_by"] == "device counter"
     assert f.meta["input_names"] == ["Torque"] and f.meta["output_names"] == ["Speed"]
+    assert f.reference_frf is None   # an open-loop description: the FRF is the device's own, no reference path
     assert seen and all("periods" in s for s in seen)
     # the 95% region of each line: |G - G0|^2 / v ~ F(2, 2 dof); 16 lines of one run: at least 12 inside
     # (P(Bin(16, 0.95) < 12) < 1e-3)
@@ -249,6 +251,62 @@ def test_measure_a_described_device_in_process(tmp_path):
     inside = sum(canlib.f_sf(abs(f.G[k][0, 0] - G0[int(b)]) ** 2 / f.cov[k][0, 0].real, 2, 2 * int(f.dof[k])) > 0.05
                  for k, b in enumerate(f.bins))
     assert inside >= 12, f"{inside}/16 lines inside their 95% region"
+
+
+def reference_json(bins, period):
+    """A document as `msid measure --map` writes reference.json for the closed-loop preset (csv-loop), written
+    out here for a discrete loop: plant Gp = 0.4 z^-1 / (1 - 0.7 z^-1) under a PI controller C = 0.8 + 0.3 z / (z - 1),
+    the FRF from the velocity reference to [torque demand, velocity]: C S and T = Gp C S (S = 1 / (1 + Gp C)),
+    each line's covariance of vec(G_zr) and noise covariance (2 x 2), dof, snr, input_snr."""
+    rng = np.random.default_rng(11)
+    lines = []
+    for b in bins:
+        z = np.exp(2j * np.pi * b / period)
+        gp, c = 0.4 / z / (1 - 0.7 / z), 0.8 + 0.3 * z / (z - 1)
+        cs = c / (1 + gp * c)
+        g = np.array([[cs], [gp * cs]])
+        a = rng.normal(size=(2, 2)) + 1j * rng.normal(size=(2, 2))
+        cov = 1e-4 * (a @ a.conj().T)
+        cm = lambda m: {"re": np.real(m).tolist(), "im": np.imag(m).tolist()}  # noqa: E731
+        lines.append({"bin": b, "freq": b / period, "freq_hz": 25.0 * b / period, "G": cm(g), "cov": cm(cov),
+                      "dof": 9.0, "noise_cov": cm(10 * cov), "snr": [41.5, 38.25], "cond": 1.0, "input_snr": None})
+    return {"format": "msid-frf/1", "generator": "msid", "period_samples": period, "n_inputs": 1, "n_outputs": 2,
+            "n_experiments": 1, "domain": "dt", "sample_time": 0.04, "fs_hz": 25.0,
+            "input_names": ["Velocity reference"], "input_units": ["rad/s"],
+            "output_names": ["Torque demand", "Velocity actual"], "output_units": ["N m", "rad/s"],
+            "periods_used": 8, "periods_rejected": 0, "noise_cov": lines[0]["noise_cov"],
+            "experiments": [{"source": "canopen://vcan0?node=5", "samples": 8 * period, "periods_total": 10,
+                             "periods_skipped": 2, "periods_used": 8}],
+            "notes": ["closed loop (preset csv-loop): ..."], "acquisition": {"protocol": "msid-device/1"},
+            "lines": lines}
+
+
+def test_the_reference_path_of_a_closed_loop_run(tmp_path):
+    """msid.measure's .reference_frf: the closed-loop preset is CANopen only (SocketCAN, the vcan VM:
+    tests/vcan/in_vm/test_measure_canopen_csv.py runs it), so here the conversion alone, on the document the
+    extension hands over for such a run (reference.json's content): an msid.FRF with the document's bits, the
+    same as msid.read_frf of that document written as the command line writes reference.json, with the reference
+    and the signals' names; the run's notes; None for a run without a reference path."""
+    bins = [1, 3, 5, 7]
+    doc = reference_json(bins, 32)
+    ref = msid.compute._reference_frf({"reference": json.loads(json.dumps(doc)), "notes": ["a note"]})
+    assert isinstance(ref, msid.FRF)
+    assert ref.G.shape == (4, 2, 1) and ref.cov.shape == (4, 2, 2) and list(ref.bins) == bins
+    for k, line in enumerate(doc["lines"]):
+        g = np.array(line["G"]["re"]) + 1j * np.array(line["G"]["im"])
+        assert np.array_equal(ref.G[k], g) and ref.dof[k] == 9.0
+    assert ref.signal_names() == (["Velocity reference"], ["Torque demand", "Velocity actual"])
+    assert ref.gain_unit(0, 0) == "N m/rad/s"
+    assert ref.notes == ["a note"]
+    (tmp_path / "reference.json").write_text(json.dumps(doc, indent=1))
+    read = msid.read_frf(tmp_path / "reference.json")
+    same_bits(ref, read)
+    assert ref.meta == read.meta and ref.line_extra == read.line_extra
+    assert np.array_equal(ref.freq_hz, read.freq_hz) and np.array_equal(ref.real, read.real)
+    # the rows are C S and T = Gp C S: the velocity's over the torque demand's is the plant Gp
+    z = np.exp(2j * np.pi * np.array(bins) / 32)
+    assert np.allclose(ref.G[:, 1, 0] / ref.G[:, 0, 0], 0.4 / z / (1 - 0.7 / z), rtol=1e-14, atol=0)
+    assert msid.compute._reference_frf({"notes": []}) is None
 
 
 @pytest.mark.parametrize("kw, err, msg", [

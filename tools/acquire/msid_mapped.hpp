@@ -43,7 +43,10 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
 
 // The closed-loop preset: from the periodic FRF of one reference r to the signals z (msid-frf/1), the plant
 // from z_u to the others through the reference, G = G_yr G_ur^-1 with its linearised covariance (an msid-frf/1
-// document of one input; its `reference` block says how it was made). Throws Error for a line where G_ur = 0.
+// document of one input; its `reference` block says how it was made). ref: one input (the reference), n >= 2
+// outputs z, each line's G (n x 1) and cov (n x n, Cov vec(G_zr)), optionally cov_known_input and noise_cov
+// (n x n); u: the index of the plant's input among z. Throws Error naming the bin for a line where G_ur = 0 or
+// so small that the plant or its covariance would not be finite.
 Json plant_through_reference(const Json &ref, uint32_t u);
 
 // `msid device check`: read every channel once, write nothing but the safe values, and report what the

@@ -81,16 +81,25 @@ Json plant_through_reference(const Json &ref, uint32_t u)
         }
         const MatC J = K / gu;
         Json o = e;
-        o["G"] = msidfrf::cmat(G);
         const MatC C = jmat(e.at("cov"));
-        o["cov"] = msidfrf::cmat(MatC(J * C * J.adjoint()));
-        if (e.contains("cov_known_input")) o["cov_known_input"] = msidfrf::cmat(MatC(J * jmat(e["cov_known_input"]) * J.adjoint()));
-        if (e.contains("noise_cov")) o["noise_cov"] = msidfrf::cmat(MatC(K * jmat(e["noise_cov"]) * K.adjoint()));
+        // a G_ur this close to 0 overflows the plant or its covariance: refused here, where the line is known,
+        // instead of a file whose numbers are null
+        const auto finite = [&](const MatC &M) {
+            if (!M.allFinite())
+                throw Error(msidutil::fmt("bin %u: the reference barely moves the plant's input (|G_ur| = %.3g): "
+                                          "G = G_yr / G_ur or its covariance is not a finite number",
+                                          e.at("bin").get<unsigned>(), std::abs(gu)));
+            return msidfrf::cmat(M);
+        };
+        o["G"] = finite(G);
+        o["cov"] = finite(MatC(J * C * J.adjoint()));
+        if (e.contains("cov_known_input")) o["cov_known_input"] = finite(MatC(J * jmat(e["cov_known_input"]) * J.adjoint()));
+        if (e.contains("noise_cov")) o["noise_cov"] = finite(MatC(K * jmat(e["noise_cov"]) * K.adjoint()));
         if (e.contains("snr") && e["snr"].is_array()) o["snr"] = pick(e["snr"], y);
         o["cond"] = 1.0;
         // the plant's input: its period mean against that mean's noise, |G_ur|^2 / var(G_ur) (the reference cancels)
         const double vu = C(u, u).real();
-        o["input_snr"] = vu > 0 ? Json(10.0 * std::log10(std::norm(gu) / vu)) : Json(nullptr);
+        o["input_snr"] = vu > 0 ? msidfrf::finite_or_null(10.0 * std::log10(std::norm(gu) / vu)) : Json(nullptr);
         lines.push_back(std::move(o));
     }
     doc["lines"] = std::move(lines);

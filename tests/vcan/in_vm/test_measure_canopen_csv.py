@@ -10,15 +10,19 @@ FRF from r to every signal (reference.json) and the plant through the reference 
   demand and z T from the reference to the velocity (C the drive's PI at the SYNC period, T = Gp C S);
 - a negative control: the same regions against the same values without the SYNC between the reference and
   the velocity of a TPDO set (plant / z, T instead of z T) cover fewer lines than the lower binomial bound;
-- the node's own state after the end (read by the canopen package): out of "operation enabled", SYNC stopped.
+- the node's own state after the end (read by the canopen package): out of "operation enabled", SYNC stopped;
+- msid.measure in process on the same node: .reference_frf holds the reference path (one run).
 The rated torque 0x6076 is set to 10 mN m by SDO before the runs (the torque's per mille counts then resolve
 10 uN m, far below the loop's noise; at 1 N m a count is as large as the demand's share of a line, and the
 demand's rounding would be a periodic distortion of the loop). No check depends on the VM being fast: a late
 answer is a lost sample, counted, and a run left with too few usable periods is made again (comap.measure)."""
 import json
+import os
 import subprocess
+import sys
 
 import numpy as np
+import pytest
 
 import canlib
 from comap import NODE, Drive, maplib, measure, plant_ab, state_name, syncs_within
@@ -118,6 +122,50 @@ def test_closed_loop_plant_and_sensitivity_through_the_reference(tmp_path):
     for k in ("plant/z", "T"):
         lo, _ = canlib.binom_interval(len(found[k]), 0.95, 1e-3)
         assert int(np.sum(found[k] > 0.05)) < lo, f"{k} is covered as well: the test cannot fail"
+
+
+def test_msid_measure_in_process_returns_the_reference_path(tmp_path):
+    """msid.measure(..., map=) with the preset in process (docs/python.md): the FRF returned is the plant through
+    the reference and .reference_frf the FRF from the reference to every signal (reference.json's content) as an
+    msid.FRF: the signals' names, the plant G_yr / G_ur of the reference path at every line, and one run's C S and
+    z T rows inside their 95% regions at 12 or more of the 16 (P(Bin(16, 0.95) < 12) < 1e-3); the negative
+    control, T without the SYNC, at 4 or fewer of 8 (P(Bin(8, 0.95) <= 4) < 1e-3). Skipped only when the build
+    has no Python module (MSID_PYTHON_DIR unset)."""
+    if not os.environ.get("MSID_PYTHON_DIR"):
+        pytest.skip("this build has no Python module (MSID_PYTHON_DIR)")
+    sys.path.insert(0, os.environ["MSID_PYTHON_DIR"])
+    import msid
+    desc = tmp_path / "csv.toml"
+    desc.write_text(DESC)
+    _, cs, zt = loop_truth()
+    with Drive(tmp_path, "--seed", 2, *NOISE) as sim:
+        assert sim.write(0x6076, RATED_MNM) == RATED_MNM
+        # a run a loaded VM left with too few usable periods, or whose probe met a stalled node, is made again
+        for attempt in range(3):
+            try:
+                f = msid.measure(sim.uri, msid.design(period=P, lines=LINES, seed=2), map=str(desc), rate=RATE,
+                                 periods=10, skip_periods=2, timeout=600)
+                break
+            except (ValueError, OSError) as e:
+                if not any(w in str(e) for w in ("usable period(s)", "one tick's exchange failed")) or attempt == 2:
+                    raise
+        assert syncs_within(0.5) == 0
+    ref = f.reference_frf
+    assert isinstance(ref, msid.FRF), ref
+    assert ref.signal_names() == (["Velocity reference"],
+                                  ["Torque demand", "Torque actual", "Velocity actual", "Position actual"])
+    assert f.signal_names() == (["Torque demand"], ["Torque actual", "Velocity actual", "Position actual"])
+    assert f.meta["reference"]["input"] == "Torque demand"
+    assert list(ref.bins) == BINS and list(f.bins) == BINS
+    assert ref.meta["acquisition"]["protocol"] == "msid-device/1" and ref.notes == f.notes
+    assert np.allclose(f.G[:, :, 0], ref.G[:, 1:, 0] / ref.G[:, :1, 0], rtol=1e-12, atol=0)
+    doc = msid.files.frf_to_doc(ref)
+    p = np.concatenate([pvalues(doc, "Torque demand", cs), pvalues(doc, "Velocity actual", zt)])
+    z = np.exp(2j * np.pi * np.array(BINS) / P)
+    p_t = pvalues(doc, "Velocity actual", zt / z)
+    print(f"C S and z T: {int(np.sum(p > 0.05))}/16 inside; T: {int(np.sum(p_t > 0.05))}/8")
+    assert int(np.sum(p > 0.05)) >= 12
+    assert int(np.sum(p_t > 0.05)) <= 4, "T is covered as well: the test cannot fail"
 
 
 def test_the_preset_csv_loop_refuses_a_description_of_two_drives(tmp_path):

@@ -201,7 +201,9 @@ static py::dict measure(const std::string &device, py::object design, const py::
 }
 
 // measure_mapped(device, design, opts, periods, rate, timeout, progress, map, realtime): a described device
-// (msid-device/1) with host-timed excitation (msidacq::measure_mapped, what `msid measure --map` runs).
+// (msid-device/1) with host-timed excitation (msidacq::measure_mapped, what `msid measure --map` runs); as
+// measure's dict, and "reference" (the msid-frf/1 document of the reference path, a dict) for the closed-loop
+// preset: msid.measure converts it as read_frf converts reference.json.
 static py::dict measure_mapped(const std::string &device, py::object design, const py::dict &opts, uint32_t periods,
                                double rate, double timeout, py::object progress, const std::string &map_path,
                                bool realtime)
@@ -235,6 +237,8 @@ static py::dict measure_mapped(const std::string &device, py::object design, con
     out["complete"] = R.complete;
     out["summary"] = R.summary;
     out["interrupted"] = ctl.interrupted();
+    // the closed-loop preset: the FRF from the reference to every signal (reference.json of the command line)
+    if (!R.reference.is_null()) out["reference"] = json_to_py(R.reference);
     return out;
 }
 

@@ -22,7 +22,7 @@ from ._args import (Bins, _below_nyquist, _column_spec, _float, _real_samples, _
                     _uint_list)
 from ._compiled import ext as _ext
 from .files import write_frf, write_model
-from .types import FRF, Model, _frf_json
+from .types import FRF, Model, _frf_json, frf_from_doc
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -400,6 +400,10 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
       writes the safe values on every way out, as `msid measure --map` does. The design has one input per
       drive channel. scale, fs and on_device do not apply; realtime=False leaves the scheduling alone
       (no SCHED_FIFO, no locked memory). The `acquisition` block has the tick loop's `timing`.
+      With the closed-loop preset (preset = "csv-loop", a CiA 402 drive's velocity loop) the FRF returned
+      is the plant through the reference (frf.json of the command line) and .reference_frf is the FRF from
+      the reference to every measured signal (its reference.json: the torque demand's row C S, the
+      velocity's z T); .reference_frf is None for every other run.
 
     Returns an msid.FRF with the `acquisition` block in .meta (counts of samples, losses, retries).
     Ctrl-C ends the run after the complete periods and raises msid.MeasurementInterrupted (a
@@ -429,6 +433,7 @@ def measure(device: str, design: Union["Design", PathLike], *, periods: Optional
     res = _ext().measure(str(device), D._impl, opts, K, int(r), _float(scale, "scale"), _float(timeout, "timeout"),
                          progress, bool(on_device), bool(stream_check))
     f = _result(res, "msid.measure")
+    f.reference_frf = None   # only the closed-loop preset of a described device measures through a reference
     if "host" in res:
         f.host_frf = FRF._of_arrays(res["host"])
     if res["interrupted"]:
@@ -457,8 +462,21 @@ def _measure_mapped(device, D, map, periods, skip_periods, rate, fs, scale, time
     res = _ext().measure_mapped(str(device), D._impl, opts, K, r, _float(timeout, "timeout"), progress,
                                 os.fspath(map), bool(realtime))
     f = _result(res, "msid.measure")
+    f.reference_frf = _reference_frf(res)
     if res["interrupted"]:
         raise MeasurementInterrupted(f"msid.measure: interrupted: {res['summary']}", f)
+    return f
+
+
+def _reference_frf(res) -> Optional[FRF]:
+    """The reference path of a run (the closed-loop preset csv-loop): the FRF from the reference to every
+    measured signal, what `msid measure --map` writes as reference.json, converted as read_frf converts
+    that file (its notes are the run's, already warned of); None for a run without a reference path."""
+    doc = res.get("reference")
+    if doc is None:
+        return None
+    f = frf_from_doc(doc, "msid.measure's reference path")
+    f.notes = list(res["notes"])
     return f
 
 
