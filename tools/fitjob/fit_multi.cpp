@@ -240,7 +240,11 @@ Json multi_block(const MultiResult &r, const Plan &p, const std::vector<Record> 
     mj["iterations"] = r.iterations;
     mj["gradient_norm"] = r.grad_norm;
     Json st = Json::array();
-    for (const auto &s : r.starts) st.push_back(Json{{"start", s.name}, {"cost", s.cost}});
+    for (const auto &s : r.starts) {
+        Json js{{"start", s.name}, {"cost", num_or_null(s.cost)}};
+        if (!s.failed.empty()) js["failed"] = s.failed;
+        st.push_back(js);
+    }
     mj["starts"] = st;
     Json nz;
     nz["model"] = r.noise_ar.size() ? "stationary AR: c(q^-1) v = e, the same for every output" : "white";
@@ -270,6 +274,8 @@ void summarise(FitOutcome &out, const MultiResult &r, const Plan &p, const Multi
         if (sel.hankel_gap_order > 0)
             out.before += fmt("stacked Hankel singular values: largest gap after %d\n", sel.hankel_gap_order);
     }
+    for (const auto &s : r.starts)
+        if (!s.failed.empty()) out.before += "start " + s.name + " failed (not used): " + s.failed + "\n";
     if (r.noise_ar.size()) out.before += fmt("noise: AR(%d) ", (int)r.noise_ar.size()) + noise_source + "\n";
     out.tail = fmt(": multi fit of %zu record(s), %d pole(s), noise sd %.4g, %s after %d iterations (start %s)\n",
                    n_records, r.n, std::sqrt(r.s2), r.converged ? "converged" : "NOT converged", r.iterations,
