@@ -324,3 +324,21 @@ def test_start_with_nonfinite_cost(tmp_path):
     assert m["best_start"] in ("sm", "prony-reflected")
     assert m["cost"] <= min(st[k]["cost"] for k in ("sm", "prony-reflected"))
 
+
+
+def test_fir_poles_at_origin(tmp_path):
+    """An exact FIR plant (8 taps from one sample's delay, no noise): the fitted poles sit at z = 0,
+    where ln z has no value; the modes carry null there and the file is written."""
+    rng = np.random.default_rng(2)
+    T = 3000
+    b1, b2 = rng.standard_normal(8), rng.standard_normal(8)
+    u1, u2 = rng.standard_normal(T), rng.standard_normal(T)
+    y = np.convolve(u1, np.r_[0.0, b1])[:T] + np.convolve(u2, np.r_[0.0, b2])[:T]
+    f = tmp_path / "fir.csv"
+    write_csv(f, [u1, u2, y], ["u1", "u2", "y1"])
+    out = tmp_path / "fir.json"
+    run_ok("fit", "--method", "multi", "--order", "8", "--experiment", f, "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    b = np.array(doc["parameters"]["values"])[8:]
+    assert np.allclose(b, np.r_[b1, b2], atol=1e-6)

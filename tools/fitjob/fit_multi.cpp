@@ -22,13 +22,14 @@ Json modes_block(const MultiResult &r, double h)
         Json j;
         j["pole_z"] = Json{{"re", m.z.real()}, {"im", m.z.imag()}};
         j["sd_pole_z"] = Json{{"re", num_or_null(m.sd_z_re)}, {"im", num_or_null(m.sd_z_im)}};
-        j["pole_ct"] = Json{{"re", m.s.real()}, {"im", m.s.imag()}};
+        // a pole at z = 0 (a pure delay: an FIR plant) has no continuous-time pole, ln 0 = -inf: null
+        j["pole_ct"] = Json{{"re", num_or_null(m.s.real())}, {"im", num_or_null(m.s.imag())}};
         j["real"] = m.real;
-        j[h > 0 ? "fn_hz" : "fn_cycles_per_sample"] = m.fn;
+        j[h > 0 ? "fn_hz" : "fn_cycles_per_sample"] = num_or_null(m.fn);
         j[h > 0 ? "sd_fn_hz" : "sd_fn_cycles_per_sample"] = num_or_null(m.sd_fn);
-        j[h > 0 ? "wn_rad_s" : "wn_rad_per_sample"] = m.wn;
+        j[h > 0 ? "wn_rad_s" : "wn_rad_per_sample"] = num_or_null(m.wn);
         j[h > 0 ? "sd_wn_rad_s" : "sd_wn_rad_per_sample"] = num_or_null(m.sd_wn);
-        j["zeta"] = m.zeta;
+        j["zeta"] = num_or_null(m.zeta);
         j["sd_zeta"] = num_or_null(m.sd_zeta);
         a.push_back(j);
     }
