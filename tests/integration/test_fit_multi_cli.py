@@ -284,3 +284,61 @@ def test_noisy_inputs_cli(tmp_path):
     assert abs(np.sqrt(doc["multi"]["noise_variance"]) - sd) < 0.2 * sd
     ring = m1_files(tmp_path, n=2)
     refused(tmp_path, ["--order", "6", "--input-noise-ratio", "1", *exp_args(ring)], ["input columns"], code=2)
+
+
+def fir_record(path, seed, T=3000, noise=0.01):
+    """Two white inputs through 8-tap FIRs (direct term included, which the default model without
+    feedthrough lacks), one output: a plant whose equation-error starts can have poles outside the unit circle."""
+    rng = np.random.default_rng(seed)
+    b1, b2 = rng.standard_normal(8), rng.standard_normal(8)
+    u1, u2 = rng.standard_normal(T), rng.standard_normal(T)
+    y = np.convolve(u1, b1)[:T] + np.convolve(u2, b2)[:T] + noise * rng.standard_normal(T)
+    write_csv(path, [u1, u2, y], ["u1", "u2", "y1"])
+    return path
+
+
+def test_start_with_nonfinite_cost(tmp_path):
+    """A start whose model response overflows over the record takes no part in the choice: seed 1
+    made Steiglitz-McBride unstable (its cost NaN, the file refused at /multi/starts/1/cost), seed 10
+    gives Prony a pole outside the unit circle (listed failed, with cost null and the reason, and
+    retried reflected). Every start failing: test_fit_multi's test_failed_starts (the reader refuses
+    samples large enough to overflow every cost)."""
+    out = tmp_path / "s1.json"
+    run_ok("fit", "--method", "multi", "--order", "8", "--experiment", fir_record(tmp_path / "s1.csv", 1), "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    m = doc["multi"]
+    assert [s["start"] for s in m["starts"]] == ["prony", "sm"]
+    assert all(np.isfinite(s["cost"]) and "failed" not in s for s in m["starts"])
+    assert np.isfinite(m["cost"]) and m["cost"] <= min(s["cost"] for s in m["starts"])
+
+    out = tmp_path / "s10.json"
+    r = run_ok("fit", "--method", "multi", "--order", "8", "--experiment", fir_record(tmp_path / "s10.csv", 10), "-o", out)
+    assert "start prony failed" in r.stdout
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    m = doc["multi"]
+    st = {s["start"]: s for s in m["starts"]}
+    assert st["prony"]["cost"] is None and "outside the unit circle" in st["prony"]["failed"]
+    assert np.isfinite(st["prony-reflected"]["cost"]) and np.isfinite(st["sm"]["cost"])
+    assert m["best_start"] in ("sm", "prony-reflected")
+    assert m["cost"] <= min(st[k]["cost"] for k in ("sm", "prony-reflected"))
+
+
+
+def test_fir_poles_at_origin(tmp_path):
+    """An exact FIR plant (8 taps from one sample's delay, no noise): the fitted poles sit at z = 0,
+    where ln z has no value; the modes carry null there and the file is written."""
+    rng = np.random.default_rng(2)
+    T = 3000
+    b1, b2 = rng.standard_normal(8), rng.standard_normal(8)
+    u1, u2 = rng.standard_normal(T), rng.standard_normal(T)
+    y = np.convolve(u1, np.r_[0.0, b1])[:T] + np.convolve(u2, np.r_[0.0, b2])[:T]
+    f = tmp_path / "fir.csv"
+    write_csv(f, [u1, u2, y], ["u1", "u2", "y1"])
+    out = tmp_path / "fir.json"
+    run_ok("fit", "--method", "multi", "--order", "8", "--experiment", f, "-o", out)
+    doc = load_json(out)
+    validate(doc, "msid-model-1")
+    b = np.array(doc["parameters"]["values"])[8:]
+    assert np.allclose(b, np.r_[b1, b2], atol=1e-6)

@@ -316,6 +316,19 @@ VecR multi_alpha_from_poles(const std::vector<cd> &z)
     return a;
 }
 
+VecR multi_reflect_unstable(const VecR &alpha, int *count)
+{
+    std::vector<cd> z = poly_roots(alpha);
+    int m = 0;
+    for (cd &zk : z)
+        if (std::abs(zk) > 1.0) {
+            zk = 1.0 / std::conj(zk);
+            ++m;
+        }
+    if (count) *count = m;
+    return m ? multi_alpha_from_poles(z) : alpha;
+}
+
 // Kung's realisation on the stacked data: the free responses of all records share the
 // observability matrix, so [H_1 ... H_N] (block Hankel, L block rows) has rank n; the shift
 // invariance of its dominant left singular vectors gives A and its eigenvalues the poles.
@@ -360,10 +373,13 @@ VecR multi_start_prony(const std::vector<MultiRecord> &recs, int n, int d0)
     return arx(ys, us, n, d0);
 }
 
-// Steiglitz-McBride: equation error on data prefiltered by 1 / a_prev (zero initial state).
+// Steiglitz-McBride: equation error on data prefiltered by 1 / a_prev (zero initial state). An iterate
+// with poles outside the unit circle is reflected first: prefiltered by an unstable 1 / a, a long record
+// grows like |z|^T, overflows, and the next iterate (returned before) was the unstable one.
 VecR multi_start_sm(const std::vector<MultiRecord> &recs, int n, int d0, const VecR &a0, int iters)
 {
-    VecR a = a0;
+    if (!a0.allFinite()) return a0;
+    VecR a = multi_reflect_unstable(a0, nullptr);
     for (int it = 0; it < iters; ++it) {
         std::vector<MatR> ys, us;
         for (const auto &r : recs) {
@@ -376,7 +392,7 @@ VecR multi_start_sm(const std::vector<MultiRecord> &recs, int n, int d0, const V
         }
         const VecR an = arx(ys, us, n, d0);
         if (!an.allFinite()) break;
-        a = an;
+        a = multi_reflect_unstable(an, nullptr);
     }
     return a;
 }
@@ -597,17 +613,43 @@ MultiResult fit_core(const std::vector<MultiRecord> &recs, const MultiOptions &o
     }
     if ((st == "auto" && L.nu > 0) || st == "sm") cand.emplace_back("sm", multi_start_sm(recs, L.n, L.d0, pr, 5));
     if (extra.size() == L.n) cand.emplace_back("previous", extra);
+    // A start whose values, linear parameters or cost are not finite is listed as failed and takes no
+    // part in the choice. Poles outside the unit circle are its usual cause (the free responses and the
+    // filtered inputs grow like |z|^T and overflow on a long record): the start is then tried once more
+    // with those poles reflected to 1 / conj(z), as "<name>-reflected".
     std::vector<MultiStart> starts;
     VecR a;
     double V = INFINITY;
     std::string best;
-    for (const auto &c : cand) {
-        if (!c.second.allFinite()) continue;
-        const double v = evaluate(recs, L, c.second, false, false).V;
-        starts.push_back({c.first, v});
-        if (std::isfinite(v) && v < V) { V = v; a = c.second; best = c.first; }
+    for (size_t ci = 0; ci < cand.size(); ++ci) {
+        const std::string name = cand[ci].first;
+        const VecR al = cand[ci].second;
+        MultiStart s{name, NAN, ""};
+        if (!al.allFinite()) {
+            s.failed = "its pole coefficients are not finite";
+        } else {
+            const Eval ev = evaluate(recs, L, al, false, false);
+            int unstable = 0;
+            multi_reflect_unstable(al, &unstable);
+            if (std::isfinite(ev.V) && ev.beta.allFinite()) {
+                s.cost = ev.V;
+                if (ev.V < V) { V = ev.V; a = al; best = name; }
+            } else {
+                s.failed = unstable ? "the cost is not finite: " + std::to_string(unstable) +
+                                          " pole(s) outside the unit circle, the model response overflows over the records"
+                                    : "the cost is not finite";
+                if (unstable && name.find("-reflected") == std::string::npos)
+                    cand.emplace_back(name + "-reflected", multi_reflect_unstable(al, nullptr));
+            }
+        }
+        starts.push_back(s);
     }
-    if (!std::isfinite(V)) throw FitError("no start value gives a finite cost: the records do not fit an order-" + std::to_string(L.n) + " model");
+    if (!std::isfinite(V)) {
+        std::string why;
+        for (const auto &s : starts) why += (why.empty() ? "" : "; ") + s.name + ": " + s.failed;
+        throw FitError("no start value gives a finite cost (" + why + "): the records do not fit an order-" +
+                       std::to_string(L.n) + " model");
+    }
     // Levenberg-Marquardt on V(alpha) with the variable-projection Jacobian (Marquardt scaling)
     Eval e = evaluate(recs, L, a, true, false);
     double lambda = 1e-3;

@@ -72,9 +72,12 @@ struct MultiMode {
     double sd_wn = NAN, sd_fn = NAN, sd_zeta = NAN, sd_z_re = NAN, sd_z_im = NAN;
 };
 
+// One start value of the search. A start whose values or cost are not finite (the response of an
+// unstable 1/a(q^-1) overflows over a long record) takes no part in the choice: failed says why, cost is NaN.
 struct MultiStart {
     std::string name;
     double cost = 0.0;
+    std::string failed;   // empty: a valid start
 };
 
 struct MultiResult {
@@ -111,7 +114,10 @@ MultiResult multi_evaluate(const std::vector<MultiRecord> &recs, const VecR &alp
 // Starting values of alpha (exposed for the tests and the benchmark).
 VecR multi_start_kung(const std::vector<MultiRecord> &recs, int n);        // stacked block Hankel SVD
 VecR multi_start_prony(const std::vector<MultiRecord> &recs, int n, int d0);  // equation error (ARX) LS
+// Steiglitz-McBride from a0; every iterate's poles outside the unit circle are reflected (stable prefilter)
 VecR multi_start_sm(const std::vector<MultiRecord> &recs, int n, int d0, const VecR &a0, int iters);
+// alpha with the poles outside the unit circle reflected to 1 / conj(z) (count: how many; may be nullptr)
+VecR multi_reflect_unstable(const VecR &alpha, int *count);
 
 // Poles, frequencies and damping of alpha with delta-method sd from cov_alpha
 // (dz/dalpha_m = -z^(n-m) / p'(z), p(z) = z^n + alpha_1 z^(n-1) + ... + alpha_n).

@@ -22,13 +22,14 @@ Json modes_block(const MultiResult &r, double h)
         Json j;
         j["pole_z"] = Json{{"re", m.z.real()}, {"im", m.z.imag()}};
         j["sd_pole_z"] = Json{{"re", num_or_null(m.sd_z_re)}, {"im", num_or_null(m.sd_z_im)}};
-        j["pole_ct"] = Json{{"re", m.s.real()}, {"im", m.s.imag()}};
+        // a pole at z = 0 (a pure delay: an FIR plant) has no continuous-time pole, ln 0 = -inf: null
+        j["pole_ct"] = Json{{"re", num_or_null(m.s.real())}, {"im", num_or_null(m.s.imag())}};
         j["real"] = m.real;
-        j[h > 0 ? "fn_hz" : "fn_cycles_per_sample"] = m.fn;
+        j[h > 0 ? "fn_hz" : "fn_cycles_per_sample"] = num_or_null(m.fn);
         j[h > 0 ? "sd_fn_hz" : "sd_fn_cycles_per_sample"] = num_or_null(m.sd_fn);
-        j[h > 0 ? "wn_rad_s" : "wn_rad_per_sample"] = m.wn;
+        j[h > 0 ? "wn_rad_s" : "wn_rad_per_sample"] = num_or_null(m.wn);
         j[h > 0 ? "sd_wn_rad_s" : "sd_wn_rad_per_sample"] = num_or_null(m.sd_wn);
-        j["zeta"] = m.zeta;
+        j["zeta"] = num_or_null(m.zeta);
         j["sd_zeta"] = num_or_null(m.sd_zeta);
         a.push_back(j);
     }
@@ -240,7 +241,11 @@ Json multi_block(const MultiResult &r, const Plan &p, const std::vector<Record> 
     mj["iterations"] = r.iterations;
     mj["gradient_norm"] = r.grad_norm;
     Json st = Json::array();
-    for (const auto &s : r.starts) st.push_back(Json{{"start", s.name}, {"cost", s.cost}});
+    for (const auto &s : r.starts) {
+        Json js{{"start", s.name}, {"cost", num_or_null(s.cost)}};
+        if (!s.failed.empty()) js["failed"] = s.failed;
+        st.push_back(js);
+    }
     mj["starts"] = st;
     Json nz;
     nz["model"] = r.noise_ar.size() ? "stationary AR: c(q^-1) v = e, the same for every output" : "white";
@@ -270,6 +275,8 @@ void summarise(FitOutcome &out, const MultiResult &r, const Plan &p, const Multi
         if (sel.hankel_gap_order > 0)
             out.before += fmt("stacked Hankel singular values: largest gap after %d\n", sel.hankel_gap_order);
     }
+    for (const auto &s : r.starts)
+        if (!s.failed.empty()) out.before += "start " + s.name + " failed (not used): " + s.failed + "\n";
     if (r.noise_ar.size()) out.before += fmt("noise: AR(%d) ", (int)r.noise_ar.size()) + noise_source + "\n";
     out.tail = fmt(": multi fit of %zu record(s), %d pole(s), noise sd %.4g, %s after %d iterations (start %s)\n",
                    n_records, r.n, std::sqrt(r.s2), r.converged ? "converged" : "NOT converged", r.iterations,
