@@ -167,8 +167,10 @@ static void rows_give_the_device_response(void **st)
         assert_true(b.h.cnt.measured_ticks + b.h.cnt.missed >= 4 * P);   /* plus late-landing jumps */
         assert_int_equal(b.h.cnt.samples + b.h.cnt.missed + b.h.cnt.failed, 4 * P);
         assert_int_equal(k.offered, 4);
-        /* the approach (0.25 at one period: no max_step) and both fades ran: P + 2 P + 4 P ticks */
-        assert_int_equal(b.h.cnt.ticks + b.h.tick.missed, 7 * P);
+        /* the approach (0.25 at one period: no max_step) and both fades ran: P + 2 P + 4 P ticks; a loaded machine's
+           last wait may sleep through ticks past the end too, which the tick clock counts as missed */
+        if (b.h.tick.missed == 0) assert_int_equal(b.h.cnt.ticks, 7 * P);
+        else assert_true(b.h.cnt.ticks + b.h.tick.missed >= 7 * P);
         if (b.h.tick.missed == 0) {
             assert_int_equal(k.used, 4);
             const double e = worst_error(&b.ms);
