@@ -229,6 +229,28 @@ def interrupt_after_periods(cmd, after, timeout=120):
     return p.returncode, err
 
 
+def rated(desc, hz, cycles_per_tick=1, where=None):
+    """The description `desc` (a file) for a run at `hz` ticks a second: a copy in `where` (desc's folder unless
+    told) whose cycle_hz, where it has one, is cycles_per_tick * hz. A device whose cycles keep their ratio to the
+    ticks has the same FRF per cycle at every rate."""
+    src = Path(desc)
+    text = re.sub(r"(?m)^cycle_hz = .*$", f"cycle_hz = {cycles_per_tick * hz:g}", src.read_text())
+    out = Path(where or src.parent) / f"{src.stem}-{hz:g}hz{src.suffix}"
+    out.write_text(text)
+    return str(out)
+
+
+def halving_rates(rate, floor):
+    """rate, rate / 2, ... down to no less than floor: the rates a run refused for lost samples is made again at.
+    A machine that loses samples at one rate (its scheduler or a neighbour stalled the host or the device for
+    more than a tick now and then) loses fewer at half of it, and a test of what msid does with the samples must
+    not depend on how idle the machine is."""
+    out = [rate]
+    while out[-1] / 2 >= floor:
+        out.append(out[-1] // 2 if out[-1] % 2 == 0 else out[-1] / 2)
+    return out
+
+
 def measure(tmp, sim, desc, *extra, period=64, lines="1:2:31", periods=8, skip=1, rate=200, seed=1, ok=True,
             out="out", timeout=300, attempts=None, retry_on=("usable period(s)", "do not excite line")):
     """One msid measure --map. With attempts > 1 a run that msid refuses for too few usable periods (a loaded
@@ -248,10 +270,17 @@ def measure(tmp, sim, desc, *extra, period=64, lines="1:2:31", periods=8, skip=1
             break
     if ok:
         assert r.returncode == 0, f"msid measure --map failed ({r.returncode}):\n{r.stderr}"
-        r.doc = json.loads((o / "frf.json").read_text())
-        # every sample of the measured periods is in the estimate or counted as lost, whatever lost it
-        a = r.doc["acquisition"]
-        per_experiment = int(periods) * int(period)
-        total = a["samples"] + a["samples_lost"]
-        assert total >= per_experiment and total % per_experiment == 0, (a["samples"], a["samples_lost"])
+    if r.returncode == 0:
+        r.doc = checked_doc(o, periods, period)
     return r
+
+
+def checked_doc(out, periods, period):
+    """The frf.json in `out`, once every sample of its measured periods is found in the estimate or counted as
+    lost, whatever lost it."""
+    doc = json.loads((Path(out) / "frf.json").read_text())
+    a = doc["acquisition"]
+    per_experiment = int(periods) * int(period)
+    total = a["samples"] + a["samples_lost"]
+    assert total >= per_experiment and total % per_experiment == 0, (a["samples"], a["samples_lost"])
+    return doc

@@ -149,20 +149,34 @@ def measure(tmp, peer, desc, *, period, lines, periods, rate, seed, out="out", o
     return r
 
 
-def measured(tmp, peer_args, peer_opts, desc, attempts=3, **kw):
-    """msid measure against a fresh Peer(dir, *peer_args, **peer_opts): (its result, the peer's state). A run
-    that a busy machine left with fewer than 2 usable periods (msid refuses it, naming the periods with samples
-    missing, which it counted) is run again, `attempts` times at most; any other failure fails."""
-    for k in range(attempts):
+def measured(tmp, peer_args, peer_opts, desc, *, rate, floor=None, **kw):
+    """msid measure against a fresh Peer(dir, *peer_args(desc, hz), **peer_opts), or Peer(dir, *peer_args) for a
+    tuple: (its result, the peer's state).
+    A run that a busy machine left with fewer than 2 usable periods (msid refuses it, naming the periods with
+    samples missing, which it counted) is made again against a new peer at half the rate, down to `floor` (half
+    the rate unless told): the peer keeps cycling at the tick rate, so its FRF per cycle is the same. Any other
+    failure fails."""
+    if callable(peer_args):
+        rates = maplib.halving_rates(rate, rate / 2 if floor is None else floor)
+    else:   # a peer whose cycle rate is its own: three tries at the one rate
+        rates, fixed = [rate] * 3, peer_args
+        peer_args = lambda d, hz: fixed
+    for k, hz in enumerate(rates):
         d = Path(tmp) / f"attempt{k}"
         d.mkdir()
-        with Peer(d, *peer_args, **peer_opts) as peer:
-            r = measure(d, peer, desc, ok=False, **kw)
+        dk = maplib.rated(desc, hz, where=d) if len(set(rates)) > 1 else desc
+        with Peer(d, *peer_args(dk, hz), **peer_opts) as peer:
+            r = measure(d, peer, dk, ok=False, rate=hz, **kw)
         if r.returncode == 0:
             r.doc = json.loads((d / "out" / "frf.json").read_text())
             return r, peer.state()
         assert r.returncode == 1 and re.search(r"only \d usable period\(s\).*with samples missing", r.stderr), r.stderr
-    raise AssertionError(f"{attempts} runs left fewer than 2 usable periods (samples missing):\n{r.stderr}")
+    raise AssertionError(f"runs at {rates} Hz left fewer than 2 usable periods (samples missing):\n{r.stderr}")
+
+
+def late_every(k, ticks):
+    """--late-every for map_peer.py as a function of the tick rate: every k-th answer held back `ticks` ticks."""
+    return lambda hz: ("--late-every", f"{k}:{ticks * 1e3 / hz:g}")
 
 
 # ---- what every run must show ----------------------------------------------------------------------------
@@ -221,9 +235,10 @@ def check_late_answers(acq, state, line_s):
         assert acq["timing"]["round_trip_s"]["median"] >= line_s, (acq["timing"]["round_trip_s"], line_s)
 
 
-def monte_carlo(tmp_path, runs, *, rate, rtu, period=64, lines="1:2:31", periods=10, line_s=0.0):
-    """One msid measure per run against a fresh peer; each run's counts checked; the pooled coverage. line_s:
-    the line time of one exchange (RTU), the least an honest round trip takes."""
+def monte_carlo(tmp_path, runs, *, rate, rtu, period=64, lines="1:2:31", periods=10, line_s=0.0, floor=None):
+    """One msid measure per run against a fresh peer; each run's counts checked; the pooled coverage. A run's
+    peer arguments are a tuple or a function of the tick rate (measured() may halve it). line_s: the line time of
+    one exchange (RTU), the least an honest round trip takes."""
     desc = mc_description(tmp_path / "mc.toml", rate)
     A, B, C, D = cycle_plant()
     plant = write_plant(tmp_path / "mc.plant", A, B, C, D)
@@ -231,8 +246,9 @@ def monte_carlo(tmp_path, runs, *, rate, rtu, period=64, lines="1:2:31", periods
     for k, extra in enumerate(runs):
         run_dir = tmp_path / f"run{k}"
         run_dir.mkdir()
-        r, state = measured(run_dir, (desc, plant, "--seed", 100 + k, *extra), {"rtu": rtu}, desc, period=period,
-                            lines=lines, periods=periods, rate=rate, seed=k + 1)
+        args = lambda d, hz: (d, plant, "--seed", 100 + k, *(extra(hz) if callable(extra) else extra))
+        r, state = measured(run_dir, args, {"rtu": rtu}, desc, period=period, lines=lines, periods=periods,
+                            rate=rate, floor=floor, seed=k + 1)
         doc = r.doc
         check_counts(doc, periods)
         assert doc["acquisition"]["timing"]["exchange"].startswith("FC 23"), doc["acquisition"]["timing"]["exchange"]
@@ -340,8 +356,8 @@ def test_coverage_over_seeds_modbus_tcp(tmp_path):
     during the measured periods (a device that had been running for a while), one whose every 250th answer
     comes 8 ms late (past the 4.5 ms timeout of a 200 Hz tick)."""
     runs = [(), ("--clock-ppm", 300), ("--clock-ppm", -250), ("--counter-start", 65536 - 400),
-            ("--late-every", "250:8")]
-    inside, n = monte_carlo(tmp_path, runs, rate=200, rtu=False)
+            late_every(250, 1.6)]
+    inside, n = monte_carlo(tmp_path, runs, rate=200, rtu=False, floor=50)
     assert n == 5 * 16
 
 
@@ -361,6 +377,6 @@ def test_coverage_over_seeds_modbus_rtu(tmp_path):
     assert 1 <= carried <= 0.8 / RTU_LINE_S, (carried, r.stderr)
     c = peer.state()["counters"]
     assert c["writes"] > 0 and c["writes_not_safe"] == 0, c
-    runs = [(), ("--clock-ppm", 200), ("--late-every", "250:25")]
-    inside, n = monte_carlo(tmp_path, runs, rate=50, rtu=True, line_s=RTU_LINE_S)
+    runs = [(), ("--clock-ppm", 200), late_every(250, 1.25)]
+    inside, n = monte_carlo(tmp_path, runs, rate=50, rtu=True, line_s=RTU_LINE_S, floor=25)
     assert n == 3 * 16
