@@ -37,11 +37,11 @@ OUT_OF_ENABLED = ("switch on disabled", "quick stop active")
 
 def test_coverage_of_the_two_mass_plant_in_cst(tmp_path):
     desc = preset(tmp_path)
-    truth = velocity_truth()
     pv = []
     for s in range(1, 6):
         with Drive(tmp_path, "--seed", s, *NOISE) as sim:
-            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}")
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", slower=True)
+        truth = velocity_truth(rate=r.doc["fs_hz"])   # RATE, or half of it on a starved VM
         a = r.doc["acquisition"]
         assert a["transport"] == "canopen" and a["input"] == "read back", a
         assert a["mode"].startswith("cyclic synchronous torque"), a
