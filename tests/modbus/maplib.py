@@ -251,6 +251,19 @@ def halving_rates(rate, floor):
     return out
 
 
+def until_usable(rates, attempt, refused=("usable period(s)",)):
+    """attempt(k, hz, last) at each of `rates` in turn (halving_rates), each on a device of its own, until a run is
+    not refused for lost samples: its result (returncode, stderr), the last attempt's when every rate was refused.
+    `refused` names the refusals that call for a slower run; any other failure ends the attempts. `last` tells the
+    final attempt, whose failure is the caller's to report. The one place the tests meet a machine that loses
+    samples: the runs they keep are counted and checked as any other."""
+    for k, hz in enumerate(rates):
+        r = attempt(k, hz, k == len(rates) - 1)
+        if r.returncode == 0 or not any(w in r.stderr for w in refused):
+            return r
+    return r
+
+
 def measure(tmp, sim, desc, *extra, period=64, lines="1:2:31", periods=8, skip=1, rate=200, seed=1, ok=True,
             out="out", timeout=300, attempts=None, retry_on=("usable period(s)", "do not excite line")):
     """One msid measure --map. With attempts > 1 a run that msid refuses for too few usable periods (a loaded

@@ -83,14 +83,12 @@ def run_many(tmp_path, plant, desc, seeds, *sim_args, truth=None, cycles_per_tic
     rates = maplib.halving_rates(kw.pop("rate", 200), 50)
     pv, docs = [], []
     for s in seeds:
-        for k, hz in enumerate(rates):
+        def attempt(k, hz, last, s=s):
             d = maplib.rated(desc, hz, cycles_per_tick)
-            last = k == len(rates) - 1
             with maplib.MapSim(tmp_path, d, "--plant", plant[0], "--cycle-hz", cycles_per_tick * hz, "--seed", s,
                                "--noise-y", "0.02", "--noise-u", "0.002", *sim_args) as sim:
-                r = maplib.measure(tmp_path, sim, d, seed=s, out=f"run{s}", rate=hz, attempts=1, ok=last, **kw)
-            if r.returncode == 0 or not any(w in r.stderr for w in ("usable period(s)", "do not excite line")):
-                break
+                return maplib.measure(tmp_path, sim, d, seed=s, out=f"run{s}", rate=hz, attempts=1, ok=last, **kw)
+        r = maplib.until_usable(rates, attempt, ("usable period(s)", "do not excite line"))
         assert r.returncode == 0, f"msid measure --map failed ({r.returncode}):\n{r.stderr}"
         docs.append(r.doc)
         pv.append(maplib.element_pvalues(r.doc, truth))

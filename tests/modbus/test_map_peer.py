@@ -149,29 +149,40 @@ def measure(tmp, peer, desc, *, period, lines, periods, rate, seed, out="out", o
     return r
 
 
+# msid's refusals of a run that lost samples: too few periods left whole, or a line whose read-back input an
+# exchange that read nothing or came late left apart in one period (counted in the message's tail)
+REFUSED_FOR_LOSSES = (r"only \d usable period\(s\).*with samples missing"
+                      r"|do not excite line .*of the run's \d+ measured samples [1-9]\d* were lost")
+
+
 def measured(tmp, peer_args, peer_opts, desc, *, rate, floor=None, **kw):
     """msid measure against a fresh Peer(dir, *peer_args(desc, hz), **peer_opts), or Peer(dir, *peer_args) for a
     tuple: (its result, the peer's state).
-    A run that a busy machine left with fewer than 2 usable periods (msid refuses it, naming the periods with
-    samples missing, which it counted) is made again against a new peer at half the rate, down to `floor` (half
-    the rate unless told): the peer keeps cycling at the tick rate, so its FRF per cycle is the same. Any other
-    failure fails."""
+    A run that a busy machine left with fewer than 2 usable periods, or with a line whose read-back input one
+    period's losses left apart (msid refuses both, counting the samples lost), is made again against a new peer
+    at half the rate, down to `floor` (half the rate unless told): the peer keeps cycling at the tick rate, so
+    its FRF per cycle is the same. Any other failure fails."""
     if callable(peer_args):
         rates = maplib.halving_rates(rate, rate / 2 if floor is None else floor)
     else:   # a peer whose cycle rate is its own: three tries at the one rate
         rates, fixed = [rate] * 3, peer_args
         peer_args = lambda d, hz: fixed
-    for k, hz in enumerate(rates):
+    def attempt(k, hz, last):
         d = Path(tmp) / f"attempt{k}"
         d.mkdir()
         dk = maplib.rated(desc, hz, where=d) if len(set(rates)) > 1 else desc
         with Peer(d, *peer_args(dk, hz), **peer_opts) as peer:
             r = measure(d, peer, dk, ok=False, rate=hz, **kw)
+        r.state = peer.state()
         if r.returncode == 0:
             r.doc = json.loads((d / "out" / "frf.json").read_text())
-            return r, peer.state()
-        assert r.returncode == 1 and re.search(r"only \d usable period\(s\).*with samples missing", r.stderr), r.stderr
-    raise AssertionError(f"runs at {rates} Hz left fewer than 2 usable periods (samples missing):\n{r.stderr}")
+        else:
+            assert r.returncode == 1 and re.search(REFUSED_FOR_LOSSES, r.stderr), r.stderr
+        return r
+    r = maplib.until_usable(rates, attempt, ("usable period(s)", "do not excite line"))
+    if r.returncode == 0:
+        return r, r.state
+    raise AssertionError(f"runs at {rates} Hz were all refused for the samples they lost:\n{r.stderr}")
 
 
 def late_every(k, ticks):
