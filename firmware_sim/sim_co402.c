@@ -131,6 +131,8 @@ double sim_co402_demand(sim_co402 *d, const sim_co402_io *io, int16_t *demand_pm
             const int32_t err = (int32_t)((uint32_t)io->target_pos - (uint32_t)sim_co402_pos_to_bus(io->theta));
             tau = velocity_loop(d, d->g.kpp * err * SIM_CO402_POS_UNIT, io, rated);
         }
+        if (io->mode == MSID_CO402_MODE_CST || io->mode == MSID_CO402_MODE_CSV || io->mode == MSID_CO402_MODE_CSP)
+            tau += io->torque_offset * 1e-3 * rated;   /* a feed-forward beside the loop, as CiA 402 has it */
     } else if (d->state == MSID_CO402_QUICK_STOP_ACTIVE)
         tau = velocity_loop(d, 0.0, io, rated);
     double pm = tau / rated * 1e3;

@@ -2,7 +2,8 @@
  * @file sim_co402.h
  * @brief The simulated drive's CiA 402 side: the power state machine driven by the controlword (0x6040),
  *        its statusword (0x6041), and the demand torque of the cyclic synchronous modes (CST 10, CSV 9 with
- *        a PI velocity loop, CSP 8 with a P position loop around it). Targets act only in "operation
+ *        a PI velocity loop, CSP 8 with a P position loop around it; the torque offset 0x60B2 is added to the
+ *        demand in each of them). Targets act only in "operation
  *        enabled"; in every other state the demand is 0 (quick stop active: the velocity loop brings the
  *        motor to rest).
  *
@@ -70,6 +71,8 @@ typedef struct sim_co402_io {
     int16_t target_torque;  /**< 0x6071, per mille */
     int32_t target_vel;     /**< 0x60FF, mrad/s */
     int32_t target_pos;     /**< 0x607A, urad */
+    int16_t torque_offset;  /**< 0x60B2, per mille: added to the demand in CST, CSV and CSP (CiA 402's torque
+                                 offset; in CSV it is where a torque-loop measurement injects its excitation) */
     uint32_t rated_mnm;     /**< 0x6076, mN m (0 taken as 1) */
     double omega;           /**< motor velocity, rad/s */
     double theta;           /**< motor position, rad */

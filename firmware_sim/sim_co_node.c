@@ -268,6 +268,7 @@ static void drive_step(sim_co_node *n)
     io.target_torque = (int16_t)sim_co_od_get(&n->od, 0x6071, 0);
     io.target_vel = (int32_t)sim_co_od_get(&n->od, 0x60FF, 0);
     io.target_pos = (int32_t)sim_co_od_get(&n->od, 0x607A, 0);
+    io.torque_offset = (int16_t)sim_co_od_get(&n->od, 0x60B2, 0);   /* 0 when the EDS has no 0x60B2 */
     io.rated_mnm = (uint32_t)sim_co_od_get(&n->od, 0x6076, 0);
     io.omega = n->w_meas;   /* the loop feeds back what the drive measured and 0x606C shows */
     io.theta = n->plant.x[0];

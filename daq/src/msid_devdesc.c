@@ -396,6 +396,12 @@ int msid_devdesc_check(const msid_devdesc *d, char *err, size_t cap)
         if (!(d->velocity_scale != 0 && isfinite(d->velocity_scale)) ||
             !(d->position_scale != 0 && isfinite(d->position_scale)))
             return fail(err, cap, "%s: velocity_scale and position_scale must be finite and non-zero", s);
+        if (d->co_closed_loop == 2) {
+            const double counts = d->co_hold_velocity / d->velocity_scale;
+            if (!(fabs(counts) <= 2147483647.0))
+                return fail(err, cap, "%s: hold_velocity %g %s is %g counts of 0x60FF at velocity_scale %g: "
+                            "outside INTEGER32", s, d->co_hold_velocity, d->velocity_unit, counts, d->velocity_scale);
+        }
     }
     if (d->clock == MSID_DEV_CLOCK_DEVICE && msid_devdesc_count(d, MSID_DEV_ROLE_COUNTER) == 0)
         return fail(err, cap, "%s: clock = \"device\" needs a channel with role = \"counter\" (the device's cycle "

@@ -198,13 +198,14 @@ struct Preset {
     const char *key;
     uint32_t mode;
     PresetChan drive;
-    bool closed_loop;
+    uint32_t closed_loop;   // msid_devdesc.co_closed_loop: 0 none, 1 the velocity loop, 2 the torque loop
 };
 const Preset PRESETS[] = {
-    {"cst", 10, {"Target torque", 0x6071, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, 0}, false},
-    {"csv", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}, false},
-    {"csp", 8, {"Target position", 0x607A, MSID_DEV_INT32, MSID_DEV_CO_POSITION, 0}, false},
-    {"csv-loop", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}, true},
+    {"cst", 10, {"Target torque", 0x6071, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, 0}, 0},
+    {"csv", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}, 0},
+    {"csp", 8, {"Target position", 0x607A, MSID_DEV_INT32, MSID_DEV_CO_POSITION, 0}, 0},
+    {"csv-loop", 9, {"Target velocity", 0x60FF, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, 0}, 1},
+    {"csv-torque-loop", 9, {"Torque offset", 0x60B2, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, 0}, 2},
 };
 // What every preset reads each SYNC: the demand the drive applied (the FRF's input) and the actual values,
 // packed as TPDO1 (8 bytes: 0x6074, 0x6077, 0x606C) and TPDO2 (0x6064).
@@ -223,6 +224,30 @@ const PresetChan PRESET_LOOP_MEASURE[] = {
     {"Velocity actual", 0x606C, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, MSID_DEV_ROLE_OUTPUT},
     {"Position actual", 0x6064, MSID_DEV_INT32, MSID_DEV_CO_POSITION, MSID_DEV_ROLE_OUTPUT},
 };
+// The torque-loop preset reads the torque offset the drive added on that SYNC (the reference) and the demand as
+// an output: TPDO1 (0x60B2, 0x6074, 0x6077: 6 bytes), TPDO2 (0x606C, 0x6064).
+const PresetChan PRESET_TORQUE_LOOP_MEASURE[] = {
+    {"Torque reference", 0x60B2, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_INPUT},
+    {"Torque demand", 0x6074, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_OUTPUT},
+    {"Torque actual", 0x6077, MSID_DEV_INT16, MSID_DEV_CO_TORQUE, MSID_DEV_ROLE_OUTPUT},
+    {"Velocity actual", 0x606C, MSID_DEV_INT32, MSID_DEV_CO_VELOCITY, MSID_DEV_ROLE_OUTPUT},
+    {"Position actual", 0x6064, MSID_DEV_INT32, MSID_DEV_CO_POSITION, MSID_DEV_ROLE_OUTPUT},
+};
+
+// The preset's measure channels and their count.
+const PresetChan *preset_measure(const Preset &p, uint32_t &n)
+{
+    if (p.closed_loop == 1) {
+        n = sizeof PRESET_LOOP_MEASURE / sizeof PRESET_LOOP_MEASURE[0];
+        return PRESET_LOOP_MEASURE;
+    }
+    if (p.closed_loop == 2) {
+        n = sizeof PRESET_TORQUE_LOOP_MEASURE / sizeof PRESET_TORQUE_LOOP_MEASURE[0];
+        return PRESET_TORQUE_LOOP_MEASURE;
+    }
+    n = sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
+    return PRESET_MEASURE;
+}
 
 void fill_preset_chan(msid_dev_chan &ch, const PresetChan &p)
 {
@@ -248,10 +273,9 @@ void apply_preset(const Preset &p, const Ctx &c, msid_devdesc &d, const toml::no
                        ", 0x" + [&] { char b[8]; std::snprintf(b, sizeof b, "%04X", p.drive.index); return std::string(b); }() +
                        ":00); leave out preset to map the objects yourself");
     fill_preset_chan(dr, p.drive);
-    const PresetChan *pm = p.closed_loop ? PRESET_LOOP_MEASURE : PRESET_MEASURE;
-    const uint32_t n_own = d.n_measure,
-                   n_pre = p.closed_loop ? sizeof PRESET_LOOP_MEASURE / sizeof PRESET_LOOP_MEASURE[0]
-                                         : sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
+    uint32_t n_pre = 0;
+    const PresetChan *pm = preset_measure(p, n_pre);
+    const uint32_t n_own = d.n_measure;
     if (n_own + n_pre > MSID_DEV_MAX_MEASURE) c.fail(at, "too many [[measure]] channels beside the preset's");
     for (uint32_t i = n_own; i-- > 0;) d.measure[i + n_pre] = d.measure[i];
     for (uint32_t i = 0; i < n_pre; ++i) {
@@ -262,7 +286,7 @@ void apply_preset(const Preset &p, const Ctx &c, msid_devdesc &d, const toml::no
     }
     d.n_measure = n_own + n_pre;
     d.co_preset = d.co_mode = p.mode;
-    d.co_closed_loop = p.closed_loop ? 1u : 0u;
+    d.co_closed_loop = p.closed_loop;
 }
 
 // The scale and unit of the channels whose raw value counts a quantity of CiA 402.
@@ -313,7 +337,8 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
         for (const Preset &p : PRESETS)
             if (ps == p.key) preset = &p;
         if (!preset)
-            c.fail(preset_at, "preset = \"" + ps + "\": must be \"cst\", \"csv\", \"csp\" or \"csv-loop\"");
+            c.fail(preset_at, "preset = \"" + ps + "\": must be \"cst\", \"csv\", \"csp\", \"csv-loop\" or "
+                              "\"csv-torque-loop\"");
     }
     std::string drive_refs[MSID_DEV_MAX_MEASURE];
     for (const auto &[k, v] : root) {
@@ -342,6 +367,13 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
         if (co && (key == "velocity_unit" || key == "position_unit")) {
             char *dst = key[0] == 'v' ? d.velocity_unit : d.position_unit;
             copy(dst, MSID_DEV_UNIT_CAP, get_string(v, c, key.c_str()), c, &v, key.c_str());
+            continue;
+        }
+        if (co && key == "hold_velocity") {
+            if (!preset || preset->closed_loop != 2)
+                c.fail(&v, "hold_velocity goes with preset = \"csv-torque-loop\" (the velocity the drive holds while "
+                           "its torque loop is excited)");
+            d.co_hold_velocity = get_number(v, c, "hold_velocity");
             continue;
         }
         if (co && key == "restore_pdo") {
@@ -400,7 +432,7 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             c.fail(&v, "unknown key '" + key + "' (keys: " +
                            (co ? known({"format", "transport", "name", "preset", "mode", "rated_torque",
                                         "velocity_scale", "velocity_unit", "position_scale", "position_unit",
-                                        "restore_pdo", "heartbeat_ms", "eds", "fade_periods", "[[drive]]", "[[measure]]"})
+                                        "hold_velocity", "restore_pdo", "heartbeat_ms", "eds", "fade_periods", "[[drive]]", "[[measure]]"})
                                : known({"format", "transport", "name", "unit", "fc23", "fade_periods", "clock",
                                         "cycle_hz", "dbc", "[[drive]]", "[[measure]]"})) +
                            ")");
@@ -409,7 +441,8 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
     if (preset) {
         apply_preset(*preset, c, d, preset_at);
         // the description's own measure channels moved behind the preset's, and their reads_back with them
-        const uint32_t n_pre = sizeof PRESET_MEASURE / sizeof PRESET_MEASURE[0];
+        uint32_t n_pre = 0;
+        preset_measure(*preset, n_pre);
         for (uint32_t i = d.n_measure; i-- > n_pre;) drive_refs[i] = drive_refs[i - n_pre];
         for (uint32_t i = 0; i < n_pre; ++i) drive_refs[i].clear();
     }

@@ -601,12 +601,32 @@ def test_exactly_two_periods_ok(tmp_path):
     out = tmp_path / "o.json"
     r = h.run(*_frf(p), "-o", out)
     assert r.returncode == 0, r.stderr
-    assert r.stderr == ""
+    # two periods are too few for the transient test (it needs 3): said plainly, the one line on stderr
+    assert r.stderr == (f"msid frf: note: '{p}': the start-up transient was not tested (nor drift): the transient "
+                        "test needs 3 periods, 2 were used; the FRF holds whatever settling is in them (measure more "
+                        "periods, or skip the settling)\n"), r.stderr
     doc = h.load_json(out)
     h.validate(doc, "msid-frf-1")
     e = doc["experiments"][0]
     assert e["periods_used"] == 2 and e["periods_total"] == 2 and e["transient_tested"] is False
+    assert e["drift_tested"] is False
     assert [l["dof_known_input"] for l in doc["lines"]] == [1, 1]
+
+
+@pytest.mark.parametrize("K", [3, 5, 6])
+def test_three_to_five_periods_are_tested_for_a_transient_not_for_drift(tmp_path, K):
+    # the transient test runs from 3 periods, the drift test from 6 (msid_pstats_detect): the file says which ran
+    p = _write(tmp_path, f"k{K}.csv", _siso_text(K=K))
+    out = tmp_path / "o.json"
+    r = h.run(*_frf(p), "-o", out)
+    assert r.returncode == 0, r.stderr
+    e = h.load_json(out)["experiments"][0]
+    assert e["transient_tested"] is True and e["drift_tested"] is (K >= 6)
+    assert "not tested" not in r.stderr, r.stderr
+    # --transient off asks for no test: transient_tested false, and nothing to say
+    r = h.run(*_frf(p), "--transient", "off", "-o", out)
+    assert r.returncode == 0 and "not tested" not in r.stderr, r.stderr
+    assert h.load_json(out)["experiments"][0]["transient_tested"] is False
 
 
 def test_leftover_samples_note(tmp_path):

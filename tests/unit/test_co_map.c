@@ -99,6 +99,34 @@ static void test_preset_csv_loop(void **state)
     assert_int_equal(d.co_closed_loop, 0);
 }
 
+/* the torque-loop preset: the torque offset read back is the reference, the demand an output, the velocity held */
+static void test_preset_csv_torque_loop(void **state)
+{
+    (void)state;
+    static msid_devdesc d;
+    char err[512];
+    static const char loop[] = "format = \"msid-device/1\"\ntransport = \"canopen\"\npreset = \"csv-torque-loop\"\n"
+                               "rated_torque = 2.0\nvelocity_scale = 0.001\nhold_velocity = 3.5\n[[drive]]\nsafe = 0.0\n"
+                               "min = -0.5\nmax = 0.5\n";
+    assert_int_equal(parse(loop, &d, err, sizeof err), 0);
+    assert_int_equal(d.co_mode, 9);
+    assert_int_equal(d.co_closed_loop, 2);
+    assert_true(d.co_hold_velocity == 3.5);
+    assert_int_equal(d.drive[0].co_index, 0x60B2);
+    assert_int_equal(d.drive[0].type, MSID_DEV_INT16);
+    assert_true(fabs(d.drive[0].scale - 2e-3) < 1e-15);   /* per mille of 2 N m */
+    assert_int_equal(d.n_measure, 5);
+    const uint16_t want[] = {0x60B2, 0x6074, 0x6077, 0x606C, 0x6064};
+    for (int i = 0; i < 5; ++i) assert_int_equal(d.measure[i].co_index, want[i]);
+    assert_string_equal(d.measure[0].name, "Torque reference");
+    assert_int_equal(d.measure[0].role, MSID_DEV_ROLE_INPUT);
+    assert_int_equal(d.measure[1].role, MSID_DEV_ROLE_OUTPUT);
+    assert_int_equal(msid_devdesc_readback(&d, 0), 0);
+    uint8_t of[5];
+    assert_int_equal(msid_devdesc_co_pack(&d, of), 2);
+    assert_memory_equal(of, ((const uint8_t[]){0, 0, 0, 1, 1}), 5);
+}
+
 static void test_explicit_objects(void **state)
 {
     (void)state;
@@ -151,6 +179,13 @@ static void test_refusals(void **state)
         snprintf(five + strlen(five), sizeof five - strlen(five),
                  "[[measure]]\nname = \"w%d\"\nrole = \"output\"\nobject = \"0x606C:0\"\ntype = \"int32\"\n", i);
     expect_refused(five, "two TPDOs");
+    /* hold_velocity is the torque-loop preset's alone, and its counts must fit 0x60FF */
+    snprintf(t, sizeof t, "%.*shold_velocity = 1.0\n%s", (int)(strstr(PRESET, "[[drive]]") - PRESET), PRESET,
+             strstr(PRESET, "[[drive]]"));
+    expect_refused(t, "hold_velocity goes with preset = \"csv-torque-loop\"");
+    expect_refused("format = \"msid-device/1\"\ntransport = \"canopen\"\npreset = \"csv-torque-loop\"\n"
+                   "velocity_scale = 1e-6\nhold_velocity = 3000.0\n[[drive]]\nsafe = 0.0\n",
+                   "outside INTEGER32");
 }
 
 static void test_codec(void **state)
@@ -326,7 +361,7 @@ static void test_one_tick(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_preset_cst), cmocka_unit_test(test_preset_csv_loop), cmocka_unit_test(test_explicit_objects), cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_preset_cst), cmocka_unit_test(test_preset_csv_loop), cmocka_unit_test(test_preset_csv_torque_loop), cmocka_unit_test(test_explicit_objects), cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_codec),      cmocka_unit_test(test_one_tick),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -427,6 +427,31 @@ static void test_sync_plant(void **state)
     assert_true(fabs(ref.x[1]) > 1.0);   /* the plant moved */
 }
 
+/* the torque offset 0x60B2 is added to the demand (CST here; CSV and CSP alike): the TPDO after the SYNC that took
+ * target and offset shows their sum, and the offset alone once the target is 0 */
+static void test_torque_offset(void **state)
+{
+    (void)state;
+    start(NULL);
+    msid_co_sdo s;
+    sdo(&s);
+    sync_setup(&s, 1);
+    assert_int_equal(msid_co_sdo_write_uint(&s, 0x60B2, 0, 2, (uint16_t)-120), 0);
+    drain();
+    msid_can_frame sync;
+    msid_co_sync_frame(&sync, 0);
+    const int16_t target[] = {300, 0, 0};
+    const int16_t shown[] = {0, 180, -120};   /* each TPDO2: the demand of the SYNC before */
+    for (int j = 0; j < 3; ++j) {
+        send_target(target[j]);
+        B.n_seen = 0;
+        io_send(&B, &sync);
+        drain();
+        assert_int_equal(B.n_seen, 2);
+        assert_int_equal(le(&B.seen[1].data[0], 2), shown[j]);
+    }
+}
+
 static void test_sync_every_n_and_drops(void **state)
 {
     (void)state;
@@ -601,7 +626,7 @@ int main(void)
         cmocka_unit_test(test_boot_and_heartbeat), cmocka_unit_test(test_heartbeat_stops),
         cmocka_unit_test(test_sdo_sizes),          cmocka_unit_test(test_sdo_aborts),
         cmocka_unit_test(test_pdo_rules),          cmocka_unit_test(test_402_walk_and_fault),
-        cmocka_unit_test(test_sync_plant),         cmocka_unit_test(test_sync_every_n_and_drops), cmocka_unit_test(test_late_sync),
+        cmocka_unit_test(test_sync_plant), cmocka_unit_test(test_torque_offset),         cmocka_unit_test(test_sync_every_n_and_drops), cmocka_unit_test(test_late_sync),
         cmocka_unit_test(test_plant_frf),          cmocka_unit_test(test_plant_step_exact),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -1,5 +1,6 @@
 """CAN parts that need no CAN kernel (label integration, run on the host): the DBC against
-the protocol header, replay errors, and the clear error where the kernel has no SocketCAN."""
+the protocol header, replay errors, the clear error where the kernel has no SocketCAN, and `msid device
+check` of a canopen:// node on an interface that is not CAN."""
 import json
 import os
 import re
@@ -52,6 +53,14 @@ def test_measure_without_socketcan_or_interface(design, tmp_path):
     assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1
     assert ("no CAN interface 'msidnone0'" if have else "this kernel has no SocketCAN") in r.stderr
     assert not (tmp_path / "f.json").exists()
+
+
+def test_device_check_of_a_canopen_node_on_an_interface_that_is_not_can():
+    # the check reads the bus's bit rate before it opens a socket: lo is named as no CAN interface, nothing sent
+    r = c.run("device", "check", "--device", "canopen://lo?node=5")
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "canopen://lo?node=5: lo is not a CAN interface (it has no link kind)" in r.stderr, r.stderr
+    assert r.stdout == ""
 
 
 def write_log(path, lines):

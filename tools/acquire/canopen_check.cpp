@@ -123,6 +123,20 @@ static std::string pdo_line(CanopenLink &l, unsigned tx, unsigned num, EdsAudit 
     return line;
 }
 
+// The bus's bit rate as a measurement takes it for its budget (canopen_bitrate): the URI's, the interface's,
+// or, when the interface reports none (vcan has none), said plainly with the rate a run would assume.
+static std::string bitrate_line(const CanopenUri &uri)
+{
+    const CanopenBitrate b = canopen_bitrate(uri.text, uri.iface, uri.bitrate);
+    const std::string fd = b.data_bitrate ? fmt(", CAN FD data phase %u bit/s", (unsigned)b.data_bitrate) : "";
+    if (b.source == "interface")
+        return fmt("bus bit rate: %u bit/s%s (what %s is set to, as the kernel reports it)", (unsigned)b.bitrate,
+                   fd.c_str(), uri.iface.c_str());
+    if (b.source == "uri") return fmt("bus bit rate: %u bit/s%s (the URI's bitrate=)", (unsigned)b.bitrate, fd.c_str());
+    return fmt("bus bit rate: not reported: %s; a measurement's bus budget assumes %u bit/s unless the URI gives "
+               "bitrate=BPS", b.why.c_str(), (unsigned)b.bitrate);
+}
+
 msid_co_pdo_entry parse_pdo_entry(const std::string &text)
 {
     const size_t slash = text.find('/');
@@ -174,11 +188,14 @@ std::string configure_pdo(const CanopenUri &uri, const msid_co_pdo_cfg &cfg, con
 CanopenCheck check_canopen(const CanopenUri &uri, const std::string &eds)
 {
     EdsAudit audit(eds);
+    // before the socket: an interface that is not CAN (lo) is named as such; a missing one is the socket's message
+    const std::string bus = bitrate_line(uri);
     CanopenLink l(uri);
     CanopenCheck r;
     const uint32_t type = read_u32(l, 0x1000, 0, 4, &audit);
     r.lines.push_back(fmt("node %u on %s: device type 0x1000: 0x%08X (profile CiA %u%s)", uri.node, uri.iface.c_str(),
                           (unsigned)type, (unsigned)(type & 0xFFFFu), (type & 0xFFFFu) == 402 ? ", a drive" : ""));
+    r.lines.push_back(bus);
     r.lines.push_back(identity(l, &audit));
     r.lines.push_back(error_register(l, r.problems, &audit));
     for (unsigned tx : {1u, 0u})

@@ -101,6 +101,14 @@ public:
             sdo_or_throw(msid_co_sdo_write_uint(&sdo_, 0x1017, 0, 2, prod), "writing the heartbeat time 0x1017");
         }
         sdo_or_throw(msid_co402_set_mode(&sdo_, (msid_co402_mode)d_.co_mode, 1000), "setting the mode of operation");
+        if (d_.co_closed_loop == 2) {
+            // the torque-loop preset: the velocity the drive's loop holds while the torque offset is excited
+            // (msid_devdesc_check: its counts fit INTEGER32; 0 again on every way out, write_safe_by_sdo)
+            const int32_t hold = (int32_t)std::lround(d_.co_hold_velocity / d_.velocity_scale);
+            sdo_or_throw(msid_co_sdo_write_uint(&sdo_, 0x60FF, 0, 4, (uint32_t)hold),
+                         fmt("writing the held velocity %g %s to the target velocity 0x60FF", d_.co_hold_velocity,
+                             d_.velocity_unit));
+        }
         nmt(MSID_CO_NMT_START);
         msid_co402_state st;
         if (msid_co402_goto(&sdo_, 1, 0, 2000, &st))
@@ -343,6 +351,12 @@ private:
                                          msid_co_abort_name(sdo_.abort_code)));
                 throw Error(fmt("%s: writing the safe target of '%s': %s", dev_.text.c_str(), c.name, sdo_.err));
             }
+            ok = ok && rc == 0;
+        }
+        if (d_.co_closed_loop == 2) {
+            // the torque-loop preset holds a velocity target beside its drive channel: 0 is its safe value
+            const int rc = msid_co_sdo_write_uint(&sdo_, 0x60FF, 0, 4, 0);
+            if (rc && first) throw Error(fmt("%s: writing 0 to the target velocity 0x60FF: %s", dev_.text.c_str(), sdo_.err));
             ok = ok && rc == 0;
         }
         return ok;

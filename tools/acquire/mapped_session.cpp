@@ -507,13 +507,22 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     acq["timing"] = timing_json(h, o.rate_hz, msid_devio_describe(&io), cp.counter >= 0 ? nominal_hz : 0.0);
     R.o.tail()["acquisition"] = acq;
     if (desc.co_closed_loop) {
-        // the FRF ran on the reference (the velocity target the drive applied); the plant through it is the file
+        // the FRF ran on the reference (the target the drive applied: the velocity target, or the torque offset
+        // of the torque-loop preset); the plant through it is the file
         const auto it = std::find(cp.output_names.begin(), cp.output_names.end(), std::string("Torque demand"));
         const uint32_t iu = (uint32_t)(it - cp.output_names.begin());
-        R.o.notes.push_back("closed loop (preset csv-loop): frf.json is the plant from the torque demand to the "
-                            "actual values, estimated through the reference (G = G_yr G_ur^-1); reference.json is the "
-                            "FRF from the velocity reference to every signal (its torque demand row the control "
-                            "sensitivity C S, its velocity row the complementary sensitivity T as the TPDOs sample it)");
+        R.o.notes.push_back(
+            desc.co_closed_loop == 2
+                ? fmt("closed loop (preset csv-torque-loop, the velocity loop holding %g %s): frf.json is the plant "
+                      "from the torque demand to the actual values, estimated through the reference (G = G_yr "
+                      "G_ur^-1); reference.json is the FRF from the torque reference (the torque offset 0x60B2) to "
+                      "every signal (its torque demand row the loop's sensitivity S = 1 / (1 + C Gp), its velocity "
+                      "row Gp S as the TPDOs sample it)", desc.co_hold_velocity, desc.velocity_unit)
+                : std::string("closed loop (preset csv-loop): frf.json is the plant from the torque demand to the "
+                              "actual values, estimated through the reference (G = G_yr G_ur^-1); reference.json is "
+                              "the FRF from the velocity reference to every signal (its torque demand row the control "
+                              "sensitivity C S, its velocity row the complementary sensitivity T as the TPDOs sample "
+                              "it)"));
         R.reference = R.o.tree();   // the document of the reference path (the typed result left empty)
         R.o.doc = plant_through_reference(R.reference, iu);
         if (R.o.doc.contains("notes")) R.o.doc["notes"].push_back(R.o.notes.back());

@@ -495,6 +495,14 @@ FrfOutcome FrfJob::finish(const std::vector<ExpSource> &src, std::vector<std::st
         x.periods_nonfinite = c.nonfinite;
         x.transient_tested = c.tested != 0;
         x.periods_untested = c.untested;
+        // a transient test that could not run is said, never left for a pass: transient_tested false alone reads
+        // like a clean record (it needs 3 periods, msid_pstats_detect; from 3 to 5 it runs and only the drift test,
+        // which needs 6, does not: drift_tested false)
+        if (rq.transient != MSID_TRANSIENT_OFF && !c.tested && c.used >= 2)
+            out.notes.push_back(fmt("'%s': the start-up transient was not tested (nor drift): the transient test "
+                                    "needs 3 periods, %u were used; the FRF holds whatever settling is in them "
+                                    "(measure more periods, or skip the settling)",
+                                    r.source.c_str(), c.used));
         if (c.untested)
             out.notes.push_back(fmt("'%s': the transient and drift tests covered the first %u of %u used periods (their "
                                     "history holds %.0f MiB per experiment); the last %u are in the FRF untested",

@@ -24,7 +24,8 @@ static const char *DEVICE_HELP =
     "  --device URI   modbus-tcp://HOST[:PORT][?unit=N] or modbus-rtu:///dev/ttyX?baud=N\n"
     "\n"
     "A CANopen node (canopen://IFACE?node=N[&timeout=MS]) is read by SDO without a description: its\n"
-    "device type, identity 0x1018, error register 0x1001 and the mapping of TPDO1-4 and RPDO1-4.\n"
+    "device type, identity 0x1018, error register 0x1001 and the mapping of TPDO1-4 and RPDO1-4, and\n"
+    "the bus's bit rate (the URI's bitrate=, else the interface's; one that reports none, as vcan, is said).\n"
     "Nothing is written. Exit status 1 when the node does not answer or reports an error.\n"
     "  --eds FILE     the node's EDS or DCF: each entry read is checked against it (in the file, readable,\n"
     "                 of the size the node answered); a mismatch is a line and exit status 1\n";

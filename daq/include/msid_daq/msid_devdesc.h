@@ -117,9 +117,14 @@ typedef struct msid_devdesc {
     /* CANopen (CiA 402 drives) */
     uint32_t co_preset;               /**< the preset that filled the channels: its mode (8 CSP, 9 CSV, 10 CST; 0: none) */
     uint32_t co_mode;                 /**< modes of operation 0x6060 written before the run (8, 9, 10) */
-    uint32_t co_closed_loop;          /**< 1: the closed-loop preset ("csv-loop"): the FRF's input is the reference
-                                           (the velocity target the drive applied, read back), and the plant is
-                                           estimated through it (G = G_yr G_ur^-1, the torque demand its input) */
+    uint32_t co_closed_loop;          /**< a closed-loop preset: the FRF's input is the reference read back, and the
+                                           plant is estimated through it (G = G_yr G_ur^-1, the torque demand its
+                                           input); 1: "csv-loop" (the reference the velocity target the drive
+                                           applied), 2: "csv-torque-loop" (the reference the torque offset 0x60B2
+                                           the drive applied, in CSV at hold_velocity); 0: none */
+    double co_hold_velocity;          /**< "csv-torque-loop": the velocity target 0x60FF held through the run, in
+                                           velocity_unit (default 0; its counts must fit INTEGER32); 0x60FF is
+                                           written 0 on every way out */
     double rated_torque;              /**< N m (NAN: the node's 0x6076, read by SDO) */
     double velocity_scale, position_scale;   /**< physical units per count of 0x606C/0x60FF, 0x6064/0x607A */
     char velocity_unit[MSID_DEV_UNIT_CAP], position_unit[MSID_DEV_UNIT_CAP];

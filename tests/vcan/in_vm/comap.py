@@ -171,6 +171,21 @@ def plant_ab(ts=1e-3, jm=1e-4, jl=2e-4, k=50.0, dmp=2e-3, bm=1e-4, bl=1e-4):
     return e[:4, :4], e[:4, 4]
 
 
+def loop_parts(rate, bins, period):
+    """The node's velocity loop in CSV at the bins of a period of `period` samples (docs/devices.md, "The simulated
+    drive"), as arrays over the bins: z = e^(j 2 pi bin / period), the plant Gp = e2' (zI - A)^-1 B from the
+    demand tau[k] to the velocity w[k+1] it leads to, and the drive's PI C(z) = kp + ki T z / (z - 1) at the SYNC
+    period T = 1 / rate (wc = min(2 pi 20, 0.2 / T), kp = J wc, ki = J wc^2 / 4, J = 3e-4)."""
+    T = 1.0 / rate
+    A, b = plant_ab(T)
+    J = 3e-4
+    wc = min(2 * np.pi * 20.0, 0.2 / T)
+    kp, ki = J * wc, J * wc * wc / 4.0
+    z = np.exp(2j * np.pi * np.asarray(bins) / period)
+    gp = np.array([np.linalg.solve(zk * np.eye(4) - A, b)[1] for zk in z])
+    return z, gp, kp + ki * T * z / (z - 1)
+
+
 def velocity_truth(rate=RATE, bins=BINS):
     """The FRF msid must find from the torque demand to the velocity, both from the TPDO of one SYNC: the node's
     TPDO of SYNC k carries the demand tau[k-1] held over the period before it and omega[k] (docs/devices.md), so

@@ -82,6 +82,12 @@ def test_check_reads_identity_and_mapping_and_writes_nothing(node):
     assert "error register 0x1001: 0x00 (no error)" in out
     assert "TPDO1: COB-ID 0x185 (valid), transmission type 255, inhibit 0 x 100 us, 16 bits: 0x6041:00/16" in out
     assert "RPDO2: COB-ID 0x305 (valid), transmission type 255, 0 bits: nothing mapped" in out
+    # vcan reports no bit rate: said plainly, with the rate a measurement's budget assumes
+    assert ("bus bit rate: not reported: vcan0 is a virtual interface (vcan); a measurement's bus budget assumes "
+            "1000000 bit/s unless the URI gives bitrate=BPS") in out, out
+    r = probe("check", URI + "&bitrate=500000")
+    assert r.returncode == 0, r.stderr
+    assert "bus bit rate: 500000 bit/s (the URI's bitrate=)" in r.stdout, r.stdout
     assert node.data_store == {}  # nothing written: the node's store holds only what was written to it
 
 

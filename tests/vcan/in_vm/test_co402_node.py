@@ -195,6 +195,7 @@ def test_msid_device_commands(tmp_path):
         r = msid("device", "check", "--device", URI)
         assert r.returncode == 0, r.stdout + r.stderr
         assert "device type 0x1000: 0x00020192 (profile CiA 402, a drive)" in r.stdout, r.stdout
+        assert "bus bit rate: not reported: vcan0 is a virtual interface (vcan)" in r.stdout, r.stdout
         r = msid("device", "sdo", "--device", URI, "--read", "0x1018:01")
         assert r.returncode == 0 and r.stdout.strip() == "4449534d", r.stdout + r.stderr
         r = msid("device", "sdo", "--device", URI, "--write", "0x6060:00", "--data", "0a")

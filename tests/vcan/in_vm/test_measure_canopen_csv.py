@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import canlib
-from comap import NODE, Drive, maplib, measure, plant_ab, state_name, syncs_within
+from comap import NODE, Drive, loop_parts, maplib, measure, state_name, syncs_within
 
 RATE, P, LINES, BINS = 25, 32, "1:2:15", list(range(1, 16, 2))
 NOISE = ("--noise-y", "0.1")   # rad/s on the velocity the drive measures (reported and fed back)
@@ -56,22 +56,9 @@ def loop_truth(rate=RATE, bins=BINS):
     ki T e[k], e[k] = r[k] - w[k] (w the measured velocity, which 0x606C shows), and w[k+1]. With
     Gp = e2' (zI - A)^-1 B, C = kp + ki T z / (z - 1), S = 1 / (1 + C Gp): plant z Gp, reference to demand C S,
     reference to velocity z Gp C S. Gains: wc = min(2 pi 20, 0.2 / T), kp = J wc, ki = J wc^2 / 4, J = 3e-4."""
-    T = 1.0 / rate
-    A, b = plant_ab(T)
-    J = 3e-4
-    wc = min(2 * np.pi * 20.0, 0.2 / T)
-    kp, ki = J * wc, J * wc * wc / 4.0
-    plant, cs, zt = [], [], []
-    for k in bins:
-        z = np.exp(2j * np.pi * k / P)
-        x = np.linalg.solve(z * np.eye(4) - A, b)
-        gp = x[1]
-        C = kp + ki * T * z / (z - 1)
-        S = 1.0 / (1.0 + C * gp)
-        plant.append(z * gp)
-        cs.append(C * S)
-        zt.append(z * gp * C * S)
-    return np.array(plant), np.array(cs), np.array(zt)
+    z, gp, C = loop_parts(rate, bins, P)
+    S = 1.0 / (1.0 + C * gp)
+    return z * gp, C * S, z * gp * C * S
 
 
 def pvalues(doc, output, truth):
