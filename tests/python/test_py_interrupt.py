@@ -444,3 +444,85 @@ def test_validate_at_high_order():
         msid.validate(Model(doc), f)
     s.t.join()
     assert s.at is not None and s.done() - s.at <= 100 and s.done() < 1000, (s.at, s.done())
+
+
+def quiet_fit(*args, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return msid.fit(*args, **kw)
+
+
+def counted(step, call):
+    """`call`'s result and the units of `step` its checkpoints counted."""
+    base = ext._progress()[step]
+    r = call()
+    return r, ext._progress()[step] - base
+
+
+def test_ml_starts(scan_frf):
+    """msid.fit(method="ml", param="poles") tries several starts (vector fitting, its relaxed form, the
+    subspace models), each with its cost at its poles and some LM iterations, before the best one
+    continues. Each start counts a solve when it begins, after the subspace fit's solves and before the
+    fit's covariance (two: abandonable); the negative control counts them (one per start in `starts`).
+    SIGINT as the first start begins, then as a random later one begins: KeyboardInterrupt there, with the
+    earlier starts' iterations done (at least one each) and the model never evaluated at the lines (the
+    fit's end); the same fit afterwards gives the bits it gave before."""
+    kw = dict(method="ml", order=8, param="poles")
+    before, total = counted("solves", lambda: quiet_fit(scan_frf, **kw))
+    n_starts = len(before.doc["starts"])
+    assert n_starts >= 3, before.doc["starts"]
+    first = total - 2 - n_starts   # the solves before the first start: the subspace fit's
+    assert first > 0, (total, n_starts)
+    lines0 = ext._progress()["lines"]
+    iters = []
+    for k in (1, RNG.randint(2, n_starts)):
+        it0 = ext._progress()["iterations"]
+        with SigintAtCheckpoint("solves", first + k) as s, pytest.raises(KeyboardInterrupt):
+            quiet_fit(scan_frf, **kw)
+        assert s.done() == s.target and ext._progress()["lines"] == lines0, (k, s.target, s.done(), total)
+        iters.append((k, ext._progress()["iterations"] - it0))
+    (_, i1), (k, ik) = iters
+    assert ik >= i1 + k - 1, iters
+    after = quiet_fit(scan_frf, **kw)
+    assert after.doc == before.doc
+
+
+@pytest.mark.parametrize("param", ["poles", "lmfd"])
+def test_ml_model_covariance(scan_frf, param):
+    """The end of msid.fit(method="ml") in both parametrisations: the model's FRF and its covariance at
+    each of the 300 lines (parameters^2 per entry and line: seconds at high orders on thousands of lines),
+    counted per line after the Fisher covariance (abandonable). The negative control counts every line
+    once, and them only. SIGINT at a random line of it: KeyboardInterrupt there, nothing returned, and
+    the same fit afterwards gives the bits it gave before."""
+    kw = dict(method="ml", order=8, param=param)
+    before, total = counted("lines", lambda: quiet_fit(scan_frf, **kw))
+    assert total == scan_frf.n_lines == 300, total
+    out = None
+    with SigintAtCheckpoint("lines", RNG.randint(1, total - 1)) as s, pytest.raises(KeyboardInterrupt):
+        out = quiet_fit(scan_frf, **kw)
+    assert out is None and s.done() == s.target, (s.target, s.done())
+    after = quiet_fit(scan_frf, **kw)
+    assert after.doc == before.doc
+
+
+def test_multi_covariance():
+    """The multi fit's covariance at its end: the normal matrix of the full Jacobian (every sample's rows
+    by the parameters; here a record of 2 x 10^4 samples, four inputs at order 16: 80 parameters), made in
+    blocks of 8 of its columns from 4096 rows on, a solve counted before each: 10 solves after those of the
+    last evaluation. The negative control: the same fit (no iteration: the start, its Jacobian, the model's
+    evaluation and covariance) counts 10 solves more than on the record's first 4000 samples (one product).
+    SIGINT at a random block but the first: KeyboardInterrupt there, nothing returned, and the same fit
+    afterwards gives the bits it gave before (each block is the one product's columns, entry for entry)."""
+    recs = multi_records(1, 20000, 3, n_inputs=4)
+    kw = dict(method="multi", order=16, n_inputs=4, start="prony", max_iter=0)
+    before, total = counted("solves", lambda: quiet_fit(recs, **kw))
+    _, short = counted("solves", lambda: quiet_fit([recs[0][:4000]], **kw))
+    assert len(before.doc["parameters"]["names"]) == 80, before.doc["parameters"]["names"]
+    blocks = 10
+    assert total - short == blocks, (total, short)
+    out = None
+    with SigintAtCheckpoint("solves", total - blocks + RNG.randint(2, blocks)) as s, pytest.raises(KeyboardInterrupt):
+        out = quiet_fit(recs, **kw)
+    assert out is None and s.done() == s.target, (s.target, s.done(), total)
+    after = quiet_fit(recs, **kw)
+    assert after.doc == before.doc

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <memory>
 
 namespace msidfit {
 
@@ -507,9 +509,22 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     const Domain d = P.d;
     const double h = P.h;
     res.model = lmfd_unpack(Sf.cwiseProduct(th), s, P.ny, P.nu, d, h);
-    // Fisher information: r has components of variance 1/2, so Cov = (J^T J)^{-1} / 2 (scaled coordinates)
-    MatR covs = fisher_cov(J, res.cov_rank);
-    res.grad_norm = (J.transpose() * r).cwiseQuotient(J.colwise().norm().transpose().cwiseMax(1e-300)).norm();
+    // Fisher information: r has components of variance 1/2, so Cov = (J^T J)^{-1} / 2 (scaled coordinates);
+    // J^T J and its eigendecomposition are one dense step (rows x parameters^2): abandonable, on J shared
+    struct Cov {
+        MatR cov;
+        int rank = 0;
+    };
+    const auto Jp = std::make_shared<const MatR>(std::move(J));
+    const Cov fc = msidutil::abandonable<Cov>(std::function<Cov()>([Jp] {
+                                                  Cov c;
+                                                  c.cov = fisher_cov(*Jp, c.rank);
+                                                  return c;
+                                              }),
+                                              msidutil::Step::solves, "the ml fit");
+    res.cov_rank = fc.rank;
+    MatR covs = fc.cov;
+    res.grad_norm = (Jp->transpose() * r).cwiseQuotient(Jp->colwise().norm().transpose().cwiseMax(1e-300)).norm();
     res.cov_factor = sample_ml_factor(w, P.ny, known_noise);
     covs *= res.cov_factor;
     VecR Sfree((Eigen::Index)free.size());
@@ -534,6 +549,8 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     MatR Jg((Eigen::Index)0, (Eigen::Index)free.size());
     std::vector<MatR> blocks;
     for (size_t li = 0; li < w.size(); ++li) {
+        // the model's FRF covariance at a line: parameters^2 per entry, seconds over thousands of lines
+        msidutil::checkpoint(msidutil::Step::lines, 1, "the ml fit");
         MatC G, Dinv;
         eval_scaled(P, th, P.pt[li], G, Dinv);
         const MatC Jl = jac_line(P, G, Dinv, P.pt[li]);
@@ -554,7 +571,20 @@ static MlResult evaluate_at(const Prob &P, const std::vector<WeightedLine> &w, c
     Jg.resize(rows, (Eigen::Index)free.size());
     rows = 0;
     for (auto &b : blocks) { Jg.block(rows, 0, b.rows(), b.cols()) = b; rows += b.rows(); }
-    res.sigma_min_J = sigma_min_graded(Jg, res.sigma_rank);
+    // the SVD of the stacked line Jacobians (2 lines x entries by parameters): one dense step, abandonable
+    struct Sigma {
+        double sigma = 0;
+        int rank = 0;
+    };
+    const auto Jgp = std::make_shared<const MatR>(std::move(Jg));
+    const Sigma sg = msidutil::abandonable<Sigma>(std::function<Sigma()>([Jgp] {
+                                                      Sigma x;
+                                                      x.sigma = sigma_min_graded(*Jgp, x.rank);
+                                                      return x;
+                                                  }),
+                                                  msidutil::Step::solves, "the ml fit");
+    res.sigma_min_J = sg.sigma;
+    res.sigma_rank = sg.rank;
     // (45): 2 sqrt(lambda_max(Cov)) (sqrt(2 log(2/delta)) + sqrt(nu ny (2M+1)))
     const double B = std::sqrt((double)g * (double)(2 * nc + nr));
     res.frf_bound = 2.0 * std::sqrt(res.lambda_max_cov) * (std::sqrt(2.0 * std::log(2.0 / o.delta)) + B);
@@ -597,6 +627,8 @@ MlResult lmfd_ml(const std::vector<WeightedLine> &w, Domain d, double h, const L
         const VecR dg = J.colwise().squaredNorm().transpose().cwiseMax(1e-300);
         bool stepped = false;
         for (int tries = 0; tries < 30; ++tries) {
+            // a try is a QR of the augmented Jacobian (lines x parameters^2): up to 30 in one iteration
+            if (tries) msidutil::checkpoint(msidutil::Step::solves, 0, "the ml fit");
             // (J^T J + lambda diag) delta = -J^T r, via the augmented least squares in the columns
             // scaled to unit norm (J^ = J diag(dg)^-1/2: the same step, but the pivoting threshold no
             // longer depends on the units of the outputs, which scale the D_i columns)

@@ -530,6 +530,35 @@ std::vector<MultiMode> multi_modes(const VecR &alpha, const MatR &cov_alpha, dou
 
 namespace {
 
+// From this many rows and multiply-adds (rows x parameters^2, about 10 ms) the normal matrix of the
+// covariance is made in blocks of columns; below, in one product.
+constexpr Eigen::Index NORMAL_SPLIT_ROWS = 4096;
+constexpr double NORMAL_BLOCK_FLOPS = 1 << 24;
+
+// J^T J of the full Jacobian (every sample's rows by the parameters: seconds on long records with many
+// parameters), in blocks of columns of at least NORMAL_BLOCK_FLOPS each, one counted solve before
+// each block. Every entry is the one product's: a block is that product's columns, a multiple of 8
+// of them starting at a multiple of 8 (the fewer than 8 last columns with the block before them), so
+// Eigen's kernel takes each column in the same group of its register tile and sums each entry over the
+// rows in the same order (its depth blocks depend on the rows alone, once there are more rows than one
+// of them: NORMAL_SPLIT_ROWS); and never one column alone, which would be a matrix-vector product.
+MatR normal_matrix(const MatR &J)
+{
+    const Eigen::Index q = J.cols(), rows = J.rows();
+    const double per_col = (double)rows * (double)q;
+    if (rows < NORMAL_SPLIT_ROWS || q < 16 || per_col * (double)q < 2 * NORMAL_BLOCK_FLOPS) return J.transpose() * J;
+    const Eigen::Index w = 8 * std::max<Eigen::Index>(1, (Eigen::Index)(NORMAL_BLOCK_FLOPS / per_col / 8.0));
+    MatR JtJ(q, q);
+    for (Eigen::Index c = 0; c < q;) {
+        Eigen::Index n = std::min(w, q - c);
+        if (q - c - n < 8) n = q - c;
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the multi fit");
+        JtJ.middleCols(c, n).noalias() = J.transpose() * J.middleCols(c, n);
+        c += n;
+    }
+    return JtJ;
+}
+
 // Fill a MultiResult from an evaluation at alpha (with the full Jacobian).
 MultiResult result_at(const std::vector<MultiRecord> &recs, const Layout &L, const VecR &alpha, const MultiOptions &o)
 {
@@ -559,7 +588,7 @@ MultiResult result_at(const std::vector<MultiRecord> &recs, const Layout &L, con
     r.dof = (double)S - L.q() - (L.elim ? (double)recs.size() * L.ny * L.n : 0.0);
     r.s2 = e.V / r.dof;
     // cov(theta) = s2 (J^T J)^-1 (pseudo-inverse with its rank if J is rank deficient)
-    const MatR JtJ = e.Jfull.transpose() * e.Jfull;
+    const MatR JtJ = normal_matrix(e.Jfull);
     Eigen::SelfAdjointEigenSolver<MatR> es(JtJ);
     const VecR ev = es.eigenvalues();
     const double tol = ev.cwiseAbs().maxCoeff() * 1e-14 * JtJ.rows();

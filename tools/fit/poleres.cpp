@@ -9,7 +9,9 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <memory>
 
 namespace msidfit {
 
@@ -99,6 +101,7 @@ void try_other_kind(const Prob &P, Layout &L, VecR &th, Normal &N, bool stable, 
             thq(Lq.po[k]) = q[k].real();
             if (Lq.pair[k]) thq(Lq.po[k] + 1) = q[k].imag();
         }
+        msidutil::checkpoint(msidutil::Step::solves, 0, "the ml fit");   // one solve over every line per candidate
         Normal Nq;
         solve_linear(P, Lq, thq, Nq);
         if (std::isfinite(Nq.V) && Nq.V < N.V) {
@@ -130,6 +133,8 @@ LmOut lm(const Prob &P, Layout L, VecR th, int max_iter, double tol, bool stable
         if (o.gnorm <= 1e-9 * std::sqrt(std::max(V, 1e-300))) { o.conv = true; break; }
         bool stepped = false;
         for (int tries = 0; tries < 40 && !stepped; ++tries) {
+            // a try is a cost over every line: up to 40 of them in one iteration
+            if (tries) msidutil::checkpoint(msidutil::Step::solves, 0, "the ml fit");
             VecR th2 = th + constrained_step(L, th, N.JtJ, N.grad, lambda, act, P.d);
             canonical(L, th2, P.d, stable, P.g, nullptr);
             const double V2 = cost_at(P, L, th2);
@@ -353,8 +358,24 @@ static void finish(const Prob &P, const Layout &L, const VecR &th, const std::ve
     if (L.D)
         for (Eigen::Index ij = 0; ij < g; ++ij) res.names.push_back("D" + ent(ij));
     res.at_bound = act;
-    // Fisher information 2 J^T J (residual components have variance 1/2): pseudo-inverse with its rank
-    MatR covs = held_fisher_cov(L, th, act, P.d, J, res.cov_rank);
+    // Fisher information 2 J^T J (residual components have variance 1/2): pseudo-inverse with its rank.
+    // J^T J and its eigendecomposition are one dense step of rows x parameters^2 (seconds at high orders
+    // on many lines): abandonable, on its own copy of the layout and the Jacobian it moves
+    struct HeldCov {
+        MatR cov;
+        int rank = 0;
+    };
+    const auto Jp = std::make_shared<const MatR>(std::move(J));
+    const Domain dom = P.d;
+    const HeldCov hc = msidutil::abandonable<HeldCov>(
+        std::function<HeldCov()>([L, th, act, dom, Jp] {
+            HeldCov h;
+            h.cov = held_fisher_cov(L, th, act, dom, *Jp, h.rank);
+            return h;
+        }),
+        msidutil::Step::solves, "the ml fit");
+    res.cov_rank = hc.rank;
+    MatR covs = hc.cov;
     res.cov_factor = sample_ml_factor(w, (size_t)P.ny, known_noise);
     covs *= res.cov_factor;
     res.cov = S.asDiagonal() * covs * S.asDiagonal();
@@ -364,6 +385,8 @@ static void finish(const Prob &P, const Layout &L, const VecR &th, const std::ve
     MatC dG, dGp;
     const MatC cc = covs.cast<cd>(), I = MatC::Identity(g, g);
     for (size_t li = 0; li < w.size(); ++li) {
+        // the model's FRF covariance at a line: parameters^2 per entry, seconds over thousands of lines
+        msidutil::checkpoint(msidutil::Step::lines, 1, "the ml fit");
         line_terms(P, L, th, li, I, gm, &dG, dGp);   // with Linv = I: -d vec(G) / d theta
         res.G.push_back(Eigen::Map<const MatC>(gm.data(), P.ny, P.nu));
         res.Gcov.push_back(dG * cc * dG.adjoint());
@@ -406,6 +429,8 @@ PrResult pr_ml(const std::vector<WeightedLine> &w, Domain d, double h, const PrO
     LmOut best;
     best.V = std::numeric_limits<double>::infinity();
     for (const Cand &c : cands) {
+        // a start's cost at its poles (a solve over every line) comes before its first iteration's checkpoint
+        msidutil::checkpoint(msidutil::Step::solves, 1, "the ml fit");
         const Layout L = make_layout(c.poles, g, tryD);
         if (L.n >= P.rows) continue;
         int rc = 0;
