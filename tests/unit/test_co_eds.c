@@ -45,8 +45,9 @@ static void test_drive_file(void **state)
     (void)state;
     msid_co_eds eds;
     load_drive(&eds);
-    /* 4 variables of 0x10xx, 0x1016 (2), 0x1018 (5), RPDOs 4 x (3 + 9), TPDOs 4 x (4 + 9), 2 test and 12 drive variables */
-    assert_int_equal(eds.n, 4 + 2 + 5 + 4 * 12 + 4 * 13 + 2 + 12);
+    /* 4 variables of 0x10xx, 0x1016 (2), 0x1018 (5), RPDOs 4 x (3 + 9), TPDOs 4 x (4 + 9), 2 test and 13 drive variables
+     * (the torque offset 0x60B2 among them) */
+    assert_int_equal(eds.n, 4 + 2 + 5 + 4 * 12 + 4 * 13 + 2 + 13);
     const msid_co_od_entry *e = msid_co_eds_find(&eds, 0x1018, 2);
     assert_non_null(e);
     assert_int_equal(e->type, 0x0007);
