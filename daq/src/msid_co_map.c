@@ -98,9 +98,28 @@ static void check_heartbeat(msid_co_map *m, int64_t now)
  * that PDO was still owed when it was sent: a node that answers in order then sends the late one first (it
  * is dropped, and the sample whose answer it could be taken for is lost, never misplaced); a second one of
  * the same PDO replaces the first. */
+static uint32_t all_tpdos(const msid_co_map *m) { return (1u << m->n_tpdo) - 1u; }
+
+/* kernel_sync: the echo of the kernel's SYNC closes the last SYNC's window and opens this one's; an answer of
+ * the last SYNC not in by now is owed (once, as for a SYNC the tick sent). */
+static void take_kernel_echo(msid_co_map *m, const msid_can_frame *f)
+{
+    if (m->echoes) m->owed = (all_tpdos(m) & ~m->got) & ~m->owed_taken;
+    m->owed_taken = 0;
+    m->got = 0;
+    m->echoes++;
+    m->cnt.syncs++;
+    m->echo_ns = f->t_ns;
+    m->rpdos_since_echo = 0;
+}
+
 static void take(msid_co_map *m, const msid_can_frame *f)
 {
     if (f->id == MSID_CO_COB_SYNC && !(f->id & MSID_CAN_ERR_FLAG)) {
+        if (m->kernel_sync) {
+            take_kernel_echo(m, f);
+            return;
+        }
         if (m->echo_due) m->echo_due--;
         if (!m->echo_due) m->echo_ns = f->t_ns;
         return;
@@ -111,7 +130,7 @@ static void take(msid_co_map *m, const msid_can_frame *f)
         return;
     }
     const uint32_t bit = 1u << k;
-    if (m->echo_due) {   /* an older SYNC's: the owed answer came before this SYNC */
+    if (m->echo_due || (m->kernel_sync && !m->echoes)) {   /* an older SYNC's: the owed answer came before this SYNC */
         m->cnt.late++;
         m->owed &= ~bit;
         return;
@@ -137,7 +156,8 @@ static void take(msid_co_map *m, const msid_can_frame *f)
 /* The last SYNC's answers are all in (or no SYNC was sent yet). */
 static int complete(const msid_co_map *m)
 {
-    return !m->syncs_sent || (!m->echo_due && m->got == (1u << m->n_tpdo) - 1u);
+    if (m->kernel_sync) return m->echoes && m->got == all_tpdos(m);
+    return !m->syncs_sent || (!m->echo_due && m->got == all_tpdos(m));
 }
 
 /* Every frame already waiting, in order (msid_can_recv does not block with 0); then, while the last SYNC's
@@ -163,6 +183,20 @@ static int collect(msid_co_map *m, int64_t wait_ns)
     return 0;
 }
 
+/* RPDO1 with the drive values. */
+static int rpdo_of(msid_co_map *m, const double *drive, msid_can_frame *rp)
+{
+    const msid_devdesc *d = m->d;
+    memset(rp, 0, sizeof *rp);
+    rp->id = MSID_CO_COB_RPDO1 + m->node;
+    rp->len = m->rpdo_len;
+    for (uint32_t i = 0; i < d->n_drive; ++i)
+        if (msid_co_map_encode(&d->drive[i], drive[i], rp->data + m->rpdo_off[i]) != 0)
+            return failv(m, -MSID_DAQ_E_ARG, "'%s' = %g does not fit object 0x%04X:%02X (%s)", d->drive[i].name,
+                         drive[i], d->drive[i].co_index, d->drive[i].co_sub, msid_dev_type_name(d->drive[i].type));
+    return 0;
+}
+
 /* One tick: the TPDOs of the previous tick's SYNC into `measure` (need_tpdo), then the RPDO of `drive` and
  * this tick's SYNC. A tick's samples are read one tick later, so the node has a whole tick to answer; the
  * demand and the actual values come from one TPDO set, so the FRF does not see the shift. */
@@ -178,15 +212,9 @@ static int tick(msid_co_map *m, const double *drive, double *measure, msid_devio
         return failv(m, -MSID_DAQ_E_IO, "node %u: msid's own SYNC frames do not come back from the bus (the socket "
                      "receives its own frames: is loopback off on %s?)", (unsigned)m->node, "the interface");
     msid_can_frame rp, sy;
-    memset(&rp, 0, sizeof rp);
-    rp.id = MSID_CO_COB_RPDO1 + m->node;
-    rp.len = m->rpdo_len;
-    for (uint32_t i = 0; i < d->n_drive; ++i)
-        if (msid_co_map_encode(&d->drive[i], drive[i], rp.data + m->rpdo_off[i]) != 0)
-            return failv(m, -MSID_DAQ_E_ARG, "'%s' = %g does not fit object 0x%04X:%02X (%s)", d->drive[i].name,
-                         drive[i], d->drive[i].co_index, d->drive[i].co_sub, msid_dev_type_name(d->drive[i].type));
+    if ((rc = rpdo_of(m, drive, &rp)) < 0) return rc;
     /* the previous SYNC's answers, complete or not: this tick's SYNC opens new ones */
-    const uint32_t want = (1u << m->n_tpdo) - 1u;
+    const uint32_t want = all_tpdos(m);
     const int have = m->syncs_sent > 0 && m->echo_due == 0 && m->got == want;
     if (have)
         for (uint32_t i = 0; i < d->n_measure; ++i)
@@ -221,15 +249,63 @@ static int tick(msid_co_map *m, const double *drive, double *measure, msid_devio
     return 0;
 }
 
+/* One tick on the kernel's SYNC (kernel_sync): the RPDO (taken by the next SYNC), then the answers of the last
+ * SYNC the bus carried and its count. The count read before the RPDO goes out is counter_before: a SYNC between
+ * the two may or may not have taken the write, and the tick loop marks that SYNC. */
+static int tick_kernel(msid_co_map *m, const double *drive, double *measure, msid_devio_times *t, int need_tpdo)
+{
+    const msid_devdesc *d = m->d;
+    int rc = collect(m, 0);
+    if (rc < 0) return rc;
+    check_heartbeat(m, msid_now_ns());
+    if (m->fatal[0] && need_tpdo) return failv(m, -MSID_DAQ_E_DEVICE, "%s", m->fatal);
+    if (m->rpdos_since_echo > 8)
+        return failv(m, -MSID_DAQ_E_IO, "node %u: no SYNC of the kernel's timer came back from the bus in %u ticks (is "
+                     "the SYNC producer running, and loopback on?)", (unsigned)m->node, (unsigned)m->rpdos_since_echo);
+    msid_can_frame rp;
+    if ((rc = rpdo_of(m, drive, &rp)) < 0) return rc;
+    t->counter_before = (double)(uint32_t)m->echoes;
+    t->has_counter_before = 1;
+    t->w0 = msid_now_ns();
+    if ((rc = msid_can_send(m->t, &rp, m->send_timeout_ms)) < 0) {
+        m->cnt.send_failures++;
+        return failv(m, rc, "node %u: send: %s", (unsigned)m->node, msid_can_error(m->t));
+    }
+    t->w1 = msid_now_ns();
+    t->transactions = 1;
+    m->cnt.rpdos++;
+    m->rpdos_since_echo++;
+    if (!need_tpdo) return 0;
+    t->r0 = t->w1;
+    if ((rc = collect(m, m->wait_ns)) < 0) return rc;
+    t->r1 = msid_now_ns();
+    if (!complete(m)) {
+        m->cnt.lost++;
+        const uint32_t missing = all_tpdos(m) & ~m->got;
+        return failv(m, -MSID_DAQ_E_TIMEOUT, "node %u: TPDO%s of SYNC %llu not received within %.3g ms", (unsigned)m->node,
+                     missing == 1u ? "1" : missing == 2u ? "2" : "1 and TPDO2", (unsigned long long)m->echoes,
+                     1e-6 * (double)m->wait_ns);
+    }
+    for (uint32_t i = 0; i < d->n_measure; ++i)
+        m->value[i] = msid_co_map_decode(&d->measure[i], m->buf[m->tpdo_of[i]] + m->tpdo_off[i]);
+    m->value[m->sync_ch] = (double)(uint32_t)m->echoes;
+    m->cnt.tpdos += m->n_tpdo;
+    if (measure) memcpy(measure, m->value, sizeof(double) * (d->n_measure + 1u));
+    m->err[0] = 0;
+    return 0;
+}
+
 static int be_exchange(void *ctx, const double *drive, double *measure, msid_devio_times *t)
 {
-    return tick(ctx, drive, measure, t, 1);
+    msid_co_map *m = ctx;
+    return m->kernel_sync ? tick_kernel(m, drive, measure, t, 1) : tick(m, drive, measure, t, 1);
 }
 
 /* Ramps and the safe values: the node applies them on the SYNC; their TPDOs are taken, not required. */
 static int be_write(void *ctx, const double *drive, msid_devio_times *t)
 {
-    return tick(ctx, drive, NULL, t, 0);
+    msid_co_map *m = ctx;
+    return m->kernel_sync ? tick_kernel(m, drive, NULL, t, 0) : tick(m, drive, NULL, t, 0);
 }
 
 static int be_read(void *ctx, double *measure, msid_devio_times *t)
@@ -285,6 +361,17 @@ int msid_co_map_init(msid_co_map *m, const msid_devdesc *d, unsigned node, unsig
     m->io.be = &BACKEND;
     m->io.ctx = m;
     return 0;
+}
+
+void msid_co_map_kernel_sync(msid_co_map *m)
+{
+    m->kernel_sync = 1;
+    m->sync_ch = (int32_t)m->d->n_measure;
+    m->value[m->sync_ch] = NAN;
+    const int n = snprintf(m->describe, sizeof m->describe, "RPDO1 (%u bytes), the kernel's SYNC, TPDO1 (%u bytes)",
+                           m->rpdo_len, m->tpdo_len[0]);
+    if (m->n_tpdo == 2 && n > 0 && (size_t)n < sizeof m->describe)
+        snprintf(m->describe + n, sizeof m->describe - (size_t)n, " + TPDO2 (%u bytes)", m->tpdo_len[1]);
 }
 
 static void fill_map(msid_co_pdo_cfg *c, const msid_dev_chan *ch)

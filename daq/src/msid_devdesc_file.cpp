@@ -388,6 +388,14 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             copy(d.co_eds, sizeof d.co_eds, p, c, &v, "eds");
             continue;
         }
+        if (co && key == "sync") {
+            const std::string s = get_string(v, c, "sync");
+            if (s == "tick") d.co_sync = MSID_DEV_SYNC_TICK;
+            else if (s == "kernel") d.co_sync = MSID_DEV_SYNC_KERNEL;
+            else c.fail(&v, "sync = \"" + s + "\": must be \"tick\" (msid's tick sends each SYNC after its RPDO) or "
+                            "\"kernel\" (the kernel's timer sends the SYNC)");
+            continue;
+        }
         if (co && key == "heartbeat_ms") {
             d.heartbeat_ms = get_uint(v, c, "heartbeat_ms", 0, 65535);
             continue;
@@ -432,7 +440,7 @@ void parse_top(const toml::table &root, const Ctx &c, msid_devdesc &d)
             c.fail(&v, "unknown key '" + key + "' (keys: " +
                            (co ? known({"format", "transport", "name", "preset", "mode", "rated_torque",
                                         "velocity_scale", "velocity_unit", "position_scale", "position_unit",
-                                        "hold_velocity", "restore_pdo", "heartbeat_ms", "eds", "fade_periods", "[[drive]]", "[[measure]]"})
+                                        "hold_velocity", "restore_pdo", "heartbeat_ms", "sync", "eds", "fade_periods", "[[drive]]", "[[measure]]"})
                                : known({"format", "transport", "name", "unit", "fc23", "fade_periods", "clock",
                                         "cycle_hz", "dbc", "[[drive]]", "[[measure]]"})) +
                            ")");

@@ -186,6 +186,18 @@ static void test_refusals(void **state)
     expect_refused("format = \"msid-device/1\"\ntransport = \"canopen\"\npreset = \"csv-torque-loop\"\n"
                    "velocity_scale = 1e-6\nhold_velocity = 3000.0\n[[drive]]\nsafe = 0.0\n",
                    "outside INTEGER32");
+    /* sync: "tick" or "kernel", nothing else */
+    snprintf(t, sizeof t, "%.*ssync = \"bcm\"\n%s", (int)(strstr(PRESET, "[[drive]]") - PRESET), PRESET,
+             strstr(PRESET, "[[drive]]"));
+    expect_refused(t, "sync = \"bcm\": must be \"tick\"");
+    static msid_devdesc d;
+    char err[512];
+    snprintf(t, sizeof t, "%.*ssync = \"kernel\"\n%s", (int)(strstr(PRESET, "[[drive]]") - PRESET), PRESET,
+             strstr(PRESET, "[[drive]]"));
+    assert_int_equal(parse(t, &d, err, sizeof err), 0);
+    assert_int_equal(d.co_sync, MSID_DEV_SYNC_KERNEL);
+    assert_int_equal(parse(PRESET, &d, err, sizeof err), 0);
+    assert_int_equal(d.co_sync, MSID_DEV_SYNC_TICK);
 }
 
 static void test_codec(void **state)
@@ -243,12 +255,9 @@ static int nd_recv(void *ctx, msid_can_frame *f, int n, int timeout_ms)
     return k ? k : -MSID_DAQ_E_TIMEOUT;
 }
 
-static int nd_send(void *ctx, const msid_can_frame *f, int timeout_ms)
+/* A SYNC on the bus: its echo, then the node's answers as set. */
+static void answer_sync(node *s)
 {
-    node *s = ctx;
-    (void)timeout_ms;
-    s->sent[s->n_sent++ % 32] = *f;
-    if (f->id != 0x080) return 0;
     if (s->late_first) {
         push(s, 0x185, (const uint8_t[]){9, 9, 9, 9, 9, 9, 9, 9}, 8);
         s->late_first = 0;
@@ -269,6 +278,14 @@ static int nd_send(void *ctx, const msid_can_frame *f, int timeout_ms)
         s->n = at;
         s->hold = 0;
     }
+}
+
+static int nd_send(void *ctx, const msid_can_frame *f, int timeout_ms)
+{
+    node *s = ctx;
+    (void)timeout_ms;
+    s->sent[s->n_sent++ % 32] = *f;
+    if (f->id == 0x080) answer_sync(s);
     return 0;
 }
 
@@ -277,18 +294,26 @@ static const char *nd_error(void *ctx) { (void)ctx; return ""; }
 static void nd_close(void *ctx) { (void)ctx; }
 static const msid_can_backend NODE = {"node", nd_recv, nd_send, nd_stats, nd_error, nd_close};
 
+/* The preset's map of node 5 on the node in memory, which answers each SYNC with both TPDOs. */
+static void map_on_node(msid_devdesc *d, node *s, msid_can_transport *t, msid_co_map *m)
+{
+    char err[512];
+    assert_int_equal(parse(PRESET, d, err, sizeof err), 0);
+    memset(s, 0, sizeof *s);
+    s->answer = 2;
+    t->be = &NODE;
+    t->ctx = s;
+    assert_int_equal(msid_co_map_init(m, d, 5, 0, t), 0);
+}
+
 static void test_one_tick(void **state)
 {
     (void)state;
     static msid_devdesc d;
-    char err[512];
-    assert_int_equal(parse(PRESET, &d, err, sizeof err), 0);
     static node s;
-    memset(&s, 0, sizeof s);
-    s.answer = 2;
-    msid_can_transport t = {&NODE, &s};
     static msid_co_map m;
-    assert_int_equal(msid_co_map_init(&m, &d, 5, 0, &t), 0);
+    msid_can_transport t;
+    map_on_node(&d, &s, &t, &m);
     msid_co_pdo_cfg rp, tp[2];
     msid_co_map_pdos(&m, &rp, tp);
     assert_int_equal(rp.n, 1);
@@ -358,11 +383,78 @@ static void test_one_tick(void **state)
     assert_int_equal(s.n_sent, before);
 }
 
+/* The kernel's SYNC (kernel_sync): the tick sends the RPDO alone and returns the answers of the last SYNC the
+ * bus carried with its count; a SYNC whose answers come after the next one's echo is a lost sample, the next
+ * SYNC's own answers placed at its own count. */
+static void test_kernel_sync_tick(void **state)
+{
+    (void)state;
+    static msid_devdesc d;
+    static node s;
+    static msid_co_map m;
+    msid_can_transport t;
+    map_on_node(&d, &s, &t, &m);
+    s.count = 1;
+    msid_co_map_kernel_sync(&m);
+    assert_int_equal(m.sync_ch, 4);
+    assert_non_null(strstr(m.describe, "the kernel's SYNC"));
+    double drive = 0.5, y[5];
+    msid_devio_times tm;
+    memset(&tm, 0, sizeof tm);
+    /* a write is the RPDO alone */
+    assert_int_equal(msid_devio_write(&m.io, &drive, &tm), 0);
+    assert_int_equal(s.n_sent, 1);
+    assert_int_equal(s.sent[0].id, 0x205);
+    /* no SYNC on the bus yet: nothing to return */
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_TIMEOUT);
+    assert_int_equal(s.n_sent, 2);
+    assert_int_equal(s.sent[1].id, 0x205);
+    /* SYNC 1: its answers with its count */
+    answer_sync(&s);
+    memset(&tm, 0, sizeof tm);
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    assert_true(y[4] == 1.0 && fabs(y[0] - 2e-3) < 1e-12 && y[3] == 123456.0);
+    assert_true(tm.has_counter_before && tm.counter_before == 1.0 && tm.transactions == 1);
+    /* no SYNC since: the same SYNC again (the tick loop drops a SYNC read twice) */
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    assert_true(y[4] == 1.0);
+    /* two SYNCs since: the last one's */
+    answer_sync(&s);
+    answer_sync(&s);
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    assert_true(y[4] == 3.0 && fabs(y[0] - 3 * 2e-3) < 1e-12);
+    assert_int_equal(m.cnt.syncs, 3);
+    /* SYNC 4 answered after SYNC 5's echo: lost at 4, the late answers dropped, 5 placed at 5 */
+    s.hold = 1;
+    answer_sync(&s);
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_TIMEOUT);
+    assert_non_null(strstr(m.err, "SYNC 4"));
+    answer_sync(&s);
+    const uint64_t late = m.cnt.late;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), 0);
+    assert_true(y[4] == 5.0 && fabs(y[0] - 5 * 2e-3) < 1e-12);
+    assert_int_equal(m.cnt.late, late + 2);
+    /* an EMCY with the SYNC: the tick is refused, the safe values still go out */
+    s.emcy = 1;
+    answer_sync(&s);
+    s.emcy = 0;
+    assert_int_equal(msid_devio_exchange(&m.io, &drive, y, &tm), -MSID_DAQ_E_DEVICE);
+    assert_non_null(strstr(m.fatal, "EMCY 0x2310"));
+    assert_int_equal(msid_devio_write(&m.io, &drive, &tm), 0);
+    m.fatal[0] = 0;
+    /* the kernel's SYNC stopped coming back: refused after 8 ticks without one, naming it */
+    int rc = 0;
+    for (int k = 0; k < 12 && rc != -MSID_DAQ_E_IO; ++k) rc = msid_devio_exchange(&m.io, &drive, y, &tm);
+    assert_int_equal(rc, -MSID_DAQ_E_IO);
+    assert_non_null(strstr(m.err, "no SYNC of the kernel's timer"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_preset_cst), cmocka_unit_test(test_preset_csv_loop), cmocka_unit_test(test_preset_csv_torque_loop), cmocka_unit_test(test_explicit_objects), cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_codec),      cmocka_unit_test(test_one_tick),
+        cmocka_unit_test(test_kernel_sync_tick),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

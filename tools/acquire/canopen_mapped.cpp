@@ -7,9 +7,10 @@
 // torque 0x6076 read when the description does not give it, NMT pre-operational, RPDO1 and TPDO1(/2) mapped
 // with transmission type 1 (what was there read first), the cycle period 0x1006, the mode 0x6060, NMT start
 // and the CiA 402 walk to "operation enabled". Each tick is daq/'s msid_co_map (RPDO + SYNC, the TPDOs of
-// that SYNC). On every way out: the safe target by SDO, quick stop then disable voltage, no SYNC after it
-// (msid sends each SYNC itself, in its tick), NMT pre-operational, and the mapping restored when the
-// description sets restore_pdo. docs/devices.md, CANopen drives.
+// that SYNC; with sync = "kernel" the RPDO alone, the SYNC from the kernel's timer started here). On every way
+// out: the safe target by SDO, quick stop then disable voltage, no SYNC after it (the tick's SYNC ends with the
+// ticks, the kernel's is stopped), NMT pre-operational, and the mapping restored when the description sets
+// restore_pdo. docs/devices.md, CANopen drives.
 #include "mapped_link.hpp"
 #include "msid_canopen.hpp"
 
@@ -18,6 +19,7 @@ extern "C" {
 #include "msid_daq/msid_co_can.h"
 #include "msid_daq/msid_co_map.h"
 #include "msid_daq/msid_co_nmt.h"
+#include "msid_daq/msid_co_sync.h"
 #include "msid_daq/msid_socketcan.h"
 }
 
@@ -59,6 +61,7 @@ public:
             finish(notes, problems);
             for (const auto &n : problems) std::fprintf(stderr, "msid: %s\n", n.c_str());
         }
+        msid_co_sync_stop(&sync_);
         msid_can_close(&sock_.tr);
     }
 
@@ -75,6 +78,7 @@ public:
         resolve_torque();
         check_objects();
         if (msid_co_map_init(&m_, &d_, dev_.node, d_.heartbeat_ms, &sock_.tr) < 0) throw UsageError(m_.err);
+        if (d_.co_sync == MSID_DEV_SYNC_KERNEL) msid_co_map_kernel_sync(&m_);
         write_safe_by_sdo(true);
         touched_ = true;   // from here on the way out takes the node back
         nmt(MSID_CO_NMT_PREOPERATIONAL);
@@ -116,6 +120,7 @@ public:
         // watched from here: a heartbeat the node sent before it took the NMT start came before the walk's
         // SDO answers (a node answers in order), so it was seen while not yet watched
         m_.operational = 1;
+        if (m_.kernel_sync) start_kernel_sync();
     }
 
     // The way out, once: safe target, quick stop and disable voltage, pre-operational, the mapping restored.
@@ -133,6 +138,9 @@ public:
         else
             notes.push_back(fmt("node %u at the end: \"%s\", the safe target written, no SYNC after the last tick",
                                 dev_.node, msid_co402_state_name(st)));
+        // the kernel's SYNC stops once the node is out of "operation enabled" (a drive that loses its SYNC while
+        // enabled may fault); the tick sends no more SYNC
+        msid_co_sync_stop(&sync_);
         if (msid_co_nmt_send(&io_, MSID_CO_NMT_PREOPERATIONAL, dev_.node))
             problems.push_back("at the end, NMT pre-operational: " + std::string(hook_.can.err));
         if (d_.restore_pdo && mapped_) {
@@ -151,9 +159,15 @@ public:
     std::string source() const override { return fmt("canopen:%s:%u", dev_.iface.c_str(), dev_.node); }
     void prepare(const std::vector<double> &, std::vector<std::string> &notes) override
     {
-        notes.push_back(fmt("node %u in %s, SYNC every %u us from msid's tick (0x1006), %s; each tick's TPDOs are "
-                            "read at the next tick (input and output alike)", dev_.node,
-                            msid_co402_mode_name((int)d_.co_mode), period_us_, m_.describe));
+        if (m_.kernel_sync)
+            notes.push_back(fmt("node %u in %s, SYNC every %u us from the kernel's timer (CAN_BCM; 0x1006), %s; each "
+                                "sample is placed at the SYNC whose answers it is (by SYNC count), each tick's RPDO is "
+                                "taken by the next SYNC", dev_.node, msid_co402_mode_name((int)d_.co_mode), period_us_,
+                                m_.describe));
+        else
+            notes.push_back(fmt("node %u in %s, SYNC every %u us from msid's tick (0x1006), %s; each tick's TPDOs are "
+                                "read at the next tick (input and output alike)", dev_.node,
+                                msid_co402_mode_name((int)d_.co_mode), period_us_, m_.describe));
     }
     // a tick's TPDOs are read at the next tick, which waits a quarter of a tick more for answers not yet in
     // (a node that answers within 1.25 ticks loses no sample); the probe waits for each answer (its round
@@ -184,8 +198,10 @@ public:
     }
     double counter_modulus(uint32_t i) const override
     {
+        if (i >= d_.n_measure) return 4294967296.0;   // the SYNC count (uint32)
         return msid_dev_co_bytes(&d_.measure[i]) == 2 ? 65536.0 : 4294967296.0;
     }
+    int own_counter() const override { return m_.kernel_sync ? m_.sync_ch : -1; }
     void acquisition(Json &acq, const DeviceUri &dev) const override
     {
         msid_can_link_stats ls{};
@@ -199,6 +215,7 @@ public:
         acq["rated_torque_nm"] = d_.rated_torque;
         acq["pdos"] = m_.describe;
         acq["syncs"] = m_.cnt.syncs;
+        acq["sync_source"] = m_.kernel_sync ? "kernel" : "tick";
         acq["rpdos"] = m_.cnt.rpdos;
         acq["tpdos"] = m_.cnt.tpdos;
         acq["lost_ticks"] = m_.cnt.lost;
@@ -249,6 +266,15 @@ private:
     {
         if (rc == -MSID_DAQ_E_ARG) throw UsageError(fmt("%s: %s: %s", dev_.text.c_str(), what.c_str(), sdo_.err));
         if (rc) throw Error(fmt("%s: %s: %s", dev_.text.c_str(), what.c_str(), sdo_.err));
+    }
+
+    // the kernel's SYNC from now on (the node is operational, in "operation enabled", holding the safe target)
+    void start_kernel_sync()
+    {
+        const int rc = msid_co_sync_start(&sync_, dev_.iface.c_str(), period_us_, 0);
+        if (rc == -MSID_DAQ_E_NOSUPPORT)
+            throw Error(fmt("%s: sync = \"kernel\": %s (or use sync = \"tick\")", dev_.text.c_str(), sync_.err));
+        if (rc) throw Error(fmt("%s: sync = \"kernel\": %s", dev_.text.c_str(), sync_.err));
     }
 
     void nmt(msid_co_nmt_cmd cmd)
@@ -375,6 +401,7 @@ private:
     msid_co_io io_{};
     msid_co_sdo sdo_{};
     msid_co_map m_{};
+    msid_co_sync sync_{-1, 0, 0, {0}};   // the kernel's SYNC (sync = "kernel"; fd -1: not running)
     msid_co_pdo_cfg saved_[1 + MSID_DEV_CO_TPDOS]{};
     uint32_t n_saved_ = 0, period_us_ = 0;
     CanopenBitrate bitrate_;

@@ -39,6 +39,9 @@ public:
     virtual std::string error() const = 0;
     // counts after which measure channel i (a counter) wraps
     virtual double counter_modulus(uint32_t i) const = 0;
+    // the measure slot of a counter the link keeps itself, one past the description's channels (a CANopen run on
+    // the kernel's SYNC: the SYNC's count), or -1: the exchanges then fill that many values plus one
+    virtual int own_counter() const { return -1; }
     // the transport's part of the acquisition block (transport, device, endpoint, counters)
     virtual void acquisition(Json &acq, const DeviceUri &dev) const = 0;
     // why the run must end now ("" while it may go on): a CANopen node's EMCY, its heartbeat lost, the node

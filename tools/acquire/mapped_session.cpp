@@ -132,7 +132,7 @@ struct Probe {
 // writes alone: what the bus takes to carry one tick's frames.
 Probe probe_round_trip(msid_devio &io, const msid_devdesc &d, uint32_t n, bool writes_only)
 {
-    std::vector<double> drive(d.n_drive), meas(d.n_measure), rtt;
+    std::vector<double> drive(d.n_drive), meas(d.n_measure + 1), rtt;   // (+1: a link's own counter)
     for (uint32_t i = 0; i < d.n_drive; ++i) drive[i] = d.drive[i].safe;
     for (uint32_t k = 0; k < n; ++k) {
         msid_devio_times t{};
@@ -336,7 +336,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     check_transport(dev, desc);
     if (!(o.rate_hz > 0 && o.rate_hz <= 100000))
         throw UsageError("a described device needs the tick rate: " MSID_OPT("rate") " HZ (0 < HZ <= 100000)");
-    const ChannelPlan cp = channel_plan(desc);
+    ChannelPlan cp = channel_plan(desc);
     MeasurePlan P;
     plan(desc.n_drive, P);
     const msid_design &d = P.D->d;
@@ -359,6 +359,9 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     else link = std::make_unique<ModbusMapped>(dev, desc);
     const msid_devdesc &rdesc = link->resolved() ? *link->resolved() : desc;
     msid_devio &io = link->io();
+    // a counter the link keeps (the kernel's SYNC count) places the samples as a device's own counter would
+    const bool own_counter = link->own_counter() >= 0;
+    if (own_counter) cp.counter = link->own_counter();
     const std::string lname = link->name();
 
     // 2. the safe values first: the device holds them before the excitation's approach starts
@@ -401,7 +404,7 @@ MeasureResult measure_mapped(const DeviceUri &dev, const msid_devdesc &desc, con
     hc.twiddle = &P.D->tw;
     hc.periods = P.sf.periods;
     hc.fade_periods = desc.fade_periods;
-    hc.n_measure = desc.n_measure;
+    hc.n_measure = desc.n_measure + (own_counter ? 1u : 0u);
     {
         msid_gen_cfg gc{};
         gc.design = &d;

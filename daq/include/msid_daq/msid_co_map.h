@@ -20,6 +20,15 @@
  * the first TPDO behind the next SYNC's echo is then taken for that late answer and dropped, so that a late
  * answer is never placed as the next SYNC's sample (a node answers in order).
  *
+ * With kernel_sync set (the description's sync = "kernel"), the SYNC is not sent by the tick: the kernel's
+ * broadcast manager sends it on its own timer (msid_co_sync.h, started by the caller), and each echo of it on
+ * the socket opens the window of that SYNC's answers. A tick then sends the RPDO only (the node applies it on
+ * the next SYNC) and returns the answers of the last SYNC the bus carried, waiting up to wait_ns for them,
+ * with that SYNC's count (1 for the first echo) in measure[sync_ch]: the tick loop places each sample at the
+ * SYNC it belongs to (msid_hx's counter mode, as a device's own cycle counter), so the host's lateness moves
+ * which SYNC takes a write, never which SYNC a sample is placed at. The count as read just before the RPDO
+ * goes out is the exchange's counter_before, so that a SYNC between the two is seen as a straddled write.
+ *
  * Ways out the backend itself sees: an EMCY other than an error reset, a heartbeat later than heartbeat_ms
  * (when the description sets it), a heartbeat or boot-up that shows the node out of operational. Each makes
  * ::msid_co_map::fatal non-empty and every later exchange fail: the caller ends the run (safe target, quick
@@ -73,7 +82,7 @@ typedef struct msid_co_map {
     int operational;                  /**< 1 while the node should be operational (heartbeat states watched) */
     msid_co_hb hb;                    /**< heartbeat consumer (time_ms 0: none) */
     msid_co_emcy last_emcy;           /**< the last EMCY with an error */
-    double value[MSID_DEV_MAX_MEASURE];   /**< the last values read */
+    double value[MSID_DEV_MAX_MEASURE + 1];   /**< the last values read (and the SYNC count, kernel_sync) */
     uint8_t buf[MSID_DEV_CO_TPDOS][8];    /**< the TPDOs of the last SYNC as they came */
     uint32_t got;                     /**< bit k: TPDO k+1 of the last SYNC is in buf */
     uint32_t echo_due;                /**< SYNCs sent whose echo has not been taken yet */
@@ -82,6 +91,11 @@ typedef struct msid_co_map {
     uint32_t owed_taken;              /**< bit k: this window took an owed answer */
     uint64_t syncs_sent;
     uint64_t echo_ns;                 /**< kernel receive time of the last SYNC's echo (0: unknown) */
+    int kernel_sync;                  /**< 1: the kernel's timer sends the SYNC (see the file's head), 0: each tick */
+    int32_t sync_ch;                  /**< kernel_sync: the measure slot that receives the SYNC's count
+                                           (d->n_measure: one past the description's channels) */
+    uint64_t echoes;                  /**< kernel_sync: echoes of the kernel's SYNC seen (the last SYNC's count) */
+    uint32_t rpdos_since_echo;        /**< kernel_sync: RPDOs sent since the last echo (no echo for long: no SYNC) */
     msid_co_map_counters cnt;
     char fatal[240];                  /**< why the run must end ("" while it may go on) */
     char err[240];                    /**< detail of the last failure */
@@ -96,6 +110,13 @@ typedef struct msid_co_map {
  */
 int msid_co_map_init(msid_co_map *m, const msid_devdesc *d, unsigned node, unsigned heartbeat_ms,
                      const msid_can_transport *t);
+
+/**
+ * @brief Take the SYNC from the kernel's timer (see the file's head): after ::msid_co_map_init, before the
+ *        first exchange; exchanges then fill measure[d->n_measure] with the SYNC's count, so the caller's
+ *        measure buffers hold d->n_measure + 1 values.
+ */
+void msid_co_map_kernel_sync(msid_co_map *m);
 
 /**
  * @brief The PDO configurations the description needs: RPDO1 from the drive channels, TPDO1 (and TPDO2)

@@ -39,6 +39,13 @@ extern "C" {
 typedef enum msid_dev_transport { MSID_DEV_MODBUS = 1, MSID_DEV_CAN = 2, MSID_DEV_CANOPEN = 3 } msid_dev_transport;
 
 /** What a CANopen channel's raw value counts (its scale is resolved by the link where it depends on the node). */
+/** Who sends a CANopen run's SYNC (key sync). */
+typedef enum msid_dev_co_sync {
+    MSID_DEV_SYNC_TICK = 0,     /**< "tick": msid's tick loop, each SYNC right after that tick's RPDO */
+    MSID_DEV_SYNC_KERNEL = 1    /**< "kernel": the kernel's broadcast manager on its own timer; the samples placed
+                                     by SYNC count (msid_co_map.h) */
+} msid_dev_co_sync;
+
 typedef enum msid_dev_co_quantity {
     MSID_DEV_CO_RAW = 0,       /**< the description's scale and offset, as written */
     MSID_DEV_CO_TORQUE = 1,    /**< per mille of the rated torque: scale = rated torque (N m) / 1000, from the
@@ -130,6 +137,8 @@ typedef struct msid_devdesc {
     char velocity_unit[MSID_DEV_UNIT_CAP], position_unit[MSID_DEV_UNIT_CAP];
     int32_t restore_pdo;              /**< 1: the PDO mapping read before the run is written back after it */
     uint32_t heartbeat_ms;            /**< consumer time msid watches the node's heartbeat with (0: none) */
+    uint32_t co_sync;                 /**< who sends the SYNC of a run: ::MSID_DEV_SYNC_TICK (msid's tick, after the
+                                           RPDO) or ::MSID_DEV_SYNC_KERNEL (the kernel's timer, CAN_BCM) */
     char co_eds[MSID_DEV_PATH_CAP];   /**< the node's EDS/DCF every entry is checked against before the run, relative
                                            to the description's folder when not absolute ("": none) */
     uint32_t n_drive, n_measure;
