@@ -110,7 +110,7 @@ static void take_kernel_echo(msid_co_map *m, const msid_can_frame *f)
     m->echoes++;
     m->cnt.syncs++;
     m->echo_ns = f->t_ns;
-    m->rpdos_since_echo = 0;
+    m->unechoed_since = 0;
 }
 
 static void take(msid_co_map *m, const msid_can_frame *f)
@@ -259,9 +259,9 @@ static int tick_kernel(msid_co_map *m, const double *drive, double *measure, msi
     if (rc < 0) return rc;
     check_heartbeat(m, msid_now_ns());
     if (m->fatal[0] && need_tpdo) return failv(m, -MSID_DAQ_E_DEVICE, "%s", m->fatal);
-    if (m->rpdos_since_echo > 8)
-        return failv(m, -MSID_DAQ_E_IO, "node %u: no SYNC of the kernel's timer came back from the bus in %u ticks (is "
-                     "the SYNC producer running, and loopback on?)", (unsigned)m->node, (unsigned)m->rpdos_since_echo);
+    if (m->unechoed_since && msid_now_ns() - m->unechoed_since > MSID_CO_MAP_ECHO_PERIODS * m->period_ns)
+        return failv(m, -MSID_DAQ_E_IO, "node %u: no SYNC of the kernel's timer came back from the bus in %d periods "
+                     "(is the SYNC producer running, and loopback on?)", (unsigned)m->node, MSID_CO_MAP_ECHO_PERIODS);
     msid_can_frame rp;
     if ((rc = rpdo_of(m, drive, &rp)) < 0) return rc;
     t->counter_before = (double)(uint32_t)m->echoes;
@@ -274,7 +274,7 @@ static int tick_kernel(msid_co_map *m, const double *drive, double *measure, msi
     t->w1 = msid_now_ns();
     t->transactions = 1;
     m->cnt.rpdos++;
-    m->rpdos_since_echo++;
+    if (!m->unechoed_since) m->unechoed_since = t->w1;
     if (!need_tpdo) return 0;
     t->r0 = t->w1;
     if ((rc = collect(m, m->wait_ns)) < 0) return rc;
@@ -363,9 +363,10 @@ int msid_co_map_init(msid_co_map *m, const msid_devdesc *d, unsigned node, unsig
     return 0;
 }
 
-void msid_co_map_kernel_sync(msid_co_map *m)
+void msid_co_map_kernel_sync(msid_co_map *m, uint32_t period_us)
 {
     m->kernel_sync = 1;
+    m->period_ns = 1000 * (int64_t)(period_us ? period_us : 1);
     m->sync_ch = (int32_t)m->d->n_measure;
     m->value[m->sync_ch] = NAN;
     const int n = snprintf(m->describe, sizeof m->describe, "RPDO1 (%u bytes), the kernel's SYNC, TPDO1 (%u bytes)",

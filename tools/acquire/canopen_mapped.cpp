@@ -78,7 +78,6 @@ public:
         resolve_torque();
         check_objects();
         if (msid_co_map_init(&m_, &d_, dev_.node, d_.heartbeat_ms, &sock_.tr) < 0) throw UsageError(m_.err);
-        if (d_.co_sync == MSID_DEV_SYNC_KERNEL) msid_co_map_kernel_sync(&m_);
         write_safe_by_sdo(true);
         touched_ = true;   // from here on the way out takes the node back
         nmt(MSID_CO_NMT_PREOPERATIONAL);
@@ -98,6 +97,7 @@ public:
         for (uint32_t k = 0; k < m_.n_tpdo; ++k)
             sdo_or_throw(msid_co_pdo_configure(&sdo_, &tp[k], &saved_[1 + k]), fmt("mapping TPDO%u", k + 1));
         period_us_ = (uint32_t)std::lround(1e6 / rate_hz);
+        if (d_.co_sync == MSID_DEV_SYNC_KERNEL) msid_co_map_kernel_sync(&m_, period_us_);
         sdo_or_throw(msid_co_cycle_write(&sdo_, period_us_), "writing the cycle period 0x1006");
         if (d_.heartbeat_ms) {
             // the node's producer time well inside the consumer time msid watches it with

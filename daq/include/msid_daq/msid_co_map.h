@@ -95,7 +95,8 @@ typedef struct msid_co_map {
     int32_t sync_ch;                  /**< kernel_sync: the measure slot that receives the SYNC's count
                                            (d->n_measure: one past the description's channels) */
     uint64_t echoes;                  /**< kernel_sync: echoes of the kernel's SYNC seen (the last SYNC's count) */
-    uint32_t rpdos_since_echo;        /**< kernel_sync: RPDOs sent since the last echo (no echo for long: no SYNC) */
+    int64_t period_ns;                /**< kernel_sync: the SYNC's period */
+    int64_t unechoed_since;           /**< kernel_sync: when the first RPDO after the last echo went out (0: none) */
     msid_co_map_counters cnt;
     char fatal[240];                  /**< why the run must end ("" while it may go on) */
     char err[240];                    /**< detail of the last failure */
@@ -112,11 +113,14 @@ int msid_co_map_init(msid_co_map *m, const msid_devdesc *d, unsigned node, unsig
                      const msid_can_transport *t);
 
 /**
- * @brief Take the SYNC from the kernel's timer (see the file's head): after ::msid_co_map_init, before the
- *        first exchange; exchanges then fill measure[d->n_measure] with the SYNC's count, so the caller's
+ * @brief Take the SYNC from the kernel's timer (see the file's head), sent every period_us (> 0): after
+ *        ::msid_co_map_init, before the first exchange; exchanges then fill measure[d->n_measure] with the SYNC's count, so the caller's
  *        measure buffers hold d->n_measure + 1 values.
  */
-void msid_co_map_kernel_sync(msid_co_map *m);
+void msid_co_map_kernel_sync(msid_co_map *m, uint32_t period_us);
+
+/** kernel_sync: ticks that see no echo of the SYNC for this many periods after an RPDO fail (no SYNC runs). */
+#define MSID_CO_MAP_ECHO_PERIODS 10
 
 /**
  * @brief The PDO configurations the description needs: RPDO1 from the drive channels, TPDO1 (and TPDO2)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """`msid bench ticks --canopen` (run inside the vcan VM): the SYNC loop of a CiA 402 drive in cyclic synchronous
 torque on vcan0, msid's (`msid measure --device canopen://vcan0?node=5 --map`: the target in RPDO1, one SYNC, the
-TPDO that SYNC asked for) against the loop a user would write with the canopen package
+TPDO that SYNC asked for; and with sync = "kernel", the RPDO alone, the SYNC from the kernel's timer) against the loop a user would write with the canopen package
 (tools/peers/msid_peers/canopen_tick_peer.py: the same PDOs, time.sleep pacing), in the same run against the same
 node (msid-devsim --canopen 5 under SCHED_FIFO 20). Reported per loop: ticks, ticks without their TPDO, lateness
 (wake-up minus deadline) median, p99 and max, round trip, CPU per tick, and the jitter of the SYNC frames on the
@@ -33,8 +33,8 @@ PERIOD = 20   # ticks per period: a loaded VM's lost sample rejects one short pe
               # timing block) is still given
 
 
-def msid_loop(tmp, sim, desc, rate, periods, realtime):
-    tag = "rt" if realtime else "nort"
+def msid_loop(tmp, sim, desc, rate, periods, realtime, kernel_sync=False):
+    tag = ("rt" if realtime else "nort") + ("-kernel" if kernel_sync else "")
     out = Path(tmp) / f"out-{tag}"
     cmd = [canlib.MSID, "measure", "--device", sim.uri, "--map", desc, "--period", PERIOD, "--lines", "1:2:9",
            "--periods", periods, "--skip-periods", 1, "--rate", rate, "--no-plots", "--quiet", "-o", out]
@@ -47,8 +47,9 @@ def msid_loop(tmp, sim, desc, rate, periods, realtime):
     a = json.loads((out / "frf.json").read_text())["acquisition"]
     t = a["timing"]
     n = t["ticks"] + t["ticks_missed"]
-    # the SYNCs of the latency probe (one per answer, back to back) come before the tick loop's: left out
-    before = a["syncs"] - t["ticks"]
+    # the SYNCs of the latency probe (one per answer, back to back) come before the tick loop's: left out (the
+    # kernel's timer sends none of its own: its SYNCs are all at the period)
+    before = 0 if kernel_sync else a["syncs"] - t["ticks"]
     print(f"msid ({tag}): {a['syncs']} SYNCs, {t['ticks']} ticks, {before} before the loop", file=sys.stderr)
     return {"ticks": n, "stale": t.get("measured_ticks_missed", 0) + t.get("exchanges_failed", 0),
             "lateness_s": t["lateness_s"], "wake_lateness_s": t["wake_lateness_s"], "round_trip_s": t["round_trip_s"],
@@ -90,6 +91,9 @@ def main():
         with comap.Drive(tmp) as sim:
             rows["msid"] = msid_loop(tmp, sim, desc, a.rate, a.periods, True)
             rows["msid --no-realtime"] = msid_loop(tmp, sim, desc, a.rate, a.periods, False)
+            rows["msid, sync = kernel"] = msid_loop(tmp, sim, comap.preset(tmp, top='sync = "kernel"\n',
+                                                                           name="kernel.toml"),
+                                                    a.rate, a.periods, True, kernel_sync=True)
             n = rows["msid"].get("ticks", (a.periods + 1) * PERIOD)
             rows["canopen script"] = peer_loop(tmp, a.rate, n)
         rows["CAN_BCM SYNC timer"] = bcm_sync(tmp, a.rate, rows["canopen script"]["ticks"])

@@ -3,14 +3,15 @@ and one SYNC per tick, the samples from the synchronous TPDOs of that SYNC) agai
 - coverage: over several seeds (a new excitation and new velocity noise each), the 95% regions of the FRF from
   the torque demand to the velocity cover the node's exact discrete plant (docs/devices.md) within binomial
   bounds (alpha 1e-3); the preset "cst" with the rated torque read from 0x6076;
-- safety: after a normal end and after SIGINT mid-run, the node itself (read by the canopen package, not by
+- safety (with msid's SYNC and with the kernel's): after a normal end and after SIGINT mid-run, the node itself (read by the canopen package, not by
   msid) is in "switch on disabled" or "quick stop active" with the safe target in 0x6071, and a python-can
   listener sees no SYNC after msid exits; with restore_pdo the node holds its mapping of before;
 - an EMCY from the node ends the run with the EMCY named, the node out of "operation enabled"; so does a lost
   heartbeat (heartbeat_ms), the node left with the safe target;
 - coverage again with the node's faults on: every 300th SYNC taken 30 ms (1.5 ticks) late, every 1000th TPDO
   not sent, the node's clock 300 ppm off, and the description checked against the node's EDS (eds): the
-  regions still cover, and the lost and late answers are counted in the acquisition block;
+  regions still cover, and the lost and late answers are counted in the acquisition block; and so with the
+  SYNC from the kernel's timer (sync = "kernel"), each sample placed at its SYNC by count;
 - bad input: an entry the node lacks, a read-only entry as a target (by the node's abort, and by the EDS
   before anything is written), an entry the EDS lacks, a mapping longer than 8 bytes, a rate the bus cannot
   carry for the mapped PDOs (bitrate= in the URI), a node id out of range, a node that never answers: one
@@ -77,6 +78,28 @@ def test_coverage_with_late_syncs_dropped_tpdos_and_a_clock_offset(tmp_path):
     maplib.covered(np.concatenate(pv))
 
 
+KERNEL_SYNC = 'sync = "kernel"\n'
+
+
+def test_coverage_on_the_kernels_sync_with_late_syncs_dropped_tpdos_and_a_clock_offset(tmp_path):
+    # the SYNC from the kernel's timer (CAN_BCM), each sample placed at its SYNC by count: the same node, faults
+    # and truth as above (a sample pairs one SYNC's demand and actual values either way)
+    desc = preset(tmp_path, top=KERNEL_SYNC)
+    truth = velocity_truth()
+    pv = []
+    for s in range(1, 4):
+        with Drive(tmp_path, "--seed", s, *NOISE, *FAULTS) as sim:
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=8)
+        rep = sim.report()
+        a = r.doc["acquisition"]
+        assert rep["late_syncs"] >= 1 and rep["tpdo_dropped"] >= 1, rep
+        assert a["sync_source"] == "kernel" and "the kernel's SYNC" in a["pdos"], a
+        assert a["samples_lost"] >= 1 and a["syncs"] >= a["samples"] + a["samples_lost"], a
+        assert any("from the kernel's timer" in n for n in r.doc["notes"]), r.doc["notes"]
+        pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
+    maplib.covered(np.concatenate(pv))
+
+
 def cmd(sim, desc, out, *extra):
     return [canlib.MSID, "measure", "--device", sim.uri, "--map", desc, "--period", P, "--lines", LINES,
             "--periods", 6, "--skip-periods", 1, "--rate", RATE, "--seed", 3, "--no-plots", *extra, "-o", out]
@@ -87,9 +110,11 @@ def assert_safe(st, safe_raw):
     assert st["target_torque"] == safe_raw, st
 
 
-def test_safe_state_after_the_end_and_after_ctrl_c(tmp_path):
-    # safe 0.02 N m (20 per mille) apart from the operating point 0: the node's 0x6071 shows which was written last
-    desc = preset(tmp_path, safe=0.02, op=0.0, top="restore_pdo = true\n")
+@pytest.mark.parametrize("sync", ["tick", "kernel"])
+def test_safe_state_after_the_end_and_after_ctrl_c(tmp_path, sync):
+    # safe 0.02 N m (20 per mille) apart from the operating point 0: the node's 0x6071 shows which was written last;
+    # with the kernel's SYNC, its timer is stopped on both ways out (no SYNC after msid)
+    desc = preset(tmp_path, safe=0.02, op=0.0, top=f'restore_pdo = true\nsync = "{sync}"\n')
     with Drive(tmp_path) as sim:
         before = sim.state()
         r = subprocess.run([str(a) for a in cmd(sim, desc, tmp_path / "end")], capture_output=True, text=True,
