@@ -289,6 +289,13 @@ static int tick_kernel(msid_co_map *m, const double *drive, double *measure, msi
     for (uint32_t i = 0; i < d->n_measure; ++i)
         m->value[i] = msid_co_map_decode(&d->measure[i], m->buf[m->tpdo_of[i]] + m->tpdo_off[i]);
     m->value[m->sync_ch] = (double)(uint32_t)m->echoes;
+    if (m->echo_ns) {   /* the SYNC's receive time is CLOCK_REALTIME: the write's time since it, on that clock */
+        const int64_t since = msid_realtime_ns() - (int64_t)m->echo_ns - (msid_now_ns() - t->w0);
+        if (since >= 0) {
+            t->phase_ns = since;
+            t->has_phase = 1;
+        }
+    }
     m->cnt.tpdos += m->n_tpdo;
     if (measure) memcpy(measure, m->value, sizeof(double) * (d->n_measure + 1u));
     m->err[0] = 0;

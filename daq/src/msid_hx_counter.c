@@ -95,6 +95,7 @@ typedef struct counter_run {
     int resync;             /* the last exchange failed: the next read re-anchors */
     uint64_t last_shift;    /* tick of the last half-period shift */
     uint64_t last_glitch;   /* tick of the last glitch on an on-time tick */
+    uint64_t last_phase;    /* tick of the last move to mid-cycle (keep_mid_cycle) */
     uint64_t next_retime;
     int anchored;           /* the anchor was confirmed by the read after it, or moved once */
     off_window off;
@@ -130,6 +131,22 @@ static void follow_rate(msid_hx *h, counter_run *r, uint64_t n)
     if (!(rate > 0.99 * h->cfg.tick.rate_hz && rate < 1.01 * h->cfg.tick.rate_hz)) return;
     msid_tick_retime(&h->tick, 1e9 / rate, 0);
     h->cnt.retimes++;
+}
+
+/* A backend that sees the device's cycle begin (msid_devio_times::phase_ns): the ticks moved to the middle of the
+   cycle when they are more than an eighth of a period off it, at most once every 16 ticks, so that each write has
+   half a cycle before the next cycle takes it and each read half a cycle for the answers to come in. */
+static void keep_mid_cycle(msid_hx *h, counter_run *r, uint64_t n, const msid_devio_times *t)
+{
+    if (!t->has_phase || n < r->last_phase + 16) return;
+    const double T = h->tick.period_ns;
+    double err = fmod((double)t->phase_ns, T) - 0.5 * T;
+    if (err > 0.5 * T) err -= T;
+    if (err < -0.5 * T) err += T;
+    if (fabs(err) <= 0.125 * T) return;
+    msid_tick_retime(&h->tick, T, (int64_t)-err);
+    h->cnt.phase_shifts++;
+    r->last_phase = n;
 }
 
 /* The cycles the device ran between the counter's read before the write and its read after it (0 when the
@@ -234,6 +251,7 @@ int msid__hx_run_counter(msid_hx *h, const msid__hx_phase *p)
         if (x == 1) {
             r.resync = 1;
         } else {
+            keep_mid_cycle(h, &r, n, &t);
             const double before = h->tim.c_unwrapped;
             const int first = h->tim.cs_n == 0;
             msid__hx_note_counter(h, h->meas_v[c->counter], (int64_t)msid__hx_mid_ns(t.r0, t.r1), 0);

@@ -28,6 +28,13 @@ int64_t msid_now_ns(void)
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
+int64_t msid_realtime_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
 /* SCHED_FIFO for this thread and the memory locked, each where permitted; what was obtained into t->sched. */
 static void go_realtime(msid_tick *t)
 {

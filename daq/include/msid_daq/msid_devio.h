@@ -32,6 +32,11 @@ typedef struct msid_devio_times {
         known only if the counter did not move): its raw value; `has_counter_before` 0 when not read. */
     double counter_before;
     int has_counter_before;
+    /** A device whose cycle the backend sees begin (a CANopen SYNC on the kernel's timer): the time from the
+        start of the device's current cycle to the write (ns, 0..period), so that the tick loop can keep its
+        ticks in the middle of the cycle; `has_phase` 0 when not known. */
+    int64_t phase_ns;
+    int has_phase;
 } msid_devio_times;
 
 /** The backend table. Calls return 0 or -msid_daq_status (error() has the detail). */

@@ -58,6 +58,9 @@ typedef struct msid_tick {
 /** @brief The monotonic clock in ns. */
 int64_t msid_now_ns(void);
 
+/** @brief CLOCK_REALTIME in ns since the epoch: the clock of the kernel's receive timestamps (SO_TIMESTAMP). */
+int64_t msid_realtime_ns(void);
+
 /** @brief Set up (no clock started yet). @return 0, or -1 for a rate out of range. */
 int msid_tick_init(msid_tick *t, const msid_tick_cfg *cfg);
 
