@@ -190,3 +190,25 @@ def test_a_scale_that_zeroes_the_inputs_is_named(tmp_path):
         # the device serves the next run at a usable scale
         f = msid.measure(uri, d, periods=3, skip_periods=1)
     assert f.meta["complete"] is True
+
+
+def test_notes_name_keywords_not_flags(data):
+    """msid's notes (NoteWarning, .notes) in Python's words, as its errors are: before the fix a start-up
+    transient's note said "use --skip-periods or --transient drop" and an interpolating LMFD's "--method ml"."""
+    d, rec = data
+    bad = rec.copy()
+    bad[:100, 1] += 5 * np.exp(-np.arange(100) / 20)   # a start-up transient in the first period
+    with pytest.warns(msid.NoteWarning) as w:
+        f = msid.frf(bad, design=d)
+    transient = [n for n in f.notes if "start-up transient" in n]
+    assert transient and transient[0].endswith("kept (use skip_periods or transient drop)"), f.notes
+    for n in f.notes + [str(x.message) for x in w]:
+        no_flag(n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = msid.frf(rec, design=d, skip_periods=1)
+        m = msid.fit(f, method="lmfd", order=200)
+    assert any("a lower order, or method ml, fits the plant" in n for n in m.notes), m.notes
+    for n in m.notes:
+        no_flag(n)
+
