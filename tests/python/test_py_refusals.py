@@ -164,3 +164,12 @@ def test_amplitudes_beyond_the_range_are_refused_by_the_design(amplitude):
                                                    "range whose squares double precision holds)")):
         msid.design(period=256, lines="1:40", amplitudes=amplitude)
     assert msid.design(period=256, lines="1:40", amplitudes=1e150).period == 256
+
+
+def test_a_non_finite_amplitude_is_quoted_as_given():
+    """The amplitudes go through NumPy; the message quotes the number the user gave, not NumPy's repr of it
+    (before: "not np.float64(inf)")."""
+    for given, shown in ((float("inf"), "inf"), ([0.1, float("nan")], "nan")):
+        with pytest.raises(ValueError) as e:
+            msid.design(period=256, lines="1:2", amplitudes=given)
+        assert str(e.value) == f"amplitudes must be a finite number, not {shown}", str(e.value)
