@@ -5,6 +5,7 @@ dimensions out of range", a path among arrays was "a 0-dimensional array of shap
 Float64 frame "dtype object", "(an FRF holds finite numbers only)" was appended to unrelated errors,
 cissim's default lags were blamed on a --lags nobody gave, and a Measurement whose block was refused for
 a NaN said "rejecting 0", and a Modbus host given by name was "libmodbus: Invalid argument"."""
+import json
 import re
 import warnings
 
@@ -190,3 +191,74 @@ def test_a_scale_that_zeroes_the_inputs_is_named(tmp_path):
         # the device serves the next run at a usable scale
         f = msid.measure(uri, d, periods=3, skip_periods=1)
     assert f.meta["complete"] is True
+
+
+def test_notes_name_keywords_not_flags(data):
+    """msid's notes (NoteWarning, .notes) in Python's words, as its errors are: before the fix a start-up
+    transient's note said "use --skip-periods or --transient drop" and an interpolating LMFD's "--method ml"."""
+    d, rec = data
+    bad = rec.copy()
+    bad[:100, 1] += 5 * np.exp(-np.arange(100) / 20)   # a start-up transient in the first period
+    with pytest.warns(msid.NoteWarning) as w:
+        f = msid.frf(bad, design=d)
+    transient = [n for n in f.notes if "start-up transient" in n]
+    assert transient and transient[0].endswith("kept (use skip_periods or transient drop)"), f.notes
+    for n in f.notes + [str(x.message) for x in w]:
+        no_flag(n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = msid.frf(rec, design=d, skip_periods=1)
+        m = msid.fit(f, method="lmfd", order=200)
+    assert any("a lower order, or method ml, fits the plant" in n for n in m.notes), m.notes
+    for n in m.notes:
+        no_flag(n)
+
+
+def test_an_unresolvable_modbus_host_is_an_oserror():
+    """A host name that does not resolve: an OSError naming it and the URI, and nothing on stderr; before the
+    fix "libmodbus: Invalid argument" and a stray line of libmodbus's on stderr."""
+    from child import DESIGN, run_child
+    r = run_child("""
+        import json, sys
+        import msid
+        d = msid.design(**json.loads(sys.argv[1]))
+        try:
+            msid.measure("modbus-tcp://no-such-host.invalid:502", d, periods=3)
+        except OSError as e:
+            print(type(e).__name__ + ": " + str(e))
+    """, json.dumps(DESIGN))
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().startswith("OSError: cannot resolve host 'no-such-host.invalid'"), r.stdout
+    assert r.stdout.strip().endswith("(modbus-tcp://no-such-host.invalid:502)"), r.stdout
+    assert r.stderr == "", r.stderr
+
+
+def test_a_device_killed_mid_run_is_said_so(tmp_path):
+    """msid-devsim killed (SIGKILL) while msid.measure runs: an OSError saying the device no longer answers
+    (the connection refused), not "bad request"; before the fix "read input registers 0..39: bad request"."""
+    import threading
+    from child import DESIGN, sim_module
+    mblib = sim_module()
+    d = msid.design(**DESIGN)
+    started = threading.Event()
+
+    def progress(s):
+        if s["periods_total"] >= 1:
+            started.set()
+
+    with mblib.Sim(tmp_path, "--seed", 5) as sim:
+        sim.expect_exit = -9
+
+        def kill():
+            if started.wait(60):
+                sim.p.kill()
+
+        t = threading.Thread(target=kill)
+        t.start()
+        with pytest.raises(OSError) as e:
+            msid.measure(f"modbus-tcp://127.0.0.1:{sim.port}", d, periods=400, rate=2000, progress=progress)
+        t.join()
+    text = no_flag(str(e.value))
+    assert started.is_set() and "bad request" not in text, text
+    assert re.search(r"no valid reply to .* after \d+ attempts: cannot connect to 127\.0\.0\.1:\d+: Connection refused",
+                     text), text

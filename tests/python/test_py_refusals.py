@@ -8,6 +8,7 @@ process"), and one of 1e308 dropped its period (a note, the command line too).""
 import os
 import re
 import subprocess
+import warnings
 
 import numpy as np
 import pytest
@@ -130,3 +131,45 @@ def test_step_rules_of_lmfd_only(data, tmp_path):
                         tmp_path / "f.json", "-o", tmp_path / "m.json"], capture_output=True, text=True)
     assert r.returncode == 2 and "--delta and --beta are the step rules of --param lmfd" in r.stderr, r.stderr
     assert msid.fit(f, method="ml", order=2, param="lmfd", delta=0.5).order == 2
+
+
+def test_an_interpolating_lmfd_is_noted(tmp_path):
+    """lmfd at order 200 on 40 lines (80 real equations per output row, 401 unknowns): the model is one of a
+    family that passes through every line, and msid says so (a NoteWarning, model.notes, "unique": false)
+    where before it returned the 200-state model with dof 0 and no word. The control: an ml fit of order 4
+    has no such note."""
+    d = msid.design(period=256, lines="1:40", amplitudes=0.3, seed=1, periods=6)
+    u = d.samples(0, 6)
+    rec = np.column_stack([u[:, 0], 0.5 * u[:, 0] + 0.01 * np.random.default_rng(1).standard_normal(len(u))])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = msid.frf(rec, design=d, skip_periods=1)
+    with pytest.warns(msid.NoteWarning) as w:
+        m = msid.fit(f, method="lmfd", order=200)
+    want = ("the LMFD with nD = 200, nN = 200 has 401 unknowns per output row for 80 real interpolation equations: "
+            "one of a 321-dimensional family of models that pass through every line (dof 0, the cost tests nothing)")
+    assert any(n.startswith(want) for n in m.notes) and any(str(x.message).startswith(want) for x in w), m.notes
+    assert m.order == 200 and m.doc["unique"] is False
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        small = msid.fit(f, method="ml", order=4)
+    assert not any("family" in n for n in small.notes), small.notes
+
+
+@pytest.mark.parametrize("amplitude", [1e308, 1e151, 1e-151])
+def test_amplitudes_beyond_the_range_are_refused_by_the_design(amplitude):
+    """An amplitude whose square double precision cannot hold is refused where the design is made, as msid
+    excite refuses it; before the fix the design was made and the FRF later blamed "a singular input matrix"."""
+    with pytest.raises(ValueError, match=re.escape("amplitude of line 1 is not finite and in [1e-150, 1e+150] (the "
+                                                   "range whose squares double precision holds)")):
+        msid.design(period=256, lines="1:40", amplitudes=amplitude)
+    assert msid.design(period=256, lines="1:40", amplitudes=1e150).period == 256
+
+
+def test_a_non_finite_amplitude_is_quoted_as_given():
+    """The amplitudes go through NumPy; the message quotes the number the user gave, not NumPy's repr of it
+    (before: "not np.float64(inf)")."""
+    for given, shown in ((float("inf"), "inf"), ([0.1, float("nan")], "nan")):
+        with pytest.raises(ValueError) as e:
+            msid.design(period=256, lines="1:2", amplitudes=given)
+        assert str(e.value) == f"amplitudes must be a finite number, not {shown}", str(e.value)

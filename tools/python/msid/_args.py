@@ -20,7 +20,10 @@ _NO_LINE = 1 << 23
 
 
 def _show(v):
-    """A value as a message quotes it: its repr, cut to 60 characters."""
+    """A value as a message quotes it: its repr, cut to 60 characters; a NumPy scalar as the Python number
+    it holds (NumPy 2's repr, "np.float64(inf)", is not what the user wrote)."""
+    if isinstance(v, np.generic) and v.ndim == 0:
+        v = v.item()
     r = repr(v)
     return r if len(r) <= 60 else r[:57] + "..."
 

@@ -79,10 +79,17 @@ def _design_arg(design):
     raise TypeError(f"design must be an msid.Design or a design file's path, not {type(design).__name__}")
 
 
+def _notes(res):
+    """msid's notes in Python's words, as its errors are raised: a note the libraries share with the command
+    line names its flags ("use --skip-periods"), which Python takes as keywords."""
+    words = _ext()._python_words
+    return [words(n) for n in res["notes"]]
+
+
 def _result(res, where):
     a = res["frf"]   # the arrays of the FRF document (msid._msid: frf_to_py), numbers with their bits
     f = FRF._of_arrays(a)
-    f.notes = list(res["notes"])
+    f.notes = _notes(res)
     f.reports = list(res.get("reports", []))
     for n in f.notes:
         warnings.warn(n, NoteWarning, stacklevel=3)
@@ -476,7 +483,7 @@ def _reference_frf(res) -> Optional[FRF]:
     if doc is None:
         return None
     f = frf_from_doc(doc, "msid.measure's reference path")
-    f.notes = list(res["notes"])
+    f.notes = _notes(res)
     return f
 
 
@@ -742,11 +749,11 @@ def fit(data: Any, method: str = "subspace", order: Union[int, str, range, None]
         text, name = _frf_json(data, "frf")
         res = _ext().fit(text, name, _frf_fit_opts(method, order, options))
     m = Model(res["model"])
-    m.notes = list(res["notes"])
+    m.notes = _notes(res)
     for n in m.notes:
         warnings.warn(n, NoteWarning, stacklevel=2)
     if not res["converged"]:
-        why = res["not_converged"]   # msid's "...: wrote the best iterate to " (and the file's path)
+        why = _ext()._python_words(res["not_converged"])   # msid's "...: wrote the best iterate to " (and the file's path)
         why = why[:why.rfind(": wrote")] if ": wrote" in why else why.rstrip()
         warnings.warn(why + ": the model is the best iterate, marked \"converged\": false", ConvergenceWarning,
                       stacklevel=2)
