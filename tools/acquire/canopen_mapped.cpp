@@ -172,9 +172,11 @@ public:
     // a tick's TPDOs are read at the next tick, which waits a quarter of a tick more for answers not yet in
     // (a node that answers within 1.25 ticks loses no sample); the probe waits for each answer (its round
     // trip is then the cost of the sends alone: the node's latency is in tpdo_latency_s)
+    // On the kernel's SYNC a tick runs mid-cycle and waits up to 0.4 of a tick more: the node has 0.9 of a tick
+    // after its SYNC, and the next tick still has its RPDO out half a tick before the next SYNC.
     void tick_timeouts(double T) override
     {
-        m_.wait_ns = (int64_t)std::llround(std::min(0.25 * T, 1.0) * 1e9);
+        m_.wait_ns = (int64_t)std::llround(std::min((m_.kernel_sync ? 0.4 : 0.25) * T, 1.0) * 1e9);
         m_.send_timeout_ms = std::max(1, (int)std::floor(0.2 * T * 1000.0));
     }
     void probe_timeouts() override

@@ -55,6 +55,9 @@ def test_coverage_of_the_two_mass_plant_in_cst(tmp_path):
     maplib.covered(np.concatenate(pv))
 
 
+# 14 periods (2 skipped): the node in the TCG VM now and then answers a SYNC more than a tick late (18 of 512
+# samples in a run without faults on msid's SYNC, 10 on the kernel's, 2026-12-06), and a run needs two periods
+# without a lost sample; 8 periods were too few on a loaded CI machine.
 # every 300th SYNC taken 30 ms late (the tick is 20 ms: its answers miss the tick that waits for them), every
 # 1000th TPDO due not sent (the answer never comes: a lost tick and a late one, whatever the VM's timing), the
 # node's clock 300 ppm fast
@@ -67,7 +70,7 @@ def test_coverage_with_late_syncs_dropped_tpdos_and_a_clock_offset(tmp_path):
     pv = []
     for s in range(1, 4):
         with Drive(tmp_path, "--seed", s, *NOISE, *FAULTS) as sim:
-            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=8)
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=14)
         rep = sim.report()
         a = r.doc["acquisition"]
         assert rep["late_syncs"] >= 1 and rep["tpdo_dropped"] >= 1, rep
@@ -84,18 +87,20 @@ KERNEL_SYNC = 'sync = "kernel"\n'
 def test_coverage_on_the_kernels_sync_with_late_syncs_dropped_tpdos_and_a_clock_offset(tmp_path):
     # the SYNC from the kernel's timer (CAN_BCM), each sample placed at its SYNC by count: the same node, faults
     # and truth as above (a sample pairs one SYNC's demand and actual values either way)
+    # (the node's answers must come within 0.9 of a tick after their SYNC, not 1.25 ticks as on msid's SYNC: runs a
+    # starved VM leaves with too few usable periods are made again at half the rate, the truth taken at fs_hz)
     desc = preset(tmp_path, top=KERNEL_SYNC)
-    truth = velocity_truth()
     pv = []
     for s in range(1, 4):
         with Drive(tmp_path, "--seed", s, *NOISE, *FAULTS) as sim:
-            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=8)
+            r = measure(tmp_path, sim, desc, seed=s, out=f"run{s}", periods=14, slower=True)
+        truth = velocity_truth(rate=r.doc["fs_hz"])
         rep = sim.report()
         a = r.doc["acquisition"]
         assert rep["late_syncs"] >= 1 and rep["tpdo_dropped"] >= 1, rep
         assert a["sync_source"] == "kernel" and "the kernel's SYNC" in a["pdos"], a
         assert a["samples_lost"] >= 1 and a["syncs"] >= a["samples"] + a["samples_lost"], a
-        assert any("from the kernel's timer" in n for n in r.doc["notes"]), r.doc["notes"]
+        assert "phase_shifts" in a["timing"], a["timing"]   # placed by SYNC count (msid_hx's counter mode)
         pv.append(row_pvalues(r.doc, truth, "Velocity actual"))
     maplib.covered(np.concatenate(pv))
 
